@@ -1,0 +1,2 @@
+"""The Real2Code reconstruction pipeline, one module per stage, each a plain function from
+data to data, plus the procedural objects it trains and tests on."""

@@ -1,0 +1,64 @@
+"""One exception hierarchy for the project.
+
+Every message names where the problem is: the file (when there is one), the element
+(``joint 'hinge_1'``, ``<joint> 'hinge_1'``), the line where the format has lines, and what
+is wrong. The CLI prints ``str(error)`` and exits non-zero.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+
+class Real2CodeError(Exception):
+    """Base of every error this project raises on purpose."""
+
+
+class ModelError(Real2CodeError):
+    """The articulated-object model is invalid (names the part or joint and what is wrong)."""
+
+    def __init__(self, element: str, message: str):
+        self.element = element
+        self.message = message
+        super().__init__(f"{element}: {message}")
+
+
+class FormatError(Real2CodeError):
+    """A file cannot be read or written: names the file, the element and, if known, the line."""
+
+    def __init__(
+        self,
+        path: str | Path | None,
+        element: str | None,
+        message: str,
+        line: int | None = None,
+    ):
+        self.path = str(path) if path is not None else None
+        self.element = element
+        self.message = message
+        self.line = line
+        where = self.path or "<input>"
+        if line is not None:
+            where += f":{line}"
+        text = f"{where}: "
+        if element:
+            text += f"{element}: "
+        super().__init__(text + message)
+
+
+class ExportError(Real2CodeError):
+    """A model could not be written to a format (the format's own tool refused it)."""
+
+
+class CheckError(Real2CodeError):
+    """A file could not be loaded for checking."""
+
+
+class Real2CodeWarning(UserWarning):
+    """Something in the input was repaired; the message says what and where."""
+
+
+def warn(message: str) -> None:
+    """Issue a repair warning (one place, so the CLI can collect and print them)."""
+    warnings.warn(message, Real2CodeWarning, stacklevel=2)

@@ -1,0 +1,210 @@
+"""object.json: the project's own lossless format.
+
+A JSON document (schema name and version, the object, its parts and joints) with the
+meshes beside it as OBJ files holding exact float64 text. Transforms are stored as a
+translation and a 3x3 rotation matrix, numbers as Python's shortest exact text, so
+load(save(obj)) reproduces ``obj`` bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import atomic
+from ..errors import FormatError, ModelError
+from ..meshfiles import collision_relpath, read_mesh, visual_relpath, write_object_meshes
+from ..model import ArticulatedObject, Dynamics, Inertial, Joint, JointType, Limits, Part, validate
+
+SCHEMA = "real2code_export/object"
+SCHEMA_VERSION = 1
+EXTENSIONS = (".json",)
+FILENAME = "object.json"
+
+
+def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
+    parts = []
+    for p in obj.parts:
+        parts.append(
+            {
+                "name": p.name,
+                "color": list(p.color),
+                "visual": visual_relpath(p.name) if p.visual is not None else None,
+                "collision": [collision_relpath(p.name, k) for k in range(len(p.collision))],
+                "inertial": None
+                if p.inertial is None
+                else {
+                    "mass": p.inertial.mass,
+                    "com": p.inertial.com.tolist(),
+                    "inertia": p.inertial.inertia.tolist(),
+                },
+            }
+        )
+    joints = []
+    for j in obj.joints:
+        joints.append(
+            {
+                "name": j.name,
+                "type": j.type.value,
+                "parent": j.parent,
+                "child": j.child,
+                "origin": {
+                    "translation": j.origin[:3, 3].tolist(),
+                    "rotation": j.origin[:3, :3].tolist(),
+                },
+                "axis": j.axis.tolist(),
+                "limits": None
+                if j.limits is None
+                else {
+                    "lower": j.limits.lower,
+                    "upper": j.limits.upper,
+                    "effort": j.limits.effort,
+                    "velocity": j.limits.velocity,
+                },
+                "dynamics": {
+                    "damping": j.dynamics.damping,
+                    "friction": j.dynamics.friction,
+                    "stiffness": j.dynamics.stiffness,
+                    "spring_ref": j.dynamics.spring_ref,
+                    "armature": j.dynamics.armature,
+                },
+                "state": j.state,
+            }
+        )
+    return {
+        "schema": SCHEMA,
+        "schema_version": SCHEMA_VERSION,
+        "name": obj.name,
+        "metadata": obj.metadata,
+        "parts": parts,
+        "joints": joints,
+    }
+
+
+def dumps(obj: ArticulatedObject) -> str:
+    # allow_nan=False: the model is validated finite; a NaN here is a bug, not data.
+    return json.dumps(to_dict(obj), indent=1, allow_nan=False) + "\n"
+
+
+def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True,
+         filename: str = FILENAME) -> Path:
+    """Write ``out_dir/object.json`` and its meshes (call inside a staged output for a set)."""
+    validate(obj)
+    out_dir = Path(out_dir)
+    if write_meshes:
+        write_object_meshes(obj, out_dir, exact=True)
+    return atomic.write_text(out_dir / filename, dumps(obj))
+
+
+# -- load ------------------------------------------------------------------------------------
+def _num(value, path: Path, element: str, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise FormatError(path, element, f"{what} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise FormatError(path, element, f"{what} is not finite: {value!r}")
+    return float(value)
+
+
+def _vec(value, n: int, path: Path, element: str, what: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=object)
+    if arr.shape != (n,) and not (n == 9 and arr.shape == (3, 3)):
+        raise FormatError(path, element, f"{what} must have {n} numbers, got {value!r}")
+    return np.array([_num(v, path, element, what) for v in arr.reshape(-1)])
+
+
+def _get(d: dict, key: str, path: Path, element: str):
+    if not isinstance(d, dict):
+        raise FormatError(path, element, f"expected an object, got {type(d).__name__}")
+    if key not in d:
+        raise FormatError(path, element, f"missing key {key!r}")
+    return d[key]
+
+
+def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
+    base = path.parent
+    if not isinstance(data, dict) or data.get("schema") != SCHEMA:
+        raise FormatError(path, None, f"not a real2code_export object (schema must be {SCHEMA!r})")
+    version = data.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise FormatError(path, "schema_version", f"unsupported version {version!r} "
+                          f"(this release reads {SCHEMA_VERSION})")
+    parts = []
+    for i, pd in enumerate(_get(data, "parts", path, "object")):
+        el = f"parts[{i}]"
+        name = _get(pd, "name", path, el)
+        el = f"part {name!r}"
+        visual = None
+        if pd.get("visual") is not None:
+            visual = read_mesh(base / pd["visual"], source=path, element=el + " visual")
+        collision = [
+            read_mesh(base / rel, source=path, element=f"{el} collision")
+            for rel in pd.get("collision", [])
+        ]
+        inertial = None
+        if pd.get("inertial") is not None:
+            ind = pd["inertial"]
+            inertial = Inertial(
+                mass=_num(_get(ind, "mass", path, el), path, el, "mass"),
+                com=_vec(_get(ind, "com", path, el), 3, path, el, "com"),
+                inertia=_vec(_get(ind, "inertia", path, el), 9, path, el, "inertia").reshape(3, 3),
+            )
+        color = tuple(_vec(pd.get("color", [0.7, 0.7, 0.7, 1.0]), 4, path, el, "color"))
+        parts.append(Part(name=name, visual=visual, collision=collision, inertial=inertial,
+                          color=color))
+    joints = []
+    for i, jd in enumerate(_get(data, "joints", path, "object")):
+        el = f"joints[{i}]"
+        name = _get(jd, "name", path, el)
+        el = f"joint {name!r}"
+        jtype = _get(jd, "type", path, el)
+        if jtype not in {t.value for t in JointType}:
+            raise FormatError(path, el, f"unknown joint type {jtype!r} (expected one of "
+                              f"{[t.value for t in JointType]})")
+        od = _get(jd, "origin", path, el)
+        origin = np.eye(4)
+        origin[:3, 3] = _vec(_get(od, "translation", path, el), 3, path, el, "origin translation")
+        origin[:3, :3] = _vec(_get(od, "rotation", path, el), 9, path, el,
+                              "origin rotation").reshape(3, 3)
+        limits = None
+        if jd.get("limits") is not None:
+            ld = jd["limits"]
+            limits = Limits(
+                lower=_num(_get(ld, "lower", path, el), path, el, "lower limit"),
+                upper=_num(_get(ld, "upper", path, el), path, el, "upper limit"),
+                effort=None if ld.get("effort") is None else _num(ld["effort"], path, el, "effort"),
+                velocity=None if ld.get("velocity") is None
+                else _num(ld["velocity"], path, el, "velocity"),
+            )
+        dd = jd.get("dynamics") or {}
+        dynamics = Dynamics(**{
+            k: _num(dd.get(k, 0.0), path, el, k)
+            for k in ("damping", "friction", "stiffness", "spring_ref", "armature")
+        })
+        joints.append(Joint(
+            name=name, type=JointType(jtype), parent=_get(jd, "parent", path, el),
+            child=_get(jd, "child", path, el), origin=origin,
+            axis=_vec(jd.get("axis", [0, 0, 1]), 3, path, el, "axis"), limits=limits,
+            dynamics=dynamics, state=_num(jd.get("state", 0.0), path, el, "state"),
+        ))
+    obj = ArticulatedObject(name=_get(data, "name", path, "object"), parts=parts, joints=joints,
+                            metadata=dict(data.get("metadata") or {}))
+    try:
+        return validate(obj)
+    except ModelError as e:
+        raise FormatError(path, e.element, e.message) from e
+
+
+def load(path: str | Path) -> ArticulatedObject:
+    path = Path(path)
+    if not path.is_file():
+        raise FormatError(path, None, "file not found")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        line = getattr(e, "lineno", None)
+        raise FormatError(path, None, f"malformed JSON: {getattr(e, 'msg', e)}", line) from e
+    return from_dict(data, path)

@@ -1,0 +1,528 @@
+"""The articulated-object model every importer fills and every exporter reads.
+
+Conventions (DESIGN.md): SI units, Z up, right-handed. A part's frame is its joint frame
+(URDF style): ``joint.origin`` is the pose of the child frame in the parent frame at q = 0,
+``joint.axis`` a unit vector in that frame. A part's visual and collision meshes and its
+inertial are expressed in the part frame. Colours are linear RGBA in [0, 1].
+
+The dataclasses hold data only; :func:`validate` checks a whole object and raises a
+:class:`ModelError` naming the part or joint and what is wrong; :func:`forward_kinematics`
+gives the world pose of every part.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import re
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+
+from . import transforms as tf
+from .errors import ModelError
+
+NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+AXIS_UNIT_TOLERANCE = 1e-6
+DEFAULT_COLOR = (0.7, 0.7, 0.7, 1.0)
+
+
+class JointType(StrEnum):
+    REVOLUTE = "revolute"
+    PRISMATIC = "prismatic"
+    CONTINUOUS = "continuous"
+    FIXED = "fixed"
+
+    @property
+    def movable(self) -> bool:
+        return self is not JointType.FIXED
+
+    @property
+    def angular(self) -> bool:
+        return self in (JointType.REVOLUTE, JointType.CONTINUOUS)
+
+
+@dataclass(eq=False)
+class Mesh:
+    """A triangle mesh: float64 vertices (N, 3) and int64 faces (M, 3)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
+        self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
+
+    def digest(self) -> str:
+        """A content hash (used for caching collision decompositions and naming files)."""
+        h = hashlib.sha256()
+        h.update(self.vertices.tobytes())
+        h.update(self.faces.tobytes())
+        return h.hexdigest()
+
+    def transformed(self, transform: np.ndarray) -> Mesh:
+        v = self.vertices @ transform[:3, :3].T + transform[:3, 3]
+        return Mesh(v, self.faces.copy())
+
+    def bounds(self) -> np.ndarray:
+        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    def to_trimesh(self):
+        import trimesh
+
+        return trimesh.Trimesh(self.vertices, self.faces, process=False)
+
+    @classmethod
+    def from_trimesh(cls, mesh) -> Mesh:
+        return cls(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+
+    @staticmethod
+    def concatenate(meshes: list[Mesh]) -> Mesh:
+        verts, faces, offset = [], [], 0
+        for m in meshes:
+            verts.append(m.vertices)
+            faces.append(m.faces + offset)
+            offset += len(m.vertices)
+        if not verts:
+            return Mesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
+        return Mesh(np.concatenate(verts), np.concatenate(faces))
+
+
+@dataclass(eq=False)
+class Inertial:
+    """Mass (kg), centre of mass (m, part frame) and inertia tensor about the centre of mass
+    (kg m^2, axes of the part frame)."""
+
+    mass: float
+    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    inertia: np.ndarray = field(default_factory=lambda: np.eye(3) * 1e-6)
+
+    def __post_init__(self) -> None:
+        self.mass = float(self.mass)
+        self.com = np.asarray(self.com, dtype=np.float64).reshape(3)
+        self.inertia = np.asarray(self.inertia, dtype=np.float64).reshape(3, 3)
+
+    def principal(self) -> tuple[np.ndarray, np.ndarray]:
+        """Principal moments (ascending) and a right-handed rotation whose columns are the
+        principal axes in the part frame."""
+        moments, axes = np.linalg.eigh(0.5 * (self.inertia + self.inertia.T))
+        if np.linalg.det(axes) < 0:
+            axes[:, 2] *= -1
+        return moments, axes
+
+
+@dataclass
+class Limits:
+    """Joint range (rad or m) and, where known, effort (N m or N) and velocity limits."""
+
+    lower: float
+    upper: float
+    effort: float | None = None
+    velocity: float | None = None
+
+
+@dataclass
+class Dynamics:
+    """Joint dynamics in SI units (angular joints: per radian).
+
+    ``friction`` is Coulomb (dry) friction, the MJCF ``frictionloss``; ``stiffness`` is a
+    spring pulling toward ``spring_ref``; ``armature`` is reflected rotor inertia.
+    """
+
+    damping: float = 0.0
+    friction: float = 0.0
+    stiffness: float = 0.0
+    spring_ref: float = 0.0
+    armature: float = 0.0
+
+    def is_zero(self) -> bool:
+        return not any((self.damping, self.friction, self.stiffness, self.armature))
+
+
+@dataclass(eq=False)
+class Joint:
+    name: str
+    type: JointType
+    parent: str
+    child: str
+    origin: np.ndarray = field(default_factory=lambda: np.eye(4))
+    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    limits: Limits | None = None
+    dynamics: Dynamics = field(default_factory=Dynamics)
+    state: float = 0.0  # the joint value observed at capture time
+
+    def __post_init__(self) -> None:
+        self.type = JointType(self.type)
+        self.origin = np.asarray(self.origin, dtype=np.float64).reshape(4, 4)
+        self.axis = np.asarray(self.axis, dtype=np.float64).reshape(3)
+        self.state = float(self.state)
+
+    def motion(self, q: float) -> np.ndarray:
+        """Transform of the child frame relative to its q = 0 pose."""
+        if self.type.angular:
+            return tf.make(rotation=tf.axis_angle_matrix(self.axis, q))
+        if self.type is JointType.PRISMATIC:
+            return tf.make(translation=self.axis * q)
+        return np.eye(4)
+
+    def transform(self, q: float) -> np.ndarray:
+        """Pose of the child frame in the parent frame at joint value ``q``."""
+        return self.origin @ self.motion(q)
+
+
+@dataclass(eq=False)
+class Part:
+    name: str
+    visual: Mesh | None = None
+    collision: list[Mesh] = field(default_factory=list)
+    inertial: Inertial | None = None
+    color: tuple[float, float, float, float] = DEFAULT_COLOR
+
+    def __post_init__(self) -> None:
+        self.color = tuple(float(c) for c in self.color)
+
+
+@dataclass(eq=False)
+class ArticulatedObject:
+    """Parts connected by joints in one tree with a single, fixed root.
+
+    ``metadata`` holds JSON-serialisable facts about the object (category, source file, ...);
+    exporters that have a place for free data keep it namespaced.
+    """
+
+    name: str
+    parts: list[Part] = field(default_factory=list)
+    joints: list[Joint] = field(default_factory=list)
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    # -- lookups ---------------------------------------------------------------------------
+    def part(self, name: str) -> Part:
+        for p in self.parts:
+            if p.name == name:
+                return p
+        raise KeyError(f"no part named {name!r} in {self.name!r}")
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(f"no joint named {name!r} in {self.name!r}")
+
+    def parent_joint(self, part_name: str) -> Joint | None:
+        for j in self.joints:
+            if j.child == part_name:
+                return j
+        return None
+
+    def child_joints(self, part_name: str) -> list[Joint]:
+        return [j for j in self.joints if j.parent == part_name]
+
+    @property
+    def root(self) -> Part:
+        children = {j.child for j in self.joints}
+        roots = [p for p in self.parts if p.name not in children]
+        if len(roots) != 1:
+            raise ModelError(f"object {self.name!r}", f"expected one root part, found {len(roots)}")
+        return roots[0]
+
+    @property
+    def movable_joints(self) -> list[Joint]:
+        return [j for j in self.joints if j.type.movable]
+
+    def joints_in_tree_order(self) -> Iterator[Joint]:
+        """Joints parent-first (depth first from the root, children in declaration order)."""
+        stack = [self.root.name]
+        while stack:
+            name = stack.pop()
+            kids = self.child_joints(name)
+            yield from kids
+            stack.extend(j.child for j in reversed(kids))
+
+    def parts_in_tree_order(self) -> list[Part]:
+        order = [self.root.name] + [j.child for j in self.joints_in_tree_order()]
+        return [self.part(n) for n in order]
+
+    def observed_configuration(self) -> dict[str, float]:
+        return {j.name: j.state for j in self.movable_joints}
+
+    def total_mass(self) -> float:
+        return sum(p.inertial.mass for p in self.parts if p.inertial is not None)
+
+
+# -- names -----------------------------------------------------------------------------------
+def sanitize_name(raw: str, taken: set[str] | None = None) -> str:
+    """A name valid in every format (an identifier: USD prim names are the strictest), made
+    unique against ``taken`` by a numeric suffix. Importers call it once; exporters never
+    rename."""
+    name = re.sub(r"[^A-Za-z0-9_]", "_", raw.strip()) or "unnamed"
+    if not re.match(r"[A-Za-z_]", name[0]):
+        name = "_" + name
+    if taken is not None:
+        base, k = name, 1
+        while name in taken:
+            name = f"{base}_{k}"
+            k += 1
+        taken.add(name)
+    return name
+
+
+# -- validation ------------------------------------------------------------------------------
+def _finite(values, element: str, what: str) -> None:
+    arr = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(element, f"{what} is not finite: {arr.tolist()}")
+
+
+def validate_inertial(inertial: Inertial, element: str, tol: float = 1e-9) -> None:
+    if not math.isfinite(inertial.mass) or inertial.mass <= 0:
+        raise ModelError(element, f"mass must be positive and finite, got {inertial.mass}")
+    _finite(inertial.com, element, "centre of mass")
+    _finite(inertial.inertia, element, "inertia")
+    inertia = inertial.inertia
+    scale = max(float(np.abs(inertia).max()), 1e-30)
+    if not np.allclose(inertia, inertia.T, atol=1e-9 * scale):
+        raise ModelError(element, "inertia tensor is not symmetric")
+    moments = np.linalg.eigvalsh(inertia)
+    if moments[0] <= 0:
+        raise ModelError(
+            element, f"inertia tensor is not positive definite (principal moments {moments.tolist()})"
+        )
+    a, b, c = moments
+    if a + b < c * (1 - tol) - tol * scale:
+        raise ModelError(
+            element,
+            f"principal moments {moments.tolist()} violate the triangle inequality (A + B >= C)",
+        )
+
+
+def validate_mesh(mesh: Mesh, element: str) -> None:
+    if len(mesh.vertices) == 0 or len(mesh.faces) == 0:
+        raise ModelError(element, "mesh is empty")
+    _finite(mesh.vertices, element, "mesh vertices")
+    if mesh.faces.min() < 0 or mesh.faces.max() >= len(mesh.vertices):
+        raise ModelError(element, "mesh face indices out of range")
+
+
+def validate(obj: ArticulatedObject) -> ArticulatedObject:
+    """Check the whole object; raise :class:`ModelError` at the first problem. Returns ``obj``."""
+    if not NAME_PATTERN.match(obj.name or ""):
+        raise ModelError(f"object {obj.name!r}", "name must be an identifier ([A-Za-z_][A-Za-z0-9_]*)")
+    if not obj.parts:
+        raise ModelError(f"object {obj.name!r}", "has no parts")
+    seen: set[str] = set()
+    for p in obj.parts:
+        el = f"part {p.name!r}"
+        if not NAME_PATTERN.match(p.name or ""):
+            raise ModelError(el, "name must be an identifier ([A-Za-z_][A-Za-z0-9_]*)")
+        if p.name in seen:
+            raise ModelError(el, "duplicate part name")
+        seen.add(p.name)
+        if len(p.color) != 4 or not all(0.0 <= c <= 1.0 for c in p.color):
+            raise ModelError(el, f"colour must be RGBA in [0, 1], got {list(p.color)}")
+        if p.visual is not None:
+            validate_mesh(p.visual, el + " visual")
+        for k, piece in enumerate(p.collision):
+            validate_mesh(piece, f"{el} collision piece {k}")
+        if p.inertial is not None:
+            validate_inertial(p.inertial, el)
+
+    joint_names: set[str] = set()
+    child_of: dict[str, str] = {}
+    for j in obj.joints:
+        el = f"joint {j.name!r}"
+        if not NAME_PATTERN.match(j.name or ""):
+            raise ModelError(el, "name must be an identifier ([A-Za-z_][A-Za-z0-9_]*)")
+        if j.name in joint_names:
+            raise ModelError(el, "duplicate joint name")
+        joint_names.add(j.name)
+        for role, part in (("parent", j.parent), ("child", j.child)):
+            if part not in seen:
+                raise ModelError(el, f"{role} part {part!r} does not exist")
+        if j.parent == j.child:
+            raise ModelError(el, f"joins part {j.child!r} to itself")
+        if j.child in child_of:
+            raise ModelError(
+                el, f"part {j.child!r} already has parent joint {child_of[j.child]!r} (not a tree)"
+            )
+        child_of[j.child] = j.name
+        _finite(j.origin, el, "origin")
+        if not np.allclose(j.origin[3], [0, 0, 0, 1]) or not tf.is_rotation(j.origin[:3, :3]):
+            raise ModelError(el, "origin is not a rigid transform (rotation must be orthonormal)")
+        _finite(j.axis, el, "axis")
+        norm = float(np.linalg.norm(j.axis))
+        if j.type.movable and norm < 1e-12:
+            raise ModelError(el, "axis has zero length")
+        if j.type.movable and abs(norm - 1.0) > AXIS_UNIT_TOLERANCE:
+            raise ModelError(el, f"axis must be a unit vector, has length {norm:.9g}")
+        _finite(j.state, el, "state")
+        d = j.dynamics
+        for attr in ("damping", "friction", "stiffness", "spring_ref", "armature"):
+            _finite(getattr(d, attr), el, attr)
+        for attr in ("damping", "friction", "stiffness", "armature"):
+            if getattr(d, attr) < 0:
+                raise ModelError(el, f"{attr} must be >= 0, got {getattr(d, attr)}")
+        if j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
+            if j.limits is None:
+                raise ModelError(el, f"a {j.type.value} joint needs limits")
+            lim = j.limits
+            _finite([lim.lower, lim.upper], el, "limits")
+            if lim.lower > lim.upper:
+                raise ModelError(el, f"lower limit {lim.lower} > upper limit {lim.upper}")
+            for attr in ("effort", "velocity"):
+                v = getattr(lim, attr)
+                if v is not None and (not math.isfinite(v) or v < 0):
+                    raise ModelError(el, f"{attr} limit must be finite and >= 0, got {v}")
+            slack = 1e-9 * max(1.0, abs(lim.lower), abs(lim.upper))
+            if not lim.lower - slack <= j.state <= lim.upper + slack:
+                raise ModelError(
+                    el, f"observed state {j.state} is outside the limits [{lim.lower}, {lim.upper}]"
+                )
+        elif j.limits is not None:
+            raise ModelError(el, f"a {j.type.value} joint takes no limits")
+        if j.type is JointType.FIXED and j.state != 0.0:
+            raise ModelError(el, "a fixed joint has no state")
+
+    roots = [p.name for p in obj.parts if p.name not in child_of]
+    if len(roots) != 1:
+        detail = f"parts without a parent joint: {roots}" if roots else "every part has a parent (a cycle)"
+        raise ModelError(f"object {obj.name!r}", f"expected exactly one root part; {detail}")
+    reached = {roots[0]}
+    frontier = [roots[0]]
+    while frontier:
+        name = frontier.pop()
+        for j in obj.joints:
+            if j.parent == name and j.child not in reached:
+                reached.add(j.child)
+                frontier.append(j.child)
+    if reached != seen:
+        cyc = sorted(seen - reached)
+        raise ModelError(f"object {obj.name!r}", f"joints form a cycle through parts {cyc}")
+
+    # A movable joint must move something with mass (MuJoCo and Pinocchio both need it).
+    for j in obj.movable_joints:
+        if _rigid_group_mass(obj, j.child) <= 0:
+            raise ModelError(
+                f"joint {j.name!r}",
+                f"child part {j.child!r} (with the parts fixed to it) has no mass",
+            )
+    return obj
+
+
+def _rigid_group_mass(obj: ArticulatedObject, part_name: str) -> float:
+    part = obj.part(part_name)
+    mass = part.inertial.mass if part.inertial is not None else 0.0
+    for j in obj.child_joints(part_name):
+        if j.type is JointType.FIXED:
+            mass += _rigid_group_mass(obj, j.child)
+    return mass
+
+
+# -- kinematics ------------------------------------------------------------------------------
+def forward_kinematics(
+    obj: ArticulatedObject,
+    q: Mapping[str, float] | None = None,
+    base: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """World pose (4x4) of every part for joint values ``q`` (by joint name; missing
+    movable joints are at 0). Unknown joint names raise ``KeyError``."""
+    q = dict(q or {})
+    unknown = set(q) - {j.name for j in obj.movable_joints}
+    if unknown:
+        raise KeyError(f"unknown joint(s) {sorted(unknown)} for {obj.name!r}")
+    poses = {obj.root.name: np.eye(4) if base is None else np.asarray(base, float)}
+    for j in obj.joints_in_tree_order():
+        poses[j.child] = poses[j.parent] @ j.transform(q.get(j.name, 0.0))
+    return poses
+
+
+def sample_configuration(obj: ArticulatedObject, rng: np.random.Generator) -> dict[str, float]:
+    """Joint values drawn uniformly within limits (continuous joints in [-pi, pi])."""
+    out = {}
+    for j in obj.movable_joints:
+        if j.limits is None:
+            out[j.name] = float(rng.uniform(-np.pi, np.pi))
+        else:
+            out[j.name] = float(rng.uniform(j.limits.lower, j.limits.upper))
+    return out
+
+
+# -- tolerance-based comparison (round-trip tests compare models, not text) -----------------
+def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -> list[str]:
+    """Every difference between two models beyond ``tol``; an empty list means equal."""
+    out: list[str] = []
+
+    def close(x, y) -> bool:
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        return x.shape == y.shape and bool(np.allclose(x, y, atol=tol, rtol=tol))
+
+    if a.name != b.name:
+        out.append(f"object name {a.name!r} != {b.name!r}")
+    pa, pb = {p.name: p for p in a.parts}, {p.name: p for p in b.parts}
+    if set(pa) != set(pb):
+        out.append(f"parts differ: only in first {sorted(set(pa) - set(pb))}, "
+                   f"only in second {sorted(set(pb) - set(pa))}")
+    for name in sorted(set(pa) & set(pb)):
+        x, y = pa[name], pb[name]
+        el = f"part {name!r}"
+        if not close(x.color, y.color):
+            out.append(f"{el}: colour {x.color} != {y.color}")
+        if (x.inertial is None) != (y.inertial is None):
+            out.append(f"{el}: inertial present in only one")
+        elif x.inertial is not None:
+            if not close(x.inertial.mass, y.inertial.mass):
+                out.append(f"{el}: mass {x.inertial.mass} != {y.inertial.mass}")
+            if not close(x.inertial.com, y.inertial.com):
+                out.append(f"{el}: centre of mass differs")
+            if not close(x.inertial.inertia, y.inertial.inertia):
+                out.append(f"{el}: inertia differs")
+        out.extend(_mesh_differences(el + " visual", x.visual, y.visual, tol))
+        if len(x.collision) != len(y.collision):
+            out.append(f"{el}: {len(x.collision)} vs {len(y.collision)} collision pieces")
+        else:
+            for k, (m, n) in enumerate(zip(x.collision, y.collision, strict=True)):
+                out.extend(_mesh_differences(f"{el} collision {k}", m, n, tol))
+    ja, jb = {j.name: j for j in a.joints}, {j.name: j for j in b.joints}
+    if set(ja) != set(jb):
+        out.append(f"joints differ: only in first {sorted(set(ja) - set(jb))}, "
+                   f"only in second {sorted(set(jb) - set(ja))}")
+    for name in sorted(set(ja) & set(jb)):
+        x, y = ja[name], jb[name]
+        el = f"joint {name!r}"
+        for attr in ("type", "parent", "child"):
+            if getattr(x, attr) != getattr(y, attr):
+                out.append(f"{el}: {attr} {getattr(x, attr)!r} != {getattr(y, attr)!r}")
+        if not close(x.origin, y.origin):
+            out.append(f"{el}: origin differs")
+        if x.type.movable and not close(x.axis, y.axis):
+            out.append(f"{el}: axis {x.axis.tolist()} != {y.axis.tolist()}")
+        if not close(x.state, y.state):
+            out.append(f"{el}: state {x.state} != {y.state}")
+        if (x.limits is None) != (y.limits is None):
+            out.append(f"{el}: limits present in only one")
+        elif x.limits is not None:
+            for attr in ("lower", "upper", "effort", "velocity"):
+                u, v = getattr(x.limits, attr), getattr(y.limits, attr)
+                if (u is None) != (v is None) or (u is not None and not close(u, v)):
+                    out.append(f"{el}: {attr} limit {u} != {v}")
+        for attr in ("damping", "friction", "stiffness", "spring_ref", "armature"):
+            u, v = getattr(x.dynamics, attr), getattr(y.dynamics, attr)
+            if not close(u, v):
+                out.append(f"{el}: {attr} {u} != {v}")
+    return out
+
+
+def _mesh_differences(el: str, x: Mesh | None, y: Mesh | None, tol: float) -> list[str]:
+    if x is None or y is None:
+        return [] if x is y else [f"{el}: mesh present in only one"]
+    if x.faces.shape != y.faces.shape or x.vertices.shape != y.vertices.shape:
+        return [f"{el}: mesh sizes differ ({len(x.vertices)}/{len(x.faces)} vs "
+                f"{len(y.vertices)}/{len(y.faces)} vertices/faces)"]
+    if not np.array_equal(x.faces, y.faces):
+        return [f"{el}: mesh faces differ"]
+    if not np.allclose(x.vertices, y.vertices, atol=tol, rtol=0):
+        err = float(np.abs(x.vertices - y.vertices).max())
+        return [f"{el}: mesh vertices differ by up to {err:.3g}"]
+    return []

@@ -1,0 +1,139 @@
+"""Rigid transforms as 4x4 homogeneous matrices, and the conversions the formats need.
+
+Quaternions are (w, x, y, z) everywhere in this project, as MuJoCo and USD store them.
+Roll-pitch-yaw follows URDF: R = Rz(yaw) @ Ry(pitch) @ Rx(roll).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+IDENTITY = np.eye(4)
+
+
+def make(rotation: np.ndarray | None = None, translation=None) -> np.ndarray:
+    """A 4x4 transform from a 3x3 rotation and a translation."""
+    t = np.eye(4)
+    if rotation is not None:
+        t[:3, :3] = rotation
+    if translation is not None:
+        t[:3, 3] = translation
+    return t
+
+
+def inverse(t: np.ndarray) -> np.ndarray:
+    r = t[:3, :3]
+    out = np.eye(4)
+    out[:3, :3] = r.T
+    out[:3, 3] = -r.T @ t[:3, 3]
+    return out
+
+
+def axis_angle_matrix(axis, angle: float) -> np.ndarray:
+    """3x3 rotation of ``angle`` radians about the unit ``axis`` (Rodrigues)."""
+    x, y, z = np.asarray(axis, dtype=float)
+    c, s = np.cos(angle), np.sin(angle)
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return np.eye(3) + s * k + (1.0 - c) * (k @ k)
+
+
+def rpy_to_matrix(rpy) -> np.ndarray:
+    roll, pitch, yaw = (float(v) for v in rpy)
+    cr, sr = np.cos(roll), np.sin(roll)
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def matrix_to_rpy(r: np.ndarray) -> np.ndarray:
+    """URDF roll-pitch-yaw of a rotation matrix (exact inverse of :func:`rpy_to_matrix`)."""
+    r = np.asarray(r, dtype=float)
+    sp = -r[2, 0]
+    if abs(sp) < 1.0 - 1e-12:
+        pitch = np.arcsin(np.clip(sp, -1.0, 1.0))
+        roll = np.arctan2(r[2, 1], r[2, 2])
+        yaw = np.arctan2(r[1, 0], r[0, 0])
+    else:  # gimbal lock: put everything in yaw
+        pitch = np.pi / 2 if sp > 0 else -np.pi / 2
+        roll = 0.0
+        yaw = np.arctan2(-r[0, 1], r[1, 1])
+    return np.array([roll, pitch, yaw])
+
+
+def quat_to_matrix(q) -> np.ndarray:
+    """3x3 rotation of a (w, x, y, z) quaternion (normalised first)."""
+    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def matrix_to_quat(r: np.ndarray) -> np.ndarray:
+    """(w, x, y, z) quaternion of a rotation matrix, with w >= 0 (a canonical sign)."""
+    r = np.asarray(r, dtype=float)
+    tr = np.trace(r)
+    if tr > 0:
+        s = 2.0 * np.sqrt(tr + 1.0)
+        q = [0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s]
+    elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
+        q = [(r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s]
+    elif r[1, 1] > r[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
+        q = [(r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
+        q = [(r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s]
+    q = np.array(q)
+    q /= np.linalg.norm(q)
+    return -q if q[0] < 0 else q
+
+
+def orthonormalize(r: np.ndarray) -> np.ndarray:
+    """The nearest rotation matrix (polar decomposition via SVD)."""
+    u, _, vt = np.linalg.svd(np.asarray(r, dtype=float))
+    out = u @ vt
+    if np.linalg.det(out) < 0:
+        u[:, -1] *= -1
+        out = u @ vt
+    return out
+
+
+def is_rotation(r: np.ndarray, tol: float = 1e-6) -> bool:
+    r = np.asarray(r, dtype=float)
+    return (
+        r.shape == (3, 3)
+        and bool(np.all(np.isfinite(r)))
+        and np.allclose(r.T @ r, np.eye(3), atol=tol)
+        and np.linalg.det(r) > 0
+    )
+
+
+def rotation_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle in radians of the rotation that takes ``a`` to ``b`` (3x3 matrices)."""
+    c = (np.trace(a.T @ b) - 1.0) / 2.0
+    return float(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+def rotation_between(a, b) -> np.ndarray:
+    """A rotation taking unit vector ``a`` onto unit vector ``b`` (the shortest one)."""
+    a = np.asarray(a, float) / np.linalg.norm(a)
+    b = np.asarray(b, float) / np.linalg.norm(b)
+    v = np.cross(a, b)
+    c = float(np.dot(a, b))
+    if c < -1.0 + 1e-12:  # opposite: rotate pi about any axis orthogonal to a
+        ortho = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        axis = np.cross(a, ortho)
+        return axis_angle_matrix(axis / np.linalg.norm(axis), np.pi)
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + k + k @ k / (1.0 + c)
