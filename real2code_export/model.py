@@ -233,13 +233,13 @@ class ArticulatedObject:
         return [j for j in self.joints if j.type.movable]
 
     def joints_in_tree_order(self) -> Iterator[Joint]:
-        """Joints parent-first (depth first from the root, children in declaration order)."""
-        stack = [self.root.name]
+        """Joints in depth-first pre-order from the root (children in declaration order):
+        every joint comes after its parent's joint, as in Pinocchio."""
+        stack = list(reversed(self.child_joints(self.root.name)))
         while stack:
-            name = stack.pop()
-            kids = self.child_joints(name)
-            yield from kids
-            stack.extend(j.child for j in reversed(kids))
+            joint = stack.pop()
+            yield joint
+            stack.extend(reversed(self.child_joints(joint.child)))
 
     def parts_in_tree_order(self) -> list[Part]:
         order = [self.root.name] + [j.child for j in self.joints_in_tree_order()]

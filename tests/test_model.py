@@ -1,0 +1,187 @@
+"""The model: validation with precise errors, kinematics, comparison, object.json."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import box_inertial, small_cabinet
+
+from real2code_export import atomic
+from real2code_export import transforms as tf
+from real2code_export.errors import FormatError, ModelError
+from real2code_export.formats import export, load, object_json
+from real2code_export.model import (
+    Inertial,
+    Joint,
+    JointType,
+    differences,
+    forward_kinematics,
+    sample_configuration,
+    sanitize_name,
+    validate,
+)
+
+
+def test_small_cabinet_is_valid():
+    obj = validate(small_cabinet())
+    assert obj.root.name == "body"
+    assert [j.name for j in obj.joints_in_tree_order()] == [
+        "door_hinge", "knob_turn", "drawer_slide", "handle_mount"]
+
+
+def test_forward_kinematics_matches_hand_composition():
+    obj = small_cabinet()
+    q = {"door_hinge": 0.7, "drawer_slide": 0.2, "knob_turn": -1.0}
+    poses = forward_kinematics(obj, q)
+    door = obj.joint("door_hinge")
+    expected_door = door.origin @ tf.make(tf.axis_angle_matrix(door.axis, 0.7))
+    np.testing.assert_allclose(poses["door"], expected_door, atol=1e-12)
+    knob = obj.joint("knob_turn")
+    expected_knob = expected_door @ knob.origin @ tf.make(tf.axis_angle_matrix([1, 0, 0], -1.0))
+    np.testing.assert_allclose(poses["knob"], expected_knob, atol=1e-12)
+    # the drawer slides 0.2 m along its axis (x in its frame, rotated by nothing here)
+    np.testing.assert_allclose(poses["drawer"][:3, 3], [0.25, 0.1, 0.2], atol=1e-12)
+    np.testing.assert_allclose(poses["handle"][:3, 3], [0.47, 0.1, 0.2], atol=1e-12)
+    with pytest.raises(KeyError, match="nope"):
+        forward_kinematics(obj, {"nope": 1.0})
+
+
+def test_sample_configuration_stays_within_limits():
+    obj = small_cabinet()
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        q = sample_configuration(obj, rng)
+        assert 0.0 <= q["door_hinge"] <= 1.6 and 0.0 <= q["drawer_slide"] <= 0.35
+        assert -np.pi <= q["knob_turn"] <= np.pi
+        assert "handle_mount" not in q
+
+
+@pytest.mark.parametrize(
+    "mutate, element, message",
+    [
+        (lambda o: o.joints.append(Joint("loop", "fixed", "knob", "body")), "object 'small_cabinet'", "a cycle"),
+        (lambda o: setattr(o.joints[2], "child", "door"), "joint 'handle_mount'", "already has parent joint 'door_hinge'"),
+        (lambda o: setattr(o.joints[2], "child", "drawer"), "joint 'handle_mount'", "to itself"),
+        (lambda o: o.joints.pop(2), "object 'small_cabinet'", "exactly one root"),
+        (lambda o: o.joints[0].origin.__setitem__((0, 3), np.nan), "joint 'door_hinge'", "origin is not finite"),
+        (lambda o: setattr(o.joints[1], "axis", np.zeros(3)), "joint 'drawer_slide'", "zero length"),
+        (lambda o: setattr(o.joints[1], "axis", np.array([1.0, 1.0, 0.0])), "joint 'drawer_slide'", "unit vector"),
+        (lambda o: setattr(o.joints[0].limits, "lower", 2.0), "joint 'door_hinge'", "lower limit 2.0 > upper"),
+        (lambda o: setattr(o.joints[0], "state", 3.0), "joint 'door_hinge'", "outside the limits"),
+        (lambda o: setattr(o.joints[1], "limits", None), "joint 'drawer_slide'", "needs limits"),
+        (lambda o: setattr(o.joints[1], "parent", "ghost"), "joint 'drawer_slide'", "'ghost' does not exist"),
+        (lambda o: setattr(o.parts[1], "name", "body"), "part 'body'", "duplicate part name"),
+        (lambda o: setattr(o.parts[1], "name", "door 1"), "part 'door 1'", "identifier"),
+        (lambda o: setattr(o.parts[2], "inertial", Inertial(-1.0)), "part 'drawer'", "mass must be positive"),
+        (lambda o: setattr(o.parts[2], "inertial", Inertial(1.0, inertia=np.diag([1.0, 1.0, 3.0]))),
+         "part 'drawer'", "triangle inequality"),
+        (lambda o: setattr(o.parts[2], "inertial", Inertial(1.0, inertia=np.diag([1.0, -1.0, 1.0]))),
+         "part 'drawer'", "positive definite"),
+        (lambda o: setattr(o.joints[0].dynamics, "damping", -1.0), "joint 'door_hinge'", "damping must be >= 0"),
+        (lambda o: [setattr(o.parts[i], "inertial", None) for i in (2, 3)], "joint 'drawer_slide'", "no mass"),
+        (lambda o: o.joints[0].origin.__setitem__((slice(0, 3), slice(0, 3)), np.diag([1.0, 1.0, 2.0])),
+         "joint 'door_hinge'", "not a rigid transform"),
+    ],
+)
+def test_validation_names_the_element(mutate, element, message):
+    obj = small_cabinet()
+    mutate(obj)
+    with pytest.raises(ModelError) as info:
+        validate(obj)
+    assert info.value.element == element
+    assert message in str(info.value)
+
+
+def test_unknown_joint_type_is_refused():
+    with pytest.raises(ValueError, match="'slider' is not a valid JointType"):
+        Joint("j", "slider", "a", "b")
+
+
+def test_sanitize_name_makes_identifiers_unique():
+    taken: set[str] = set()
+    assert sanitize_name("link-0", taken) == "link_0"
+    assert sanitize_name("link 0", taken) == "link_0_1"
+    assert sanitize_name("0door", taken) == "_0door"
+
+
+def test_differences_reports_and_tolerates():
+    a, b = small_cabinet(), small_cabinet()
+    assert differences(a, b, tol=0) == []
+    b.joints[0].origin[0, 3] += 1e-8
+    assert differences(a, b, tol=1e-6) == []
+    b.joints[0].origin[0, 3] += 1e-3
+    b.joints[1].dynamics.damping = 3.0
+    diffs = differences(a, b)
+    assert any("door_hinge" in d and "origin" in d for d in diffs)
+    assert any("drawer_slide" in d and "damping" in d for d in diffs)
+
+
+def test_object_json_round_trip_is_exact_and_deterministic(tmp_path):
+    obj = small_cabinet()
+    export(obj, tmp_path / "a", ["json"])
+    back = load(tmp_path / "a" / "object.json")
+    assert differences(obj, back, tol=0) == []
+    assert back.joints[0].type is JointType.REVOLUTE
+    assert back.metadata == obj.metadata
+    export(back, tmp_path / "b", ["json"])
+    for rel in ["object.json", "meshes/door.obj", "meshes/door_collision_0.obj"]:
+        assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes()
+
+
+def _write_json(tmp_path, data) -> object:
+    path = tmp_path / "object.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_object_json_errors_name_file_and_element(tmp_path):
+    obj = small_cabinet()
+    export(obj, tmp_path, ["json"])
+    data = json.loads((tmp_path / "object.json").read_text())
+
+    bad = json.loads(json.dumps(data))
+    bad["joints"][0]["origin"]["translation"][1] = float("nan")
+    with pytest.raises(FormatError, match=r"object.json: joint 'door_hinge': origin translation is not finite"):
+        object_json.from_dict(bad, tmp_path / "object.json")
+
+    bad = json.loads(json.dumps(data))
+    bad["joints"][1]["type"] = "slider"
+    with pytest.raises(FormatError, match=r"joint 'drawer_slide': unknown joint type 'slider'"):
+        object_json.from_dict(bad, tmp_path / "object.json")
+
+    bad = json.loads(json.dumps(data))
+    bad["joints"][0]["limits"]["lower"] = 5.0
+    with pytest.raises(FormatError, match=r"joint 'door_hinge': lower limit 5.0 > upper"):
+        object_json.from_dict(bad, tmp_path / "object.json")
+
+    (tmp_path / "meshes" / "door.obj").unlink()
+    with pytest.raises(FormatError, match=r"object.json: part 'door' visual: mesh file not found"):
+        load(tmp_path / "object.json")
+
+    (tmp_path / "broken.json").write_text('{"schema": "real2code_export/object",\n  "name": }')
+    with pytest.raises(FormatError, match=r"broken.json:2: malformed JSON"):
+        load(tmp_path / "broken.json")
+
+
+def test_failed_export_leaves_nothing(tmp_path):
+    obj = small_cabinet()
+    obj.joints[0].axis = np.zeros(3)  # invalid: refused before anything is written
+    out = tmp_path / "out"
+    with pytest.raises(ModelError):
+        export(obj, out, ["json"])
+    assert not out.exists()
+
+    out.mkdir()
+    (out / "keep.txt").write_text("a good file")
+    with pytest.raises(RuntimeError), atomic.staged_output(out) as staging:
+        (staging / "half.xml").write_text("<half")
+        raise RuntimeError("writer failed")
+    assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+
+
+def test_box_inertial_helper_is_valid():
+    from real2code_export.model import validate_inertial
+
+    validate_inertial(box_inertial([1, 2, 3], 4.0), "test")
