@@ -6,7 +6,6 @@ import json
 
 import numpy as np
 import pytest
-from helpers import box_inertial, small_cabinet
 
 from real2code_export import atomic
 from real2code_export import transforms as tf
@@ -22,6 +21,8 @@ from real2code_export.model import (
     sanitize_name,
     validate,
 )
+
+from helpers import box_inertial, small_cabinet
 
 
 def test_small_cabinet_is_valid():

@@ -1,0 +1,114 @@
+"""Oriented bounding boxes (OBBs): the abstraction Real2Code hands to its joint predictor.
+
+An :class:`OBB` is a centre, a rotation whose columns are the box axes, and half-lengths
+along them. Two fits: the paper's gravity-aware tight box (one axis held to a world axis,
+the other two from a 2-D fit in the plane across it, the smallest volume over the three
+world axes) and a general minimal-volume box (trimesh). Axes come out in a stable order and
+sign (:func:`canonical`), so the same part gives the same box text for the predictor.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class OBB:
+    center: np.ndarray  # (3,)
+    R: np.ndarray  # (3, 3), columns are the box axes, right-handed
+    extent: np.ndarray  # (3,) half-lengths along the columns of R
+
+    @property
+    def volume(self) -> float:
+        return float(8.0 * np.prod(self.extent))
+
+    @property
+    def diagonal(self) -> float:
+        return float(2.0 * np.linalg.norm(self.extent))
+
+    def corners(self) -> np.ndarray:
+        signs = np.array(list(itertools.product((-1, 1), repeat=3)), dtype=float)
+        return self.center + (signs * self.extent) @ self.R.T
+
+    def transformed(self, transform: np.ndarray) -> OBB:
+        r = transform[:3, :3]
+        return OBB(r @ self.center + transform[:3, 3], r @ self.R, self.extent.copy())
+
+    def contains(self, points: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+        local = (np.asarray(points) - self.center) @ self.R
+        return np.all(np.abs(local) <= self.extent + tol, axis=-1)
+
+
+def canonical(center, rotation, extent) -> OBB:
+    """The same box with its axes ordered and signed stably: the axis closest to world x
+    first, then y, then z, each pointing along the positive world axis it matches; if that
+    makes the frame left-handed, the least aligned axis is flipped."""
+    rotation = np.asarray(rotation, float)
+    extent = np.asarray(extent, float)
+    best = max(itertools.permutations(range(3)),
+               key=lambda p: sum(abs(rotation[i, p[i]]) for i in range(3)))
+    r = rotation[:, best].copy()
+    e = extent[list(best)].copy()
+    for i in range(3):
+        if r[i, i] < 0:
+            r[:, i] *= -1
+    if np.linalg.det(r) < 0:
+        weakest = int(np.argmin(np.abs(np.diag(r))))
+        r[:, weakest] *= -1
+    return OBB(np.asarray(center, float).copy(), r, e)
+
+
+def _points(points) -> np.ndarray:
+    pts = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(pts) < 4 or not np.all(np.isfinite(pts)):
+        raise ValueError(f"need at least 4 finite points to fit a box, got {len(pts)}")
+    return pts
+
+
+def gravity_aligned_obb(points, up_axes: tuple[int, ...] = (0, 1, 2)) -> OBB:
+    """The paper's gravity-aware tight box: one box axis held to a world axis, the other two
+    from the minimum-area rectangle of the points projected on the plane across it; the
+    smallest volume over the world axes in ``up_axes`` (``(2,)`` holds z only)."""
+    import trimesh.bounds
+
+    pts = _points(points)
+    best: OBB | None = None
+    for k in up_axes:
+        plane = [i for i in range(3) if i != k]
+        flat = pts[:, plane]
+        try:
+            to_origin, size = trimesh.bounds.oriented_bounds_2D(flat)
+        except Exception:  # degenerate (collinear) projection: axis-aligned in the plane
+            to_origin, size = np.eye(3), np.ptp(flat, axis=0)
+            to_origin[:2, 2] = -(flat.min(axis=0) + flat.max(axis=0)) / 2
+        rot2 = to_origin[:2, :2].T  # columns: rectangle axes in plane coordinates
+        center2 = -rot2 @ to_origin[:2, 2]
+        r = np.zeros((3, 3))
+        r[plane, 0] = rot2[:, 0]
+        r[plane, 1] = rot2[:, 1]
+        r[k, 2] = 1.0
+        if np.linalg.det(r) < 0:
+            r[:, 1] *= -1
+        lo, hi = pts[:, k].min(), pts[:, k].max()
+        center = np.zeros(3)
+        center[plane] = center2
+        center[k] = (lo + hi) / 2
+        extent = np.array([size[0] / 2, size[1] / 2, (hi - lo) / 2])
+        box = canonical(center, r, extent)
+        if best is None or box.volume < best.volume - 1e-15:
+            best = box
+    assert best is not None
+    return best
+
+
+def minimal_obb(points) -> OBB:
+    """A general minimal-volume box (trimesh's ``oriented_bounds``), canonicalised."""
+    import trimesh.bounds
+
+    pts = _points(points)
+    to_origin, extents = trimesh.bounds.oriented_bounds(pts, angle_digits=3)
+    from_origin = np.linalg.inv(to_origin)
+    return canonical(from_origin[:3, 3], from_origin[:3, :3], np.asarray(extents) / 2)
