@@ -38,6 +38,10 @@ class Probe(Protocol):
         named are at 0)."""
         ...
 
+    # Optional, used by check when present (one call instead of one per configuration):
+    # pose_array(values: (N, len(joints)) array in the order of ``joints``)
+    #   -> (N, len(parts), 4, 4) world poses in the order of ``parts``.
+
 
 # extension -> modules whose open_probes() handle it, in report order
 PROBE_MODULES: dict[str, tuple[str, ...]] = {

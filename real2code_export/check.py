@@ -1,0 +1,392 @@
+"""``real2code check``: load every file in its own tool, pose all of them at the same joint
+values (by joint name), and compare the world pose of every part against a reference.
+
+Configuration 0 is q = 0; configuration 1 is the observed state when an object.json is
+among the files; the rest are drawn uniformly within the limits the probes agree on.
+Joints and parts missing from a probe, differing joint kinds or limits, and poses further
+apart than the tolerance are mismatches; ``report.ok`` is False when there is any.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import CheckError
+from .probes import JointInfo, Probe, open_probes
+from .probes.model import LABEL as MODEL_LABEL
+
+UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
+
+
+@dataclass(frozen=True)
+class Mismatch:
+    kind: str  # missing_joint | joint_kind | joint_limits | missing_part | extra_part | pose
+    probe: str  # the probe's display name
+    name: str  # the joint or part concerned
+    message: str
+
+
+@dataclass
+class ProbeResult:
+    label: str
+    path: str
+    name: str  # label and file, unique in the report
+    parts: list[str]
+    joints: list[JointInfo]
+    is_reference: bool
+    max_position_error: float = 0.0
+    max_rotation_error: float = 0.0
+    worst_part: str | None = None
+    ok: bool = True
+
+
+@dataclass
+class PartResult:
+    """The worst disagreement of one part (of the reference) over all probes and configurations."""
+
+    part: str
+    position_error: float = 0.0
+    position_probe: str | None = None
+    position_configuration: int | None = None
+    rotation_error: float = 0.0
+    rotation_probe: str | None = None
+    rotation_configuration: int | None = None
+    missing_in: list[str] = field(default_factory=list)
+
+
+@dataclass
+class CheckReport:
+    files: list[str]
+    reference: str
+    probes: list[ProbeResult]
+    joints: list[JointInfo]  # the union, with the ranges sampled
+    configurations: list[dict[str, float]]
+    tol_position: float
+    tol_rotation: float
+    parts: list[PartResult]
+    mismatches: list[Mismatch]
+
+    @property
+    def ok(self) -> bool:
+        return not self.mismatches
+
+    @property
+    def max_position_error(self) -> float:
+        return max((p.max_position_error for p in self.probes), default=0.0)
+
+    @property
+    def max_rotation_error(self) -> float:
+        return max((p.max_rotation_error for p in self.probes), default=0.0)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "files": self.files,
+            "reference": self.reference,
+            "probes": [
+                {
+                    "label": p.label, "path": p.path, "name": p.name,
+                    "reference": p.is_reference, "parts": p.parts,
+                    "joints": [_joint_json(j) for j in p.joints],
+                    "max_position_error": _num(p.max_position_error),
+                    "max_rotation_error": _num(p.max_rotation_error),
+                    "worst_part": p.worst_part, "ok": p.ok,
+                }
+                for p in self.probes
+            ],
+            "joints": [_joint_json(j) for j in self.joints],
+            "configurations": self.configurations,
+            "tolerance": {"position": self.tol_position, "rotation": self.tol_rotation},
+            "max_position_error": _num(self.max_position_error),
+            "max_rotation_error": _num(self.max_rotation_error),
+            "parts": [
+                {
+                    "part": r.part,
+                    "position_error": _num(r.position_error), "position_probe": r.position_probe,
+                    "position_configuration": r.position_configuration,
+                    "rotation_error": _num(r.rotation_error), "rotation_probe": r.rotation_probe,
+                    "rotation_configuration": r.rotation_configuration,
+                    "missing_in": r.missing_in,
+                }
+                for r in self.parts
+            ],
+            "mismatches": [
+                {"kind": m.kind, "probe": m.probe, "name": m.name, "message": m.message}
+                for m in self.mismatches
+            ],
+            "ok": self.ok,
+        }
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None  # JSON has no inf/nan
+
+
+def _joint_json(j: JointInfo) -> dict[str, Any]:
+    return {"name": j.name, "kind": j.kind, "lower": j.lower, "upper": j.upper}
+
+
+# -- the check -------------------------------------------------------------------------------
+def check_files(
+    paths: Sequence[str | Path],
+    *,
+    n_configurations: int = 100,
+    seed: int = 0,
+    tol_position: float = 1e-6,
+    tol_rotation: float = 1e-6,
+    reference: str | Path | None = None,
+) -> CheckReport:
+    """Load every file in its own tool(s) and compare part poses at shared configurations.
+
+    ``reference`` picks the probe the others are compared against: a file among ``paths``
+    (its first probe) or a probe label such as ``"MuJoCo (MJCF)"``; by default the model
+    (object.json) if present, else the first file's first probe.
+    """
+    if not paths:
+        raise CheckError("no files to check")
+    if n_configurations < 1:
+        raise CheckError(f"n_configurations must be >= 1, got {n_configurations}")
+    probes: list[Probe] = []
+    for path in paths:
+        probes.extend(open_probes(path))
+    if not probes:
+        raise CheckError("no probe could load any of the files")
+    names = _display_names(probes)
+    ref = _pick_reference(probes, names, reference)
+    mismatches: list[Mismatch] = []
+
+    joints = _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches)
+    values = _configurations(probes, joints, n_configurations, seed)
+    column = {j.name: k for k, j in enumerate(joints)}
+    poses = [_pose_array(p, values[:, [column[j.name] for j in p.joints]]) for p in probes]
+
+    results = [
+        ProbeResult(p.label, str(p.path), names[i], list(p.parts), list(p.joints), i == ref)
+        for i, p in enumerate(probes)
+    ]
+    parts = _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotation,
+                           mismatches)
+    bad = {m.probe for m in mismatches}
+    for r in results:
+        r.ok = r.name not in bad
+    configurations = [
+        {j.name: float(v) for j, v in zip(joints, row, strict=True)} for row in values
+    ]
+    return CheckReport(
+        files=[str(p) for p in paths], reference=names[ref], probes=results, joints=joints,
+        configurations=configurations, tol_position=tol_position, tol_rotation=tol_rotation,
+        parts=parts, mismatches=mismatches,
+    )
+
+
+def _display_names(probes: list[Probe]) -> list[str]:
+    short = [f"{p.label} {Path(p.path).name}" for p in probes]
+    if len(set(short)) == len(short):
+        return short
+    return [f"{p.label} {p.path}" for p in probes]
+
+
+def _pick_reference(probes: list[Probe], names: list[str], reference: str | Path | None) -> int:
+    if reference is None:
+        for i, p in enumerate(probes):
+            if p.label == MODEL_LABEL:
+                return i
+        return 0
+    for i, p in enumerate(probes):
+        if Path(p.path) == Path(reference) or Path(p.path).resolve() == Path(reference).resolve():
+            return i
+    for i, p in enumerate(probes):
+        if str(reference) in (p.label, names[i]):
+            return i
+    raise CheckError(f"reference {str(reference)!r} is neither one of the files nor a probe "
+                     f"(probes: {', '.join(names)})")
+
+
+def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) -> list[JointInfo]:
+    """The movable joints of all probes by name (the reference's first), each with the range
+    every probe admits; records missing joints and differing kinds or limits."""
+    order: list[str] = []
+    by_probe = [{j.name: j for j in p.joints} for p in probes]
+    for i in [ref] + [k for k in range(len(probes)) if k != ref]:
+        order.extend(j.name for j in probes[i].joints if j.name not in order)
+
+    union = []
+    for name in order:
+        having = [i for i, d in enumerate(by_probe) if name in d]
+        base_i = ref if ref in having else having[0]
+        base = by_probe[base_i][name]
+        for i in range(len(probes)):
+            if i not in having:
+                mismatches.append(Mismatch(
+                    "missing_joint", names[i], name,
+                    f"joint {name!r} is missing (found in {names[base_i]})"))
+                continue
+            if i == base_i:
+                continue
+            info = by_probe[i][name]
+            if info.kind != base.kind:
+                mismatches.append(Mismatch(
+                    "joint_kind", names[i], name,
+                    f"joint {name!r} is {info.kind}, {base.kind} in {names[base_i]}"))
+                continue
+            tol = tol_position if info.kind == "prismatic" else tol_rotation
+            if not (_limit_close(info.lower, base.lower, tol)
+                    and _limit_close(info.upper, base.upper, tol)):
+                mismatches.append(Mismatch(
+                    "joint_limits", names[i], name,
+                    f"joint {name!r} limits [{info.lower}, {info.upper}] differ from "
+                    f"[{base.lower}, {base.upper}] in {names[base_i]}"))
+        union.append(_agreed_range(name, base, [by_probe[i][name] for i in having]))
+    return union
+
+
+def _limit_close(a: float | None, b: float | None, tol: float) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return abs(a - b) <= tol
+
+
+def _agreed_range(name: str, base: JointInfo, infos: list[JointInfo]) -> JointInfo:
+    span = UNBOUNDED_PRISMATIC if base.kind == "prismatic" else math.pi
+    lowers = [j.lower for j in infos if j.lower is not None]
+    uppers = [j.upper for j in infos if j.upper is not None]
+    lower = max(lowers) if lowers else -span
+    upper = min(uppers) if uppers else span
+    if lower > upper:  # the probes disagree (already a mismatch): sample the reference's range
+        lower = base.lower if base.lower is not None else -span
+        upper = base.upper if base.upper is not None else span
+    return JointInfo(name, base.kind, lower, upper)
+
+
+def _configurations(probes, joints: list[JointInfo], n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    lower = np.array([j.lower for j in joints], dtype=np.float64)
+    upper = np.array([j.upper for j in joints], dtype=np.float64)
+    values = rng.uniform(lower, upper, size=(n, len(joints)))
+    values[0] = 0.0
+    observed = next((p.observed for p in probes if getattr(p, "observed", None) is not None),
+                    None)
+    if observed is not None and n > 1:
+        values[1] = [observed.get(j.name, 0.0) for j in joints]
+    return values
+
+
+def _pose_array(probe: Probe, values: np.ndarray) -> np.ndarray:
+    """(N, parts, 4, 4): the probe's batch method if it has one, else one call per row."""
+    if hasattr(probe, "pose_array"):
+        return probe.pose_array(values)
+    out = np.empty((len(values), len(probe.parts), 4, 4))
+    for i, row in enumerate(values):
+        poses = probe.poses({j.name: float(v) for j, v in zip(probe.joints, row, strict=True)})
+        out[i] = [poses[name] for name in probe.parts]
+    return out
+
+
+def rotation_angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angle (rad) of R_a^T R_b for stacks of 3x3 rotations, from the Frobenius distance
+    (||R_a - R_b|| = 2 sqrt(2) sin(theta / 2)): exact near 0, where acos of the trace loses
+    half the digits."""
+    dist = np.linalg.norm((a - b).reshape(*a.shape[:-2], 9), axis=-1)
+    return 2.0 * np.arcsin(np.minimum(dist / (2.0 * math.sqrt(2.0)), 1.0))
+
+
+def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotation,
+                   mismatches) -> list[PartResult]:
+    ref_parts = list(probes[ref].parts)
+    ref_index = {name: k for k, name in reversed(list(enumerate(ref_parts)))}
+    part_results = {name: PartResult(name) for name in ref_index}
+    for i, probe in enumerate(probes):
+        if i == ref:
+            continue
+        index = {name: k for k, name in reversed(list(enumerate(probe.parts)))}
+        for name in ref_index:
+            if name not in index:
+                part_results[name].missing_in.append(names[i])
+                mismatches.append(Mismatch("missing_part", names[i], name,
+                                           f"part {name!r} is missing (found in {names[ref]})"))
+        for name in index:
+            if name not in ref_index:
+                mismatches.append(Mismatch("extra_part", names[i], name,
+                                           f"part {name!r} is not in the reference {names[ref]}"))
+        common = [name for name in ref_index if name in index]
+        if not common:
+            continue
+        a = poses[ref][:, [ref_index[n] for n in common]]
+        b = poses[i][:, [index[n] for n in common]]
+        pos = np.linalg.norm(a[..., :3, 3] - b[..., :3, 3], axis=-1)  # (N, parts)
+        rot = rotation_angles(a[..., :3, :3], b[..., :3, :3])
+        pos = np.where(np.isfinite(pos), pos, np.inf)  # a NaN pose is a failure, not a pass
+        rot = np.where(np.isfinite(rot), rot, np.inf)
+        result = results[i]
+        worst_pos, worst_rot = pos.max(axis=0), rot.max(axis=0)
+        result.max_position_error = float(worst_pos.max())
+        result.max_rotation_error = float(worst_rot.max())
+        score = np.maximum(worst_pos / tol_position, worst_rot / tol_rotation)
+        result.worst_part = common[int(np.argmax(score))]
+        for k, name in enumerate(common):
+            pr = part_results[name]
+            cp, cr = int(np.argmax(pos[:, k])), int(np.argmax(rot[:, k]))
+            if pos[cp, k] > pr.position_error or pr.position_probe is None:
+                pr.position_error, pr.position_probe = float(pos[cp, k]), names[i]
+                pr.position_configuration = cp
+            if rot[cr, k] > pr.rotation_error or pr.rotation_probe is None:
+                pr.rotation_error, pr.rotation_probe = float(rot[cr, k]), names[i]
+                pr.rotation_configuration = cr
+            if worst_pos[k] > tol_position or worst_rot[k] > tol_rotation:
+                mismatches.append(Mismatch(
+                    "pose", names[i], name,
+                    f"part {name!r} is {worst_pos[k]:.3g} m / {worst_rot[k]:.3g} rad away from "
+                    f"{names[ref]} (worst at configurations {cp} / {cr})"))
+    return list(part_results.values())
+
+
+# -- on screen -------------------------------------------------------------------------------
+def format_table(report: CheckReport, worst: int = 5) -> str:
+    """The report as text: one row per probe, then the worst parts and every mismatch."""
+    lines = [
+        f"{len(report.files)} file(s), {len(report.probes)} probe(s), "
+        f"{len(report.configurations)} configuration(s), tolerance "
+        f"{report.tol_position:g} m / {report.tol_rotation:g} rad, reference: {report.reference}",
+        "",
+    ]
+    rows = [("probe", "file", "parts", "joints", "max pos (m)", "max rot (rad)", "verdict")]
+    for p in report.probes:
+        verdict = ("reference" if p.ok else "reference, MISMATCH") if p.is_reference \
+            else ("ok" if p.ok else "MISMATCH")
+        errors = ("-", "-") if p.is_reference else \
+            (f"{p.max_position_error:.2e}", f"{p.max_rotation_error:.2e}")
+        rows.append((p.label, Path(p.path).name, str(len(p.parts)), str(len(p.joints)),
+                     *errors, verdict))
+    lines += _columns(rows)
+    if len(report.probes) == 1:
+        lines.append("(one probe only: nothing to compare it with)")
+
+    tp, tr = report.tol_position, report.tol_rotation
+    compared = [r for r in report.parts if r.position_probe is not None]
+    compared.sort(key=lambda r: -max(r.position_error / tp, r.rotation_error / tr))
+    if compared:
+        lines += ["", "worst parts:"]
+        rows = [("part", "pos (m)", "rot (rad)", "worst in", "config")]
+        for r in compared[:worst]:
+            by_position = r.position_error / tp >= r.rotation_error / tr
+            probe = r.position_probe if by_position else r.rotation_probe
+            config = r.position_configuration if by_position else r.rotation_configuration
+            rows.append((r.part, f"{r.position_error:.2e}", f"{r.rotation_error:.2e}",
+                         probe or "-", str(config)))
+        lines += _columns(rows)
+    if report.mismatches:
+        lines += ["", f"mismatches ({len(report.mismatches)}):"]
+        lines += [f"  {m.probe}: {m.message}" for m in report.mismatches]
+    lines += ["", "AGREE" if report.ok else "DISAGREE"]
+    return "\n".join(lines)
+
+
+def _columns(rows: list[tuple[str, ...]]) -> list[str]:
+    widths = [max(len(r[c]) for r in rows) for c in range(len(rows[0]))]
+    return ["  ".join(cell.ljust(w) for cell, w in zip(r, widths, strict=True)).rstrip()
+            for r in rows]

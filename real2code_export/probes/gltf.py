@@ -1,0 +1,143 @@
+"""glTF probe: the file read with pygltflib and posed from its own node tree.
+
+Node transforms (TRS or matrix, float64 JSON) are composed from the scene roots down; for
+each joint in the ``real2code`` node extras, the child part node's local transform (which
+the file holds at the observed state) is replaced by the joint motion at the requested
+value: a rotation of q about the joint axis, or a translation of q along it. World poses
+are converted from glTF's Y up back to Z up. This reads the file as any glTF consumer
+would; it shares no code with our writer or reader.
+
+Files without our extras (e.g. from other tools) are probed through the model importer
+instead (KHR_physics_rigid_bodies joints, or fixed parts), and labelled so.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .. import transforms as tf
+from ..errors import CheckError, Real2CodeError
+from . import JointInfo
+
+LABEL = "glTF (nodes + joint metadata)"
+EXTRAS_KEY = "real2code"
+# glTF world (Y up) -> model world (Z up): +90 degrees about X
+Z_UP_FROM_Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
+
+
+def _local(node) -> np.ndarray:
+    if node.matrix:
+        return np.asarray(node.matrix, dtype=float).reshape(4, 4).T  # column-major
+    t = np.eye(4)
+    if node.scale:
+        t[:3, :3] = np.diag(node.scale)
+    if node.rotation:
+        x, y, z, w = node.rotation
+        t[:3, :3] = tf.quat_to_matrix([w, x, y, z]) @ t[:3, :3]
+    if node.translation:
+        t[:3, 3] = node.translation
+    return t
+
+
+def _extras(node) -> dict:
+    extras = node.extras if isinstance(node.extras, dict) else {}
+    data = extras.get(EXTRAS_KEY)
+    return data if isinstance(data, dict) else {}
+
+
+class GltfProbe:
+    label = LABEL
+
+    def __init__(self, path: str | Path):
+        import pygltflib
+
+        self.path = Path(path)
+        try:
+            gltf = pygltflib.GLTF2.load(str(self.path))
+        except Exception as e:  # pygltflib raises many types for broken files
+            raise CheckError(f"{self.path}: pygltflib cannot read it: {e}") from e
+        if gltf is None or not gltf.nodes:
+            raise CheckError(f"{self.path}: no nodes")
+        self.nodes = gltf.nodes
+        scene = gltf.scenes[gltf.scene or 0] if gltf.scenes else None
+        children = {c for n in self.nodes for c in (n.children or [])}
+        self.roots = list(scene.nodes) if scene else [i for i in range(len(self.nodes))
+                                                      if i not in children]
+        part_nodes = {_extras(n)["part"]: i for i, n in enumerate(self.nodes) if "part" in _extras(n)}
+        self.parts = list(part_nodes)
+        self.joints: list[JointInfo] = []
+        self._motion: dict[int, tuple[str, str, np.ndarray]] = {}  # child node -> joint
+        for i, node in enumerate(self.nodes):
+            d = _extras(node)
+            if "joint" not in d or "type" not in d:
+                continue
+            child = part_nodes.get(d.get("child"))
+            if child is None or child not in (node.children or []):
+                raise CheckError(f"{self.path}: nodes[{i}]: joint {d['joint']!r} has no child "
+                                 f"part node {d.get('child')!r} below it")
+            axis = np.asarray(d.get("axis", [0, 0, 1]), dtype=float)
+            self._motion[child] = (d["joint"], d["type"], axis)
+            if d["type"] != "fixed":
+                lim = d.get("limits") or {}
+                self.joints.append(JointInfo(d["joint"], d["type"], lim.get("lower"),
+                                             lim.get("upper")))
+
+    def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
+        known = {j.name for j in self.joints}
+        unknown = set(q) - known
+        if unknown:
+            raise KeyError(f"unknown joint(s) {sorted(unknown)} in {self.path}")
+        world: dict[int, np.ndarray] = {}
+        stack = [(r, Z_UP_FROM_Y_UP) for r in reversed(self.roots)]
+        while stack:
+            i, parent = stack.pop()
+            node = self.nodes[i]
+            local = _local(node)
+            if i in self._motion:
+                name, kind, axis = self._motion[i]
+                value = float(q.get(name, 0.0))
+                if kind in ("revolute", "continuous"):
+                    local = tf.make(rotation=tf.axis_angle_matrix(axis, value))
+                elif kind == "prismatic":
+                    local = tf.make(translation=axis * value)
+                else:
+                    local = np.eye(4)
+            world[i] = parent @ local
+            stack.extend((c, world[i]) for c in reversed(node.children or []))
+        return {self.nodes[i].name: world[i] for i in world if "part" in _extras(self.nodes[i])}
+
+
+class ImportedGltfProbe:
+    """A glTF without our extras, posed through the model importer."""
+
+    label = "glTF (imported: KHR_physics_rigid_bodies / node tree)"
+
+    def __init__(self, path: str | Path):
+        from ..formats.gltf import load
+        from ..model import forward_kinematics
+
+        self.path = Path(path)
+        try:
+            self.obj = load(self.path)
+        except Real2CodeError as e:
+            raise CheckError(str(e)) from e
+        self._fk = forward_kinematics
+        self.parts = [p.name for p in self.obj.parts]
+        self.joints = [JointInfo(j.name, j.type.value, j.limits.lower if j.limits else None,
+                                 j.limits.upper if j.limits else None)
+                       for j in self.obj.movable_joints]
+
+    def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
+        return self._fk(self.obj, q)
+
+
+def open_probes(path: str | Path) -> list:
+    probe = GltfProbe(path)
+    if probe.parts:
+        return [probe]
+    return [ImportedGltfProbe(path)]
+
+
+__all__ = ["GltfProbe", "ImportedGltfProbe", "open_probes"]

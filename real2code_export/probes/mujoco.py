@@ -1,0 +1,113 @@
+"""MJCF and URDF loaded in MuJoCo (MjSpec), posed with ``mj_kinematics``.
+
+Joints are addressed by name (``qposadr``), bodies by name; a free or ball joint is not a
+part joint and is held at its reference pose.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import CheckError
+from . import JointInfo
+from ._stdio import captured_c_output
+
+
+class MujocoProbe:
+    def __init__(self, path: Path, label: str, model, body_ids: list[int], part_names: list[str]):
+        import mujoco
+
+        self._mujoco = mujoco
+        self.path = path
+        self.label = label
+        self.model = model
+        self._data = mujoco.MjData(model)
+        self.parts = part_names
+        self._body_ids = np.array(body_ids, dtype=np.int64)
+
+        hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+        self.joints: list[JointInfo] = []
+        adr: list[int] = []
+        self._base_qpos = model.qpos0.copy()  # free / ball joints stay at their reference
+        for i in range(model.njnt):
+            jtype = int(model.jnt_type[i])
+            if jtype not in (hinge, slide):
+                continue  # free / ball: held at qpos0
+            name = model.joint(i).name or f"<joint {i}>"
+            limited = bool(model.jnt_limited[i])
+            lower, upper = (float(v) for v in model.jnt_range[i]) if limited else (None, None)
+            kind = ("revolute" if limited else "continuous") if jtype == hinge else "prismatic"
+            self.joints.append(JointInfo(name, kind, lower, upper))
+            adr.append(int(model.jnt_qposadr[i]))
+        self._qpos_adr = np.array(adr, dtype=np.int64)
+        self._column = {info.name: k for k, info in enumerate(self.joints)}
+
+    def pose_array(self, values: np.ndarray) -> np.ndarray:
+        """(N, len(joints)) joint values in the order of ``joints`` -> (N, len(parts), 4, 4)."""
+        values = np.atleast_2d(np.asarray(values, dtype=np.float64))
+        n, ids = len(values), self._body_ids
+        m, d = self.model, self._data
+        kinematics = self._mujoco.mj_kinematics
+        xpos = np.empty((n, len(ids), 3))
+        xmat = np.empty((n, len(ids), 9))
+        for i in range(n):
+            d.qpos[:] = self._base_qpos
+            d.qpos[self._qpos_adr] = values[i]
+            kinematics(m, d)
+            xpos[i] = d.xpos[ids]
+            xmat[i] = d.xmat[ids]
+        out = np.zeros((n, len(ids), 4, 4))
+        out[..., :3, :3] = xmat.reshape(n, len(ids), 3, 3)
+        out[..., :3, 3] = xpos
+        out[..., 3, 3] = 1.0
+        return out
+
+    def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
+        values = np.zeros(len(self.joints))
+        for name, value in q.items():
+            if name not in self._column:
+                raise KeyError(f"{self.path}: no movable joint named {name!r} in MuJoCo's model")
+            values[self._column[name]] = value
+        return dict(zip(self.parts, self.pose_array(values)[0], strict=True))
+
+
+def _urdf_has_world_link(path: Path) -> bool:
+    """MuJoCo merges a URDF link named ``world`` into its world body (body 0)."""
+    from lxml import etree
+
+    try:
+        root = etree.parse(str(path)).getroot()
+    except etree.XMLSyntaxError:
+        return False  # MuJoCo has already refused it, or will say why
+    return root.find("link[@name='world']") is not None
+
+
+def open_probes(path: str | Path) -> list[MujocoProbe]:
+    import mujoco
+
+    path = Path(path)
+    is_urdf = path.suffix.lower() == ".urdf"
+    label = "MuJoCo (URDF)" if is_urdf else "MuJoCo (MJCF)"
+    try:
+        # qhull prints pages on a degenerate mesh; MuJoCo's own error says it in a line.
+        with captured_c_output():
+            spec = mujoco.MjSpec.from_file(str(path))
+            # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
+            # bodies attached by fixed joints); visual-only geoms do not move anything.
+            spec.compiler.fusestatic = False
+            spec.compiler.discardvisual = True
+            model = spec.compile()
+    except ValueError as e:
+        # The error and the element it names come first; MuJoCo appends its warnings.
+        lines = [line.strip() for line in str(e).splitlines() if line.strip()]
+        message = "; ".join(lines[:2])
+        if len(lines) > 2:
+            message += f" (and {len(lines) - 2} more lines of MuJoCo warnings)"
+        raise CheckError(f"{path}: MuJoCo refused it: {message}") from e
+
+    first = 0 if is_urdf and _urdf_has_world_link(path) else 1
+    body_ids = list(range(first, model.nbody))
+    names = [model.body(i).name or f"<body {i}>" for i in body_ids]
+    return [MujocoProbe(path, label, model, body_ids, names)]

@@ -1,0 +1,151 @@
+"""A USD file as UsdPhysics sees it: its parser (UsdPhysicsLoadStageFromPrimRange, the
+non-deprecated LoadUsdPhysicsFromRange) lists the joints (body0, body1, localPose0/1, axis
+token, limits); the probe walks them from the world and poses every body.
+
+Independent of our USD reader on purpose: only the parsed joints are used, never our
+custom attributes or the body poses written in the file (except for a body with no joint
+path to the world, which stands where the file puts it).
+
+A body's reported pose is its frame moved to its parent joint's frame origin (localPos on
+the body's side; zero in files we write), the model's "part frame = joint frame".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import transforms as tf
+from ..errors import CheckError
+from . import JointInfo
+
+WORLD = ""
+AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
+        "Z": np.array([0.0, 0.0, 1.0])}
+
+
+@dataclass(frozen=True)
+class _Link:
+    name: str  # joint prim name
+    kind: str  # revolute, continuous, prismatic, fixed
+    parent: str  # body path (WORLD for the world)
+    child: str
+    to_joint: np.ndarray  # joint frame in the parent body (metres)
+    from_joint: np.ndarray  # inverse of the joint frame in the child body
+    axis: np.ndarray  # in the joint frame; negated when the joint runs child -> parent
+    child_offset: np.ndarray  # translation from the body frame to its part frame
+    lower: float | None = None  # rad or m; None: unbounded
+    upper: float | None = None
+
+
+def _frame(position, orientation, mpu: float) -> np.ndarray:
+    w, (x, y, z) = orientation.GetReal(), orientation.GetImaginary()
+    return tf.make(tf.quat_to_matrix([w, x, y, z]), np.array(list(position), float) * mpu)
+
+
+class UsdProbe:
+    label = "USD (UsdPhysics)"
+
+    def __init__(self, path: Path):
+        from pxr import Tf, Usd, UsdGeom, UsdPhysics
+
+        self.path = path
+        try:
+            stage = Usd.Stage.Open(str(path))
+            parsed = UsdPhysics.UsdPhysicsLoadStageFromPrimRange(stage, ["/"])
+        except Tf.ErrorException as e:
+            raise CheckError(f"{path}: cannot load with UsdPhysics: {e}") from e
+        mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
+        self._world = np.eye(4)
+        if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y:
+            self._world[:3, :3] = tf.axis_angle_matrix([1.0, 0.0, 0.0], math.pi / 2)
+
+        bodies, joints = [], []
+        for kind, (paths, descs) in parsed.items():
+            for p, d in zip(paths, descs, strict=True):
+                if kind.name == "RigidBody":
+                    bodies.append(str(p))
+                elif kind.name.endswith("Joint"):
+                    if kind.name not in ("RevoluteJoint", "PrismaticJoint", "FixedJoint"):
+                        raise CheckError(f"{path}: joint <{p}>: {kind.name} is not supported")
+                    joints.append((str(p), kind.name, d))
+        if not bodies:
+            raise CheckError(f"{path}: UsdPhysics finds no rigid bodies")
+        self.parts = [stage.GetPrimAtPath(b).GetName() for b in bodies]
+        if len(set(self.parts)) != len(self.parts):
+            raise CheckError(f"{path}: rigid body names are not unique: {sorted(self.parts)}")
+        self._names = dict(zip(bodies, self.parts, strict=True))
+
+        # breadth first from the world; a body never reached stands where the file puts it
+        cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+        self._roots: dict[str, np.ndarray] = {}
+        self._links: list[_Link] = []
+        pending, reached, frontier = list(joints), {WORLD}, [WORLD]
+        while True:
+            while frontier:
+                body = frontier.pop(0)
+                for item in [j for j in pending if body in (str(j[2].body0), str(j[2].body1))]:
+                    pending.remove(item)
+                    link = self._link(item, body, mpu)
+                    if link.child in reached:
+                        raise CheckError(f"{path}: joint <{item[0]}> closes a kinematic loop")
+                    reached.add(link.child)
+                    frontier.append(link.child)
+                    self._links.append(link)
+            floating = [b for b in bodies if b not in reached]
+            if not floating:
+                break
+            m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(floating[0]))).T
+            m[:3, 3] *= mpu
+            self._roots[floating[0]] = self._world @ m
+            reached.add(floating[0])
+            frontier.append(floating[0])
+
+        self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links
+                       if k.kind != "fixed"]
+
+    def _link(self, item, parent: str, mpu: float) -> _Link:
+        prim_path, kind_name, d = item
+        t0 = _frame(d.localPose0Position, d.localPose0Orientation, mpu)
+        t1 = _frame(d.localPose1Position, d.localPose1Orientation, mpu)
+        forward = str(d.body0) == parent
+        to_joint, child_frame = (t0, t1) if forward else (t1, t0)
+        child = str(d.body1) if forward else str(d.body0)
+        kind, lower, upper = "fixed", None, None
+        if kind_name != "FixedJoint":
+            lim = d.limit
+            limited = bool(lim.enabled) and math.isfinite(lim.lower) and math.isfinite(lim.upper)
+            if kind_name == "RevoluteJoint":
+                kind = "revolute" if limited else "continuous"
+                lower, upper = (math.radians(lim.lower), math.radians(lim.upper)) if limited \
+                    else (None, None)
+            else:
+                kind = "prismatic"
+                lower, upper = lim.lower * mpu, lim.upper * mpu
+        axis = AXES[str(d.axis)] if kind != "fixed" else AXES["X"]
+        return _Link(prim_path.rsplit("/", 1)[-1], kind, parent, child, to_joint,
+                     tf.inverse(child_frame), axis if forward else -axis,
+                     tf.make(translation=child_frame[:3, 3]), lower, upper)
+
+    def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
+        world = {WORLD: self._world, **self._roots}
+        out = {self._names[b]: pose for b, pose in self._roots.items()}
+        for link in self._links:
+            value = float(q.get(link.name, 0.0))
+            if link.kind in ("revolute", "continuous"):
+                motion = tf.make(rotation=tf.axis_angle_matrix(link.axis, value))
+            elif link.kind == "prismatic":
+                motion = tf.make(translation=link.axis * value)
+            else:
+                motion = np.eye(4)
+            body = world[link.parent] @ link.to_joint @ motion @ link.from_joint
+            world[link.child] = body
+            out[self._names[link.child]] = body @ link.child_offset
+        return out
+
+
+def open_probes(path: str | Path) -> list[UsdProbe]:
+    return [UsdProbe(Path(path))]
