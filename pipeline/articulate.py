@@ -1,0 +1,109 @@
+"""Part meshes in, articulated object out: Real2Code's "ground-truth boxes" setting.
+
+Given one mesh per rigid part, all in one world frame with the object partly open, fit a
+box per part, let a predictor write the articulation as code, turn its (box, axis, edge,
+sign) choices into absolute joints, find the closed state and each joint's range, and
+build the :class:`ArticulatedObject` whose exports at q = state reproduce the input poses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from real2code_export import transforms as tf
+from real2code_export.model import (
+    ArticulatedObject,
+    Joint,
+    JointType,
+    Limits,
+    Mesh,
+    Part,
+    sanitize_name,
+    validate,
+)
+
+from .closing import hinge_opening, hinge_upper, rotated_box, slide_opening, slide_upper
+from .joint_code import ArticulationProgram, format_boxes, format_program, joint_axis_and_position
+from .obb import OBB, gravity_aligned_obb
+from .predictors import JointPredictor
+
+
+@dataclass
+class Articulation:
+    """The object and what produced it (kept for inspection and evaluation)."""
+
+    obj: ArticulatedObject
+    boxes: list[OBB]
+    part_names: list[str]
+    program: ArticulationProgram
+    prompt: str  # the box text a predictor reads
+    code: str  # the program text it wrote
+
+
+def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str = "object",
+               colors: dict[str, tuple] | None = None, density: float | None = None,
+               metadata: dict | None = None) -> Articulation:
+    from real2code_export.collision import collision_pieces
+    from real2code_export.inertia import DEFAULT_DENSITY, inertial_from_mesh
+
+    if len(meshes) < 2:
+        raise ValueError(f"need at least two parts to articulate, got {len(meshes)}")
+    taken: set[str] = set()
+    names = [sanitize_name(n, taken) for n in meshes]
+    world = dict(zip(names, meshes.values(), strict=True))
+    boxes = [gravity_aligned_obb(world[n].vertices) for n in names]
+    program = predictor.predict(boxes)
+
+    # World pose of every part at the observed state, parent first.
+    pose = {names[program.root_geom]: np.eye(4)}
+    joints: list[Joint] = []
+    pending = list(program.child_joints)
+    while pending:
+        ready = [j for j in pending if names[program.parent_of(j)] in pose]
+        if not ready:
+            raise ValueError("predicted joints do not form a tree")
+        for cj in ready:
+            pending.remove(cj)
+            parent_name, child_name = names[program.parent_of(cj)], names[cj.box]
+            parent_box, child_box = boxes[program.parent_of(cj)], boxes[cj.box]
+            axis, point = joint_axis_and_position(child_box, cj.idx, cj.edge, cj.sign)
+            if cj.type == "hinge":
+                state = hinge_opening(parent_box, child_box, axis, point)
+                if state < 0:  # keep q = 0 closed and opening positive
+                    axis, state = -axis, -state
+                closed = rotated_box(child_box, axis, point, -state)
+                upper = hinge_upper(parent_box, closed, axis, point, state)
+                jtype, frame_point = JointType.REVOLUTE, point
+            else:
+                state = slide_opening(parent_box, child_box, axis)
+                closed = OBB(child_box.center - axis * state, child_box.R, child_box.extent)
+                upper = slide_upper(closed, axis, state)
+                jtype, frame_point = JointType.PRISMATIC, closed.center
+            parent_pose = pose[parent_name]
+            closed_frame = tf.make(parent_pose[:3, :3], frame_point)  # parent's axes
+            origin = tf.inverse(parent_pose) @ closed_frame
+            joint = Joint(
+                name=f"{child_name}_joint", type=jtype, parent=parent_name, child=child_name,
+                origin=origin, axis=parent_pose[:3, :3].T @ axis,
+                limits=Limits(0.0, float(upper)), state=float(state),
+            )
+            pose[child_name] = parent_pose @ joint.transform(state)
+            joints.append(joint)
+
+    parts = []
+    for n in names:
+        local = world[n].transformed(tf.inverse(pose[n]))
+        pieces = local.to_trimesh().split(only_watertight=False)
+        source = [Mesh.from_trimesh(p) for p in pieces] if len(pieces) > 1 else None
+        parts.append(Part(
+            name=n, visual=local,
+            collision=collision_pieces(local, "pieces" if source else "hull", source_pieces=source),
+            inertial=inertial_from_mesh(local, density or DEFAULT_DENSITY),
+            color=(colors or {}).get(n, (0.7, 0.7, 0.7, 1.0)),
+        ))
+    obj = ArticulatedObject(sanitize_name(name), parts, joints,
+                            metadata={"articulated_by": predictor.name, **(metadata or {})})
+    validate(obj)
+    return Articulation(obj, boxes, names, program, format_boxes(boxes), format_program(program))

@@ -1,0 +1,131 @@
+"""The learned joint predictor: a small set transformer over box tokens.
+
+Per box it predicts whether it is the root, and for the others the joint type, the box axis
+(``idx``), the edge, the sign and the parent box (a pointer over the other boxes) — the
+classification Real2Code asks of its fine-tuned CodeLlama, from a model of ~0.2 M
+parameters that trains on these CPUs (``python -m pipeline.train_joint_predictor``) and
+ships its weights with the package.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..joint_code import ArticulationProgram, ChildJoint, _check_tree
+from ..obb import OBB
+from .features import EDGES, N_FEATURES, box_features
+
+WEIGHTS = Path(__file__).resolve().parent / "weights" / "joint_predictor.pt"
+JOINT_TYPES = ("hinge", "slide")
+
+
+def build_network(d_model: int = 96, layers: int = 3, heads: int = 4):
+    import torch
+    from torch import nn
+
+    class BoxSetNet(nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.embed = nn.Sequential(nn.Linear(N_FEATURES, d_model), nn.GELU(),
+                                       nn.Linear(d_model, d_model))
+            layer = nn.TransformerEncoderLayer(d_model, heads, 2 * d_model, dropout=0.0,
+                                               batch_first=True, norm_first=True)
+            self.encoder = nn.TransformerEncoder(layer, layers, enable_nested_tensor=False)
+            self.root = nn.Linear(d_model, 1)
+            self.type = nn.Linear(d_model, len(JOINT_TYPES))
+            self.idx = nn.Linear(d_model, 3)
+            self.edge = nn.Linear(d_model, 3 * len(EDGES))  # the edge given each axis
+            self.sign = nn.Linear(d_model, 3 * 2)  # the sign given each axis
+            self.query = nn.Linear(d_model, d_model)
+            self.key = nn.Linear(d_model, d_model)
+
+        def forward(self, x: torch.Tensor, pad: torch.Tensor) -> dict[str, torch.Tensor]:
+            h = self.encoder(self.embed(x), src_key_padding_mask=pad)
+            b, n, _ = h.shape
+            parent = (self.query(h) @ self.key(h).transpose(1, 2)) / d_model**0.5
+            parent = parent.masked_fill(pad[:, None, :], -1e9)
+            eye = torch.eye(n, dtype=torch.bool, device=h.device)[None]
+            parent = parent.masked_fill(eye, -1e9)  # a box is not its own parent
+            return {
+                "root": self.root(h).squeeze(-1).masked_fill(pad, -1e9),
+                "type": self.type(h),
+                "idx": self.idx(h),
+                "edge": self.edge(h).view(b, n, 3, len(EDGES)),
+                "sign": self.sign(h).view(b, n, 3, 2),
+                "parent": parent,
+            }
+
+    return BoxSetNet()
+
+
+@dataclass
+class LearnedPredictor:
+    network: object
+    config: dict = field(default_factory=dict)
+    name: str = "learned"
+
+    @classmethod
+    def load(cls, path: str | Path | None = None) -> LearnedPredictor:
+        import torch
+
+        path = Path(path) if path else WEIGHTS
+        if not path.is_file():
+            from real2code_export.errors import Real2CodeError
+
+            raise Real2CodeError(f"{path}: joint predictor weights not found "
+                                 "(train them: python -m pipeline.train_joint_predictor)")
+        blob = torch.load(path, map_location="cpu", weights_only=True)
+        config = json.loads(blob["config"])
+        net = build_network(**config["network"])
+        net.load_state_dict(blob["state_dict"])
+        net.eval()
+        return cls(net, config)
+
+    def predict(self, boxes: list[OBB]) -> ArticulationProgram:
+        import torch
+
+        feats = torch.from_numpy(box_features(boxes))[None]
+        pad = torch.zeros(1, len(boxes), dtype=torch.bool)
+        with torch.no_grad():
+            out = {k: v[0].numpy() for k, v in self.network(feats, pad).items()}
+        return decode(out, len(boxes))
+
+
+def decode(out: dict[str, np.ndarray], n: int) -> ArticulationProgram:
+    """The most likely valid program from the network's scores: the root first, then each
+    child's joint, then parents chosen so that the joints form a tree."""
+    root = int(np.argmax(out["root"][:n]))
+    joints = []
+    parent_scores = out["parent"][:n, :n].copy()
+    for i in range(n):
+        if i == root:
+            continue
+        idx = int(np.argmax(out["idx"][i]))
+        edge = EDGES[int(np.argmax(out["edge"][i, idx]))]
+        sign = (-1, 1)[int(np.argmax(out["sign"][i, idx]))]
+        jtype = JOINT_TYPES[int(np.argmax(out["type"][i]))]
+        joints.append(ChildJoint(i, jtype, idx, edge if jtype == "hinge" else (0, 0), sign))
+    parents = _tree_parents(parent_scores, root, [j.box for j in joints])
+    joints = [ChildJoint(j.box, j.type, j.idx, j.edge, j.sign,
+                         None if parents[j.box] == root else parents[j.box]) for j in joints]
+    program = ArticulationProgram(root, tuple(joints))
+    _check_tree(program, None)
+    return program
+
+
+def _tree_parents(scores: np.ndarray, root: int, children: list[int]) -> dict[int, int]:
+    """Greedy attachment: repeatedly attach the (child, attached box) pair with the highest
+    score, which always yields a tree rooted at ``root``."""
+    attached = {root}
+    parents: dict[int, int] = {}
+    remaining = set(children)
+    while remaining:
+        best = max(((c, p) for c in remaining for p in attached), key=lambda cp: scores[cp])
+        parents[best[0]] = best[1]
+        attached.add(best[0])
+        remaining.discard(best[0])
+    return parents
