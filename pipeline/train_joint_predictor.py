@@ -85,14 +85,24 @@ def object_specs(n_objects: int, seed: int) -> list[tuple[str, int | None, int]]
     return specs
 
 
-def make_dataset(n_objects: int, seed: int, workers: int = 2) -> list:
+def make_dataset(n_objects: int, seed: int, workers: int = 2, cache: Path | None = None) -> list:
+    """Samples for ``n_objects`` procedural objects; ``cache`` keeps them between runs."""
+    import pickle
+
+    if cache is not None and cache.is_file():
+        return pickle.loads(cache.read_bytes())
     specs = object_specs(n_objects, seed)
     if workers > 1:
         from multiprocessing import get_context
 
         with get_context("spawn").Pool(workers) as pool:
-            return pool.map(_one, specs, chunksize=32)
-    return [_one(s) for s in specs]
+            data = pool.map(_one, specs, chunksize=32)
+    else:
+        data = [_one(s) for s in specs]
+    if cache is not None:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        cache.write_bytes(pickle.dumps(data))
+    return data
 
 
 def _batch(samples):
@@ -158,14 +168,19 @@ def exact_accuracy(network, data) -> float:
 
 
 def train(n_objects: int, epochs: int, seed: int, out: Path, batch_size: int = 64,
-          workers: int = 2, network_config: dict | None = None) -> dict:
+          workers: int = 2, network_config: dict | None = None,
+          cache_dir: Path | None = None) -> dict:
     import torch
 
     torch.manual_seed(seed)
     torch.set_num_threads(max(1, workers))
     t0 = time.perf_counter()
-    data = make_dataset(n_objects, seed, workers)
-    val = make_dataset(max(50, n_objects // 10), seed + 7919, workers)
+    def cache(tag: str, n: int, s: int) -> Path | None:
+        return cache_dir / f"joints_{tag}_{n}_{s}.pkl" if cache_dir else None
+
+    data = make_dataset(n_objects, seed, workers, cache("train", n_objects, seed))
+    n_val = max(50, n_objects // 10)
+    val = make_dataset(n_val, seed + 7919, workers, cache("val", n_val, seed + 7919))
     t_data = time.perf_counter() - t0
     config = {"network": network_config or {"d_model": 96, "layers": 3, "heads": 4}}
     net = build_network(**config["network"])
@@ -210,8 +225,11 @@ def main(argv=None) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--out", type=Path, default=WEIGHTS)
+    p.add_argument("--cache-dir", type=Path, default=None,
+                   help="keep generated samples here between runs")
     args = p.parse_args(argv)
-    record = train(args.objects, args.epochs, args.seed, args.out, workers=args.workers)
+    record = train(args.objects, args.epochs, args.seed, args.out, workers=args.workers,
+                   cache_dir=args.cache_dir)
     print(json.dumps(record, indent=1))
 
 

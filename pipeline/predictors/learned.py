@@ -36,7 +36,7 @@ def build_network(d_model: int = 96, layers: int = 3, heads: int = 4):
                                                batch_first=True, norm_first=True)
             self.encoder = nn.TransformerEncoder(layer, layers, enable_nested_tensor=False)
             self.root = nn.Linear(d_model, 1)
-            self.type = nn.Linear(d_model, len(JOINT_TYPES))
+            self.joint_type = nn.Linear(d_model, len(JOINT_TYPES))  # not .type: nn.Module has one
             self.idx = nn.Linear(d_model, 3)
             self.edge = nn.Linear(d_model, 3 * len(EDGES))  # the edge given each axis
             self.sign = nn.Linear(d_model, 3 * 2)  # the sign given each axis
@@ -52,7 +52,7 @@ def build_network(d_model: int = 96, layers: int = 3, heads: int = 4):
             parent = parent.masked_fill(eye, -1e9)  # a box is not its own parent
             return {
                 "root": self.root(h).squeeze(-1).masked_fill(pad, -1e9),
-                "type": self.type(h),
+                "type": self.joint_type(h),
                 "idx": self.idx(h),
                 "edge": self.edge(h).view(b, n, 3, len(EDGES)),
                 "sign": self.sign(h).view(b, n, 3, 2),

@@ -74,17 +74,23 @@ def export(obj: ArticulatedObject, out_dir: str | Path,
 
     Meshes are written once and shared by every format's file.
     """
+    out_dir = Path(out_dir)
+    with atomic.staged_output(out_dir) as staging:
+        staged = write_formats(obj, staging, formats)
+    return {name: out_dir / path.relative_to(staging) for name, path in staged.items()}
+
+
+def write_formats(obj: ArticulatedObject, folder: str | Path,
+                  formats: tuple[str, ...] | list[str] = EXPORT_FORMATS) -> dict[str, Path]:
+    """Write ``obj`` in each format into ``folder`` (a staging folder: not atomic by itself,
+    see :func:`export`)."""
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise FormatError(None, "--to", f"unknown format(s) {unknown}; choose from {list(FORMATS)}")
     validate(obj)
     modules = {name: FORMATS[name].load_module() for name in formats}
-    written: dict[str, Path] = {}
-    out_dir = Path(out_dir)
-    with atomic.staged_output(out_dir) as staging:
-        # object.json wants exact mesh text; the other formats share the same files.
-        write_object_meshes(obj, staging, exact="json" in formats)
-        for name, module in modules.items():
-            staged = module.save(obj, staging, write_meshes=False)
-            written[name] = out_dir / Path(staged).relative_to(staging)
-    return written
+    folder = Path(folder)
+    # object.json wants exact mesh text; the other formats share the same files.
+    write_object_meshes(obj, folder, exact="json" in formats)
+    return {name: Path(module.save(obj, folder, write_meshes=False))
+            for name, module in modules.items()}

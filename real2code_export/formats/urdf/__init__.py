@@ -1,0 +1,16 @@
+"""URDF: export for ROS, Pinocchio, MuJoCo, Isaac, Gazebo; import that survives real files.
+
+``load(path)`` reads a URDF (PartNet-Mobility's quirks included) into the model;
+``save(obj, out_dir)`` writes ``out_dir/<name>.urdf`` referencing the shared mesh files.
+``load(save(obj))`` is lossless: what URDF has no place for is kept in attributes of the
+namespace ``urn:real2code-export:urdf:1`` (prefix ``real2code``), which other tools ignore.
+"""
+
+from .read import load
+from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE
+from .write import save, to_bytes
+
+EXTENSIONS = (".urdf",)
+
+__all__ = ["DEFAULT_EFFORT", "DEFAULT_VELOCITY", "EXTENSIONS", "NAMESPACE", "load", "save",
+           "to_bytes"]

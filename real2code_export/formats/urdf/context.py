@@ -1,0 +1,69 @@
+"""The state one URDF read carries: the file (for messages), caches, and number parsing
+that names the file, the element and the line on every problem."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from ...errors import FormatError, warn
+from ...model import Mesh
+from .spec import NAMESPACE, PREFIX
+
+
+def label(el: etree._Element) -> str:
+    """How messages name an element: ``<joint name='hinge'>`` or ``<origin>``."""
+    name = el.get("name")
+    return f"<{el.tag} name='{name}'>" if name is not None else f"<{el.tag}>"
+
+
+@dataclass
+class Context:
+    path: Path
+    # Mesh files are often referenced twice (visual and collision): read each once.
+    meshes: dict[tuple, Mesh] = field(default_factory=dict)
+    colors: dict[Path, tuple | None] = field(default_factory=dict)
+    # Repairs reported once per file (listing the links or joints), not once per element.
+    notes: dict[str, list[str]] = field(default_factory=dict)
+
+    def note(self, kind: str, name: str) -> None:
+        self.notes.setdefault(kind, []).append(name)
+
+    def error(self, owner: str | None, message: str, line: int | None) -> FormatError:
+        return FormatError(self.path, owner, message, line)
+
+    def warn(self, owner: str | None, message: str, line: int | None = None) -> None:
+        where = f"{self.path}:{line}" if line is not None else str(self.path)
+        warn(f"{where}: {owner}: {message}" if owner else f"{where}: {message}")
+
+    def floats(self, el: etree._Element, attr: str, owner: str, *, count: int | tuple[int, ...],
+               default: tuple[float, ...] | None = None) -> np.ndarray:
+        """The whitespace-separated numbers of ``el.attr`` (``count`` of them, or one of the
+        counts in a tuple); ``default`` when absent, else an error. Non-finite is an error."""
+        text = el.get(attr)
+        where = f"<{el.tag}> {attr.replace('{' + NAMESPACE + '}', PREFIX + ':')}"
+        if text is None:
+            if default is None:
+                raise self.error(owner, f"{where} is missing", el.sourceline)
+            return np.array(default, dtype=float)
+        try:
+            values = [float(v) for v in text.split()]
+        except ValueError as e:
+            raise self.error(owner, f"{where}={text!r} is not a list of numbers",
+                             el.sourceline) from e
+        counts = (count,) if isinstance(count, int) else count
+        if len(values) not in counts:
+            want = " or ".join(str(c) for c in counts)
+            raise self.error(owner, f"{where}={text!r} must have {want} number(s)", el.sourceline)
+        if not all(math.isfinite(v) for v in values):
+            raise self.error(owner, f"{where}={text!r} is not finite", el.sourceline)
+        return np.array(values, dtype=float)
+
+    def number(self, el: etree._Element, attr: str, owner: str,
+               default: float | None = None) -> float:
+        d = None if default is None else (default,)
+        return float(self.floats(el, attr, owner, count=1, default=d)[0])

@@ -1,0 +1,215 @@
+"""<visual>/<collision> contents: origins, shapes (mesh files or primitives) and colours.
+
+Mesh filenames are relative to the URDF, ``file://`` paths, or ``package://name/rest``
+(resolved by searching the URDF's parent folders for one named ``name``, or holding a
+folder ``name``: there is no ROS package index here). Primitives become meshes with
+trimesh.creation. A visual's colour is its URDF material, else the area-weighted diffuse
+colour of the OBJ's own MTL materials (PartNet ships MTLs), else none.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from urllib.parse import unquote
+
+import numpy as np
+from lxml import etree
+
+from ... import transforms as tf
+from ...meshfiles import read_mesh
+from ...model import Mesh
+from .context import Context, label
+
+# Tessellation of primitives: fixed, so the same file always gives the same mesh.
+CYLINDER_SECTIONS = 32
+SPHERE_SUBDIVISIONS = 3
+
+RGBA = tuple[float, float, float, float]
+
+
+def origin_matrix(ctx: Context, el: etree._Element, owner: str) -> np.ndarray:
+    """The 4x4 transform of ``el``'s <origin> child (identity when absent)."""
+    o = el.find("origin")
+    if o is None:
+        return np.eye(4)
+    xyz = ctx.floats(o, "xyz", owner, count=3, default=(0.0, 0.0, 0.0))
+    rpy = ctx.floats(o, "rpy", owner, count=3, default=(0.0, 0.0, 0.0))
+    return tf.make(tf.rpy_to_matrix(rpy), xyz)
+
+
+def mesh_area(mesh: Mesh) -> float:
+    tri = mesh.vertices[mesh.faces]
+    return 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                      axis=1).sum())
+
+
+def shape_mesh(ctx: Context, el: etree._Element, owner: str) -> tuple[Mesh, Path | None]:
+    """The mesh of a <visual>/<collision> element in ITS OWN frame (origin not applied),
+    and the mesh file it came from (None for primitives)."""
+    geometry = el.find("geometry")
+    if geometry is None:
+        raise ctx.error(owner, f"<{el.tag}> has no <geometry>", el.sourceline)
+    shapes = [c for c in geometry if isinstance(c.tag, str)]
+    if len(shapes) != 1:
+        raise ctx.error(owner, f"<geometry> must hold exactly one shape, found {len(shapes)}",
+                        geometry.sourceline)
+    shape = shapes[0]
+    if shape.tag == "mesh":
+        return _file_mesh(ctx, shape, owner)
+    return _primitive(ctx, shape, owner), None
+
+
+def _positive(ctx: Context, el: etree._Element, attr: str, owner: str, count: int = 1):
+    values = ctx.floats(el, attr, owner, count=count)
+    if np.any(values <= 0):
+        raise ctx.error(owner, f"<{el.tag}> {attr} must be > 0, got {el.get(attr)!r}",
+                        el.sourceline)
+    return values if count > 1 else float(values[0])
+
+
+def _primitive(ctx: Context, shape: etree._Element, owner: str) -> Mesh:
+    import trimesh
+
+    if shape.tag == "box":
+        tm = trimesh.creation.box(extents=_positive(ctx, shape, "size", owner, 3))
+    elif shape.tag == "cylinder":  # URDF cylinders are centred, along z, like trimesh's
+        tm = trimesh.creation.cylinder(radius=_positive(ctx, shape, "radius", owner),
+                                       height=_positive(ctx, shape, "length", owner),
+                                       sections=CYLINDER_SECTIONS)
+    elif shape.tag == "sphere":
+        tm = trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS,
+                                        radius=_positive(ctx, shape, "radius", owner))
+    elif shape.tag == "capsule":  # not URDF 1.0, but MuJoCo and others read it
+        tm = trimesh.creation.capsule(height=_positive(ctx, shape, "length", owner),
+                                      radius=_positive(ctx, shape, "radius", owner),
+                                      count=[CYLINDER_SECTIONS, CYLINDER_SECTIONS])
+    else:
+        raise ctx.error(owner, f"unknown geometry <{shape.tag}> (expected mesh, box, cylinder, "
+                        "sphere)", shape.sourceline)
+    return Mesh.from_trimesh(tm)
+
+
+def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) -> Path:
+    """The file a mesh ``filename`` refers to (existence is checked by the reader)."""
+    if filename.startswith("package://"):
+        package, _, rest = filename[len("package://"):].partition("/")
+        here = ctx.path.resolve().parent
+        for folder in (here, *here.parents):
+            if folder.name == package and (folder / rest).exists():
+                return folder / rest
+            if (folder / package / rest).exists():
+                return folder / package / rest
+        raise ctx.error(owner, f"cannot resolve {filename!r}: no parent folder of the URDF is "
+                        f"named {package!r} (or holds one) with {rest!r} in it", line)
+    if filename.startswith("file://"):
+        return Path(unquote(filename[len("file://"):]))
+    path = Path(filename)
+    return path if path.is_absolute() else ctx.path.parent / path
+
+
+def _file_mesh(ctx: Context, shape: etree._Element, owner: str) -> tuple[Mesh, Path]:
+    filename = shape.get("filename")
+    if not filename:
+        raise ctx.error(owner, "<mesh> has no filename", shape.sourceline)
+    path = resolve_filename(ctx, filename, owner, shape.sourceline)
+    scale = ctx.floats(shape, "scale", owner, count=(1, 3), default=(1.0, 1.0, 1.0))
+    scale = np.broadcast_to(scale, (3,)).copy()
+    if np.any(scale == 0):
+        raise ctx.error(owner, f"<mesh> scale {shape.get('scale')!r} has a zero", shape.sourceline)
+    key = (path, tuple(scale.tolist()))
+    if key not in ctx.meshes:
+        mesh = read_mesh(path, source=ctx.path, element=owner, line=shape.sourceline,
+                         scale=None if np.all(scale == 1.0) else scale)
+        if np.prod(scale) < 0:  # a mirroring scale turns the faces inside out: turn them back
+            mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1])
+        ctx.meshes[key] = mesh
+    return ctx.meshes[key], path
+
+
+# -- colours -----------------------------------------------------------------------------------
+def rgba(ctx: Context, color_el: etree._Element, owner: str) -> RGBA:
+    values = ctx.floats(color_el, "rgba", owner, count=4)
+    if np.any((values < 0) | (values > 1)):
+        ctx.warn(owner, f"<color> rgba {color_el.get('rgba')!r} is outside [0, 1]; clipped",
+                 color_el.sourceline)
+        values = np.clip(values, 0.0, 1.0)
+    return tuple(float(v) for v in values)
+
+
+def robot_materials(ctx: Context, robot: etree._Element) -> dict[str, RGBA | None]:
+    """Materials defined at robot level, by name (None: defined without a colour)."""
+    out: dict[str, RGBA | None] = {}
+    for m in robot.iterchildren("material"):
+        color = m.find("color")
+        out[m.get("name", "")] = None if color is None else rgba(ctx, color, label(m))
+    return out
+
+
+def material_color(ctx: Context, visual: etree._Element, materials: dict[str, RGBA | None],
+                   owner: str) -> RGBA | None:
+    """The colour a visual's <material> gives (inline, or by name), or None."""
+    m = visual.find("material")
+    if m is None:
+        return None
+    name = m.get("name")
+    color = m.find("color")
+    if color is not None:
+        value = rgba(ctx, color, owner)
+        if name:  # urdfdom lets later visuals refer to a material defined inline
+            materials.setdefault(name, value)
+        return value
+    if name and name not in materials:
+        ctx.warn(owner, f"<material name='{name}'> is not defined; the colour comes from the "
+                 "mesh file or the default", m.sourceline)
+    return materials.get(name) if name else None
+
+
+def mtl_color(ctx: Context, path: Path) -> RGBA | None:
+    """Area-weighted diffuse colour of an OBJ's MTL materials (None when it has none)."""
+    if path.suffix.lower() != ".obj":
+        return None
+    if path not in ctx.colors:
+        ctx.colors[path] = _mtl_color(path)
+    return ctx.colors[path]
+
+
+def _mtl_color(path: Path) -> RGBA | None:
+    import trimesh
+
+    try:  # textures PartNet's MTLs name are often missing: trimesh only logs that
+        scene = trimesh.load_scene(str(path), process=False)
+    except Exception:  # the geometry was read already; a colour is not worth an error
+        return None
+    total, weight = np.zeros(4), 0.0
+    for geom in scene.geometry.values():
+        material = getattr(getattr(geom, "visual", None), "material", None)
+        raw = getattr(material, "diffuse", None)
+        if raw is None:
+            raw = getattr(material, "baseColorFactor", None)
+        if raw is None:
+            continue
+        arr = np.asarray(raw).reshape(-1)
+        diffuse = arr.astype(float) / 255.0 if arr.dtype.kind in "ui" else arr.astype(float)
+        if len(diffuse) == 3:
+            diffuse = np.append(diffuse, 1.0)
+        area = float(getattr(geom, "area", 0.0))
+        total += area * diffuse[:4]
+        weight += area
+    if weight <= 0:
+        return None
+    return tuple(float(v) for v in np.clip(total / weight, 0.0, 1.0))
+
+
+def average_color(colored: list[tuple[RGBA, float]]) -> RGBA | None:
+    """Area-weighted average of (colour, area) pairs; exactly the colour when all agree."""
+    if not colored:
+        return None
+    first = colored[0][0]
+    if all(c == first for c, _ in colored):
+        return first
+    weights = np.array([max(a, 0.0) for _, a in colored])
+    colors = np.array([c for c, _ in colored])
+    if weights.sum() <= 0:
+        weights = np.ones(len(colored))
+    mean = np.clip((weights @ colors) / weights.sum(), 0.0, 1.0)  # round-off can pass 1
+    return tuple(float(v) for v in mean)

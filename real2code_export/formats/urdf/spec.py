@@ -1,0 +1,31 @@
+"""What the URDF reader and writer agree on: our namespace, defaults, number text."""
+
+from __future__ import annotations
+
+# Data URDF has no place for (joint state, stiffness, spring reference, armature, unknown
+# effort/velocity, object metadata, deliberately absent collision/inertial) is kept in
+# attributes of this namespace: URDF tools ignore them, our reader restores them.
+NAMESPACE = "urn:real2code-export:urdf:1"
+PREFIX = "real2code"
+
+# URDF requires effort and velocity on every <limit>. When the model does not know them we
+# write these (generous for household articulations: doors, drawers, lids) and mark the
+# attribute real2code:effort="none" / real2code:velocity="none", so a reader of ours gets
+# "unknown" back. 0 would be worse: MuJoCo turns effort into an actuator force range.
+DEFAULT_EFFORT = 1000.0  # N m (revolute) or N (prismatic)
+DEFAULT_VELOCITY = 100.0  # rad/s or m/s
+UNKNOWN = "none"
+
+
+def ns(name: str) -> str:
+    """Clark notation of an attribute in our namespace (for lxml)."""
+    return f"{{{NAMESPACE}}}{name}"
+
+
+def number(value: float) -> str:
+    """Shortest text that reads back to the same float64 (Python's repr)."""
+    return repr(float(value))
+
+
+def numbers(values) -> str:
+    return " ".join(number(v) for v in values)

@@ -1,0 +1,120 @@
+"""The shape of a URDF document: parsed XML, named links and joints, one tree.
+
+Checked before anything is built, so a broken structure is reported at its own element
+and line, not as a consequence later.
+"""
+
+from __future__ import annotations
+
+from lxml import etree
+
+from ...model import NAME_PATTERN, JointType, sanitize_name
+from .context import Context, label
+
+JOINT_TYPES = tuple(t.value for t in JointType)
+
+
+def parse(ctx: Context) -> etree._Element:
+    """The <robot> element. lxml, not urdfdom (ROS's and Pinocchio's parser): urdfdom refuses
+    files we must repair (PartNet's <limit> without effort) and reports no line numbers;
+    lxml keeps every element's source line for our messages."""
+    parser = etree.XMLParser(remove_comments=True, remove_pis=True, resolve_entities=False,
+                             no_network=True)
+    try:
+        robot = etree.parse(str(ctx.path), parser).getroot()
+    except etree.XMLSyntaxError as e:
+        raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+    if robot.tag != "robot":
+        raise ctx.error(label(robot), "the root element must be <robot>", robot.sourceline)
+    return robot
+
+
+def _named(ctx: Context, robot: etree._Element, tag: str) -> dict[str, etree._Element]:
+    out: dict[str, etree._Element] = {}
+    for el in robot.iterchildren(tag):
+        name = el.get("name")
+        if not name:
+            raise ctx.error(label(el), f"<{tag}> has no name", el.sourceline)
+        if name in out:
+            raise ctx.error(label(el), f"duplicate {tag} name (first defined at line "
+                            f"{out[name].sourceline})", el.sourceline)
+        out[name] = el
+    return out
+
+
+def link_elements(ctx: Context, robot: etree._Element) -> dict[str, etree._Element]:
+    links = _named(ctx, robot, "link")
+    if not links:
+        raise ctx.error(label(robot), "has no <link>", robot.sourceline)
+    return links
+
+
+def joint_elements(ctx: Context, robot: etree._Element,
+                    links: dict[str, etree._Element]) -> dict[str, etree._Element]:
+    joints = _named(ctx, robot, "joint")
+    for el in joints.values():
+        owner = label(el)
+        jtype = el.get("type")
+        if jtype in ("floating", "planar"):
+            raise ctx.error(owner, f"{jtype} joints are not supported (the model holds "
+                            f"{', '.join(JOINT_TYPES)} joints)", el.sourceline)
+        if jtype not in JOINT_TYPES:
+            raise ctx.error(owner, f"unknown joint type {jtype!r} (expected one of "
+                            f"{', '.join(JOINT_TYPES)})", el.sourceline)
+        for role in ("parent", "child"):
+            sub = el.find(role)
+            if sub is None or not sub.get("link"):
+                raise ctx.error(owner, f"<{role} link=...> is missing",
+                                (sub if sub is not None else el).sourceline)
+            if sub.get("link") not in links:
+                raise ctx.error(owner, f"<{role}> link {sub.get('link')!r} is not a link of "
+                                "this robot", sub.sourceline)
+    return joints
+
+
+def joint_ends(el: etree._Element) -> tuple[str, str]:
+    return el.find("parent").get("link"), el.find("child").get("link")
+
+
+def check_tree(ctx: Context, links: dict[str, etree._Element],
+                joints: dict[str, etree._Element]) -> None:
+    """One tree: every link has at most one parent joint, no cycles, exactly one root."""
+    parent_joint: dict[str, etree._Element] = {}
+    for el in joints.values():
+        child = joint_ends(el)[1]
+        if child in parent_joint:
+            first = parent_joint[child]
+            raise ctx.error(label(el), f"link {child!r} already has parent joint "
+                            f"{first.get('name')!r} (line {first.sourceline}); a URDF is a tree",
+                            el.sourceline)
+        parent_joint[child] = el
+    for start in links:
+        walk: list[str] = []
+        link = start
+        while link in parent_joint:
+            if link in walk:
+                cycle = [parent_joint[n] for n in reversed(walk[walk.index(link):])]
+                k = min(range(len(cycle)), key=lambda i: cycle[i].sourceline)
+                cycle = cycle[k:] + cycle[:k]  # parent to child, from the first in the file
+                steps = ", ".join(f"{j.get('name')} ({' -> '.join(joint_ends(j))})" for j in cycle)
+                raise ctx.error(label(cycle[0]), f"joints form a cycle: {steps}",
+                                cycle[0].sourceline)
+            walk.append(link)
+            link = joint_ends(parent_joint[link])[0]
+    roots = [name for name in links if name not in parent_joint]
+    if len(roots) > 1:
+        second = links[roots[1]]
+        raise ctx.error(label(second), f"a second root: this link has no parent joint and link "
+                        f"{roots[0]!r} (line {links[roots[0]].sourceline}) is already the root; "
+                        f"a URDF is one tree (roots: {roots})", second.sourceline)
+
+
+def identifiers(ctx: Context, elements: dict[str, etree._Element]) -> dict[str, str]:
+    """Raw name -> identifier; valid names are kept, so a repaired one never takes theirs."""
+    taken = {raw for raw in elements if NAME_PATTERN.match(raw)}
+    out = {}
+    for raw in elements:
+        out[raw] = raw if raw in taken else sanitize_name(raw, taken)
+        if out[raw] != raw:
+            ctx.note("renamed", f"{raw!r} -> {out[raw]!r}")
+    return out

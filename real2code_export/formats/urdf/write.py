@@ -1,0 +1,179 @@
+"""ArticulatedObject -> URDF text, deterministic and lossless for our own reader.
+
+Each link has its <inertial> (origin at the centre of mass, tensor in link axes), one
+<visual> (meshes/<part>.obj with a named material) and one <collision> per convex piece
+(meshes/<part>_collision_<k>.obj, marked ``real2code:convex="true"`` so our reader keeps them
+as they are). Numbers are Python's shortest exact text. What URDF cannot hold goes into
+attributes of the ``real2code`` namespace (see :mod:`.spec`); a <mujoco> block makes MuJoCo
+load every link as its own body, with its visual.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from ... import atomic
+from ... import transforms as tf
+from ...errors import ExportError
+from ...meshfiles import collision_relpath, visual_relpath, write_object_meshes
+from ...model import ArticulatedObject, Joint, JointType, Part, validate
+from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE, PREFIX, UNKNOWN, ns, number, numbers
+
+SUFFIX = ".urdf"
+
+# MuJoCo's URDF defaults differ from MJCF's (docs: "URDF extensions"): it fuses links joined
+# by fixed joints into their parent (we want one body per part, as in the other formats) and
+# discards visuals. strippath defaults to false since MuJoCo 3.7 but is set for older ones;
+# angle is always radian for URDF, stated for the reader.
+MUJOCO_COMPILER = (("angle", "radian"), ("discardvisual", "false"), ("fusestatic", "false"),
+                   ("strippath", "false"))
+
+
+def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
+    """Write ``out_dir/<obj.name>.urdf`` (and, if ``write_meshes``, the mesh files)."""
+    validate(obj)
+    out_dir = Path(out_dir)
+    text = to_bytes(obj)
+    if write_meshes:
+        write_object_meshes(obj, out_dir)
+    return atomic.write_bytes(out_dir / f"{obj.name}{SUFFIX}", text)
+
+
+def to_bytes(obj: ArticulatedObject) -> bytes:
+    robot = etree.Element("robot", nsmap={PREFIX: NAMESPACE})
+    robot.set("name", obj.name)
+    if obj.metadata:
+        try:
+            robot.set(ns("metadata"), json.dumps(obj.metadata, sort_keys=True, allow_nan=False))
+        except (TypeError, ValueError) as e:
+            raise ExportError(f"object {obj.name!r}: metadata is not JSON-serialisable: {e}") from e
+    compiler = etree.SubElement(etree.SubElement(robot, "mujoco"), "compiler")
+    for key, value in MUJOCO_COMPILER:
+        compiler.set(key, value)
+    for part in obj.parts:
+        robot.append(_link(part))
+    for joint in obj.joints:
+        robot.append(_joint(joint))
+    return etree.tostring(robot, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+
+
+def _sub(parent: etree._Element, tag: str, *attrs: tuple[str, str]) -> etree._Element:
+    el = etree.SubElement(parent, tag)
+    for key, value in attrs:
+        el.set(key, value)
+    return el
+
+
+def _mesh_geometry(parent: etree._Element, filename: str) -> None:
+    _sub(_sub(parent, "geometry"), "mesh", ("filename", filename))
+
+
+def _link(part: Part) -> etree._Element:
+    link = etree.Element("link")
+    link.set("name", part.name)
+    # A part with a visual but deliberately no inertial or no collision: say so, or our reader
+    # would make them from the visual as it does for other people's files.
+    if part.visual is not None and part.inertial is None:
+        link.set(ns("inertial"), UNKNOWN)
+    if part.visual is not None and not part.collision:
+        link.set(ns("collision"), UNKNOWN)
+    if part.inertial is not None:
+        i = part.inertial.inertia
+        el = _sub(link, "inertial")
+        _sub(el, "origin", ("xyz", numbers(part.inertial.com)), ("rpy", numbers((0.0, 0.0, 0.0))))
+        _sub(el, "mass", ("value", number(part.inertial.mass)))
+        _sub(el, "inertia", *((k, number(v)) for k, v in (
+            ("ixx", i[0, 0]), ("ixy", i[0, 1]), ("ixz", i[0, 2]),
+            ("iyy", i[1, 1]), ("iyz", i[1, 2]), ("izz", i[2, 2]))))
+    if part.visual is not None:
+        el = _sub(link, "visual", ("name", f"{part.name}_visual"))
+        _mesh_geometry(el, visual_relpath(part.name))
+        material = _sub(el, "material", ("name", f"{part.name}_material"))
+        _sub(material, "color", ("rgba", numbers(part.color)))
+    for k in range(len(part.collision)):
+        el = _sub(link, "collision", ("name", f"{part.name}_collision_{k}"), (ns("convex"), "true"))
+        _mesh_geometry(el, collision_relpath(part.name, k))
+    return link
+
+
+def _joint(joint: Joint) -> etree._Element:
+    el = etree.Element("joint")
+    el.set("name", joint.name)
+    el.set("type", joint.type.value)
+    if joint.type.movable and joint.state != 0.0:
+        el.set(ns("state"), number(joint.state))
+    _sub(el, "origin", ("xyz", numbers(joint.origin[:3, 3])),
+         ("rpy", numbers(stable_rpy(joint.origin[:3, :3]))))
+    _sub(el, "parent", ("link", joint.parent))
+    _sub(el, "child", ("link", joint.child))
+    if not joint.type.movable:
+        return el
+    axis = joint.axis
+    norm = float(np.linalg.norm(axis))
+    if abs(norm - 1.0) > 1e-12:  # our reader keeps near-unit axes as written: make it unit
+        axis = axis / norm
+    _sub(el, "axis", ("xyz", numbers(axis)))
+    if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC):
+        lim = joint.limits
+        limit = _sub(el, "limit", ("lower", number(lim.lower)), ("upper", number(lim.upper)),
+                     ("effort", number(DEFAULT_EFFORT if lim.effort is None else lim.effort)),
+                     ("velocity", number(DEFAULT_VELOCITY if lim.velocity is None
+                                         else lim.velocity)))
+        for attr in ("effort", "velocity"):
+            if getattr(lim, attr) is None:
+                limit.set(ns(attr), UNKNOWN)
+    d = joint.dynamics
+    dynamics = _sub(el, "dynamics", ("damping", number(d.damping)),
+                    ("friction", number(d.friction)))
+    for attr, value in (("stiffness", d.stiffness), ("springref", d.spring_ref),
+                        ("armature", d.armature)):
+        if value != 0.0:
+            dynamics.set(ns(attr), number(value))
+    return el
+
+
+RPY_DECIMALS = 13  # rotation error <= ~1e-13 (URDF tools read these as doubles)
+
+
+def stable_rpy(rotation: np.ndarray) -> np.ndarray:
+    """URDF roll-pitch-yaw of ``rotation``, exact to ~1e-13, chosen so that reading the file
+    and writing it again gives the same text (export(import(export)) byte-identical).
+
+    rpy -> matrix -> rpy moves the last bits (and can drift by an ulp per pass), so the
+    angles are rounded to RPY_DECIMALS places, which absorbs that; the few rotations that
+    land on a rounding boundary settle after a step or two, on a fixed point or a short
+    cycle whose smallest member is reached from every start on it."""
+    seen: list[tuple[float, ...]] = []
+    rpy = _rounded(matrix_to_rpy(rotation))
+    for _ in range(8):
+        if rpy in seen:
+            return np.array(min(seen[seen.index(rpy):]))
+        seen.append(rpy)
+        rpy = _rounded(matrix_to_rpy(tf.rpy_to_matrix(rpy)))
+    return np.array(seen[-1])
+
+
+def _rounded(rpy: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(format(v, f".{RPY_DECIMALS}f")) + 0.0 for v in rpy)  # + 0.0: no -0.0
+
+
+def matrix_to_rpy(r: np.ndarray) -> np.ndarray:
+    """URDF roll-pitch-yaw (R = Rz(yaw) Ry(pitch) Rx(roll)) that reproduces ``r`` to
+    round-off everywhere, gimbal lock included.
+
+    transforms.matrix_to_rpy switches to yaw only when |sin(pitch)| > 1 - 1e-12, that is
+    within 1.4e-6 rad of pitch = +-pi/2, and there loses up to that much; and it takes roll
+    and yaw independently, which near that point costs eps / cos(pitch). Here (as in
+    Eigen's eulerAngles) pitch comes from atan2(-r20, hypot(r00, r10)) and roll is solved
+    after yaw from Rz(yaw)^T r, so errors in yaw are compensated, not added."""
+    r = np.asarray(r, dtype=float)
+    yaw = np.arctan2(r[1, 0], r[0, 0])
+    pitch = np.arctan2(-r[2, 0], np.hypot(r[0, 0], r[1, 0]))
+    sy, cy = np.sin(yaw), np.cos(yaw)
+    # Row 1 of Rz(yaw)^T r = Ry Rx is (0, cos(roll), -sin(roll)).
+    roll = np.arctan2(sy * r[0, 2] - cy * r[1, 2], cy * r[1, 1] - sy * r[0, 1])
+    return np.array([roll, pitch, yaw])

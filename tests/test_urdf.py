@@ -1,0 +1,356 @@
+"""URDF export and import: round trips proven in Pinocchio and MuJoCo, real PartNet files,
+and one small fixture per kind of broken input (message names file, element and line)."""
+
+from __future__ import annotations
+
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from real2code_export import transforms as tf
+from real2code_export.errors import FormatError, Real2CodeWarning
+from real2code_export.formats import urdf
+from real2code_export.formats.urdf.write import stable_rpy
+from real2code_export.meshfiles import obj_bytes
+from real2code_export.model import (
+    ArticulatedObject,
+    Dynamics,
+    Inertial,
+    Joint,
+    JointType,
+    Limits,
+    Mesh,
+    Part,
+    differences,
+    forward_kinematics,
+    sample_configuration,
+    validate,
+)
+
+from conftest import partnet_dir, partnet_ids
+
+FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
+
+
+# -- objects built here ---------------------------------------------------------------------------
+def box(extents, center=(0.0, 0.0, 0.0)) -> Mesh:
+    return Mesh.from_trimesh(trimesh.creation.box(extents=extents,
+                                                  transform=tf.make(translation=center)))
+
+
+def box_inertial(mass, extents, rotation=None, com=(0.0, 0.0, 0.0)) -> Inertial:
+    x2, y2, z2 = np.square(extents)
+    inertia = mass / 12 * np.diag([y2 + z2, x2 + z2, x2 + y2])
+    rotation = np.eye(3) if rotation is None else rotation
+    return Inertial(mass, com, rotation @ inertia @ rotation.T)
+
+
+def cabinet() -> ArticulatedObject:
+    """Every joint type, every dynamics field, unknown effort/velocity, rotated origins (one
+    in gimbal lock), a full inertia tensor, and a root with a visual but no mass/collision."""
+    tilted = tf.rpy_to_matrix([0.3, -0.2, 0.5])
+    parts = [
+        Part("body", visual=box([0.6, 0.4, 0.8], [0, 0, 0.4]), color=(0.8, 0.7, 0.5, 1.0)),
+        Part("door", visual=box([0.02, 0.4, 0.7]),
+             collision=[box([0.02, 0.4, 0.7]), box([0.05, 0.05, 0.1], [0.03, 0.1, 0])],
+             inertial=box_inertial(2.0, [0.02, 0.4, 0.7], tilted, [0.001, -0.002, 0.003]),
+             color=(0.2, 0.4, 0.6, 0.5)),
+        Part("drawer", visual=box([0.5, 0.3, 0.1]), collision=[box([0.5, 0.3, 0.1])],
+             inertial=box_inertial(1.5, [0.5, 0.3, 0.1])),
+        Part("knob", visual=box([0.03, 0.03, 0.03]), collision=[box([0.03, 0.03, 0.03])],
+             inertial=box_inertial(0.05, [0.03, 0.03, 0.03])),
+        Part("handle", visual=box([0.02, 0.15, 0.02]), inertial=box_inertial(0.1, [0.02, 0.15, 0.02])),
+    ]
+    joints = [
+        Joint("door_hinge", JointType.REVOLUTE, "body", "door",
+              origin=tf.make(tilted, [0.31, -0.2, 0.45]), axis=np.array([0.6, 0.0, 0.8]),
+              limits=Limits(-1.0, 2.0, effort=5.0, velocity=None),
+              dynamics=Dynamics(damping=0.5, friction=0.1, stiffness=2.0, spring_ref=0.3,
+                                armature=0.01),
+              state=0.4),
+        Joint("drawer_slide", JointType.PRISMATIC, "body", "drawer",
+              origin=tf.make(tf.rpy_to_matrix([0.2, np.pi / 2, -0.7]), [0.0, 0.0, 0.1]),
+              axis=np.array([1.0, 0.0, 0.0]), limits=Limits(0.0, 0.4), state=0.1),
+        Joint("knob_spin", JointType.CONTINUOUS, "door", "knob",
+              origin=tf.make(translation=[0.02, 0.15, 0.0]), axis=np.array([0.0, 1.0, 0.0]),
+              dynamics=Dynamics(damping=0.01), state=-2.5),
+        Joint("handle_mount", JointType.FIXED, "drawer", "handle",
+              origin=tf.make(tf.rpy_to_matrix([0.0, 0.0, np.pi]), [0.26, 0.0, 0.0])),
+    ]
+    return validate(ArticulatedObject("cabinet", parts, joints,
+                                      metadata={"category": "StorageFurniture", "seed": 3}))
+
+
+def single_part() -> ArticulatedObject:
+    return validate(ArticulatedObject("brick", [Part("brick", visual=box([0.1, 0.2, 0.3]))]))
+
+
+# -- what the simulators see ----------------------------------------------------------------------
+def pinocchio_matches(obj: ArticulatedObject, path: Path, rng, samples: int = 4) -> float:
+    """Largest difference between Pinocchio's link placements and the model's kinematics."""
+    pin = pytest.importorskip("pinocchio")
+    model = pin.buildModelFromUrdf(str(path))
+    data = model.createData()
+    # Fixed links' inertias are lumped into their joint's body: the total must survive.
+    assert sum(i.mass for i in model.inertias) == pytest.approx(obj.total_mass(), rel=1e-12)
+    worst = 0.0
+    for _ in range(samples):
+        q = sample_configuration(obj, rng)
+        qv = pin.neutral(model)
+        for j in obj.movable_joints:
+            pj = model.joints[model.getJointId(j.name)]
+            if j.type is JointType.CONTINUOUS:  # nq = 2: (cos, sin)
+                qv[pj.idx_q:pj.idx_q + 2] = np.cos(q[j.name]), np.sin(q[j.name])
+            else:
+                qv[pj.idx_q] = q[j.name]
+        pin.framesForwardKinematics(model, data, qv)
+        for part, pose in forward_kinematics(obj, q).items():
+            assert model.existBodyName(part), f"Pinocchio has no body {part!r}"
+            placed = data.oMf[model.getFrameId(part, pin.BODY)].homogeneous
+            worst = max(worst, float(np.abs(placed - pose).max()))
+    return worst
+
+
+def mujoco_matches(obj: ArticulatedObject, path: Path, rng, samples: int = 4) -> float:
+    """Largest difference between MuJoCo's body poses and the model's kinematics; also
+    checks that every link is a body and every visual and collision piece a geom."""
+    mujoco = pytest.importorskip("mujoco")
+    model = mujoco.MjSpec.from_file(str(path)).compile()
+    data = mujoco.MjData(model)
+    assert model.nbody == len(obj.parts) + 1  # fusestatic="false": one body per part
+    geoms = sum((p.visual is not None) + len(p.collision) for p in obj.parts)
+    assert model.ngeom == geoms  # discardvisual="false": the visuals are there too
+    for part in obj.parts:  # mass properties as MuJoCo read them (principal axes in body)
+        if part.inertial is not None:
+            body = model.body(part.name).id
+            axes = tf.quat_to_matrix(model.body_iquat[body])
+            tensor = axes @ np.diag(model.body_inertia[body]) @ axes.T
+            assert model.body_mass[body] == pytest.approx(part.inertial.mass, rel=1e-12)
+            np.testing.assert_allclose(model.body_ipos[body], part.inertial.com, atol=1e-9)
+            np.testing.assert_allclose(tensor, part.inertial.inertia,
+                                       atol=1e-9 * np.abs(part.inertial.inertia).max())
+    worst = 0.0
+    for _ in range(samples):
+        q = sample_configuration(obj, rng)
+        for name, value in q.items():
+            data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
+        mujoco.mj_kinematics(model, data)
+        for part, pose in forward_kinematics(obj, q).items():
+            body = model.body(part).id
+            worst = max(worst, float(np.abs(data.xpos[body] - pose[:3, 3]).max()),
+                        float(np.abs(data.xmat[body].reshape(3, 3) - pose[:3, :3]).max()))
+    return worst
+
+
+def exported_files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+def assert_round_trip(obj: ArticulatedObject, tmp_path: Path) -> Path:
+    """import(export(obj)) equals obj without any repair warning, and
+    export(import(export(obj))) is byte-identical, URDF and meshes."""
+    first = urdf.save(obj, tmp_path / "first")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", Real2CodeWarning)
+        back = urdf.load(first)
+    assert differences(obj, back) == []
+    assert back.metadata == obj.metadata
+    urdf.save(back, tmp_path / "second")
+    assert exported_files(tmp_path / "first") == exported_files(tmp_path / "second")
+    return first
+
+
+# -- round trips ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("build", [cabinet, single_part])
+def test_round_trip_small_objects(build, tmp_path):
+    obj = build()
+    path = assert_round_trip(obj, tmp_path)
+    rng = np.random.default_rng(7)
+    assert pinocchio_matches(obj, path, rng) < 1e-6
+    assert mujoco_matches(obj, path, rng) < 1e-6
+
+
+def test_export_text(tmp_path):
+    obj = cabinet()
+    path = urdf.save(obj, tmp_path)
+    text = path.read_text()
+    assert path.name == "cabinet.urdf"
+    assert 'xmlns:real2code="urn:real2code-export:urdf:1"' in text
+    assert '<compiler angle="radian" discardvisual="false" fusestatic="false" strippath="false"/>' in text
+    # URDF requires effort and velocity: the unknown velocity is a documented default, marked.
+    assert f'velocity="{urdf.DEFAULT_VELOCITY!r}" real2code:velocity="none"' in text
+    assert 'real2code:stiffness="2.0" real2code:springref="0.3" real2code:armature="0.01"' in text
+    for part in obj.parts:
+        assert (tmp_path / "meshes" / f"{part.name}.obj").is_file()
+        for k in range(len(part.collision)):
+            assert (tmp_path / "meshes" / f"{part.name}_collision_{k}.obj").is_file()
+    assert urdf.save(obj, tmp_path).read_bytes() == text.encode()  # deterministic
+
+
+@pytest.mark.parametrize("rpy", [
+    (0.3, -0.2, 0.5), (np.pi, 0.0, -np.pi), (1e-17, 3.0, -3.1),
+    (0.2, np.pi / 2, -0.7), (1.0, -np.pi / 2, 2.0),  # gimbal lock
+    (0.2, np.pi / 2 - 1e-7, -0.7), (-2.0, 1e-5 - np.pi / 2, 3.0),  # next to it
+])
+def test_rpy_is_exact_and_stable(rpy):
+    rotation = tf.rpy_to_matrix(rpy)
+    written = stable_rpy(rotation)
+    assert np.abs(tf.rpy_to_matrix(written) - rotation).max() <= 1e-12
+    assert stable_rpy(tf.rpy_to_matrix(written)).tolist() == written.tolist()
+
+
+# -- PartNet-Mobility: real files -----------------------------------------------------------------
+@pytest.mark.partnet
+@pytest.mark.parametrize("object_id", partnet_ids())
+def test_partnet_round_trip(object_id, tmp_path):
+    source = partnet_dir() / object_id / "mobility.urdf"
+    with pytest.warns(Real2CodeWarning):  # repaired (no inertials, no effort...), not refused
+        obj = urdf.load(source)
+    validate(obj)
+    assert obj.movable_joints
+    path = assert_round_trip(obj, tmp_path)
+    rng = np.random.default_rng(int(object_id))
+    assert pinocchio_matches(obj, path, rng) < 1e-6
+    assert mujoco_matches(obj, path, rng) < 1e-6
+
+
+# -- broken input: one fixture each ---------------------------------------------------------------
+def line_of(path: Path, needle: str) -> int:
+    lines = path.read_text().splitlines()
+    return next(i for i, text in enumerate(lines, start=1) if needle in text)
+
+
+@pytest.mark.parametrize(("fixture", "element", "needle", "what"), [
+    ("malformed_xml.urdf", "limit", "</joint>", "malformed XML"),
+    ("missing_mesh.urdf", "<link name='door'>", "not_there.obj", "not found"),
+    ("joint_cycle.urdf", "<joint name='a_to_c'>", '<joint name="a_to_c"', "cycle"),
+    ("two_parents.urdf", "<joint name='b_to_a'>", '<joint name="b_to_a"', "already has parent"),
+    ("two_roots.urdf", "<link name='stray'>", '<link name="stray">', "root"),
+    ("nan_origin.urdf", "<joint name='hinge'>", 'xyz="0 nan 0"', "not finite"),
+    ("zero_axis.urdf", "<joint name='hinge'>", "<axis", "zero length"),
+    ("lower_above_upper.urdf", "<joint name='slide'>", "<limit", "lower"),
+    ("unknown_joint_type.urdf", "<joint name='hinge'>", 'type="hinge"', "unknown joint type"),
+    ("floating_joint.urdf", "<joint name='free'>", 'type="floating"', "not supported"),
+    ("revolute_without_limit.urdf", "<joint name='hinge'>", "<joint", "needs a <limit>"),
+    ("unknown_parent.urdf", "<joint name='hinge'>", '<parent link="frame"', "not a link"),
+    ("duplicate_link.urdf", "<link name='door'>", '<link name="door"/>', "duplicate"),
+    ("massless_child.urdf", "<joint name='spin'>", '<joint name="spin"', "has no mass"),
+])
+def test_bad_input_names_file_element_and_line(fixture, element, needle, what):
+    path = FIXTURES / fixture
+    with pytest.raises(FormatError) as info:
+        urdf.load(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}:{line_of(path, needle)}: "), message
+    assert element in message and what in message, message
+
+
+# -- repairs of foreign files ---------------------------------------------------------------------
+def write_obj(path: Path, mesh: Mesh) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(obj_bytes(mesh, exact=True))
+
+
+INERTIAL = ('<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" '
+            'iyz="0" izz="0.01"/></inertial>')
+
+
+def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
+    path = tmp_path / "repairs.urdf"
+    path.write_text(f"""<robot name="repairs">
+  <link name="base"/>
+  <link name="door">{INERTIAL}</link>
+  <link name="flap">{INERTIAL}</link>
+  <joint name="hinge" type="revolute">
+    <parent link="base"/><child link="door"/><axis xyz="0 0 2"/>
+    <limit lower="0.2" upper="1"/>
+  </joint>
+  <joint name="flap hinge" type="revolute">
+    <parent link="door"/><child link="flap"/>
+    <limit lower="0" upper="1" effort="3" velocity="4"/>
+    <mimic joint="hinge" multiplier="2"/>
+  </joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    messages = "\n".join(str(w.message) for w in record)
+    assert "without effort and/or velocity" in messages and "'hinge'" in messages
+    assert "<mimic> is ignored" in messages
+    assert "normalised" in messages
+    assert "'flap hinge' -> 'flap_hinge'" in messages
+    hinge = obj.joint("hinge")
+    assert hinge.axis.tolist() == [0.0, 0.0, 1.0]
+    assert hinge.limits.effort is None and hinge.limits.velocity is None
+    assert hinge.state == 0.2  # URDF has no observed state: q = 0, or the nearest limit
+    assert obj.joint("flap_hinge").limits.effort == 3.0
+    assert_round_trip(obj, tmp_path)  # the unknowns stay unknown through our own file
+
+
+def test_primitives_materials_inertial_frame_and_packages(tmp_path):
+    package = tmp_path / "my_robot"
+    write_obj(package / "meshes" / "panel.obj", box([0.1, 0.2, 0.3]))
+    path = package / "urdf" / "robot.urdf"
+    path.parent.mkdir(parents=True)
+    path.write_text("""<robot name="prims">
+  <material name="red"><color rgba="1 0 0 1"/></material>
+  <link name="base">
+    <visual><geometry><box size="0.2 0.2 0.2"/></geometry><material name="red"/></visual>
+  </link>
+  <link name="arm">
+    <inertial>
+      <origin xyz="0 0 0.1" rpy="0 0 1.5707963267948966"/>
+      <mass value="2"/><inertia ixx="1" ixy="0" ixz="0" iyy="2" iyz="0" izz="2.5"/>
+    </inertial>
+    <visual><origin xyz="0 0 0.5"/><geometry><cylinder radius="0.05" length="1"/></geometry></visual>
+    <visual><geometry><sphere radius="0.1"/></geometry></visual>
+    <collision>
+      <geometry><mesh filename="package://my_robot/meshes/panel.obj" scale="2 2 2"/></geometry>
+    </collision>
+  </link>
+  <joint name="shoulder" type="continuous">
+    <parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+  </joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    messages = "\n".join(str(w.message) for w in record)
+    assert "no <collision> in links 'base'" in messages
+    assert "no <inertial> in links 'base'" in messages
+    base, arm = obj.part("base"), obj.part("arm")
+    assert base.color == (1.0, 0.0, 0.0, 1.0)
+    assert base.inertial is not None  # computed from the box: the root has a visual
+    assert base.collision  # made from the visual, with the warning above
+    np.testing.assert_allclose(np.ptp(arm.collision[0].vertices, axis=0), [0.2, 0.4, 0.6])
+    np.testing.assert_allclose(arm.inertial.com, [0.0, 0.0, 0.1])
+    # The tensor was given in axes turned 90 degrees about z: in link axes ixx and iyy swap.
+    np.testing.assert_allclose(arm.inertial.inertia, np.diag([2.0, 1.0, 2.5]), atol=1e-12)
+    z = arm.visual.vertices[:, 2]
+    assert z.min() == pytest.approx(-0.1) and z.max() == pytest.approx(1.0)  # cylinder moved up
+
+
+def test_colour_from_mtl_is_area_weighted(tmp_path):
+    (tmp_path / "two.mtl").write_text("newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n")
+    # Red: a 2 x 1 rectangle (area 2); blue: a 1 x 1 square (area 1), side by side.
+    (tmp_path / "two.obj").write_text(
+        "mtllib two.mtl\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 3 0 0\nv 3 1 0\n"
+        "usemtl red\nf 1 2 3\nf 1 3 4\nusemtl blue\nf 2 5 6\nf 2 6 3\n")
+    (tmp_path / "lamp.urdf").write_text(f"""<robot name="lamp">
+  <link name="shade">{INERTIAL}
+    <visual><geometry><mesh filename="two.obj"/></geometry></visual>
+    <collision><geometry><box size="1 1 1"/></geometry></collision>
+  </link>
+</robot>""")
+    obj = urdf.load(tmp_path / "lamp.urdf")
+    np.testing.assert_allclose(obj.part("shade").color, [2 / 3, 0.0, 1 / 3, 1.0], atol=1e-9)
+
+
+def test_exported_mesh_missing_is_reported(tmp_path):
+    path = urdf.save(cabinet(), tmp_path / "out")
+    shutil.rmtree(tmp_path / "out" / "meshes")
+    with pytest.raises(FormatError, match=r"cabinet\.urdf:\d+: <link name='body'>: mesh file not"):
+        urdf.load(path)
