@@ -1,0 +1,22 @@
+"""glTF 2.0 (.glb / .gltf): export for viewers and physics-aware tools, import back.
+
+- ``save(obj, out_dir)`` writes ``out_dir/<name>.glb``: a node tree following the
+  kinematic tree (each joint's motion is one node's rotation or translation), PBR
+  materials, one animation per movable joint, the physics in KHR_physics_rigid_bodies
+  and every model value in ``extras`` (namespace ``real2code``). Y up: the scene root node
+  carries the Z-up -> Y-up rotation (see ``_common``).
+- ``load(path)`` reads our files losslessly (vertices are float32), other files from their
+  KHR_physics_rigid_bodies joints or, failing that, as parts on fixed joints.
+- ``validate_gltf(path)`` runs the Khronos glTF validator (npm ``gltf-validator``).
+"""
+
+from __future__ import annotations
+
+from ._read import load
+from ._write import save
+from .validator import ValidatorUnavailable, validate_gltf, validate_gltf_files
+
+EXTENSIONS = (".glb", ".gltf")
+
+__all__ = ["EXTENSIONS", "ValidatorUnavailable", "load", "save", "validate_gltf",
+           "validate_gltf_files"]

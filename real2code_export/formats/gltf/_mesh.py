@@ -1,0 +1,92 @@
+"""Model meshes as glTF vertex data, and back.
+
+A visual mesh gets per-vertex normals. glTF has one normal per vertex, so a box with 8
+shared corners would render as a blob: vertices are split along creases (faces meeting at
+more than CREASE_ANGLE form separate smoothing groups, found as connected components over
+the smooth edges) and each output vertex keeps the index of the model vertex it came from
+(``source``), so the reader restores the model's exact vertex list and faces. Collision
+meshes are never rendered: written as they are, without normals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...model import Mesh
+
+CREASE_ANGLE = np.radians(30.0)
+
+
+@dataclass
+class VertexData:
+    positions: np.ndarray  # (V', 3) float32
+    normals: np.ndarray | None  # (V', 3) float32 unit vectors
+    indices: np.ndarray  # (F, 3) uint16 or uint32
+    source: np.ndarray | None  # (V',) uint32 model vertex of each output vertex; None: identity
+
+
+def _index_dtype(count: int):
+    # 65535 is the primitive-restart value in some graphics APIs: avoid it in uint16
+    return np.uint16 if count < 65535 else np.uint32
+
+
+def encode_collision(mesh: Mesh) -> VertexData:
+    return VertexData(mesh.vertices.astype(np.float32), None,
+                      mesh.faces.astype(_index_dtype(len(mesh.vertices))), None)
+
+
+def encode_visual(mesh: Mesh) -> VertexData:
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    # normals from the float32 positions the file stores: re-exporting what was read back
+    # then gives the same bytes
+    mesh = Mesh(mesh.vertices.astype(np.float32), mesh.faces)
+    tm = mesh.to_trimesh()
+    faces = mesh.faces
+    n_faces = len(faces)
+    face_normals = np.cross(mesh.vertices[faces[:, 1]] - mesh.vertices[faces[:, 0]],
+                            mesh.vertices[faces[:, 2]] - mesh.vertices[faces[:, 0]])  # area-weighted
+    # smoothing groups: faces connected through edges whose dihedral angle is small
+    adjacency = tm.face_adjacency
+    smooth = adjacency[tm.face_adjacency_angles < CREASE_ANGLE] if len(adjacency) else adjacency
+    graph = coo_matrix((np.ones(len(smooth)), (smooth[:, 0], smooth[:, 1])) if len(smooth)
+                       else (np.zeros(0), (np.zeros(0, int), np.zeros(0, int))),
+                       shape=(n_faces, n_faces))
+    _, group = connected_components(graph, directed=False)
+    # one output vertex per (model vertex, smoothing group); unreferenced vertices kept too
+    n_groups = int(group.max()) + 2 if n_faces else 1
+    corner_key = faces * n_groups + group[:, None]
+    unused = np.setdiff1d(np.arange(len(mesh.vertices)), faces.reshape(-1))
+    keys, inverse = np.unique(np.concatenate([corner_key.reshape(-1), unused * n_groups + n_groups - 1]),
+                              return_inverse=True)
+    source = keys // n_groups
+    indices = inverse[: faces.size].reshape(-1, 3)
+    normals = np.zeros((len(keys), 3))
+    np.add.at(normals, indices.reshape(-1), np.repeat(face_normals, 3, axis=0))
+    length = np.linalg.norm(normals, axis=1)
+    bad = length < 1e-20
+    normals[bad] = (0.0, 0.0, 1.0)  # only degenerate faces touch it: any unit vector will do
+    normals[~bad] /= length[~bad, None]
+    normals = normals.astype(np.float32)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)  # unit in float32 too
+    identity = len(keys) == len(mesh.vertices) and np.array_equal(source, np.arange(len(keys)))
+    return VertexData(
+        positions=mesh.vertices[source].astype(np.float32),
+        normals=normals,
+        indices=indices.astype(_index_dtype(len(keys))),
+        source=None if identity else source.astype(np.uint32),
+    )
+
+
+def decode(positions: np.ndarray, indices: np.ndarray, source: np.ndarray | None) -> Mesh:
+    """The model mesh from glTF vertex data (inverse of :func:`encode_visual`)."""
+    faces = np.asarray(indices, dtype=np.int64).reshape(-1, 3)
+    if source is None:
+        return Mesh(positions, faces)
+    source = np.asarray(source, dtype=np.int64)
+    vertices = np.zeros((int(source.max()) + 1 if len(source) else 0, 3))
+    vertices[source] = positions
+    return Mesh(vertices, source[faces])

@@ -1,0 +1,144 @@
+"""KHR_physics_rigid_bodies: the model's bodies and joints as the extension describes them,
+and back.
+
+Written (following the extension's current draft and its reference Blender exporter):
+- every non-root part that is its own rigid body carries ``motion`` (mass, centre of mass,
+  principal inertia and its orientation); the root part is static (fixed to the world);
+- each collision piece is a ``collider`` node under its part whose ``geometry`` names a
+  mesh-only node outside the scene (``convexHull``: the pieces are convex), so nothing
+  renders it;
+- each joint is a ``joint`` on an attachment node in the parent body whose ``connectedNode``
+  is an attachment node in the child body. Both attachment frames have their X axis along
+  the joint axis, so the joint is a 1-D angular or linear limit about/along X with every
+  other degree of freedom locked (the extension's own hinged-door recipe). Limits are in
+  radians / metres; the joint value is the twist of the child frame relative to the parent
+  frame, as in the extension's joint-limit metrics.
+- the model's spring and damping become a ``force`` drive (stiffness toward spring_ref,
+  damping toward zero velocity): the drive equation is exactly that passive spring-damper.
+  Friction, armature and effort/velocity limits have no place in the extension and live
+  in our extras only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ... import transforms as tf
+from ...model import ArticulatedObject, Dynamics, Joint, JointType, Part
+from ._common import quat_xyzw
+
+LOCK = 1e-9  # a limit with |min|, |max| below this locks its axes
+
+
+def has_body(obj: ArticulatedObject, part: Part) -> bool:
+    """A non-root part is its own rigid body when it moves or has mass; a massless part on a
+    fixed joint simply belongs to its parent's body (the extension's node-tree rule)."""
+    joint = obj.parent_joint(part.name)
+    if joint is None:
+        return False
+    return joint.type.movable or part.inertial is not None
+
+
+def motion(part: Part) -> dict:
+    out: dict = {}
+    inertial = part.inertial
+    if inertial is not None:
+        moments, axes = inertial.principal()
+        out = {
+            "mass": inertial.mass,
+            "centerOfMass": [float(v) for v in inertial.com],
+            "inertiaDiagonal": [float(v) for v in moments],
+            "inertiaOrientation": quat_xyzw(axes),
+        }
+    return out
+
+
+def attachment_rotation(joint: Joint) -> np.ndarray:
+    """Rotation of both attachment frames in their joint frame: X along the joint axis."""
+    if not joint.type.movable:
+        return np.eye(3)
+    return tf.rotation_between([1.0, 0.0, 0.0], joint.axis)
+
+
+def joint_description(joint: Joint) -> dict:
+    """The ``physicsJoints`` entry: limits on the attachment frames and the passive drive."""
+    lock = {"min": 0.0, "max": 0.0}
+    t = joint.type
+    if t is JointType.FIXED:
+        limits = [{"linearAxes": [0, 1, 2], **lock}, {"angularAxes": [0, 1, 2], **lock}]
+    elif t.angular:
+        limits = [{"linearAxes": [0, 1, 2], **lock}, {"angularAxes": [1, 2], **lock}]
+    else:
+        limits = [{"linearAxes": [1, 2], **lock}, {"angularAxes": [0, 1, 2], **lock}]
+    if joint.limits is not None:
+        key = "angularAxes" if t.angular else "linearAxes"
+        limits.append({key: [0], "min": joint.limits.lower, "max": joint.limits.upper})
+    out: dict = {"name": joint.name, "limits": limits}
+    d = joint.dynamics
+    if t.movable and (d.stiffness > 0 or d.damping > 0):
+        drive: dict = {"type": "angular" if t.angular else "linear", "mode": "force", "axis": 0}
+        if d.stiffness > 0:
+            drive.update(positionTarget=d.spring_ref, stiffness=d.stiffness)
+        if d.damping > 0:
+            drive.update(velocityTarget=0.0, damping=d.damping)
+        out["drives"] = [drive]
+    return out
+
+
+# -- reading ---------------------------------------------------------------------------------
+@dataclass
+class FreeAxis:
+    """The single degree of freedom a physics joint leaves free (in the attachment frame)."""
+
+    kind: str  # "angular", "linear" or "fixed"
+    axis: int = 0
+    lower: float | None = None  # None: unbounded
+    upper: float | None = None
+
+
+def free_axis(description: dict) -> FreeAxis | None:
+    """Classify a ``physicsJoints`` entry: fixed, or exactly one angular or linear degree of
+    freedom (optionally limited). None when the joint leaves more than one free."""
+    locked: set[tuple[str, int]] = set()
+    bounded: dict[tuple[str, int], tuple[float, float]] = {}
+    for limit in description.get("limits", []) or []:
+        kind = "angular" if "angularAxes" in limit else "linear"
+        axes = limit.get("angularAxes" if kind == "angular" else "linearAxes") or []
+        lo = float(limit.get("min", -np.inf))
+        hi = float(limit.get("max", np.inf))
+        if abs(lo) <= LOCK and abs(hi) <= LOCK:
+            locked.update((kind, int(a)) for a in axes)
+        elif len(axes) == 1:
+            key = (kind, int(axes[0]))
+            old = bounded.get(key, (-np.inf, np.inf))
+            bounded[key] = (max(old[0], lo), min(old[1], hi))
+    dofs = [(k, a) for k in ("angular", "linear") for a in range(3) if (k, a) not in locked]
+    if not dofs:
+        return FreeAxis("fixed")
+    if len(dofs) != 1:
+        return None
+    kind, axis = dofs[0]
+    lo, hi = bounded.get((kind, axis), (-np.inf, np.inf))
+    return FreeAxis(kind, axis, None if np.isinf(lo) else lo, None if np.isinf(hi) else hi)
+
+
+def drive_dynamics(description: dict, axis: FreeAxis, sign: float) -> tuple[Dynamics, list[str]]:
+    """The model's spring-damper from a force drive on the free axis (``sign`` -1 when the
+    joint is read from the child side). Returns the dynamics and what could not be mapped."""
+    dyn = Dynamics()
+    skipped = []
+    for drive in description.get("drives", []) or []:
+        if drive.get("type") != axis.kind or int(drive.get("axis", -1)) != axis.axis:
+            skipped.append("a drive on a locked axis")
+            continue
+        if drive.get("mode", "force") != "force":
+            skipped.append(f"a drive in {drive.get('mode')!r} mode")
+            continue
+        if float(drive.get("velocityTarget", 0.0)) != 0.0:
+            skipped.append("a non-zero velocity target")
+        dyn.stiffness = float(drive.get("stiffness", 0.0))
+        dyn.damping = float(drive.get("damping", 0.0))
+        dyn.spring_ref = sign * float(drive.get("positionTarget", 0.0))
+    return dyn, skipped

@@ -1,0 +1,205 @@
+"""Read a .glb/.gltf into the model.
+
+- Ours (a root node with real2code extras): lossless from the extras; meshes from the
+  binary data (float32 vertices).
+- Without our extras but with KHR_physics_rigid_bodies joints: one part per rigid body
+  (``motion`` node; the static world is the root), joints from the physics joints
+  (see ``_khr.py``).
+- Anything else: one part per mesh node, joined by fixed joints along the node tree (a
+  single mesh node gives a single part); warned, since no joint can be recovered.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ... import transforms as tf
+from ...errors import FormatError, ModelError, warn
+from ...model import (
+    ArticulatedObject,
+    Dynamics,
+    Inertial,
+    Joint,
+    JointType,
+    Limits,
+    Part,
+    sanitize_name,
+    validate,
+)
+from ._common import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
+from ._document import Document, rigid
+from ._khr import load_khr
+
+
+def load(path: str | Path) -> ArticulatedObject:
+    path = Path(path)
+    try:
+        return _load(path)
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError) as e:
+        # a property of the wrong JSON type somewhere the checks above do not look
+        raise FormatError(path, None, f"malformed glTF ({type(e).__name__}: {e})") from e
+
+
+def _load(path: Path) -> ArticulatedObject:
+    doc = Document(path)
+    root = next((i for i in doc.scene_order if doc.ours(i).get("schema") == SCHEMA), None)
+    if root is not None:
+        obj = _load_ours(doc, root)
+    elif any("joint" in khr(doc.nodes[i].extensions) for i in doc.scene_order):
+        obj = load_khr(doc)
+    else:
+        obj = _load_plain(doc)
+    try:
+        return validate(obj)
+    except ModelError as e:
+        raise FormatError(doc.path, e.element, e.message) from e
+
+
+# -- ours ------------------------------------------------------------------------------------
+def _vector(value, n: int, doc: Document, el: str, what: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise FormatError(doc.path, el, f"{what} must be numbers, got {value!r}") from e
+    if arr.size != n:
+        raise FormatError(doc.path, el, f"{what} must have {n} numbers, got {value!r}")
+    return arr.reshape(-1)
+
+
+def _load_ours(doc: Document, root: int) -> ArticulatedObject:
+    info = doc.ours(root)
+    if info.get("schema_version") != SCHEMA_VERSION:
+        raise FormatError(doc.path, doc.element(root), f"unsupported real2code schema version "
+                          f"{info.get('schema_version')!r} (this release reads {SCHEMA_VERSION})")
+    try:
+        metadata = json.loads(info.get("metadata_json", "{}"))
+    except (TypeError, json.JSONDecodeError) as e:
+        raise FormatError(doc.path, doc.element(root), f"bad metadata_json: {e}") from e
+    part_nodes: dict[str, int] = {}
+    joint_nodes: list[int] = []
+    for i in doc.scene_order:
+        data = doc.ours(i)
+        if "part" in data:
+            if data["part"] in part_nodes:
+                raise FormatError(doc.path, doc.element(i), f"second node for part {data['part']!r}")
+            part_nodes[data["part"]] = i
+        elif "joint" in data and "type" in data:
+            joint_nodes.append(i)
+    parts = [_our_part(doc, name, i) for name, i in part_nodes.items()]
+    joints = [_our_joint(doc, i, part_nodes) for i in joint_nodes]
+    return ArticulatedObject(name=str(info.get("object")), parts=parts, joints=joints,
+                             metadata=metadata if isinstance(metadata, dict) else {})
+
+
+def _our_part(doc: Document, name: str, i: int) -> Part:
+    el = doc.element(i)
+    data = doc.ours(i)
+    node = doc.nodes[i]
+    visual = doc.mesh(node.mesh, el) if node.mesh is not None else None
+    pieces: dict[int, int] = {}
+    for c in node.children or []:
+        k = doc.ours(c).get("collision")
+        if k is None:
+            continue
+        geometry = khr(doc.nodes[c].extensions).get("collider", {}).get("geometry", {})
+        g = geometry.get("node")
+        if not isinstance(k, int) or k in pieces or not isinstance(g, int) \
+                or not 0 <= g < len(doc.nodes) or doc.nodes[g].mesh is None:
+            raise FormatError(doc.path, doc.element(c), f"collision piece of part {name!r} has no "
+                              f"{KHR_PHYSICS} collider geometry node with a mesh")
+        pieces[k] = g
+    if sorted(pieces) != list(range(len(pieces))):
+        raise FormatError(doc.path, el, f"collision pieces {sorted(pieces)} are not numbered 0..n-1")
+    collision = [doc.mesh(doc.nodes[pieces[k]].mesh, doc.element(pieces[k]))
+                 for k in range(len(pieces))]
+    inertial = None
+    if "inertial" in data:
+        ind = data["inertial"]
+        if not isinstance(ind, dict) or "mass" not in ind:
+            raise FormatError(doc.path, el, "inertial must hold mass, com and inertia")
+        inertial = Inertial(mass=float(ind["mass"]),
+                            com=_vector(ind.get("com", [0, 0, 0]), 3, doc, el, "centre of mass"),
+                            inertia=_vector(ind.get("inertia"), 9, doc, el, "inertia").reshape(3, 3))
+    color = tuple(_vector(data.get("color", [0.7, 0.7, 0.7, 1.0]), 4, doc, el, "colour"))
+    return Part(name=name, visual=visual, collision=collision, inertial=inertial, color=color)
+
+
+def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
+    el = doc.element(i)
+    d = doc.ours(i)
+    name = d["joint"]
+    for role in ("parent", "child"):
+        if d.get(role) not in part_nodes:
+            raise FormatError(doc.path, el, f"joint {name!r} names {role} part {d.get(role)!r}, "
+                                            "which has no node")
+    if doc.parent[i] != part_nodes[d["parent"]] or doc.parent[part_nodes[d["child"]]] != i:
+        raise FormatError(doc.path, el, f"joint {name!r}: the node tree does not put it between "
+                                        f"parts {d['parent']!r} and {d['child']!r}")
+    if d.get("type") not in {t.value for t in JointType}:
+        raise FormatError(doc.path, el, f"unknown joint type {d.get('type')!r}")
+    try:
+        origin = tf.make(
+            rotation=_vector(d["origin"]["rotation"], 9, doc, el, "origin rotation").reshape(3, 3),
+            translation=_vector(d["origin"]["translation"], 3, doc, el, "origin translation"))
+        limits = None
+        if "limits" in d:
+            ld = d["limits"]
+            limits = Limits(float(ld["lower"]), float(ld["upper"]),
+                            None if ld.get("effort") is None else float(ld["effort"]),
+                            None if ld.get("velocity") is None else float(ld["velocity"]))
+        dd = d.get("dynamics", {})
+        dynamics = Dynamics(**{k: float(dd.get(k, 0.0))
+                               for k in ("damping", "friction", "stiffness", "spring_ref", "armature")})
+        return Joint(name=name, type=JointType(d["type"]), parent=d["parent"], child=d["child"],
+                     origin=origin, axis=_vector(d.get("axis", [0, 0, 1]), 3, doc, el, "axis"),
+                     limits=limits, dynamics=dynamics, state=float(d.get("state", 0.0)))
+    except (KeyError, TypeError, ValueError, AttributeError) as e:
+        raise FormatError(doc.path, el, f"bad joint metadata ({type(e).__name__}: {e})") from e
+
+
+# -- plain glTF ------------------------------------------------------------------------------
+def _load_plain(doc: Document) -> ArticulatedObject:
+    mesh_nodes = [i for i in doc.scene_order if doc.nodes[i].mesh is not None]
+    if not mesh_nodes:
+        raise FormatError(doc.path, "scene", "has no mesh nodes")
+    taken: set[str] = set()
+    stem = sanitize_name(doc.path.stem)
+
+    def parent_mesh_node(i: int) -> int | None:
+        j = doc.parent[i]
+        while j is not None and doc.nodes[j].mesh is None:
+            j = doc.parent[j]
+        return j
+
+    top = [i for i in mesh_nodes if parent_mesh_node(i) is None]
+    frames: dict[int | None, np.ndarray] = {}
+    names: dict[int | None, str] = {}
+    parts: list[Part] = []
+    if len(top) == 1:
+        root: int | None = top[0]
+    else:  # several top-level meshes hang from one empty root part
+        root = None
+        names[None] = sanitize_name(stem, taken)
+        frames[None] = np.eye(4)
+        parts.append(Part(name=names[None]))
+    joints = []
+    for i in mesh_nodes:
+        node = doc.nodes[i]
+        names[i] = sanitize_name(node.name or f"node_{i}", taken)
+        world = doc.world(i)
+        frames[i] = np.eye(4) if i == root else rigid(world)
+        mesh = doc.mesh(node.mesh, doc.element(i), tf.inverse(frames[i]) @ world)
+        parts.append(Part(name=names[i], visual=mesh if len(mesh.faces) else None,
+                          color=doc.color(node.mesh) or (0.7, 0.7, 0.7, 1.0)))
+        if i != root:
+            parent = parent_mesh_node(i)
+            joints.append(Joint(name=sanitize_name(f"{names[i]}_fixed", taken), type=JointType.FIXED,
+                                parent=names[parent], child=names[i],
+                                origin=tf.inverse(frames[parent]) @ frames[i]))
+    warn(f"{doc.path}: no joint metadata (real2code extras or {KHR_PHYSICS} joints): "
+         f"{len(mesh_nodes)} mesh node(s) read as {len(parts)} part(s) joined by fixed joints")
+    return ArticulatedObject(name=stem, parts=parts, joints=joints,
+                             metadata={"source": str(doc.path)})
