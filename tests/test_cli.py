@@ -1,0 +1,137 @@
+"""The command line as users meet it: exit status, messages, nothing half-written."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from real2code_export.cli import EXIT_DISAGREE, EXIT_ERROR, EXIT_OK, run
+
+FIXTURES = Path(__file__).parent / "fixtures" / "urdf"
+BAD_INPUTS = [
+    ("malformed_xml.urdf", "malformed"),
+    ("missing_mesh.urdf", "mesh file not found"),
+    ("joint_cycle.urdf", "cycle"),
+    ("two_roots.urdf", "root"),
+    ("nan_origin.urdf", "not finite"),
+    ("zero_axis.urdf", "zero"),
+    ("lower_above_upper.urdf", "lower"),
+    ("unknown_joint_type.urdf", "unknown joint type"),
+]
+
+
+@pytest.mark.parametrize("fixture, needle", BAD_INPUTS)
+def test_bad_input_is_refused_cleanly(tmp_path, capsys, fixture, needle):
+    out = tmp_path / "out"
+    status = run(["export", str(FIXTURES / fixture), "--to", "mjcf,urdf", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert status == EXIT_ERROR
+    assert fixture in err and needle in err.lower(), err
+    assert "<joint" in err or "<link" in err or "<robot" in err or "malformed" in err.lower(), err
+    assert not out.exists(), "nothing may be left in the output folder"
+
+
+def test_missing_input_path(tmp_path, capsys):
+    out = tmp_path / "out"
+    status = run(["export", str(tmp_path / "nope.urdf"), "--out", str(out)])
+    assert status == EXIT_ERROR
+    assert "nope.urdf" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_generate_export_check(tmp_path, capsys):
+    gen = tmp_path / "gen"
+    assert run(["generate", "--category", "storage_furniture", "--parts", "4", "--seed", "3",
+                "--out", str(gen)]) == EXIT_OK
+    out = tmp_path / "out"
+    assert run(["export", str(gen / "object.json"), "--to", "mjcf,urdf", "--out", str(out)]) == 0
+    files = sorted(p.name for p in out.iterdir())
+    assert files == ["meshes", "storage_furniture_3.urdf", "storage_furniture_3.xml"]
+    report = tmp_path / "report.json"
+    status = run(["check", str(gen / "object.json"), str(out / "storage_furniture_3.xml"),
+                  str(out / "storage_furniture_3.urdf"), "--json", str(report)])
+    assert status == EXIT_OK
+    data = json.loads(report.read_text())
+    assert data["ok"] is True and len(data["probes"]) == 4
+    assert "AGREE" in capsys.readouterr().out
+
+
+def test_check_exit_status_on_disagreement(tmp_path):
+    gen = tmp_path / "gen"
+    run(["generate", "--category", "laptop", "--seed", "1", "--out", str(gen)])
+    run(["export", str(gen / "object.json"), "--to", "urdf", "--out", str(tmp_path / "out")])
+    urdf = next((tmp_path / "out").glob("*.urdf"))
+    text = urdf.read_text()
+    # shift the hinge by 1 mm: the check must notice
+    marker = '<origin xyz="'
+    i = text.index(marker, text.index("<joint")) + len(marker)
+    x_end = text.index(" ", i)
+    shifted = text[:i] + repr(float(text[i:x_end]) + 1e-3) + text[x_end:]
+    urdf.write_text(shifted)
+    assert run(["check", str(gen / "object.json"), str(urdf)]) == EXIT_DISAGREE
+
+
+def test_demo_runs_on_the_shipped_sample(tmp_path, capsys):
+    assert run(["demo", "--out", str(tmp_path / "demo")]) == EXIT_OK
+    out = capsys.readouterr().out
+    assert "AGREE" in out
+    assert (tmp_path / "demo" / "object.json").is_file()
+
+
+def _ajar_parts(tmp_path):
+    from pipeline.boxes import world_part_meshes
+    from pipeline.procedural import generate
+
+    obj = generate("storage_furniture", 4, 21)
+    return obj, world_part_meshes(obj)
+
+
+def test_articulate_a_folder_of_meshes(tmp_path, capsys):
+    from real2code_export.meshfiles import obj_bytes
+
+    obj, meshes = _ajar_parts(tmp_path)
+    parts = tmp_path / "parts"
+    parts.mkdir()
+    for name, mesh in meshes.items():
+        (parts / f"{name}.obj").write_bytes(obj_bytes(mesh))
+    out = tmp_path / "out"
+    status = run(["articulate", str(parts), "--out", str(out), "--to", "mjcf,urdf"])
+    assert status == EXIT_OK, capsys.readouterr()
+    assert (out / "object.json").is_file() and (out / "parts.xml").is_file()
+    assert (out / "articulation" / "joints.py").read_text().startswith("root_geom = ")
+    from real2code_export.formats import load
+
+    result = load(out / "object.json")
+    assert len(result.movable_joints) == len(obj.movable_joints)
+
+
+def test_articulate_a_glb(tmp_path, capsys):
+    from pipeline.parts_io import Y_UP_TO_Z_UP
+
+    obj, meshes = _ajar_parts(tmp_path)
+    scene = trimesh.Scene()
+    to_y_up = np.linalg.inv(Y_UP_TO_Z_UP)
+    for name, mesh in meshes.items():
+        scene.add_geometry(mesh.transformed(to_y_up).to_trimesh(), node_name=name, geom_name=name)
+    glb = tmp_path / "parts.glb"
+    glb.write_bytes(scene.export(file_type="glb"))
+    out = tmp_path / "out"
+    assert run(["articulate", str(glb), "--out", str(out), "--to", "mjcf"]) == EXIT_OK
+    from real2code_export.formats import load
+
+    result = load(out / "object.json")
+    assert sorted(p.name for p in result.parts) == sorted(meshes)
+
+
+def test_articulate_refuses_a_single_part(tmp_path, capsys):
+    parts = tmp_path / "one"
+    parts.mkdir()
+    trimesh.creation.box().export(parts / "only.obj")
+    out = tmp_path / "out"
+    assert run(["articulate", str(parts), "--out", str(out)]) == EXIT_ERROR
+    assert "need at least two" in capsys.readouterr().err
+    assert not out.exists()
