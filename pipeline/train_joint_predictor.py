@@ -199,7 +199,7 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, batch_size: int = 6
             loss.backward()
             opt.step()
             sched.step()
-            total += float(loss) * len(x)
+            total += loss.item() * len(x)
         history.append(total / len(data))
         if epoch % 5 == 4 or epoch == epochs - 1:
             print(f"epoch {epoch + 1:3d}  loss {history[-1]:.4f}  "

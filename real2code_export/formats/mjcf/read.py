@@ -1,0 +1,450 @@
+"""MJCF -> ArticulatedObject. MuJoCo parses and compiles the file (defaults, classes, frames,
+orientation notations, ``fromto`` are resolved by MuJoCo itself); the compiled mjModel is read.
+
+One part per body, one joint per body: hinge -> revolute (limited) or continuous, slide ->
+prismatic, no joint -> fixed. A free joint on a top-level body is ignored (a fixed base), a
+ball joint or several joints in one body is refused. A joint away from its body origin moves
+the part frame to the joint (meshes and inertial follow); a joint ``ref`` moves it to the
+pose at qpos = 0, so joint values mean the same here and in MuJoCo. When the world itself
+holds geoms or joints, it becomes a root part ``world``.
+
+Colliding geoms are collision pieces (primitives become meshes); the visual is what MuJoCo
+shows by default (groups 0-2), so a third-party geom that collides and shows serves as both,
+while our own files keep their visual (group 2, non-colliding) and collision (group 3) apart.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ... import transforms as tf
+from ...errors import FormatError, ModelError, warn
+from ...model import (
+    DEFAULT_COLOR,
+    ArticulatedObject,
+    Dynamics,
+    Inertial,
+    Joint,
+    JointType,
+    Limits,
+    Mesh,
+    Part,
+    sanitize_name,
+    validate,
+)
+from .conventions import (
+    COLLISION_GROUP,
+    KEYFRAME,
+    METADATA,
+    WORLD,
+    describe_mujoco_error,
+    parse_custom_name,
+)
+from .geometry import geom_mesh, pose
+
+_DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's: the material's colour shows instead
+_MUJOCO_DEFAULT_NAME = "MuJoCo Model"
+
+
+def load(path: str | Path) -> ArticulatedObject:
+    path = Path(path)
+    if not path.is_file():
+        raise FormatError(path, None, "file not found")
+    spec, model = _compile(path)
+    return _Reader(path, spec, model).read()
+
+
+# -- parse and compile, errors named ------------------------------------------------------------
+def _compile(path: Path):
+    import mujoco
+
+    try:
+        spec = mujoco.MjSpec.from_file(str(path.resolve()))
+    except ValueError as e:
+        raise _error(path, str(e)) from e
+    try:
+        return spec, spec.compile()
+    except ValueError as e:
+        missing = _missing_mesh(spec, path)
+        if missing is not None:
+            raise missing from e
+        raise _error(path, str(e), spec) from e
+
+
+def _error(path: Path, message: str, spec=None) -> FormatError:
+    what, name, tag, line = describe_mujoco_error(message)
+    if name and tag is None and spec is not None:  # "Element name 'lid'": which kind, where
+        tag, found_line = _find_named(spec, name)
+        line = line if line is not None else found_line
+    if tag and name:
+        element = f"<{tag} name='{name}'>"
+    elif tag:
+        element = f"<{tag}>"
+    else:
+        element = repr(name) if name is not None else None
+    return FormatError(path, element, what, line)
+
+
+def _find_named(spec, name: str) -> tuple[str | None, int | None]:
+    for tag, elements in (("body", spec.bodies), ("joint", spec.joints), ("geom", spec.geoms),
+                          ("mesh", spec.meshes)):
+        for el in elements:
+            if el.name == name:
+                return tag, _info_line(el)
+    return None, None
+
+
+def _info_line(element) -> int | None:
+    info = getattr(element, "info", "") or ""
+    parts = info.split()
+    return int(parts[1]) if len(parts) == 2 and parts[0] == "line" and parts[1].isdigit() else None
+
+
+def _missing_mesh(spec, path: Path) -> FormatError | None:
+    """A clear error for the usual compile failure: a mesh file that is not there."""
+    base = Path(spec.modelfiledir or path.parent)
+    meshdir = Path(spec.meshdir or "")
+    for mesh in spec.meshes:
+        if not mesh.file:
+            continue
+        file = Path(mesh.file)
+        candidate = file if file.is_absolute() else (
+            meshdir / file if meshdir.is_absolute() else base / meshdir / file)
+        if not candidate.is_file():
+            return FormatError(path, f"<mesh name='{mesh.name}'>",
+                               f"mesh file not found: {candidate}", _info_line(mesh))
+    return None
+
+
+# -- the compiled model -> the object -----------------------------------------------------------
+@dataclass
+class _Reader:
+    path: Path
+    spec: object
+    model: object
+    part_names: dict[int, str] = field(default_factory=dict)  # body id -> part name
+    frames: dict[int, np.ndarray] = field(default_factory=dict)  # body id -> part-from-body
+    custom: dict[tuple[str, str], object] = field(default_factory=dict)
+    spec_bodies: dict[int, object] = field(default_factory=dict)  # model id -> spec element
+    spec_joints: dict[int, object] = field(default_factory=dict)
+    mesh_assets: dict[int, tuple[Mesh, np.ndarray]] = field(default_factory=dict)  # read once
+    notes: dict[str, list[str]] = field(default_factory=dict)
+
+    def read(self) -> ArticulatedObject:
+        import mujoco
+
+        m = self.model
+        self.spec_bodies = {int(b.id): b for b in self.spec.bodies}
+        self.spec_joints = {int(j.id): j for j in self.spec.joints}
+        self.custom = self._custom_data()
+        taken: set[str] = set()
+        for b in range(1, m.nbody):
+            self.part_names[b] = self._name(m.body(b).name or f"body_{b}", taken, "body")
+        top = [b for b in range(1, m.nbody) if int(m.body_parentid[b]) == 0]
+        free = int(mujoco.mjtJoint.mjJNT_FREE)
+        for b in range(1, m.nbody):
+            self._check_joints(b, top_level=b in top)
+        world_used = (m.body_geomnum[0] > 0 or len(top) != 1
+                      or any(self._movable_joint(b) is not None for b in top)
+                      or (WORLD, "part") in self.custom)
+        parts: list[Part] = []
+        joints: list[Joint] = []
+        joint_names: set[str] = set()
+        if world_used:
+            self.part_names[0] = sanitize_name(WORLD, taken)
+            self.frames[0] = np.eye(4)
+            parts.append(self._part(0))
+        for b in range(1, m.nbody):
+            parent = int(m.body_parentid[b])
+            body_pose = pose(m.body_pos[b], m.body_quat[b])
+            if m.body_jntnum[b] and int(m.jnt_type[m.body_jntadr[b]]) == free:
+                self.note("free joints ignored (fixed to the world)", self.part_names[b])
+            if parent == 0 and not world_used:  # the root: its part frame is the world
+                self.frames[b] = body_pose
+                parts.append(self._part(b))
+                continue
+            joints.append(self._joint(b, parent, body_pose, joint_names))
+            parts.append(self._part(b))
+        name = self._object_name()
+        self._report_ignored()
+        for kind, names in self.notes.items():
+            warn(f"{self.path}: {kind}: {', '.join(names)}")
+        obj = ArticulatedObject(name, parts, joints, self._metadata())
+        try:
+            return validate(obj)
+        except ModelError as e:
+            raise FormatError(self.path, e.element, e.message) from e
+
+    def note(self, kind: str, name: str) -> None:
+        self.notes.setdefault(kind, []).append(name)
+
+    def _name(self, raw: str, taken: set[str], what: str) -> str:
+        name = sanitize_name(raw, taken)
+        if name != raw:
+            self.note(f"{what} names changed to identifiers", f"{raw!r} -> {name!r}")
+        return name
+
+    def _object_name(self) -> str:
+        raw = self.spec.modelname
+        if not raw or raw == _MUJOCO_DEFAULT_NAME:
+            raw = self.path.stem
+        return self._name(raw, set(), "model")
+
+    def _body_label(self, b: int) -> str:
+        name = self.model.body(b).name
+        return f"<body name='{name}'>" if name else f"<body> (unnamed, id {b})"
+
+    # -- joints ----------------------------------------------------------------------------
+    def _check_joints(self, b: int, *, top_level: bool) -> None:
+        import mujoco
+
+        m = self.model
+        count = int(m.body_jntnum[b])
+        line = _info_line(self.spec_bodies[b])
+        if count > 1:
+            raise FormatError(self.path, self._body_label(b), f"has {count} joints; the model "
+                              "has one joint per part (split the body)", line)
+        if count == 1:
+            kind = int(m.jnt_type[m.body_jntadr[b]])
+            if kind == mujoco.mjtJoint.mjJNT_BALL:
+                raise FormatError(self.path, self._body_label(b),
+                                  "has a ball joint, which the model cannot represent", line)
+            if kind == mujoco.mjtJoint.mjJNT_FREE and not top_level:
+                raise FormatError(self.path, self._body_label(b), "has a free joint", line)
+
+    def _movable_joint(self, b: int) -> int | None:
+        import mujoco
+
+        m = self.model
+        if not m.body_jntnum[b]:
+            return None
+        j = int(m.body_jntadr[b])
+        kinds = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+        return j if int(m.jnt_type[j]) in kinds else None
+
+    def _joint(self, b: int, parent: int, body_pose: np.ndarray, taken: set[str]) -> Joint:
+        import mujoco
+
+        m = self.model
+        child = self.part_names[b]
+        parent_name = self.part_names[parent]
+        base = self.frames[parent] @ body_pose
+        j = self._movable_joint(b)
+        if j is None:
+            self.frames[b] = np.eye(4)
+            raw = self.custom.get((m.body(b).name, "parent_joint"))
+            name = self._name(raw, taken, "joint") if isinstance(raw, str) else sanitize_name(
+                f"{parent_name}_to_{child}", taken)
+            return Joint(name, JointType.FIXED, parent_name, child, origin=base)
+
+        raw = m.joint(j).name
+        name = self._name(raw, taken, "joint") if raw else sanitize_name(f"{child}_joint", taken)
+        hinge = int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE
+        qadr, dof = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
+        ref = float(m.qpos0[qadr])
+        anchor = np.asarray(m.jnt_pos[j], dtype=np.float64)
+        axis = np.asarray(m.jnt_axis[j], dtype=np.float64)
+        limited = bool(m.jnt_limited[j])
+        if hinge:
+            kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
+        elif limited:
+            kind = JointType.PRISMATIC
+        else:
+            raise FormatError(self.path, f"<joint name='{raw}'>", "a slide joint without a "
+                              "range: the model needs limits for prismatic joints",
+                              _info_line(self.spec_joints[j]))
+        joint = Joint(name, kind, parent_name, child, axis=axis)
+        # Part frame = joint frame at qpos = 0: at the anchor, turned back by the reference.
+        joint.origin = base @ tf.make(translation=anchor) @ joint.motion(-ref)
+        self.frames[b] = tf.make(translation=-anchor) if anchor.any() else np.eye(4)
+        joint.limits = self._limits(j, kind, name)
+        joint.dynamics = Dynamics(
+            damping=float(m.dof_damping[dof]), friction=float(m.dof_frictionloss[dof]),
+            stiffness=float(m.jnt_stiffness[j]), spring_ref=float(m.qpos_spring[qadr]),
+            armature=float(m.dof_armature[dof]))
+        if np.any(m.dof_dampingpoly[dof]) or np.any(m.jnt_stiffnesspoly[j]):
+            self.note("polynomial damping/stiffness terms dropped", name)
+        joint.state = self._state(qadr, joint)
+        return joint
+
+    def _limits(self, j: int, kind: JointType, name: str) -> Limits | None:
+        m = self.model
+        effort = self._custom_number(m.joint(j).name, "effort")
+        if effort is None and m.jnt_actfrclimited[j]:
+            low, high = (float(v) for v in m.jnt_actfrcrange[j])
+            effort = max(-low, high, 0.0)
+            if low != -high:
+                self.note("asymmetric actuatorfrcrange kept as its larger magnitude", name)
+        velocity = self._custom_number(m.joint(j).name, "velocity")
+        if kind is JointType.CONTINUOUS:
+            if effort is not None or velocity is not None:
+                self.note("effort/velocity limits of continuous joints dropped", name)
+            return None
+        low, high = (float(v) for v in m.jnt_range[j])
+        return Limits(low, high, effort=None if effort is None else float(effort),
+                      velocity=None if velocity is None else float(velocity))
+
+    def _custom_number(self, element: str, field_name: str) -> float | None:
+        value = self.custom.get((element, field_name))
+        if value is not None and not isinstance(value, float):
+            self.note("malformed real2code custom data ignored", f"{element}:{field_name}")
+            return None
+        return value
+
+    def _state(self, qadr: int, joint: Joint) -> float:
+        import mujoco
+
+        key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, KEYFRAME)
+        # Without our keyframe, the pose the file is written in (qpos0, the joint's ref).
+        qpos = self.model.key_qpos[key] if key >= 0 else self.model.qpos0
+        state = float(qpos[qadr])
+        lim = joint.limits
+        if lim is not None and not lim.lower <= state <= lim.upper:
+            self.note("joint states outside the range moved to the nearest limit", joint.name)
+            state = min(max(state, lim.lower), lim.upper)
+        return state
+
+    # -- parts -----------------------------------------------------------------------------
+    def _part(self, b: int) -> Part:
+        m = self.model
+        name = self.part_names[b]
+        frame = self.frames[b]
+        moved = not np.array_equal(frame, np.eye(4))
+        shown, hidden, colliding = [], [], []
+        for g in range(int(m.body_geomadr[b]), int(m.body_geomadr[b] + m.body_geomnum[b])):
+            element = f"<geom name='{m.geom(g).name}'>" if m.geom(g).name else f"geom {g}"
+            mesh = geom_mesh(m, g, self.path, element, self.mesh_assets)
+            if mesh is None:
+                self.note("geoms without a finite surface skipped (plane, hfield, sdf)",
+                          f"{name}/{m.geom(g).name or g}")
+                continue
+            mesh = mesh.transformed(frame) if moved else mesh
+            collides = bool(m.geom_contype[g] or m.geom_conaffinity[g])
+            if collides:
+                colliding.append((g, mesh))
+            # The visual is what MuJoCo shows by default (groups 0-2): a third-party geom that
+            # collides and shows serves as both. Hidden visual-only geoms count when nothing
+            # else shows.
+            if m.geom_group[g] < COLLISION_GROUP:
+                shown.append((g, mesh))
+            elif not collides:
+                hidden.append((g, mesh))
+        visual = shown or hidden
+        colours = [self._rgba(g) for g, _ in visual + colliding]
+        colour = colours[0] if colours else self.custom.get((m.body(b).name, "color"))
+        if colour is not None and (not isinstance(colour, list | tuple) or len(colour) != 4):
+            self.note("malformed real2code custom data ignored", f"{m.body(b).name}:color")
+            colour = None
+        return Part(
+            name,
+            visual=Mesh.concatenate([mesh for _, mesh in visual]) if visual else None,
+            collision=[mesh for _, mesh in colliding],
+            inertial=self._inertial(b, frame, moved),
+            color=tuple(float(c) for c in colour) if colour is not None else DEFAULT_COLOR,
+        )
+
+    def _rgba(self, g: int) -> tuple[float, ...]:
+        m = self.model
+        rgba = tuple(float(c) for c in m.geom_rgba[g])
+        mat = int(m.geom_matid[g])
+        if mat >= 0 and np.allclose(rgba, _DEFAULT_GEOM_RGBA):
+            rgba = tuple(float(c) for c in m.mat_rgba[mat])
+        return tuple(min(max(c, 0.0), 1.0) for c in rgba)
+
+    def _inertial(self, b: int, frame: np.ndarray, moved: bool) -> Inertial | None:
+        m = self.model
+        if b == 0:
+            return _world_inertial(self.custom.get((WORLD, "inertial")))
+        mass = float(m.body_mass[b])
+        if not mass > 0:
+            return None
+        com = np.asarray(m.body_ipos[b], dtype=np.float64)
+        inertia = self._inertia_tensor(b)
+        if moved:
+            rot = frame[:3, :3]
+            com = rot @ com + frame[:3, 3]
+            inertia = rot @ inertia @ rot.T
+        return Inertial(mass, com, inertia)
+
+    def _inertia_tensor(self, b: int) -> np.ndarray:
+        import mujoco
+
+        m = self.model
+        rot = tf.quat_to_matrix(m.body_iquat[b])
+        compiled = rot @ np.diag(m.body_inertia[b]) @ rot.T
+        body = self.spec_bodies[b]
+        full = np.asarray(body.fullinertia, dtype=np.float64)
+        from_geoms = self.spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
+        if from_geoms or not body.explicitinertial or not np.all(np.isfinite(full)):
+            return compiled
+        # A fullinertia as written is exact; MuJoCo's diagonalisation changes the last bits.
+        authored = np.array([[full[0], full[3], full[4]], [full[3], full[1], full[5]],
+                             [full[4], full[5], full[2]]])
+        scale = max(float(np.abs(compiled).max()), 1e-300)
+        return authored if np.allclose(authored, compiled, rtol=0.0, atol=1e-9 * scale) else compiled
+
+    # -- custom data, metadata, what is left out -------------------------------------------
+    def _custom_data(self) -> dict[tuple[str, str], object]:
+        import mujoco
+
+        m = self.model
+        out: dict[tuple[str, str], object] = {}
+        for i in range(m.nnumeric):
+            key = parse_custom_name(m.numeric(i).name)
+            if key is None:
+                self.note("custom numeric data not imported", m.numeric(i).name)
+                continue
+            adr, size = int(m.numeric_adr[i]), int(m.numeric_size[i])
+            values = [float(v) for v in m.numeric_data[adr:adr + size]]
+            out[key] = values[0] if len(values) == 1 else values
+        for i in range(m.ntext):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TEXT, i) or ""
+            adr, size = int(m.text_adr[i]), int(m.text_size[i])
+            text = bytes(m.text_data[adr:adr + size]).split(b"\0", 1)[0].decode("utf-8")
+            if name == METADATA:
+                out[("", "metadata")] = text
+            elif (key := parse_custom_name(name)) is not None:
+                out[key] = text
+            else:
+                self.note("custom text data not imported", name)
+        return out
+
+    def _metadata(self) -> dict:
+        text = self.custom.get(("", "metadata"))
+        if text is None:
+            return {}
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as e:
+            warn(f"{self.path}: <text name='{METADATA}'>: not JSON ({e.msg}); metadata ignored")
+            return {}
+        if not isinstance(data, dict):
+            warn(f"{self.path}: <text name='{METADATA}'>: not a JSON object; metadata ignored")
+            return {}
+        return data
+
+    def _report_ignored(self) -> None:
+        import mujoco
+
+        m = self.model
+        observed = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, KEYFRAME) >= 0
+        counts = {"actuator": m.nu, "tendon": m.ntendon, "equality constraint": m.neq,
+                  "sensor": m.nsensor, "keyframe": m.nkey - int(observed),
+                  "flex": m.nflex, "skin": m.nskin, "custom tuple": m.ntuple}
+        left = [f"{n} {what}{'s' if n > 1 else ''}" for what, n in counts.items() if n]
+        if left:
+            warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
+                 f"{', '.join(left)}")
+
+
+def _world_inertial(values) -> Inertial | None:
+    """The inertial of a root part that was MuJoCo's world body (kept in <custom>)."""
+    if not isinstance(values, list) or len(values) != 10:
+        return None
+    mass, cx, cy, cz, ixx, iyy, izz, ixy, ixz, iyz = values
+    inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    return Inertial(mass, np.array([cx, cy, cz]), inertia)

@@ -1,0 +1,253 @@
+"""ArticulatedObject -> MjSpec -> MJCF text, compiled by MuJoCo before anything is kept.
+
+One body per part, named as the part, posed at its joint origin; the joint (hinge or slide)
+at the body origin; the root a jointless child of the world (fixed base); a fixed joint a
+jointless nested body. Each body has its explicit inertial (``fullinertia``), a non-colliding
+visual mesh geom (group 2, the part colour) and one colliding mesh geom per convex piece
+(group 3). Every parent/child pair is excluded from contact. What MJCF has no place for is
+kept in the keyframe "observed" (joint states) and in ``<custom>`` data named
+``real2code:<element>:<field>`` (velocity limits, fixed-joint names, metadata, ...).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ... import atomic
+from ... import transforms as tf
+from ...errors import ExportError
+from ...meshfiles import MESH_DIR, collision_relpath, visual_relpath, write_object_meshes
+from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, validate
+from .conventions import (
+    COLLISION_GROUP,
+    KEYFRAME,
+    METADATA,
+    VISUAL_GROUP,
+    WORLD,
+    custom_name,
+    describe_mujoco_error,
+    float32,
+    snap_unit,
+)
+
+SUFFIX = ".xml"
+
+# MuJoCo 4.0.0 leaves out an inertial pos of zero when it writes a spec as authored, and its
+# own parser then refuses the file (the attribute is required): it is put back.
+_INERTIAL_WITHOUT_POS = re.compile(r"<inertial (?![^>]*\bpos=)")
+
+
+def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
+    """Write ``out_dir/<obj.name>.xml`` (and, if ``write_meshes``, the shared mesh files).
+
+    MuJoCo compiles the model, reading the mesh files the XML references, before the XML is
+    written; if it refuses, :class:`ExportError` names the part or joint and nothing is left
+    behind. Without ``write_meshes`` the mesh files must already be in ``out_dir`` (as
+    :func:`real2code_export.formats.export` writes them).
+    """
+    validate(obj)
+    out_dir = Path(out_dir)
+    if not write_meshes:
+        return _write_xml(obj, out_dir)
+    # The meshes are staged with the XML, so a refused model leaves neither behind, and each
+    # file is written once: the compiler reads the very files the XML references.
+    with atomic.staged_output(out_dir) as staging:
+        write_object_meshes(obj, staging)
+        _write_xml(obj, staging)
+    return out_dir / f"{obj.name}{SUFFIX}"
+
+
+def build_spec(obj: ArticulatedObject, *, mesh_dir: Path | None = None):
+    """The model as a ``mujoco.MjSpec`` that compiles as it is (calibration simulates it,
+    tests compile it).
+
+    Without ``mesh_dir`` the meshes are given as vertices and faces, so nothing needs to be
+    on disk (and :func:`to_xml` of that spec holds them inline); with it, they are the files
+    in that folder (the ``meshes`` folder of an export), as in the saved XML.
+    """
+    validate(obj)
+    if mesh_dir is None:
+        return _build(obj, meshdir=MESH_DIR, in_memory=True)
+    return _build(obj, meshdir=str(Path(mesh_dir).resolve()))
+
+
+def to_xml(spec, obj: ArticulatedObject) -> str:
+    """MJCF text of a spec made by :func:`build_spec` (MuJoCo compiles it first)."""
+    try:
+        text = spec.to_xml()
+    except ValueError as e:
+        message, name, _tag, _line = describe_mujoco_error(str(e))
+        where = _element_owner(obj, name) if name is not None else f"object {obj.name!r}"
+        raise ExportError(f"MJCF: MuJoCo refused {where}: {message}") from e
+    return _INERTIAL_WITHOUT_POS.sub('<inertial pos="0 0 0" ', text)
+
+
+def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
+    spec = _build(obj, meshdir=MESH_DIR, model_dir=out_dir)
+    return atomic.write_text(out_dir / f"{obj.name}{SUFFIX}", to_xml(spec, obj))
+
+
+# -- the spec ---------------------------------------------------------------------------------
+def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
+           model_dir: Path | None = None):
+    import mujoco
+
+    spec = mujoco.MjSpec()
+    spec.modelname = obj.name
+    compiler = spec.compiler
+    compiler.degree = False  # MjSpec defaults to degrees; the model is in radians
+    compiler.autolimits = True
+    compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    # validate() accepts A + B >= C up to 1e-9 (rounding); MuJoCo accepts no shortfall at all.
+    compiler.balanceinertia = True
+    # Save what the spec holds, every number at full precision (compiled values are printed
+    # with 6 digits), fullinertia as written.
+    compiler.savecompiled = False
+    compiler.savecanonical = False
+    spec.meshdir = meshdir
+    if model_dir is not None:
+        spec.modelfiledir = str(model_dir) + "/"
+
+    parts = obj.parts_in_tree_order()
+    for part in parts:
+        for rel, mesh, visual in _mesh_files(part):
+            if in_memory:  # user vertices: no file, no text to format and parse
+                asset = spec.add_mesh(name=_stem(rel))
+                asset.uservert = mesh.vertices.ravel()
+                asset.userface = mesh.faces.astype(np.int32).ravel()
+            else:
+                asset = spec.add_mesh(name=_stem(rel), file=rel.removeprefix(MESH_DIR + "/"))
+            if visual:  # scans are often open or flat: no volume, but an area
+                asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+
+    joints = list(obj.joints_in_tree_order())
+    root = obj.root
+    if root.name == WORLD:  # MuJoCo's own world body is that part (its mass goes to <custom>)
+        bodies = {WORLD: spec.worldbody}
+        _add_geoms(spec.worldbody, root)
+    else:
+        bodies = {root.name: _add_body(spec.worldbody, root, None)}
+    for joint in joints:
+        bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
+    for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
+        spec.add_exclude(bodyname1=joint.parent, bodyname2=joint.child)
+    _add_custom(spec, obj, parts, joints)
+    movable = [j for j in joints if j.type.movable]
+    if movable:  # bodies, hence qpos, are in this same depth-first order
+        spec.add_key(name=KEYFRAME, qpos=[j.state for j in movable])
+    return spec
+
+
+def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:
+    items = [(visual_relpath(part.name), part.visual, True)] if part.visual is not None else []
+    items += [(collision_relpath(part.name, k), m, False) for k, m in enumerate(part.collision)]
+    return items
+
+
+def _stem(relpath: str) -> str:
+    """The mesh asset's name: its file name without folder and extension."""
+    return relpath.rpartition("/")[2].rpartition(".")[0]
+
+
+def _add_body(parent, part: Part, joint: Joint | None):
+    if joint is None:
+        body = parent.add_body(name=part.name)
+    else:
+        rotation = tf.matrix_to_quat(joint.origin[:3, :3])
+        body = parent.add_body(name=part.name, pos=[x + 0.0 for x in joint.origin[:3, 3]],
+                               quat=snap_unit(rotation, sign_free=True))
+        if joint.type.movable:
+            _add_joint(body, joint)
+    if part.inertial is not None:
+        body.explicitinertial = True
+        body.mass = part.inertial.mass
+        body.ipos = [x + 0.0 for x in part.inertial.com]
+        body.fullinertia = full_inertia(part.inertial.inertia)
+    _add_geoms(body, part)
+    return body
+
+
+def full_inertia(inertia) -> list[float]:
+    """MJCF's fullinertia order: ixx iyy izz ixy ixz iyz."""
+    return [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2],
+            inertia[1, 2]]
+
+
+def _add_geoms(body, part: Part) -> None:
+    import mujoco
+
+    mesh_geom = mujoco.mjtGeom.mjGEOM_MESH
+    rgba = float32(part.color)
+    if part.visual is not None:
+        body.add_geom(name=f"{part.name}_visual", type=mesh_geom,
+                      meshname=_stem(visual_relpath(part.name)), contype=0, conaffinity=0,
+                      group=VISUAL_GROUP, rgba=rgba)
+    for k in range(len(part.collision)):
+        body.add_geom(name=f"{part.name}_collision_{k}", type=mesh_geom,
+                      meshname=_stem(collision_relpath(part.name, k)), group=COLLISION_GROUP,
+                      rgba=rgba)
+
+
+def _add_joint(body, joint: Joint) -> None:
+    import mujoco
+
+    d = joint.dynamics
+    kind = mujoco.mjtJoint.mjJNT_HINGE if joint.type.angular else mujoco.mjtJoint.mjJNT_SLIDE
+    options = dict(name=joint.name, type=kind, axis=snap_unit(joint.axis), damping=d.damping,
+                   frictionloss=d.friction, stiffness=d.stiffness, springref=d.spring_ref,
+                   armature=d.armature)
+    limits = joint.limits
+    if limits is None:
+        options["limited"] = mujoco.mjtLimited.mjLIMITED_FALSE
+    else:
+        options["limited"] = mujoco.mjtLimited.mjLIMITED_TRUE
+        options["range"] = [limits.lower, limits.upper]
+        if limits.effort is not None and limits.effort > 0:  # 0 is kept in <custom>
+            options["actfrclimited"] = mujoco.mjtLimited.mjLIMITED_TRUE
+            options["actfrcrange"] = [-limits.effort, limits.effort]
+    body.add_joint(**options)
+
+
+def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Joint]) -> None:
+    for joint in joints:
+        if joint.type is JointType.FIXED:  # a jointless body has no joint name to carry
+            spec.add_text(name=custom_name(joint.child, "parent_joint"), data=joint.name)
+        limits = joint.limits
+        if limits is not None and limits.velocity is not None:
+            spec.add_numeric(name=custom_name(joint.name, "velocity"), data=[limits.velocity])
+        if limits is not None and limits.effort is not None and not limits.effort > 0:
+            spec.add_numeric(name=custom_name(joint.name, "effort"), data=[limits.effort])
+    for part in parts:
+        if part.visual is None and not part.collision:  # no geom to carry its colour
+            spec.add_numeric(name=custom_name(part.name, "color"), data=list(part.color))
+    root = parts[0]
+    if root.name == WORLD:
+        spec.add_text(name=custom_name(WORLD, "part"), data="root")
+        if root.inertial is not None:
+            i = root.inertial
+            spec.add_numeric(name=custom_name(WORLD, "inertial"),
+                             data=[i.mass, *i.com, *full_inertia(i.inertia)])
+    if obj.metadata:
+        try:
+            text = json.dumps(obj.metadata, sort_keys=True, separators=(",", ":"),
+                              allow_nan=False)
+        except (TypeError, ValueError) as e:
+            raise ExportError(f"object {obj.name!r}: metadata is not JSON-serialisable: {e}") from e
+        # MuJoCo writes text as CDATA, which "]]>" would end; \u003e is the same JSON.
+        spec.add_text(name=METADATA, data=text.replace(">", "\\u003e"))
+
+
+def _element_owner(obj: ArticulatedObject, name: str) -> str:
+    """Which part or joint a MuJoCo element name belongs to (body, joint, geom, mesh)."""
+    owners = []
+    for part in obj.parts:
+        names = {part.name, f"{part.name}_visual"} | {
+            f"{part.name}_collision_{k}" for k in range(len(part.collision))}
+        if name in names:
+            owners.append(f"part {part.name!r}" + ("" if name == part.name else f" ({name!r})"))
+    owners += [f"joint {j.name!r}" for j in obj.joints if j.name == name]
+    return " or ".join(owners) if owners else repr(name)

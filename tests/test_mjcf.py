@@ -1,0 +1,615 @@
+"""MJCF export and import through MuJoCo's MjSpec: the files compile from disk, MuJoCo's
+kinematics and dynamics parameters are the model's, import(export(obj)) == obj, and
+export -> import -> export gives the same bytes. Third-party MJCF (classes, frames, degrees,
+fromto, joint anchors and references, primitives) is read as MuJoCo itself reads it."""
+
+from __future__ import annotations
+
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from real2code_export import transforms as tf
+from real2code_export.errors import ExportError, FormatError, Real2CodeWarning
+from real2code_export.formats import export, mjcf
+from real2code_export.formats import load as load_any
+from real2code_export.model import (
+    ArticulatedObject,
+    Dynamics,
+    Inertial,
+    Joint,
+    Limits,
+    Mesh,
+    Part,
+    differences,
+    forward_kinematics,
+    sample_configuration,
+)
+
+from conftest import partnet_dir
+
+
+# -- objects built here ----------------------------------------------------------------------
+def box(extents, center=(0.0, 0.0, 0.0)) -> Mesh:
+    m = trimesh.creation.box(extents=extents)
+    m.apply_translation(center)
+    return Mesh.from_trimesh(m)
+
+
+def box_inertial(extents, mass, center=(0.0, 0.0, 0.0)) -> Inertial:
+    x, y, z = extents
+    return Inertial(mass, center, mass / 12 * np.diag([y * y + z * z, x * x + z * z, x * x + y * y]))
+
+
+def cabinet() -> ArticulatedObject:
+    """A cabinet with a revolute door (rotated, off-axis hinge) carrying a continuous knob, a
+    prismatic drawer with a fixed handle, an open flat shelf without collision or mass, and
+    a geometry-less marker part: every field set somewhere."""
+    body = Part("body", box([0.5, 0.6, 0.8], [0, 0, 0.4]), [box([0.5, 0.6, 0.8], [0, 0, 0.4])],
+                box_inertial([0.5, 0.6, 0.8], 20.0, [0, 0, 0.4]), (0.6, 0.4, 0.2, 1.0))
+    door = Part("door", box([0.02, 0.3, 0.4], [0, 0.15, 0]),
+                [box([0.02, 0.15, 0.4], [0, 0.075, 0]), box([0.02, 0.15, 0.4], [0, 0.225, 0])],
+                box_inertial([0.02, 0.3, 0.4], 2.0, [0, 0.15, 0]), (0.8, 0.8, 0.75, 1.0))
+    # A tilted inertia (off-diagonal terms) on the drawer.
+    tilt = tf.rpy_to_matrix([0.2, -0.1, 0.4])
+    drawer_inertial = box_inertial([0.4, 0.28, 0.15], 1.5, [0.01, 0.0, -0.02])
+    drawer_inertial.inertia = tilt @ drawer_inertial.inertia @ tilt.T
+    drawer = Part("drawer", box([0.4, 0.28, 0.15]), [box([0.4, 0.28, 0.15])], drawer_inertial,
+                  (0.2, 0.3, 0.9, 0.5))
+    handle = Part("handle", box([0.03, 0.02, 0.1]), [box([0.03, 0.02, 0.1])],
+                  box_inertial([0.03, 0.02, 0.1], 0.1))
+    knob = Part("knob", box([0.02, 0.03, 0.03]), [box([0.02, 0.03, 0.03])],
+                box_inertial([0.02, 0.03, 0.03], 0.05), (0.1, 0.1, 0.1, 1.0))
+    # One open, flat quad (a scan fragment): no volume, which MuJoCo must still accept.
+    quad = Mesh(np.array([[0, 0, 0], [0.4, 0, 0], [0, 0.5, 0], [0.4, 0.5, 0.0]]),
+                np.array([[0, 1, 2], [1, 3, 2]]))
+    shelf = Part("shelf", quad, [], None, (0.9, 0.9, 0.9, 1.0))
+    marker = Part("marker", None, [], None, (0.25, 0.5, 0.75, 1.0))
+    axis = np.array([0.0, 0.1, 1.0]) / np.linalg.norm([0.0, 0.1, 1.0])
+    joints = [
+        Joint("door_hinge", "revolute", "body", "door",
+              origin=tf.make(tf.rpy_to_matrix([0.0, 0.0, 0.1]), [0.26, -0.3, 0.6]), axis=axis,
+              limits=Limits(-0.1, 1.6, effort=5.0, velocity=2.0),
+              dynamics=Dynamics(damping=0.5, friction=0.1, stiffness=0.2, spring_ref=0.1,
+                                armature=0.01), state=0.4),
+        Joint("drawer_slide", "prismatic", "body", "drawer", origin=tf.make(None, [0.05, 0.1, 0.2]),
+              axis=[1.0, 0.0, 0.0], limits=Limits(0.0, 0.35, effort=0.0),
+              dynamics=Dynamics(damping=2.0, friction=0.3, armature=0.05), state=0.12),
+        Joint("handle_mount", "fixed", "drawer", "handle", origin=tf.make(None, [0.22, 0.0, 0.0])),
+        Joint("knob_turn", "continuous", "door", "knob",
+              origin=tf.make(tf.rpy_to_matrix([0.3, -0.2, 2.5]), [0.02, 0.25, 0.1]),
+              axis=[0.0, 0.6, -0.8], dynamics=Dynamics(damping=0.01, stiffness=0.02,
+                                                      spring_ref=-0.3), state=-0.7),
+        Joint("shelf_mount", "fixed", "body", "shelf",
+              origin=tf.make(tf.rpy_to_matrix([np.pi, 0.0, 0.0]), [-0.2, -0.25, 0.3])),
+        Joint("marker_mount", "fixed", "shelf", "marker", origin=tf.make(None, [0.1, 0.1, 0.0])),
+    ]
+    metadata = {"category": "storage_furniture", "note": "tricky ]]> <text> & ünïcode",
+                "nested": {"a": [1, 2.5, None]}}
+    return ArticulatedObject("cabinet", [body, door, drawer, handle, knob, shelf, marker],
+                             joints, metadata)
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    obj = cabinet()
+    out = tmp_path_factory.mktemp("cabinet")
+    return obj, mjcf.save(obj, out)
+
+
+def mesh_count(obj: ArticulatedObject) -> int:
+    return sum((p.visual is not None) + len(p.collision) for p in obj.parts)
+
+
+def qpos_for(model, q: dict[str, float]) -> np.ndarray:
+    qpos = model.qpos0.copy()
+    for name, value in q.items():
+        qpos[model.joint(name).qposadr[0]] = value
+    return qpos
+
+
+def world_poses(model, data, qpos) -> dict[str, np.ndarray]:
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+    return {model.body(b).name: tf.make(data.xmat[b].reshape(3, 3), data.xpos[b])
+            for b in range(1, model.nbody)}
+
+
+# -- export ----------------------------------------------------------------------------------
+def test_file_compiles_from_disk_and_kinematics_match(exported):
+    obj, path = exported
+    assert path.name == "cabinet.xml"
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    assert sorted(model.body(b).name for b in range(1, model.nbody)) == sorted(
+        p.name for p in obj.parts)
+    rng = np.random.default_rng(7)
+    configurations = [sample_configuration(obj, rng) for _ in range(100)]
+    configurations += [{}, obj.observed_configuration()]
+    worst = 0.0
+    for q in configurations:
+        ours = forward_kinematics(obj, q)
+        theirs = world_poses(model, data, qpos_for(model, q))
+        for name, pose in ours.items():
+            worst = max(worst, float(np.abs(pose - theirs[name]).max()))
+    assert worst < 1e-9, worst
+
+
+def test_structure_dynamics_and_limits_land_in_the_compiled_model(exported):
+    obj, path = exported
+    model = mujoco.MjModel.from_xml_path(str(path))
+    # Root: a jointless child of the world; fixed joints: jointless nested bodies.
+    assert model.body("body").parentid[0] == 0 and model.body("body").jntnum[0] == 0
+    for fixed in ("handle", "shelf", "marker"):
+        assert model.body(fixed).jntnum[0] == 0
+    assert model.body("marker").parentid[0] == model.body("shelf").id
+    assert model.njnt == len(obj.movable_joints)
+    for joint in obj.movable_joints:
+        mj = model.joint(joint.name)
+        dof, qadr = mj.dofadr[0], mj.qposadr[0]
+        kind = mujoco.mjtJoint.mjJNT_HINGE if joint.type.angular else mujoco.mjtJoint.mjJNT_SLIDE
+        assert mj.type[0] == kind
+        assert model.jnt_bodyid[mj.id] == model.body(joint.child).id
+        np.testing.assert_allclose(mj.pos, 0.0, atol=0)
+        np.testing.assert_allclose(mj.axis, joint.axis, atol=1e-11)
+        d = joint.dynamics
+        assert model.dof_damping[dof] == d.damping
+        assert model.dof_frictionloss[dof] == d.friction
+        assert model.jnt_stiffness[mj.id] == d.stiffness
+        assert model.qpos_spring[qadr] == d.spring_ref
+        assert model.dof_armature[dof] == d.armature
+        assert bool(model.jnt_limited[mj.id]) == (joint.limits is not None)
+        if joint.limits is not None:
+            assert tuple(model.jnt_range[mj.id]) == (joint.limits.lower, joint.limits.upper)
+        has_effort = joint.limits is not None and bool(joint.limits.effort)
+        assert bool(model.jnt_actfrclimited[mj.id]) == has_effort
+        if has_effort:
+            assert tuple(model.jnt_actfrcrange[mj.id]) == (-joint.limits.effort,
+                                                           joint.limits.effort)
+        assert model.key("observed").qpos[qadr] == joint.state
+    # Explicit inertials; the massless shelf has none.
+    for part in obj.parts:
+        b = model.body(part.name)
+        if part.inertial is None:
+            assert b.mass[0] == 0.0
+            continue
+        assert b.mass[0] == part.inertial.mass
+        np.testing.assert_array_equal(b.ipos, part.inertial.com)
+        rot = tf.quat_to_matrix(b.iquat)
+        np.testing.assert_allclose(rot @ np.diag(b.inertia) @ rot.T, part.inertial.inertia,
+                                   atol=1e-12)
+    # Geoms: one non-colliding visual (group 2, the colour) and colliding pieces (group 3).
+    for part in obj.parts:
+        b = model.body(part.name)
+        geoms = range(b.geomadr[0], b.geomadr[0] + b.geomnum[0])
+        visual = [g for g in geoms if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0]
+        colliding = [g for g in geoms if g not in visual]
+        assert len(visual) == (part.visual is not None)
+        assert len(colliding) == len(part.collision)
+        assert all(model.geom_group[g] == 2 for g in visual)
+        assert all(model.geom_group[g] == 3 for g in colliding)
+        for g in geoms:
+            assert model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH
+            np.testing.assert_allclose(model.geom_rgba[g], part.color, atol=1e-7)
+    # No contact between a child and its parent, fixed joints included.
+    excluded = {frozenset((model.body(int(s >> 16)).name, model.body(int(s & 0xFFFF)).name))
+                for s in model.exclude_signature}
+    assert excluded == {frozenset((j.parent, j.child)) for j in obj.joints}
+
+
+def test_compiler_settings_and_mesh_references(exported):
+    _, path = exported
+    spec = mujoco.MjSpec.from_file(str(path))
+    assert spec.compiler.degree is False
+    assert spec.compiler.autolimits is True
+    assert spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    assert spec.meshdir == "meshes"
+    files = sorted(m.file for m in spec.meshes)
+    assert files == sorted(p.name for p in (path.parent / "meshes").iterdir())
+    assert "shelf.obj" in files and not any("shelf_collision" in f for f in files)
+
+
+def test_build_spec_compiles_with_nothing_on_disk(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    obj = cabinet()
+    model = mjcf.build_spec(obj).compile()
+    assert model.nbody == len(obj.parts) + 1 and model.nmesh == mesh_count(obj)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_build_spec_reads_an_existing_mesh_folder(exported):
+    obj, path = exported
+    spec = mjcf.build_spec(obj, mesh_dir=path.parent / "meshes")
+    assert spec.compile().nmesh == mesh_count(obj)
+    # The same spec as text is the saved file, except where the meshes are read from.
+    text = mjcf.to_xml(spec, obj).replace(f'meshdir="{path.parent / "meshes"}"',
+                                          'meshdir="meshes"')
+    assert text == path.read_text()
+
+
+# -- round trips -----------------------------------------------------------------------------
+def test_import_of_export_is_the_same_model(exported):
+    obj, path = exported
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", Real2CodeWarning)  # our own files need no repair
+        back = mjcf.load(path)
+    assert differences(obj, back, tol=1e-6) == []
+    assert back.metadata == obj.metadata
+    assert [p.name for p in back.parts_in_tree_order()] == [
+        p.name for p in obj.parts_in_tree_order()]
+    door = back.joint("door_hinge").limits
+    assert (door.effort, door.velocity) == (5.0, 2.0)
+    assert back.joint("drawer_slide").limits.effort == 0.0
+    assert back.part("marker").color == obj.part("marker").color
+    assert back.part("shelf").inertial is None and back.part("shelf").collision == []
+
+
+def test_export_import_export_gives_the_same_bytes(exported, tmp_path):
+    obj, path = exported
+    again = mjcf.save(mjcf.load(path), tmp_path / "again")
+    assert again.read_bytes() == path.read_bytes()
+    third = mjcf.save(mjcf.load(again), tmp_path / "third")
+    assert third.read_bytes() == path.read_bytes()
+
+
+def test_output_is_deterministic(exported, tmp_path):
+    obj, path = exported
+    other = mjcf.save(cabinet(), tmp_path)
+    assert other.read_bytes() == path.read_bytes()
+    for mesh in (path.parent / "meshes").iterdir():
+        assert (tmp_path / "meshes" / mesh.name).read_bytes() == mesh.read_bytes()
+
+
+def test_registry_export_and_load(tmp_path):
+    obj = cabinet()
+    written = export(obj, tmp_path, ["mjcf"])
+    assert written["mjcf"] == tmp_path / "cabinet.xml"
+    assert differences(obj, load_any(written["mjcf"]), tol=1e-6) == []
+
+
+def test_world_root_part_is_mujocos_world_body(tmp_path):
+    obj = cabinet()
+    obj.part("body").name = "world"
+    for joint in obj.joints:
+        joint.parent = "world" if joint.parent == "body" else joint.parent
+    path = mjcf.save(obj, tmp_path)
+    model = mujoco.MjModel.from_xml_path(str(path))
+    assert model.body("door").parentid[0] == 0 and model.body_geomnum[0] == 2
+    back = mjcf.load(path)
+    assert differences(obj, back, tol=1e-6) == []
+    assert mjcf.save(back, tmp_path / "again").read_bytes() == path.read_bytes()
+
+
+# -- refusals --------------------------------------------------------------------------------
+def test_model_mujoco_refuses_leaves_nothing_behind(tmp_path):
+    obj = cabinet()
+    obj.joint("door_hinge").limits = Limits(0.3, 0.3)  # valid here, refused by MuJoCo
+    obj.joint("door_hinge").state = 0.3
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(ExportError, match="joint 'door_hinge'.*range"):
+        mjcf.save(obj, out)
+    assert list(out.iterdir()) == []
+    with pytest.raises(ExportError, match="door_hinge"):
+        export(obj, tmp_path / "new", ["mjcf"])
+    assert not (tmp_path / "new").exists()
+
+
+def write(path, text):
+    path.write_text(text)
+    return path
+
+
+def test_malformed_xml_names_file_and_line(tmp_path):
+    path = write(tmp_path / "broken.xml", "<mujoco>\n  <worldbody>\n    <body>\n</mujoco>\n")
+    with pytest.raises(FormatError) as err:
+        mjcf.load(path)
+    assert err.value.path == str(path) and err.value.line is not None
+    assert "broken.xml" in str(err.value)
+
+
+def test_missing_mesh_file_names_file_and_mesh(tmp_path):
+    path = write(tmp_path / "nomesh.xml", """<mujoco>
+  <asset>
+    <mesh name="door" file="gone.obj"/>
+  </asset>
+  <worldbody><body><geom type="mesh" mesh="door"/></body></worldbody>
+</mujoco>
+""")
+    with pytest.raises(FormatError, match=r"nomesh\.xml:3: <mesh name='door'>: mesh file not found"):
+        mjcf.load(path)
+
+
+def test_compile_error_names_file_element_and_line(tmp_path):
+    path = write(tmp_path / "physics.xml", """<mujoco>
+  <worldbody>
+    <body name="base"><geom size="0.1"/>
+      <body name="lid">
+        <joint name="hinge"/>
+        <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.5"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.raises(FormatError, match=r"physics\.xml:4: <body name='lid'>: inertia must satisfy"):
+        mjcf.load(path)
+
+
+def test_ball_joint_is_refused_naming_the_body(tmp_path):
+    path = write(tmp_path / "ball.xml", """<mujoco>
+  <worldbody>
+    <body name="base"><geom size="0.1"/>
+      <body name="arm"><joint name="shoulder" type="ball"/><geom size="0.1"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.raises(FormatError, match=r"ball\.xml:4: <body name='arm'>: has a ball joint"):
+        mjcf.load(path)
+
+
+def test_two_joints_in_one_body_are_refused(tmp_path):
+    path = write(tmp_path / "two.xml", """<mujoco>
+  <worldbody>
+    <body name="base"><geom size="0.1"/>
+      <body name="arm"><joint axis="1 0 0"/><joint axis="0 1 0"/><geom size="0.1"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.raises(FormatError, match=r"two\.xml:4: <body name='arm'>: has 2 joints"):
+        mjcf.load(path)
+
+
+def test_unlimited_slide_is_refused(tmp_path):
+    path = write(tmp_path / "slide.xml", """<mujoco>
+  <worldbody>
+    <body name="base"><geom size="0.1"/>
+      <body name="cart"><joint name="rail" type="slide"/><geom size="0.1"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.raises(FormatError, match=r"slide\.xml:4: <joint name='rail'>: .*needs limits"):
+        mjcf.load(path)
+
+
+# -- third-party MJCF ------------------------------------------------------------------------
+PRISM_OBJ = """v 0 0 0
+v 0.1 0 0
+v 0 0.1 0
+v 0 0 0.05
+v 0.1 0 0.05
+v 0 0.1 0.05
+f 1 3 2
+f 4 5 6
+f 1 2 5
+f 1 5 4
+f 2 3 6
+f 2 6 5
+f 3 1 4
+f 3 4 6
+"""
+
+THIRD_PARTY = """<mujoco model="third party">
+  <compiler angle="degree" meshdir="assets"/>
+  <default>
+    <default class="panel">
+      <geom type="box" rgba="0.2 0.4 0.6 1"/>
+      <joint damping="0.3" armature="0.02"/>
+    </default>
+  </default>
+  <asset>
+    <material name="steel" rgba="0.9 0.1 0.1 1"/>
+    <mesh name="prism" file="prism.obj" scale="2 1 1"/>
+  </asset>
+  <worldbody>
+    <body name="base frame" pos="0 0 0.5" euler="0 0 30">
+      <freejoint/>
+      <inertial pos="0 0 0.1" mass="5" diaginertia="0.3 0.2 0.15" quat="0.9 0.1 0.2 0.3"/>
+      <geom type="box" size="0.3 0.3 0.05"/>
+      <frame pos="0.1 0 0" euler="90 0 0">
+        <body name="lid" pos="0 0.05 0" childclass="panel">
+          <joint name="lid hinge" type="hinge" pos="0.2 0 0" axis="0 1 0" range="-10 80"
+                 ref="15" springref="20" stiffness="0.5"/>
+          <geom size="0.2 0.01 0.2" contype="0" conaffinity="0"/>
+          <geom type="capsule" fromto="0 0 0 0.1 0 0.05" size="0.01"/>
+          <geom type="mesh" mesh="prism" pos="0 0.1 0" euler="0 0 45" contype="0"
+                conaffinity="0" class="main" material="steel"/>
+          <body name="knob" pos="0.1 0.1 0">
+            <joint type="hinge" axis="1 0 0"/>
+            <geom type="cylinder" size="0.02 0.01" mass="0.1"/>
+          </body>
+        </body>
+      </frame>
+      <body name="slider" pos="0 0.2 0">
+        <joint name="slide" type="slide" axis="1 0 0" range="0 0.3" pos="0.01 0.02 0.03"/>
+        <geom type="sphere" size="0.05" group="1"/>
+        <geom type="ellipsoid" size="0.05 0.03 0.02" group="3"/>
+        <inertial pos="0 0 0" mass="1" fullinertia="0.01 0.02 0.025 0.001 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><motor joint="slide"/></actuator>
+</mujoco>
+"""
+
+
+@pytest.fixture
+def third_party(tmp_path):
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "prism.obj").write_text(PRISM_OBJ)
+    return write(tmp_path / "third_party.xml", THIRD_PARTY)
+
+
+def load_with_warnings(path):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = mjcf.load(path)
+    return obj, "\n".join(str(w.message) for w in caught if w.category is Real2CodeWarning)
+
+
+def test_third_party_structure_names_and_repairs(third_party):
+    obj, said = load_with_warnings(third_party)
+    assert obj.name == "third_party"
+    assert {p.name for p in obj.parts} == {"base_frame", "lid", "knob", "slider"}
+    assert obj.root.name == "base_frame"
+    assert {j.name: j.type.value for j in obj.joints} == {
+        "lid_hinge": "revolute", "knob_joint": "continuous", "slide": "prismatic"}
+    for expected in ("free joints ignored", "'base frame' -> 'base_frame'",
+                     "'lid hinge' -> 'lid_hinge'", "1 actuator"):
+        assert expected in said, said
+    lid = obj.joint("lid_hinge")
+    np.testing.assert_allclose([lid.limits.lower, lid.limits.upper], np.radians([-10, 80]))
+    assert lid.dynamics.damping == pytest.approx(0.3)  # from the class
+    assert lid.dynamics.armature == pytest.approx(0.02)
+    assert lid.dynamics.spring_ref == pytest.approx(np.radians(20))
+    assert lid.state == pytest.approx(np.radians(15))  # no keyframe: the pose as written
+    # The lid: a visual box and the prism mesh (both non-colliding) and a colliding capsule,
+    # which shows (group 0) and so serves as both.
+    lid_part = obj.part("lid")
+    assert len(lid_part.collision) == 1
+    assert len(lid_part.visual.vertices) == 8 + len(lid_part.collision[0].vertices) + 6
+    assert obj.part("lid").color == pytest.approx((0.2, 0.4, 0.6, 1.0))
+    # The base's one box collides and shows: it serves as both.
+    base = obj.part("base_frame")
+    assert len(base.collision) == 1 and base.visual is not None
+    # The slider's group-1 sphere is its visual, both of its geoms collide.
+    slider = obj.part("slider")
+    assert len(slider.collision) == 2
+    assert len(slider.visual.vertices) == len(slider.collision[0].vertices)
+    # The knob's inertial is MuJoCo's, inferred from its geom.
+    assert obj.part("knob").inertial.mass == pytest.approx(0.1)
+
+
+def test_third_party_geometry_and_kinematics_are_mujocos(third_party):
+    """At random joint values (by name; ref and anchors handled), every imported collision
+    piece sits where MuJoCo puts its geom, and the visual of the lid contains MuJoCo's mesh."""
+    obj, _ = load_with_warnings(third_party)
+    model = mujoco.MjModel.from_xml_path(str(third_party))
+    data = mujoco.MjData(model)
+    qpos_adr = {"lid_hinge": model.joint("lid hinge").qposadr[0],
+                "knob_joint": model.jnt_qposadr[model.body("knob").jntadr[0]],  # unnamed
+                "slide": model.joint("slide").qposadr[0]}
+    bodies = {"base_frame": "base frame", "lid": "lid", "knob": "knob", "slider": "slider"}
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q = sample_configuration(obj, rng)
+        poses = forward_kinematics(obj, q)
+        data.qpos[:] = model.qpos0
+        for name, adr in qpos_adr.items():
+            data.qpos[adr] = q[name]
+        mujoco.mj_kinematics(model, data)
+        for part_name, body_name in bodies.items():
+            b = model.body(body_name)
+            geoms = [g for g in range(b.geomadr[0], b.geomadr[0] + b.geomnum[0])
+                     if model.geom_contype[g] or model.geom_conaffinity[g]]
+            for piece, g in zip(obj.part(part_name).collision, geoms, strict=True):
+                world = piece.transformed(poses[part_name]).vertices
+                local = (world - data.geom_xpos[g]) @ data.geom_xmat[g].reshape(3, 3)
+                np.testing.assert_allclose(local.mean(axis=0), 0.0, atol=1e-9)
+                if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+                    np.testing.assert_allclose(np.abs(local).max(axis=0), model.geom_size[g],
+                                               atol=1e-9)
+                if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_CAPSULE:
+                    radius, half = model.geom_size[g][:2]
+                    assert np.abs(local[:, 2]).max() == pytest.approx(half + radius, abs=1e-9)
+        # The prism: MuJoCo's (float32) vertices placed by MuJoCo == ours placed by the model.
+        g = next(g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH)
+        mesh = model.geom_dataid[g]
+        verts = model.mesh_vert[model.mesh_vertadr[mesh]:model.mesh_vertadr[mesh]
+                                + model.mesh_vertnum[mesh]]
+        theirs = verts @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+        ours = obj.part("lid").visual.transformed(poses["lid"]).vertices
+        distance = np.linalg.norm(theirs[:, None, :] - ours[None, :, :], axis=2).min(axis=1)
+        assert distance.max() < 1e-6
+
+
+def test_third_party_import_exports_losslessly(third_party, tmp_path):
+    obj, _ = load_with_warnings(third_party)
+    first = mjcf.save(obj, tmp_path / "first")
+    back = mjcf.load(first)
+    assert differences(obj, back, tol=1e-6) == []
+    assert mjcf.save(back, tmp_path / "second").read_bytes() == first.read_bytes()
+
+
+def test_world_geoms_make_a_world_root_part(tmp_path):
+    path = write(tmp_path / "scene.xml", """<mujoco model="scene">
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <geom name="post" type="box" size="0.05 0.05 0.5" pos="0 0 0.5"/>
+    <body name="door" pos="0.05 0 0.5">
+      <joint name="hinge" axis="0 0 1" range="0 1.5"/>
+      <geom type="box" size="0.01 0.3 0.4" pos="0 0.3 0"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    obj, said = load_with_warnings(path)
+    assert obj.root.name == "world"
+    assert obj.joint("hinge").parent == "world"
+    assert len(obj.part("world").collision) == 1  # the plane has no finite surface
+    assert "plane" in said
+    again = mjcf.save(obj, tmp_path / "out")
+    assert differences(obj, mjcf.load(again), tol=1e-6) == []
+
+
+# -- the procedural generator, when present --------------------------------------------------
+def _categories() -> list[str]:
+    try:
+        from pipeline.procedural import CATEGORIES
+    except ImportError:
+        return ["absent"]
+    return list(CATEGORIES)
+
+
+@pytest.mark.parametrize("category", _categories())
+def test_generated_objects_round_trip(category, tmp_path):
+    if category == "absent":
+        pytest.skip("pipeline.procedural is not available")
+    from pipeline.procedural import generate
+
+    obj = generate(category, None, 11)
+    path = mjcf.save(obj, tmp_path / "a")
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        q = sample_configuration(obj, rng)
+        theirs = world_poses(model, data, qpos_for(model, q))
+        for name, pose in forward_kinematics(obj, q).items():
+            np.testing.assert_allclose(theirs[name], pose, atol=1e-9)
+    back = mjcf.load(path)
+    assert differences(obj, back, tol=1e-6) == []
+    assert mjcf.save(back, tmp_path / "b").read_bytes() == path.read_bytes()
+
+
+# -- real third-party objects (PartNet-Mobility URDF) through MJCF ---------------------------
+PARTNET_SAMPLE = ["40147", "11361", "100189", "12553"]  # small ones: the URDF reader is slow
+
+
+@pytest.mark.partnet
+@pytest.mark.parametrize("object_id", PARTNET_SAMPLE)
+def test_partnet_objects_through_mjcf(object_id, tmp_path):
+    folder = partnet_dir() / object_id
+    if not folder.is_dir():
+        pytest.skip(f"PartNet-Mobility object {object_id} not in the shared data")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)  # the URDF reader's repairs
+        obj = load_any(folder / "mobility.urdf")
+    path = mjcf.save(obj, tmp_path / "a")
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q = sample_configuration(obj, rng)
+        theirs = world_poses(model, data, qpos_for(model, q))
+        for name, pose in forward_kinematics(obj, q).items():
+            np.testing.assert_allclose(theirs[name], pose, atol=1e-9)
+    back = mjcf.load(path)
+    assert differences(obj, back, tol=1e-6) == []
+    assert mjcf.save(back, tmp_path / "b").read_bytes() == path.read_bytes()
