@@ -121,6 +121,43 @@ def cmd_articulate(args) -> int:
     return EXIT_OK if report.ok else EXIT_DISAGREE
 
 
+def cmd_evaluate_joints(args) -> int:
+    """The paper's joint metrics for our predictors, by bucket, with ground-truth parts."""
+    from pipeline.evaluate_articulation import evaluate, markdown, partnet_cases, procedural_cases
+    from pipeline.predictors import get_predictor
+
+    from . import atomic
+
+    sets = {"procedural test set": procedural_cases(args.objects, args.seed)}
+    partnet = Path(args.partnet) if args.partnet else None
+    if partnet is not None:
+        if not (partnet / "index.json").is_file():
+            raise Real2CodeError(f"{partnet}: no PartNet-Mobility index.json here")
+        sets["PartNet-Mobility dev"] = partnet_cases(partnet, "dev", args.seed)
+        sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
+            partnet, "holdout", args.seed)
+    results: dict = {}
+    text = []
+    for set_name, cases in sets.items():
+        rows = {}
+        for name in args.predictors.split(","):
+            scores, seconds = evaluate(get_predictor(name.strip()), cases)
+            rows[name] = scores.table()
+            results.setdefault(set_name, {})[name] = {"buckets": rows[name],
+                                                      "seconds_per_object": seconds,
+                                                      "objects": len(cases)}
+            print(f"{set_name}: {name}: {len(cases)} objects, {seconds:.2f} s per object")
+        text.append(markdown(f"{set_name} ({len(cases)} objects)", rows,
+                             show_paper=set_name.startswith("procedural")))
+    table = "\n\n".join(text)
+    print(table)
+    if args.json:
+        atomic.write_text(args.json, json.dumps(results, indent=1) + "\n")
+    if args.markdown:
+        atomic.write_text(args.markdown, table + "\n")
+    return EXIT_OK
+
+
 def cmd_calibrate(args) -> int:
     from .calibrate import run_calibrate
 
@@ -200,6 +237,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--name", help="object name (default: from PARTS)")
     s.add_argument("--configurations", type=int, default=100, help="for the final check")
     s.set_defaults(func=cmd_articulate)
+
+    s = sub.add_parser("evaluate", help="accuracy tables (the paper's metrics)")
+    ev = s.add_subparsers(dest="what", required=True, metavar="WHAT")
+    e = ev.add_parser("joints", help="joint prediction from ground-truth part meshes")
+    e.add_argument("--objects", type=int, default=200, help="procedural test objects")
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--predictors", default="learned,geometric")
+    e.add_argument("--partnet", help="PartNet-Mobility folder (with index.json) to add")
+    e.add_argument("--json", help="write the figures as JSON")
+    e.add_argument("--markdown", help="write the tables as markdown")
+    e.set_defaults(func=cmd_evaluate_joints)
 
     s = sub.add_parser("calibrate", help="fit joint dynamics to measured trajectories")
     s.add_argument("model", help="the model (object.json, .urdf, .xml, ...)")

@@ -74,6 +74,8 @@ class UsdProbe:
                     joints.append((str(p), kind.name, d))
         if not bodies:
             raise CheckError(f"{path}: UsdPhysics finds no rigid bodies")
+        order = {str(p.GetPath()): i for i, p in enumerate(stage.Traverse())}
+        bodies.sort(key=order.__getitem__)
         self.parts = [stage.GetPrimAtPath(b).GetName() for b in bodies]
         if len(set(self.parts)) != len(self.parts):
             raise CheckError(f"{path}: rigid body names are not unique: {sorted(self.parts)}")

@@ -1,0 +1,163 @@
+"""Reading the articulation: UsdPhysics' own parser (UsdPhysicsLoadStageFromPrimRange, the
+non-deprecated name of LoadUsdPhysicsFromRange in usd-core 26.11) lists the rigid bodies,
+joints and collision shapes; this module checks them and orients the joints into a tree
+from the part fixed to the world. No prim names or paths are assumed.
+
+The world: one fixed joint to the world -> its body is the root, placed by that joint; no
+joint to the world -> the single body without a parent is the root, fixed where it stands
+(warned); several joints to the world, or a moving one -> a massless part "world" becomes
+the root (warned).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ... import transforms as tf
+from ...errors import FormatError, warn
+from ...model import JointType
+
+WORLD = ""  # the parser's body path for the world side of a joint
+KINDS = {"RevoluteJoint": None, "PrismaticJoint": JointType.PRISMATIC,
+         "FixedJoint": JointType.FIXED}
+
+
+@dataclass
+class Edge:
+    """One parsed joint, oriented parent -> child once the tree is known."""
+
+    path: str
+    desc: object
+    kind: JointType
+    body0: str
+    body1: str
+    reversed: bool = False  # True when body1 is the parent in the tree
+
+    @property
+    def parent(self) -> str:
+        return self.body1 if self.reversed else self.body0
+
+    @property
+    def child(self) -> str:
+        return self.body0 if self.reversed else self.body1
+
+
+@dataclass
+class Articulation:
+    bodies: list[str]  # rigid body prim paths, in stage order
+    shapes: dict[str, list[str]]  # body path -> collision shape prim paths, in stage order
+    edges: list[Edge]  # tree joints, in stage order, oriented
+    root: str  # a body path, or WORLD for a virtual world part
+    root_placement: np.ndarray | None  # pose of the root body in the world, from its joint
+
+
+def parse(stage, path, mpu: float) -> Articulation:
+    """The checked articulation; positions in metres (``mpu``: metres per stage unit)."""
+    from pxr import Tf, UsdPhysics
+
+    try:
+        parsed = UsdPhysics.UsdPhysicsLoadStageFromPrimRange(stage, ["/"])
+    except Tf.ErrorException as e:
+        raise FormatError(path, None, f"UsdPhysics cannot parse the stage: {e}") from e
+    order = {str(p.GetPath()): i for i, p in enumerate(stage.Traverse())}
+    bodies, shapes, edges = [], {}, []
+    for kind, (paths, descs) in parsed.items():
+        name = kind.name
+        for p, d in zip(paths, descs, strict=True):
+            p = str(p)
+            if name == "RigidBody":
+                bodies.append(p)
+            elif name.endswith("Shape"):
+                body = str(d.rigidBody)
+                if body:
+                    shapes.setdefault(body, []).append(p)
+                else:
+                    warn(f"{path}: collider <{p}> belongs to no rigid body (static); ignored")
+            elif name.endswith("Joint"):
+                edges.append(_edge(stage, path, p, d, name))
+    if not bodies:
+        raise FormatError(path, None, "no rigid bodies (PhysicsRigidBodyAPI) found")
+    bodies.sort(key=order.__getitem__)
+    for body_shapes in shapes.values():
+        body_shapes.sort(key=order.__getitem__)
+    art = _tree(path, bodies, edges, mpu)
+    art.edges.sort(key=lambda e: order[e.path])
+    art.shapes = shapes
+    return art
+
+
+def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
+    element = f"joint prim <{prim_path}>"
+    if kind_name not in KINDS:
+        raise FormatError(path, element, f"{kind_name} cannot be represented (only revolute, "
+                          "prismatic and fixed joints)")
+    sides = []
+    for k, body, rel in ((0, desc.body0, desc.rel0), (1, desc.body1, desc.rel1)):
+        body, rel = str(body), str(rel)
+        if not body and rel and not stage.GetPrimAtPath(rel).IsValid():
+            raise FormatError(path, element, f"body{k} <{rel}> does not exist")
+        sides.append(body)
+    if sides == [WORLD, WORLD]:
+        raise FormatError(path, element, "neither body0 nor body1 is a rigid body")
+    if not desc.jointEnabled:
+        warn(f"{path}: {element}: joint is disabled (physics:jointEnabled = 0); kept")
+    kind = KINDS[kind_name]
+    if kind is None:  # revolute: continuous when its limit is off or infinite
+        lim = desc.limit
+        limited = lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)
+        kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
+    elif kind is JointType.PRISMATIC:
+        lim = desc.limit
+        if not (lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)):
+            raise FormatError(path, element, "a prismatic joint without finite limits cannot "
+                              "be represented")
+    return Edge(prim_path, desc, kind, sides[0], sides[1])
+
+
+def joint_frame(desc, side: int, mpu: float) -> np.ndarray:
+    """The parsed joint frame in body0 (side 0) or body1 (side 1), positions in metres."""
+    from .stage import pose
+
+    if side == 0:
+        return pose(desc.localPose0Position, desc.localPose0Orientation, mpu)
+    return pose(desc.localPose1Position, desc.localPose1Orientation, mpu)
+
+
+def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulation:
+    world_edges = [e for e in edges if WORLD in (e.body0, e.body1)]
+    root_placement = None
+    if len(world_edges) == 1 and world_edges[0].kind is JointType.FIXED:
+        e = world_edges[0]
+        edges = [x for x in edges if x is not e]
+        root = e.body1 or e.body0
+        world_side, body_side = (0, 1) if e.body1 else (1, 0)
+        root_placement = joint_frame(e.desc, world_side, mpu) @ tf.inverse(
+            joint_frame(e.desc, body_side, mpu))
+    elif world_edges:
+        warn(f"{path}: {len(world_edges)} joint(s) to the world "
+             f"({', '.join(e.path for e in world_edges)}): a massless part 'world' is the root")
+        root = WORLD
+    else:
+        root = bodies[0]
+        warn(f"{path}: no joint fixes the object to the world; the first body <{root}> is "
+             "taken as fixed where it stands")
+    # breadth first from the root: orient every joint parent -> child
+    reached, frontier, tree = {root}, [root], []
+    pending = list(edges)
+    while frontier:
+        body = frontier.pop(0)
+        for e in [x for x in pending if body in (x.body0, x.body1)]:
+            pending.remove(e)
+            e.reversed = e.body1 == body
+            if e.child in reached:
+                raise FormatError(path, f"joint prim <{e.path}>", "closes a kinematic loop")
+            reached.add(e.child)
+            frontier.append(e.child)
+            tree.append(e)
+    unreached = [b for b in bodies if b not in reached]
+    if unreached:
+        raise FormatError(path, None, f"bodies not connected to the root <{root or 'world'}>: "
+                          f"{unreached}")
+    return Articulation(bodies, {}, tree, root, root_placement)

@@ -1,0 +1,104 @@
+"""Rigid bodies and mass: one Xform per part with PhysicsRigidBodyAPI, placed in the world
+(translate + orient in double precision), and PhysicsMassAPI (mass, centerOfMass,
+diagonalInertia + principalAxes from the principal decomposition). NewtonMassAPI's
+``newton:inertia`` (the full tensor, double precision, body frame) is written too: Newton
+reads it in place of the principal form, and our importer uses it to stay exact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ... import transforms as tf
+from ...errors import warn
+from ...model import Inertial, Mesh, Part
+from .stage import as_float32, quatd, quatf
+
+
+def write_body(stage, path: str, part: Part, world: np.ndarray):
+    from pxr import Gf, UsdGeom, UsdPhysics
+
+    xform = UsdGeom.Xform.Define(stage, path)
+    xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(*world[:3, 3].tolist()))
+    xform.AddOrientOp(UsdGeom.XformOp.PrecisionDouble).Set(quatd(world[:3, :3]))
+    prim = xform.GetPrim()
+    UsdPhysics.RigidBodyAPI.Apply(prim)
+    inertial = part.inertial
+    if inertial is None:
+        return prim
+    mass = UsdPhysics.MassAPI.Apply(prim)
+    mass.CreateMassAttr(as_float32(inertial.mass))
+    mass.CreateCenterOfMassAttr(Gf.Vec3f(*inertial.com.tolist()))
+    moments, axes = inertial.principal()
+    mass.CreateDiagonalInertiaAttr(Gf.Vec3f(*moments.tolist()))
+    mass.CreatePrincipalAxesAttr(quatf(axes))
+    prim.ApplyAPI("NewtonMassAPI")
+    i = inertial.inertia
+    prim.GetAttribute("newton:inertia").Set(
+        [float(i[0, 0]), float(i[1, 1]), float(i[2, 2]), float(i[0, 1]), float(i[0, 2]),
+         float(i[1, 2])])
+    return prim
+
+
+def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu: float,
+                  where: str) -> Inertial | None:
+    """The part's inertial in the part frame, SI units. ``to_part`` maps body -> part frame
+    (metres); ``meshes`` (part frame) are used only to fill what the file leaves to the
+    simulator to compute (a warning says so)."""
+    from pxr import UsdPhysics
+
+    if not prim.HasAPI(UsdPhysics.MassAPI):
+        return None
+    api = UsdPhysics.MassAPI(prim)
+    mass = float(api.GetMassAttr().Get() or 0.0) * kpu
+    if mass <= 0.0:
+        warn(f"{where}: mass not authored (the simulator would compute it from density); "
+             "the part gets no inertial")
+        return None
+    com = api.GetCenterOfMassAttr().Get()
+    com = None if com is None or not np.all(np.isfinite(com)) else np.array(com, float) * mpu
+    tensor = prim.GetAttribute("newton:inertia").Get() if prim.HasAttribute("newton:inertia") \
+        else None
+    inertia = None
+    if tensor is not None and len(tensor) == 6:
+        xx, yy, zz, xy, xz, yz = (float(v) for v in tensor)
+        inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    else:
+        diagonal = api.GetDiagonalInertiaAttr().Get()
+        if diagonal is not None and np.any(np.asarray(diagonal) > 0):
+            axes = api.GetPrincipalAxesAttr().Get()
+            r = tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()]) if axes else np.eye(3)
+            inertia = r @ np.diag(np.asarray(diagonal, float)) @ r.T
+    if inertia is not None:
+        inertia = inertia * kpu * mpu * mpu
+    rot, shift = to_part[:3, :3], to_part[:3, 3]
+    if com is not None:
+        com = rot @ com + shift
+    if inertia is not None:
+        inertia = rot @ inertia @ rot.T
+    if com is None or inertia is None:
+        hull_com, hull_inertia = _hull_mass_properties(meshes, mass)
+        warn(f"{where}: {'centre of mass' if com is None else 'inertia'}"
+             f"{' and inertia' if com is None and inertia is None else ''} not authored; "
+             "computed from the convex hull of the part's meshes at uniform density")
+        com = hull_com if com is None else com
+        inertia = hull_inertia if inertia is None else inertia
+    return Inertial(mass, com, inertia)
+
+
+def _hull_mass_properties(meshes: list[Mesh], mass: float) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    if meshes:
+        points = np.concatenate([m.vertices for m in meshes])
+        try:
+            hull = trimesh.convex.convex_hull(points)
+            if hull.volume > 1e-12:
+                hull.density = mass / hull.volume
+                return np.asarray(hull.center_mass), np.asarray(hull.moment_inertia)
+        except Exception:  # degenerate (flat) point sets: qhull refuses them
+            pass
+        centre = points.mean(axis=0)
+    else:
+        centre = np.zeros(3)
+    return centre, np.eye(3) * mass * 1e-4  # a 1 cm radius of gyration

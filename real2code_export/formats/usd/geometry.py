@@ -1,0 +1,157 @@
+"""Meshes and materials: a part's visual mesh (UsdGeom.Mesh bound to a UsdPreviewSurface
+with the part's linear colour) and its convex collision pieces (UsdGeom.Mesh with
+PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
+renderers skip them). Geometry is inline, in the part frame, so the file is self-contained.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import FormatError, warn
+from ...model import DEFAULT_COLOR, Mesh, Part
+
+VISUAL = "visual"
+
+
+def collision_name(k: int) -> str:
+    return f"collision_{k}"
+
+
+def _define_mesh(stage, path: str, mesh: Mesh):
+    from pxr import UsdGeom, Vt
+
+    geom = UsdGeom.Mesh.Define(stage, path)
+    points = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(mesh.vertices, dtype=np.float32))
+    geom.CreatePointsAttr(points)
+    geom.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32)))
+    geom.CreateFaceVertexIndicesAttr(
+        Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.faces.reshape(-1), dtype=np.int32)))
+    geom.CreateExtentAttr(UsdGeom.Mesh.ComputeExtent(points))
+    geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)  # flat triangles, not Catmull-Clark
+    return geom
+
+
+def write_part_geometry(stage, part: Part, body_path: str, material_path: str) -> None:
+    """Visual mesh, collision pieces and the part's material (bound on the part prim, so the
+    colour is kept even for a part without a visual mesh)."""
+    from pxr import Gf, Sdf, UsdPhysics, UsdShade
+
+    r, g, b, a = (float(c) for c in part.color)
+    material = UsdShade.Material.Define(stage, material_path)
+    shader = UsdShade.Shader.Define(stage, f"{material_path}/PreviewSurface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(r, g, b))
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(a)
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.6)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    body = stage.GetPrimAtPath(body_path)
+    UsdShade.MaterialBindingAPI.Apply(body).Bind(material)
+
+    if part.visual is not None:
+        visual = _define_mesh(stage, f"{body_path}/{VISUAL}", part.visual)
+        # displayColor too, for viewers and importers (MuJoCo's) that read no materials
+        visual.CreateDisplayColorAttr([Gf.Vec3f(r, g, b)])
+        visual.CreateDisplayOpacityAttr([a])
+    for k, piece in enumerate(part.collision):
+        geom = _define_mesh(stage, f"{body_path}/{collision_name(k)}", piece)
+        geom.CreatePurposeAttr("guide")
+        UsdPhysics.CollisionAPI.Apply(geom.GetPrim())
+        UsdPhysics.MeshCollisionAPI.Apply(geom.GetPrim()).CreateApproximationAttr(
+            UsdPhysics.Tokens.convexHull)
+
+
+# -- reading ---------------------------------------------------------------------------------
+def read_mesh(prim, to_part: np.ndarray, path, element: str) -> Mesh:
+    """A UsdGeom.Mesh as triangles in the part frame (``to_part``: mesh -> part, metres;
+    polygons fanned, left-handed winding flipped)."""
+    from pxr import UsdGeom
+
+    geom = UsdGeom.Mesh(prim)
+    points = geom.GetPointsAttr().Get()
+    counts = geom.GetFaceVertexCountsAttr().Get()
+    indices = geom.GetFaceVertexIndicesAttr().Get()
+    if points is None or counts is None or indices is None or len(counts) == 0:
+        raise FormatError(path, element, "mesh has no points or faces")
+    v = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    counts = np.asarray(counts, dtype=np.int64)
+    indices = np.asarray(indices, dtype=np.int64)
+    if counts.sum() != len(indices) or counts.min() < 3:
+        raise FormatError(path, element, "faceVertexCounts do not match faceVertexIndices")
+    if indices.min() < 0 or indices.max() >= len(v):
+        raise FormatError(path, element, "face vertex index out of range")
+    if np.all(counts == 3):
+        faces = indices.reshape(-1, 3)
+    else:
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        faces = np.array([[indices[s], indices[s + k], indices[s + k + 1]]
+                          for s, n in zip(starts, counts, strict=True) for k in range(1, n - 1)])
+    mirrored = np.linalg.det(to_part[:3, :3]) < 0
+    if (geom.GetOrientationAttr().Get() == UsdGeom.Tokens.leftHanded) != mirrored:
+        faces = faces[:, [0, 2, 1]]  # keep outward normals
+    if not np.array_equal(to_part, np.eye(4)):
+        v = v @ to_part[:3, :3].T + to_part[:3, 3]
+    return Mesh(v, faces)
+
+
+def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:
+    """A collision primitive (cube, sphere, capsule, cylinder) tessellated, in the part frame;
+    None for other kinds."""
+    import trimesh
+    from pxr import UsdGeom
+
+    axis_rot = {"X": trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]),
+                "Y": trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]),
+                "Z": np.eye(4)}
+    if prim.IsA(UsdGeom.Cube):
+        m = trimesh.creation.box(extents=[float(UsdGeom.Cube(prim).GetSizeAttr().Get())] * 3)
+    elif prim.IsA(UsdGeom.Sphere):
+        m = trimesh.creation.icosphere(2, float(UsdGeom.Sphere(prim).GetRadiusAttr().Get()))
+    elif prim.IsA(UsdGeom.Capsule):  # USD and trimesh both measure height without the caps
+        g = UsdGeom.Capsule(prim)
+        m = trimesh.creation.capsule(height=float(g.GetHeightAttr().Get()),
+                                     radius=float(g.GetRadiusAttr().Get()))
+        m.apply_transform(axis_rot[str(g.GetAxisAttr().Get())])
+    elif prim.IsA(UsdGeom.Cylinder):
+        g = UsdGeom.Cylinder(prim)
+        m = trimesh.creation.cylinder(radius=float(g.GetRadiusAttr().Get()),
+                                      height=float(g.GetHeightAttr().Get()), sections=24)
+        m.apply_transform(axis_rot[str(g.GetAxisAttr().Get())])
+    else:
+        return None
+    m.apply_transform(to_part)
+    return Mesh.from_trimesh(m)
+
+
+def read_color(prim, mesh_prims, path) -> tuple[float, float, float, float]:
+    """The part colour: diffuseColor/opacity of the material bound to the part prim or its
+    first visual mesh (constant inputs only), else displayColor, else the default."""
+    from pxr import UsdGeom, UsdShade
+
+    for p in [prim, *mesh_prims]:
+        material, _ = UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()
+        if not material:
+            continue
+        shader = material.ComputeSurfaceSource()[0]
+        if not shader:
+            continue
+        diffuse, opacity = shader.GetInput("diffuseColor"), shader.GetInput("opacity")
+        rgb = diffuse.Get() if diffuse else None
+        if rgb is not None:
+            alpha = opacity.Get() if opacity and opacity.Get() is not None else 1.0
+            return _clamped((*rgb, alpha), path, str(p.GetPath()))
+    for p in mesh_prims:
+        gprim = UsdGeom.Gprim(p)
+        colors = gprim.GetDisplayColorAttr().Get()
+        if colors:
+            opacity = gprim.GetDisplayOpacityAttr().Get()
+            return _clamped((*colors[0], opacity[0] if opacity else 1.0), path, str(p.GetPath()))
+    return DEFAULT_COLOR
+
+
+def _clamped(rgba, path, where: str) -> tuple[float, float, float, float]:
+    values = tuple(float(c) for c in rgba)
+    clipped = tuple(min(1.0, max(0.0, c)) for c in values)
+    if clipped != values:
+        warn(f"{path}: {where}: colour {list(values)} clamped to [0, 1]")
+    return clipped

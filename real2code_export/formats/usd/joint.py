@@ -1,0 +1,241 @@
+"""Joints: PhysicsRevoluteJoint (continuous = revolute without limits), PhysicsPrismaticJoint
+and PhysicsFixedJoint with body0 = parent, body1 = child.
+
+Frames. The model's child frame is the joint frame, so localPos1 = 0; localPos0/localRot0
+place the joint frame in the parent. UsdPhysics axes are tokens (X, Y, Z): for any other
+direction the joint frame is turned by R_a (the shortest rotation taking X onto the model
+axis) on both sides, localRot0 = R_origin R_a and localRot1 = R_a, and the token is "X".
+At joint value q the child sits at T0 M_X(q) T1^-1 = origin * motion(q), as in the model.
+
+Units (checked against the schemas' own documentation):
+- UsdPhysics limits: revolute in degrees, prismatic in metres.
+- NewtonJointAPI (newton-usd-schemas generatedSchema.usda): ``newton:damping`` is
+  effort*s/degree for angular DOFs, so N m s/rad * pi/180; ``newton:friction`` is an effort
+  (N m or N, no angle: unconverted); ``newton:armature`` is mass*distance^2 for angular DOFs
+  (kg m^2, no angle: unconverted); ``newton:velocityLimit`` is degrees/s. Newton's own
+  mujoco-usd-converter converts exactly these (damping scaled, friction/armature copied).
+- MjcJointAPI (MuJoCo's mjcPhysics schema): no pip package registers it, so its attributes are
+  authored with the exact names and types MuJoCo's USD importer reads (usd_to_mjspec.cc
+  ParseMjcPhysicsJointAPI) and "MjcJointAPI" is listed in apiSchemas, which that importer
+  checks. Gains are per radian as in MJCF (``mjc:damping``, ``mjc:stiffness``,
+  ``mjc:frictionloss``, ``mjc:armature``); positions are in the importer's MjSpec default
+  unit, degrees for hinges (``mjc:springref``, ``mjc:ref``). ``mjc:ref`` = the observed
+  state, because bodies are written at q = state and MuJoCo takes the written pose as q = ref
+  (the schema: "the joint value corresponding to the initial model configuration"). Newton's
+  opt-in SchemaResolverMjc instead reads ref as the value where the joint frames coincide
+  (true of MuJoCo-exported files) and shifts the limits by it; its default resolvers ignore
+  ``mjc:*`` and read these files correctly (checked with newton 1.8.0).
+- PhysX's PhysicsJointStateAPI (angular/linear instance): ``state:angular:physics:position``
+  = the observed state in degrees (metres for prismatic), the initial joint position that
+  Isaac Sim and Newton (PhysX resolver) start from; the bodies are written at that state.
+- Ours: ``real2code:state`` (rad or m, float64), ``real2code:effort`` (N m or N),
+  ``real2code:velocity`` (rad/s or m/s).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ... import transforms as tf
+from ...errors import warn
+from ...model import Dynamics, Joint, JointType, Limits
+from .stage import NAMESPACE, as_float32, float_outward, snapped_quat
+
+TOKENS = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
+          "Z": np.array([0.0, 0.0, 1.0])}
+STATE, EFFORT, VELOCITY = (f"{NAMESPACE}:state", f"{NAMESPACE}:effort", f"{NAMESPACE}:velocity")
+MJC_ATTRS = ("mjc:damping", "mjc:frictionloss", "mjc:armature", "mjc:stiffness",
+             "mjc:springref", "mjc:ref")
+
+
+@dataclass(frozen=True)
+class JointFrames:
+    """What the joint prim stores, as float32 values (held in float64)."""
+
+    pos0: np.ndarray
+    rot0: np.ndarray  # (w, x, y, z)
+    rot1: np.ndarray
+    token: str
+
+
+def joint_frames(joint: Joint) -> JointFrames:
+    axis = joint.axis / np.linalg.norm(joint.axis) if joint.type.movable else TOKENS["X"]
+    token = next((t for t, e in TOKENS.items() if np.array_equal(axis, e)), None)
+    turn = np.eye(3) if token else tf.rotation_between(TOKENS["X"], axis)
+    return JointFrames(
+        pos0=joint.origin[:3, 3].astype(np.float32).astype(np.float64),
+        rot0=snapped_quat(joint.origin[:3, :3] @ turn).astype(np.float64),
+        rot1=snapped_quat(turn).astype(np.float64),
+        token=token or "X",
+    )
+
+
+def rest_origin(pos0, rot0, rot1) -> np.ndarray:
+    """Pose of the body1 frame in the body0 frame at q = 0 when localPos1 = 0: T0 R1^-1."""
+    return tf.make(tf.quat_to_matrix(rot0), pos0) @ tf.make(tf.quat_to_matrix(rot1).T)
+
+
+def axis_in_body1(rot1, token: str) -> np.ndarray:
+    a = tf.quat_to_matrix(rot1) @ TOKENS[token]
+    return a / np.linalg.norm(a)
+
+
+def as_written(joint: Joint) -> Joint:
+    """The joint as the file states it (float32 frames): bodies are placed with these, so the
+    file is self-consistent and an imported file re-exports to the same bytes."""
+    f = joint_frames(joint)
+    return Joint(joint.name, joint.type, joint.parent, joint.child,
+                 origin=rest_origin(f.pos0, f.rot0, f.rot1),
+                 axis=axis_in_body1(f.rot1, f.token) if joint.type.movable else joint.axis,
+                 limits=joint.limits, dynamics=joint.dynamics, state=joint.state)
+
+
+# -- writing ---------------------------------------------------------------------------------
+def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -> None:
+    from pxr import Gf, Sdf, UsdPhysics
+
+    kind = joint.type
+    if kind is JointType.FIXED:
+        usd = UsdPhysics.FixedJoint.Define(stage, path)
+    elif kind is JointType.PRISMATIC:
+        usd = UsdPhysics.PrismaticJoint.Define(stage, path)
+    else:
+        usd = UsdPhysics.RevoluteJoint.Define(stage, path)
+    if body0 is not None:
+        usd.CreateBody0Rel().SetTargets([body0])
+    usd.CreateBody1Rel().SetTargets([body1])
+    f = joint_frames(joint)
+    usd.CreateLocalPos0Attr(Gf.Vec3f(*f.pos0.tolist()))
+    usd.CreateLocalRot0Attr(Gf.Quatf(*f.rot0.tolist()))
+    usd.CreateLocalPos1Attr(Gf.Vec3f(0.0, 0.0, 0.0))
+    usd.CreateLocalRot1Attr(Gf.Quatf(*f.rot1.tolist()))
+    if not kind.movable:
+        return
+    angular = kind.angular
+    usd.CreateAxisAttr(f.token)
+    to_file = math.degrees if angular else float  # positions: degrees or metres
+    if joint.limits is not None:
+        usd.CreateLowerLimitAttr(float_outward(to_file(joint.limits.lower), upward=False))
+        usd.CreateUpperLimitAttr(float_outward(to_file(joint.limits.upper), upward=True))
+    prim = usd.GetPrim()
+
+    def custom(name: str, value: float) -> None:
+        prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=True).Set(float(value))
+
+    custom(STATE, joint.state)
+    # PhysX's PhysicsJointStateAPI (not registered here either): the initial joint position,
+    # read by Isaac Sim and by Newton's PhysX resolver, so simulation starts at q = state.
+    instance = "angular" if angular else "linear"
+    prim.AddAppliedSchema(f"PhysicsJointStateAPI:{instance}")
+    for name, value in (("position", to_file(joint.state)), ("velocity", 0.0)):
+        prim.CreateAttribute(f"state:{instance}:physics:{name}", Sdf.ValueTypeNames.Float,
+                             custom=False).Set(as_float32(value))
+    if joint.limits is not None and joint.limits.effort is not None:
+        custom(EFFORT, joint.limits.effort)
+    if joint.limits is not None and joint.limits.velocity is not None:
+        custom(VELOCITY, joint.limits.velocity)
+
+    d = joint.dynamics
+    prim.ApplyAPI("NewtonJointAPI")
+    per_degree = math.pi / 180.0 if angular else 1.0
+    prim.GetAttribute("newton:damping").Set(as_float32(d.damping * per_degree))
+    prim.GetAttribute("newton:friction").Set(as_float32(d.friction))
+    prim.GetAttribute("newton:armature").Set(as_float32(d.armature))
+    if joint.limits is not None and joint.limits.velocity is not None:
+        prim.GetAttribute("newton:velocityLimit").Set(
+            as_float32(to_file(joint.limits.velocity)))
+
+    prim.AddAppliedSchema("MjcJointAPI")  # not registered here: see the module docstring
+    values = (d.damping, d.friction, d.armature, d.stiffness, to_file(d.spring_ref),
+              to_file(joint.state))
+    for name, value in zip(MJC_ATTRS, values, strict=True):
+        prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=False,
+                             variability=Sdf.VariabilityUniform).Set(float(value))
+
+
+# -- reading ---------------------------------------------------------------------------------
+def authored_value(prim, name: str) -> float | None:
+    attr = prim.GetAttribute(name)
+    if not attr or not attr.HasAuthoredValue():
+        return None
+    value = attr.Get()
+    return None if value is None else float(value)
+
+
+def _pick(where: str, what: str, exact: float | None, schema: float | None,
+          tol: float = 1e-6) -> float | None:
+    """The schema value (what simulators read) unless our float64 copy agrees with it to
+    float precision, in which case the exact copy; a disagreement is warned about."""
+    if schema is None or not math.isfinite(schema):
+        return exact
+    if exact is None or abs(exact - schema) <= tol * max(1.0, abs(exact)):
+        return schema if exact is None else exact
+    warn(f"{where}: {what}: the schema value {schema} and {exact} disagree; using {schema}")
+    return schema
+
+
+def read_dynamics(prim, angular: bool, mpu: float, kpu: float, where: str) -> Dynamics:
+    """Damping, friction, armature from NewtonJointAPI or MjcJointAPI (per radian, SI),
+    stiffness and spring reference from MjcJointAPI."""
+    # stage units -> SI: kg m^2/s, kg m^2/s^2, kg m^2, kg m^2/s^2 (angular) or
+    # kg/s, kg m/s^2, kg, kg/s^2 (linear)
+    if angular:
+        scale = dict.fromkeys(("damping", "friction", "armature", "stiffness"), kpu * mpu * mpu)
+    else:
+        scale = {"damping": kpu, "friction": kpu * mpu, "armature": kpu, "stiffness": kpu}
+    per_degree = math.pi / 180.0 if angular else 1.0
+    newton = {k: authored_value(prim, f"newton:{k}") for k in ("damping", "friction", "armature")}
+    if newton["damping"] is not None:
+        newton["damping"] /= per_degree
+    mjc = {"damping": authored_value(prim, "mjc:damping"),
+           "friction": authored_value(prim, "mjc:frictionloss"),
+           "armature": authored_value(prim, "mjc:armature")}
+    values = {k: _pick(where, f"newton:{k} vs mjc", mjc[k], newton[k]) for k in newton}
+    values["stiffness"] = authored_value(prim, "mjc:stiffness")
+    out = {k: (v or 0.0) * scale[k] for k, v in values.items()}
+    spring_ref = authored_value(prim, "mjc:springref") or 0.0
+    spring_ref = math.radians(spring_ref) if angular else spring_ref * mpu
+    return Dynamics(spring_ref=spring_ref, **out)
+
+
+def read_limits(desc, kind: JointType, prim, mpu: float, kpu: float,
+                where: str) -> Limits | None:
+    """Range from the parsed joint (degrees -> rad, units -> m), effort and velocity from our
+    attributes or NewtonJointAPI's velocityLimit."""
+    if kind not in (JointType.REVOLUTE, JointType.PRISMATIC):
+        return None
+    angular = kind is JointType.REVOLUTE
+    to_model = math.radians if angular else (lambda v: v * mpu)
+    effort = authored_value(prim, EFFORT)
+    newton_velocity = authored_value(prim, "newton:velocityLimit")
+    velocity = _pick(where, "velocity limit", authored_value(prim, VELOCITY),
+                     None if newton_velocity is None else to_model(newton_velocity))
+    if effort is not None:
+        effort *= kpu * (mpu * mpu if angular else mpu)
+    return Limits(to_model(float(desc.limit.lower)), to_model(float(desc.limit.upper)),
+                  effort=effort, velocity=velocity)
+
+
+def state_from_motion(motion: np.ndarray, kind: JointType, token: str,
+                      where: str) -> float:
+    """The joint value that explains ``motion`` (joint frame 1 in joint frame 0, metres), with
+    a warning when the bodies are not where the joint allows."""
+    e = TOKENS[token]
+    if kind is JointType.PRISMATIC:
+        q = float(motion[:3, 3] @ e)
+        expected = tf.make(translation=e * q)
+    elif kind.angular:
+        r = motion[:3, :3]
+        s = 0.5 * float(e @ np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]]))
+        c = 0.5 * (float(np.trace(r)) - float(e @ r @ e))  # trace = 1 + 2cos, e'Re = 1
+        q = math.atan2(s, c)
+        expected = tf.make(rotation=tf.axis_angle_matrix(e, q))
+    else:
+        q, expected = 0.0, np.eye(4)
+    off = np.abs(motion - expected).max()
+    if off > 1e-5:
+        warn(f"{where}: the bodies violate the joint by {off:.3g} at their written poses")
+    return q

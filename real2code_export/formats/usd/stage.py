@@ -1,0 +1,211 @@
+"""Stage-level USD helpers: the layout, stage metadata, opening files, and the conversions
+between the model's float64 transforms and USD's value types.
+
+Layout of a file we write (after Newton's urdf-usd-converter asset structure):
+
+    /<object>            Xform, defaultPrim, PhysicsArticulationRootAPI
+        Geometry/<part>  Xform, PhysicsRigidBodyAPI + PhysicsMassAPI: visual and collision meshes
+        Physics/<joint>  PhysicsRevoluteJoint / PhysicsPrismaticJoint / PhysicsFixedJoint
+        Looks/<part>     Material (UsdPreviewSurface)
+    /PhysicsScene        outside the asset, so referencing the object never adds a second scene
+
+Part prims are flat (siblings under Geometry, each placed in the world at q = state): every
+USD physics engine accepts flat bodies, while nested rigid bodies are not yet supported
+everywhere (urdf-usd-converter docs/concept_mapping.md, "Flat Bodies").
+
+Floats: UsdPhysics stores joint frames, limits and mass properties as 32-bit floats. Every
+value we write is chosen so that reading it back and writing it again gives the same float
+(see :func:`snapped_quat`), which makes export -> import -> export byte-identical.
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ... import transforms as tf
+from ...errors import FormatError
+
+GEOMETRY, PHYSICS, LOOKS = "Geometry", "Physics", "Looks"
+SCENE = "PhysicsScene"
+NAMESPACE = "real2code"  # our custom attributes: real2code:state, real2code:effort, ...
+WORLD_JOINT = "world_fixed"
+
+
+def new_stage(name: str):
+    """An in-memory stage with Z up, metres, kilograms, the object Xform as defaultPrim and
+    a PhysicsScene (gravity -Z, 9.81 m/s^2)."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
+
+    layer = Sdf.Layer.CreateAnonymous(f"{name}.usda")
+    stage = Usd.Stage.Open(layer)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
+    layer.documentation = f"{name}: written by real2code_export"
+    root = UsdGeom.Xform.Define(stage, f"/{name}").GetPrim()
+    stage.SetDefaultPrim(root)
+    for scope in (GEOMETRY, PHYSICS, LOOKS):
+        UsdGeom.Scope.Define(stage, f"/{name}/{scope}")
+    scene = UsdPhysics.Scene.Define(stage, "/" + (SCENE if name != SCENE else f"{SCENE}_1"))
+    scene.CreateGravityDirectionAttr(Gf.Vec3f(0.0, 0.0, -1.0))
+    scene.CreateGravityMagnitudeAttr(9.81)
+    return stage, root
+
+
+def stage_text(stage) -> str:
+    return stage.GetRootLayer().ExportToString()
+
+
+# -- opening ---------------------------------------------------------------------------------
+_PARSE_ERROR = re.compile(r":(\d+):\d+: (.*?)(?: in <([^>]*)>)?'?$", re.MULTILINE)
+
+
+def open_stage(path: Path):
+    """Open a .usda/.usd/.usdc file; FormatError (with the line for text files) if it cannot."""
+    from pxr import Tf, Usd
+
+    if not path.is_file():
+        raise FormatError(path, None, "file not found")
+    try:
+        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
+    except Tf.ErrorException as e:
+        text = str(e)
+        m = _PARSE_ERROR.search(text)
+        if m:
+            element = f"prim <{m.group(3)}>" if m.group(3) else None
+            raise FormatError(path, element, f"malformed USD: {m.group(2)}", int(m.group(1))) from e
+        raise FormatError(path, None, f"cannot open USD: {text.strip().splitlines()[-1]}") from e
+    if stage is None:
+        raise FormatError(path, None, "cannot open USD")
+    return stage
+
+
+def stage_units(stage) -> tuple[float, float, np.ndarray]:
+    """(metres per unit, kilograms per unit, rotation taking the stage's up axis to +Z)."""
+    from pxr import UsdGeom, UsdPhysics
+
+    mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
+    kpu = float(UsdPhysics.GetStageKilogramsPerUnit(stage))
+    up = np.eye(4)
+    if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y:
+        up[:3, :3] = tf.axis_angle_matrix([1.0, 0.0, 0.0], np.pi / 2)  # +Y -> +Z
+    return mpu, kpu, up
+
+
+# -- value conversions -----------------------------------------------------------------------
+_TINY, _FINE = 2.0**-16, 2.0**-40
+
+
+def _quantised(q: np.ndarray) -> np.ndarray:
+    """float32 values; components below 2^-16 on a 2^-40 grid instead, so that float64
+    noise (~1e-16) around a component that should be 0 cannot survive as 1e-25."""
+    out = np.asarray(q, dtype=np.float32).astype(np.float64)
+    small = np.abs(q) < _TINY
+    out[small] = np.round(q[small] / _FINE) * _FINE
+    return out + 0.0  # no -0.0
+
+
+def _canonical(q: np.ndarray) -> np.ndarray:
+    """q or -q (the same rotation): the first non-zero component positive."""
+    first = q[np.flatnonzero(q)[0]]
+    return -q + 0.0 if first < 0 else q
+
+
+def _renormalised(q: np.ndarray) -> np.ndarray:
+    return _canonical(_quantised(q / np.linalg.norm(q)))
+
+
+def _neighbour(v: float, step: int) -> float:
+    if step == 0:
+        return v
+    if abs(v) < _TINY:
+        return v + step * _FINE
+    return float(np.nextafter(np.float32(v), np.float32(step * np.inf)))
+
+
+def snapped_quat(rotation: np.ndarray) -> np.ndarray:
+    """A float32-exact (w, x, y, z) for ``rotation`` that reading back (normalise in float64)
+    and writing again reproduces exactly (a fixed point), so re-exporting an imported file
+    gives the same bytes. Quantising q usually is one; otherwise iterate, then search the
+    one-step neighbourhood for the fixed point nearest to q. Error: ~1e-7 rad, float32's."""
+    q = tf.matrix_to_quat(rotation)
+    c = _canonical(_quantised(q))
+    for _ in range(3):
+        n = _renormalised(c)
+        if np.array_equal(n, c):
+            return c
+        c = n
+    base = _canonical(_quantised(q))
+    q = q if float(q @ base) >= 0 else -q
+    best, best_err = base, np.inf
+    for steps in itertools.product((-1, 0, 1), repeat=4):
+        cand = _canonical(np.array([_neighbour(v, k) for v, k in zip(base, steps, strict=True)])
+                          + 0.0)
+        if np.array_equal(_renormalised(cand), cand):
+            err = float(np.abs(cand - (q if float(q @ cand) >= 0 else -q)).max())
+            if err < best_err:
+                best, best_err = cand, err
+    return best
+
+
+def quatf(rotation: np.ndarray):
+    from pxr import Gf
+
+    w, x, y, z = (float(v) for v in snapped_quat(rotation))
+    return Gf.Quatf(w, x, y, z)
+
+
+def quatd(rotation: np.ndarray):
+    from pxr import Gf
+
+    w, x, y, z = (float(v) for v in tf.matrix_to_quat(rotation))
+    return Gf.Quatd(w, x, y, z)
+
+
+def rotation_of(quat) -> np.ndarray:
+    """3x3 rotation of a Gf quaternion (normalised in float64)."""
+    im = quat.GetImaginary()
+    q = [float(quat.GetReal()), float(im[0]), float(im[1]), float(im[2])]
+    if not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-12:
+        raise ValueError(f"not a rotation quaternion: {q}")
+    return tf.quat_to_matrix(q)
+
+
+def pose(position, quat, scale: float = 1.0) -> np.ndarray:
+    """4x4 from a Gf position (scaled to metres) and a Gf quaternion."""
+    return tf.make(rotation_of(quat), np.array([float(v) for v in position]) * scale)
+
+
+def as_float32(value: float) -> float:
+    return float(np.float32(value))
+
+
+def float_outward(value: float, upward: bool) -> float:
+    """The float32 nearest to ``value``, moved one ulp outward when rounding went inward by
+    more than 1e-12 relative: a limit written this way still contains every value the
+    model allowed (the observed state stays inside), and re-rounding an imported limit
+    does not move it again."""
+    f = np.float32(value)
+    inward = (float(f) < value) if upward else (float(f) > value)
+    if inward and abs(float(f) - value) > 1e-12 * max(1.0, abs(value)):
+        f = np.nextafter(f, np.float32(np.inf if upward else -np.inf))
+    return float(f)
+
+
+def world_transforms(stage, prims) -> dict[str, np.ndarray]:
+    """World 4x4 (column vectors, stage units) of each prim, by path string."""
+    from pxr import Usd, UsdGeom
+
+    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    return {str(p.GetPath()): np.array(cache.GetLocalToWorldTransform(p), dtype=float).T
+            for p in prims}
+
+
+def relative_transform(cache, prim, ancestor) -> np.ndarray:
+    """4x4 of ``prim`` in the frame of ``ancestor`` (column vectors, stage units)."""
+    m, _ = cache.ComputeRelativeTransform(prim, ancestor)
+    return np.array(m, dtype=float).T

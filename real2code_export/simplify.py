@@ -1,0 +1,55 @@
+"""Model-to-model simplifications."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .model import ArticulatedObject, Inertial, Joint, JointType, Mesh, Part
+
+
+def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
+    """The same object with every part on a fixed joint merged into its parent: one part
+    per rigid body (meshes, collision pieces and inertials combined in the parent frame),
+    joints below re-attached with their origins composed. Names of the kept parts stay."""
+    from .inertia import combine_inertials
+
+    keep_of: dict[str, str] = {}  # part -> the kept part it is merged into
+    offset: dict[str, np.ndarray] = {}  # part frame in the kept part's frame
+    for part in obj.parts_in_tree_order():
+        j = obj.parent_joint(part.name)
+        if j is not None and j.type is JointType.FIXED:
+            keep_of[part.name] = keep_of[j.parent]
+            offset[part.name] = offset[j.parent] @ j.origin
+        else:
+            keep_of[part.name] = part.name
+            offset[part.name] = np.eye(4)
+
+    parts = []
+    for kept in (p for p in obj.parts if keep_of[p.name] == p.name):
+        members = [p for p in obj.parts if keep_of[p.name] == kept.name]
+        visuals = [p.visual.transformed(offset[p.name]) for p in members if p.visual is not None]
+        collision = [m.transformed(offset[p.name]) for p in members for m in p.collision]
+        inertials = [(p.inertial, offset[p.name]) for p in members if p.inertial is not None]
+        inertial: Inertial | None = None
+        if len(inertials) == 1 and np.allclose(inertials[0][1], np.eye(4)):
+            inertial = inertials[0][0]
+        elif inertials:
+            inertial = combine_inertials(inertials)
+        visual = None
+        if len(visuals) == 1:
+            visual = visuals[0]
+        elif visuals:
+            visual = Mesh.concatenate(visuals)
+        parts.append(Part(kept.name, visual, collision, inertial, kept.color))
+
+    joints = []
+    for j in obj.joints:
+        if j.type is JointType.FIXED:
+            continue
+        joints.append(Joint(j.name, j.type, keep_of[j.parent], j.child,
+                            offset[j.parent] @ j.origin, j.axis.copy(),
+                            None if j.limits is None else dataclasses.replace(j.limits),
+                            dataclasses.replace(j.dynamics), j.state))
+    return ArticulatedObject(obj.name, parts, joints, dict(obj.metadata))
