@@ -20,6 +20,7 @@ import numpy as np
 from .errors import CheckError
 from .probes import JointInfo, Probe, open_probes
 from .probes.model import LABEL as MODEL_LABEL
+from .validators import Validation, validate_files
 
 UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
 
@@ -71,6 +72,7 @@ class CheckReport:
     tol_rotation: float
     parts: list[PartResult]
     mismatches: list[Mismatch]
+    validations: list[Validation] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -119,6 +121,7 @@ class CheckReport:
                 {"kind": m.kind, "probe": m.probe, "name": m.name, "message": m.message}
                 for m in self.mismatches
             ],
+            "validations": [v.to_json() for v in self.validations],
             "ok": self.ok,
         }
 
@@ -140,12 +143,14 @@ def check_files(
     tol_position: float = 1e-6,
     tol_rotation: float = 1e-6,
     reference: str | Path | None = None,
+    validate: bool = True,
 ) -> CheckReport:
     """Load every file in its own tool(s) and compare part poses at shared configurations.
 
     ``reference`` picks the probe the others are compared against: a file among ``paths``
     (its first probe) or a probe label such as ``"MuJoCo (MJCF)"``; by default the model
-    (object.json) if present, else the first file's first probe.
+    (object.json) if present, else the first file's first probe. With ``validate`` the
+    formats' own validators run too (glTF, USD); any error they report is a mismatch.
     """
     if not paths:
         raise CheckError("no files to check")
@@ -172,6 +177,12 @@ def check_files(
     parts = _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotation,
                            mismatches)
     bad = {m.probe for m in mismatches}
+    validations = validate_files(list(paths)) if validate else []
+    for v in validations:
+        if v.errors:
+            mismatches.append(Mismatch("validation", v.tool, Path(v.path).name,
+                                       f"{v.tool}: {v.errors} error(s) in {v.path}: "
+                                       + "; ".join(v.messages[:3])))
     for r in results:
         r.ok = r.name not in bad
     configurations = [
@@ -180,7 +191,7 @@ def check_files(
     return CheckReport(
         files=[str(p) for p in paths], reference=names[ref], probes=results, joints=joints,
         configurations=configurations, tol_position=tol_position, tol_rotation=tol_rotation,
-        parts=parts, mismatches=mismatches,
+        parts=parts, mismatches=mismatches, validations=validations,
     )
 
 
@@ -379,6 +390,14 @@ def format_table(report: CheckReport, worst: int = 5) -> str:
             rows.append((r.part, f"{r.position_error:.2e}", f"{r.rotation_error:.2e}",
                          probe or "-", str(config)))
         lines += _columns(rows)
+    if report.validations:
+        lines += ["", "validators:"]
+        rows = [("file", "validator", "errors", "warnings")]
+        rows += [(Path(v.path).name, v.tool, str(v.errors), str(v.warnings))
+                 for v in report.validations]
+        lines += _columns(rows)
+        for v in report.validations:
+            lines += [f"  {Path(v.path).name}: {m}" for m in v.messages[:5]]
     if report.mismatches:
         lines += ["", f"mismatches ({len(report.mismatches)}):"]
         lines += [f"  {m.probe}: {m.message}" for m in report.mismatches]

@@ -1,0 +1,60 @@
+"""The formats' own validators, run by ``real2code check`` beside the kinematic comparison:
+the Khronos glTF validator for .glb/.gltf, the UsdValidation validators (physics, geometry,
+shading, core) for USD. MJCF and URDF have no separate validator: MuJoCo's compiler and
+Pinocchio's urdfdom parser, which the probes run, are theirs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+USD_VALIDATOR_KEYWORDS = ["UsdPhysicsValidators", "UsdGeomValidators", "UsdShadeValidators",
+                          "UsdCoreValidators"]
+
+
+@dataclass
+class Validation:
+    path: str
+    tool: str
+    errors: int
+    warnings: int
+    messages: list[str] = field(default_factory=list)  # errors first, then warnings
+
+    def to_json(self) -> dict:
+        return {"path": self.path, "tool": self.tool, "errors": self.errors,
+                "warnings": self.warnings, "messages": self.messages}
+
+
+def validate_usd(path: str | Path) -> Validation:
+    from pxr import Usd, UsdValidation
+
+    stage = Usd.Stage.Open(str(path))
+    context = UsdValidation.ValidationContext(keywords=USD_VALIDATOR_KEYWORDS)
+    found = context.Validate(stage)
+    kind = UsdValidation.ValidationErrorType
+    errors = [f"{e.GetName()}: {e.GetMessage()}" for e in found if e.GetType() == kind.Error]
+    warnings = [f"{e.GetName()}: {e.GetMessage()}" for e in found if e.GetType() == kind.Warn]
+    return Validation(str(path), "UsdValidation", len(errors), len(warnings), errors + warnings)
+
+
+def validate_gltf(paths: list[Path]) -> list[Validation]:
+    from .formats.gltf import validate_gltf_files
+
+    out = []
+    for path, result in zip(paths, validate_gltf_files(paths), strict=True):
+        ordered = sorted(result["messages"], key=lambda m: m["severity"] != "error")
+        messages = [f"{m['code']}: {m['message']} ({m['pointer']})" for m in ordered
+                    if m["severity"] in ("error", "warning")]
+        out.append(Validation(str(path), "Khronos glTF validator", result["errors"],
+                              result["warnings"], messages))
+    return out
+
+
+def validate_files(paths: list[str | Path]) -> list[Validation]:
+    """Run every validator that applies to ``paths`` (files of other kinds are skipped)."""
+    paths = [Path(p) for p in paths]
+    out = [validate_usd(p) for p in paths if p.suffix.lower() in (".usda", ".usd", ".usdc")]
+    gltf = [p for p in paths if p.suffix.lower() in (".glb", ".gltf")]
+    if gltf:
+        out += validate_gltf(gltf)
+    return out
