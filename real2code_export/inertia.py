@@ -1,0 +1,231 @@
+"""Mass properties of parts from their meshes.
+
+A closed, consistently wound mesh is a solid of uniform ``density`` (trimesh integrates it).
+Anything else (open PartNet pieces, single-sided panels, scans with holes) is a thin shell of
+surface density ``density * shell_thickness``, integrated exactly over its triangles.
+A part made of several pieces sums them (solid where closed, shell where open) about the
+total centre of mass.
+
+Every result passes :func:`model.validate_inertial`: principal moments that come out tiny or
+zero (a flat panel has one moment equal to the sum of the other two; a stick has a zero
+moment) are raised to what a body ``shell_thickness`` thick would have, so simulators get a
+positive-definite tensor that satisfies the triangle inequality.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .errors import warn
+from .model import Inertial, Mesh
+
+# Furniture (the main category here) is wood, plywood, particleboard or MDF: roughly
+# 400-800 kg/m^3. 500 is a middle value that also allows for hollow/cored panels.
+DEFAULT_DENSITY = 500.0
+DEFAULT_SHELL_THICKNESS = 0.005  # 5 mm: a thin panel / sheet-metal wall
+
+# Relative floor on principal moments (of the largest one): keeps the tensor well
+# conditioned for simulators even when shell_thickness is tiny.
+_RELATIVE_MOMENT_FLOOR = 1e-6
+
+
+# -- raw moments: (mass, first moment m*c, second moment  integral x x^T dm about origin) ---
+_Moments = tuple[float, np.ndarray, np.ndarray]
+
+
+def _zero_moments() -> _Moments:
+    return 0.0, np.zeros(3), np.zeros((3, 3))
+
+
+def _add(a: _Moments, b: _Moments) -> _Moments:
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2]
+
+
+def _shell_moments(vertices: np.ndarray, faces: np.ndarray, surface_density: float) -> _Moments:
+    """Exact moments of a thin shell. For a triangle with vertices v_i, area A and
+    s = sum v_i: integral x dA = A s / 3 and integral x x^T dA = A/12 (sum v_i v_i^T + s s^T).
+    (Hand-written: trimesh only integrates closed volumes.)"""
+    if len(faces) == 0:
+        return _zero_moments()
+    tri = vertices[faces]  # (M, 3, 3)
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    s = tri.sum(axis=1)
+    mass = surface_density * float(area.sum())
+    first = surface_density * (area[:, None] * s).sum(axis=0) / 3.0
+    outer = np.einsum("mij,mik->mjk", tri, tri) + np.einsum("mj,mk->mjk", s, s)
+    second = surface_density * np.einsum("m,mjk->jk", area, outer) / 12.0
+    return mass, first, second
+
+
+def _solid_moments(tm, density: float) -> _Moments:
+    """Moments of a closed volume (trimesh's exact polyhedral integration)."""
+    props = tm.mass_properties  # density 1: volume, centre of mass, inertia about the COM
+    volume = float(props["volume"])
+    com = np.asarray(props["center_mass"], dtype=float)
+    inertia_c = np.asarray(props["inertia"], dtype=float)
+    second_c = 0.5 * np.trace(inertia_c) * np.eye(3) - inertia_c
+    mass = density * volume
+    return mass, mass * com, density * second_c + mass * np.outer(com, com)
+
+
+def _as_volume(tm):
+    """``tm`` as a closed volume with outward winding, or None when it is not one."""
+    import trimesh
+
+    if not tm.is_watertight:
+        return None
+    if not (tm.is_winding_consistent and tm.volume > 0):
+        tm = tm.copy()
+        trimesh.repair.fix_winding(tm)
+        trimesh.repair.fix_inversion(tm, multibody=True)
+    return tm if tm.is_volume else None
+
+
+def _mesh_moments(mesh: Mesh, density: float, shell_thickness: float) -> _Moments:
+    """Solid when the whole mesh is a closed volume (this handles hollows and nesting right);
+    otherwise each closed connected component is a solid and every other face a shell."""
+    import trimesh
+
+    if len(mesh.faces) == 0:
+        return _zero_moments()
+    # Degenerate triangles (common in PartNet) make trimesh divide by zero in normals; they
+    # carry no area or volume, so the warnings are noise.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # process=True merges duplicated vertices (OBJ files split them at seams), without
+        # which no PartNet piece would ever count as closed.
+        tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
+        solid = _as_volume(tm)
+        if solid is not None:
+            return _solid_moments(solid, density)
+        total = _zero_moments()
+        open_faces = np.ones(len(tm.faces), dtype=bool)
+        for faces in _closed_components(tm):
+            solid = _as_volume(tm.submesh([faces], append=True, repair=False))
+            if solid is not None:
+                total = _add(total, _solid_moments(solid, density))
+                open_faces[faces] = False
+    vertices = np.asarray(tm.vertices)
+    shell = _shell_moments(vertices, np.asarray(tm.faces)[open_faces], density * shell_thickness)
+    return _add(total, shell)
+
+
+def _closed_components(tm) -> list[np.ndarray]:
+    """Face indices of each connected component whose every edge has exactly two faces.
+    (Vectorised: PartNet pieces are often soups of thousands of loose triangles, and a
+    trimesh object per component would take seconds.)"""
+    import trimesh
+
+    labels = trimesh.graph.connected_component_labels(tm.face_adjacency, node_count=len(tm.faces))
+    edge_count = np.bincount(tm.edges_unique_inverse, minlength=len(tm.edges_unique))
+    face_open = (edge_count[tm.edges_unique_inverse.reshape(-1, 3)] != 2).any(axis=1)
+    open_component = np.bincount(labels, weights=face_open, minlength=labels.max() + 1) > 0
+    # components of a single face can never close; skip them cheaply
+    sizes = np.bincount(labels)
+    closed = np.flatnonzero(~open_component & (sizes >= 4))
+    order = np.argsort(labels, kind="stable")
+    groups = np.split(order, np.cumsum(sizes)[:-1])
+    return [groups[c] for c in closed]
+
+
+def _physical_inertia(inertia: np.ndarray, mass: float, min_size: float) -> np.ndarray:
+    """Symmetric positive-definite tensor satisfying the triangle inequality.
+
+    Principal moments are raised to at least mass * min_size^2 / 12 (what a slab
+    ``min_size`` thick has about its normal-plane axes) and to a small fraction of the
+    largest; then the largest is capped at the sum of the other two (equality is a flat
+    panel, so this only removes round-off)."""
+    inertia = 0.5 * (inertia + inertia.T)
+    moments, axes = np.linalg.eigh(inertia)
+    floor = max(mass * min_size**2 / 12.0, _RELATIVE_MOMENT_FLOOR * max(moments[2], 0.0), 1e-30)
+    moments = np.maximum(moments, floor)
+    moments = np.sort(moments)
+    moments[2] = min(moments[2], moments[0] + moments[1])
+    out = (axes * moments) @ axes.T
+    return 0.5 * (out + out.T)
+
+
+def _inertial_from_moments(m: _Moments, min_size: float) -> Inertial:
+    mass, first, second = m
+    com = first / mass
+    second_c = second - mass * np.outer(com, com)
+    inertia = np.trace(second_c) * np.eye(3) - second_c
+    return Inertial(mass, com, _physical_inertia(inertia, mass, min_size))
+
+
+def _degenerate_fallback(meshes: Sequence[Mesh], density: float, min_size: float) -> Inertial:
+    """No area and no volume (points, lines): a box around the vertices, at least
+    ``min_size`` thick in every direction, so the part still has mass."""
+    verts = np.concatenate([m.vertices for m in meshes if len(m.vertices)] or [np.zeros((1, 3))])
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    warn(f"mesh has no area or volume; mass from its bounding box ({(hi - lo).tolist()} m, "
+         f"at least {min_size} m thick)")
+    return box_inertial(np.maximum(hi - lo, min_size), density=density, center=0.5 * (lo + hi))
+
+
+def inertial_from_mesh(mesh: Mesh, density: float = DEFAULT_DENSITY, *,
+                       shell_thickness: float = DEFAULT_SHELL_THICKNESS) -> Inertial:
+    """Mass properties of one mesh (part frame): a uniform solid of ``density`` (kg/m^3)
+    when the mesh is closed, else a shell ``shell_thickness`` (m) thick, per connected
+    component."""
+    return inertial_from_meshes([mesh], density, shell_thickness=shell_thickness)
+
+
+def inertial_from_meshes(meshes: Sequence[Mesh], density: float = DEFAULT_DENSITY, *,
+                         shell_thickness: float = DEFAULT_SHELL_THICKNESS) -> Inertial:
+    """Mass properties of a part made of several pieces (all in the part frame), each solid
+    where closed and a shell where open, combined about the total centre of mass.
+
+    Overlapping pieces count twice (PartNet pieces rarely overlap much; a boolean union of
+    many open pieces is neither possible nor worth it)."""
+    if density <= 0 or shell_thickness <= 0:
+        raise ValueError(f"density and shell_thickness must be > 0, got {density}, {shell_thickness}")
+    total = _zero_moments()
+    for mesh in meshes:
+        total = _add(total, _mesh_moments(mesh, density, shell_thickness))
+    if not total[0] > 0:
+        return _degenerate_fallback(meshes, density, shell_thickness)
+    return _inertial_from_moments(total, shell_thickness)
+
+
+def combine_inertials(items: Sequence[tuple[Inertial, np.ndarray]]) -> Inertial:
+    """One inertial from several, each given with the 4x4 transform of its frame into the
+    common frame (rotation applied to the tensor, then the parallel axis theorem)."""
+    total = _zero_moments()
+    for inertial, transform in items:
+        transform = np.asarray(transform, dtype=float)
+        rot, trans = transform[:3, :3], transform[:3, 3]
+        com = rot @ inertial.com + trans
+        inertia = rot @ inertial.inertia @ rot.T
+        second_c = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+        m = inertial.mass
+        total = _add(total, (m, m * com, second_c + m * np.outer(com, com)))
+    if not total[0] > 0:
+        raise ValueError("combine_inertials needs at least one positive mass")
+    mass, first, second = total
+    com = first / mass
+    second_c = second - mass * np.outer(com, com)
+    inertia = np.trace(second_c) * np.eye(3) - second_c
+    # Sums of valid tensors stay valid; only symmetrise the round-off.
+    return Inertial(mass, com, 0.5 * (inertia + inertia.T))
+
+
+def box_inertial(extents: Sequence[float] | np.ndarray, *, mass: float | None = None,
+                 density: float = DEFAULT_DENSITY,
+                 center: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+                 rotation: np.ndarray | None = None) -> Inertial:
+    """A uniform solid box with full side lengths ``extents`` (m), centred at ``center``,
+    its axes ``rotation`` (3x3) in the part frame; ``mass`` given, or from ``density``."""
+    ext = np.asarray(extents, dtype=float).reshape(3)
+    if np.any(ext <= 0):
+        raise ValueError(f"box extents must be > 0, got {ext.tolist()}")
+    m = float(mass) if mass is not None else density * float(np.prod(ext))
+    if not m > 0:
+        raise ValueError(f"box mass must be > 0, got {m}")
+    x2, y2, z2 = ext**2
+    inertia = m / 12.0 * np.diag([y2 + z2, x2 + z2, x2 + y2])
+    if rotation is not None:
+        rot = np.asarray(rotation, dtype=float).reshape(3, 3)
+        inertia = rot @ inertia @ rot.T
+    return Inertial(m, np.asarray(center, dtype=float), 0.5 * (inertia + inertia.T))
