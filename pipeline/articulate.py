@@ -26,7 +26,7 @@ from real2code_export.model import (
 
 from .closing import hinge_opening, hinge_upper, rotated_box, slide_opening, slide_upper
 from .joint_code import ArticulationProgram, format_boxes, format_program, joint_axis_and_position
-from .obb import OBB, gravity_aligned_obb
+from .obb import OBB, part_obb
 from .predictors import JointPredictor
 
 
@@ -53,7 +53,7 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     taken: set[str] = set()
     names = [sanitize_name(n, taken) for n in meshes]
     world = dict(zip(names, meshes.values(), strict=True))
-    boxes = [gravity_aligned_obb(world[n].vertices) for n in names]
+    boxes = [part_obb(world[n].vertices) for n in names]
     program = predictor.predict(boxes)
 
     # World pose of every part at the observed state, parent first.

@@ -8,7 +8,7 @@ import numpy as np
 from real2code_export.model import ArticulatedObject, JointType, Mesh, forward_kinematics
 
 from .joint_code import ArticulationProgram, ChildJoint, encode_joint
-from .obb import OBB, gravity_aligned_obb
+from .obb import OBB, part_obb
 
 
 def world_part_meshes(obj: ArticulatedObject, q: dict[str, float] | None = None,
@@ -18,7 +18,7 @@ def world_part_meshes(obj: ArticulatedObject, q: dict[str, float] | None = None,
     return {p.name: p.visual.transformed(poses[p.name]) for p in obj.parts if p.visual is not None}
 
 
-def part_boxes(meshes: dict[str, Mesh], fit=gravity_aligned_obb) -> dict[str, OBB]:
+def part_boxes(meshes: dict[str, Mesh], fit=part_obb) -> dict[str, OBB]:
     return {name: fit(m.vertices) for name, m in meshes.items()}
 
 

@@ -35,12 +35,27 @@ def rotated_box(box: OBB, axis: np.ndarray, point: np.ndarray, angle: float) -> 
     return OBB(r @ (box.center - point) + point, r @ box.R, box.extent)
 
 
+def flush_score(parent: OBB, child: OBB) -> float:
+    """How far ``child`` is from lying flush against a face of ``parent`` (m): the gap to
+    the nearest face plus how far it overhangs that face's edges. 0 for a shut door."""
+    c = parent.R.T @ (child.center - parent.center)
+    e = np.abs(parent.R.T @ child.R) @ child.extent
+    gaps = np.abs(c) - parent.extent - e
+    overhang = np.maximum(0.0, np.abs(c) + e - parent.extent)
+    best = np.inf
+    for k in range(3):
+        others = [j for j in range(3) if j != k]
+        best = min(best, abs(gaps[k]) + float(overhang[others].sum()))
+    return best
+
+
 def hinge_opening(parent: OBB, child: OBB, axis: np.ndarray, point: np.ndarray) -> float:
-    """The observed opening angle about +axis (positive: open), found as the turn that best
-    closes the child: among the turns that realign the boxes, the one leaving the child's
-    centre nearest the parent's surface without sinking into it."""
+    """The observed opening angle about +axis (positive: open): among the turns that
+    realign the boxes (90 degrees apart), the one that leaves the child flush against a
+    face of its parent; between equally flush ones, the smaller opening."""
     idx = int(np.argmax(np.abs(child.R.T @ axis)))
     u = child.R[:, [i for i in range(3) if i != idx][0]]
+    scale = float(np.linalg.norm(child.extent))
     best, best_score = 0.0, np.inf
     for k in range(3):
         d = parent.R[:, k]
@@ -50,9 +65,8 @@ def hinge_opening(parent: OBB, child: OBB, axis: np.ndarray, point: np.ndarray) 
             target = s * d
             angle = float(np.arctan2(np.cross(u, target) @ axis, u @ target))
             closed = rotated_box(child, axis, point, angle)
-            distance = box_surface_distance(parent, closed.center)
-            sink = max(0.0, -distance - closed.extent.min())
-            score = abs(distance) + 10.0 * sink + 1e-3 * abs(angle)
+            # a small preference for smaller turns breaks ties between flush candidates
+            score = flush_score(parent, closed) / scale + 0.01 * abs(angle)
             if score < best_score:
                 best, best_score = angle, score
     return -best

@@ -112,3 +112,13 @@ def minimal_obb(points) -> OBB:
     to_origin, extents = trimesh.bounds.oriented_bounds(pts, angle_digits=3)
     from_origin = np.linalg.inv(to_origin)
     return canonical(from_origin[:3, 3], from_origin[:3, :3], np.asarray(extents) / 2)
+
+
+def part_obb(points, tolerance: float = 0.02) -> OBB:
+    """The box a part is summarised by: the gravity-aware box when it is tight (within
+    ``tolerance`` of the minimal volume), else the minimal box. The gravity-aware box keeps
+    the axes of upright parts stable, but cannot follow a lid or a screen tilted about a
+    hinge that is not along a world axis; the minimal box can."""
+    gravity = gravity_aligned_obb(points)
+    minimal = minimal_obb(points)
+    return gravity if gravity.volume <= (1.0 + tolerance) * minimal.volume else minimal

@@ -59,14 +59,33 @@ def convex_hull(mesh: Mesh, *, min_thickness: float = DEFAULT_MIN_THICKNESS) -> 
     points = _used_vertices(mesh)
     if len(points) == 0:
         raise ValueError("cannot take the convex hull of an empty mesh")
+    # Duplicate points (pieces sharing a face) make qhull's triangulated output leaky.
+    points = np.unique(np.round(points, 12), axis=0)
     points = _thickened(points, min_thickness)
     try:
         hull = trimesh.convex.convex_hull(points, qhull_options="QbB Pp Qt")
     except Exception as e:  # qhull raises QhullError; trimesh may raise ValueError
         raise ValueError(f"convex hull failed on {len(points)} points: {e}") from e
     if not (hull.is_volume and hull.volume > 0):
+        # trimesh merges vertices closer than its tolerance, which tears hulls of small
+        # pieces (a few mm); qhull's own triangulation is closed by construction.
+        hull = _qhull_mesh(points)
+    if not (hull.is_volume and hull.volume > 0):
         raise ValueError(f"convex hull of {len(points)} points has no volume")
     return Mesh.from_trimesh(hull)
+
+
+def _qhull_mesh(points: np.ndarray):
+    import trimesh
+    from scipy.spatial import ConvexHull
+
+    hull = ConvexHull(points, qhull_options="Qt")
+    used = np.unique(hull.simplices)
+    remap = np.full(len(points), -1)
+    remap[used] = np.arange(len(used))
+    mesh = trimesh.Trimesh(points[used], remap[hull.simplices], process=False)
+    trimesh.repair.fix_normals(mesh)
+    return mesh
 
 
 def _used_vertices(mesh: Mesh) -> np.ndarray:
