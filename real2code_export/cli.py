@@ -96,7 +96,14 @@ def cmd_articulate(args) -> int:
 
     parts_path = Path(args.parts)
     meshes, colors = load_parts(parts_path)
-    art = articulate(meshes, get_predictor(args.predictor),
+    options = {}
+    if args.predictor == "llm":
+        if not args.llm:
+            raise Real2CodeError("--predictor llm needs --llm MODEL_FOLDER")
+        options = {"path": args.llm, "adapter": args.adapter}
+    elif args.weights:
+        options = {"path": args.weights}
+    art = articulate(meshes, get_predictor(args.predictor, **options),
                      name=args.name or parts_path.stem, colors=colors)
     out = Path(args.out)
     formats = ["json", *(args.to or _available_export_formats())]
@@ -230,8 +237,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("parts", help="a folder with one mesh per rigid part, or a .glb with one "
                    "mesh node per part, all in one world frame")
     s.add_argument("--out", required=True, help="output folder")
-    s.add_argument("--predictor", default="learned", choices=["learned", "geometric"],
-                   help="joint predictor (default: learned)")
+    s.add_argument("--predictor", default="learned", choices=["learned", "geometric", "llm"],
+                   help="joint predictor (default: learned, the shipped weights)")
+    s.add_argument("--weights", help="other weights for the learned predictor")
+    s.add_argument("--llm", help="a local Hugging Face causal LM folder (--predictor llm)")
+    s.add_argument("--adapter", help="a LoRA adapter folder for --llm")
     s.add_argument("--to", type=_formats_arg, default=None,
                    help="comma-separated formats (default: mjcf,urdf,usd,gltf)")
     s.add_argument("--name", help="object name (default: from PARTS)")

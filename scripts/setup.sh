@@ -23,8 +23,9 @@ PY=${PYTHON:-python3}
 stamp=$(sha256sum pyproject.toml | cut -c1-16)
 if [ "$(cat .venv/.real2code-stamp 2>/dev/null)" != "$stamp" ]; then
   echo "setup: installing the Python packages into .venv (about 2 minutes on a fresh machine)"
-  .venv/bin/python -m pip install -q --upgrade pip
-  .venv/bin/python -m pip install -q -e ".[all]"
+  # (this machine's pip config lists local package folders; silence their "ignored" notes)
+  .venv/bin/python -m pip install -q --upgrade pip 2> >(grep -v "is ignored" >&2)
+  .venv/bin/python -m pip install -q -e ".[all]" 2> >(grep -v "is ignored\|BuildBackendWarning\|^ " >&2)
   echo "$stamp" > .venv/.real2code-stamp
 fi
 
