@@ -92,19 +92,53 @@ class LearnedPredictor:
         pad = torch.zeros(1, len(boxes), dtype=torch.bool)
         with torch.no_grad():
             out = {k: v[0].numpy() for k, v in self.network(feats, pad).items()}
-        return decode(out, len(boxes))
+        return decode(out, len(boxes), boxes)
 
 
-def decode(out: dict[str, np.ndarray], n: int) -> ArticulationProgram:
+ALIGNED_COS = np.cos(np.radians(3.0))
+
+
+def hinge_axis_candidates(child: OBB, parent: OBB) -> list[int]:
+    """A turn about a hinge keeps the hinge axis parallel to a parent axis and tilts the
+    other two: when the child is turned, only its axes still aligned with the parent can be
+    the hinge. When nothing is turned (a closed door) every axis remains possible."""
+    aligned = [i for i in range(3) if np.abs(parent.R.T @ child.R[:, i]).max() > ALIGNED_COS]
+    return aligned if len(aligned) == 1 else [0, 1, 2]
+
+
+def slide_axis_candidates(child: OBB, parent: OBB, min_protrusion: float = 0.01) -> list[int]:
+    """A drawer pulled out sticks out of its parent along its slide axis: when the child
+    protrudes (by more than ``min_protrusion`` m) past one face of its parent, only the child
+    axis along that face's normal can be the slide. Otherwise every axis remains possible."""
+    rel = parent.R.T @ (child.center - parent.center)
+    reach = np.abs(parent.R.T @ child.R) @ child.extent
+    protrusion = np.abs(rel) + reach - parent.extent
+    k = int(np.argmax(protrusion))
+    if protrusion[k] < min_protrusion or np.sort(protrusion)[-2] > 0.5 * protrusion[k]:
+        return [0, 1, 2]
+    return [int(np.argmax(np.abs(child.R.T @ parent.R[:, k])))]
+
+
+def decode(out: dict[str, np.ndarray], n: int, boxes: list[OBB] | None = None
+           ) -> ArticulationProgram:
     """The most likely valid program from the network's scores: the root first, then each
-    child's joint, then parents chosen so that the joints form a tree."""
+    child's joint, then parents chosen so that the joints form a tree. With ``boxes``, the
+    axis is restricted to what the geometry allows (a hinge: the axes a turn leaves aligned;
+    a slide: the axis it sticks out along); the network scores the rest."""
     root = int(np.argmax(out["root"][:n]))
     joints = []
     parent_scores = out["parent"][:n, :n].copy()
     for i in range(n):
         if i == root:
             continue
-        idx = int(np.argmax(out["idx"][i]))
+        idx_scores = out["idx"][i].copy()
+        if boxes is not None:
+            parent = int(np.argmax(np.where(np.arange(n) == i, -np.inf, parent_scores[i])))
+            candidates = (hinge_axis_candidates if JOINT_TYPES[int(np.argmax(out["type"][i]))]
+                          == "hinge" else slide_axis_candidates)
+            allowed = candidates(boxes[i], boxes[parent])
+            idx_scores[[k for k in range(3) if k not in allowed]] = -np.inf
+        idx = int(np.argmax(idx_scores))
         edge = EDGES[int(np.argmax(out["edge"][i, idx]))]
         sign = (-1, 1)[int(np.argmax(out["sign"][i, idx]))]
         jtype = JOINT_TYPES[int(np.argmax(out["type"][i]))]
