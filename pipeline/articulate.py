@@ -44,8 +44,10 @@ class Articulation:
 
 def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str = "object",
                colors: dict[str, tuple] | None = None, density: float | None = None,
-               metadata: dict | None = None) -> Articulation:
-    from real2code_export.collision import collision_pieces
+               metadata: dict | None = None, collision: str = "auto") -> Articulation:
+    """``collision``: "auto" (one convex piece per connected component of a part's mesh
+    when it has a few, else its convex hull), "hull", or "coacd" (convex decomposition,
+    tight but slow on large scans; cached by mesh hash)."""
     from real2code_export.inertia import DEFAULT_DENSITY, inertial_from_mesh
 
     if len(meshes) < 2:
@@ -95,11 +97,8 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     parts = []
     for n in names:
         local = world[n].transformed(tf.inverse(pose[n]))
-        pieces = local.to_trimesh().split(only_watertight=False)
-        source = [Mesh.from_trimesh(p) for p in pieces] if len(pieces) > 1 else None
         parts.append(Part(
-            name=n, visual=local,
-            collision=collision_pieces(local, "pieces" if source else "hull", source_pieces=source),
+            name=n, visual=local, collision=_collision(local, collision),
             inertial=inertial_from_mesh(local, density or DEFAULT_DENSITY),
             color=(colors or {}).get(n, (0.7, 0.7, 0.7, 1.0)),
         ))
@@ -107,3 +106,22 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
                             metadata={"articulated_by": predictor.name, **(metadata or {})})
     validate(obj)
     return Articulation(obj, boxes, names, program, format_boxes(boxes), format_program(program))
+
+
+MAX_COMPONENT_PIECES = 64
+
+
+def _collision(mesh: Mesh, method: str) -> list[Mesh]:
+    import trimesh
+
+    from real2code_export.collision import collision_pieces
+
+    if method != "auto":
+        return collision_pieces(mesh, method)
+    tm = mesh.to_trimesh()
+    labels = trimesh.graph.connected_component_labels(tm.face_adjacency, node_count=len(tm.faces))
+    n_components = int(labels.max()) + 1 if len(labels) else 0
+    if 1 < n_components <= MAX_COMPONENT_PIECES:
+        pieces = [Mesh.from_trimesh(p) for p in tm.split(only_watertight=False)]
+        return collision_pieces(mesh, "pieces", source_pieces=pieces)
+    return collision_pieces(mesh, "hull")
