@@ -106,8 +106,29 @@ def markdown(title: str, rows: dict[str, dict], show_paper: bool) -> str:
         cells = []
         for b in names:
             t = table.get(b)
+            pos = ("-" if t is None or np.isnan(t["position_error_rel"])
+                   else f"{t['position_error_rel'] * 100:.1f} %")
             cells.append("-" if t is None else
-                         f"{t['type_accuracy']:.2f} / {t['axis_error_deg']:.1f} / "
-                         f"{t['position_error_rel'] * 100:.1f} %")
+                         f"{t['type_accuracy']:.2f} / {t['axis_error_deg']:.1f} / {pos}")
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    lines += ["", "Closed state and range (the paper predicts neither): mean error of the "
+              "observed opening and of the upper limit, revolute in degrees / prismatic in cm.",
+              "", "| method | " + " | ".join(f"{b} parts: state / upper" for b in names) + " |",
+              "|" + "---|" * (len(names) + 1)]
+    for method, table in rows.items():
+        cells = []
+        for b in names:
+            t = table.get(b)
+            cells.append("-" if t is None else
+                         f"{_deg(t['state_error_rad'])}° {_cm(t['state_error_m'])} / "
+                         f"{_deg(t['upper_error_rad'])}° {_cm(t['upper_error_m'])}")
         lines.append(f"| {method} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _deg(rad: float) -> str:
+    return "-" if np.isnan(rad) else f"{np.degrees(rad):.1f}"
+
+
+def _cm(m: float) -> str:
+    return "" if np.isnan(m) else f"{100 * m:.1f} cm"

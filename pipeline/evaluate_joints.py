@@ -38,6 +38,7 @@ def bucket_of(n_parts: int) -> str:
 @dataclass
 class JointScore:
     bucket: str
+    revolute: bool  # the truth's kind: state and range errors are in rad, else in m
     type_ok: bool
     axis_deg: float
     position: float | None  # m, revolute only
@@ -59,16 +60,24 @@ class Scores:
                 continue
             pos = [j.position for j in js if j.position is not None]
             rel = [j.position_rel for j in js if j.position_rel is not None]
-            st = [j.state_error for j in js if j.state_error is not None]
-            up = [j.upper_error for j in js if j.upper_error is not None]
+
+            def mean(values):
+                return float(np.mean(values)) if values else float("nan")
+
             out[name] = {
                 "objects": self.objects.get(name, 0), "joints": len(js),
                 "type_accuracy": float(np.mean([j.type_ok for j in js])),
                 "axis_error_deg": float(np.mean([j.axis_deg for j in js])),
                 "position_error_m": float(np.mean(pos)) if pos else float("nan"),
                 "position_error_rel": float(np.mean(rel)) if rel else float("nan"),
-                "state_error": float(np.mean(st)) if st else float("nan"),
-                "upper_error": float(np.mean(up)) if up else float("nan"),
+                "state_error_rad": mean([j.state_error for j in js
+                                         if j.revolute and j.state_error is not None]),
+                "state_error_m": mean([j.state_error for j in js
+                                       if not j.revolute and j.state_error is not None]),
+                "upper_error_rad": mean([j.upper_error for j in js
+                                         if j.revolute and j.upper_error is not None]),
+                "upper_error_m": mean([j.upper_error for j in js
+                                       if not j.revolute and j.upper_error is not None]),
             }
         return out
 
@@ -106,7 +115,8 @@ def score_object(truth: ArticulatedObject, truth_base: np.ndarray, predicted: Ar
     for child, (tj, t_axis, t_point) in t_axes.items():
         pred = p_axes.get(match.get(child, ""))
         if pred is None:  # the matched part has no joint: every error at its worst
-            scores.joints.append(JointScore(bucket, False, 90.0, None, None, None, None))
+            scores.joints.append(JointScore(bucket, tj.type is not JointType.PRISMATIC, False,
+                                            90.0, None, None, None, None))
             continue
         pj, p_axis, p_point = pred
         truth_slide = tj.type is JointType.PRISMATIC
@@ -122,5 +132,5 @@ def score_object(truth: ArticulatedObject, truth_base: np.ndarray, predicted: Ar
             state_err = abs(tj.state - pj.state)
             if tj.limits is not None and pj.limits is not None:
                 upper_err = abs(tj.limits.upper - pj.limits.upper)
-        scores.joints.append(JointScore(bucket, type_ok, axis_deg, position, rel, state_err,
-                                        upper_err))
+        scores.joints.append(JointScore(bucket, not truth_slide, type_ok, axis_deg, position,
+                                        rel, state_err, upper_err))
