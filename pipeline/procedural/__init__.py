@@ -19,6 +19,8 @@ Conventions (besides the model's):
 - Geometry is a union of boxes (and 12-sided cylinders): the visual mesh concatenates them,
   each is one convex collision piece, the inertial combines their exact solid inertials.
 - Closed, no two parts overlap: fronts keep a gap of a few millimetres to their opening.
+  The observed configuration is collision-free too (a front that would hit another open
+  one is observed closed).
 
 ``metadata`` holds ``category``, ``seed``, ``generator``, ``n_parts``, ``front``/``up``,
 ``part_labels`` / ``joint_labels`` (``body``, ``door``, ``drawer``, ``lid``), ``hinge_sides``

@@ -266,12 +266,14 @@ def close_clashing_fronts(parts: list[Part], joints: list[Joint]) -> None:
         poses = {parts[0].name: np.eye(4)}
         for j in joints:  # every joint hangs off the root
             poses[j.child] = j.transform(j.state)
-        names = [p.name for p in parts]
+        def is_open(name: str) -> bool:
+            return name in by_child and by_child[name].state != by_child[name].limits.lower
+
+        names = [p.name for p in parts]  # the root first, so a clash's second part moves
         clash = next(((a, b) for i, a in enumerate(names) for b in names[i + 1:]
-                      if (a in by_child and by_child[a].state) or (b in by_child and by_child[b].state)
-                      if _penetrates(boxes[a], boxes[b], poses[a], poses[b])), None)
+                      if (is_open(a) or is_open(b))
+                      and _penetrates(boxes[a], boxes[b], poses[a], poses[b])), None)
         if clash is None:
             return
-        a, b = clash
-        later = by_child[b] if by_child[b].state else by_child[a]
-        later.state = float(later.limits.lower)
+        joint = by_child[clash[1]] if is_open(clash[1]) else by_child[clash[0]]
+        joint.state = float(joint.limits.lower)
