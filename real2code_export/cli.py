@@ -165,13 +165,6 @@ def cmd_evaluate_joints(args) -> int:
     return EXIT_OK
 
 
-def cmd_calibrate(args) -> int:
-    from .calibrate import run_calibrate
-
-    return run_calibrate(Path(args.model), [Path(p) for p in args.data],
-                         [Path(p) for p in args.holdout or []], Path(args.out))
-
-
 def cmd_demo(args) -> int:
     """The main job on a shipped sample: load, export to every format, check them all."""
     from .check import check_files, format_table
@@ -259,12 +252,6 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--markdown", help="write the tables as markdown")
     e.set_defaults(func=cmd_evaluate_joints)
 
-    s = sub.add_parser("calibrate", help="fit joint dynamics to measured trajectories")
-    s.add_argument("model", help="the model (object.json, .urdf, .xml, ...)")
-    s.add_argument("--data", action="append", required=True, help="trajectory CSV to fit")
-    s.add_argument("--holdout", action="append", help="trajectory CSV held out for evaluation")
-    s.add_argument("--out", required=True, help="output folder")
-    s.set_defaults(func=cmd_calibrate)
     return p
 
 
