@@ -1,0 +1,23 @@
+"""Calibrate a model's joint dynamics against measured motion: replay it in MuJoCo, show what
+the simulation gets wrong, name the cause from a fixed vocabulary of effects, extend the
+model with it, fit it, and measure the gain on data it did not fit.
+
+Modules: ``trajectory`` (the CSV contract), ``spec`` / ``simulate`` (the replay),
+``features`` (what points at causes), ``effects`` (the candidate library), ``inverse`` and
+``fit`` (fitting), ``select`` (model selection), ``apply`` / ``extras`` (into the model),
+``report``, ``run`` (the entry points), ``emps`` / ``pendulum`` (real-data adapters) and
+``evaluate`` (the published-vs-ours tables).
+"""
+
+from .run import CalibrationResult, calibrate, calibrate_trajectories, replay, run_calibrate
+from .trajectory import Trajectory, read_csv
+
+__all__ = [
+    "CalibrationResult",
+    "Trajectory",
+    "calibrate",
+    "calibrate_trajectories",
+    "read_csv",
+    "replay",
+    "run_calibrate",
+]

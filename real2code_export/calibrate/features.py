@@ -1,0 +1,178 @@
+"""Features of the measured motion and of the replay's mismatch that point at causes:
+the decay envelope (linear: dry friction; exponential: viscous damping), oscillation about a
+rest position other than the model's, a sudden stop (an end stop), a frequency shift
+(stiffness or inertia), a force bias that flips with the sign of the velocity (friction) or
+does not (an offset). Also the sensor noise level and smoothed derivatives the fit starts
+from.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.signal import savgol_coeffs, savgol_filter
+
+
+def smoothing_window(period: float, seconds: float = 0.15, minimum: int = 7) -> int:
+    w = max(minimum, int(round(seconds / period)))
+    return w + 1 if w % 2 == 0 else w
+
+
+def derivatives(x: np.ndarray, period: float, window: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Savitzky-Golay smoothed value, first and second derivative."""
+    w = min(window or smoothing_window(period), len(x) - (1 - len(x) % 2))
+    w = max(w, 5)
+    order = min(4, w - 1)
+    kw = {"window_length": w, "polyorder": order, "delta": period, "mode": "interp"}
+    return (savgol_filter(x, deriv=0, **kw), savgol_filter(x, deriv=1, **kw),
+            savgol_filter(x, deriv=2, **kw))
+
+
+def noise_level(x: np.ndarray) -> float:
+    """Standard deviation of the sensor noise (quantisation included), from what a short
+    local cubic cannot follow; corrected for the part of the noise the fit absorbs."""
+    w = 9 if len(x) >= 9 else (len(x) - 1) | 1
+    if w < 5:
+        return 0.0
+    resid = x - savgol_filter(x, w, 3, mode="interp")
+    center = savgol_coeffs(w, 3)[w // 2]
+    core = resid[w:-w] if len(resid) > 3 * w else resid
+    # median absolute deviation: robust to the few samples at impacts
+    mad = float(np.median(np.abs(core - np.median(core)))) * 1.4826
+    rms = float(np.sqrt(np.mean(core**2)))
+    est = min(mad, rms) if mad > 0 else rms
+    return est / math.sqrt(max(1.0 - center, 1e-6))
+
+
+def effective_samples(resid: np.ndarray) -> float:
+    """Independent samples in a residual: its length over the integrated autocorrelation
+    time (Sokal's automatic window). A residual with slow drifts (an unmodelled input
+    error integrated by the dynamics) carries far less information than its length."""
+    r = np.asarray(resid, float)
+    n = r.size
+    if n < 4:
+        return float(max(n, 1))
+    r = r - r.mean()
+    f = np.fft.rfft(r, 2 * n)
+    acf = np.fft.irfft(f * np.conj(f))[:n]
+    if acf[0] <= 0:
+        return float(n)
+    rho = acf / acf[0]
+    tau = 1.0
+    for m in range(1, n):
+        tau += 2.0 * rho[m]
+        if m >= 5.0 * tau:
+            break
+    tau = min(max(tau, 1.0), n / 2.0)
+    return float(n / tau)
+
+
+# -- causes ------------------------------------------------------------------------------------
+def turning_points(q: np.ndarray, dq: np.ndarray, noise: float) -> np.ndarray:
+    """Indices where the velocity changes sign with a swing larger than the noise."""
+    s = np.sign(dq)
+    idx = np.flatnonzero((s[1:] * s[:-1]) < 0) + 1
+    keep, last = [], None
+    for i in idx:
+        if last is None or abs(q[i] - q[last]) > 6 * noise:
+            keep.append(i)
+            last = i
+    return np.array(keep, dtype=int)
+
+
+def decay_envelope(t, q, dq, noise, rest: float | None = None) -> dict:
+    """How the swing amplitude decays: 'linear' (dry friction), 'exponential' (viscous
+    damping), 'none', or 'n/a' (too few swings)."""
+    tp = turning_points(q, dq, noise)
+    if len(tp) < 4:
+        return {"kind": "n/a", "swings": int(len(tp))}
+    centre = rest if rest is not None else float(np.median(q[tp]))
+    amp = np.abs(q[tp] - centre)
+    tt = t[tp]
+    ok = amp > 4 * noise
+    if ok.sum() < 4:
+        return {"kind": "n/a", "swings": int(len(tp))}
+    tt, amp = tt[ok], amp[ok]
+    lin = np.polyfit(tt, amp, 1)
+    lin_err = float(np.sqrt(np.mean((np.polyval(lin, tt) - amp) ** 2)))
+    ex = np.polyfit(tt, np.log(amp), 1)
+    ex_err = float(np.sqrt(np.mean((np.exp(np.polyval(ex, tt)) - amp) ** 2)))
+    drop = (amp[0] - amp[-1]) / amp[0]
+    if drop < 0.05:
+        kind = "none"
+    else:
+        kind = "linear" if lin_err < 0.7 * ex_err else \
+            "exponential" if ex_err < 0.7 * lin_err else "mixed"
+    return {"kind": kind, "swings": int(len(tt)), "linear_rms": lin_err,
+            "exponential_rms": ex_err, "amplitude_drop": float(drop),
+            "linear_slope": float(-lin[0]), "exponential_rate": float(-ex[0])}
+
+
+def rest_position(q, dq, noise) -> float | None:
+    """Centre of the oscillation (mean of successive turning-point midpoints)."""
+    tp = turning_points(q, dq, noise)
+    if len(tp) < 3:
+        return None
+    mids = 0.5 * (q[tp[1:]] + q[tp[:-1]])
+    return float(np.median(mids))
+
+
+def dominant_frequency(t, q) -> float | None:
+    x = q - np.polyval(np.polyfit(t, q, 1), t)
+    if len(x) < 16 or np.allclose(x, 0):
+        return None
+    spec = np.abs(np.fft.rfft(x * np.hanning(len(x))))
+    freqs = np.fft.rfftfreq(len(x), d=float(np.median(np.diff(t))))
+    k = int(np.argmax(spec[1:]) + 1)
+    if spec[k] < 3 * np.median(spec[1:]):
+        return None
+    return float(freqs[k])
+
+
+def sudden_stops(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, noise: float) -> list[str]:
+    """Sides ('lower', 'upper') where the joint is stopped hard: at the extreme of the
+    motion, the deceleration peaks far above what the rest of the motion shows."""
+    span = float(np.ptp(q))
+    if span < 20 * noise:
+        return []
+    a = np.abs(ddq)
+    typical = float(np.percentile(a, 90)) + 1e-12
+    out = []
+    for side, edge in (("lower", q.min()), ("upper", q.max())):
+        near = np.abs(q - edge) < 0.03 * span
+        if not near.any():
+            continue
+        peak = float(a[near].max())
+        # approached with speed: the velocity before reaching the edge is not small
+        moving = float(np.percentile(np.abs(dq), 75))
+        idx = np.flatnonzero(near)
+        before = idx[0] - 1
+        approach = abs(dq[max(before - 2, 0)]) if before >= 0 else 0.0
+        if peak > 3.0 * typical and approach > 0.3 * moving:
+            out.append(side)
+    return out
+
+
+def missing_force(dq: np.ndarray, ddq: np.ndarray, force_residual: np.ndarray) -> dict:
+    """The force the nominal model misses, split by what it goes with: a part that flips
+    with the velocity's sign at constant size (dry friction), one that grows with the speed
+    (viscous damping), one that does not flip (an offset), one that follows the
+    acceleration (inertia). Terms are reported when larger than three standard errors."""
+    moving = np.abs(dq) > 0.05 * np.percentile(np.abs(dq), 90)
+    if moving.sum() < 10 or np.all(dq[moving] > 0) or np.all(dq[moving] < 0):
+        return {"terms": []}
+    v, a, f = dq[moving], ddq[moving], force_residual[moving]
+    cols = np.column_stack([np.sign(v), v, np.ones_like(v), a])
+    scale = np.maximum(np.abs(cols).max(axis=0), 1e-300)
+    coef, *_ = np.linalg.lstsq(cols / scale, f, rcond=None)
+    resid = f - (cols / scale) @ coef
+    s2 = float(resid @ resid) / max(len(f) - 4, 1)
+    se = np.sqrt(np.diag(np.linalg.pinv((cols / scale).T @ (cols / scale))) * s2)
+    coef, se = coef / scale, se / scale
+    names = ("flips with the velocity sign (dry friction)", "grows with the speed (viscous)",
+             "does not flip (constant)", "follows the acceleration (inertia)")
+    terms = [names[i] for i in range(4) if abs(coef[i]) > 3 * se[i]]
+    return {"dry": float(coef[0]), "viscous": float(coef[1]), "constant": float(coef[2]),
+            "inertial": float(coef[3]), "stderr": se.tolist(), "terms": terms}

@@ -1,0 +1,225 @@
+"""Everything a calibration keeps fixed while candidates are tried: the replay spec, the
+measured signals, their noise levels, the joints' contexts and candidate libraries."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.signal import savgol_coeffs
+
+from ..errors import ModelError
+from ..model import ArticulatedObject
+from . import features
+from .effects import Effect, JointContext, library
+from .extras import base_law, write_spec_extras
+from .simulate import MAX_TIMESTEP
+from .spec import gravity_loaded, replay_spec, subtree_bodies
+from .trajectory import Trajectory
+
+
+@dataclass
+class Signals:
+    """One trajectory, smoothed for the inverse-dynamics start: positions, velocities,
+    accelerations, the measured effort and the nominal rigid-body effort (n, joints)."""
+
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    tau: np.ndarray
+    tau_rb: np.ndarray
+    tau_rot: np.ndarray  # the part of tau_rb due to rotational inertia about the com
+    dq_noise: np.ndarray  # per joint: noise of the smoothed velocity
+    usable: np.ndarray  # (n,) samples away from impacts and the ends
+
+
+@dataclass
+class Problem:
+    obj: ArticulatedObject
+    joints: list[str]
+    trajectories: list[Trajectory]
+    spec: object  # the nominal replay MjSpec (copied per candidate)
+    contexts: dict[str, JointContext]
+    effects: dict[str, dict[str, Effect]]  # joint -> effect variant -> Effect
+    position_noise: list[np.ndarray]  # per trajectory: per joint sigma
+    effort_noise: list[np.ndarray]  # per trajectory: per joint sigma (closed loop only)
+    signals: list[Signals]
+    # per trajectory, (joints, 2): initial position and velocity, which of them are fitted
+    # (positions always: one noisy first sample would offset a whole run; velocities when
+    # the run starts moving), and their standard errors from the data
+    initial: list[np.ndarray]
+    initial_free: list[np.ndarray]
+    initial_stderr: list[np.ndarray]
+    stops: dict[str, list[str]] = field(default_factory=dict)
+    nonsmooth: bool = False  # the nominal model has dry friction or the data reach a limit
+    base_laws: dict = field(default_factory=dict)  # joint -> the model's own AppliedLaw
+
+
+FRICTION_TIMECONST = 2 * MAX_TIMESTEP
+
+
+def _replay_spec(obj: ArticulatedObject, joints: list[str]):
+    spec = replay_spec(obj, joints)
+    # Dry friction as stiff as the step allows (MuJoCo's default 0.02 s time constant lets
+    # a stuck joint creep); kept with the calibrated model for every MJCF consumer.
+    for name in joints:
+        spec.joint(name).solref_friction = [FRICTION_TIMECONST, 1.0]
+    write_spec_extras(obj, spec, joints)
+    return spec
+
+
+def rigid_effort(spec, joints: list[str], traj_q: np.ndarray, dq: np.ndarray,
+                 ddq: np.ndarray, point_masses: bool = False) -> np.ndarray:
+    """Rigid-body inverse dynamics (inertia, Coriolis, gravity) of the nominal model at each
+    sample, with the joints' own passive forces, armature and constraints left out
+    (``point_masses``: every body's rotational inertia about its centre of mass too)."""
+    import mujoco
+
+    from .simulate import joint_addresses
+
+    s = spec.copy()
+    if point_masses:
+        for body in s.bodies:
+            if body.mass > 0:
+                body.fullinertia = [1e-12, 1e-12, 1e-12, 0.0, 0.0, 0.0]
+    for name in joints:
+        j = s.joint(name)
+        j.damping = [0.0, 0.0, 0.0]
+        j.stiffness = [0.0, 0.0, 0.0]
+        j.frictionloss = 0.0
+        j.armature = 0.0
+    s.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    m = s.compile()
+    d = mujoco.MjData(m)
+    qadr, dadr = joint_addresses(m, joints)
+    out = np.empty_like(traj_q)
+    for i in range(len(traj_q)):
+        d.qpos[qadr] = traj_q[i]
+        d.qvel[dadr] = dq[i]
+        d.qacc[dadr] = ddq[i]
+        mujoco.mj_inverse(m, d)
+        out[i] = d.qfrc_inverse[dadr]
+    return out
+
+
+def _initial_state(t: np.ndarray, q: np.ndarray, noise: float
+                   ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Position and velocity at the first sample from a local quadratic over ~40 ms, and
+    their standard errors."""
+    period = float(np.median(np.diff(t)))
+    n = int(min(len(t), max(6, round(0.04 / period))))
+    tt = t[:n] - t[0]
+    a = np.column_stack([np.ones(n), tt, tt**2])
+    coef, *_ = np.linalg.lstsq(a, q[:n], rcond=None)
+    cov = np.linalg.pinv(a.T @ a) * max(noise, 1e-12) ** 2
+    return (float(coef[0]), float(coef[1])), (float(np.sqrt(cov[0, 0])),
+                                              float(np.sqrt(cov[1, 1])))
+
+
+def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Problem:
+    joints = trajectories[0].joints
+    for name in joints:
+        try:
+            j = obj.joint(name)
+        except KeyError as e:
+            raise ModelError(f"object {obj.name!r}", f"has no joint {name!r}") from e
+        if not j.type.movable:
+            raise ModelError(f"joint {name!r}", "is fixed: nothing to calibrate")
+    spec = _replay_spec(obj, joints)
+    nominal = spec.copy().compile()
+    from .simulate import joint_addresses
+
+    _, dadr = joint_addresses(nominal, joints)
+
+    signals, pos_noise, eff_noise, x0s, x0_free, x0_se = [], [], [], [], [], []
+    stops: dict[str, list[str]] = {j: [] for j in joints}
+    for tr in trajectories:
+        period = tr.sample_period
+        qs = np.column_stack([tr.positions[j] for j in joints])
+        sig_q = np.array([features.noise_level(qs[:, k]) for k in range(len(joints))])
+        pos_noise.append(sig_q)
+        taus = np.column_stack([tr.efforts.get(j, np.zeros(tr.n)) for j in joints])
+        eff_noise.append(np.array([features.noise_level(taus[:, k]) if j in tr.efforts
+                                   else 0.0 for k, j in enumerate(joints)]))
+        smoothed = [features.derivatives(qs[:, k], period) for k in range(len(joints))]
+        q_s = np.column_stack([s[0] for s in smoothed])
+        dq = np.column_stack([s[1] for s in smoothed])
+        ddq = np.column_stack([s[2] for s in smoothed])
+        tau_s = np.column_stack([features.derivatives(taus[:, k], period)[0]
+                                 for k in range(len(joints))])
+        tau_rb = rigid_effort(spec, joints, q_s, dq, ddq)
+        tau_rot = tau_rb - rigid_effort(spec, joints, q_s, dq, ddq, point_masses=True)
+        w = features.smoothing_window(period)
+        c1 = savgol_coeffs(max(w, 5), min(4, w - 1), deriv=1, delta=period)
+        dq_noise = sig_q * float(np.sqrt(np.sum(c1**2)))
+        usable = np.ones(tr.n, bool)
+        usable[: w // 2 + 1] = False
+        usable[-(w // 2 + 1):] = False
+        for k, j in enumerate(joints):
+            # impacts are short: looked for with a shorter smoothing window
+            short = features.smoothing_window(period, seconds=0.08)
+            qk, dqk, ddqk = features.derivatives(qs[:, k], period, short)
+            sides = features.sudden_stops(qk, dqk, ddqk, sig_q[k])
+            for side in sides:
+                if side not in stops[j]:
+                    stops[j].append(side)
+        x0 = np.zeros((len(joints), 2))
+        free = np.zeros((len(joints), 2), bool)
+        se = np.zeros((len(joints), 2))
+        for k in range(len(joints)):
+            (q0, v0), (sq, sv) = _initial_state(tr.time, qs[:, k], sig_q[k])
+            x0[k] = (q0, v0)
+            se[k] = (sq, sv)
+            free[k] = (True, abs(v0) > 4 * sv)
+            if not free[k, 1]:
+                x0[k, 1] = 0.0
+        x0s.append(x0)
+        x0_free.append(free)
+        x0_se.append(se)
+        signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, dq_noise, usable))
+
+    # samples near an end stop are left out of the inverse-dynamics start (impacts)
+    for sig in signals:
+        for k, j in enumerate(joints):
+            if not stops[j]:
+                continue
+            lo, hi = sig.q[:, k].min(), sig.q[:, k].max()
+            span = hi - lo
+            if "upper" in stops[j]:
+                sig.usable &= sig.q[:, k] < hi - 0.05 * span
+            if "lower" in stops[j]:
+                sig.usable &= sig.q[:, k] > lo + 0.05 * span
+
+    contexts, effects = {}, {}
+    for k, name in enumerate(joints):
+        j = obj.joint(name)
+        q_all = np.concatenate([tr.positions[name] for tr in trajectories])
+        tau_all = np.concatenate([np.abs(s.tau[:, k]) for s in signals] +
+                                 [np.abs(s.tau_rb[:, k]) for s in signals])
+        scale = float(np.percentile(tau_all, 95)) if tau_all.size else 1.0
+        inertia = float(nominal.dof_M0[dadr[k]]) if hasattr(nominal, "dof_M0") else 1.0
+        if scale <= 0:
+            scale = inertia * 1.0
+        ctx = JointContext(
+            joint=name, angular=j.type.angular, dynamics=j.dynamics, limits=j.limits,
+            bodies=tuple(subtree_bodies(obj, name)), gravity_loaded=gravity_loaded(obj, name),
+            inertia=inertia, q_low=float(q_all.min()), q_high=float(q_all.max()),
+            effort_scale=scale, stops=tuple(sorted(stops[name])), timestep=MAX_TIMESTEP,
+            law=base_law(obj, name),
+            has_effort=any(name in tr.efforts or tr.controller is not None
+                           for tr in trajectories),
+        )
+        contexts[name] = ctx
+        effects[name] = {e.variant: e for e in library(ctx)}
+    nonsmooth = False
+    for name in joints:
+        j, ctx = obj.joint(name), contexts[name]
+        margin = 0.05 * max(ctx.q_high - ctx.q_low, 1e-9)
+        if j.dynamics.friction > 0 or ctx.law.damping_asym:
+            nonsmooth = True
+        if j.limits is not None and (ctx.q_low < j.limits.lower + margin
+                                     or ctx.q_high > j.limits.upper - margin):
+            nonsmooth = True
+    return Problem(obj, joints, trajectories, spec, contexts, effects, pos_noise, eff_noise,
+                   signals, x0s, x0_free, x0_se, stops, nonsmooth,
+                   {name: contexts[name].law for name in joints})

@@ -1,0 +1,203 @@
+"""Model selection: which effects the data call for.
+
+Forward stepwise search from the nominal model: at each step every structure one effect
+richer (or friction refined into direction-dependent friction) is scored by the cheap
+inverse-dynamics fit, the most promising are fitted by simulation, and the best is kept if
+its BIC beats the current model's and every one of its effects is really there (its 95 %
+interval, widened for residual correlation, excludes absence). BIC counts the effective
+samples of the best-fitting residual so far (a correlated residual carries less evidence
+than its length), the same count for every candidate compared, so extra parameters must
+pay for themselves. The search stops when no extension earns its parameters: nothing is
+forced onto the data.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .effects import Effect, extensions
+from .fit import MATERIAL, Fit, fit_candidate, refine_fit
+from .inverse import EquationFit, equation_fit
+from .problem import Problem
+
+SCREEN_TOP = 2  # structures per step fitted by simulation (after the inverse-dynamics screen)
+MAX_EFFECTS = 4
+
+
+@dataclass
+class Selection:
+    nominal: Fit
+    chosen: Fit
+    fitted: list[Fit]
+    n_ref: float  # effective samples every BIC counts
+    screened: list[tuple[tuple[str, ...], EquationFit]] = field(default_factory=list)
+    screen_n_ref: float = 0.0
+    log: list[str] = field(default_factory=list)
+
+
+def _key(effects: tuple[Effect, ...]) -> tuple[str, ...]:
+    return tuple(sorted(f"{e.joint}:{e.variant}" for e in effects))
+
+
+def _proposals(problem: Problem, current: tuple[Effect, ...]) -> list[tuple[Effect, ...]]:
+    """Structures one effect richer than ``current``: one effect added, or one swapped and
+    one added (a greedy first choice must not lock the search: a spring can stand in for
+    an offset early on and exclude it later)."""
+    out: list[tuple[Effect, ...]] = []
+    seen: set[tuple[str, ...]] = set()
+    for joint in problem.joints:
+        mine = tuple(sorted(e.variant for e in current if e.joint == joint))
+        others = tuple(e for e in current if e.joint != joint)
+        lib = problem.effects[joint]
+        names_list = list(extensions(mine, list(lib)))
+        for drop in mine:
+            rest = tuple(n for n in mine if n != drop)
+            for first in extensions(rest, list(lib)):
+                for second in extensions(first, list(lib)):
+                    if len(second) == len(mine) + 1 and drop not in second:
+                        names_list.append(second)
+        for names in names_list:
+            key = tuple(sorted(f"{joint}:{n}" for n in names))
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append(others + tuple(lib[n] for n in names))
+    return out
+
+
+def _nothing_left(fit: Fit) -> bool:
+    """Whether the residual is so close to the sensor noise that no further effect could
+    move the motion by MATERIAL noise deviations (what it explains adds in quadrature)."""
+    return fit.rss / fit.n < 1.0 + 0.8 * MATERIAL**2
+
+
+def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str]) -> Fit:
+    """Symmetric friction with an offset (or with damping) may be direction-dependent
+    friction seen in part: direction dependence is tried as a refinement even when the
+    residual is already near the noise, and kept if BIC prefers it (one effect with its
+    four values in place of two or three)."""
+    names = {e.name for e in current.effects}
+    if not names & {"friction", "damping"} or "asymmetric_friction" in names:
+        return current
+    candidates = [p for p in _proposals(problem, current.effects)
+                  if any(e.name == "asymmetric_friction" for e in p)
+                  and len(p) <= len(current.effects)]
+    warm = _warm_start(current)
+    best = current
+    for p in candidates:
+        # (re)fitted from the current model's values: a refinement tried earlier, from a
+        # poorer model, may have stopped in another minimum
+        f = fit_candidate(problem, p, refine=False, warm=warm)
+        if _key(p) in fits and fits[_key(p)].rss <= f.rss:
+            continue
+        fits[_key(p)] = f
+        n_ref = _n_ref(fits.values())
+        if f.bic(n_ref) < best.bic(n_ref):
+            f = refine_fit(f)
+            fits[_key(p)] = f
+            if all(f.present(e) for e in f.effects) and not f.degenerate():
+                log.append(f"refined {'+'.join(current.names)} into {'+'.join(f.names)}: "
+                           f"BIC {f.bic(n_ref):.1f}")
+                best = f
+    return best
+
+
+def _warm_start(current: Fit) -> dict[str, float]:
+    """Start values from the current model: its parameters, and direction-dependent
+    friction started from the symmetric friction it refines. (Initial states start from
+    the data: a poor current model may have bent them to hide its error.)"""
+    warm = dict(current.values)
+    for e in current.effects:
+        j = e.joint
+        c = current.values.get(f"{j}.friction", e.ctx.dynamics.friction)
+        b = current.values.get(f"{j}.damping", e.ctx.dynamics.damping)
+        o = current.values.get(f"{j}.offset", 0.0)
+        # the offset becomes the Coulomb asymmetry: constant = offset - (c+ - c-) / 2
+        warm.setdefault(f"{j}.friction_pos", max(c - o, 0.0))
+        warm.setdefault(f"{j}.friction_neg", max(c + o, 0.0))
+        warm.setdefault(f"{j}.damping_pos", b)
+        warm.setdefault(f"{j}.damping_neg", b)
+    return warm
+
+
+def _n_ref(fits) -> float:
+    best = min(fits, key=lambda f: f.rss)
+    return best.n_eff
+
+
+def select(problem: Problem, screen_top: int = SCREEN_TOP,
+           max_effects: int = MAX_EFFECTS) -> Selection:
+    nominal = fit_candidate(problem, ())
+    fits: dict[tuple[str, ...], Fit] = {(): nominal}
+    screened: dict[tuple[str, ...], EquationFit] = {}
+    log = []
+    current = nominal
+    if _nothing_left(nominal):
+        log.append(f"residual {math.sqrt(nominal.rss / nominal.n):.2f} x noise: the nominal "
+                   "model explains the data")
+    while len(current.effects) < max_effects and not _nothing_left(current):
+        proposals = [p for p in _proposals(problem, current.effects) if _key(p) not in fits]
+        if not proposals:
+            break
+        for p in proposals:
+            if _key(p) not in screened:
+                screened[_key(p)] = equation_fit(problem, p)
+        screen_ref = _n_ref(screened.values())
+        scored = sorted(proposals, key=lambda p: screened[_key(p)].bic(screen_ref))
+        # Structures with an end stop cannot be scored by the inverse dynamics (it leaves
+        # the impacts out), and while a detected stop is not modelled every other
+        # structure misses it: fit the best-screened ones with and without the stop.
+        has_stop = any(e.name == "limit" for e in current.effects)
+        with_stop = [] if has_stop else [p for p in scored if any(e.name == "limit" for e in p)]
+        chosen = [p for p in scored if p not in with_stop][:screen_top]
+        if chosen:  # the best-screened structure, with each possible stop
+            chosen += [q for q in with_stop if set(_key(chosen[0])) <= set(_key(q))
+                       and len(q) == len(chosen[0]) + 1]
+        chosen += [q for q in with_stop if len(q) == len(current.effects) + 1
+                   and q not in chosen]
+        new = []
+        warm = _warm_start(current)
+        for p in chosen:
+            f = fit_candidate(problem, p, refine=False, warm=warm)
+            fits[_key(p)] = f
+            new.append(f)
+        n_ref = _n_ref(fits.values())
+        kept = None
+        # best BIC first; each is refined (its numerical error measured) before its
+        # effects are tested, and the first that passes is kept
+        for f in sorted(new, key=lambda f: f.bic(n_ref)):
+            if f.bic(n_ref) >= current.bic(n_ref):
+                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, no better")
+                continue
+            f = refine_fit(f)
+            fits[_key(f.effects)] = f
+            if f.degenerate():
+                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, two effects "
+                           "explain the same thing")
+            elif all(f.present(e) for e in f.effects):
+                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
+                kept = kept or f
+            else:
+                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
+                           "an effect not significant")
+            if kept is not None:
+                break
+        if kept is None:
+            log.append(f"no extension of {'+'.join(current.names) or 'the nominal model'} "
+                       "earns its parameters")
+            break
+        current = kept
+        log.append(f"kept {'+'.join(current.names)}")
+        if _nothing_left(current):
+            log.append(f"residual {math.sqrt(current.rss / current.n):.2f} x noise: nothing "
+                       "an effect could still explain moves the motion by the noise")
+            break
+    current = _refine_friction(problem, current, fits, log)
+    current = refine_fit(current)
+    fits[_key(current.effects)] = current
+    n_ref = _n_ref(fits.values())
+    screen_ref = _n_ref(screened.values()) if screened else 0.0
+    return Selection(nominal, current, list(fits.values()), n_ref,
+                     sorted(screened.items(), key=lambda kv: kv[1].bic(screen_ref)),
+                     screen_ref, log)

@@ -1,0 +1,269 @@
+"""Replay measured conditions in MuJoCo: initial state from the data, the measured effort as
+input (or a feedback law in the loop), the simulated joint positions at the sample times.
+
+Open-loop replays whose forces are known in advance go through ``mujoco.rollout`` (C,
+several models per call on all cores: a finite-difference Jacobian is one call). A
+direction-dependent viscous force (part of ``asymmetric_friction``, no MuJoCo joint
+attribute) or a feedback law needs the state between steps: those replays step in Python
+with the force in ``qfrc_applied``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .trajectory import Trajectory
+
+# Largest step (s) where the dynamics are not smooth (dry friction, end stops); smooth
+# dynamics step at the sample period (the measured input is piecewise constant anyway)
+# up to SMOOTH_TIMESTEP.
+MAX_TIMESTEP = 1e-3
+SMOOTH_TIMESTEP = 5e-3
+THREADS = max(1, min(4, os.cpu_count() or 1))
+
+
+@dataclass(frozen=True)
+class AppliedLaw:
+    """The generalized force on one joint that MuJoCo has no joint attribute for:
+
+        f(v) = offset - friction_asym - damping_asym * |v|
+
+    With direction-dependent friction (Coulomb c+ for positive velocity, c- for negative;
+    viscous b+, b-), friction_asym = (c+ - c-) / 2 and damping_asym = (b+ - b-) / 2; the
+    symmetric halves are MuJoCo's frictionloss and damping. Coulomb asymmetry is exactly a
+    constant force (in slip and in stick: the stick band [-c-, c+] is the symmetric band
+    shifted by (c+ - c-) / 2), so no smoothing of the sign is needed. The constant goes
+    through ``qfrc_applied``; the viscous part is written into the spec as two one-sided
+    dampers b+ and b- (:func:`set_direction_dependent_damping`), ``damping_asym`` here is
+    for the record.
+    """
+
+    offset: float = 0.0
+    friction_asym: float = 0.0
+    damping_asym: float = 0.0
+
+    @property
+    def constant(self) -> float:
+        return self.offset - self.friction_asym
+
+    def force(self, v: float) -> float:
+        return self.offset - self.friction_asym - self.damping_asym * abs(v)
+
+    def is_zero(self) -> bool:
+        return not (self.offset or self.friction_asym or self.damping_asym)
+
+
+def set_direction_dependent_damping(spec, joint: str, damping_pos: float,
+                                    damping_neg: float) -> None:
+    """Viscous damping b+ for positive velocity, b- for negative, as two one-sided dampers
+    (affine-bias actuators, velocity gain -b, force clamped to one sign) in place of the
+    joint's symmetric damping: MuJoCo computes it natively, in C rollouts and in any
+    consumer of the spec (it accepts only dissipative velocity gains, so the two halves
+    are dampers in their own right, not a correction to the symmetric one). Idempotent."""
+    import mujoco
+
+    big = 1e9
+    spec.joint(joint).damping = [0.0, 0.0, 0.0]
+    for suffix, b, force_range in (("pos", damping_pos, [-big, 0.0]),
+                                   ("neg", damping_neg, [0.0, big])):
+        name = f"real2code_{joint}_damping_{suffix}"
+        act = spec.actuator(name)
+        if act is None:
+            act = spec.add_actuator(name=name, target=joint,
+                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.gainprm = [0.0] * 10
+        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        act.biasprm = [0.0, 0.0, -b] + [0.0] * 7
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = force_range
+
+
+@dataclass
+class Rollout:
+    positions: np.ndarray  # (n, joints) simulated positions at the sample times
+    efforts: np.ndarray  # (n, joints) the effort applied over [t_k, t_k+1)
+
+
+def substeps_for(period: float, fine: bool) -> int:
+    limit = MAX_TIMESTEP if fine else SMOOTH_TIMESTEP
+    return max(1, math.ceil(period / limit - 1e-9))
+
+
+def compile_spec(spec):
+    """Compile a replay spec (RK4: smooth joint dynamics integrate accurately at the data's
+    own sample rate)."""
+    import mujoco
+
+    spec.option.integrator = int(mujoco.mjtIntegrator.mjINT_RK4)
+    return spec.compile()
+
+
+def joint_addresses(model, joints: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    import mujoco
+
+    qadr, dadr = [], []
+    for name in joints:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if jid < 0:
+            raise KeyError(f"joint {name!r} is not in the compiled model")
+        qadr.append(int(model.jnt_qposadr[jid]))
+        dadr.append(int(model.jnt_dofadr[jid]))
+    return np.array(qadr), np.array(dadr)
+
+
+def measured_samples(traj: Trajectory) -> np.ndarray:
+    """(n, joints) measured effort (zero where none was measured)."""
+    u = np.zeros((traj.n, len(traj.joints)))
+    for k, j in enumerate(traj.joints):
+        if j in traj.efforts:
+            u[:, k] = traj.efforts[j]
+    return u
+
+
+def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarray:
+    """((n - 1) * nsub, joints) effort per simulation step, at each substep's midpoint:
+    linear between samples (one step per interval: the mean of its two samples), or a
+    cubic spline through them (the reference replay: how much the reconstruction of the
+    input between samples matters is part of the replay's numerical error)."""
+    frac = (np.arange(nsub) + 0.5) / nsub
+    if cubic and len(samples) >= 4:
+        from scipy.interpolate import CubicSpline
+
+        k = np.arange(len(samples), dtype=float)
+        where = (k[:-1, None] + frac[None, :]).ravel()
+        return CubicSpline(k, samples, axis=0)(where)
+    a, b = samples[:-1], samples[1:]
+    per = a[:, None, :] * (1 - frac)[None, :, None] + b[:, None, :] * frac[None, :, None]
+    return per.reshape(-1, samples.shape[1])
+
+
+def _uniform(traj: Trajectory) -> bool:
+    dt = np.diff(traj.time)
+    return bool(np.all(np.abs(dt - traj.sample_period) <= 1e-6 * traj.sample_period))
+
+
+Initial = Mapping[str, tuple[float, float]]  # joint -> (position, velocity) at the first sample
+
+
+def _start(model, data, traj: Trajectory, initial: Initial, qadr, dadr) -> None:
+    import mujoco
+
+    mujoco.mj_resetData(model, data)
+    for k, j in enumerate(traj.joints):
+        q0, v0 = initial.get(j, (traj.positions[j][0], 0.0))
+        data.qpos[qadr[k]] = q0
+        data.qvel[dadr[k]] = v0
+    mujoco.mj_forward(model, data)
+
+
+def rollout(model, traj: Trajectory, initial: Initial,
+            laws: Mapping[str, AppliedLaw] | None = None, data=None,
+            fine: bool = True, refine: int = 1) -> Rollout:
+    """Simulate ``traj``'s conditions stepping in Python (feedback laws, velocity-dependent
+    forces, irregular sampling)."""
+    import mujoco
+
+    joints = traj.joints
+    qadr, dadr = joint_addresses(model, joints)
+    laws = laws or {}
+    law_list = [laws.get(j, AppliedLaw()) for j in joints]
+    d = data if data is not None else mujoco.MjData(model)
+    _start(model, d, traj, initial, qadr, dadr)
+    n, nj = traj.n, len(joints)
+    t = traj.time
+    period = traj.sample_period
+    nsub = substeps_for(period, fine) * refine
+    model.opt.timestep = period / nsub
+    h = model.opt.timestep
+    uniform = _uniform(traj)
+    samples = measured_samples(traj)
+    per_step = step_input(samples, nsub, cubic=refine > 1) if uniform else None
+
+    q_out = np.empty((n, nj))
+    u_out = np.zeros((n, nj))
+    controller = traj.controller
+    history = {j: q_out[:, k] for k, j in enumerate(joints)}
+    step = mujoco.mj_step
+    qpos, qfrc = d.qpos, d.qfrc_applied
+    const = np.array([law.constant for law in law_list])
+    for i in range(n):
+        q_out[i] = qpos[qadr]
+        if controller is not None:  # a feedback law holds its output over the interval
+            u = controller(i, history)
+            for k, j in enumerate(joints):
+                u_out[i, k] = u.get(j, 0.0)
+        else:
+            u_out[i] = samples[i]
+        if i == n - 1:
+            break
+        if controller is None and per_step is not None:
+            for s in range(nsub):
+                qfrc[dadr] = per_step[i * nsub + s] + const
+                step(model, d)
+            continue
+        steps = nsub if uniform else max(1, round((t[i + 1] - t[i]) / h))
+        base = u_out[i] + const if controller is not None else \
+            0.5 * (samples[i] + samples[i + 1]) + const
+        qfrc[dadr] = base
+        for _ in range(steps):
+            step(model, d)
+    return Rollout(q_out, u_out)
+
+
+class BatchRunner:
+    """Open-loop replays of one trajectory for several models at once (``mujoco.rollout``
+    on all cores); falls back to Python stepping for a feedback law or irregular samples."""
+
+    def __init__(self, traj: Trajectory, joints: Sequence[str]):
+        self.traj = traj
+        self.joints = list(joints)
+        self._datas = None
+        self._input = measured_samples(traj)
+
+    def run(self, models: Sequence, initials: Sequence[Initial],
+            laws: Sequence[Mapping[str, AppliedLaw]], fine: bool,
+            refine: int = 1) -> list[Rollout]:
+        import mujoco
+        from mujoco import rollout as mj_rollout
+
+        traj = self.traj
+        needs_state = traj.controller is not None or not _uniform(traj)
+        if needs_state:
+            data = mujoco.MjData(models[0])
+            return [rollout(m, traj, x0, lw, data, fine, refine)
+                    for m, x0, lw in zip(models, initials, laws, strict=True)]
+        m0 = models[0]
+        qadr, dadr = joint_addresses(m0, self.joints)
+        period = traj.sample_period
+        nsub = substeps_for(period, fine) * refine
+        per_step = step_input(self._input, nsub, cubic=refine > 1)
+        if self._datas is None or self._datas[0].model.nq != m0.nq:
+            self._datas = [mujoco.MjData(m0) for _ in range(THREADS)]
+        spec_full = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        nstate = mujoco.mj_stateSize(m0, spec_full)
+        init = np.empty((len(models), nstate))
+        ctrl = np.zeros((len(models), (traj.n - 1) * nsub, m0.nv))
+        for b, (m, x0, lw) in enumerate(zip(models, initials, laws, strict=True)):
+            m.opt.timestep = period / nsub
+            d = self._datas[0]
+            _start(m, d, traj, x0, qadr, dadr)
+            mujoco.mj_getState(m, d, init[b], spec_full)
+            for k, j in enumerate(self.joints):
+                ctrl[b, :, dadr[k]] = per_step[:, k] + lw.get(j, AppliedLaw()).constant
+        state, _ = mj_rollout.rollout(list(models), self._datas, init, ctrl,
+                                      control_spec=int(mujoco.mjtState.mjSTATE_QFRC_APPLIED),
+                                      persistent_pool=True)
+        out = []
+        for b in range(len(models)):
+            q = np.empty((traj.n, len(self.joints)))
+            q[0] = init[b, 1 + qadr]
+            q[1:] = state[b, nsub - 1::nsub][:, 1 + qadr]
+            out.append(Rollout(q, self._input.copy()))
+        return out

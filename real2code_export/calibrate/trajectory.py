@@ -1,0 +1,186 @@
+"""Measured joint trajectories: the CSV contract (DESIGN.md), read and checked.
+
+A header row; ``time`` in seconds; one column per measured joint, named as the joint, holding
+its position (rad or m); optional ``<joint>.effort`` (applied torque or force). Lines starting
+with ``#`` are comments. Every problem is a :class:`FormatError` naming the file, the column
+and the line, raised before anything is simulated or written.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FormatError
+from ..model import ArticulatedObject
+
+EFFORT_SUFFIX = ".effort"
+# Fewer samples than this cannot fit even one effect plus the initial velocity, let alone
+# tell two candidates apart.
+MIN_SAMPLES = 20
+
+# A closed-loop law (adapters only; a CSV cannot carry one): called once per sample k with
+# the simulated positions so far (joint -> array of samples 0..k) and returns the applied
+# effort per joint for the interval [t_k, t_k+1).
+Controller = Callable[[int, dict[str, np.ndarray]], dict[str, float]]
+
+
+@dataclass(eq=False)
+class Trajectory:
+    """One measured run: sample times, positions per joint, efforts where measured.
+
+    ``controller`` (optional) closes the loop in the replay: the effort is then computed
+    from the simulated positions, and ``efforts`` holds the measured controller output,
+    compared with the simulated one.
+    """
+
+    source: str
+    time: np.ndarray
+    positions: dict[str, np.ndarray]
+    efforts: dict[str, np.ndarray] = field(default_factory=dict)
+    controller: Controller | None = None
+
+    @property
+    def joints(self) -> list[str]:
+        return list(self.positions)
+
+    @property
+    def n(self) -> int:
+        return len(self.time)
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def sample_period(self) -> float:
+        return float(np.median(np.diff(self.time)))
+
+
+def _error(path: Path, element: str | None, message: str, line: int | None = None) -> FormatError:
+    return FormatError(path, element, message, line)
+
+
+def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError as e:
+        raise _error(path, None, "no such file") from e
+    except (OSError, UnicodeDecodeError) as e:
+        raise _error(path, None, f"cannot read: {e}") from e
+    rows = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        rows.append((number, next(csv.reader([stripped]))))
+    return rows
+
+
+def read_csv(path: str | Path, obj: ArticulatedObject) -> Trajectory:
+    """Read and check one trajectory CSV against the model ``obj``."""
+    path = Path(path)
+    rows = _data_lines(path)
+    if not rows:
+        raise _error(path, None, "empty file (expected a header row: time,<joint>,...)")
+    header_line, header = rows[0]
+    header = [h.strip() for h in header]
+    if "time" not in header:
+        raise _error(path, "header", f"no 'time' column (columns: {', '.join(header)})",
+                     header_line)
+    seen: set[str] = set()
+    for h in header:
+        if h in seen:
+            raise _error(path, f"column {h!r}", "appears twice", header_line)
+        seen.add(h)
+    movable = {j.name: j for j in obj.movable_joints}
+    fixed = {j.name for j in obj.joints if not j.type.movable}
+    positions_cols, effort_cols = [], []
+    for h in header:
+        if h == "time":
+            continue
+        joint = h[: -len(EFFORT_SUFFIX)] if h.endswith(EFFORT_SUFFIX) else h
+        if joint in fixed:
+            raise _error(path, f"column {h!r}", f"joint {joint!r} of model {obj.name!r} is "
+                         "fixed: it has no motion to calibrate", header_line)
+        if joint not in movable:
+            known = ", ".join(sorted(movable)) or "none"
+            raise _error(path, f"column {h!r}", f"names no joint of model {obj.name!r} "
+                         f"(its movable joints: {known})", header_line)
+        (effort_cols if h.endswith(EFFORT_SUFFIX) else positions_cols).append(h)
+    for h in effort_cols:
+        joint = h[: -len(EFFORT_SUFFIX)]
+        if joint not in positions_cols:
+            raise _error(path, f"column {h!r}", f"effort without a position column {joint!r}",
+                         header_line)
+    if not positions_cols:
+        raise _error(path, "header", "no joint position column (expected time,<joint>,...)",
+                     header_line)
+
+    values = np.empty((len(rows) - 1, len(header)))
+    for i, (line, cells) in enumerate(rows[1:]):
+        if len(cells) != len(header):
+            raise _error(path, "row", f"has {len(cells)} values, the header has {len(header)}",
+                         line)
+        for c, (name, cell) in enumerate(zip(header, cells, strict=True)):
+            try:
+                v = float(cell)
+            except ValueError as e:
+                raise _error(path, f"column {name!r}", f"not a number: {cell.strip()!r}",
+                             line) from e
+            if not math.isfinite(v):
+                raise _error(path, f"column {name!r}", f"value is {cell.strip()} (NaN or "
+                             "infinite values cannot be fitted; remove the row)", line)
+            values[i, c] = v
+    lines = [line for line, _ in rows[1:]]
+    n = len(values)
+    if n < MIN_SAMPLES:
+        raise _error(path, None, f"only {n} samples: at least {MIN_SAMPLES} are needed to fit")
+    t = values[:, header.index("time")]
+    steps = np.diff(t)
+    bad = np.flatnonzero(steps <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise _error(path, "column 'time'", f"time does not increase ({t[k]!r} after "
+                     f"{t[k - 1]!r})", lines[k])
+    return Trajectory(
+        source=str(path),
+        time=t.copy(),
+        positions={h: values[:, header.index(h)].copy() for h in positions_cols},
+        efforts={h[: -len(EFFORT_SUFFIX)]: values[:, header.index(h)].copy()
+                 for h in effort_cols},
+    )
+
+
+def read_all(paths: Sequence[str | Path], obj: ArticulatedObject) -> list[Trajectory]:
+    """Read every file; all must measure the same joints."""
+    trajectories = [read_csv(p, obj) for p in paths]
+    if trajectories:
+        first = set(trajectories[0].joints)
+        for tr in trajectories[1:]:
+            if set(tr.joints) != first:
+                raise _error(Path(tr.source), "header", f"measures joints {sorted(tr.joints)}, "
+                             f"but {trajectories[0].source} measures {sorted(first)}")
+    return trajectories
+
+
+def csv_text(traj: Trajectory, comments: Sequence[str] = ()) -> str:
+    """The CSV form of a trajectory (the adapters write real data this way)."""
+    cols = ["time"]
+    data = [traj.time]
+    for j, q in traj.positions.items():
+        cols.append(j)
+        data.append(q)
+        if j in traj.efforts:
+            cols.append(j + EFFORT_SUFFIX)
+            data.append(traj.efforts[j])
+    lines = [f"# {c}" for c in comments]
+    lines.append(",".join(cols))
+    for row in np.column_stack(data):
+        lines.append(",".join(repr(float(v)) for v in row))
+    return "\n".join(lines) + "\n"
