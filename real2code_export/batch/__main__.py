@@ -1,0 +1,7 @@
+"""``python -m real2code_export.batch TASK INPUT... --out DIR`` (= ``real2code batch ...``)."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())
