@@ -12,6 +12,7 @@ the body's side; zero in files we write), the model's "part frame = joint frame"
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +21,7 @@ import numpy as np
 
 from .. import transforms as tf
 from ..errors import CheckError
+from ..formats.usd.stage import load_physics
 from . import JointInfo
 
 WORLD = ""
@@ -50,12 +52,14 @@ class UsdProbe:
     label = "USD (UsdPhysics)"
 
     def __init__(self, path: Path):
-        from pxr import Tf, Usd, UsdGeom, UsdPhysics
+        from pxr import Tf, Usd, UsdGeom
 
         self.path = path
+        with contextlib.suppress(ImportError):  # our NewtonMassAPI / NewtonJointAPI
+            import newton_usd_schemas  # noqa: F401
         try:
             stage = Usd.Stage.Open(str(path))
-            parsed = UsdPhysics.UsdPhysicsLoadStageFromPrimRange(stage, ["/"])
+            parsed = load_physics(stage)
         except Tf.ErrorException as e:
             raise CheckError(f"{path}: cannot load with UsdPhysics: {e}") from e
         mpu = float(UsdGeom.GetStageMetersPerUnit(stage))

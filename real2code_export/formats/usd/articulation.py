@@ -18,6 +18,7 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import JointType
+from .stage import load_physics
 
 WORLD = ""  # the parser's body path for the world side of a joint
 KINDS = {"RevoluteJoint": None, "PrismaticJoint": JointType.PRISMATIC,
@@ -55,10 +56,10 @@ class Articulation:
 
 def parse(stage, path, mpu: float) -> Articulation:
     """The checked articulation; positions in metres (``mpu``: metres per stage unit)."""
-    from pxr import Tf, UsdPhysics
+    from pxr import Tf
 
     try:
-        parsed = UsdPhysics.UsdPhysicsLoadStageFromPrimRange(stage, ["/"])
+        parsed = load_physics(stage)
     except Tf.ErrorException as e:
         raise FormatError(path, None, f"UsdPhysics cannot parse the stage: {e}") from e
     order = {str(p.GetPath()): i for i, p in enumerate(stage.Traverse())}

@@ -20,6 +20,7 @@ value we write is chosen so that reading it back and writing it again gives the 
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import re
 from pathlib import Path
@@ -64,9 +65,26 @@ def stage_text(stage) -> str:
 _PARSE_ERROR = re.compile(r":(\d+):\d+: (.*?)(?: in <([^>]*)>)?'?$", re.MULTILINE)
 
 
+def load_physics(stage):
+    """UsdPhysics' own parse of the whole stage. usd-core 26.11 names it
+    ``UsdPhysicsLoadStageFromPrimRange`` (the old ``LoadUsdPhysicsFromRange`` is deprecated);
+    OpenUSD 25.08, inside Blender 5.0, has only the old name: take whichever exists."""
+    from pxr import UsdPhysics
+
+    loader = (getattr(UsdPhysics, "UsdPhysicsLoadStageFromPrimRange", None)
+              or UsdPhysics.LoadUsdPhysicsFromRange)
+    return loader(stage, ["/"])
+
+
 def open_stage(path: Path):
-    """Open a .usda/.usd/.usdc file; FormatError (with the line for text files) if it cannot."""
+    """Open a .usda/.usd/.usdc file; FormatError (with the line for text files) if it cannot.
+    Our own schema (NewtonMassAPI, NewtonJointAPI) is registered first, so that files we
+    wrote read back with it."""
     from pxr import Tf, Usd
+
+    # (without the package, files still open; the Newton attributes are then left unread)
+    with contextlib.suppress(ImportError):
+        import newton_usd_schemas  # noqa: F401
 
     if not path.is_file():
         raise FormatError(path, None, "file not found")

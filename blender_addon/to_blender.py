@@ -1,0 +1,264 @@
+"""The model into Blender: one object per part, parented along the kinematic tree.
+
+Layout of a rig (``<x>`` are model names)::
+
+    collection <object>                      linked under the scene's collection, last
+        <object>        Empty   the object (move it to place the whole rig)
+        <root part>     Mesh    child of the object Empty
+        <joint>         Empty   child of its parent part; the joint's frame
+        <child part>    Mesh    child of its joint Empty
+        collection <object> collision        hidden: the convex collision pieces,
+            <part>_collision_<k>  Mesh       each a child of its part
+
+A joint Empty's parent inverse is the joint frame at q = 0, turned so that its Z axis is the
+joint axis (the arrow it draws); its own transform is the motion alone: a rotation about
+local Z (revolute, continuous) or a translation along it (prismatic). So a part's local
+transform is ``origin @ motion(q)``, its world matrix is the model's forward kinematics, and
+the joint's limits are plain Limit Rotation / Limit Location constraints in local space.
+The joint value is the custom property ``real2code_value`` (the panel's slider), which a
+driver copies into the motion channel; the limits are the custom properties
+``real2code_lower``/``real2code_upper``, which drivers copy into the constraint.
+
+Nothing is linked into the scene until every datablock exists; on any error all of them are
+removed again, so a failed import leaves the file exactly as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from real2code_export import transforms as tf
+from real2code_export.model import ArticulatedObject, Joint, JointType, Part, forward_kinematics
+
+from . import mesh_data
+from . import rig_props as rp
+
+Z = np.array([0.0, 0.0, 1.0])
+
+
+def joint_alignment(joint: Joint) -> np.ndarray:
+    """Rotation (4x4) taking the joint Empty's local Z onto the joint axis (identity for a
+    fixed joint). Export reads it back from the child part's parent inverse."""
+    if not joint.type.movable:
+        return np.eye(4)
+    return tf.make(rotation=tf.rotation_between(Z, joint.axis))
+
+
+def build_rig(obj: ArticulatedObject, scene: bpy.types.Scene, source: str = "") -> bpy.types.Object:
+    """Make ``obj``'s rig in ``scene``, posed at the observed state; returns the object Empty."""
+    made = _Made()
+    try:
+        root = _build(obj, made, source)
+        scene.collection.children.link(made.collection)
+    except BaseException:
+        made.remove_all()
+        raise
+    return root
+
+
+def remove_rig(root: bpy.types.Object) -> None:
+    """Remove a rig this module built: its collections, objects, meshes and materials."""
+    collections = [c for c in root.users_collection if root.name in c.objects]
+    ids: set = set()
+    for coll in collections:
+        for c in [coll, *coll.children_recursive]:
+            ids.add(c)
+            for ob in c.objects:
+                ids.add(ob)
+                if ob.data is not None:
+                    ids.add(ob.data)
+                    ids.update(m for m in getattr(ob.data, "materials", []) if m is not None)
+    bpy.data.batch_remove(ids)
+
+
+class _Made:
+    """Every datablock made so far, so that a failure can remove them all."""
+
+    def __init__(self) -> None:
+        self.ids: list[bpy.types.ID] = []
+        self.collection: bpy.types.Collection | None = None
+
+    def add(self, datablock):
+        self.ids.append(datablock)
+        return datablock
+
+    def remove_all(self) -> None:
+        if self.ids:
+            bpy.data.batch_remove(self.ids)
+        self.ids.clear()
+
+
+def _build(obj: ArticulatedObject, made: _Made, source: str) -> bpy.types.Object:
+    rig = made.collection = made.add(bpy.data.collections.new(obj.name))
+    hidden = made.add(bpy.data.collections.new(f"{obj.name} collision"))
+    hidden.hide_viewport = hidden.hide_render = True
+    rig[rp.ROLE], hidden[rp.ROLE] = rp.ROLE_OBJECT, rp.ROLE_COLLISION
+    rig.children.link(hidden)
+    size = _object_size(obj)
+
+    root = made.add(bpy.data.objects.new(obj.name, None))
+    root.empty_display_type, root.empty_display_size = "PLAIN_AXES", 0.25 * size
+    root[rp.ROLE], root[rp.NAME] = rp.ROLE_OBJECT, obj.name
+    root[rp.METADATA] = json.dumps(obj.metadata, sort_keys=True)
+    root[rp.SOURCE] = source
+    rig.objects.link(root)
+
+    part_objects = {}
+    for part in obj.parts_in_tree_order():
+        joint = obj.parent_joint(part.name)
+        if joint is None:
+            parent, parent_inverse = root, np.eye(4)
+        else:
+            parent = _joint_empty(joint, obj.joints.index(joint), part_objects[joint.parent],
+                                  made, rig, size)
+            parent_inverse = tf.inverse(joint_alignment(joint))
+        part_objects[part.name] = _part_object(obj.name, part, obj.parts.index(part), parent,
+                                               parent_inverse, made, rig, hidden)
+    return root
+
+
+def _object_size(obj: ArticulatedObject) -> float:
+    """A length for drawing Empties: the diagonal of the parts' extent at rest."""
+    poses = forward_kinematics(obj)
+    corners = [p.visual.transformed(poses[p.name]).bounds() for p in obj.parts
+               if p.visual is not None]
+    if not corners:
+        return 1.0
+    points = np.concatenate(corners)
+    return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0))) or 1.0
+
+
+def _part_object(object_name: str, part: Part, index: int, parent, parent_inverse: np.ndarray,
+                 made: _Made, rig, hidden) -> bpy.types.Object:
+    data = None
+    if part.visual is not None:
+        data = made.add(mesh_data.to_blender(part.name, part.visual))
+        data.materials.append(_material(f"{object_name}.{part.name}", part.color, made))
+    ob = made.add(bpy.data.objects.new(part.name, data))
+    if data is None:
+        ob.empty_display_type, ob.empty_display_size = "CUBE", 0.02
+    ob[rp.ROLE], ob[rp.NAME], ob[rp.INDEX] = rp.ROLE_PART, part.name, index
+    rp.set_exact(ob, {"color": list(part.color)})
+    if part.inertial is not None:
+        ob[rp.MASS] = part.inertial.mass
+        ob[rp.COM] = part.inertial.com.tolist()
+        ob[rp.INERTIA] = part.inertial.inertia.reshape(-1).tolist()
+        ob.id_properties_ui(rp.MASS).update(min=0.0, description="kg")
+    rig.objects.link(ob)
+    ob.parent = parent
+    ob.matrix_parent_inverse = Matrix(parent_inverse.tolist())
+    for k, piece in enumerate(part.collision):
+        name = f"{part.name}_collision_{k}"
+        pob = made.add(bpy.data.objects.new(name, made.add(mesh_data.to_blender(name, piece))))
+        pob[rp.ROLE], pob[rp.NAME], pob[rp.INDEX] = rp.ROLE_COLLISION, name, k
+        pob.display_type = "WIRE"
+        hidden.objects.link(pob)
+        pob.parent = ob
+    return ob
+
+
+def _material(name: str, color, made: _Made) -> bpy.types.Material:
+    mat = made.add(bpy.data.materials.new(name))
+    mat.diffuse_color = color  # the viewport (Solid, Workbench) colour
+    if mat.node_tree is None:  # Blender < 5.0 makes no node tree by default
+        mat.use_nodes = True
+    bsdf = next((n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if bsdf is not None:
+        bsdf.inputs["Base Color"].default_value = color
+        bsdf.inputs["Alpha"].default_value = color[3]
+    return mat
+
+
+def _joint_empty(joint: Joint, index: int, parent, made: _Made, rig,
+                 size: float) -> bpy.types.Object:
+    je = made.add(bpy.data.objects.new(joint.name, None))
+    je[rp.INDEX] = index
+    je.empty_display_type = "SINGLE_ARROW" if joint.type.movable else "PLAIN_AXES"
+    je.empty_display_size = 0.15 * size
+    je[rp.ROLE], je[rp.NAME] = rp.ROLE_JOINT, joint.name
+    je[rp.TYPE] = joint.type.value
+    je[rp.AXIS] = joint.axis.tolist()
+    rp.set_exact(je, {"type": joint.type.value, "origin": joint.origin.reshape(-1).tolist(),
+                      "axis": joint.axis.tolist()})
+    _joint_properties(je, joint)
+    rig.objects.link(je)
+    je.parent = parent
+    je.matrix_parent_inverse = Matrix((joint.origin @ joint_alignment(joint)).tolist())
+    je.lock_location = je.lock_rotation = je.lock_scale = (True, True, True)
+    if joint.type.angular:
+        je.lock_rotation = (True, True, False)
+        _drive(je, "rotation_euler", 2, je, rp.VALUE)
+    elif joint.type is JointType.PRISMATIC:
+        je.lock_location = (True, True, False)
+        _drive(je, "location", 2, je, rp.VALUE)
+    if joint.type.movable:
+        _limit_constraint(je, joint)
+    return je
+
+
+def _joint_properties(je, joint: Joint) -> None:
+    unit = "ANGLE" if joint.type.angular else "DISTANCE"
+    if joint.type.movable:
+        je[rp.VALUE] = joint.state
+        je[rp.STATE] = joint.state
+        for key in (rp.VALUE, rp.STATE):
+            je.id_properties_ui(key).update(subtype=unit)
+    if joint.limits is not None:
+        je[rp.LOWER], je[rp.UPPER] = joint.limits.lower, joint.limits.upper
+        for key in (rp.LOWER, rp.UPPER):
+            je.id_properties_ui(key).update(subtype=unit)
+        lo, hi = joint.limits.lower, joint.limits.upper
+        je.id_properties_ui(rp.VALUE).update(min=lo, max=hi, soft_min=lo, soft_max=hi,
+                                             description=f"{joint.name} ({joint.type.value})")
+        if joint.limits.effort is not None:
+            je[rp.EFFORT] = joint.limits.effort
+        if joint.limits.velocity is not None:
+            je[rp.VELOCITY] = joint.limits.velocity
+    elif joint.type is JointType.CONTINUOUS:
+        je.id_properties_ui(rp.VALUE).update(soft_min=-math.pi, soft_max=math.pi)
+    for name in rp.DYNAMICS:
+        je[rp.dynamics_key(name)] = float(getattr(joint.dynamics, name))
+
+
+def _drive(target, path: str, index: int, source, prop: str):
+    """A driver copying ``source[prop]`` into ``target.path[index]``: a plain property copy,
+    so it runs without Python scripts being trusted."""
+    curve = target.driver_add(path, index)
+    driver = curve.driver
+    driver.type = "AVERAGE"
+    var = driver.variables.new()
+    var.type = "SINGLE_PROP"
+    var.targets[0].id_type = "OBJECT"
+    var.targets[0].id = source
+    var.targets[0].data_path = f'["{prop}"]'
+    return curve
+
+
+def _limit_constraint(je, joint: Joint) -> None:
+    """Limit Rotation (about local Z) or Limit Location (along local Z), in local space, with
+    the other two axes held at zero; the range follows the lower/upper custom properties.
+
+    Limit Rotation reads angles in (-pi, pi]: a revolute range beyond that (rare) gets no
+    constraint, and the slider's own range is the only limit shown."""
+    if joint.type is JointType.PRISMATIC:
+        con = je.constraints.new("LIMIT_LOCATION")
+        for axis in "xyz":
+            setattr(con, f"use_min_{axis}", True)
+            setattr(con, f"use_max_{axis}", True)
+    else:
+        lim = joint.limits
+        bounded = lim is not None and -math.pi <= lim.lower and lim.upper <= math.pi
+        con = je.constraints.new("LIMIT_ROTATION")
+        con.use_limit_x = con.use_limit_y = True
+        con.use_limit_z = bounded
+    con.name = f"{joint.name} limits"
+    con.owner_space = "LOCAL"
+    con.use_transform_limit = True
+    if joint.limits is not None and (joint.type is JointType.PRISMATIC or con.use_limit_z):
+        _drive(con, "min_z", -1, je, rp.LOWER)
+        _drive(con, "max_z", -1, je, rp.UPPER)
