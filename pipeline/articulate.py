@@ -24,7 +24,15 @@ from real2code_export.model import (
     validate,
 )
 
-from .closing import hinge_opening, hinge_upper, rotated_box, slide_opening, slide_upper
+from .closing import (
+    front_plane,
+    hinge_opening_from_mesh,
+    hinge_upper,
+    rotated_box,
+    slide_clearance,
+    slide_opening_from_mesh,
+    slide_upper,
+)
 from .joint_code import ArticulationProgram, format_boxes, format_program, joint_axis_and_position
 from .obb import OBB, part_obb
 from .predictors import JointPredictor
@@ -57,6 +65,12 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     world = dict(zip(names, meshes.values(), strict=True))
     boxes = [part_obb(world[n].vertices) for n in names]
     program = predictor.predict(boxes)
+    sampled: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    def surface(part: str) -> tuple[np.ndarray, np.ndarray]:
+        if part not in sampled:
+            sampled[part] = _surface_samples(world[part])
+        return sampled[part]
 
     # World pose of every part at the observed state, parent first.
     pose = {names[program.root_geom]: np.eye(4)}
@@ -70,18 +84,25 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
             pending.remove(cj)
             parent_name, child_name = names[program.parent_of(cj)], names[cj.box]
             parent_box, child_box = boxes[program.parent_of(cj)], boxes[cj.box]
-            axis, point = joint_axis_and_position(child_box, cj.idx, cj.edge, cj.sign)
             if cj.type == "hinge":
-                state = hinge_opening(parent_box, child_box, axis, point)
+                hull, behind = _extremes(world[child_name]), surface(parent_name)[0]
+                axis, point = joint_axis_and_position(child_box, cj.idx, cj.edge, cj.sign)
+                state = hinge_opening_from_mesh(parent_box, hull, axis, point, behind)
                 if state < 0:  # keep q = 0 closed and opening positive
                     axis, state = -axis, -state
                 closed = rotated_box(child_box, axis, point, -state)
                 upper = hinge_upper(parent_box, closed, axis, point, state)
                 jtype, frame_point = JointType.REVOLUTE, point
             else:
-                state = slide_opening(parent_box, child_box, axis)
+                axis, point = joint_axis_and_position(child_box, cj.idx, cj.edge, cj.sign)
+                samples = surface(child_name)[0]
+                parent_mesh = world[parent_name]
+                clearance = slide_clearance(parent_mesh.vertices, parent_mesh.faces, samples, axis)
+                state = slide_opening_from_mesh(parent_box, samples, axis, clearance,
+                                                surface(parent_name))
                 closed = OBB(child_box.center - axis * state, child_box.R, child_box.extent)
-                upper = slide_upper(closed, axis, state)
+                depth = front_plane(samples, axis) - float((samples @ axis).min())
+                upper = slide_upper(depth, state)
                 jtype, frame_point = JointType.PRISMATIC, closed.center
             parent_pose = pose[parent_name]
             closed_frame = tf.make(parent_pose[:3, :3], frame_point)  # parent's axes
@@ -106,6 +127,33 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
                             metadata={"articulated_by": predictor.name, **(metadata or {})})
     validate(obj)
     return Articulation(obj, boxes, names, program, format_boxes(boxes), format_program(program))
+
+
+def _extremes(mesh: Mesh) -> np.ndarray:
+    """The vertices of the mesh's convex hull: all a sweep that measures extremes needs."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    v = np.asarray(mesh.vertices, dtype=float)
+    try:
+        return v[ConvexHull(v).vertices]
+    except (QhullError, ValueError):  # flat or degenerate: joggle, else every vertex
+        try:
+            return v[ConvexHull(v, qhull_options="QJ").vertices]
+        except (QhullError, ValueError):
+            return v
+
+
+SURFACE_SAMPLES = 20000
+
+
+def _surface_samples(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Points spread evenly over the surface and their faces' normals (seeded: articulation
+    is deterministic)."""
+    import trimesh
+
+    tm = mesh.to_trimesh()
+    points, faces = trimesh.sample.sample_surface(tm, SURFACE_SAMPLES, seed=0)
+    return np.asarray(points), np.asarray(tm.face_normals[faces])
 
 
 MAX_COMPONENT_PIECES = 64

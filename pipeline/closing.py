@@ -1,10 +1,13 @@
-"""Closed state and range of a predicted joint, from the boxes.
+"""Closed state and range of a predicted joint, from the part meshes and boxes.
 
 Real2Code predicts a joint's type, axis and position and nothing else. Exports need q = 0
-(the door shut, the drawer in) and a range. The observed opening is the turn or slide that
-brings the child's box back flush with its parent's; the range is found by sweeping the
-joint open until the child's box runs into its parent's, capped by a typical bound for the
-joint kind when nothing stops it.
+(the door shut, the drawer in) and a range. The observed opening of a hinge is the turn
+that lays the child's mesh flat against a face of its parent's box, preferring the face
+where the parent is open (a door shuts over an opening, not against a side panel); a
+slide's is how far the child's front panel (not its handle) stands out of its parent. The
+range is found by sweeping the joint open until the child's box runs into its parent's,
+capped by a typical bound for the joint kind when nothing stops it. The geometric
+predictor still uses the box-only hinge estimate to choose a hinge's sign.
 """
 
 from __future__ import annotations
@@ -15,11 +18,14 @@ from real2code_export.transforms import axis_angle_matrix
 
 from .obb import OBB
 
-# Typical upper bounds when nothing stops the sweep: cabinet doors open ~100 degrees,
-# flaps, lids and screens about 90; drawers pull out to ~80 % of their depth.
-VERTICAL_HINGE_BOUND = np.radians(100.0)
-HORIZONTAL_HINGE_BOUND = np.radians(90.0)
-SLIDE_FRACTION = 0.8
+# Typical upper bounds when nothing stops the sweep: cabinet and fridge doors open a bit
+# past square, lids and laptop screens (shut on top of their parent) well past it, flaps on
+# a front face to about square; drawers on the classic three-quarter-extension slides pull
+# out to ~75 % of their depth.
+VERTICAL_HINGE_BOUND = np.radians(105.0)
+LID_HINGE_BOUND = np.radians(120.0)
+FLAP_HINGE_BOUND = np.radians(85.0)
+SLIDE_FRACTION = 0.75
 SWEEP_STEP = np.radians(1.0)
 
 
@@ -72,19 +78,200 @@ def hinge_opening(parent: OBB, child: OBB, axis: np.ndarray, point: np.ndarray) 
     return -best
 
 
-def slide_opening(parent: OBB, child: OBB, axis: np.ndarray) -> float:
-    """How far the child sticks out of its parent along +axis (its front face past the
-    parent's), which is the observed opening of a drawer; 0 when flush or inside."""
-    child_front = child.center @ axis + np.abs(child.R.T @ axis) @ child.extent
-    parent_front = parent.center @ axis + np.abs(parent.R.T @ axis) @ parent.extent
-    return float(max(0.0, child_front - parent_front))
+SWEEP_GRID = np.radians(np.arange(-180.0, 180.0, 1.0))
+FLUSH_MARGIN = 0.03  # candidates within this (relative) of the flattest are all plausible
+COVER_DEPTH = 0.05  # how deep behind a face (fraction of the parent's size) a panel counts
+COVER_WEIGHT = 0.5  # an open face beats a covered one unless it is clearly less flush
+FRONT_SHARE = 0.05  # a drawer's front panel holds at least this share of its surface
 
 
-def boxes_overlap(a: OBB, b: OBB, tolerance: float = 0.0) -> bool:
-    """Separating-axis test: True when the boxes interpenetrate by more than ``tolerance``."""
+def _rotate(points: np.ndarray, axis: np.ndarray, point: np.ndarray, angles: np.ndarray
+            ) -> np.ndarray:
+    """``points`` (M, 3) turned about (axis, point) by each angle: (A, M, 3) (Rodrigues)."""
+    p = points - point
+    c, s = np.cos(angles)[:, None, None], np.sin(angles)[:, None, None]
+    along = (p @ axis)[None, :, None] * axis
+    return point + p * c + np.cross(axis, p)[None] * s + along * (1.0 - c)
+
+
+def _faces_across(parent: OBB, axis: np.ndarray) -> list[tuple[int, float]]:
+    """The parent's box faces a hinge about ``axis`` can shut a part against."""
+    return [(k, s) for k in range(3) if abs(parent.R[:, k] @ axis) < 0.5 for s in (1.0, -1.0)]
+
+
+def _flatness(parent: OBB, local: np.ndarray, k: int, s: float) -> np.ndarray:
+    """How far child points (A, M, 3, in the parent box frame) are from lying flat against
+    face (k, s): a gap between the child and the face plane (in front of it, or the whole
+    child sunk behind it; a part may reach in through an opening, as a fridge door's bins
+    do), the child's thickness across the face, and its overhang past the face's edges
+    (m, per angle)."""
+    x = s * local[..., k]
+    near, far = x.min(axis=-1), x.max(axis=-1)
+    gap = np.maximum(0.0, near - parent.extent[k]) + np.maximum(0.0, parent.extent[k] - far)
+    others = [i for i in range(3) if i != k]
+    overhang = np.maximum(0.0, np.abs(local[..., others]).max(axis=-2) - parent.extent[others])
+    return gap + (far - near) + overhang.sum(axis=-1)
+
+
+def face_cover(parent: OBB, parent_points: np.ndarray, footprint: np.ndarray, k: int,
+               s: float, cells: int = 6) -> float:
+    """The fraction of a footprint on face (k, s) backed by the parent's own surface just
+    behind the face: ~1 against a side panel, low over an opening (a frame at most).
+    ``footprint``: the child's points in the parent box frame."""
+    others = [i for i in range(3) if i != k]
+    lo, hi = footprint[:, others].min(axis=0), footprint[:, others].max(axis=0)
+    span = np.maximum(hi - lo, 1e-9)
+    depth = COVER_DEPTH * 2.0 * float(parent.extent.max())
+    x = s * parent_points[:, k]
+    near = parent_points[(x > parent.extent[k] - depth) & (x <= parent.extent[k] + depth)]
+    cell = np.floor((near[:, others] - lo) / span * cells).astype(int)
+    inside = np.all((cell >= 0) & (cell < cells), axis=1)
+    occupied = {tuple(c) for c in cell[inside]}
+    return len(occupied) / cells**2
+
+
+def hinge_opening_from_mesh(parent: OBB, child_points: np.ndarray, axis: np.ndarray,
+                            point: np.ndarray, parent_points: np.ndarray | None = None) -> float:
+    """The observed opening about +axis (positive: open) from the child's points (its
+    convex hull's vertices suffice: only extremes are measured). Every turn is tried
+    (1 degree, then refined); among those that lay the child flat against a face of the
+    parent's box, the face the parent leaves open wins (``parent_points``: samples of the
+    parent's surface), then the smaller turn. Unlike the box estimate this needs no box
+    axis to follow the part, so a tilted screen or a half-open door closes right."""
+    from scipy.optimize import minimize_scalar
+
+    axis = axis / np.linalg.norm(axis)
+    scale = float(np.ptp(child_points, axis=0).max()) or 1.0
+    turned = _rotate(child_points, axis, point, SWEEP_GRID)
+    local = (turned - parent.center) @ parent.R
+    faces = _faces_across(parent, axis)
+    if not faces:
+        return 0.0
+    flat = np.stack([_flatness(parent, local, k, s) for k, s in faces]) / scale  # (F, A)
+    floor = flat.min(axis=1, keepdims=True).min()
+    best, best_key = 0.0, np.inf
+    for f, (k, s) in enumerate(faces):
+        row = flat[f]
+        minima = np.flatnonzero((row <= np.roll(row, 1)) & (row <= np.roll(row, -1))
+                                & (row <= floor + FLUSH_MARGIN))
+        for a in minima:
+            def score(t: float, k=k, s=s) -> float:
+                loc = (_rotate(child_points, axis, point, np.array([t])) - parent.center) @ parent.R
+                return float(_flatness(parent, loc, k, s)[0]) / scale
+
+            step = SWEEP_GRID[1] - SWEEP_GRID[0]
+            res = minimize_scalar(score, bounds=(SWEEP_GRID[a] - step, SWEEP_GRID[a] + step),
+                                  method="bounded", options={"xatol": 1e-5})
+            angle = float(res.x)
+            cover = 0.0
+            if parent_points is not None:
+                closed = (_rotate(child_points, axis, point, np.array([angle]))[0]
+                          - parent.center) @ parent.R
+                cover = face_cover(parent, (parent_points - parent.center) @ parent.R,
+                                   closed, k, s)
+            key = float(res.fun) + COVER_WEIGHT * cover + 0.01 * abs(angle)
+            if key < best_key:
+                best, best_key = angle, key
+    return -best
+
+
+def slide_opening_from_mesh(parent: OBB, child_samples: np.ndarray, axis: np.ndarray,
+                            clearance: float = float("inf"),
+                            parent_samples: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """The observed opening of a slide: how far the child's front panel stands out of the
+    frame around it (a handle or knob in front of the panel does not count), but never
+    more than it can slide back before meeting its parent (``clearance``, see
+    :func:`slide_clearance`: an overlay front stops on the frame). The frame is the plane
+    facing out along +axis that holds most of the parent's surface just around the
+    child's cross-section (``parent_samples``: points and normals); without one, the
+    parent box's front face (which a table top overhanging its drawers would mislead).
+    ``child_samples``: points spread evenly over the child's surface."""
+    frame = None
+    if parent_samples is not None:
+        frame = frame_plane(*parent_samples, child_samples, axis)
+    if frame is None:
+        frame = float(parent.center @ axis + np.abs(parent.R.T @ axis) @ parent.extent)
+    return float(max(0.0, min(front_plane(child_samples, axis) - frame, clearance)))
+
+
+FRAME_MARGIN = 0.015  # m around a drawer's cross-section where its frame is looked for
+FRAME_FLAT = 0.002  # m: a frame's front is flat to within this
+
+
+def frame_plane(points: np.ndarray, normals: np.ndarray, child_samples: np.ndarray,
+                axis: np.ndarray) -> float | None:
+    """Where along ``axis`` the parent's frame around the child lies: among the parent's
+    surface facing +axis within a margin around the child's cross-section (not inside it:
+    that is the cavity), the frontmost plane that borders the cross-section on at least
+    two of its four sides (a table top overhanging a drawer borders it on one; the
+    carcass's back, seen past the edges, lies behind the frame)."""
+    u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    basis = np.column_stack([u, v])
+    cross = child_samples @ basis
+    lo, hi = cross.min(axis=0), cross.max(axis=0)
+    where = points @ basis
+    near = np.all((where > lo - FRAME_MARGIN) & (where < hi + FRAME_MARGIN), axis=1)
+    inside = np.all((where > lo) & (where < hi), axis=1)
+    keep = near & ~inside & (normals @ axis > 0.9)
+    proj, where = points[keep] @ axis, where[keep]
+    if len(proj) < 5:
+        return None
+    within = (where > lo) & (where < hi)  # corners of the ring border no side
+    side = np.column_stack([(where[:, 0] <= lo[0]) & within[:, 1],
+                            (where[:, 0] >= hi[0]) & within[:, 1],
+                            (where[:, 1] <= lo[1]) & within[:, 0],
+                            (where[:, 1] >= hi[1]) & within[:, 0]])
+    slab = np.floor((proj.max() - proj) / FRAME_FLAT).astype(int)
+    for k in range(int(slab.max()) + 1):  # front to back
+        plane = (slab == k) | (slab == k + 1)
+        if (side[plane].sum(axis=0) >= 2).sum() >= 2:
+            return float(np.median(proj[plane]))
+    return None
+
+
+def slide_clearance(parent_vertices: np.ndarray, parent_faces: np.ndarray,
+                    child_samples: np.ndarray, axis: np.ndarray) -> float:
+    """How far the child can slide back along -axis before its surface meets its parent's
+    (rays from its surface samples; inf when nothing is behind it): where an overlay
+    drawer's front meets the frame, or a drawer's back meets the carcass. Contacts the
+    motion slides along (parallel faces) do not count."""
+    import open3d as o3d  # its ray caster: thousands of rays against a scan in milliseconds
+
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(np.asarray(parent_vertices, dtype=np.float32)),
+                        o3d.core.Tensor(np.asarray(parent_faces, dtype=np.uint32)))
+    rays = np.hstack([child_samples, np.broadcast_to(-axis, child_samples.shape)])
+    hit = scene.cast_rays(o3d.core.Tensor(rays.astype(np.float32)))["t_hit"].numpy()
+    hit = hit[np.isfinite(hit) & (hit > CONTACT)]
+    return float(hit.min()) if len(hit) else float("inf")
+
+
+CONTACT = 1e-4  # m: surfaces this close already touch
+
+
+def front_plane(samples: np.ndarray, axis: np.ndarray) -> float:
+    """Where along ``axis`` a part's front panel lies: the outermost plane holding a real
+    share of its surface (a handle or knob in front of it does not count)."""
+    proj = samples @ axis
+    top = float(proj.max())
+    width = 0.005 * float(np.ptp(proj) or 1.0) + 1e-4  # a panel is flat to within this
+    # slabs from the front backwards; a panel split by a slab boundary counts in both pairs
+    slab = np.floor((top - proj) / width).astype(int)
+    share = np.bincount(slab) / len(proj)
+    pairs = share + np.append(share[1:], 0.0)
+    first = int(np.flatnonzero(pairs >= FRONT_SHARE)[0]) if (pairs >= FRONT_SHARE).any() else 0
+    return float(proj[slab >= first].max())
+
+
+def penetration(a: OBB, b: OBB) -> float:
+    """How deep the boxes interpenetrate (m; negative: the gap between them), by the
+    separating-axis theorem: the smallest overlap over the 15 candidate axes."""
     axes = [a.R[:, i] for i in range(3)] + [b.R[:, i] for i in range(3)]
     axes += [np.cross(a.R[:, i], b.R[:, j]) for i in range(3) for j in range(3)]
     d = b.center - a.center
+    depth = np.inf
     for ax in axes:
         n = np.linalg.norm(ax)
         if n < 1e-9:
@@ -92,18 +279,22 @@ def boxes_overlap(a: OBB, b: OBB, tolerance: float = 0.0) -> bool:
         ax = ax / n
         ra = np.abs(a.R.T @ ax) @ a.extent
         rb = np.abs(b.R.T @ ax) @ b.extent
-        if abs(d @ ax) > ra + rb - tolerance:
-            return False
-    return True
+        depth = min(depth, ra + rb - abs(d @ ax))
+    return float(depth)
+
+
+def boxes_overlap(a: OBB, b: OBB, tolerance: float = 0.0) -> bool:
+    """True when the boxes interpenetrate by more than ``tolerance``."""
+    return penetration(a, b) > tolerance
 
 
 def hinge_upper(parent: OBB, closed_child: OBB, axis: np.ndarray, point: np.ndarray,
                 observed: float) -> float:
     """Sweep the closed child open about (axis, point) until it runs into the parent; cap
-    at the typical bound; never below the observed opening."""
-    vertical = abs(axis[2]) > 0.7
-    bound = VERTICAL_HINGE_BOUND if vertical else HORIZONTAL_HINGE_BOUND
-    tolerance = 0.5 * float(closed_child.extent.min())
+    at the typical bound; never below the observed opening. A door set into its frame
+    already overlaps the parent's box when shut: only overlap beyond that counts."""
+    bound = hinge_bound(parent, closed_child, axis)
+    tolerance = max(0.0, penetration(parent, closed_child)) + 0.5 * float(closed_child.extent.min())
     angle = SWEEP_STEP
     limit = max(bound, observed)
     while angle <= limit:
@@ -114,6 +305,17 @@ def hinge_upper(parent: OBB, closed_child: OBB, axis: np.ndarray, point: np.ndar
     return float(limit)
 
 
-def slide_upper(closed_child: OBB, axis: np.ndarray, observed: float) -> float:
-    depth = 2.0 * float(np.abs(closed_child.R.T @ axis) @ closed_child.extent)
+def hinge_bound(parent: OBB, closed_child: OBB, axis: np.ndarray) -> float:
+    """The typical opening of a hinged part: a door (vertical axis), a lid or screen (shut
+    on its parent's top), or a flap (a horizontal axis on a side face)."""
+    if abs(axis[2]) > 0.7:
+        return float(VERTICAL_HINGE_BOUND)
+    parent_top = parent.center[2] + np.abs(parent.R[2]) @ parent.extent
+    child_low = closed_child.center[2] - np.abs(closed_child.R[2]) @ closed_child.extent
+    lid = child_low >= parent_top - 0.5 * float(closed_child.extent.min()) - 1e-6
+    return float(LID_HINGE_BOUND if lid else FLAP_HINGE_BOUND)
+
+
+def slide_upper(depth: float, observed: float) -> float:
+    """A drawer's travel from its depth (front panel to back)."""
     return max(observed, SLIDE_FRACTION * depth)
