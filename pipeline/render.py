@@ -1,0 +1,221 @@
+"""A synthetic posed RGB-D capture of any articulated object, on the CPU.
+
+open3d's ``RaycastingScene`` casts one ray per pixel through the part meshes (placed at a
+configuration), which gives the z-depth, the hit part (the ground-truth mask) and the face
+normal. RGB is plain Lambert shading of the part colours under a head light and a fixed
+key light, in sRGB. Cameras stand on a front arc around the object (the paper renders
+partly open objects from the side where doors and drawers can be seen into), look at its
+centre and keep the whole object in view.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from real2code_export.model import ArticulatedObject, Mesh
+
+from .boxes import world_part_meshes
+from .capture import Camera, Capture, Frame
+
+DEFAULT_VIEWS = 12  # as the paper
+DEFAULT_SIZE = 256
+DEFAULT_FOV_DEG = 50.0
+BACKGROUND = (0.05, 0.05, 0.06)  # dark, so light parts stand out
+KEY_LIGHT = np.array([0.4, -0.3, 0.87])  # world direction towards the light (from above)
+
+
+@dataclass(frozen=True)
+class Lighting:
+    ambient: float = 0.3
+    head: float = 0.45  # light at the camera
+    key: float = 0.35  # fixed light from above
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """Camera-to-world transform (OpenGL axes: looking down -z, y up) at ``eye``."""
+    z = np.asarray(eye, float) - np.asarray(target, float)
+    z /= np.linalg.norm(z)
+    x = np.cross(up, z)
+    if np.linalg.norm(x) < 1e-9:  # looking straight down: any horizontal x
+        x = np.cross([0.0, 1.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    out = np.eye(4)
+    out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = x, np.cross(z, x), z, eye
+    return out
+
+
+def default_camera(width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
+                   fov_deg: float = DEFAULT_FOV_DEG) -> Camera:
+    """A pinhole camera with ``fov_deg`` across the shorter image side."""
+    f = 0.5 * min(width, height) / np.tan(np.radians(fov_deg) / 2)
+    return Camera(f, f, width / 2, height / 2, width, height)
+
+
+def front_direction(obj: ArticulatedObject, base: np.ndarray | None = None) -> np.ndarray:
+    """The horizontal world direction the object opens towards: where its movable parts
+    moved from closed (q = 0) to the observed state; the model's +x when nothing moved."""
+    base = np.eye(4) if base is None else base
+    closed = world_part_meshes(obj, {}, base)
+    seen = world_part_meshes(obj, None, base)
+    shift = sum((seen[n].vertices.mean(0) - closed[n].vertices.mean(0) for n in seen),
+                np.zeros(3))
+    shift[2] = 0.0
+    if np.linalg.norm(shift) < 1e-6:
+        shift = base[:3, 0].copy()
+        shift[2] = 0.0
+    return shift / np.linalg.norm(shift)
+
+
+def camera_poses(center: np.ndarray, radius: float, front: np.ndarray, camera: Camera,
+                 n_views: int, rng: np.random.Generator, arc_deg: float = 120.0,
+                 elevation_deg: tuple[float, float] = (10.0, 50.0)) -> list[np.ndarray]:
+    """``n_views`` cameras spread over a horizontal arc of ``arc_deg`` centred on ``front``,
+    at random elevations, each far enough to see a sphere of ``radius`` whole."""
+    half_fov = np.arctan(0.5 * min(camera.width / camera.fl_x, camera.height / camera.fl_y))
+    base_az = np.arctan2(front[1], front[0])
+    offsets = np.linspace(-0.5, 0.5, n_views) * np.radians(arc_deg) if n_views > 1 \
+        else np.zeros(1)
+    step = np.radians(arc_deg) / max(1, n_views - 1)
+    poses = []
+    for off in offsets:
+        az = base_az + off + rng.uniform(-0.3, 0.3) * step
+        el = np.radians(rng.uniform(*elevation_deg))
+        distance = radius / np.sin(half_fov) * rng.uniform(1.02, 1.2)
+        d = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+        poses.append(look_at(center + distance * d, center))
+    return poses
+
+
+def _srgb(linear: np.ndarray) -> np.ndarray:
+    linear = np.clip(linear, 0.0, 1.0)
+    return np.where(linear <= 0.0031308, 12.92 * linear,
+                    1.055 * np.power(linear, 1 / 2.4) - 0.055)
+
+
+class Raycaster:
+    """Part meshes in one open3d scene; ``render`` gives RGB, z-depth and part ids."""
+
+    def __init__(self, meshes: list[Mesh], colors: list[tuple]):
+        import open3d as o3d
+
+        self.scene = o3d.t.geometry.RaycastingScene()
+        self.ids = []
+        for mesh in meshes:
+            gid = self.scene.add_triangles(
+                o3d.core.Tensor(mesh.vertices.astype(np.float32)),
+                o3d.core.Tensor(mesh.faces.astype(np.uint32)))
+            self.ids.append(gid)
+        self.albedo = np.array([c[:3] for c in colors] + [BACKGROUND], dtype=np.float32)
+
+    def render(self, camera: Camera, camera_to_world: np.ndarray,
+               lighting: Lighting = Lighting(), background=BACKGROUND,
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """RGB (uint8), z-depth (float32 m, 0 = miss) and mask (uint16: 0 = background,
+        k = the k-th mesh) for one view."""
+        import open3d as o3d
+
+        dirs_cam = camera.pixel_directions()
+        dirs = dirs_cam @ camera_to_world[:3, :3].T
+        origin = np.broadcast_to(camera_to_world[:3, 3], dirs.shape)
+        rays = np.concatenate([origin, dirs], axis=-1).astype(np.float32)
+        hit = self.scene.cast_rays(o3d.core.Tensor(rays))
+        t = hit["t_hit"].numpy()
+        geometry = hit["geometry_ids"].numpy()
+        valid = np.isfinite(t)
+        lookup = np.full(max(self.ids, default=0) + 2, -1, dtype=np.int64)
+        lookup[np.array(self.ids, dtype=np.int64)] = np.arange(len(self.ids))
+        part = np.where(valid, lookup[np.where(valid, geometry, len(lookup) - 1)], -1)
+        depth = np.where(valid, t, 0.0).astype(np.float32)  # directions have z = -1
+        normals = hit["primitive_normals"].numpy()
+        view = -dirs / np.linalg.norm(dirs, axis=-1, keepdims=True)
+        facing = np.sign(np.sum(normals * view, axis=-1, keepdims=True))
+        normals = normals * np.where(facing == 0, 1.0, facing)  # light both sides of a face
+        key = KEY_LIGHT / np.linalg.norm(KEY_LIGHT)
+        shade = (lighting.ambient + lighting.head * np.abs(np.sum(normals * view, axis=-1))
+                 + lighting.key * np.clip(normals @ key, 0.0, None))
+        albedo = self.albedo[np.where(part >= 0, part, len(self.albedo) - 1)]
+        linear = albedo * shade[..., None]
+        linear[~valid] = background
+        rgb = np.round(_srgb(linear) * 255).astype(np.uint8)
+        mask = np.where(part >= 0, part + 1, 0).astype(np.uint16)
+        return rgb, depth, mask
+
+
+def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
+                  base: np.ndarray | None = None, views: int = DEFAULT_VIEWS,
+                  width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
+                  fov_deg: float = DEFAULT_FOV_DEG, seed: int = 0,
+                  arc_deg: float = 120.0, colors: dict[str, tuple] | None = None,
+                  lighting: Lighting = Lighting(), background=BACKGROUND) -> Capture:
+    """A capture of ``obj`` at ``q`` (default: its observed state) placed at ``base``.
+
+    ``colors`` overrides part colours (linear RGB(A)) by part name. The capture's parts are
+    the parts with a visual mesh, in the object's order; its ``extra`` records the state
+    and pose the object was rendered at.
+    """
+    if views < 1:
+        raise ValueError(f"need at least one view, got {views}")
+    rng = np.random.default_rng(seed)
+    base = np.eye(4) if base is None else np.asarray(base, float)
+    config = obj.observed_configuration() if q is None else dict(q)
+    meshes = world_part_meshes(obj, config, base)
+    names = [p.name for p in obj.parts if p.name in meshes]
+    if not names:
+        raise ValueError(f"object {obj.name!r} has no visual meshes to render")
+    palette = {p.name: p.color for p in obj.parts} | (colors or {})
+    caster = Raycaster([meshes[n] for n in names], [palette[n] for n in names])
+    points = np.concatenate([meshes[n].vertices for n in names])
+    lo, hi = points.min(0), points.max(0)
+    center = 0.5 * (lo + hi)
+    radius = float(np.linalg.norm(points - center, axis=1).max())
+    camera = default_camera(width, height, fov_deg)
+    probe = obj
+    if q is not None:  # the front is where the parts open at the rendered configuration
+        import copy
+
+        probe = copy.deepcopy(obj)
+        for j in probe.movable_joints:
+            j.state = config.get(j.name, 0.0)
+    front = front_direction(probe, base)
+    frames = []
+    for k, pose in enumerate(camera_poses(center, radius, front, camera, views, rng, arc_deg)):
+        rgb, depth, mask = caster.render(camera, pose, lighting, background)
+        frames.append(Frame(camera, pose, rgb, depth, mask, f"frame_{k:05d}"))
+    extra = {"object": obj.name, "state": {j: float(v) for j, v in config.items()},
+             "object_pose": np.round(base, 12).tolist(), "renderer": "open3d raycasting",
+             "seed": int(seed)}
+    return Capture(frames, names, extra)
+
+
+def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIEWS,
+                 width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, state: str = "observed",
+                 seed: int = 0) -> Capture:
+    """``real2code render``: load any importable model, render it at its observed state (or,
+    with ``state="random"``, every joint partly open, drawn from ``seed``) and write the
+    capture folder with the ground-truth object (parts joined by fixed joints merged, as
+    the masks see them; its states set to the rendered ones)."""
+    import copy
+
+    from real2code_export.formats import load
+    from real2code_export.simplify import merge_fixed_joints
+
+    from .capture import GROUND_TRUTH_DIR, write_capture
+    from .train_joint_predictor import ajar_configuration
+
+    if state not in ("observed", "random"):
+        raise ValueError(f"state must be 'observed' or 'random', got {state!r}")
+    # One rigid part per mask: parts welded by fixed joints are one part.
+    obj = copy.deepcopy(merge_fixed_joints(load(model)))
+    if state == "random":
+        q = ajar_configuration(obj, np.random.default_rng(seed))
+        for j in obj.movable_joints:
+            j.state = q[j.name]
+    capture = render_object(obj, views=views, width=width, height=height, seed=seed)
+    capture.extra["source"] = str(model)
+    capture.extra["ground_truth"] = f"{GROUND_TRUTH_DIR}/object.json"
+    write_capture(capture, out, ground_truth=obj)
+    capture.path = Path(out)
+    return capture

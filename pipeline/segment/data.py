@@ -1,0 +1,86 @@
+"""Training views for the mask network: procedural objects (every category, 2 to 15
+parts), every joint partly open as the paper assumes (a few left closed), rendered from
+the front arc like a capture, with the appearance varied so the network learns parts from
+geometry as much as from paint: original, single, random or grey part colours, random
+lighting, background and field of view.
+
+A view is stored small (RGB, depth and part labels on the model grid); the network's
+input is computed from it when a batch is drawn (``features.view_features``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .features import SIZE
+
+
+@dataclass
+class View:
+    rgb: np.ndarray  # (SIZE, SIZE, 3) uint8
+    depth: np.ndarray  # (SIZE, SIZE) float32, metres
+    mask: np.ndarray  # (SIZE, SIZE) uint8, 0 = background, k = part k
+    focal: float  # pixels (square pixels, centred principal point)
+
+
+def _colours(names: list[str], original: dict[str, tuple], rng: np.random.Generator,
+             ) -> dict[str, tuple]:
+    mode = rng.choice(["original", "single", "random", "grey"], p=[0.35, 0.25, 0.25, 0.15])
+    if mode == "original":
+        return original
+    if mode == "single":
+        c = tuple(rng.uniform(0.05, 0.9, 3))
+        return {n: c for n in names}
+    if mode == "grey":
+        return {n: (g, g, g) for n in names for g in [rng.uniform(0.3, 0.9)]}
+    return {n: tuple(rng.uniform(0.05, 0.9, 3)) for n in names}
+
+
+def object_views(obj, rng: np.random.Generator, views: int) -> list[View]:
+    """``views`` training views of ``obj`` at a random, mostly partly-open configuration."""
+    from ..render import Lighting, render_object
+    from ..train_joint_predictor import ajar_configuration
+
+    q = ajar_configuration(obj, rng)
+    for j in obj.movable_joints:
+        if rng.random() < 0.1:  # some parts closed, so a shut door is not unseen
+            q[j.name] = float(j.limits.lower) if j.limits else 0.0
+    names = [p.name for p in obj.parts]
+    colours = _colours(names, {p.name: p.color for p in obj.parts}, rng)
+    lighting = Lighting(ambient=rng.uniform(0.15, 0.45), head=rng.uniform(0.25, 0.6),
+                        key=rng.uniform(0.0, 0.5))
+    background = tuple(rng.uniform(0, 1, 3) * (0.2 if rng.random() < 0.7 else 1.0))
+    fov = rng.uniform(40.0, 60.0)
+    cap = render_object(obj, q=q, views=12, width=SIZE, height=SIZE, fov_deg=fov,
+                        seed=int(rng.integers(2**31)), colors=colours, lighting=lighting,
+                        background=background)
+    picks = rng.choice(len(cap.frames), size=min(views, len(cap.frames)), replace=False)
+    return [View(cap.frames[k].rgb, cap.frames[k].depth, cap.frames[k].mask.astype(np.uint8),
+                 cap.frames[k].camera.fl_x) for k in sorted(picks) if cap.frames[k].mask.any()]
+
+
+def _one(spec) -> list[View]:
+    from ..procedural import generate
+
+    category, n_parts, seed, views = spec
+    return object_views(generate(category, n_parts, seed), np.random.default_rng(seed + 77),
+                        views)
+
+
+def make_views(n_objects: int, seed: int, views_per_object: int = 4,
+               workers: int = 2) -> list[View]:
+    """Views of ``n_objects`` procedural objects (the joint predictor's mix of categories
+    and part counts; seeds below the evaluation's held-out offset)."""
+    from ..train_joint_predictor import object_specs
+
+    specs = [(c, n, s, views_per_object) for c, n, s in object_specs(n_objects, seed)]
+    if workers > 1:
+        from multiprocessing import get_context
+
+        with get_context("spawn").Pool(workers) as pool:
+            chunks = pool.map(_one, specs, chunksize=16)
+    else:
+        chunks = [_one(s) for s in specs]
+    return [v for chunk in chunks for v in chunk]

@@ -1,0 +1,139 @@
+"""``real2code reconstruct`` and the demo: capture in, every stage's output and every export
+out, checked; a capture that cannot be reconstructed leaves nothing behind."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+from pipeline.capture import read_capture
+from pipeline.commands import SAMPLE_CAPTURE, add_reconstruct_parser, run_demo
+from pipeline.reconstruct import ReconstructionError, reconstruct
+from pipeline.render import render_model
+from pipeline.segment.learned import WEIGHTS as SEGMENTER_WEIGHTS
+from real2code_export.formats import load, object_json
+from real2code_export.model import ArticulatedObject, JointType, Part
+
+# Measured with the shipped weights: 0.92 on the small capture, 0.77 on the demo's.
+MEAN_IOU_SMALL = 0.85
+MEAN_IOU_DEMO = 0.7
+
+
+def _has_completion_weights() -> bool:
+    from pipeline.complete.infer import load_model
+
+    try:
+        load_model()
+    except Exception:
+        return False
+    return True
+
+
+@pytest.fixture(scope="module")
+def capture_dir(tmp_path_factory):
+    from pipeline.procedural import generate
+
+    folder = tmp_path_factory.mktemp("capture")
+    object_json.save(generate("storage_furniture", 4, 21), folder / "model")
+    render_model(folder / "model" / "object.json", folder / "capture", views=8, width=128,
+                 height=128, state="random", seed=2)
+    return folder / "capture"
+
+
+def test_ground_truth_masks_segment_only(capture_dir, tmp_path):
+    out = tmp_path / "out"
+    result = reconstruct(capture_dir, out, segmentation="gt", completion="segment_only",
+                         check_configurations=20)
+    truth = load(read_capture(capture_dir).ground_truth_path())
+    assert sorted(result.meshes) == sorted(p.name for p in truth.parts)
+    for stage in ("segmentation", "clouds", "part_meshes", "articulation"):
+        assert any((out / stage).iterdir()), stage
+    assert (out / "segmentation" / "frame_00000.png").is_file()
+    assert (out / "clouds" / "foreground.ply").is_file()
+    report = json.loads((out / "report.json").read_text())
+    assert report["check_ok"] and result.check.ok
+    assert set(report["seconds"]) >= {"segmentation", "completion", "articulation"}
+    model = load(out / "object.json")
+    types = sorted(j.type for j in model.movable_joints)
+    assert types == sorted(j.type for j in truth.movable_joints)
+    for fmt in ("mjcf", "urdf", "usd", "gltf"):
+        assert result.written[fmt].is_file()
+
+
+def test_one_part_is_refused_and_nothing_is_written(tmp_path):
+    from pipeline.procedural import generate
+
+    source = generate("box", 2, 0)
+    single = ArticulatedObject("slab", [Part("body", source.part("body").visual,
+                                             inertial=source.part("body").inertial)])
+    object_json.save(single, tmp_path / "model")
+    render_model(tmp_path / "model" / "object.json", tmp_path / "capture", views=3, width=48,
+                 height=48)
+    with pytest.raises(ReconstructionError, match="found 1 part"):
+        reconstruct(tmp_path / "capture", tmp_path / "out", segmentation="gt",
+                    completion="segment_only")
+    assert not (tmp_path / "out").exists()
+
+
+def _segmentation_iou(out, capture_dir):
+    """Matched per-part IoU of the written label images against the capture's masks."""
+    from PIL import Image
+
+    from pipeline.segment.metrics import matched_part_iou
+
+    capture = read_capture(capture_dir)
+    predicted = [np.asarray(Image.open(out / "segmentation" / f"{f.name}.png"))
+                 for f in capture.frames]
+    return matched_part_iou(predicted, [f.mask for f in capture.frames])
+
+
+# The shipped mask network finds every part of these objects but at times splits one in
+# two (docs/reconstruction.md): the tests hold it to what it measurably does.
+@pytest.mark.skipif(not SEGMENTER_WEIGHTS.is_file(), reason="no shipped segmentation weights")
+def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
+    parser = argparse.ArgumentParser()
+    add_reconstruct_parser(parser.add_subparsers())
+    args = parser.parse_args(["reconstruct", str(capture_dir), "--out", str(tmp_path / "o"),
+                              "--completion", "segment_only", "--configurations", "10"])
+    assert args.func(args) == 0
+    text = capsys.readouterr().out
+    assert "segmentation (learned)" in text and "AGREE" in text
+    truth = load(read_capture(capture_dir).ground_truth_path())
+    model = load(tmp_path / "o" / "object.json")
+    assert len(truth.parts) <= len(model.parts) <= len(truth.parts) + 1
+    mean, per_part = _segmentation_iou(tmp_path / "o", capture_dir)
+    assert mean > MEAN_IOU_SMALL and min(per_part.values()) > 0.75, per_part
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not SEGMENTER_WEIGHTS.is_file() or not _has_completion_weights(),
+                    reason="needs the shipped segmentation and completion weights")
+def test_demo_reconstructs_the_shipped_capture(tmp_path, capsys):
+    assert run_demo(tmp_path / "demo") == 0
+    text = capsys.readouterr().out
+    assert str(SAMPLE_CAPTURE) in text and "AGREE" in text
+    truth = load(read_capture(SAMPLE_CAPTURE).ground_truth_path())
+    model = load(tmp_path / "demo" / "object.json")
+    assert len(truth.parts) <= len(model.parts) <= len(truth.parts) + 2
+    assert sum(j.type is JointType.REVOLUTE for j in model.movable_joints) >= 1
+    mean, per_part = _segmentation_iou(tmp_path / "demo", SAMPLE_CAPTURE)
+    assert mean > MEAN_IOU_DEMO, per_part
+
+
+def test_evaluation_scores_a_reconstruction():
+    from pipeline.evaluate_articulation import procedural_cases
+    from pipeline.evaluate_reconstruction import evaluate, markdown
+
+    cases = procedural_cases(1, seed=3)  # one held-out 2-part object
+    results = evaluate(cases, views=6, size=128, settings=(("gt", "segment_only"),))
+    table = results[("gt", "segment_only")].table()
+    row = table["2"]
+    assert row["objects"] == 1 and row["type_accuracy"] == 1.0 and row["axis_error_deg"] < 2.0
+    assert 0 < row["part_cd"] < 5.0 and 0 < row["whole_cd"] < 5.0  # x 1000, m^2
+    assert row["part_count_exact"] == 1.0 and row["failures"] == 0
+    text = markdown("test", {"gt masks, segment only": table}, show_paper=True)
+    assert "| Real2Code, full pipeline (paper) | 0.80 / 7.50 / -" in text
+    assert "| gt masks, segment only | 1.00 / " in text

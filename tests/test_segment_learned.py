@@ -1,0 +1,84 @@
+"""The mask network trained in this repository: its training step learns, its shipped
+weights load with their training record, and on held-out procedural captures the
+prompted segmentation finds the rigid parts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from pipeline.evaluate_articulation import procedural_cases  # noqa: E402
+from pipeline.render import render_object  # noqa: E402
+from pipeline.segment import segment  # noqa: E402
+from pipeline.segment.data import make_views  # noqa: E402
+from pipeline.segment.learned import LearnedSegmenter  # noqa: E402
+from pipeline.segment.metrics import matched_part_iou  # noqa: E402
+from pipeline.segment.network import build_network  # noqa: E402
+from pipeline.segment.train import WEIGHTS, batch, centre_loss, losses, sample_prompts  # noqa: E402
+from real2code_export.errors import FormatError  # noqa: E402
+
+
+def test_prompts_fall_inside_their_parts():
+    mask = np.zeros((16, 16), np.uint8)
+    mask[2:5, 2:5] = 1  # a small part is prompted as often as the big one
+    mask[6:16, :] = 2
+    uv, labels = sample_prompts(mask, 400, np.random.default_rng(0))
+    assert np.all(mask[uv[:, 1].astype(int), uv[:, 0].astype(int)] == labels)
+    assert 0.4 < (labels == 1).mean() < 0.6
+
+
+def test_training_steps_fit_a_small_batch():
+    torch.manual_seed(0)
+    views = make_views(1, seed=3, views_per_object=2, workers=1)
+    net = build_network(dim=16, widths=(8, 12, 16, 24, 32))
+    opt = torch.optim.Adam(net.parameters(), 3e-3)
+    rng = np.random.default_rng(0)
+    x, uv, target, centres = batch(views, 8, rng)
+    first = None
+    for _ in range(30):
+        embedding = net.encode(x)
+        logits, iou = net.decode(embedding, x, uv)
+        mask_loss, iou_loss, _ = losses(logits, iou, target)
+        loss = mask_loss + iou_loss + centre_loss(embedding, centres)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        first = first if first is not None else loss.item()
+    assert logits.shape == (len(views), 8, 64, 64) and iou.shape == (len(views), 8)
+    assert loss.item() < 0.6 * first
+
+
+def test_missing_or_foreign_weights(tmp_path):
+    with pytest.raises(FormatError, match="segmentation weights not found"):
+        LearnedSegmenter.load(tmp_path / "none.pt")
+    torch.save({"state_dict": {}, "config": "{}"}, tmp_path / "bad.pt")
+    with pytest.raises(FormatError, match="not mask-network weights"):
+        LearnedSegmenter.load(tmp_path / "bad.pt")
+
+
+needs_weights = pytest.mark.skipif(not WEIGHTS.is_file(), reason="no shipped weights")
+
+
+@needs_weights
+def test_shipped_weights_record_their_training():
+    seg = LearnedSegmenter.load()
+    record = seg.config["training"]
+    assert record["total_seconds"] > 0 and record["validation"]["mean_iou"] > 0.5
+    assert WEIGHTS.stat().st_size < 3_000_000
+
+
+@needs_weights
+@pytest.mark.slow
+def test_held_out_procedural_captures_are_segmented_by_part():
+    """Small held-out objects (2, 3 and 4 parts): every part found, nearly whole. (Large
+    ones are where the shipped model falls short: see docs/reconstruction.md.)"""
+    segmenter = LearnedSegmenter.load()
+    for k, case in enumerate(procedural_cases(4, seed=7)[:3]):
+        capture = render_object(case.obj, base=case.base, views=12, width=192, height=192,
+                                seed=k)
+        seg = segment(capture, segmenter=segmenter)
+        mean, per_part = matched_part_iou(seg.labels, [f.mask for f in capture.frames])
+        assert len(case.obj.parts) <= seg.n_parts <= len(case.obj.parts) + 1, case.label
+        assert mean > 0.9 and min(per_part.values()) > 0.8, (case.label, per_part)

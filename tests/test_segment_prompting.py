@@ -1,0 +1,108 @@
+"""Test-time prompting and 3D voting, with a stand-in mask model that answers from the
+ground-truth masks: the voting must recover one label per rigid part, the same in every
+view, and must not be thrown by masks that are wrong in some views."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.procedural import generate
+from pipeline.render import render_object
+from pipeline.segment import segment
+from pipeline.segment.features import SIZE, frame_features, mask_on_grid, to_model_uv
+from pipeline.segment.metrics import matched_part_iou
+from pipeline.segment.prompting import segment_capture
+from pipeline.train_joint_predictor import ajar_configuration
+
+
+class MaskOracle:
+    """Answers every prompt with the true mask of the part under it; ``corrupt`` is the
+    share of masks replaced by the union of that part and a random other one, with a
+    low stated quality (as a real model's doubtful masks)."""
+
+    name = "oracle"
+
+    def __init__(self, corrupt: float = 0.0, seed: int = 0):
+        self.corrupt = corrupt
+        self.rng = np.random.default_rng(seed)
+
+    def set_views(self, frames):
+        self.frames = frames
+
+    def predict(self, view, prompts_uv, query_uv):
+        mask = self.frames[view].mask
+        h, w = mask.shape
+
+        def label(uv):
+            col = np.clip(np.floor(uv[:, 0]).astype(int), 0, w - 1)
+            row = np.clip(np.floor(uv[:, 1]).astype(int), 0, h - 1)
+            return mask[row, col]
+
+        at, query = label(prompts_uv), label(query_uv)
+        probs = ((query[None] == at[:, None]) & (at[:, None] > 0)).astype(float)
+        quality = np.full(len(at), 0.95)
+        parts = np.unique(mask[mask > 0])
+        for i in np.nonzero(self.rng.random(len(at)) < self.corrupt)[0]:
+            probs[i] = np.maximum(probs[i], query == self.rng.choice(parts))
+            quality[i] = 0.2
+        return probs, quality
+
+
+@pytest.fixture(scope="module")
+def cabinet_capture():
+    obj = generate("storage_furniture", 9, 3)
+    q = ajar_configuration(obj, np.random.default_rng(3))
+    return render_object(obj, q=q, views=12, width=160, height=160, seed=1)
+
+
+def _truth(capture):
+    return [f.mask for f in capture.frames]
+
+
+def test_oracle_masks_give_one_label_per_part(cabinet_capture):
+    seg = segment_capture(cabinet_capture, MaskOracle())
+    assert seg.n_parts == len(cabinet_capture.parts)
+    mean, per_part = matched_part_iou(seg.labels, _truth(cabinet_capture))
+    assert min(per_part.values()) > 0.95, per_part
+    for lab, frame in zip(seg.labels, cabinet_capture.frames, strict=True):
+        assert np.array_equal(lab > 0, frame.depth > 0)  # every measured pixel labelled
+
+
+def test_doubtful_wrong_masks_are_outvoted(cabinet_capture):
+    seg = segment_capture(cabinet_capture, MaskOracle(corrupt=0.25, seed=1))
+    assert seg.n_parts == len(cabinet_capture.parts)
+    assert matched_part_iou(seg.labels, _truth(cabinet_capture))[0] > 0.95
+
+
+def test_ground_truth_mode_uses_the_masks(cabinet_capture):
+    seg = segment(cabinet_capture, "gt")
+    assert seg.method == "gt" and seg.n_parts == len(cabinet_capture.parts)
+    assert matched_part_iou(seg.labels, _truth(cabinet_capture))[0] == 1.0
+
+
+def test_metric_scores_a_merge_and_a_split():
+    truth = [np.array([[1, 1, 2, 2], [3, 3, 0, 0]])]
+    assert matched_part_iou(truth, truth) == (1.0, {1: 1.0, 2: 1.0, 3: 1.0})
+    merged = [np.array([[1, 1, 1, 1], [3, 3, 0, 0]])]  # parts 1 and 2 as one
+    mean, per = matched_part_iou(merged, truth)
+    assert per[3] == 1.0 and sorted([per[1], per[2]]) == [0.0, 0.5]
+
+
+def test_model_grid_maps_capture_pixels(cabinet_capture):
+    frame = cabinet_capture.frames[0]
+    grid = mask_on_grid(frame.mask)
+    h, w = frame.mask.shape
+    rows, cols = np.nonzero(frame.mask)
+    pick = np.random.default_rng(0).choice(len(rows), 300, replace=False)
+    uv = np.stack([cols[pick] + 0.5, rows[pick] + 0.5], 1)
+    model = np.floor(to_model_uv(uv, h, w)).astype(int)
+    # nearest sampling: at least the interior of each part keeps its label on the grid
+    agree = grid[model[:, 1], model[:, 0]] == frame.mask[rows[pick], cols[pick]]
+    assert agree.mean() > 0.9
+    features = frame_features(frame)
+    assert features.shape == (10, SIZE, SIZE) and np.isfinite(features).all()
+    valid = features[4] > 0
+    normals = features[5:8][:, valid]
+    assert np.allclose(np.linalg.norm(normals, axis=0)[np.linalg.norm(normals, axis=0) > 0], 1,
+                       atol=1e-5)
