@@ -17,7 +17,6 @@ from .errors import Real2CodeError, Real2CodeWarning
 
 EXIT_OK, EXIT_DISAGREE, EXIT_ERROR = 0, 1, 2
 REPO_ROOT = Path(__file__).resolve().parents[1]
-DEMO_SAMPLE = REPO_ROOT / "samples" / "cabinet" / "object.json"
 
 
 def _formats_arg(text: str) -> list[str]:
@@ -166,30 +165,36 @@ def cmd_evaluate_joints(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    """The main job on a shipped sample: load, export to every format, check them all."""
-    from .check import check_files, format_table
-    from .formats import export, load
+    """The main job on the shipped capture: posed RGB-D views in, the articulated object and
+    every export out, checked across the tools (``pipeline.commands.run_demo``)."""
+    from pipeline.commands import run_demo
 
-    out = Path(args.out)
-    sample = DEMO_SAMPLE
-    if not sample.is_file():
-        raise Real2CodeError(f"{sample}: the shipped sample is missing (reinstall from a checkout)")
     t0 = time.perf_counter()
-    obj = load(sample)
-    print(f"sample   {sample}  ({obj.name}: {len(obj.parts)} parts, "
-          f"{len(obj.movable_joints)} movable joints)")
-    formats = ["json", *_available_export_formats()]
-    written = export(obj, out, formats)
-    for name, path in written.items():
-        print(f"{name:8s} {path}")
-    report = check_files(list(written.values()), n_configurations=100, seed=0)
-    print(format_table(report))
-    print(f"done in {time.perf_counter() - t0:.1f} s; outputs in {out}")
-    return EXIT_OK if report.ok else EXIT_DISAGREE
+    status = run_demo(args.out)
+    print(f"done in {time.perf_counter() - t0:.1f} s; outputs in {args.out}")
+    return EXIT_OK if status == 0 else EXIT_DISAGREE
+
+
+def cmd_calibrate(args) -> int:
+    """Measured motion in: the named causes, the extended model, its exports and the report."""
+    from .calibrate import run_calibrate
+
+    return run_calibrate(Path(args.model), [Path(x) for x in args.data],
+                         [Path(x) for x in args.holdout or []], Path(args.out))
 
 
 # -- parser ------------------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
+    # Each stage's module adds its own commands; their heavy imports wait for the command.
+    from pipeline.commands import (
+        add_evaluate_reconstruction_parser,
+        add_reconstruct_parser,
+        add_render_parser,
+    )
+    from pipeline.complete.evaluate import add_evaluate_completion_parser
+
+    from .batch.cli import add_parser as add_batch_parser
+
     p = argparse.ArgumentParser(
         prog="real2code",
         description="Articulated objects in, simulation-ready digital twins out "
@@ -198,7 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    s = sub.add_parser("demo", help="the main job on a shipped sample")
+    s = sub.add_parser("demo", help="the main job: reconstruct the capture shipped in samples/")
     s.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
     s.set_defaults(func=cmd_demo)
 
@@ -241,6 +246,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--configurations", type=int, default=100, help="for the final check")
     s.set_defaults(func=cmd_articulate)
 
+    add_render_parser(sub)
+    add_reconstruct_parser(sub)
+
+    s = sub.add_parser("calibrate", help="fit joint dynamics to measured motion, name the cause")
+    s.add_argument("model", help="object.json, .urdf, MJCF .xml, .usd or .glb")
+    s.add_argument("--data", action="append", required=True, metavar="CSV",
+                   help="a measured trajectory to fit (repeatable; format in DESIGN.md)")
+    s.add_argument("--holdout", action="append", metavar="CSV",
+                   help="a measured trajectory to test on, not fitted (repeatable)")
+    s.add_argument("--out", required=True, help="output folder: report.json, report.md, "
+                   "plots, the calibrated object and its exports")
+    s.set_defaults(func=cmd_calibrate)
+
     s = sub.add_parser("evaluate", help="accuracy tables (the paper's metrics)")
     ev = s.add_subparsers(dest="what", required=True, metavar="WHAT")
     e = ev.add_parser("joints", help="joint prediction from ground-truth part meshes")
@@ -251,7 +269,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--json", help="write the figures as JSON")
     e.add_argument("--markdown", help="write the tables as markdown")
     e.set_defaults(func=cmd_evaluate_joints)
+    add_evaluate_completion_parser(ev)
+    add_evaluate_reconstruction_parser(ev)
 
+    add_batch_parser(sub)
     return p
 
 
