@@ -1,0 +1,59 @@
+"""Benchmark: `reconstruct` of a 5-part object from 12 views at 256 x 256, end to end as the
+command runs it (read the capture, segment, fuse, complete, articulate, export to every
+format, check), each stage's time listed.
+
+    .venv/bin/python bench/reconstruct.py [--repeat 3] [--parts 5] [--segmentation learned]
+
+Target (issue 6, on the 2-core machines): under 60 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _machine import describe  # noqa: E402
+
+from pipeline.procedural import generate  # noqa: E402
+from pipeline.reconstruct import reconstruct  # noqa: E402
+from pipeline.render import render_model  # noqa: E402
+from real2code_export.formats import object_json  # noqa: E402
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--parts", type=int, default=5)
+    p.add_argument("--segmentation", default="learned", choices=["learned", "gt"])
+    args = p.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        object_json.save(generate("storage_furniture", args.parts, 0), tmp / "model")
+        render_model(tmp / "model" / "object.json", tmp / "capture", views=12, width=256,
+                     height=256, state="random", seed=0)
+        runs = []
+        for k in range(args.repeat):
+            t0 = time.perf_counter()
+            result = reconstruct(tmp / "capture", tmp / f"out{k}",
+                                 segmentation=args.segmentation)
+            runs.append((time.perf_counter() - t0, result.timings, result.check.ok))
+    print(f"machine: {describe()}")
+    print(f"object: storage_furniture, {args.parts} parts, 12 views at 256 x 256, "
+          f"segmentation {args.segmentation}, completion learned, predictor learned")
+    stages = list(runs[0][1])
+    print("run  total s  " + "  ".join(f"{s:>12s}" for s in stages) + "  check")
+    for k, (total, timings, ok) in enumerate(runs):
+        cells = "  ".join(f"{timings.get(s, float('nan')):12.2f}" for s in stages)
+        print(f"{k:3d}  {total:7.2f}  {cells}  {'ok' if ok else 'DISAGREE'}")
+    median = statistics.median(r[0] for r in runs)
+    print(f"median total {median:.2f} s (target < 60 s): "
+          f"{'met' if median < 60 else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    main()
