@@ -23,6 +23,7 @@ from real2code_export import transforms as tf
 from .boxes import ground_truth_program, part_boxes, world_part_meshes
 from .predictors.features import EDGES, box_features
 from .predictors.learned import JOINT_TYPES, WEIGHTS, build_network
+from .weights import save_weights
 
 
 def ajar_configuration(obj, rng: np.random.Generator, low: float = 0.2) -> dict[str, float]:
@@ -213,8 +214,7 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, batch_size: int = 6
         "torch_threads": torch.get_num_threads(),
     }
     config["training"] = record
-    out.parent.mkdir(parents=True, exist_ok=True)
-    torch.save({"state_dict": net.state_dict(), "config": json.dumps(config)}, out)
+    save_weights(net, config, out)
     return record
 
 

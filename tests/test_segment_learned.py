@@ -50,6 +50,17 @@ def test_training_steps_fit_a_small_batch():
     assert loss.item() < 0.6 * first
 
 
+def test_training_script_writes_loadable_weights(tmp_path):
+    from pipeline.segment.train import train
+
+    out = tmp_path / "segmenter.pt"
+    record = train(2, 1, 0, out, images_per_batch=4, prompts_per_image=4, workers=1,
+                   views_per_object=2, network_config={"dim": 16, "widths": [8, 12, 16, 24, 32]})
+    assert record["parameters"] > 0 and record["epochs"] == 1
+    segmenter = LearnedSegmenter.load(out)
+    assert segmenter is not None
+
+
 def test_missing_or_foreign_weights(tmp_path):
     with pytest.raises(FormatError, match="segmentation weights not found"):
         LearnedSegmenter.load(tmp_path / "none.pt")

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..weights import save_weights
 from .data import Sample, object_samples
 from .infer import WEIGHTS
 
@@ -131,7 +132,7 @@ def train(n_objects: int, steps: int, seed: int, out: Path, batch_size: int = 16
         if (step + 1) % 100 == 0 or step + 1 == steps:
             print(f"step {step + 1:5d}  loss {np.mean(running[-100:]):.4f}  "
                   f"{time.perf_counter() - t0:.0f} s", flush=True)
-            _save(net, config, out.with_name(out.stem + ".checkpoint.pt"))
+            save_weights(net, config, out.with_name(out.stem + ".checkpoint.pt"))
     record = {
         "objects": n_objects, "parts": len(data), "steps": steps, "batch_size": batch_size,
         "seed": seed, "data_seconds": round(t_data, 1),
@@ -142,22 +143,9 @@ def train(n_objects: int, steps: int, seed: int, out: Path, batch_size: int = 16
         "torch_threads": torch.get_num_threads(),
     }
     config["training"] = record
-    _save(net, config, out)
+    save_weights(net, config, out)
     out.with_name(out.stem + ".checkpoint.pt").unlink(missing_ok=True)
     return record
-
-
-def _save(net, config: dict, path: Path) -> None:
-    import io
-
-    import torch
-
-    from real2code_export.atomic import write_bytes
-
-    buffer = io.BytesIO()
-    torch.save({"state_dict": net.state_dict(), "config": json.dumps(config)}, buffer)
-    write_bytes(path, buffer.getvalue())
-    path.chmod(0o644)  # package data: readable by all (the temporary file was 0600)
 
 
 def main(argv=None) -> None:

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..weights import save_weights
 from .data import View, make_views
 from .features import SIZE, view_features
 
@@ -207,8 +208,7 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
         "torch_threads": torch.get_num_threads(),
     }
     config["training"] = record
-    out.parent.mkdir(parents=True, exist_ok=True)
-    torch.save({"state_dict": net.state_dict(), "config": json.dumps(config)}, out)
+    save_weights(net, config, out)
     return record
 
 
