@@ -16,7 +16,6 @@ from pathlib import Path
 from .errors import Real2CodeError, Real2CodeWarning
 
 EXIT_OK, EXIT_DISAGREE, EXIT_ERROR = 0, 1, 2
-REPO_ROOT = Path(__file__).resolve().parents[1]
 
 
 def _formats_arg(text: str) -> list[str]:
