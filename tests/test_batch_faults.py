@@ -13,6 +13,7 @@ import json
 import os
 import signal
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -29,6 +30,14 @@ def crashy_task(obj, out: Path, options) -> TaskResult:
             os._exit(3)
     elif words and words[0] == "kill-always":
         os.kill(os.getpid(), signal.SIGKILL)
+    elif words and words[0] == "kill-when":  # once a sibling is surely running
+        marker = Path(words[1])
+        while not marker.exists():
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGKILL)
+    elif words and words[0] == "slow-bystander":
+        Path(words[1]).write_text("running")
+        time.sleep(1.5)
     (out / "done.txt").write_text(obj.id)
     return TaskResult(["done.txt"], result={"pid": os.getpid()})
 
@@ -64,13 +73,36 @@ def test_batch_survives_dying_workers(tmp_path, engine):
     assert sorted(records) == ["a", "b", "c", "d", "doomed", "once"]
     assert summary.counts == {"ok": 5, "repaired": 0, "failed": 1}
     doomed = records["doomed"]
-    assert doomed["status"] == "failed" and doomed["attempts"] == 3
+    assert doomed["status"] == "failed"
     assert "worker process died" in doomed["error"]
     assert not (out / "doomed").exists()
     for name in ("a", "b", "c", "d", "once"):
         assert records[name]["status"] == "ok", records[name]
         assert (out / name / "done.txt").read_text() == name
     if engine == "local":  # Ray retries on its own and does not report the count
-        assert records["once"]["attempts"] == 2
+        # "once" ran at least twice (it crashed); a third start happens when the kill took
+        # it down before it had crashed by itself. Only "doomed" is blamed three times.
+        assert records["once"]["attempts"] in (2, 3)
+        assert doomed["attempts"] >= 3
         assert all(records[n]["attempts"] <= 2 for n in "abcd")
     assert not (out / ".staging").exists()
+
+
+def test_bystanders_are_not_blamed_for_a_shared_break(tmp_path):
+    """With no retries, the object in flight beside the culprit still finishes: only an
+    object that breaks the pool while running alone is charged."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    marker = tmp_path / "bystander-running"
+    (folder / "bystander.urdf").write_text(f"slow-bystander {marker}")
+    (folder / "culprit.urdf").write_text(f"kill-when {marker}")
+    out = tmp_path / "out"
+    summary = run_batch(CRASHY, [folder], out, inputs_kind="export", engine="local",
+                        workers=2, retries=0, progress=False)
+    records = {json.loads(x)["id"]: json.loads(x)
+               for x in (out / "manifest.jsonl").read_text().splitlines()}
+    assert summary.counts == {"ok": 1, "repaired": 0, "failed": 1}
+    assert records["bystander"]["status"] == "ok"
+    assert records["bystander"]["attempts"] == 2  # the shared break, then alone
+    assert records["culprit"]["status"] == "failed"
+    assert records["culprit"]["attempts"] == 2

@@ -4,8 +4,10 @@
 A worker that dies (a crash in a native library, the out-of-memory killer) breaks the whole
 pool and every object in flight with it, and the pool cannot say which one killed it. So the
 pool is restarted, and the objects that were in flight are run again one at a time: an
-object that crashes alone is the culprit and is charged an attempt each time, until
-``retries`` is spent and it is recorded as failed; the innocent ones simply finish.
+object that crashes alone is the culprit and is blamed each time, until ``retries`` is spent
+and it is recorded as failed; the innocent ones simply finish. An object is never blamed for
+a break it shared with others, so ``retries=0`` does not fail the bystanders. A record's
+``attempts`` counts every start, shared breaks included.
 """
 
 from __future__ import annotations
@@ -55,18 +57,26 @@ class LocalEngine:
         """Records as objects finish (in completion order)."""
         pending = deque(items)
         suspects: deque[WorkItem] = deque()  # in flight when the pool broke: run alone
-        crashes: dict[str, int] = {}
+        runs: dict[str, int] = {}  # times each object was started: its record's attempts
+        blamed: dict[str, int] = {}  # times it broke the pool while running alone
         in_flight: dict[Future, WorkItem] = {}
+
+        def submit(item: WorkItem) -> None:
+            runs[item.obj.id] = runs.get(item.obj.id, 0) + 1
+            in_flight[self._pool.submit(run_one, item)] = item
+
+        def finished(item: WorkItem, record: dict) -> dict:
+            record["attempts"] = runs[item.obj.id]
+            return record
+
         try:
             while pending or suspects or in_flight:
                 if suspects:
                     if not in_flight:
-                        item = suspects.popleft()
-                        in_flight[self._pool.submit(run_one, item)] = item
+                        submit(suspects.popleft())
                 else:
                     while pending and len(in_flight) < self.workers:
-                        item = pending.popleft()
-                        in_flight[self._pool.submit(run_one, item)] = item
+                        submit(pending.popleft())
                 done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
                 lost = []
                 for future in done:
@@ -76,29 +86,30 @@ class LocalEngine:
                     except BrokenProcessPool:
                         lost.append(item)
                         continue
-                    record["attempts"] = crashes.get(item.obj.id, 0) + 1
-                    yield record
+                    yield finished(item, record)
                 if not lost:
                     continue
                 # The pool takes every object still in flight with it, bar those that
                 # finished just before it broke.
                 for future, item in in_flight.items():
                     if future.done() and future.exception() is None:
-                        record = future.result()
-                        record["attempts"] = crashes.get(item.obj.id, 0) + 1
-                        yield record
+                        yield finished(item, future.result())
                     else:
                         lost.append(item)
                 in_flight.clear()
                 self._pool.shutdown(wait=True, cancel_futures=True)
                 self._pool = self._start_pool()
-                for item in lost:
-                    n = crashes[item.obj.id] = crashes.get(item.obj.id, 0) + 1
-                    if n > self.retries:
-                        yield crashed_record(item, n, "a process in the pool was terminated "
-                                             "abruptly (crash, os._exit or a kill signal)")
-                    else:
-                        suspects.append(item)
+                if len(lost) > 1:  # no telling which one did it: each runs again alone
+                    suspects.extend(lost)
+                    continue
+                item = lost[0]  # it ran alone, so it is the culprit
+                n = blamed[item.obj.id] = blamed.get(item.obj.id, 0) + 1
+                if n > self.retries:
+                    yield crashed_record(item, runs[item.obj.id],
+                                         "a process in the pool was terminated abruptly "
+                                         "(crash, os._exit or a kill signal)")
+                else:
+                    suspects.append(item)
         except KeyboardInterrupt:
             yield from self._drain(in_flight)
             raise
