@@ -59,6 +59,16 @@ def test_training_script_writes_loadable_weights(tmp_path):
     assert record["parameters"] > 0 and record["epochs"] == 1
     segmenter = LearnedSegmenter.load(out)
     assert segmenter is not None
+    # going on from those weights keeps their network and their record
+    more = tmp_path / "more.pt"
+    again = train(2, 1, 5, more, images_per_batch=4, prompts_per_image=4, workers=1,
+                  views_per_object=2, lr=1e-3, init=out)
+    assert again["previous"]["seed"] == 0 and again["seed"] == 5 and again["lr"] == 1e-3
+    continued = LearnedSegmenter.load(more)
+    assert continued.config["network"] == segmenter.config["network"]
+    before = segmenter.network.state_dict()
+    after = continued.network.state_dict()
+    assert any(not torch.equal(before[k], after[k]) for k in before)  # it did train
 
 
 def test_missing_or_foreign_weights(tmp_path):

@@ -106,3 +106,46 @@ def test_model_grid_maps_capture_pixels(cabinet_capture):
     normals = features[5:8][:, valid]
     assert np.allclose(np.linalg.norm(normals, axis=0)[np.linalg.norm(normals, axis=0) > 0], 1,
                        atol=1e-5)
+
+
+def test_smoothing_clears_speckle_and_keeps_crisp_borders():
+    """Two parts split a plate at x = 0; on the left a third, doubtful segment scores a
+    little higher than the true part on every third point. Without smoothing it claims
+    those points as speckle; with it the left half is one part, and the crisp border
+    between the true parts stays exactly where the scores put it."""
+    from pipeline.segment.prompting import PromptingOptions, assign
+
+    xs, ys = np.meshgrid(np.linspace(-1, 1, 40), np.linspace(-1, 1, 40))
+    cloud = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], 1)
+    left = cloud[:, 0] < 0
+    speckle = left & (np.random.default_rng(0).random(len(cloud)) < 0.3)
+    score = np.zeros((3, len(cloud)))
+    score[0] = np.where(left, np.where(speckle, 0.85, 0.9), 0.0)
+    score[1] = np.where(left, 0.0, 1.0)
+    score[2] = np.where(speckle, 0.9, np.where(left, 0.85, 0.0))
+    raw = assign(score, cloud, min_points=5)
+    assert raw.max() == 3
+    options = PromptingOptions()  # the shipped smoothing
+    smooth = assign(score, cloud, min_points=5, neighbours=options.smoothing_neighbours,
+                    rounds=options.smoothing_rounds)
+    assert smooth.max() == 2
+    assert len(np.unique(smooth[left])) == 1 and len(np.unique(smooth[~left])) == 1
+    assert smooth[left][0] != smooth[~left][0]
+
+
+def test_cut_off_pieces_go_to_the_part_around_them():
+    """A part's stray piece (its mask bled through an opening onto a wall of another part)
+    joins the part it lies on; a part's main piece and the other parts stay as they are."""
+    from pipeline.segment.prompting import relabel_islands
+
+    xs, ys = np.meshgrid(np.arange(30) * 0.01, np.arange(30) * 0.01)
+    wall = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], 1)  # part 1
+    door = wall[:200] + [0.0, 0.0, 0.2]  # part 2, away from the wall
+    cloud = np.concatenate([wall, door])
+    labels = np.concatenate([np.ones(len(wall), int), np.full(len(door), 2)])
+    stray = (wall[:, 0] > 0.245) & (wall[:, 1] > 0.245)  # 2 bled onto the wall here (25 points)
+    labels[:len(wall)][stray] = 2
+    out = relabel_islands(cloud, labels, radius=0.025, fraction=0.2)
+    assert (out[:len(wall)] == 1).all() and (out[len(wall):] == 2).all()
+    same = relabel_islands(cloud, out, radius=0.025, fraction=0.2)
+    assert np.array_equal(same, out)

@@ -56,7 +56,7 @@ def test_masks_read_at_query_pixels_match_sams_postprocessing(capture):
 
 def test_prompting_runs_with_a_sam(capture):
     seg = segment(capture, segmenter=SamSegmenter(tiny_sam(seed=2)),
-                  options=PromptingOptions(prompts=8, min_quality=0.0, min_stability=0.0))
+                  options=PromptingOptions(prompts=8, min_quality=0.0, min_prompts=1))
     assert seg.method == "sam" and len(seg.labels) == len(capture.frames)
     for lab, frame in zip(seg.labels, capture.frames, strict=True):
         assert lab.shape == frame.depth.shape

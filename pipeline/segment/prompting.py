@@ -6,9 +6,10 @@ consistent 3D part segmentation from per-view masks.
    view that sees it (in the image and not hidden: its depth agrees with the measured one).
 3. Prompt the model there; every mask votes, weighted by its quality (predicted IoU times
    stability), on the cloud points that view sees: each prompt gets a 3D segment.
-4. Rank the segments by quality and stability; suppress duplicates by merging each into
-   the better part it agrees with where both were observed; give every point the part
-   that claims it most; dissolve specks.
+4. Suppress duplicates by merging: prompts whose masks hold each other's points are one
+   part (average-linkage clustering); drop groups the model does not trust; give every
+   point the part that claims it most; dissolve specks; smooth the labels over the cloud;
+   hand pieces cut off from their part to the part around them.
 5. Every view's label image: each pixel takes the label of its nearest labelled point.
 """
 
@@ -49,12 +50,19 @@ class Segmentation:
 
 @dataclass(frozen=True)
 class PromptingOptions:
+    """Tuned on procedural dev objects (seeds disjoint from training and the test set)."""
+
     prompts: int = 256  # 3D prompt points
     voxel_fraction: float = 1 / 120  # cloud spacing, of the object's diagonal
-    nms_iou: float = 0.5  # segments agreeing this much where both were seen are one part
+    link: float = 0.3  # prompt groups whose masks hold each other's points this much: one part
+    min_prompts: int = 3  # a part is found by at least this many prompts ...
+    min_quality: float = 0.2  # ... whose masks the model itself trusts
     min_fraction: float = 0.003  # parts with fewer points (of the cloud) are specks
-    min_quality: float = 0.3  # a new part needs masks the model itself trusts ...
-    min_stability: float = 0.8  # ... and that agree across views
+    smoothing_neighbours: int = 16  # each point weighs its score against its neighbours' ...
+    smoothing_rounds: int = 3  # ... labels this many times (clears speckle at part borders)
+    island_voxels: float = 2.5  # points this close (in cloud spacings) are connected ...
+    island_fraction: float = 0.2  # ... and a part's pieces below this share of its largest
+    # piece go to the part around them (interior walls seen through an opening)
 
 
 def _farthest_points(points: np.ndarray, n: int) -> np.ndarray:
@@ -96,54 +104,53 @@ def vote(capture: Capture, segmenter: PromptSegmenter, cloud: np.ndarray,
     return score, np.where(q_count > 0, q_sum / np.maximum(q_count, 1), 0.0)
 
 
-def _stability(score: np.ndarray) -> np.ndarray:
-    """SAM's stability score in 3D: the share of a segment that stays in it when the
-    threshold moves from 0.35 to 0.65 (masks that disagree across views score low)."""
-    s = np.nan_to_num(score, nan=0.0)
-    return (s > 0.65).sum(-1) / np.maximum((s > 0.35).sum(-1), 1)
+def cluster_prompts(score: np.ndarray, quality: np.ndarray, prompt_index: np.ndarray,
+                    options: PromptingOptions) -> list[list[int]]:
+    """Prompts grouped by the part they found, largest group first: duplicate masks are
+    suppressed by merging them, not dropped, so a part seen from one side by one prompt and
+    from another side by the next is one part.
 
+    Two prompts found the same part when each one's mask holds the other's point: their
+    affinity is the mean of the two scores (where a view saw both). Groups are joined by
+    average linkage while their mean affinity reaches ``link``; a threshold on the whole
+    group, not on a pair, so one bad mask neither splits a part nor bridges two. Prompts
+    whose mask misses their own point are left out, and so are groups of fewer than
+    ``min_prompts`` or whose masks the model itself does not trust (``min_quality``).
 
-def group_segments(score: np.ndarray, quality: np.ndarray, prompt_index: np.ndarray,
-                   options: PromptingOptions) -> list[list[int]]:
-    """Prompts grouped by the part they found, best first (non-maximum suppression that
-    merges instead of dropping: a part seen from one side by one prompt and from another
-    side by the next is one part).
-
-    Two segments are the same part when they agree where both were observed: their IoU on
-    the points that views of both prompts saw is at least ``nms_iou``. Only stable,
-    confident segments that hold their own prompt start a new part.
+    Chosen over SAM's greedy non-maximum suppression by mask IoU, which split a part
+    whenever two of its masks disagreed on its extent (on 24 procedural dev objects the
+    matched part IoU went from 0.75 to 0.85 and the part count came out right in 20, not 9).
     """
-    observed = ~np.isnan(score)
-    inside = np.nan_to_num(score, nan=0.0) > 0.5
-    stability = _stability(score)
-    rank = quality * stability
-    own = inside[np.arange(len(prompt_index)), prompt_index]
-    groups: list[list[int]] = []
-    g_num: list[np.ndarray] = []  # per group: summed scores and observation counts
-    g_den: list[np.ndarray] = []
-    for p in np.argsort(-rank, kind="stable"):
-        if not own[p] or not inside[p].any():
-            continue
-        best, best_iou = -1, 0.0
-        for g in range(len(groups)):
-            g_obs = g_den[g] > 0
-            g_in = g_obs & (g_num[g] > 0.5 * g_den[g])
-            both = observed[p] & g_obs
-            union = ((inside[p] | g_in) & both).sum()
-            if union == 0:
-                continue
-            iou = (inside[p] & g_in & both).sum() / union
-            if iou > best_iou:
-                best, best_iou = g, iou
-        if best >= 0 and best_iou >= options.nms_iou:
-            groups[best].append(int(p))
-            g_num[best] += np.nan_to_num(score[p], nan=0.0)
-            g_den[best] += observed[p]
-        elif quality[p] >= options.min_quality and stability[p] >= options.min_stability:
-            groups.append([int(p)])
-            g_num.append(np.nan_to_num(score[p], nan=0.0).copy())
-            g_den.append(observed[p].astype(float))
-    return groups
+    pair = score[:, prompt_index]  # pair[p, q]: p's mask at q's point
+    own = np.nonzero(np.nan_to_num(np.diag(pair), nan=0.0) > 0.5)[0]
+    pair = pair[np.ix_(own, own)]
+    seen = ~np.isnan(pair)
+    total = np.where(seen, pair, 0.0)
+    count = seen.astype(float)
+    total, count = total + total.T, count + count.T
+    np.fill_diagonal(count, 0.0)
+    members = [[int(p)] for p in own]
+    alive = np.ones(len(own), dtype=bool)
+    while alive.sum() > 1:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(count > 0, total / count, -1.0)
+        mean[~alive] = -1.0
+        mean[:, ~alive] = -1.0
+        np.fill_diagonal(mean, -1.0)
+        a, b = np.unravel_index(int(np.argmax(mean)), mean.shape)
+        if mean[a, b] < options.link:
+            break
+        total[a] += total[b]
+        total[:, a] += total[:, b]
+        count[a] += count[b]
+        count[:, a] += count[:, b]
+        total[a, a] = count[a, a] = 0.0
+        alive[b] = False
+        members[a] += members[b]
+    groups = [members[i] for i in np.nonzero(alive)[0]
+              if len(members[i]) >= options.min_prompts
+              and float(np.mean(quality[members[i]])) >= options.min_quality]
+    return sorted(groups, key=len, reverse=True)
 
 
 def group_scores(score: np.ndarray, groups: list[list[int]]) -> np.ndarray:
@@ -157,10 +164,12 @@ def group_scores(score: np.ndarray, groups: list[list[int]]) -> np.ndarray:
     return out
 
 
-def assign(score: np.ndarray, cloud: np.ndarray, min_points: int) -> np.ndarray:
+def assign(score: np.ndarray, cloud: np.ndarray, min_points: int, neighbours: int = 0,
+           rounds: int = 0) -> np.ndarray:
     """Label 1..n of every cloud point from the parts' scores (n, N): the part scoring it
-    highest; parts smaller than ``min_points`` dissolve into their neighbours; labels by
-    size, largest 1."""
+    highest; parts smaller than ``min_points`` dissolve into their neighbours; then
+    ``rounds`` of smoothing over each point's ``neighbours`` nearest points; labels by size,
+    largest 1."""
     from scipy.spatial import cKDTree
 
     if len(score) == 0:
@@ -182,11 +191,74 @@ def assign(score: np.ndarray, cloud: np.ndarray, min_points: int) -> np.ndarray:
         _, nn = tree.query(cloud[labels < 0])
         labels[labels < 0] = labels[labels >= 0][nn]
     labels = np.maximum(labels, 0)
+    labels = _smooth(cloud, labels, np.clip(s, 0.0, 1.0), active, neighbours, rounds)
     order = np.argsort(-np.bincount(labels, minlength=len(score)), kind="stable")
     remap = np.zeros(len(score), dtype=int)
     present = [k for k in order if (labels == k).any()]
     remap[present] = np.arange(1, len(present) + 1)
     return remap[labels]
+
+
+def _smooth(cloud: np.ndarray, labels: np.ndarray, score: np.ndarray, active: np.ndarray,
+            neighbours: int, rounds: int) -> np.ndarray:
+    """Each point takes the part with the best mean of its own score and the share of its
+    nearest neighbours holding that part, ``rounds`` times. Where two parts score alike
+    the argmax alternates point by point and the neighbours settle it; where the scores
+    are clear (a good mask's crisp border) they win, so thin parts are not eroded."""
+    from scipy.spatial import cKDTree
+
+    if rounds <= 0 or len(cloud) <= neighbours or active.sum() <= 1:
+        return labels
+    _, near = cKDTree(cloud).query(cloud, neighbours + 1)
+    near = near[:, 1:]
+    rows = np.repeat(np.arange(len(cloud)), neighbours)
+    unary = np.where(active[:, None], score, -np.inf).T  # (N, parts)
+    for _ in range(rounds):
+        share = np.zeros_like(unary)
+        np.add.at(share, (rows, labels[near].ravel()), 1.0 / neighbours)
+        labels = (0.5 * unary + 0.5 * share).argmax(1)
+    return labels
+
+
+def relabel_islands(cloud: np.ndarray, labels: np.ndarray, radius: float, fraction: float,
+                    neighbours: int = 16) -> np.ndarray:
+    """Pieces of a part cut off from its main piece go to the part around them.
+
+    A rigid part seen from outside is one connected surface; a mask that bleeds through an
+    opening (the carcass's back wall seen past a drawer) labels a separate piece, and a few
+    stray points far from the part stretch its box. Each part's points are split into
+    connected pieces (neighbours closer than ``radius``); a piece smaller than ``fraction``
+    of the part's largest takes the label most of its outside neighbours hold. Labels stay
+    1..n, largest first."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    if labels.max() <= 1 or radius <= 0:
+        return labels
+    tree = cKDTree(cloud)
+    pairs = tree.query_pairs(radius, output_type="ndarray")
+    pairs = pairs[labels[pairs[:, 0]] == labels[pairs[:, 1]]]
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(cloud), len(cloud)))
+    _, piece = connected_components(graph, directed=False)
+    _, near = tree.query(cloud, min(neighbours + 1, len(cloud)))
+    out = labels.copy()
+    for label in np.unique(labels):
+        pieces, sizes = np.unique(piece[labels == label], return_counts=True)
+        for p, size in zip(pieces, sizes, strict=True):
+            if size >= fraction * sizes.max():
+                continue
+            members = np.nonzero(piece == p)[0]
+            around = near[members, 1:].ravel()
+            around = around[piece[around] != p]
+            if len(around):
+                out[members] = np.bincount(labels[around]).argmax()
+    sizes = np.bincount(out, minlength=labels.max() + 1)[1:]
+    order = [k + 1 for k in np.argsort(-sizes, kind="stable") if sizes[k] > 0]
+    remap = np.zeros(labels.max() + 1, dtype=int)
+    remap[order] = np.arange(1, len(order) + 1)
+    return remap[out]
 
 
 def label_views(capture: Capture, cloud: np.ndarray, point_labels: np.ndarray,
@@ -215,9 +287,12 @@ def segment_capture(capture: Capture, segmenter: PromptSegmenter,
         [point_map(f)[0][f.depth > 0] for f in capture.frames]), voxel)
     prompt_index = _farthest_points(cloud, options.prompts)
     score, quality = vote(capture, segmenter, cloud, prompt_index, tolerance=1.5 * voxel)
-    groups = group_segments(score, quality, prompt_index, options)
+    groups = cluster_prompts(score, quality, prompt_index, options)
     min_points = max(5, int(options.min_fraction * len(cloud)))
-    point_labels = assign(group_scores(score, groups), cloud, min_points)
+    point_labels = assign(group_scores(score, groups), cloud, min_points,
+                          options.smoothing_neighbours, options.smoothing_rounds)
+    point_labels = relabel_islands(cloud, point_labels, options.island_voxels * voxel,
+                                   options.island_fraction)
     n_parts = int(point_labels.max())
     details = {"cloud_points": len(cloud), "prompts": len(prompt_index),
                "prompt_groups": len(groups), "parts": n_parts,

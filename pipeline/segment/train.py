@@ -1,6 +1,7 @@
 """Train the point-prompted mask network on rendered procedural objects, on the CPU.
 
     python -m pipeline.segment.train [--objects 1200] [--epochs 6] [--out PATH]
+    python -m pipeline.segment.train --init PATH --seed 2 --epochs 6 --lr 1e-3  # go on
 
 As the paper fine-tunes SAM's decoder: each image comes with prompts sampled inside its
 ground-truth part masks (a part drawn uniformly, then a pixel in it, so small drawers are
@@ -8,7 +9,9 @@ prompted as often as the carcass); the target is the mask of the whole rigid par
 the prompt; the loss is close to SAM's (cross-entropy + dice on the mask, squared error
 on the predicted IoU), plus a dense one on the part centres the encoder's first channels
 hold (``network.py``). Weights, configuration and the training record (time, validation IoU) are
-saved together; the defaults reproduce the shipped weights.
+saved together. ``--init`` continues from saved weights on freshly rendered objects (another
+``--seed``), and the new record keeps the earlier ones under ``previous``: the shipped
+weights' record lists the commands that reproduce them.
 """
 
 from __future__ import annotations
@@ -153,7 +156,7 @@ def _cached(cache_dir: Path | None, tag: str, make):
 def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch: int = 8,
           prompts_per_image: int = 24, workers: int = 2, views_per_object: int = 4,
           network_config: dict | None = None, lr: float = 3e-3,
-          cache_dir: Path | None = None) -> dict:
+          cache_dir: Path | None = None, init: Path | None = None) -> dict:
     import torch
 
     from .network import build_network
@@ -169,8 +172,18 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
     t_data = time.perf_counter() - t0
     print(f"{len(views)} training views, {len(val)} validation views in {t_data:.0f} s",
           flush=True)
-    config = {"network": network_config or {"dim": 32, "widths": [16, 24, 32, 48, 64]}}
-    net = build_network(**{**config["network"], "widths": tuple(config["network"]["widths"])})
+    previous = None
+    if init is not None:  # go on from saved weights, keeping their network and history
+        from .learned import LearnedSegmenter
+
+        start = LearnedSegmenter.load(init)
+        net = start.network.train()
+        config = {"network": start.config["network"]}
+        previous = start.config.get("training")
+    else:
+        config = {"network": network_config or {"dim": 32, "widths": [16, 24, 32, 48, 64]}}
+        net = build_network(**{**config["network"],
+                               "widths": tuple(config["network"]["widths"])})
     opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=1e-4)
     per_epoch = (len(views) + images_per_batch - 1) // images_per_batch
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=lr, total_steps=epochs * per_epoch,
@@ -205,8 +218,10 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
         "data_seconds": round(t_data, 1), "total_seconds": round(time.perf_counter() - t0, 1),
         "validation": validate(net, val), "final_loss": history[-1] if history else None,
         "parameters": sum(p.numel() for p in net.parameters()),
-        "torch_threads": torch.get_num_threads(),
+        "torch_threads": torch.get_num_threads(), "lr": lr,
     }
+    if previous is not None:
+        record["previous"] = previous
     config["training"] = record
     save_weights(net, config, out)
     return record
@@ -218,12 +233,15 @@ def main(argv=None) -> None:
     p.add_argument("--epochs", type=int, default=6)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--lr", type=float, default=3e-3, help="peak learning rate")
+    p.add_argument("--init", type=Path, default=None,
+                   help="continue from these weights (e.g. the shipped ones)")
     p.add_argument("--out", type=Path, default=WEIGHTS)
     p.add_argument("--cache-dir", type=Path, default=None,
                    help="keep rendered views here between runs")
     args = p.parse_args(argv)
     record = train(args.objects, args.epochs, args.seed, args.out, workers=args.workers,
-                   cache_dir=args.cache_dir)
+                   cache_dir=args.cache_dir, lr=args.lr, init=args.init)
     print(json.dumps(record, indent=1))
 
 
