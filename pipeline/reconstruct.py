@@ -83,7 +83,7 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
 
         model = model or load_model()
     else:
-        from .complete.baseline import segment_only_mesh
+        from .complete.baseline import ALPHA_SPACINGS_FUSED, segment_only_mesh
     meshes = {}
     for name, points in clouds.items():
         if completion == "learned":
@@ -91,7 +91,7 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
             context = np.concatenate(others) if others else None
             meshes[name] = complete_part(points, context=context, model=model)
         else:
-            meshes[name] = segment_only_mesh(points)
+            meshes[name] = segment_only_mesh(points, alpha_spacings=ALPHA_SPACINGS_FUSED)
         if progress:
             progress(f"  {name}: {len(points)} points -> {len(meshes[name].faces)} faces")
     return meshes

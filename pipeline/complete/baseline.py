@@ -18,8 +18,14 @@ from .infer import CompletionError
 VOXEL = 0.005  # m: the cloud is thinned to this spacing first (fused views overlap a lot)
 VOXELS_PER_DIAGONAL = 250  # ...or coarser for big parts, so a fridge body takes seconds
 # Alpha as a multiple of the mean nearest-neighbour spacing: 8 gave the lowest mean part CD
-# on 29 training-seed procedural parts (x1000: 4 -> 3.49, 8 -> 2.66, 16 -> 5.37).
+# on 29 training-seed procedural parts seen by the ray caster of ``views.py`` (x1000:
+# 4 -> 3.49, 8 -> 2.66, 16 -> 5.37) ...
 ALPHA_SPACINGS = 8.0
+# ... but the clouds that ``reconstruct`` fuses from a capture (``fuse.part_clouds``: exact
+# depth, voxelised coarser) want a larger one: on the parts of 12 procedural dev objects
+# rendered as captures, 8 -> 3.21, 12 -> 2.45, 16 -> 2.07, 24 -> 2.36. Each baseline gets the
+# alpha that suits its input, so completion is compared with the best of the baseline.
+ALPHA_SPACINGS_FUSED = 16.0
 METHODS = ("alpha", "ball_pivoting", "poisson")
 
 
@@ -47,7 +53,7 @@ def _oriented_normals(pcd, spacing: float) -> None:
     pcd.orient_normals_consistent_tangent_plane(10)
 
 
-def segment_only_mesh(points, method: str = "alpha"):
+def segment_only_mesh(points, method: str = "alpha", alpha_spacings: float = ALPHA_SPACINGS):
     """A triangle mesh (``trimesh.Trimesh``, world frame) of the part's raw ``points``."""
     import open3d as o3d
     import trimesh
@@ -60,7 +66,7 @@ def segment_only_mesh(points, method: str = "alpha"):
         # Qhull's flat tetrahedra on planar patches make open3d warn once per tetrahedron.
         with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
             mesh = o3d.geometry.TriangleMesh.create_from_point_cloud_alpha_shape(
-                pcd, ALPHA_SPACINGS * spacing)
+                pcd, alpha_spacings * spacing)
     elif method == "ball_pivoting":
         _oriented_normals(pcd, spacing)
         radii = o3d.utility.DoubleVector([1.5 * spacing, 3 * spacing, 6 * spacing])
