@@ -34,7 +34,7 @@ from .closing import (
     slide_upper,
 )
 from .joint_code import ArticulationProgram, format_boxes, format_program, joint_axis_and_position
-from .obb import OBB, part_obb
+from .obb import OBB, aligned_boxes, part_obb
 from .predictors import JointPredictor
 
 
@@ -52,7 +52,8 @@ class Articulation:
 
 def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str = "object",
                colors: dict[str, tuple] | None = None, density: float | None = None,
-               metadata: dict | None = None, collision: str = "auto") -> Articulation:
+               metadata: dict | None = None, collision: str = "auto",
+               align_boxes: bool = True) -> Articulation:
     """``collision``: "auto" (one convex piece per connected component of a part's mesh
     when it has a few, else its convex hull), "hull", or "coacd" (convex decomposition,
     tight but slow on large scans; cached by mesh hash)."""
@@ -63,7 +64,10 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     taken: set[str] = set()
     names = [sanitize_name(n, taken) for n in meshes]
     world = dict(zip(names, meshes.values(), strict=True))
-    boxes = [part_obb(world[n].vertices) for n in names]
+    clouds = [world[n].vertices for n in names]
+    # Parts' boxes in the largest part's frame where they fit it (obb.aligned_boxes); the
+    # paper's own boxes with align_boxes=False.
+    boxes = aligned_boxes(clouds) if align_boxes else [part_obb(c) for c in clouds]
     program = predictor.predict(boxes)
     sampled: dict[str, tuple[np.ndarray, np.ndarray]] = {}
 

@@ -122,3 +122,50 @@ def part_obb(points, tolerance: float = 0.02) -> OBB:
     gravity = gravity_aligned_obb(points)
     minimal = minimal_obb(points)
     return gravity if gravity.volume <= (1.0 + tolerance) * minimal.volume else minimal
+
+
+def frame_aligned_obb(points, frame: np.ndarray, hold: str = "all") -> OBB:
+    """A box in the frame whose columns are ``frame``'s axes: ``hold="all"`` the points'
+    bounding box along all three axes; ``hold="one"`` one of them held, the other two from
+    the minimum-area rectangle across it (the gravity-aware fit, in this frame)."""
+    pts = _points(points)
+    frame = np.asarray(frame, float)
+    local = pts @ frame
+    if hold == "all":
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        return canonical(frame @ ((lo + hi) / 2), frame, (hi - lo) / 2)
+    if hold != "one":
+        raise ValueError(f"hold must be 'all' or 'one', got {hold!r}")
+    box = gravity_aligned_obb(local)
+    return canonical(frame @ box.center, frame @ box.R, box.extent)
+
+
+def aligned_boxes(clouds: list, tolerance: float = 0.1) -> list[OBB]:
+    """Every part's :func:`part_obb`, then each part other than the largest refitted in the
+    largest part's frame where that costs little volume: all three axes held when the box
+    grows by at most ``tolerance``, else one axis held (a door swung about a hinge parallel
+    to the carcass's edges), else the part's own box.
+
+    Furniture is built square: drawers slide along the carcass's depth, hinges run along
+    its edges. A part segmented with a few wrong points at its border gets an own box
+    turned by a few degrees, and the joint read off that box inherits the turn; in the
+    carcass's frame it does not. Boxes of exact parts are unchanged (the frame fit is then
+    no larger than the own one)."""
+    boxes = [part_obb(c) for c in clouds]
+    if len(boxes) < 2:
+        return boxes
+    root = int(np.argmax([b.volume for b in boxes]))
+    frame = boxes[root].R
+    out = []
+    for i, (cloud, own) in enumerate(zip(clouds, boxes, strict=True)):
+        if i == root:
+            out.append(own)
+            continue
+        limit = (1.0 + tolerance) * own.volume
+        square = frame_aligned_obb(cloud, frame, "all")
+        if square.volume <= limit:
+            out.append(square)
+            continue
+        held = frame_aligned_obb(cloud, frame, "one")
+        out.append(held if held.volume <= limit else own)
+    return out

@@ -1,0 +1,72 @@
+"""Boxes in the carcass's frame (``obb.aligned_boxes``): a part whose own box is turned by
+wrong labels at its border gets the carcass's axes; a door swung about a hinge keeps its swing
+but its hinge axis parallel to the carcass; exact parts keep their own boxes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.obb import aligned_boxes, frame_aligned_obb, part_obb
+
+
+def _box_points(center, half, rotation=None, n=4000, seed=0):
+    """Points on the surface of a box."""
+    rng = np.random.default_rng(seed)
+    local = rng.uniform(-1, 1, (n, 3))
+    face = rng.integers(3, size=n)
+    local[np.arange(n), face] = np.sign(local[np.arange(n), face])
+    rotation = np.eye(3) if rotation is None else np.asarray(rotation)
+    return (local * half) @ rotation.T + center
+
+
+def _rot_z(deg):
+    a = np.radians(deg)
+    return np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+
+
+def _angle(u, v):
+    return np.degrees(np.arccos(min(1.0, abs(float(u @ v)))))
+
+
+def _best_angle(box, axis):
+    return min(_angle(box.R[:, i], axis) for i in range(3))
+
+
+def test_a_drawer_segmented_askew_gets_the_carcass_axes():
+    turn = _rot_z(20)  # the carcass stands turned in the world
+    carcass = _box_points([0, 0, 0.5], [0.3, 0.4, 0.5], turn)
+    # wrong labels along the drawer's border turn its points' own box by 2 degrees
+    drawer = _box_points([0.35, 0, 0.7], [0.2, 0.35, 0.08], turn @ _rot_z(2), n=1500, seed=1)
+    own = part_obb(drawer)
+    boxes = aligned_boxes([carcass, drawer])
+    slide = turn[:, 0]  # the carcass's depth axis
+    assert _best_angle(own, slide) > 1.5
+    assert _best_angle(boxes[1], slide) < 1e-6
+    assert boxes[1].volume <= 1.1 * own.volume
+
+
+def test_a_swung_door_keeps_its_swing_and_a_hinge_parallel_to_the_carcass():
+    carcass = _box_points([0, 0, 0.5], [0.3, 0.4, 0.5])
+    swing = _rot_z(35)
+    door = _box_points([0.45, 0.2, 0.5], [0.01, 0.2, 0.45], swing, n=2000, seed=2)
+    boxes = aligned_boxes([carcass, door])
+    assert _best_angle(boxes[1], np.array([0.0, 0.0, 1.0])) < 1e-6  # the hinge stays vertical
+    assert _best_angle(boxes[1], swing[:, 0]) < 2.0  # the door's face keeps its swing
+    assert boxes[1].volume < 1.05 * part_obb(door).volume
+
+
+def test_exact_parts_keep_their_own_boxes():
+    carcass = _box_points([0, 0, 0.5], [0.3, 0.4, 0.5])
+    lid = _box_points([0, 0, 1.1], [0.3, 0.4, 0.02], n=1500, seed=3)
+    boxes = aligned_boxes([carcass, lid])
+    own = [part_obb(carcass), part_obb(lid)]
+    for got, want in zip(boxes, own, strict=True):
+        assert np.allclose(got.center, want.center, atol=1e-9)
+        assert np.allclose(got.extent, want.extent, atol=1e-9)
+
+
+def test_frame_fit_in_the_world_frame_is_the_bounding_box():
+    pts = _box_points([1, 2, 3], [0.5, 0.2, 0.1])
+    box = frame_aligned_obb(pts, np.eye(3), "all")
+    assert np.allclose(box.center, (pts.min(0) + pts.max(0)) / 2)
+    assert np.allclose(2 * box.extent, np.ptp(pts, axis=0))
