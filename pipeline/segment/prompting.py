@@ -192,11 +192,7 @@ def assign(score: np.ndarray, cloud: np.ndarray, min_points: int, neighbours: in
         labels[labels < 0] = labels[labels >= 0][nn]
     labels = np.maximum(labels, 0)
     labels = _smooth(cloud, labels, np.clip(s, 0.0, 1.0), active, neighbours, rounds)
-    order = np.argsort(-np.bincount(labels, minlength=len(score)), kind="stable")
-    remap = np.zeros(len(score), dtype=int)
-    present = [k for k in order if (labels == k).any()]
-    remap[present] = np.arange(1, len(present) + 1)
-    return remap[labels]
+    return _numbered_by_size(labels)
 
 
 def _smooth(cloud: np.ndarray, labels: np.ndarray, score: np.ndarray, active: np.ndarray,
@@ -254,11 +250,16 @@ def relabel_islands(cloud: np.ndarray, labels: np.ndarray, radius: float, fracti
             around = around[piece[around] != p]
             if len(around):
                 out[members] = np.bincount(labels[around]).argmax()
-    sizes = np.bincount(out, minlength=labels.max() + 1)[1:]
-    order = [k + 1 for k in np.argsort(-sizes, kind="stable") if sizes[k] > 0]
-    remap = np.zeros(labels.max() + 1, dtype=int)
+    return _numbered_by_size(out)
+
+
+def _numbered_by_size(labels: np.ndarray) -> np.ndarray:
+    """The same partition numbered 1..n, the largest part 1 (ties keep their order)."""
+    sizes = np.bincount(labels)
+    order = [k for k in np.argsort(-sizes, kind="stable") if sizes[k] > 0]
+    remap = np.zeros(len(sizes), dtype=int)
     remap[order] = np.arange(1, len(order) + 1)
-    return remap[out]
+    return remap[labels]
 
 
 def label_views(capture: Capture, cloud: np.ndarray, point_labels: np.ndarray,
