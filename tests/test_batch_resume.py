@@ -21,7 +21,9 @@ from real2code_export.formats import object_json
 
 from helpers import small_cabinet
 
-N_OBJECTS = 16
+# An object takes about 30 ms here, so a batch of 16 could finish between two polls of the
+# manifest (it did once in CI): enough objects that the signals surely land mid-batch.
+N_OBJECTS = 96
 
 
 def _start(inputs: Path, out: Path) -> subprocess.Popen:
