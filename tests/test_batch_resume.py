@@ -21,8 +21,7 @@ from real2code_export.formats import object_json
 
 from helpers import small_cabinet
 
-# An object takes about 30 ms here, so a batch of 16 could finish between two polls of the
-# manifest (it did once in CI): enough objects that the signals surely land mid-batch.
+# An object takes about 30 ms here: enough of them that the signals surely land mid-batch.
 N_OBJECTS = 96
 
 
@@ -31,7 +30,14 @@ def _start(inputs: Path, out: Path) -> subprocess.Popen:
                "--out", str(out), "--workers", "1", "--to", "json,mjcf,urdf",
                "--configurations", "10", "--quiet", "--json"]
     return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)  # its own process group, as in a terminal
+                            start_new_session=True,  # its own process group, as in a terminal
+                            preexec_fn=_terminal_signals)
+
+
+def _terminal_signals() -> None:
+    """Ctrl-C as a terminal delivers it: a test run started in the background by a
+    non-interactive shell ignores SIGINT, and ignored signals stay ignored in children."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _lines(out: Path) -> list[dict]:
