@@ -102,7 +102,8 @@ def cmd_articulate(args) -> int:
     elif args.weights:
         options = {"path": args.weights}
     art = articulate(meshes, get_predictor(args.predictor, **options),
-                     name=args.name or parts_path.stem, colors=colors)
+                     name=args.name or parts_path.stem, colors=colors,
+                     align_boxes=args.align_boxes)
     out = Path(args.out)
     formats = ["json", *(args.to or _available_export_formats())]
     with atomic.staged_output(out) as staging:
@@ -242,6 +243,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--to", type=_formats_arg, default=None,
                    help="comma-separated formats (default: mjcf,urdf,usd,gltf)")
     s.add_argument("--name", help="object name (default: from PARTS)")
+    s.add_argument("--align-boxes", action="store_true",
+                   help="refit the parts' boxes in the largest part's frame where they fit "
+                        "it (for parts cut from a scan by an imperfect segmentation)")
     s.add_argument("--configurations", type=int, default=100, help="for the final check")
     s.set_defaults(func=cmd_articulate)
 

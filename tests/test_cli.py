@@ -109,6 +109,29 @@ def test_articulate_a_folder_of_meshes(tmp_path, capsys):
     assert len(result.movable_joints) == len(obj.movable_joints)
 
 
+def test_articulate_with_aligned_boxes(tmp_path, capsys):
+    """--align-boxes on exact parts: the same joints as the parts' own boxes give."""
+    from real2code_export.formats import load
+    from real2code_export.meshfiles import obj_bytes
+
+    _, meshes = _ajar_parts(tmp_path)
+    parts = tmp_path / "parts"
+    parts.mkdir()
+    for name, mesh in meshes.items():
+        (parts / f"{name}.obj").write_bytes(obj_bytes(mesh))
+    results = []
+    for flags in ([], ["--align-boxes"]):
+        out = tmp_path / f"out{len(flags)}"
+        status = run(["articulate", str(parts), "--out", str(out), "--to", "mjcf", *flags])
+        assert status == EXIT_OK, capsys.readouterr()
+        results.append({j.child: j for j in load(out / "object.json").movable_joints})
+    own, aligned = results
+    assert own.keys() == aligned.keys()
+    for child, joint in own.items():
+        assert aligned[child].type is joint.type
+        assert abs(abs(float(np.dot(aligned[child].axis, joint.axis))) - 1) < 1e-6
+
+
 def test_articulate_a_glb(tmp_path, capsys):
     from pipeline.parts_io import Y_UP_TO_Z_UP
 
