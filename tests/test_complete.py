@@ -153,6 +153,21 @@ def test_segment_only_meshes_the_points():
         segment_only_mesh(pts[:3])
 
 
+def test_segment_only_meshes_a_flat_patch_and_refuses_a_line():
+    # A table top voxelised to one layer: Qhull has no 3D Delaunay of coplanar points.
+    rng = np.random.default_rng(0)
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    patch = np.c_[rng.uniform(0, 0.3, (400, 2)), np.zeros(400)] @ rotation.T
+    mesh = segment_only_mesh(patch)
+    plate = trimesh.creation.box((0.3, 0.3, 1e-4))
+    plate.apply_translation((0.15, 0.15, 0))
+    plate.apply_transform(np.block([[rotation, np.zeros((3, 1))], [np.zeros((1, 3)), 1]]))
+    assert chamfer_distance(mesh, plate) < 2e-4
+    line = np.c_[np.linspace(0, 1, 50), np.zeros((50, 2))]
+    with pytest.raises(CompletionError, match="50 points admit no 3D triangulation"):
+        segment_only_mesh(line)
+
+
 def test_bad_input_is_refused_with_a_reason(tmp_path):
     with pytest.raises(CompletionError, match="part points: 10 points, at least 30"):
         complete_part(np.zeros((10, 3)))

@@ -46,6 +46,23 @@ def _spacing(pcd) -> float:
     return float(np.mean(np.asarray(pcd.compute_nearest_neighbor_distance())))
 
 
+def _thickened_if_flat(pcd, spacing: float):
+    """A cloud whose points all lie on one plane (a table top seen from above, a thin panel
+    voxelised to one layer) has no 3D Delaunay triangulation, so Qhull refuses it. Its
+    surface is the patch itself: a copy shifted half a spacing along the plane's normal makes
+    the alpha shape a slab that thin around the patch. Other clouds are returned unchanged."""
+    import open3d as o3d
+
+    pts = np.asarray(pcd.points)
+    centred = pts - pts.mean(axis=0)
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    thickness = sv[2] / np.sqrt(len(pts))  # RMS distance to the best plane
+    if thickness > 0.05 * spacing:
+        return pcd
+    shifted = pts + 0.5 * spacing * vt[2]
+    return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.vstack([pts, shifted])))
+
+
 def _oriented_normals(pcd, spacing: float) -> None:
     import open3d as o3d
 
@@ -65,8 +82,12 @@ def segment_only_mesh(points, method: str = "alpha", alpha_spacings: float = ALP
     if method == "alpha":
         # Qhull's flat tetrahedra on planar patches make open3d warn once per tetrahedron.
         with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
-            mesh = o3d.geometry.TriangleMesh.create_from_point_cloud_alpha_shape(
-                pcd, alpha_spacings * spacing)
+            try:
+                mesh = o3d.geometry.TriangleMesh.create_from_point_cloud_alpha_shape(
+                    _thickened_if_flat(pcd, spacing), alpha_spacings * spacing)
+            except RuntimeError as e:  # Qhull's precision errors (e.g. all points on a line)
+                raise CompletionError(f"segment-only (alpha): {len(pcd.points)} points "
+                                      f"admit no 3D triangulation: {str(e)[:120]}") from e
     elif method == "ball_pivoting":
         _oriented_normals(pcd, spacing)
         radii = o3d.utility.DoubleVector([1.5 * spacing, 3 * spacing, 6 * spacing])
