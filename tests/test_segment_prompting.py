@@ -149,3 +149,43 @@ def test_cut_off_pieces_go_to_the_part_around_them():
     assert (out[:len(wall)] == 1).all() and (out[len(wall):] == 2).all()
     same = relabel_islands(cloud, out, radius=0.025, fraction=0.2)
     assert np.array_equal(same, out)
+
+
+def _grid(u, v, corner, du, dv, step=0.02):
+    """Points on the rectangle corner + s du + t dv, s in [0, u], t in [0, v]."""
+    s, t = np.meshgrid(np.arange(0, u + 1e-9, step), np.arange(0, v + 1e-9, step))
+    return (np.asarray(corner) + s.reshape(-1, 1) * np.asarray(du)
+            + t.reshape(-1, 1) * np.asarray(dv))
+
+
+def test_compartment_behind_a_swung_door_goes_back_to_the_carcass():
+    """A carcass open at the front (x = 0.3), a door swung 40 degrees about its hinge whose
+    label also took half the carcass's back wall (the compartment seen past it), and a
+    drawer pulled out square to the carcass with its bottom inside: the back wall goes
+    back to the carcass; the door's panel, the drawer and the rest stay as they were."""
+    from pipeline.segment.prompting import return_compartments
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    back = _grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z)
+    walls = [_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+             _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)]
+    a = np.radians(40)
+    door = _grid(0.8, 0.8, (0.3, -0.4, -0.4), (np.sin(a), np.cos(a), 0), z)
+    drawer = np.concatenate([_grid(0.3, 0.2, (0.45, 0.05, -0.3), y, z),  # front
+                             _grid(0.5, 0.3, (-0.05, 0.05, -0.3), x, y)])  # bottom, inside
+    cloud = np.concatenate([back, *walls, door, drawer])
+    truth = np.concatenate([np.ones(len(back) + sum(map(len, walls)), int),
+                            np.full(len(door), 2), np.full(len(drawer), 3)])
+    labels = truth.copy()
+    bled = back[:, 1] < 0.0  # the door's masks took the back wall behind it
+    labels[:len(back)][bled] = 2
+    out, moved = return_compartments(cloud, labels, voxel=0.02)
+    assert np.array_equal(out, truth)
+    assert moved == [{"part": 2, "points": int(bled.sum()), "panel_turn_deg": 40.0}]
+    # exact parts, and a door left closed, are left alone
+    assert np.array_equal(return_compartments(cloud, truth, voxel=0.02)[0], truth)
+    closed = truth.copy()
+    closed[:len(back)][bled] = 2
+    shut = cloud.copy()
+    shut[truth == 2] = _grid(0.8, 0.8, (0.3, -0.4, -0.4), y, z)
+    assert np.array_equal(return_compartments(shut, closed, voxel=0.02)[0], closed)

@@ -63,6 +63,11 @@ class PromptingOptions:
     island_voxels: float = 2.5  # points this close (in cloud spacings) are connected ...
     island_fraction: float = 0.2  # ... and a part's pieces below this share of its largest
     # piece go to the part around them (interior walls seen through an opening)
+    panel_min_angle: float = 10.0  # deg: a part whose main plane is turned this far from
+    panel_fraction: float = 0.3  # the carcass's axes (and holds this share of its points,
+    panel_voxels: float = 1.5  # within this many spacings) is a door swung open; its points
+    behind_voxels: float = 3.0  # farther than this from that plane, inside the carcass's box,
+    # are the compartment seen through the opening and go back to the carcass
 
 
 def _farthest_points(points: np.ndarray, n: int) -> np.ndarray:
@@ -253,6 +258,55 @@ def relabel_islands(cloud: np.ndarray, labels: np.ndarray, radius: float, fracti
     return _numbered_by_size(out)
 
 
+def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                        options: PromptingOptions = PromptingOptions(),
+                        ) -> tuple[np.ndarray, list[dict]]:
+    """Points of a swung-open door's part that are the compartment behind it go back to the
+    carcass (label 1, the largest part).
+
+    The mask network's commonest error: prompted on an open door it also takes the inside of
+    the compartment the door reveals, which the carcass's own masks leave out, so no vote
+    gives those points back, and the door becomes a carcass-deep box that reads as a drawer.
+    Geometry tells them apart where the masks cannot: a door swung open is a panel turned
+    away from the carcass's axes, while the compartment's walls and a drawer's front and
+    box are square to them. So for each part whose main plane (RANSAC, open3d) holds enough
+    of its points and is turned at least ``panel_min_angle`` from every axis of the
+    carcass's box, the points well off that plane and inside the carcass's box are handed to
+    the carcass. Drawers and closed doors are left alone (no turned panel); a door opened
+    past ~80 degrees is too (its panel is square to the carcass again). Returns the labels,
+    renumbered by size, and what was moved, per part."""
+    import open3d as o3d
+
+    from ..obb import part_obb
+
+    out = labels.copy()
+    moved = []
+    if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = part_obb(cloud[labels == 1])
+    o3d.utility.random.seed(0)  # RANSAC, deterministic
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        if len(index) < 30:
+            continue
+        pts = cloud[index]
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+        (a, b, c, d), inliers = pcd.segment_plane(options.panel_voxels * voxel, 3, 300)
+        if len(inliers) < options.panel_fraction * len(pts):
+            continue
+        normal = np.array([a, b, c]) / np.linalg.norm([a, b, c])
+        turn = np.degrees(np.arccos(min(1.0, float(np.max(np.abs(body.R.T @ normal))))))
+        if turn < options.panel_min_angle:
+            continue
+        behind = np.abs(pts @ normal + d / np.linalg.norm([a, b, c])) > (
+            options.behind_voxels * voxel)
+        back = behind & body.contains(pts, tol=voxel)
+        if back.any():
+            out[index[back]] = 1
+            moved.append({"part": k, "points": int(back.sum()), "panel_turn_deg": round(turn, 1)})
+    return _numbered_by_size(out), moved
+
+
 def _numbered_by_size(labels: np.ndarray) -> np.ndarray:
     """The same partition numbered 1..n, the largest part 1 (ties keep their order)."""
     sizes = np.bincount(labels)
@@ -294,10 +348,12 @@ def segment_capture(capture: Capture, segmenter: PromptSegmenter,
                           options.smoothing_neighbours, options.smoothing_rounds)
     point_labels = relabel_islands(cloud, point_labels, options.island_voxels * voxel,
                                    options.island_fraction)
+    point_labels, returned = return_compartments(cloud, point_labels, voxel, options)
     n_parts = int(point_labels.max())
     details = {"cloud_points": len(cloud), "prompts": len(prompt_index),
                "prompt_groups": len(groups), "parts": n_parts,
-               "prompts_per_group": [len(g) for g in groups]}
+               "prompts_per_group": [len(g) for g in groups],
+               "returned_to_carcass": returned}
     return Segmentation(label_views(capture, cloud, point_labels), n_parts, cloud,
                         point_labels, segmenter.name, details)
 
