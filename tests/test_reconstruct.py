@@ -17,7 +17,7 @@ from pipeline.segment.learned import WEIGHTS as SEGMENTER_WEIGHTS
 from real2code_export.formats import load, object_json
 from real2code_export.model import ArticulatedObject, JointType, Part
 
-# Measured with the shipped weights: 0.92 on the small capture, 0.63 on the demo's (two
+# Measured with the shipped weights: 0.92 on the small capture, 0.70 on the demo's (two
 # twin flaps come out as one part, and one flap's label bleeds into the carcass behind it).
 MEAN_IOU_SMALL = 0.85
 MEAN_IOU_DEMO = 0.55
