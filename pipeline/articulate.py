@@ -53,7 +53,8 @@ class Articulation:
 def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str = "object",
                colors: dict[str, tuple] | None = None, density: float | None = None,
                metadata: dict | None = None, collision: str = "auto",
-               align_boxes: bool = False) -> Articulation:
+               align_boxes: bool = False,
+               observed: dict[str, np.ndarray] | None = None) -> Articulation:
     """``collision``: "auto" (one convex piece per connected component of a part's mesh
     when it has a few, else its convex hull), "hull", or "coacd" (convex decomposition,
     tight but slow on large scans; cached by mesh hash). ``align_boxes``: refit the parts'
@@ -61,7 +62,9 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     predicted segmentation, whose boxes a few wrong border points turn; exact meshes keep
     their own boxes (on the PartNet-Mobility holdout objects, whose largest part is not
     always the carcass, aligning exact parts raised the 6-15-part mean axis error from 19
-    to 62 degrees)."""
+    to 62 degrees). ``observed``: the points each part was measured at (by the keys of
+    ``meshes``), from which the aligned boxes read their frames (completed meshes follow
+    their completion grid's axes)."""
     from real2code_export.inertia import DEFAULT_DENSITY, inertial_from_mesh
 
     if len(meshes) < 2:
@@ -70,7 +73,11 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     names = [sanitize_name(n, taken) for n in meshes]
     world = dict(zip(names, meshes.values(), strict=True))
     clouds = [world[n].vertices for n in names]
-    boxes = aligned_boxes(clouds) if align_boxes else [part_obb(c) for c in clouds]
+    if align_boxes:
+        seen = None if observed is None else [observed[k] for k in meshes]
+        boxes = aligned_boxes(clouds, observed=seen)
+    else:
+        boxes = [part_obb(c) for c in clouds]
     program = predictor.predict(boxes)
     sampled: dict[str, tuple[np.ndarray, np.ndarray]] = {}
 

@@ -140,32 +140,148 @@ def frame_aligned_obb(points, frame: np.ndarray, hold: str = "all") -> OBB:
     return canonical(frame @ box.center, frame @ box.R, box.extent)
 
 
-def aligned_boxes(clouds: list, tolerance: float = 0.1) -> list[OBB]:
-    """Every part's :func:`part_obb`, then each part other than the largest refitted in the
-    largest part's frame where that costs little volume: all three axes held when the box
-    grows by at most ``tolerance``, else one axis held (a door swung about a hinge parallel
-    to the carcass's edges), else the part's own box.
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """What a part's frame is read from: the unit normals and weights of its points that
+    lie on a locally flat piece of surface."""
 
-    Furniture is built square: drawers slide along the carcass's depth, hinges run along
-    its edges. A part segmented with a few wrong points at its border gets an own box
-    turned by a few degrees, and the joint read off that box inherits the turn; in the
-    carcass's frame it does not. Boxes of exact parts are unchanged (the frame fit is then
-    no larger than the own one)."""
-    boxes = [part_obb(c) for c in clouds]
+    normals: np.ndarray  # (M, 3)
+    weights: np.ndarray  # (M,)
+
+    @classmethod
+    def of(cls, part, neighbours: int = 8, flatness: float = 0.05) -> Surface:
+        """From a mesh (its vertices) or an (N, 3) array. Each point's normal is the least
+        direction of its ``neighbours`` nearest points (PCA); points whose neighbourhood is
+        not flat (least over middle variance above ``flatness``: edges, corners, noise) are
+        left out. Points, not faces: a segment-only mesh's faces (an alpha shape) bridge
+        between panels and face anywhere, while its vertices are the measured points."""
+        from scipy.spatial import cKDTree
+
+        pts = _points(part.vertices if hasattr(part, "vertices") else part)
+        if len(pts) <= neighbours:
+            return cls(np.zeros((0, 3)), np.zeros(0))
+        _, near = cKDTree(pts).query(pts, neighbours + 1)
+        local = pts[near] - pts[near].mean(axis=1, keepdims=True)
+        values, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", local, local))
+        flat = values[:, 0] <= flatness * np.maximum(values[:, 1], 1e-30)
+        return cls(vectors[flat, :, 0], np.ones(int(flat.sum())))
+
+
+SQUARE_DEG = 4.0  # a face is square to a frame when its normal is this close to an axis
+
+
+def alignment(surface: Surface, frame: np.ndarray, sigma_deg: float = SQUARE_DEG) -> float:
+    """How square ``surface`` is to ``frame``'s axes: the weighted mean over its flat points
+    of exp(-a^2 / 2 sigma^2), a the angle from the point's normal to the nearest axis (1 for
+    a box in that frame; NaN with no flat point)."""
+    if len(surface.weights) == 0 or surface.weights.sum() <= 0:
+        return float("nan")
+    cos = np.clip(np.abs(surface.normals @ frame).max(axis=1), 0.0, 1.0)
+    angle = np.arccos(cos)
+    score = np.exp(-0.5 * (angle / np.radians(sigma_deg)) ** 2)
+    return float(score @ surface.weights / surface.weights.sum())
+
+
+def _turned(frame: np.ndarray, axis: int, deg: float) -> np.ndarray:
+    """``frame`` turned by ``deg`` about its own column ``axis``."""
+    a = np.radians(deg)
+    i, j = [k for k in range(3) if k != axis]
+    out = frame.copy()
+    out[:, i] = np.cos(a) * frame[:, i] + np.sin(a) * frame[:, j]
+    out[:, j] = -np.sin(a) * frame[:, i] + np.cos(a) * frame[:, j]
+    return out
+
+
+def best_turn(surface: Surface, frame: np.ndarray, axis: int, span_deg: float = 45.0,
+              min_gain: float = 0.01) -> tuple[float, np.ndarray]:
+    """The turn of ``frame`` about its column ``axis`` (within +-``span_deg``) that squares
+    ``surface`` best: a 1-degree scan, then a golden-section search to 0.01 degree; no turn
+    unless it raises the alignment by ``min_gain`` (the normals of an exact box scatter a
+    little at its edges, and must not move its frame)."""
+    scan = np.arange(-span_deg, span_deg + 1e-9, 1.0)
+    scores = [alignment(surface, _turned(frame, axis, d)) for d in scan]
+    k = int(np.argmax(scores))
+    lo, hi = scan[k] - 1.0, scan[k] + 1.0
+    g = (np.sqrt(5) - 1) / 2
+    a, b = hi - g * (hi - lo), lo + g * (hi - lo)
+    fa, fb = (alignment(surface, _turned(frame, axis, d)) for d in (a, b))
+    while hi - lo > 0.01:
+        if fa >= fb:
+            hi, b, fb = b, a, fa
+            a = hi - g * (hi - lo)
+            fa = alignment(surface, _turned(frame, axis, a))
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + g * (hi - lo)
+            fb = alignment(surface, _turned(frame, axis, b))
+    best = (lo + hi) / 2
+    if alignment(surface, frame) >= alignment(surface, _turned(frame, axis, best)) - min_gain:
+        return 0.0, frame.copy()
+    return best, _turned(frame, axis, best)
+
+
+MIN_SQUARE = 0.4  # below this alignment in every frame a part is not boxy: volumes decide
+SQUARE_MARGIN = 0.05  # the carcass's frame wins unless the part's own is this much squarer
+
+
+def aligned_boxes(parts: list, tolerance: float = 0.1, observed: list | None = None,
+                  ) -> list[OBB]:
+    """Boxes for parts cut from a scan by an imperfect segmentation: furniture is built
+    square, so each part's box is taken in the largest part's frame, or in that frame
+    turned about one of its axes (a door swung about a hinge parallel to the carcass's
+    edges, a lid about its hinge), when that is as square to the part's surface as its own
+    box is; else the part keeps its own box (:func:`part_obb`).
+
+    ``parts`` are meshes or point clouds, each box fits their points; the normals of the
+    flat pieces of ``observed`` (the points each part was measured at; default the parts'
+    own points) decide the frames (:func:`alignment`, within ``SQUARE_MARGIN``); for a
+    part with too few points to tell, volumes do (the carcass's frame when the box grows by
+    at most ``tolerance``, else one axis held). Measured points, where there are some: a
+    completed mesh is marched on a grid in its part's own box, and its faces follow that
+    grid, right or wrong. Why normals: a part segmented
+    with some wrong points at its border, or seen only in part, gets an own box turned by a
+    few degrees, and the joint read off it inherits the turn, while its faces (a drawer's
+    front, a door's panel) still face the way the part does. The largest part's own frame
+    is first squared to its faces the same way (a turn of at most 10 degrees about each
+    axis). Boxes of exact, square parts are unchanged."""
+    points = [_points(p.vertices if hasattr(p, "vertices") else p) for p in parts]
+    surfaces = [Surface.of(p) for p in (observed if observed is not None else points)]
+    boxes = [part_obb(p) for p in points]
     if len(boxes) < 2:
         return boxes
     root = int(np.argmax([b.volume for b in boxes]))
     frame = boxes[root].R
+    if alignment(surfaces[root], frame) >= MIN_SQUARE:
+        for axis in range(3):
+            frame = best_turn(surfaces[root], frame, axis, span_deg=10.0)[1]
     out = []
-    for i, (cloud, own) in enumerate(zip(clouds, boxes, strict=True)):
+    for i, (pts, surface, own) in enumerate(zip(points, surfaces, boxes, strict=True)):
         if i == root:
-            out.append(own)
+            square = frame_aligned_obb(pts, frame, "all")
+            out.append(square if square.volume <= (1.0 + tolerance) * own.volume else own)
             continue
-        limit = (1.0 + tolerance) * own.volume
-        square = frame_aligned_obb(cloud, frame, "all")
-        if square.volume <= limit:
-            out.append(square)
-            continue
-        held = frame_aligned_obb(cloud, frame, "one")
-        out.append(held if held.volume <= limit else own)
+        out.append(_aligned_box(pts, surface, own, frame, tolerance))
     return out
+
+
+def _aligned_box(points: np.ndarray, surface: Surface, own: OBB, frame: np.ndarray,
+                 tolerance: float) -> OBB:
+    square = frame_aligned_obb(points, frame, "all")
+    own_score = alignment(surface, own.R)
+    if np.isnan(own_score):  # no flat piece to read: volumes decide
+        limit = (1.0 + tolerance) * own.volume
+        if square.volume <= limit:
+            return square
+        held = frame_aligned_obb(points, frame, "one")
+        return held if held.volume <= limit else own
+    square_score = alignment(surface, frame)
+    turns = [best_turn(surface, frame, axis) for axis in range(3)]
+    turn_scores = [alignment(surface, f) for _, f in turns]
+    best = int(np.argmax(turn_scores))
+    if max(square_score, turn_scores[best], own_score) < MIN_SQUARE:
+        return own  # not boxy (a round top, a blob): no frame is better founded than its own
+    if square_score >= max(own_score, turn_scores[best]) - SQUARE_MARGIN:
+        return square
+    if turn_scores[best] >= own_score - SQUARE_MARGIN:
+        return frame_aligned_obb(points, turns[best][1], "all")
+    return own

@@ -152,7 +152,7 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                      get_predictor(predictor), name=name, colors=colors,
                      metadata={"reconstructed_from": str(capture.path or ""),
                                "segmentation": segmentation, "completion": completion},
-                     collision=collision, align_boxes=segmentation != "gt")
+                     collision=collision, align_boxes=segmentation != "gt", observed=clouds)
     timings["articulation"] = time.perf_counter() - t
     for j in art.obj.movable_joints:
         say(f"  {j.name:20s} {j.type.value:9s} state {j.state:+.3f}  "
