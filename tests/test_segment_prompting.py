@@ -10,7 +10,13 @@ import pytest
 from pipeline.procedural import generate
 from pipeline.render import render_object
 from pipeline.segment import segment
-from pipeline.segment.features import SIZE, frame_features, mask_on_grid, to_model_uv
+from pipeline.segment.features import (
+    SIZE,
+    frame_features,
+    object_window,
+    sample_nearest,
+    whole_view,
+)
 from pipeline.segment.metrics import matched_part_iou
 from pipeline.segment.prompting import segment_capture
 from pipeline.train_joint_predictor import ajar_configuration
@@ -91,21 +97,51 @@ def test_metric_scores_a_merge_and_a_split():
 
 def test_model_grid_maps_capture_pixels(cabinet_capture):
     frame = cabinet_capture.frames[0]
-    grid = mask_on_grid(frame.mask)
     h, w = frame.mask.shape
     rows, cols = np.nonzero(frame.mask)
-    pick = np.random.default_rng(0).choice(len(rows), 300, replace=False)
-    uv = np.stack([cols[pick] + 0.5, rows[pick] + 0.5], 1)
-    model = np.floor(to_model_uv(uv, h, w)).astype(int)
-    # nearest sampling: at least the interior of each part keeps its label on the grid
-    agree = grid[model[:, 1], model[:, 0]] == frame.mask[rows[pick], cols[pick]]
-    assert agree.mean() > 0.9
+    window = object_window(frame.depth)
+    # the object's window: the object fills the grid, with a margin
+    side = window.scale * SIZE
+    assert max(np.ptp(rows) + 1, np.ptp(cols) + 1) < side < 1.2 * max(h, w)
+    assert window.u0 < cols.min() and window.u0 + side > cols.max() + 1
+    for win in (window, whole_view(h, w)):
+        grid = sample_nearest(frame.mask, win)
+        pick = np.random.default_rng(0).choice(len(rows), 300, replace=False)
+        uv = np.stack([cols[pick] + 0.5, rows[pick] + 0.5], 1)
+        model = np.floor(win.to_model(uv)).astype(int)
+        # nearest sampling: at least the interior of each part keeps its label on the grid
+        agree = grid[model[:, 1], model[:, 0]] == frame.mask[rows[pick], cols[pick]]
+        assert agree.mean() > 0.9
     features = frame_features(frame)
     assert features.shape == (10, SIZE, SIZE) and np.isfinite(features).all()
     valid = features[4] > 0
+    assert valid.mean() > 0.3  # the object fills its window
     normals = features[5:8][:, valid]
     assert np.allclose(np.linalg.norm(normals, axis=0)[np.linalg.norm(normals, axis=0) > 0], 1,
                        atol=1e-5)
+
+
+def test_normals_of_a_flat_panel_are_exact_wherever_the_window_falls():
+    """A plane seen at a slant: the normals the network sees are the plane's, for windows
+    whose pixels fall anywhere on the capture's pixel grid (points are computed through the
+    sampled pixels' own centres)."""
+    from pipeline.capture import Camera
+    from pipeline.segment.features import Window, grid_features, pixel_rays, sample_rgb
+
+    cam = Camera(200.0, 200.0, 96.0, 96.0, 192, 192)
+    normal = np.array([0.3, -0.2, 0.93])
+    normal /= np.linalg.norm(normal)  # the plane n . p = d, in front of the camera
+    u, v = np.meshgrid(np.arange(192) + 0.5, np.arange(192) + 0.5)
+    ray = np.stack([(u - cam.cx) / cam.fl_x, -(v - cam.cy) / cam.fl_y, -np.ones_like(u)], -1)
+    depth = (-2.0 / (ray @ normal)).astype(np.float32)  # z-depth where each ray meets it
+    rgb = np.full((192, 192, 3), 128, np.uint8)
+    for window in (Window(10.3, 7.9, 1.37), Window(0.0, 0.0, 1.5), Window(31.7, 2.2, 0.91)):
+        rays = pixel_rays(cam.fl_x, cam.fl_y, cam.cx, cam.cy, window, 192, 192)
+        f = grid_features(sample_rgb(rgb, window), sample_nearest(depth, window), rays)
+        n = f[5:8].reshape(3, -1)
+        n = n[:, np.linalg.norm(n, axis=0) > 0]
+        assert n.shape[1] > 1000
+        assert np.abs(n.T @ normal).min() > 1 - 1e-4
 
 
 def test_smoothing_clears_speckle_and_keeps_crisp_borders():
@@ -131,24 +167,6 @@ def test_smoothing_clears_speckle_and_keeps_crisp_borders():
     assert smooth.max() == 2
     assert len(np.unique(smooth[left])) == 1 and len(np.unique(smooth[~left])) == 1
     assert smooth[left][0] != smooth[~left][0]
-
-
-def test_cut_off_pieces_go_to_the_part_around_them():
-    """A part's stray piece (its mask bled through an opening onto a wall of another part)
-    joins the part it lies on; a part's main piece and the other parts stay as they are."""
-    from pipeline.segment.prompting import relabel_islands
-
-    xs, ys = np.meshgrid(np.arange(30) * 0.01, np.arange(30) * 0.01)
-    wall = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], 1)  # part 1
-    door = wall[:200] + [0.0, 0.0, 0.2]  # part 2, away from the wall
-    cloud = np.concatenate([wall, door])
-    labels = np.concatenate([np.ones(len(wall), int), np.full(len(door), 2)])
-    stray = (wall[:, 0] > 0.245) & (wall[:, 1] > 0.245)  # 2 bled onto the wall here (25 points)
-    labels[:len(wall)][stray] = 2
-    out = relabel_islands(cloud, labels, radius=0.025, fraction=0.2)
-    assert (out[:len(wall)] == 1).all() and (out[len(wall):] == 2).all()
-    same = relabel_islands(cloud, out, radius=0.025, fraction=0.2)
-    assert np.array_equal(same, out)
 
 
 def _grid(u, v, corner, du, dv, step=0.02):

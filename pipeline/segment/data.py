@@ -4,8 +4,11 @@ the front arc like a capture, with the appearance varied so the network learns p
 geometry as much as from paint: original, single, random or grey part colours, random
 lighting, background and field of view.
 
-A view is stored small (RGB, depth and part labels on the model grid); the network's
-input is computed from it when a batch is drawn (``features.view_features``).
+Views are rendered at twice the model grid and cut to the object's square
+(``features.object_window``) as a capture's are at test time, with the margin and the
+centre jittered a little. A view is stored small (RGB, depth and part labels on the model
+grid, and what is needed to recompute each pixel's ray); the network's input is computed
+from it when a batch is drawn (``features.grid_features``).
 """
 
 from __future__ import annotations
@@ -14,7 +17,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .features import SIZE
+from .features import (
+    SIZE,
+    WINDOW_MARGIN,
+    Window,
+    object_window,
+    pixel_rays,
+    sample_nearest,
+    sample_rgb,
+)
+
+RENDER_SIZE = 2 * SIZE  # training views are rendered this large, then cut to the object
 
 
 @dataclass
@@ -22,7 +35,20 @@ class View:
     rgb: np.ndarray  # (SIZE, SIZE, 3) uint8
     depth: np.ndarray  # (SIZE, SIZE) float32, metres
     mask: np.ndarray  # (SIZE, SIZE) uint8, 0 = background, k = part k
-    focal: float  # pixels (square pixels, centred principal point)
+    camera: tuple[float, float, float, float, int, int]  # fl_x fl_y cx cy height width
+    window: Window  # what of the rendered view the grid covers
+
+    def rays(self) -> np.ndarray:
+        return pixel_rays(*self.camera[:4], self.window, *self.camera[4:])
+
+
+def jittered_window(depth: np.ndarray, rng: np.random.Generator) -> Window:
+    """The object's window with its margin and centre jittered (a capture's foreground is
+    not always cut as cleanly as a render's)."""
+    base = object_window(depth, margin=WINDOW_MARGIN * rng.uniform(0.3, 2.5))
+    side = base.scale * SIZE
+    du, dv = rng.uniform(-0.04, 0.04, 2) * side
+    return Window(base.u0 + du, base.v0 + dv, base.scale)
 
 
 def _colours(names: list[str], original: dict[str, tuple], rng: np.random.Generator,
@@ -53,12 +79,21 @@ def object_views(obj, rng: np.random.Generator, views: int) -> list[View]:
                         key=rng.uniform(0.0, 0.5))
     background = tuple(rng.uniform(0, 1, 3) * (0.2 if rng.random() < 0.7 else 1.0))
     fov = rng.uniform(40.0, 60.0)
-    cap = render_object(obj, q=q, views=12, width=SIZE, height=SIZE, fov_deg=fov,
-                        seed=int(rng.integers(2**31)), colors=colours, lighting=lighting,
-                        background=background)
+    cap = render_object(obj, q=q, views=12, width=RENDER_SIZE, height=RENDER_SIZE,
+                        fov_deg=fov, seed=int(rng.integers(2**31)), colors=colours,
+                        lighting=lighting, background=background)
     picks = rng.choice(len(cap.frames), size=min(views, len(cap.frames)), replace=False)
-    return [View(cap.frames[k].rgb, cap.frames[k].depth, cap.frames[k].mask.astype(np.uint8),
-                 cap.frames[k].camera.fl_x) for k in sorted(picks) if cap.frames[k].mask.any()]
+    out = []
+    for k in sorted(picks):
+        f = cap.frames[k]
+        if not f.mask.any():
+            continue
+        window = jittered_window(f.depth, rng)
+        c = f.camera
+        out.append(View(sample_rgb(f.rgb, window), sample_nearest(f.depth, window),
+                        sample_nearest(f.mask.astype(np.uint8), window),
+                        (c.fl_x, c.fl_y, c.cx, c.cy, c.height, c.width), window))
+    return out
 
 
 def _one(spec) -> list[View]:

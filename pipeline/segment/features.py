@@ -1,82 +1,112 @@
 """What the mask network sees of one view: a square ``SIZE`` x ``SIZE`` grid of RGB, depth
 relative to the object, a validity channel, camera-frame surface normals (the geometry
-that separates a door from the carcass when both have one colour) and pixel coordinates.
+that separates a door from the carcass when both have one colour) and grid coordinates.
 
-A view of any size is padded at the right and bottom to a square (no distortion) and
-sampled down; :func:`to_model_uv` maps capture pixels to the model grid.
+The grid covers a :class:`Window` of the capture: by default the square around the pixels
+with depth (the object), so the object fills the grid whatever its size in the image and
+the network spends its pixels on it (a tall fridge in a 256 x 256 view gets about 1.5x the
+resolution that padding the whole view would give it). Depth and labels are sampled at the
+nearest capture pixel, RGB area-averaged; the camera-frame points behind the normals are
+computed through the sampled pixels' own centres, so normals of flat panels stay exact
+however the window falls on the pixel grid.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+
+from ..fuse import normals_from_points
 
 SIZE = 128
 CHANNELS = 10  # rgb 3, depth 1, valid 1, normals 3, coordinates 2
+WINDOW_MARGIN = 0.06  # of the object's extent, on every side
 
 
-def model_scale(height: int, width: int) -> float:
-    """Model pixels per capture pixel."""
-    return SIZE / max(height, width)
+@dataclass(frozen=True)
+class Window:
+    """The square of capture pixels the model grid covers: model pixel ``i`` spans capture
+    coordinates ``[origin + i * scale, origin + (i + 1) * scale)``, per axis."""
+
+    u0: float
+    v0: float
+    scale: float  # capture pixels per model pixel
+
+    def to_model(self, uv: np.ndarray) -> np.ndarray:
+        """Continuous capture pixel coordinates (u, v) -> model grid coordinates."""
+        return (np.asarray(uv, dtype=np.float64) - (self.u0, self.v0)) / self.scale
+
+    def source_pixels(self, height: int, width: int,
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The capture row and column sampled for every model row and column (nearest: the
+        pixel under the model pixel's centre), and the (SIZE, SIZE) mask of model pixels
+        that fall inside the capture."""
+        centres = (np.arange(SIZE) + 0.5) * self.scale
+        cols = np.floor(self.u0 + centres).astype(int)
+        rows = np.floor(self.v0 + centres).astype(int)
+        inside = ((rows >= 0) & (rows < height))[:, None] & ((cols >= 0) & (cols < width))[None]
+        return np.clip(rows, 0, height - 1), np.clip(cols, 0, width - 1), inside
 
 
-def to_model_uv(uv: np.ndarray, height: int, width: int) -> np.ndarray:
-    """Continuous capture pixel coordinates (u, v) -> model grid coordinates."""
-    return np.asarray(uv, dtype=np.float64) * model_scale(height, width)
+def whole_view(height: int, width: int) -> Window:
+    """The whole view, padded at the right and bottom to a square."""
+    return Window(0.0, 0.0, max(height, width) / SIZE)
 
 
-def _sample_nearest(image: np.ndarray, square: int) -> np.ndarray:
-    """The ``SIZE`` x ``SIZE`` nearest-pixel sampling of ``image`` padded to ``square``."""
-    idx = np.floor((np.arange(SIZE) + 0.5) * square / SIZE).astype(int)
-    h, w = image.shape[:2]
-    rows, cols = idx[:, None], idx[None, :]
-    inside = (rows < h) & (cols < w)
-    out = image[np.minimum(rows, h - 1), np.minimum(cols, w - 1)]
-    return np.where(inside[..., None] if out.ndim == 3 else inside, out, 0)
+def object_window(depth: np.ndarray, margin: float = WINDOW_MARGIN) -> Window:
+    """The square around the pixels with depth, ``margin`` of its side added on every side;
+    the whole view when nothing has depth."""
+    rows = np.nonzero(depth.any(axis=1))[0]
+    cols = np.nonzero(depth.any(axis=0))[0]
+    if len(rows) == 0:
+        return whole_view(*depth.shape)
+    side = max(rows[-1] + 1 - rows[0], cols[-1] + 1 - cols[0]) * (1 + 2 * margin)
+    cu, cv = (cols[0] + cols[-1] + 1) / 2, (rows[0] + rows[-1] + 1) / 2
+    return Window(cu - side / 2, cv - side / 2, side / SIZE)
 
 
-def _rgb_box(rgb: np.ndarray, square: int) -> np.ndarray:
-    """Area-averaged RGB on the model grid (nearest sampling would alias thin edges)."""
+def sample_nearest(image: np.ndarray, window: Window) -> np.ndarray:
+    """``image`` (H, W[, C]) on the model grid, nearest capture pixel; 0 outside it."""
+    rows, cols, inside = window.source_pixels(*image.shape[:2])
+    out = image[rows[:, None], cols[None, :]]
+    return np.where(inside[..., None] if out.ndim == 3 else inside, out, 0).astype(image.dtype)
+
+
+def sample_rgb(rgb: np.ndarray, window: Window) -> np.ndarray:
+    """RGB on the model grid, area-averaged (nearest sampling would alias thin edges);
+    black outside the capture."""
     from PIL import Image
 
     h, w = rgb.shape[:2]
-    padded = np.zeros((square, square, 3), np.uint8)
-    padded[:h, :w] = rgb
-    if square == SIZE:
-        return padded
-    return np.asarray(Image.fromarray(padded).resize((SIZE, SIZE), Image.Resampling.BOX))
+    x0, y0 = int(np.floor(window.u0)), int(np.floor(window.v0))
+    x1 = int(np.ceil(window.u0 + SIZE * window.scale))
+    y1 = int(np.ceil(window.v0 + SIZE * window.scale))
+    # PIL's box must lie inside the image: pad the capture to cover the window
+    pad = ((max(0, -y0), max(0, y1 - h)), (max(0, -x0), max(0, x1 - w)), (0, 0))
+    padded = np.pad(rgb, pad)
+    box = (window.u0 + pad[1][0], window.v0 + pad[0][0],
+           window.u0 + pad[1][0] + SIZE * window.scale, window.v0 + pad[0][0] + SIZE * window.scale)
+    return np.asarray(Image.fromarray(padded).resize((SIZE, SIZE), Image.Resampling.BOX, box=box))
 
 
-def normals_from_points(points: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Unit normals (camera frame, facing the camera) of a camera-frame point grid by
-    central differences; 0 where a neighbour is missing or across a depth jump."""
-    n = np.zeros_like(points)
-    dx = points[1:-1, 2:] - points[1:-1, :-2]
-    dy = points[2:, 1:-1] - points[:-2, 1:-1]
-    cross = np.cross(dx, dy)
-    norm = np.linalg.norm(cross, axis=-1, keepdims=True)
-    depth = -points[..., 2]
-    ok = valid[1:-1, 1:-1] & valid[1:-1, 2:] & valid[1:-1, :-2] & valid[2:, 1:-1] & valid[:-2, 1:-1]
-    jump = np.maximum(np.abs(dx[..., 2]), np.abs(dy[..., 2])) > 0.1 * depth[1:-1, 1:-1]
-    ok &= ~jump & (norm[..., 0] > 1e-12)
-    unit = cross / np.where(norm > 0, norm, 1.0)
-    facing = np.sign(np.sum(unit * -points[1:-1, 1:-1], axis=-1, keepdims=True))
-    n[1:-1, 1:-1] = np.where(ok[..., None], unit * np.where(facing == 0, 1, facing), 0.0)
-    return n
+def pixel_rays(fl_x: float, fl_y: float, cx: float, cy: float, window: Window, height: int,
+               width: int) -> np.ndarray:
+    """(SIZE, SIZE, 2): the camera-frame direction (x / z, y / z, OpenGL axes, up to the
+    sign of z) through the centre of the capture pixel each model pixel samples."""
+    rows, cols, _ = window.source_pixels(height, width)
+    x = (cols + 0.5 - cx) / fl_x
+    y = -(rows + 0.5 - cy) / fl_y
+    return np.stack(np.broadcast_arrays(x[None, :], y[:, None]), axis=-1).astype(np.float32)
 
 
-def view_features(rgb: np.ndarray, depth: np.ndarray, fl_x: float, fl_y: float, cx: float,
-                  cy: float) -> np.ndarray:
-    """(CHANNELS, SIZE, SIZE) float32 input for one view (depth in metres, 0 = none)."""
-    h, w = depth.shape
-    square = max(h, w)
-    z = _sample_nearest(depth.astype(np.float32), square)
+def grid_features(rgb: np.ndarray, depth: np.ndarray, rays: np.ndarray) -> np.ndarray:
+    """(CHANNELS, SIZE, SIZE) float32 network input from a view already on the model grid:
+    RGB (SIZE, SIZE, 3) uint8, z-depth in metres (0 = none) and each pixel's ray
+    (:func:`pixel_rays`)."""
+    z = depth.astype(np.float32)
     valid = z > 0
-    # Camera-frame points of the sampled pixels (OpenGL axes), at their capture pixel centres.
-    centres = (np.arange(SIZE) + 0.5) * square / SIZE
-    centres = np.floor(centres) + 0.5
-    x = (centres[None, :] - cx) / fl_x * z
-    y = -(centres[:, None] - cy) / fl_y * z
-    points = np.stack([x, y, -z], axis=-1)
+    points = np.concatenate([rays * z[..., None], -z[..., None]], axis=-1)
     normals = normals_from_points(points, valid)
     if valid.any():
         lo, mid, hi = np.percentile(z[valid], [5, 50, 95])
@@ -84,10 +114,9 @@ def view_features(rgb: np.ndarray, depth: np.ndarray, fl_x: float, fl_y: float, 
         rel = np.where(valid, (z - mid) / scale, 0.0)
     else:
         rel = np.zeros_like(z)
-    colour = _rgb_box(rgb, square).astype(np.float32) / 255.0 - 0.5
     grid = (np.arange(SIZE, dtype=np.float32) + 0.5) / SIZE * 2 - 1
     out = np.empty((CHANNELS, SIZE, SIZE), np.float32)
-    out[0:3] = colour.transpose(2, 0, 1)
+    out[0:3] = (rgb.astype(np.float32) / 255.0 - 0.5).transpose(2, 0, 1)
     out[3] = rel
     out[4] = valid
     out[5:8] = normals.transpose(2, 0, 1)
@@ -96,11 +125,10 @@ def view_features(rgb: np.ndarray, depth: np.ndarray, fl_x: float, fl_y: float, 
     return out
 
 
-def frame_features(frame) -> np.ndarray:
+def frame_features(frame, window: Window | None = None) -> np.ndarray:
+    """The network input for one capture frame over ``window`` (default: the object's)."""
+    window = window or object_window(frame.depth)
     c = frame.camera
-    return view_features(frame.rgb, frame.depth, c.fl_x, c.fl_y, c.cx, c.cy)
-
-
-def mask_on_grid(mask: np.ndarray) -> np.ndarray:
-    """A capture's (H, W) label image on the model grid (nearest; padding is background)."""
-    return _sample_nearest(mask, max(mask.shape))
+    h, w = frame.depth.shape
+    return grid_features(sample_rgb(frame.rgb, window), sample_nearest(frame.depth, window),
+                         pixel_rays(c.fl_x, c.fl_y, c.cx, c.cy, window, h, w))

@@ -14,6 +14,14 @@ view and a light prompt decoder run once per query point, at a size that trains 
   one small convolution over how each pixel differs from the prompt's (colour, depth,
   normal, position, predicted part centre); a head predicts the mask's IoU (SAM's quality
   score, used to rank masks at test time).
+- Point head (optional, ``fine`` > 0; PointRend, Kirillov et al., CVPR 2020): the mask at
+  full resolution where it is needed, not on a dense grid. A small convolution over the
+  input at ``SIZE`` gives every view fine features once; at any point, a per-point MLP reads
+  the coarse logit there, those features and how the point differs from the prompt, and
+  gives the final logit. Training samples the points where the coarse mask is least sure
+  (and some anywhere); test-time prompting evaluates exactly the points it votes on. The
+  half-resolution masks lost most on small parts (validation IoU 0.25 for parts under 100
+  grid pixels, 0.88 over 3,000), and drawers of a 12-part cabinet are small.
 
 Sized for 2 shared CPU cores: the stem strides by two at once, so every layer runs at
 ``SIZE / 2`` or coarser; a training step of 8 images x 24 prompts takes about a second.
@@ -27,9 +35,10 @@ from .features import CHANNELS, SIZE
 
 CENTRE = 3  # embedding channels that hold the part centre (u, v, relative depth)
 N_RELATION = 8  # the refinement's inputs: see MaskNet.relation
+N_POINT_RELATION = 5  # the point head's: see MaskNet.point_logits
 
 
-def build_network(dim: int = 32, widths: tuple[int, ...] = (16, 24, 32, 48, 64)):
+def build_network(dim: int = 32, widths: tuple[int, ...] = (16, 24, 32, 48, 64), fine: int = 0):
     import torch
     import torch.nn.functional as F
     from torch import nn
@@ -57,6 +66,14 @@ def build_network(dim: int = 32, widths: tuple[int, ...] = (16, 24, 32, 48, 64))
                                         nn.Conv2d(8, 1, 1))
             self.iou = nn.Sequential(nn.Linear(dim + 2, 64), nn.ReLU(True), nn.Linear(64, 1))
             self.dim = dim
+            self.fine = fine
+            if fine:
+                self.fine_stem = nn.Sequential(
+                    nn.Conv2d(CHANNELS, fine, 3, 1, 1, bias=False), nn.BatchNorm2d(fine),
+                    nn.ReLU(True), nn.Conv2d(fine, fine, 3, 1, 1))
+                self.point_head = nn.Sequential(
+                    nn.Linear(1 + N_POINT_RELATION + fine, 32), nn.ReLU(True),
+                    nn.Linear(32, 32), nn.ReLU(True), nn.Linear(32, 1))
 
         def encode(self, x: torch.Tensor) -> torch.Tensor:
             """(B, CHANNELS, SIZE, SIZE) -> embedding (B, dim, SIZE/2, SIZE/2)."""
@@ -69,6 +86,40 @@ def build_network(dim: int = 32, widths: tuple[int, ...] = (16, 24, 32, 48, 64))
                 h = F.interpolate(h, size=skip.shape[-2:], mode="bilinear", align_corners=False)
                 h = layer(torch.cat([h, skip], 1))
             return self.embed(h)
+
+        def encode_fine(self, x: torch.Tensor) -> torch.Tensor | None:
+            """(B, fine, SIZE, SIZE) full-resolution features for the point head (None
+            without one)."""
+            return self.fine_stem(x) if self.fine else None
+
+        def point_logits(self, coarse: torch.Tensor, fine: torch.Tensor, x: torch.Tensor,
+                         uv: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
+            """The point head's logits (B, P, N) at ``points`` (B, P, N, 2, model grid
+            coordinates) of the masks of prompts ``uv`` (B, P, 2) whose coarse logits are
+            ``coarse`` (B, P, h, w)."""
+            b, p, n, _ = points.shape
+            h = coarse.shape[-1]
+            at_coarse = bilinear(coarse.flatten(0, 1)[:, None],
+                                 points.flatten(0, 1) * (h / SIZE)).view(b, p, n)
+            flat = points.reshape(b, p * n, 2)
+            return self.point_head_at(at_coarse, bilinear(fine, flat).view(b, p, n, -1),
+                                      bilinear(x[:, :8], flat).view(b, p, n, 8),
+                                      bilinear(x[:, :8], uv)[:, :, None], points - uv[:, :, None])
+
+        def point_head_at(self, at_coarse: torch.Tensor, at_fine: torch.Tensor,
+                          at_x: torch.Tensor, at_prompt: torch.Tensor, offset: torch.Tensor,
+                          ) -> torch.Tensor:
+            """The point head on what it reads at each point (any leading shape ``S``): the
+            coarse logit (S), the fine features (S, fine), the input's first 8 channels
+            there (S, 8) and at the prompt, and the point's offset from the prompt in model
+            pixels (S, 2). The head's inputs are the coarse logit, how the point differs
+            from the prompt in colour, depth and normal (summed absolute differences), the
+            signed offset and the fine features; its output is added to the coarse logit."""
+            d = at_x - at_prompt
+            head_in = torch.cat([at_coarse[..., None], d[..., 0:3].abs().sum(-1, True),
+                                 d[..., 3:4].abs(), d[..., 5:8].abs().sum(-1, True),
+                                 offset / SIZE * 2, at_fine], -1)
+            return at_coarse + self.point_head(head_in)[..., 0]
 
         def relation(self, logits: torch.Tensor, embedding: torch.Tensor, x: torch.Tensor,
                      uv: torch.Tensor) -> torch.Tensor:

@@ -9,7 +9,7 @@ consistent 3D part segmentation from per-view masks.
 4. Suppress duplicates by merging: prompts whose masks hold each other's points are one
    part (average-linkage clustering); drop groups the model does not trust; give every
    point the part that claims it most; dissolve specks; smooth the labels over the cloud;
-   hand pieces cut off from their part to the part around them.
+   give the compartment seen past a swung-open door back to the carcass.
 5. Every view's label image: each pixel takes the label of its nearest labelled point.
 """
 
@@ -52,17 +52,14 @@ class Segmentation:
 class PromptingOptions:
     """Tuned on procedural dev objects (seeds disjoint from training and the test set)."""
 
-    prompts: int = 256  # 3D prompt points
+    prompts: int = 512  # 3D prompt points
     voxel_fraction: float = 1 / 120  # cloud spacing, of the object's diagonal
-    link: float = 0.3  # prompt groups whose masks hold each other's points this much: one part
+    link: float = 0.35  # prompt groups whose masks hold each other's points this much: one part
     min_prompts: int = 3  # a part is found by at least this many prompts ...
     min_quality: float = 0.2  # ... whose masks the model itself trusts
     min_fraction: float = 0.003  # parts with fewer points (of the cloud) are specks
     smoothing_neighbours: int = 16  # each point weighs its score against its neighbours' ...
     smoothing_rounds: int = 3  # ... labels this many times (clears speckle at part borders)
-    island_voxels: float = 2.5  # points this close (in cloud spacings) are connected ...
-    island_fraction: float = 0.2  # ... and a part's pieces below this share of its largest
-    # piece go to the part around them (interior walls seen through an opening)
     panel_min_angle: float = 10.0  # deg: a part whose main plane is turned this far from
     panel_fraction: float = 0.3  # the carcass's axes (and holds this share of its points,
     panel_voxels: float = 1.5  # within this many spacings) is a door swung open; its points
@@ -221,43 +218,6 @@ def _smooth(cloud: np.ndarray, labels: np.ndarray, score: np.ndarray, active: np
     return labels
 
 
-def relabel_islands(cloud: np.ndarray, labels: np.ndarray, radius: float, fraction: float,
-                    neighbours: int = 16) -> np.ndarray:
-    """Pieces of a part cut off from its main piece go to the part around them.
-
-    A rigid part seen from outside is one connected surface; a mask that bleeds through an
-    opening (the carcass's back wall seen past a drawer) labels a separate piece, and a few
-    stray points far from the part stretch its box. Each part's points are split into
-    connected pieces (neighbours closer than ``radius``); a piece smaller than ``fraction``
-    of the part's largest takes the label most of its outside neighbours hold. Labels stay
-    1..n, largest first."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    if labels.max() <= 1 or radius <= 0:
-        return labels
-    tree = cKDTree(cloud)
-    pairs = tree.query_pairs(radius, output_type="ndarray")
-    pairs = pairs[labels[pairs[:, 0]] == labels[pairs[:, 1]]]
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
-                       shape=(len(cloud), len(cloud)))
-    _, piece = connected_components(graph, directed=False)
-    _, near = tree.query(cloud, min(neighbours + 1, len(cloud)))
-    out = labels.copy()
-    for label in np.unique(labels):
-        pieces, sizes = np.unique(piece[labels == label], return_counts=True)
-        for p, size in zip(pieces, sizes, strict=True):
-            if size >= fraction * sizes.max():
-                continue
-            members = np.nonzero(piece == p)[0]
-            around = near[members, 1:].ravel()
-            around = around[piece[around] != p]
-            if len(around):
-                out[members] = np.bincount(labels[around]).argmax()
-    return _numbered_by_size(out)
-
-
 def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                         options: PromptingOptions = PromptingOptions(),
                         ) -> tuple[np.ndarray, list[dict]]:
@@ -346,8 +306,6 @@ def segment_capture(capture: Capture, segmenter: PromptSegmenter,
     min_points = max(5, int(options.min_fraction * len(cloud)))
     point_labels = assign(group_scores(score, groups), cloud, min_points,
                           options.smoothing_neighbours, options.smoothing_rounds)
-    point_labels = relabel_islands(cloud, point_labels, options.island_voxels * voxel,
-                                   options.island_fraction)
     point_labels, returned = return_compartments(cloud, point_labels, voxel, options)
     n_parts = int(point_labels.max())
     details = {"cloud_points": len(cloud), "prompts": len(prompt_index),
