@@ -54,7 +54,8 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
                colors: dict[str, tuple] | None = None, density: float | None = None,
                metadata: dict | None = None, collision: str = "auto",
                align_boxes: bool = False,
-               observed: dict[str, np.ndarray] | None = None) -> Articulation:
+               observed: dict[str, np.ndarray | tuple[np.ndarray, np.ndarray]] | None = None,
+               ) -> Articulation:
     """``collision``: "auto" (one convex piece per connected component of a part's mesh
     when it has a few, else its convex hull), "hull", or "coacd" (convex decomposition,
     tight but slow on large scans; cached by mesh hash). ``align_boxes``: refit the parts'
@@ -62,9 +63,10 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     predicted segmentation, whose boxes a few wrong border points turn; exact meshes keep
     their own boxes (on the PartNet-Mobility holdout objects, whose largest part is not
     always the carcass, aligning exact parts raised the 6-15-part mean axis error from 19
-    to 62 degrees). ``observed``: the points each part was measured at (by the keys of
-    ``meshes``), from which the aligned boxes read their frames (completed meshes follow
-    their completion grid's axes)."""
+    to 62 degrees). ``observed``: what each part was measured at (by the keys of
+    ``meshes``: its points, or its points and their measured normals), from which the
+    aligned boxes read their frames (completed meshes follow their completion grid's
+    axes)."""
     from real2code_export.inertia import DEFAULT_DENSITY, inertial_from_mesh
 
     if len(meshes) < 2:

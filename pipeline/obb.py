@@ -149,14 +149,25 @@ class Surface:
     weights: np.ndarray  # (M,)
 
     @classmethod
-    def of(cls, part, neighbours: int = 8, flatness: float = 0.05) -> Surface:
-        """From a mesh (its vertices) or an (N, 3) array. Each point's normal is the least
-        direction of its ``neighbours`` nearest points (PCA); points whose neighbourhood is
-        not flat (least over middle variance above ``flatness``: edges, corners, noise) are
-        left out. Points, not faces: a segment-only mesh's faces (an alpha shape) bridge
-        between panels and face anywhere, while its vertices are the measured points."""
+    def of(cls, part, neighbours: int = 8, flatness: float = 0.05,
+           agreement: float = 0.9) -> Surface:
+        """From measured points with their normals (a ``(points, normals)`` pair, normals
+        scaled by how well the views agree, as :func:`pipeline.fuse.oriented_part_clouds`
+        gives them: those of at least ``agreement`` are kept), else from a mesh's vertices
+        or an (N, 3) array: each point's normal is then the least direction of its
+        ``neighbours`` nearest points (PCA), kept where the neighbourhood is flat (least
+        over middle variance at most ``flatness``; edges, corners and noise are not).
+        Points, not faces: a segment-only mesh's faces (an alpha shape) bridge between
+        panels and face anywhere, while its vertices are the measured points. Measured
+        normals where there are some: the neighbours of a point on a panel thinner than
+        two point spacings lie on both its faces, and no plane fits them."""
         from scipy.spatial import cKDTree
 
+        if isinstance(part, tuple):
+            normals = np.asarray(part[1], float).reshape(-1, 3)
+            length = np.linalg.norm(normals, axis=1)
+            keep = length >= agreement
+            return cls(normals[keep] / length[keep, None], np.ones(int(keep.sum())))
         pts = _points(part.vertices if hasattr(part, "vertices") else part)
         if len(pts) <= neighbours:
             return cls(np.zeros((0, 3)), np.zeros(0))
@@ -232,18 +243,19 @@ def aligned_boxes(parts: list, tolerance: float = 0.1, observed: list | None = N
     edges, a lid about its hinge), when that is as square to the part's surface as its own
     box is; else the part keeps its own box (:func:`part_obb`).
 
-    ``parts`` are meshes or point clouds, each box fits their points; the normals of the
-    flat pieces of ``observed`` (the points each part was measured at; default the parts'
-    own points) decide the frames (:func:`alignment`, within ``SQUARE_MARGIN``); for a
-    part with too few points to tell, volumes do (the carcass's frame when the box grows by
-    at most ``tolerance``, else one axis held). Measured points, where there are some: a
-    completed mesh is marched on a grid in its part's own box, and its faces follow that
-    grid, right or wrong. Why normals: a part segmented
-    with some wrong points at its border, or seen only in part, gets an own box turned by a
-    few degrees, and the joint read off it inherits the turn, while its faces (a drawer's
-    front, a door's panel) still face the way the part does. The largest part's own frame
-    is first squared to its faces the same way (a turn of at most 10 degrees about each
-    axis). Boxes of exact, square parts are unchanged."""
+    Why: a part segmented with some wrong points at its border, or seen only in part, gets
+    an own box turned by a few degrees, and the joint read off it inherits the turn, while
+    its faces (a drawer's front, a door's panel) still face the way the part does.
+
+    ``parts`` are meshes or point clouds; each box fits their points. The normals of
+    ``observed`` (what each part was measured at: points, or ``(points, normals)`` pairs;
+    default the parts' own points) decide the frames (:func:`alignment`, within
+    ``SQUARE_MARGIN``): measured points where there are some, since a completed mesh is
+    marched on a grid in its part's own box and its faces follow that grid, right or wrong.
+    For a part with too few points to tell, volumes decide (the carcass's frame when the box
+    grows by at most ``tolerance``, else one axis held). The largest part's own frame is
+    first squared to its faces the same way (a turn of at most 10 degrees about each axis).
+    Boxes of exact, square parts are unchanged."""
     points = [_points(p.vertices if hasattr(p, "vertices") else p) for p in parts]
     surfaces = [Surface.of(p) for p in (observed if observed is not None else points)]
     boxes = [part_obb(p) for p in points]

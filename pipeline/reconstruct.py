@@ -112,7 +112,7 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
 
     from .articulate import articulate
     from .complete.data import MIN_POINTS  # the fewest points completion takes
-    from .fuse import part_clouds
+    from .fuse import oriented_part_clouds
     from .predictors import get_predictor
 
     say = progress or (lambda _msg: None)
@@ -126,15 +126,15 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     say(f"  {seg.n_parts} parts ({timings['segmentation']:.1f} s)")
 
     t = time.perf_counter()
-    by_label = part_clouds(capture, seg.labels, clean=segmentation != "gt")
+    by_label = oriented_part_clouds(capture, seg.labels, clean=segmentation != "gt")
     names = {k: (capture.parts[k - 1] if segmentation == "gt" and k <= len(capture.parts)
                  else f"part_{k}") for k in by_label}
-    clouds = {}
-    for k, points in by_label.items():
+    clouds, normals = {}, {}
+    for k, (points, measured) in by_label.items():
         if len(points) < MIN_POINTS:
             warn(f"reconstruct: segment {k} has only {len(points)} points; left out")
             continue
-        clouds[names[k]] = points
+        clouds[names[k]], normals[names[k]] = points, measured
     if len(clouds) < 2:
         raise ReconstructionError(f"segmentation found {len(clouds)} part(s) with at least "
                                   f"{MIN_POINTS} points; an articulated object needs two")
@@ -152,7 +152,8 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                      get_predictor(predictor), name=name, colors=colors,
                      metadata={"reconstructed_from": str(capture.path or ""),
                                "segmentation": segmentation, "completion": completion},
-                     collision=collision, align_boxes=segmentation != "gt", observed=clouds)
+                     collision=collision, align_boxes=segmentation != "gt",
+                     observed={n: (clouds[n], normals[n]) for n in clouds})
     timings["articulation"] = time.perf_counter() - t
     for j in art.obj.movable_joints:
         say(f"  {j.name:20s} {j.type.value:9s} state {j.state:+.3f}  "

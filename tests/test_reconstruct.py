@@ -107,6 +107,13 @@ def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
     assert len(truth.parts) <= len(model.parts) <= len(truth.parts) + 1
     mean, per_part = _segmentation_iou(tmp_path / "o", capture_dir)
     assert mean > MEAN_IOU_SMALL and min(per_part.values()) > 0.75, per_part
+    # the joints: every true one found on its part, of its type, about its axis
+    from pipeline.evaluate_joints import Scores, score_object
+
+    scores = Scores()
+    score_object(truth, read_capture(capture_dir).object_pose(), model, scores)
+    assert len(scores.joints) == len(truth.movable_joints)
+    assert all(j.type_ok and j.axis_deg < 2.0 for j in scores.joints), scores.joints
 
 
 @pytest.mark.slow
