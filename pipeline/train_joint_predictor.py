@@ -4,9 +4,11 @@
 
 Data: objects from ``pipeline.procedural`` (every category, 2 to 15 parts), each seen at a
 partially-open state (the paper's assumption: every door and drawer ajar), with the
-paper's augmentation — a random rotation about z and a random shift. Labels come from the
-ground-truth joints encoded on the fitted boxes (``pipeline.boxes``). The weights, the
-configuration and the training record (time, validation accuracy) are written together.
+paper's augmentation — a random rotation about z and a random shift — and one of ours
+for boxes cut from a predicted segmentation: some drawers are seen by their front alone
+(``drawer_fronts``). Labels come from the ground-truth joints encoded on the fitted boxes
+(``pipeline.boxes``). The weights, the configuration and the training record (time,
+validation accuracy) are written together.
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from real2code_export import transforms as tf
+from real2code_export.model import JointType, Mesh
 
-from .boxes import ground_truth_program, part_boxes, world_part_meshes
+from .boxes import ground_truth_program, part_boxes, world_joints, world_part_meshes
 from .predictors.features import EDGES, box_features
 from .predictors.learned import JOINT_TYPES, WEIGHTS, build_network
 from .weights import save_weights
@@ -41,9 +44,39 @@ def random_placement(rng: np.random.Generator) -> np.ndarray:
                    [*rng.uniform(-1.0, 1.0, 2), 0.0])
 
 
-def sample(obj, q, base):
-    """Features and labels of one object seen at ``q`` placed at ``base``."""
+FRONT_ONLY = 0.25  # the share of drawers seen by their front alone
+
+
+def drawer_fronts(obj, meshes: dict[str, Mesh], q, base, rng: np.random.Generator,
+                  share: float = FRONT_ONLY) -> dict[str, Mesh]:
+    """``meshes`` with ``share`` of the drawers cut to their front: the faces within a few
+    centimetres of the drawer's front along its slide. A predicted segmentation often hands
+    a pulled-out drawer's sides to the carcass behind it (they are slivers in every view),
+    and the box of what is left is a panel, square to the carcass and standing out of it;
+    trained on whole drawers only, the predictor read such a panel as a flap."""
+    axes = world_joints(obj, q, base)
+    out = dict(meshes)
+    for j in obj.movable_joints:
+        if j.type is not JointType.PRISMATIC or rng.random() >= share:
+            continue
+        mesh = meshes[j.child]
+        along = mesh.vertices @ axes[j.name][0]  # the drawer opens along +axis
+        keep = np.all(along[mesh.faces] >= along.max() - rng.uniform(0.01, 0.08), axis=1)
+        used = np.unique(mesh.faces[keep])
+        if len(used) < 8:
+            continue
+        remap = np.zeros(len(mesh.vertices), dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        out[j.child] = Mesh(mesh.vertices[used], remap[mesh.faces[keep]])
+    return out
+
+
+def sample(obj, q, base, rng: np.random.Generator | None = None):
+    """Features and labels of one object seen at ``q`` placed at ``base`` (with ``rng``,
+    some drawers seen by their front alone)."""
     meshes = world_part_meshes(obj, q, base)
+    if rng is not None:
+        meshes = drawer_fronts(obj, meshes, q, base, rng)
     order = [p.name for p in obj.parts]
     boxes_by_name = part_boxes(meshes)
     boxes = [boxes_by_name[n] for n in order]
@@ -70,7 +103,7 @@ def _one(args):
 
     rng = np.random.default_rng(seed + 1_000_003)
     obj = generate(category, n_parts, seed)
-    return sample(obj, ajar_configuration(obj, rng), random_placement(rng))
+    return sample(obj, ajar_configuration(obj, rng), random_placement(rng), rng)
 
 
 def object_specs(n_objects: int, seed: int) -> list[tuple[str, int | None, int]]:
