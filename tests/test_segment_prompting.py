@@ -207,3 +207,12 @@ def test_compartment_behind_a_swung_door_goes_back_to_the_carcass():
     shut = cloud.copy()
     shut[truth == 2] = _grid(0.8, 0.8, (0.3, -0.4, -0.4), y, z)
     assert np.array_equal(return_compartments(shut, closed, voxel=0.02)[0], closed)
+    # with measured normals: the door's panel faces along its plane and still counts ...
+    normals = np.zeros_like(cloud)
+    normals[:len(back)] = x
+    normals[truth == 2] = (np.cos(a), -np.sin(a), 0)
+    normals[truth == 3] = z
+    assert np.array_equal(return_compartments(cloud, labels, 0.02, normals=normals)[0], truth)
+    # ... while a plane whose points face elsewhere (RANSAC across a box's edges) does not
+    normals[truth == 2] = x
+    assert np.array_equal(return_compartments(cloud, labels, 0.02, normals=normals)[0], labels)

@@ -21,7 +21,15 @@ from typing import Protocol
 import numpy as np
 
 from ..capture import Capture
-from ..fuse import object_diagonal, point_map, project, visible, voxel_downsample
+from ..fuse import (
+    axis_mean,
+    normal_map,
+    object_diagonal,
+    point_map,
+    project,
+    visible,
+    voxel_downsample,
+)
 
 
 class PromptSegmenter(Protocol):
@@ -65,6 +73,8 @@ class PromptingOptions:
     panel_voxels: float = 1.5  # within this many spacings) is a door swung open; its points
     behind_voxels: float = 3.0  # farther than this from that plane, inside the carcass's box,
     # are the compartment seen through the opening and go back to the carcass
+    panel_normal_deg: float = 20.0  # a plane counts as a panel by its points whose measured
+    # normals lie within this of its own (RANSAC also fits planes across a box's edges)
 
 
 def _farthest_points(points: np.ndarray, n: int) -> np.ndarray:
@@ -220,6 +230,7 @@ def _smooth(cloud: np.ndarray, labels: np.ndarray, score: np.ndarray, active: np
 
 def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                         options: PromptingOptions = PromptingOptions(),
+                        normals: np.ndarray | None = None,
                         ) -> tuple[np.ndarray, list[dict]]:
     """Points of a swung-open door's part that are the compartment behind it go back to the
     carcass (label 1, the largest part).
@@ -233,8 +244,11 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     of its points and is turned at least ``panel_min_angle`` from every axis of the
     carcass's box, the points well off that plane and inside the carcass's box are handed to
     the carcass. Drawers and closed doors are left alone (no turned panel); a door opened
-    past ~80 degrees is too (its panel is square to the carcass again). Returns the labels,
-    renumbered by size, and what was moved, per part."""
+    past ~80 degrees is too (its panel is square to the carcass again). With the points'
+    measured ``normals`` (:func:`pipeline.fuse.axis_mean`), only the plane's points that
+    face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
+    capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
+    Returns the labels, renumbered by size, and what was moved, per part."""
     import open3d as o3d
 
     from ..obb import part_obb
@@ -252,9 +266,12 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         pts = cloud[index]
         pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
         (a, b, c, d), inliers = pcd.segment_plane(options.panel_voxels * voxel, 3, 300)
+        normal = np.array([a, b, c]) / np.linalg.norm([a, b, c])
+        if normals is not None:  # the plane's points that face along it
+            inliers = [i for i in inliers if abs(normals[index[i]] @ normal)
+                       >= np.cos(np.radians(options.panel_normal_deg))]
         if len(inliers) < options.panel_fraction * len(pts):
             continue
-        normal = np.array([a, b, c]) / np.linalg.norm([a, b, c])
         turn = np.degrees(np.arccos(min(1.0, float(np.max(np.abs(body.R.T @ normal))))))
         if turn < options.panel_min_angle:
             continue
@@ -298,15 +315,18 @@ def segment_capture(capture: Capture, segmenter: PromptSegmenter,
     """One consistent part segmentation of every view of ``capture``."""
     diagonal = object_diagonal(capture)
     voxel = diagonal * options.voxel_fraction
-    cloud = voxel_downsample(np.concatenate(
-        [point_map(f)[0][f.depth > 0] for f in capture.frames]), voxel)
+    measured = [(point_map(f)[0][f.depth > 0], normal_map(f)[f.depth > 0])
+                for f in capture.frames]
+    pixels = np.concatenate([p for p, _ in measured])
+    cloud = voxel_downsample(pixels, voxel)
     prompt_index = _farthest_points(cloud, options.prompts)
     score, quality = vote(capture, segmenter, cloud, prompt_index, tolerance=1.5 * voxel)
     groups = cluster_prompts(score, quality, prompt_index, options)
     min_points = max(5, int(options.min_fraction * len(cloud)))
     point_labels = assign(group_scores(score, groups), cloud, min_points,
                           options.smoothing_neighbours, options.smoothing_rounds)
-    point_labels, returned = return_compartments(cloud, point_labels, voxel, options)
+    normals = axis_mean(cloud, pixels, np.concatenate([n for _, n in measured]))
+    point_labels, returned = return_compartments(cloud, point_labels, voxel, options, normals)
     n_parts = int(point_labels.max())
     details = {"cloud_points": len(cloud), "prompts": len(prompt_index),
                "prompt_groups": len(groups), "parts": n_parts,
