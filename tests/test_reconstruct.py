@@ -15,12 +15,12 @@ from pipeline.reconstruct import ReconstructionError, reconstruct
 from pipeline.render import render_model
 from pipeline.segment.learned import WEIGHTS as SEGMENTER_WEIGHTS
 from real2code_export.formats import load, object_json
-from real2code_export.model import ArticulatedObject, JointType, Part
+from real2code_export.model import ArticulatedObject, Part
 
-# Measured with the shipped weights: 0.92 on the small capture, 0.70 on the demo's (two
-# twin flaps come out as one part, and one flap's label bleeds into the carcass behind it).
-MEAN_IOU_SMALL = 0.85
-MEAN_IOU_DEMO = 0.55
+# Measured with the shipped weights: 0.986 on the small capture (every part at least
+# 0.978), 0.915 on the demo's (its top flap, seen nearly edge-on, at 0.71).
+MEAN_IOU_SMALL = 0.95
+MEAN_IOU_DEMO = 0.85
 
 
 def _has_completion_weights() -> bool:
@@ -91,8 +91,8 @@ def _segmentation_iou(out, capture_dir):
     return matched_part_iou(predicted, [f.mask for f in capture.frames])
 
 
-# The shipped mask network finds every part of these objects but at times splits one in
-# two (docs/reconstruction.md): the tests hold it to what it measurably does.
+# The shipped mask network finds every part of these objects, at times with an extra
+# segment beside them (docs/evaluation.md): the tests hold it to what it measurably does.
 @pytest.mark.skipif(not SEGMENTER_WEIGHTS.is_file(), reason="no shipped segmentation weights")
 def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
     parser = argparse.ArgumentParser()
@@ -106,7 +106,7 @@ def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
     model = load(tmp_path / "o" / "object.json")
     assert len(truth.parts) <= len(model.parts) <= len(truth.parts) + 1
     mean, per_part = _segmentation_iou(tmp_path / "o", capture_dir)
-    assert mean > MEAN_IOU_SMALL and min(per_part.values()) > 0.75, per_part
+    assert mean > MEAN_IOU_SMALL and min(per_part.values()) > 0.9, per_part
     # the joints: every true one found on its part, of its type, about its axis
     from pipeline.evaluate_joints import Scores, score_object
 
@@ -125,10 +125,17 @@ def test_demo_reconstructs_the_shipped_capture(tmp_path, capsys):
     assert str(SAMPLE_CAPTURE) in text and "AGREE" in text
     truth = load(read_capture(SAMPLE_CAPTURE).ground_truth_path())
     model = load(tmp_path / "demo" / "object.json")
-    assert abs(len(model.parts) - len(truth.parts)) <= 2
-    assert sum(j.type is JointType.REVOLUTE for j in model.movable_joints) >= 1
+    assert len(model.parts) == len(truth.parts)
     mean, per_part = _segmentation_iou(tmp_path / "demo", SAMPLE_CAPTURE)
     assert mean > MEAN_IOU_DEMO, per_part
+    # every joint of its true type about its true axis (README: the flap's hinge edge and
+    # the drawer's opening are still off, so position and state are not asserted here)
+    from pipeline.evaluate_joints import Scores, score_object
+
+    scores = Scores()
+    score_object(truth, read_capture(SAMPLE_CAPTURE).object_pose(), model, scores)
+    assert len(scores.joints) == len(truth.movable_joints)
+    assert all(j.type_ok and j.axis_deg < 2.0 for j in scores.joints), scores.joints
 
 
 def test_evaluation_scores_a_reconstruction():
