@@ -28,8 +28,8 @@ class LearnedSegmenter:
         # what the grid covers: the object's square ("object") or the whole view ("view",
         # the first shipped weights were trained so); the weights record theirs
         self.window = window or config.get("input", {}).get("window", "view")
-        self._embeddings = None
-        self._windows = []
+        self._inputs = self._embeddings = None  # set_views: per view, the network input,
+        self._windows, self._fine = [], []  # its embedding, window and fine features
 
     @classmethod
     def load(cls, path: str | Path | None = None) -> LearnedSegmenter:

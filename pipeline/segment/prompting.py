@@ -268,8 +268,9 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         (a, b, c, d), inliers = pcd.segment_plane(options.panel_voxels * voxel, 3, 300)
         normal = np.array([a, b, c]) / np.linalg.norm([a, b, c])
         if normals is not None:  # the plane's points that face along it
-            inliers = [i for i in inliers if abs(normals[index[i]] @ normal)
-                       >= np.cos(np.radians(options.panel_normal_deg))]
+            inliers = np.asarray(inliers, dtype=int)
+            facing = np.abs(normals[index[inliers]] @ normal)
+            inliers = inliers[facing >= np.cos(np.radians(options.panel_normal_deg))]
         if len(inliers) < options.panel_fraction * len(pts):
             continue
         turn = np.degrees(np.arccos(min(1.0, float(np.max(np.abs(body.R.T @ normal))))))
