@@ -16,6 +16,7 @@ from ..errors import FormatError
 from ..model import ArticulatedObject
 from . import features as ft
 from .apply import calibrated_object
+from .experiment import read_experiment
 from .fit import Fit, fit_candidate
 from .inverse import _nominal_effort
 from .problem import Problem, _replay_spec, build_problem
@@ -106,11 +107,13 @@ def _export_formats() -> list[str]:
 
 def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[Path] = (),
               out_dir: Path | None = None, formats: Sequence[str] | None = None,
-              start: float | None = None, end: float | None = None) -> CalibrationResult:
+              start: float | None = None, end: float | None = None,
+              experiment: Path | None = None) -> CalibrationResult:
     """Fit the model's joint dynamics to measured trajectories (CSV files, DESIGN.md).
 
     Every file is read and checked before anything runs; ``start``/``end`` (seconds, in the
-    files' time) keep a window of every run. With ``out_dir`` the report (``report.json``,
+    files' time) keep a window of every run (over the experiment files' own windows);
+    ``experiment``: the experiment file for every CSV that has none beside it. With ``out_dir`` the report (``report.json``,
     ``report.md`` and its plots), the calibrated ``object.json`` and the exports are
     written there atomically.
     """
@@ -118,8 +121,9 @@ def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[
         raise FormatError(None, "--data", "no trajectory to fit")
     if start is not None and end is not None and end <= start:
         raise FormatError(None, "--end", f"{end} is not after --start {start}")
-    trajectories = [_windowed(tr, start, end) for tr in read_all(list(data), model)]
-    held = [_windowed(tr, start, end) for tr in read_all(list(holdout), model)] \
+    declared = read_experiment(experiment) if experiment is not None else None
+    trajectories = [_windowed(tr, start, end) for tr in read_all(list(data), model, declared)]
+    held = [_windowed(tr, start, end) for tr in read_all(list(holdout), model, declared)] \
         if holdout else []
     if held and set(held[0].joints) != set(trajectories[0].joints):
         raise FormatError(held[0].source, "header", f"measures joints {held[0].joints}, the "
@@ -128,6 +132,8 @@ def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[
 
 
 def _windowed(tr: Trajectory, start: float | None, end: float | None) -> Trajectory:
+    start = start if start is not None else tr.window[0]
+    end = end if end is not None else tr.window[1]
     out = window(tr, start, end)
     if out.n < MIN_SAMPLES:
         raise FormatError(tr.source, "window", f"only {out.n} samples between "
@@ -238,13 +244,15 @@ def write_outputs(out_dir: Path, calibrated: ArticulatedObject, report: dict[str
 
 
 def run_calibrate(model_path: Path, data: Sequence[Path], holdout: Sequence[Path],
-                  out_dir: Path) -> int:
+                  out_dir: Path, start: float | None = None, end: float | None = None,
+                  experiment: Path | None = None) -> int:
     """The ``real2code calibrate`` command: 0 on success (errors raise Real2CodeError,
     which the CLI prints, exiting non-zero, with nothing written)."""
     from ..formats import load
 
     model = load(model_path)
-    result = calibrate(model, list(data), list(holdout), Path(out_dir))
+    result = calibrate(model, list(data), list(holdout), Path(out_dir), start=start, end=end,
+                       experiment=experiment)
     r = result.report
     causes = ", ".join(r["causes"]) or "none (the nominal model explains the data)"
     print(f"causes      {causes}")
@@ -256,6 +264,11 @@ def run_calibrate(model_path: Path, data: Sequence[Path], holdout: Sequence[Path
     if r["holdout_rmse_before"] is not None:
         print(f"            {r['holdout_rmse_before']:.4g} -> {r['holdout_rmse_after']:.4g} "
               f"{r['rmse_unit']} (held out)")
+    for e in r["excluded"]:
+        print(f"left out   {Path(e['file']).name} {e['start']:.3f}-{e['end']:.3f} s: "
+              f"{e['reason']}")
+    if r["rejected"]:
+        print(f"rejected    {r['rejected']}")
     if r["unexplained"]:
         print(f"unexplained residual: {r['residual_to_noise']:.1f} x sensor noise")
     print(f"report      {Path(out_dir) / 'report.md'}")

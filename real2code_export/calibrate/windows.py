@@ -63,10 +63,13 @@ def window(tr: Trajectory, start: float | None, end: float | None) -> Trajectory
 
 
 def _piece(tr: Trajectory, keep: np.ndarray, source: str) -> Trajectory:
+    if tr.controller is not None:  # a coded law indexes the whole run's samples
+        raise ValueError(f"{tr.source}: a run with a coded controller cannot be cut")
     return dataclasses.replace(
         tr, source=source, time=tr.time[keep].copy(),
         positions={j: q[keep].copy() for j, q in tr.positions.items()},
-        efforts={j: u[keep].copy() for j, u in tr.efforts.items()})
+        efforts={j: u[keep].copy() for j, u in tr.efforts.items()},
+        columns={c: x[keep].copy() for c, x in tr.columns.items()})
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -80,7 +83,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     ``spec``: the nominal replay spec; ``dynamics``: joint -> its model ``Dynamics``."""
     from .problem import rigid_effort
 
-    if tr.controller is not None:
+    if tr.law() is not None:
         return []  # a closed loop drives the joint by design
     passive = [j for j in joints if j not in tr.efforts]
     if not passive:
