@@ -110,3 +110,26 @@ def test_never_worse_than_nominal_on_held_out_data(tmp_path):
     assert report["unexplained"]
     assert report["holdout_rmse_after"] == pytest.approx(report["holdout_rmse_before"])
     assert result.model.joint(joint).dynamics.damping == 0.0
+
+
+def test_heavier_flap_edge_is_inertia_not_a_rotor(tmp_path):
+    """A passive flap whose free edge is heavier than the model says (mass added at the
+    edge: inertia about the axis and first moment both grow), swinging freely: the mass
+    distribution is named, not a rotor's armature, and the report says the two cannot be
+    told apart here and why."""
+    obj, joint = nominal_object("lid", np.random.default_rng(5))
+    p = physics_for(obj, joint)
+    extra = 0.5 * p.mass
+    edge = 2 * p.com  # the free edge, in the joint frame
+    radius2 = float(edge @ edge - (edge @ p.axis) ** 2)
+    heavier = dataclasses.replace(p, inertia=p.inertia + extra * radius2, mass=p.mass + extra,
+                                  com=(p.mass * p.com + extra * edge) / (p.mass + extra))
+    fit = [_run(tmp_path / "a.csv", joint, heavier, 0.6, 0.0, seed=1),
+           _run(tmp_path / "b.csv", joint, heavier, -0.3, 1.0, seed=2)]
+    held = [_run(tmp_path / "c.csv", joint, heavier, 0.2, -0.5, seed=3)]
+    report = calibrate(obj, fit, held).report
+    assert report["causes"] == ["inertia"], report["selection_log"]
+    detail = report["cause_details"][0]
+    assert "armature" in detail["indistinguishable_from"]
+    assert "no actuator" in detail["choice"]
+    assert report["holdout_rmse_after"] < 0.05 * report["holdout_rmse_before"]

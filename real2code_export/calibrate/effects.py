@@ -48,6 +48,9 @@ class JointContext:
     timestep: float = 1e-3
     law: AppliedLaw = AppliedLaw()  # the model's own applied-force law (metadata)
     has_effort: bool = True  # some trajectory measures the effort (or closes the loop)
+    # a rotor may drive the joint: the model declares one (armature, an effort limit) or
+    # the data show the joint driven (a measured effort, a closed loop)
+    actuated: bool = True
 
     def unit(self, kind: str) -> str:
         a = self.angular
@@ -88,6 +91,8 @@ class Effect:
     aliases: tuple[str, ...] = ()
     ctx: JointContext = field(repr=False, default=None)  # type: ignore[assignment]
     variant: str = ""  # unique within a joint's library ("limit:upper"); default: name
+    # why this name rather than its aliases (which the data cannot tell from it)
+    choice: str = ""
 
     def __post_init__(self) -> None:
         if not self.variant:
@@ -329,7 +334,10 @@ def library(ctx: JointContext) -> list[Effect]:
               d.damping + ctx.law.damping_asym, 0, b_max),
             p("asymmetric_friction", "damping_neg", "damping",
               max(d.damping - ctx.law.damping_asym, 0.0), 0, b_max),
-        ), ctx=ctx),
+        ), ctx=ctx, aliases=("friction+offset",),
+            choice="direction-dependent Coulomb friction is exactly symmetric friction plus a "
+                   "constant force (in slip and in stick): named only because the viscous "
+                   "part differs with the direction too, which no constant force explains"),
         Effect("spring", j, (
             p("spring", "stiffness", "stiffness", d.stiffness, 0, k_max, d.stiffness),
             p("spring", "spring_ref", "position", d.spring_ref if d.stiffness else
@@ -347,10 +355,22 @@ def library(ctx: JointContext) -> list[Effect]:
         inertia_params.append(p("inertia", "inertia_scale", "scale", 1.0, 0.05, 20.0, 1.0))
     if ctx.gravity_loaded and ctx.angular:
         inertia_params.append(p("inertia", "rotational_scale", "scale", 1.0, 0.05, 20.0, 1.0))
+    # Added inertia and a rotor's armature move the joint alike where gravity has no hold
+    # on it, and wherever no effort is measured (then only their sum against the weight's
+    # moment shows); a rotor is named only on a joint that may have one.
+    rotor_alike = not ctx.gravity_loaded or not ctx.has_effort
+    rotor_reason = ("gravity has no hold on this joint" if not ctx.gravity_loaded else
+                    "no effort is measured")
     if inertia_params:
-        out.append(Effect("inertia", j, tuple(inertia_params),
-                          aliases=() if ctx.gravity_loaded else ("armature",), ctx=ctx))
-    if ctx.gravity_loaded:
+        out.append(Effect(
+            "inertia", j, tuple(inertia_params),
+            aliases=("armature",) if rotor_alike else (), ctx=ctx,
+            choice=(f"{rotor_reason}: added inertia and a rotor's armature move the joint "
+                    "alike; " + ("no actuator is declared or measured, so the mass "
+                                 "distribution is named, not a rotor" if not ctx.actuated
+                                 else "reported as the parts' inertia")) if rotor_alike
+            else ""))
+    if ctx.gravity_loaded and ctx.actuated and ctx.has_effort:
         out.append(Effect("armature", j, (p("armature", "armature", "inertia", d.armature, 0,
                                             20 * inertia, d.armature),), ctx=ctx))
     for sides in _limit_sides(ctx):

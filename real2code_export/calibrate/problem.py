@@ -118,6 +118,15 @@ def _initial_state(t: np.ndarray, q: np.ndarray, noise: float
                                               float(np.sqrt(cov[1, 1])))
 
 
+def _actuated(joint, trajectories: list[Trajectory]) -> bool:
+    """Whether a rotor may drive ``joint``: the model declares one (armature, an effort
+    limit) or the data show the joint driven (a measured effort, a closed loop)."""
+    declared = joint.dynamics.armature > 0 or (joint.limits is not None and
+                                               bool(joint.limits.effort))
+    return declared or any(joint.name in tr.efforts or tr.law() is not None
+                           for tr in trajectories)
+
+
 def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Problem:
     joints = trajectories[0].joints
     for name in joints:
@@ -216,6 +225,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             law=base_law(obj, name),
             has_effort=any(name in tr.efforts or tr.law() is not None
                            for tr in trajectories),
+            actuated=_actuated(j, trajectories),
         )
         contexts[name] = ctx
         effects[name] = {e.variant: e for e in library(ctx)}
