@@ -27,7 +27,10 @@ from ..model import ArticulatedObject, Dynamics, Limits
 from .simulate import SMOOTH_TIMESTEP, AppliedLaw, set_direction_dependent_damping
 
 VOCABULARY = ("damping", "friction", "asymmetric_friction", "spring", "limit", "inertia",
-              "armature", "offset")
+              "armature", "offset", "encoder_offset")
+# causes on the sensor's side, not forces: the reading is the joint position plus a zero
+# error (kept in the metadata, applied to every replay's reading)
+SENSOR = ("encoder_offset",)
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,7 @@ class JointContext:
     # a rotor may drive the joint: the model declares one (armature, an effort limit) or
     # the data show the joint driven (a measured effort, a closed loop)
     actuated: bool = True
+    sensor_offset: float = 0.0  # the model's encoder zero error (metadata), rad or m
 
     def unit(self, kind: str) -> str:
         a = self.angular
@@ -126,6 +130,7 @@ class Effect:
                             v.get("rotational_scale", 1.0))
         elif n == "armature":
             j.armature = v["armature"]
+        # encoder_offset: nothing in the dynamics (the replay adds it to the reading)
 
     def sysid_parameter(self):
         """This effect's parameters as one (vector) ``mujoco.sysid.Parameter`` whose
@@ -150,12 +155,16 @@ class Effect:
         return AppliedLaw()
 
     # -- inverse-dynamics regressor (start values) ------------------------------------------
-    def columns(self, q, dq, ddq, tau_rb, sgn, tau_rot=None
+    def columns(self, q, dq, ddq, tau_rb, sgn, tau_rot=None, tau_dq=None
                 ) -> tuple[np.ndarray, list[str]] | None:
         """Columns of tau = sum(column * coefficient); coefficients named (linear).
         ``tau_rot``: the part of ``tau_rb`` due to the parts' rotational inertia about
-        their centres of mass."""
+        their centres of mass; ``tau_dq``: the nominal effort's derivative by the position
+        (an encoder zero error d reads q for the true q - d: tau(q - d) ~ tau - d tau_dq)."""
         n = self.name
+        if n == "encoder_offset":
+            col = -(tau_dq if tau_dq is not None else np.zeros_like(q))
+            return col[:, None], ["encoder_offset"]
         if n == "damping":
             return dq[:, None], ["damping"]
         if n == "friction":
@@ -225,7 +234,8 @@ class Effect:
                     best = (d, se)
             return best
         p = {"damping": "damping", "friction": "friction", "spring": "stiffness",
-             "armature": "armature", "offset": "offset"}[n]
+             "armature": "armature", "offset": "offset",
+             "encoder_offset": "encoder_offset"}[n]
         null = next(x.null for x in self.params if x.name == p)
         return abs(v[p] - (null or 0.0)), math.sqrt(max(var(p), 0.0))
 
@@ -281,6 +291,8 @@ class Effect:
             d.armature = v["armature"]
         elif n == "offset":
             extras["offset"] = {"effort": float(v["offset"])}
+        elif n == "encoder_offset":
+            extras["encoder_offset"] = {"position": float(v["encoder_offset"])}
 
 
 def _range(ctx: JointContext) -> tuple[float, float]:
@@ -344,7 +356,10 @@ def library(ctx: JointContext) -> list[Effect]:
               0.5 * (ctx.q_low + ctx.q_high), ctx.q_low - 10 * span, ctx.q_high + 10 * span),
         ), ctx=ctx),
         Effect("offset", j, (p("offset", "offset", "force", ctx.law.offset, -c_max, c_max,
-                                 ctx.law.offset),), ctx=ctx),
+                                 ctx.law.offset),), ctx=ctx,
+               aliases=("encoder_offset",) if _zero_shows(ctx) else (),
+               choice="a constant force and a zero error of the encoder both move the rest "
+                      "position; the force fits better here"),
     ]
     # Mass off (with its weight), and where gravity makes them differ the rotational
     # inertia about the centres of mass besides. Without a measured effort the scale of
@@ -373,6 +388,16 @@ def library(ctx: JointContext) -> list[Effect]:
     if ctx.gravity_loaded and ctx.actuated and ctx.has_effort:
         out.append(Effect("armature", j, (p("armature", "armature", "inertia", d.armature, 0,
                                             20 * inertia, d.armature),), ctx=ctx))
+    if _zero_shows(ctx):
+        # where the position has an absolute meaning (gravity or a spring pulls toward a
+        # place) a zero error of the encoder shows, and must not pass for a force
+        out.append(Effect("encoder_offset", j, (
+            p("encoder_offset", "encoder_offset", "position", ctx.sensor_offset,
+              ctx.sensor_offset - 0.5 * span - 0.1, ctx.sensor_offset + 0.5 * span + 0.1,
+              ctx.sensor_offset),), ctx=ctx, aliases=("offset",),
+            choice="a constant force and a zero error of the encoder both move the rest "
+                   "position; the zero error fits better here (a sensor's cause, not a "
+                   "force)"))
     for sides in _limit_sides(ctx):
         params = []
         variant = "limit:" + "+".join(sides)
@@ -386,6 +411,12 @@ def library(ctx: JointContext) -> list[Effect]:
         params.append(p("limit", "limit_dampratio", "scale", 1.0, 0.05, 3.0))
         out.append(Effect("limit", j, tuple(params), ctx=ctx, variant=variant))
     return out
+
+
+def _zero_shows(ctx: JointContext) -> bool:
+    """Whether an encoder's zero error shows in the motion (the dynamics depend on where
+    the joint is: gravity, a spring)."""
+    return ctx.gravity_loaded or ctx.dynamics.stiffness > 0
 
 
 def _limit_sides(ctx: JointContext) -> list[tuple[str, ...]]:
@@ -402,6 +433,7 @@ EXCLUSIVE = {
     frozenset({"asymmetric_friction", "damping"}),
     frozenset({"asymmetric_friction", "offset"}),
     frozenset({"spring", "offset"}),
+    frozenset({"encoder_offset", "offset"}),
 }
 # (asymmetric friction with a spring is offered: its viscous asymmetry is identifiable,
 # while its Coulomb asymmetry and the spring's rest position share one constant force and

@@ -211,16 +211,28 @@ class _Evaluator:
         another replay of the same trajectory, e.g. with a perturbed input)."""
         if not points:
             return []
-        models, initials, laws = [], [], []
+        models, initials, laws, zeros = [], [], [], []
         for x in points:
             values, x0 = self.split(x)
             models.append(self.model(values))
-            initials.append({j: (float(x0[t][k, 0]), float(x0[t][k, 1]))
+            # the initial state is fitted as read; the joint starts at the reading less the
+            # encoder's zero error, and what the encoder reads is compared with the data
+            zero = self.sensor_offsets(values)
+            zeros.append(zero)
+            initials.append({j: (float(x0[t][k, 0] - zero[k]), float(x0[t][k, 1]))
                              for k, j in enumerate(self.problem.joints)})
             laws.append(laws_for(self.effects, values, self.problem.base_laws))
         self.count += len(points)
         ros = (runner or self.runners[t]).run(models, initials, laws, self.fine, self.refine)
+        for zero, ro in zip(zeros, ros, strict=True):
+            if np.any(zero):
+                ro.positions = ro.positions + zero
         return [(self._block(t, ro), ro) for ro in ros]
+
+    def sensor_offsets(self, values: dict[str, float]) -> np.ndarray:
+        pr = self.problem
+        return np.array([values.get(f"{j}.encoder_offset", pr.contexts[j].sensor_offset)
+                         for j in pr.joints])
 
     def residual(self, x: np.ndarray) -> tuple[np.ndarray, list[Rollout]]:
         out = [self.run(t, [x])[0] for t in range(len(self.problem.trajectories))]

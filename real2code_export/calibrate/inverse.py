@@ -79,7 +79,8 @@ def equation_fit(problem: Problem, effects: tuple[Effect, ...]) -> EquationFit:
             c = 0
             for e in effects:
                 cols = e.columns(sig.q[:, k], sig.dq[:, k], sig.ddq[:, k], sig.tau_rb[:, k],
-                                 sgn, sig.tau_rot[:, k]) if e.joint == joint else None
+                                 sgn, sig.tau_rot[:, k], sig.tau_dq[:, k]) \
+                    if e.joint == joint else None
                 width = len(e.coefficient_names)
                 if cols is not None:
                     x[:, c:c + width] = cols[0]

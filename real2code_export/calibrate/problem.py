@@ -29,6 +29,7 @@ class Signals:
     tau: np.ndarray
     tau_rb: np.ndarray
     tau_rot: np.ndarray  # the part of tau_rb due to rotational inertia about the com
+    tau_dq: np.ndarray  # d(nominal effort)/d(position): what an encoder zero error moves
     dq_noise: np.ndarray  # per joint: noise of the smoothed velocity
     usable: np.ndarray  # (n,) samples away from impacts and the ends
 
@@ -118,6 +119,13 @@ def _initial_state(t: np.ndarray, q: np.ndarray, noise: float
                                               float(np.sqrt(cov[1, 1])))
 
 
+def sensor_offset(obj: ArticulatedObject, joint: str) -> float:
+    """The encoder zero error the model's metadata records for ``joint`` (0 if none)."""
+    from .extras import joint_extras
+
+    return float(joint_extras(obj, joint).get("encoder_offset", {}).get("position", 0.0))
+
+
 def _actuated(joint, trajectories: list[Trajectory]) -> bool:
     """Whether a rotor may drive ``joint``: the model declares one (armature, an effort
     limit) or the data show the joint driven (a measured effort, a closed loop)."""
@@ -165,6 +173,9 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
                                  for k in range(len(joints))])
         tau_rb = rigid_effort(spec, joints, q_s, dq, ddq)
         tau_rot = tau_rb - rigid_effort(spec, joints, q_s, dq, ddq, point_masses=True)
+        eps = 1e-5 * max(float(np.ptp(qs)), 1e-3)
+        tau_dq = (rigid_effort(spec, joints, q_s + eps, dq, ddq) - tau_rb) / eps
+        tau_dq += np.array([obj.joint(j).dynamics.stiffness for j in joints])
         w = features.smoothing_window(period)
         c1 = savgol_coeffs(max(w, 5), min(4, w - 1), deriv=1, delta=period)
         dq_noise = sig_q * float(np.sqrt(np.sum(c1**2)))
@@ -192,7 +203,8 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         x0s.append(x0)
         x0_free.append(free)
         x0_se.append(se)
-        signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, dq_noise, usable))
+        signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, tau_dq, dq_noise,
+                               usable))
 
     # samples near an end stop are left out of the inverse-dynamics start (impacts)
     for sig in signals:
@@ -226,6 +238,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             has_effort=any(name in tr.efforts or tr.law() is not None
                            for tr in trajectories),
             actuated=_actuated(j, trajectories),
+            sensor_offset=sensor_offset(obj, name),
         )
         contexts[name] = ctx
         effects[name] = {e.variant: e for e in library(ctx)}
