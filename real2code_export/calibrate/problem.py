@@ -169,7 +169,8 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         q_s = np.column_stack([s[0] for s in smoothed])
         dq = np.column_stack([s[1] for s in smoothed])
         ddq = np.column_stack([s[2] for s in smoothed])
-        tau_s = np.column_stack([features.derivatives(taus[:, k], period)[0]
+        tau_s = np.column_stack([features.derivatives(features.despike(taus[:, k])[0],
+                                                      period)[0]
                                  for k in range(len(joints))])
         tau_rb = rigid_effort(spec, joints, q_s, dq, ddq)
         tau_rot = tau_rb - rigid_effort(spec, joints, q_s, dq, ddq, point_masses=True)
