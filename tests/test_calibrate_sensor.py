@@ -50,3 +50,20 @@ def _shifted(text: str, zero: float) -> str:
         cells[1] = repr(float(cells[1]) + zero)
         out.append(",".join(cells))
     return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("seed, kind, lag", [(1, "drawer", 0.02), (0, "door", -0.015)])
+def test_effort_lag_is_a_delay_not_a_force(tmp_path, seed, kind, lag):
+    """The effort recorded by a clock ``lag`` seconds behind the position's: the joint
+    feels at t what the file says at t - lag. Named ``effort_delay``, nothing else."""
+    case = make_case(seed, kind=kind, effects=[])
+    u_true = case.notes["u_true"]
+    rng = np.random.default_rng(seed)
+    case.effort = np.interp(case.time + lag, case.time, u_true) + rng.normal(
+        0.0, 3e-4 * case.notes["amplitude"], len(u_true))
+    csv = Path(tmp_path / "run.csv")
+    csv.write_text(case.csv())
+    report = calibrate(case.obj, [csv]).report
+    assert report["causes"] == ["effort_delay"], report["selection_log"]
+    p = report["parameters"][f"{case.joint}.effort_delay"]
+    assert abs(p["value"] - lag) <= p["halfwidth95"], p

@@ -27,10 +27,11 @@ from ..model import ArticulatedObject, Dynamics, Limits
 from .simulate import SMOOTH_TIMESTEP, AppliedLaw, set_direction_dependent_damping
 
 VOCABULARY = ("damping", "friction", "asymmetric_friction", "spring", "limit", "inertia",
-              "armature", "offset", "encoder_offset")
+              "armature", "offset", "encoder_offset", "effort_delay")
 # causes on the sensor's side, not forces: the reading is the joint position plus a zero
 # error (kept in the metadata, applied to every replay's reading)
-SENSOR = ("encoder_offset",)
+SENSOR = ("encoder_offset", "effort_delay")
+MAX_DELAY = 0.05  # s: the largest lag between the effort's and the position's clocks tried
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,8 @@ class JointContext:
     # the data show the joint driven (a measured effort, a closed loop)
     actuated: bool = True
     sensor_offset: float = 0.0  # the model's encoder zero error (metadata), rad or m
+    measured_effort: bool = False  # an effort is measured and replayed open loop
+    effort_delay: float = 0.0  # the model's lag of the effort behind the position (s)
 
     def unit(self, kind: str) -> str:
         a = self.angular
@@ -155,13 +158,18 @@ class Effect:
         return AppliedLaw()
 
     # -- inverse-dynamics regressor (start values) ------------------------------------------
-    def columns(self, q, dq, ddq, tau_rb, sgn, tau_rot=None, tau_dq=None
+    def columns(self, q, dq, ddq, tau_rb, sgn, tau_rot=None, tau_dq=None, tau_dt=None
                 ) -> tuple[np.ndarray, list[str]] | None:
         """Columns of tau = sum(column * coefficient); coefficients named (linear).
         ``tau_rot``: the part of ``tau_rb`` due to the parts' rotational inertia about
         their centres of mass; ``tau_dq``: the nominal effort's derivative by the position
-        (an encoder zero error d reads q for the true q - d: tau(q - d) ~ tau - d tau_dq)."""
+        (an encoder zero error d reads q for the true q - d: tau(q - d) ~ tau - d tau_dq);
+        ``tau_dt``: the measured effort's time derivative (an effort felt d seconds after
+        it is recorded: u(t - d) ~ u - d u')."""
         n = self.name
+        if n == "effort_delay":
+            col = tau_dt if tau_dt is not None else np.zeros_like(q)
+            return col[:, None], ["effort_delay"]
         if n == "encoder_offset":
             col = -(tau_dq if tau_dq is not None else np.zeros_like(q))
             return col[:, None], ["encoder_offset"]
@@ -235,7 +243,7 @@ class Effect:
             return best
         p = {"damping": "damping", "friction": "friction", "spring": "stiffness",
              "armature": "armature", "offset": "offset",
-             "encoder_offset": "encoder_offset"}[n]
+             "encoder_offset": "encoder_offset", "effort_delay": "effort_delay"}[n]
         null = next(x.null for x in self.params if x.name == p)
         return abs(v[p] - (null or 0.0)), math.sqrt(max(var(p), 0.0))
 
@@ -293,6 +301,8 @@ class Effect:
             extras["offset"] = {"effort": float(v["offset"])}
         elif n == "encoder_offset":
             extras["encoder_offset"] = {"position": float(v["encoder_offset"])}
+        elif n == "effort_delay":
+            extras["effort_delay"] = {"seconds": float(v["effort_delay"])}
 
 
 def _range(ctx: JointContext) -> tuple[float, float]:
@@ -398,6 +408,12 @@ def library(ctx: JointContext) -> list[Effect]:
             choice="a constant force and a zero error of the encoder both move the rest "
                    "position; the zero error fits better here (a sensor's cause, not a "
                    "force)"))
+    if ctx.measured_effort:
+        # the effort and the position sampled by two clocks: the joint feels the effort
+        # recorded d seconds earlier (a sensor's cause, not a force)
+        out.append(Effect("effort_delay", j, (
+            p("effort_delay", "effort_delay", "time", ctx.effort_delay, -MAX_DELAY,
+              MAX_DELAY, ctx.effort_delay),), ctx=ctx))
     for sides in _limit_sides(ctx):
         params = []
         variant = "limit:" + "+".join(sides)

@@ -99,7 +99,8 @@ def equation_fit(problem: Problem, effects: tuple[Effect, ...]) -> EquationFit:
             c = 0
             for e in effects:
                 cols = e.columns(sig.q[:, k], sig.dq[:, k], sig.ddq[:, k], sig.tau_rb[:, k],
-                                 sgn, sig.tau_rot[:, k], sig.tau_dq[:, k]) \
+                                 sgn, sig.tau_rot[:, k], sig.tau_dq[:, k],
+                                 sig.tau_dt[:, k]) \
                     if e.joint == joint else None
                 width = len(e.coefficient_names)
                 if cols is not None:
