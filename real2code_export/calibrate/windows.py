@@ -96,6 +96,10 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     dq = np.column_stack([s[1] for s in smooth])
     ddq = np.column_stack([s[2] for s in smooth])
     tau_rb = rigid_effort(spec, joints, q, dq, ddq)
+    # the joint-space inertia at each sample: the effort a unit acceleration needs at rest
+    zero = np.zeros_like(q)
+    mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - rigid_effort(spec, joints, q, zero,
+                                                                         zero)
     found = []
     edge = features.smoothing_window(period) // 2 + 1
     for k, j in enumerate(joints):
@@ -146,7 +150,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                 merged[-1][1] = b
             else:
                 merged.append([a, b])
-        inertia = _inertia(tau_rb[:, k], ddq[:, k], d.armature)
+        inertia = float(np.median(mass[:, k])) + d.armature
         energy_scale = 0.5 * inertia * v95**2
         for a, b in merged:
             if (b - a) * period < MIN_PUSH:
@@ -166,15 +170,6 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                                       " x the joint's kinetic energy) with no effort measured:"
                                       " an unmeasured push"))
     return found
-
-
-def _inertia(tau_rb: np.ndarray, ddq: np.ndarray, armature: float) -> float:
-    """The joint's effective inertia, from the rigid-body effort's part that follows the
-    acceleration (least squares: the model's inertia at the measured configurations)."""
-    a = float(ddq @ ddq)
-    if a <= 0:
-        return max(armature, 1e-12)
-    return max(float(ddq @ tau_rb) / a + armature, 1e-12)
 
 
 def cut(tr: Trajectory, excluded: list[Excluded]) -> list[Trajectory]:
