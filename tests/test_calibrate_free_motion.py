@@ -133,3 +133,12 @@ def test_heavier_flap_edge_is_inertia_not_a_rotor(tmp_path):
     assert "armature" in detail["indistinguishable_from"]
     assert "no actuator" in detail["choice"]
     assert report["holdout_rmse_after"] < 0.05 * report["holdout_rmse_before"]
+    # the base parameters: the ratio of the first moment to the inertia about the axis is
+    # what a free swing measures (its frequency); the calibrated model has the heavier
+    # flap's ratio
+    base = report["base_parameters"][joint]
+    ratio = {k: v["first_moment"][0] / v["inertia_about_axis"] for k, v in base.items()}
+    true_ratio = (p.mass * p.com + extra * edge)[2] / heavier.inertia
+    assert abs(abs(ratio["calibrated"]) - abs(true_ratio)) < 0.02 * abs(true_ratio), (
+        ratio, true_ratio)
+    assert abs(ratio["nominal"]) > 1.1 * abs(ratio["calibrated"])

@@ -18,6 +18,7 @@ from . import features as ft
 from .apply import calibrated_object
 from .experiment import read_experiment
 from .fit import Fit, fit_candidate
+from .inertial import compared
 from .inverse import _nominal_effort
 from .problem import Problem, _replay_spec, build_problem
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
@@ -198,6 +199,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                           [tr.source for tr in trajectories], [tr.source for tr in held],
                           model.name)
     report["equation_error"] = _equation_error(problem, selection.chosen)
+    report["base_parameters"] = {j: compared(model, calibrated, j) for j in problem.joints}
     report["excluded"] = [e.as_json() for e in excluded + held_excluded]
     report["cross_validation"] = cv.as_json()
     report["rejected"] = rejected
