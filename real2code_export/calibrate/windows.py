@@ -189,3 +189,20 @@ def cut(tr: Trajectory, excluded: list[Excluded]) -> list[Trajectory]:
         mask[a:b] = True
         pieces.append(_piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b - 1]:.3f} s]"))
     return pieces
+
+
+def segments(tr: Trajectory, seconds: float) -> list[Trajectory]:
+    """``tr`` as consecutive pieces of about ``seconds`` each (sharing their boundary
+    sample), each its own run with its own initial state: multiple shooting, so that an
+    open-loop replay cannot drift away over a long record and take the fit with it."""
+    if tr.controller is not None or tr.duration <= 1.5 * seconds:
+        return [tr]
+    count = max(1, int(round(tr.duration / seconds)))
+    edges = np.searchsorted(tr.time, tr.time[0] + np.arange(1, count) * tr.duration / count)
+    bounds = [0, *edges.tolist(), tr.n - 1]
+    pieces = []
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        mask = np.zeros(tr.n, bool)
+        mask[a:b + 1] = True
+        pieces.append(_piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b]:.3f} s]"))
+    return pieces
