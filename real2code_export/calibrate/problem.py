@@ -60,7 +60,7 @@ class Problem:
 FRICTION_TIMECONST = 2 * MAX_TIMESTEP
 
 
-def _replay_spec(obj: ArticulatedObject, joints: list[str], gravity=None):
+def calibration_spec(obj: ArticulatedObject, joints: list[str], gravity=None):
     spec = replay_spec(obj, joints)
     if gravity is not None:  # the experiment's, in the model's world frame
         spec.option.gravity = list(gravity)
@@ -157,7 +157,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         if tr.gravity != gravity:
             raise FormatError(tr.source, "gravity", f"declares {tr.gravity}, "
                              f"{trajectories[0].source} {gravity}: fit them separately")
-    spec = _replay_spec(obj, joints, gravity)
+    spec = calibration_spec(obj, joints, gravity)
     nominal = spec.copy().compile()
     from .simulate import joint_addresses
 

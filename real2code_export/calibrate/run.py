@@ -20,7 +20,7 @@ from .experiment import read_experiment
 from .fit import Fit, fit_candidate
 from .inertial import compared
 from .inverse import _nominal_effort
-from .problem import Problem, _replay_spec, build_problem
+from .problem import Problem, build_problem, calibration_spec
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
 from .trajectory import MIN_SAMPLES, Trajectory, read_all
@@ -122,9 +122,9 @@ def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[
     files' time) keep a window of every run (over the experiment files' own windows);
     ``experiment``: the experiment file for every CSV that has none beside it;
     ``segment`` (s): fit runs as pieces this long (multiple shooting; by default only a
-    plant that integrates an open-loop effort is cut, into SHOOTING_SECONDS). With ``out_dir`` the report (``report.json``,
-    ``report.md`` and its plots), the calibrated ``object.json`` and the exports are
-    written there atomically.
+    plant that integrates an open-loop effort is cut, into SHOOTING_SECONDS). With
+    ``out_dir`` the report (``report.json``, ``report.md`` and its plots), the calibrated
+    ``object.json`` and the exports are written there atomically.
     """
     if not data:
         raise FormatError(None, "--data", "no trajectory to fit")
@@ -161,7 +161,7 @@ def leave_out_pushes(model: ArticulatedObject, trajectories: list[Trajectory]
     if not trajectories:
         return [], []
     joints = trajectories[0].joints
-    spec = _replay_spec(model, joints)
+    spec = calibration_spec(model, joints, trajectories[0].gravity)
     dynamics = {j: model.joint(j).dynamics for j in joints}
     excluded = [e for tr in trajectories for e in find_pushes(tr, joints, spec, dynamics)]
     pieces = [p for tr in trajectories for p in cut(tr, excluded)]
