@@ -75,6 +75,22 @@ def despike(x: np.ndarray, width: int = 7, sigmas: float = 6.0) -> tuple[np.ndar
     return out, int(spikes.sum())
 
 
+def quantum(x: np.ndarray) -> float | None:
+    """The encoder's step where the readings lie on a grid (None: they do not): the
+    smallest step between consecutive distinct readings, kept when every reading is a
+    whole number of steps from the first. Quantisation is part of the sensor noise the
+    fit weighs by, never a force."""
+    steps = np.abs(np.diff(x))
+    steps = steps[steps > 1e-12 * max(float(np.max(np.abs(x))), 1e-300)]
+    if steps.size < 10:
+        return None
+    q = float(np.percentile(steps, 5))
+    units = (x - x[0]) / q
+    if np.max(np.abs(units - np.round(units))) > 0.02:
+        return None
+    return q
+
+
 def noise_level(x: np.ndarray) -> float:
     """Standard deviation of the sensor noise (quantisation included), from what a short
     local cubic cannot follow; corrected for the part of the noise the fit absorbs."""
