@@ -42,8 +42,8 @@ def _folds(trajectories: list[Trajectory]) -> tuple[str, list[tuple[list, Trajec
         return "runs", [([t for t in trajectories if t is not left], left)
                         for left in trajectories]
     tr = trajectories[0]
-    if tr.duration < 2 * MIN_HALF or tr.n < 4 * MIN_SAMPLES:
-        return "none", []
+    if tr.duration < 2 * MIN_HALF or tr.n < 4 * MIN_SAMPLES or tr.controller is not None:
+        return "none", []  # too short to halve, or a coded law indexed by the whole run
     mid = float(tr.time[0] + 0.5 * tr.duration)
     first = window(tr, None, mid)
     second = window(tr, mid, None)
