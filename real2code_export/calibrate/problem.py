@@ -55,6 +55,8 @@ class Problem:
     stops: dict[str, list[str]] = field(default_factory=dict)
     nonsmooth: bool = False  # the nominal model has dry friction or the data reach a limit
     base_laws: dict = field(default_factory=dict)  # joint -> the model's own AppliedLaw
+    # (previous, next) trajectory indices of pieces of one run (multiple shooting)
+    links: list[tuple[int, int]] = field(default_factory=list)
 
 
 FRICTION_TIMECONST = 2 * MAX_TIMESTEP
@@ -265,6 +267,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         if j.limits is not None and (ctx.q_low < j.limits.lower + margin
                                      or ctx.q_high > j.limits.upper - margin):
             nonsmooth = True
+    links = [(t - 1, t) for t in range(1, len(trajectories)) if trajectories[t].continues]
     return Problem(obj, joints, trajectories, spec, contexts, effects, pos_noise, eff_noise,
                    signals, x0s, x0_free, x0_se, stops, nonsmooth,
-                   {name: contexts[name].law for name in joints})
+                   {name: contexts[name].law for name in joints}, links)
