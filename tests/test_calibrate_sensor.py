@@ -33,6 +33,7 @@ def test_encoder_zero_error_is_not_a_force(tmp_path, seed, zero, with_effort):
     result = calibrate(case.obj, [csv])
     report = result.report
     assert report["causes"] == ["encoder_offset"], report["selection_log"]
+    assert report["cause_details"][0]["side"] == "sensor"
     p = report["parameters"][f"{case.joint}.encoder_offset"]
     assert abs(p["value"] - zero) <= p["halfwidth95"], p
     # the calibrated model carries the zero error and replays the reading

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .effects import VOCABULARY
+from .effects import SENSOR, VOCABULARY
 from .fit import Fit
 from .select import Selection
 
@@ -78,6 +78,7 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
     for e in sorted(chosen.effects, key=lambda e: (e.joint, order[e.name])):
         strength, se = e.strength(chosen.effect_values(e), chosen.effect_cov(e))
         details.append({"effect": e.name, "joint": e.joint, "aliases": list(e.aliases),
+                        "side": "sensor" if e.name in SENSOR else "dynamics",
                         "indistinguishable_from": list(e.aliases), "choice": e.choice,
                         "motion_change_rms_noise": _num(chosen.material.get(e.name)),
                         "departure_from_absence": _num(strength),
