@@ -164,8 +164,12 @@ def leave_out_pushes(model: ArticulatedObject, trajectories: list[Trajectory]
     spec = calibration_spec(model, joints, trajectories[0].gravity)
     dynamics = {j: model.joint(j).dynamics for j in joints}
     excluded = [e for tr in trajectories for e in find_pushes(tr, joints, spec, dynamics)]
-    pieces = [p for tr in trajectories for p in cut(tr, excluded)]
-    return pieces, excluded
+    pieces, dropped = [], []
+    for tr in trajectories:
+        kept, short = cut(tr, excluded)
+        pieces += kept
+        dropped += short
+    return pieces, excluded + dropped
 
 
 def shooting_length(model: ArticulatedObject, trajectories: list[Trajectory]) -> float | None:

@@ -199,23 +199,29 @@ def _at_stops(q: np.ndarray, period: float) -> np.ndarray:
     return near
 
 
-def cut(tr: Trajectory, excluded: list[Excluded]) -> list[Trajectory]:
+def cut(tr: Trajectory, excluded: list[Excluded]
+        ) -> tuple[list[Trajectory], list[Excluded]]:
     """``tr`` without the excluded stretches (a guard on each side): the pieces long enough
-    to fit, each its own run with its own initial state."""
+    to fit, each its own run with its own initial state, and the pieces too short to fit
+    (left out too, and said so)."""
     mine = [e for e in excluded if e.source == tr.source]
     if not mine:
-        return [tr]
+        return [tr], []
     keep = np.ones(tr.n, bool)
     for e in mine:
         keep &= ~((tr.time >= e.start - GUARD) & (tr.time <= e.end + GUARD))
-    pieces = []
+    pieces, dropped = [], []
     for a, b in _runs(keep):
-        if tr.time[b - 1] - tr.time[a] < MIN_PIECE or b - a < MIN_SAMPLES:
+        t0, t1 = float(tr.time[a]), float(tr.time[b - 1])
+        if t1 - t0 < MIN_PIECE or b - a < MIN_SAMPLES:
+            dropped.append(Excluded(tr.source, mine[0].joint, t0, t1, 0.0,
+                                    f"shorter than {MIN_PIECE} s between pushes: too short "
+                                    "to fit its own initial state"))
             continue
         mask = np.zeros(tr.n, bool)
         mask[a:b] = True
-        pieces.append(_piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b - 1]:.3f} s]"))
-    return pieces
+        pieces.append(_piece(tr, mask, f"{tr.source} [{t0:.3f}-{t1:.3f} s]"))
+    return pieces, dropped
 
 
 def segments(tr: Trajectory, seconds: float) -> list[Trajectory]:
