@@ -70,7 +70,7 @@ def test_push_in_the_middle_is_left_out(tmp_path):
     report = calibrate(obj, fit).report
     assert report["causes"] == [], report["selection_log"]
     pushes = [e for e in report["excluded"] if e["file"] == str(fit[0])
-              and "push" in e["reason"]]
+              and "unmeasured push" in e["reason"]]
     assert len(pushes) == 1, report["excluded"]
     assert pushes[0]["start"] < 1.35 and pushes[0]["end"] > 1.3, pushes
     assert not [e for e in report["excluded"] if e["file"] == str(fit[1])]
@@ -82,7 +82,7 @@ def test_hand_at_the_start_is_left_out(tmp_path):
     fit = [_run(tmp_path / "a.csv", joint, p, 0.3, 0.0, _hand(p, 0.0, 0.3, 2.0), seed=4)]
     report = calibrate(obj, fit).report
     assert report["causes"] == [], report["selection_log"]
-    pushes = [e for e in report["excluded"] if "push" in e["reason"]]
+    pushes = [e for e in report["excluded"] if "unmeasured push" in e["reason"]]
     assert pushes and pushes[0]["start"] < 0.2, report["excluded"]
 
 
@@ -168,7 +168,7 @@ def test_unmeasured_push_beside_a_measured_effort_is_left_out(tmp_path):
     csv.write_text(case.csv())
     report = calibrate(case.obj, [csv]).report
     assert report["causes"] == [], report["selection_log"]
-    pushes = [e for e in report["excluded"] if "push" in e["reason"]]
+    pushes = [e for e in report["excluded"] if "unmeasured push" in e["reason"]]
     assert len(pushes) == 1, report["excluded"]
     e = pushes[0]
     assert e["start"] < 2.4 and e["end"] > 2.25, e
