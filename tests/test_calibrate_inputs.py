@@ -134,3 +134,25 @@ def test_bad_holdout_writes_nothing(case, model_file, tmp_path):
     assert cli_run(["calibrate", str(model_file), "--data", str(good), "--holdout", str(bad),
                     "--out", str(out)]) == 2
     assert not out.exists()
+
+
+def test_window_end_before_start(case, model_file, tmp_path):
+    csv = _write(tmp_path, "good.csv", _good_lines(case))
+    with pytest.raises(FormatError, match="--end"):
+        calibrate(case.obj, [csv], start=2.0, end=1.0)
+    out = tmp_path / "out"
+    assert cli_run(["calibrate", str(model_file), "--data", str(csv), "--start", "2",
+                    "--end", "1", "--out", str(out)]) == 2
+    assert not out.exists()
+
+
+def test_runs_declaring_different_gravity(case, model_file, tmp_path):
+    a = _write(tmp_path, "a.csv", _good_lines(case))
+    b = _write(tmp_path, "b.csv", _good_lines(case))
+    (tmp_path / "b.experiment.toml").write_text("[world]\ngravity = [0.0, 0.0, -1.62]\n")
+    out = tmp_path / "out"
+    assert cli_run(["calibrate", str(model_file), "--data", str(a), "--data", str(b),
+                    "--out", str(out)]) == 2
+    assert not out.exists()
+    with pytest.raises(FormatError, match="gravity"):
+        calibrate(case.obj, [a, b])
