@@ -180,7 +180,9 @@ def cmd_calibrate(args) -> int:
     from .calibrate import run_calibrate
 
     return run_calibrate(Path(args.model), [Path(x) for x in args.data],
-                         [Path(x) for x in args.holdout or []], Path(args.out))
+                         [Path(x) for x in args.holdout or []], Path(args.out),
+                         start=args.start, end=args.end,
+                         experiment=Path(args.experiment) if args.experiment else None)
 
 
 # -- parser ------------------------------------------------------------------------------------
@@ -260,6 +262,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a measured trajectory to test on, not fitted (repeatable)")
     s.add_argument("--out", required=True, help="output folder: report.json, report.md, "
                    "plots, the calibrated object and its exports")
+    s.add_argument("--start", type=float, metavar="S", help="use each run from this time "
+                   "on (seconds, the files' time; over the experiment file's window)")
+    s.add_argument("--end", type=float, metavar="S", help="use each run up to this time")
+    s.add_argument("--experiment", metavar="TOML", help="experiment file (units, gravity, "
+                   "window, columns, feedback law) for every CSV without its own "
+                   "<stem>.experiment.toml")
     s.set_defaults(func=cmd_calibrate)
 
     s = sub.add_parser("evaluate", help="accuracy tables (the paper's metrics)")

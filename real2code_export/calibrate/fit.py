@@ -396,7 +396,7 @@ def _input_noise_spread(sol: _Solution) -> np.ndarray:
     for _ in range(INPUT_NOISE_DRAWS):
         dr = np.zeros_like(sol.r)
         for t, tr in enumerate(problem.trajectories):
-            if tr.controller is not None or not tr.efforts:
+            if tr.law() is not None or not tr.efforts:
                 continue
             sigma = problem.effort_noise[t]
             efforts = {j: e + rng.normal(0.0, sigma[problem.joints.index(j)], len(e))

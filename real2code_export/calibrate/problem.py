@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import savgol_coeffs
 
-from ..errors import ModelError
+from ..errors import FormatError, ModelError
 from ..model import ArticulatedObject
 from . import features
 from .effects import Effect, JointContext, library
@@ -58,8 +58,10 @@ class Problem:
 FRICTION_TIMECONST = 2 * MAX_TIMESTEP
 
 
-def _replay_spec(obj: ArticulatedObject, joints: list[str]):
+def _replay_spec(obj: ArticulatedObject, joints: list[str], gravity=None):
     spec = replay_spec(obj, joints)
+    if gravity is not None:  # the experiment's, in the model's world frame
+        spec.option.gravity = list(gravity)
     # Dry friction as stiff as the step allows (MuJoCo's default 0.02 s time constant lets
     # a stuck joint creep); kept with the calibrated model for every MJCF consumer.
     for name in joints:
@@ -125,7 +127,12 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             raise ModelError(f"object {obj.name!r}", f"has no joint {name!r}") from e
         if not j.type.movable:
             raise ModelError(f"joint {name!r}", "is fixed: nothing to calibrate")
-    spec = _replay_spec(obj, joints)
+    gravity = trajectories[0].gravity
+    for tr in trajectories[1:]:
+        if tr.gravity != gravity:
+            raise FormatError(tr.source, "gravity", f"declares {tr.gravity}, "
+                             f"{trajectories[0].source} {gravity}: fit them separately")
+    spec = _replay_spec(obj, joints, gravity)
     nominal = spec.copy().compile()
     from .simulate import joint_addresses
 
@@ -202,11 +209,12 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             scale = inertia * 1.0
         ctx = JointContext(
             joint=name, angular=j.type.angular, dynamics=j.dynamics, limits=j.limits,
-            bodies=tuple(subtree_bodies(obj, name)), gravity_loaded=gravity_loaded(obj, name),
+            bodies=tuple(subtree_bodies(obj, name)),
+            gravity_loaded=gravity_loaded(obj, name, *([gravity] if gravity else [])),
             inertia=inertia, q_low=float(q_all.min()), q_high=float(q_all.max()),
             effort_scale=scale, stops=tuple(sorted(stops[name])), timestep=MAX_TIMESTEP,
             law=base_law(obj, name),
-            has_effort=any(name in tr.efforts or tr.controller is not None
+            has_effort=any(name in tr.efforts or tr.law() is not None
                            for tr in trajectories),
         )
         contexts[name] = ctx

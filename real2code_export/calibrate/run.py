@@ -16,12 +16,15 @@ from ..errors import FormatError
 from ..model import ArticulatedObject
 from . import features as ft
 from .apply import calibrated_object
+from .experiment import read_experiment
 from .fit import Fit, fit_candidate
 from .inverse import _nominal_effort
-from .problem import Problem, build_problem
+from .problem import Problem, _replay_spec, build_problem
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
-from .trajectory import Trajectory, read_all
+from .trajectory import MIN_SAMPLES, Trajectory, read_all
+from .validate import cross_validate
+from .windows import Excluded, cut, find_pushes, window
 
 
 @dataclass
@@ -103,45 +106,113 @@ def _export_formats() -> list[str]:
 
 
 def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[Path] = (),
-              out_dir: Path | None = None, formats: Sequence[str] | None = None
-              ) -> CalibrationResult:
+              out_dir: Path | None = None, formats: Sequence[str] | None = None,
+              start: float | None = None, end: float | None = None,
+              experiment: Path | None = None) -> CalibrationResult:
     """Fit the model's joint dynamics to measured trajectories (CSV files, DESIGN.md).
 
-    Every file is read and checked before anything runs; with ``out_dir`` the report
-    (``report.json``, ``report.md`` and its plots), the calibrated ``object.json`` and the
-    exports are written there atomically.
+    Every file is read and checked before anything runs; ``start``/``end`` (seconds, in the
+    files' time) keep a window of every run (over the experiment files' own windows);
+    ``experiment``: the experiment file for every CSV that has none beside it. With ``out_dir`` the report (``report.json``,
+    ``report.md`` and its plots), the calibrated ``object.json`` and the exports are
+    written there atomically.
     """
     if not data:
         raise FormatError(None, "--data", "no trajectory to fit")
-    trajectories = read_all(list(data), model)
-    held = read_all(list(holdout), model) if holdout else []
+    if start is not None and end is not None and end <= start:
+        raise FormatError(None, "--end", f"{end} is not after --start {start}")
+    declared = read_experiment(experiment) if experiment is not None else None
+    trajectories = [_windowed(tr, start, end) for tr in read_all(list(data), model, declared)]
+    held = [_windowed(tr, start, end) for tr in read_all(list(holdout), model, declared)] \
+        if holdout else []
     if held and set(held[0].joints) != set(trajectories[0].joints):
         raise FormatError(held[0].source, "header", f"measures joints {held[0].joints}, the "
                           f"fitted data measure {trajectories[0].joints}")
     return calibrate_trajectories(model, trajectories, held, out_dir, formats)
 
 
+def _windowed(tr: Trajectory, start: float | None, end: float | None) -> Trajectory:
+    start = start if start is not None else tr.window[0]
+    end = end if end is not None else tr.window[1]
+    out = window(tr, start, end)
+    if out.n < MIN_SAMPLES:
+        raise FormatError(tr.source, "window", f"only {out.n} samples between "
+                          f"{start if start is not None else 'the start'} and "
+                          f"{end if end is not None else 'the end'} s: at least "
+                          f"{MIN_SAMPLES} are needed to fit")
+    return out
+
+
+def leave_out_pushes(model: ArticulatedObject, trajectories: list[Trajectory]
+                     ) -> tuple[list[Trajectory], list[Excluded]]:
+    """The runs without the stretches where a passive joint is driven by an unmeasured
+    force (each remaining piece its own run), and those stretches."""
+    if not trajectories:
+        return [], []
+    joints = trajectories[0].joints
+    spec = _replay_spec(model, joints)
+    dynamics = {j: model.joint(j).dynamics for j in joints}
+    excluded = [e for tr in trajectories for e in find_pushes(tr, joints, spec, dynamics)]
+    pieces = [p for tr in trajectories for p in cut(tr, excluded)]
+    return pieces, excluded
+
+
 def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajectory],
                            held: list[Trajectory], out_dir: Path | None = None,
                            formats: Sequence[str] | None = None) -> CalibrationResult:
     """:func:`calibrate` on trajectories already in memory (adapters with a feedback law)."""
+    whole = trajectories
+    trajectories, excluded = leave_out_pushes(model, trajectories)
+    held, held_excluded = leave_out_pushes(model, held)
+    if not trajectories:
+        raise FormatError(whole[0].source, None, "nothing left to fit: an unmeasured force "
+                          "drives the joint throughout (" + "; ".join(
+                              f"{e.start:.3f}-{e.end:.3f} s" for e in excluded) + ")")
     problem = build_problem(model, trajectories)
     selection = select(problem)
+    rejected = None
+    cv = cross_validate(model, trajectories, selection.chosen)
+    if not cv.improves:
+        rejected = (f"{'+'.join(selection.chosen.names)} predicts left-out data worse than "
+                    f"the nominal model (cross-validation by {cv.kind}: squared error "
+                    f"{cv.sse_calibrated:.4g} vs {cv.sse_nominal:.4g} noise units)")
     calibrated = calibrated_object(model, selection.chosen)
+    holdouts = []
+    if held and rejected is None:
+        held_nominal = replay(model, held)
+        holdouts = _replays("held out", held, held_nominal, replay(calibrated, held))
+        if _total_rmse(holdouts, "calibrated") > _total_rmse(holdouts, "nominal"):
+            rejected = (f"{'+'.join(selection.chosen.names)} predicts the held-out data "
+                        "worse than the nominal model")
+    if rejected is not None:  # never worse than nominal: the nominal model is the result
+        selection.log.append(f"rejected: {rejected}; the nominal model is kept")
+        selection.chosen = selection.nominal
+        calibrated = calibrated_object(model, selection.nominal)
+        if held:
+            holdouts = _replays("held out", held, replay(model, held),
+                                replay(calibrated, held))
     # the calibrated model replayed as it will be exported: the gain is measured on it
     after = replay(calibrated, trajectories)
     fits = _replays("fitted", trajectories, selection.nominal, after)
-    holdouts = []
-    if held:
-        holdouts = _replays("held out", held, replay(model, held), replay(calibrated, held))
     report = build_report(problem, selection, fits, holdouts, _features(problem, selection.nominal),
                           [tr.source for tr in trajectories], [tr.source for tr in held],
                           model.name)
+    report["excluded"] = [e.as_json() for e in excluded + held_excluded]
+    report["cross_validation"] = cv.as_json()
+    report["rejected"] = rejected
+    if rejected is not None:
+        report["unexplained"] = True
     files: dict[str, Path] = {}
     if out_dir is not None:
         files = write_outputs(Path(out_dir), calibrated, report, fits + holdouts, problem,
                               list(formats) if formats is not None else _export_formats())
     return CalibrationResult(calibrated, report, selection, problem, fits, holdouts, files)
+
+
+def _total_rmse(replays: list[Replay], which: str) -> float:
+    sq = [((r.nominal if which == "nominal" else r.calibrated) - r.measured) ** 2
+          for r in replays]
+    return float(np.sqrt(np.mean(np.concatenate([s.ravel() for s in sq]))))
 
 
 def write_outputs(out_dir: Path, calibrated: ArticulatedObject, report: dict[str, Any],
@@ -173,13 +244,15 @@ def write_outputs(out_dir: Path, calibrated: ArticulatedObject, report: dict[str
 
 
 def run_calibrate(model_path: Path, data: Sequence[Path], holdout: Sequence[Path],
-                  out_dir: Path) -> int:
+                  out_dir: Path, start: float | None = None, end: float | None = None,
+                  experiment: Path | None = None) -> int:
     """The ``real2code calibrate`` command: 0 on success (errors raise Real2CodeError,
     which the CLI prints, exiting non-zero, with nothing written)."""
     from ..formats import load
 
     model = load(model_path)
-    result = calibrate(model, list(data), list(holdout), Path(out_dir))
+    result = calibrate(model, list(data), list(holdout), Path(out_dir), start=start, end=end,
+                       experiment=experiment)
     r = result.report
     causes = ", ".join(r["causes"]) or "none (the nominal model explains the data)"
     print(f"causes      {causes}")
@@ -191,6 +264,11 @@ def run_calibrate(model_path: Path, data: Sequence[Path], holdout: Sequence[Path
     if r["holdout_rmse_before"] is not None:
         print(f"            {r['holdout_rmse_before']:.4g} -> {r['holdout_rmse_after']:.4g} "
               f"{r['rmse_unit']} (held out)")
+    for e in r["excluded"]:
+        print(f"left out   {Path(e['file']).name} {e['start']:.3f}-{e['end']:.3f} s: "
+              f"{e['reason']}")
+    if r["rejected"]:
+        print(f"rejected    {r['rejected']}")
     if r["unexplained"]:
         print(f"unexplained residual: {r['residual_to_noise']:.1f} x sensor noise")
     print(f"report      {Path(out_dir) / 'report.md'}")

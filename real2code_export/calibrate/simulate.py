@@ -188,7 +188,7 @@ def rollout(model, traj: Trajectory, initial: Initial,
 
     q_out = np.empty((n, nj))
     u_out = np.zeros((n, nj))
-    controller = traj.controller
+    controller = traj.law()
     history = {j: q_out[:, k] for k, j in enumerate(joints)}
     step = mujoco.mj_step
     qpos, qfrc = d.qpos, d.qfrc_applied
@@ -234,7 +234,7 @@ class BatchRunner:
         from mujoco import rollout as mj_rollout
 
         traj = self.traj
-        needs_state = traj.controller is not None or not _uniform(traj)
+        needs_state = traj.law() is not None or not _uniform(traj)
         if needs_state:
             data = mujoco.MjData(models[0])
             return [rollout(m, traj, x0, lw, data, fine, refine)

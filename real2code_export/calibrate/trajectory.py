@@ -18,6 +18,9 @@ import numpy as np
 
 from ..errors import FormatError
 from ..model import ArticulatedObject
+from .experiment import Experiment, experiment_for
+from .feedback import Feedback
+from .feedback import controller as feedback_controller
 
 EFFORT_SUFFIX = ".effort"
 # Fewer samples than this cannot fit even one effect plus the initial velocity, let alone
@@ -36,7 +39,9 @@ class Trajectory:
 
     ``controller`` (optional) closes the loop in the replay: the effort is then computed
     from the simulated positions, and ``efforts`` holds the measured controller output,
-    compared with the simulated one.
+    compared with the simulated one. ``feedback`` declares such a loop as data (the
+    experiment file), on the extra ``columns`` it reads (a reference, an added pulse
+    train); ``gravity`` (m/s^2, world frame) where the experiment declares it.
     """
 
     source: str
@@ -44,6 +49,18 @@ class Trajectory:
     positions: dict[str, np.ndarray]
     efforts: dict[str, np.ndarray] = field(default_factory=dict)
     controller: Controller | None = None
+    feedback: dict[str, Feedback] = field(default_factory=dict)
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
+    gravity: tuple[float, float, float] | None = None
+    window: tuple[float | None, float | None] = (None, None)  # the experiment's (s)
+
+    def law(self) -> Controller | None:
+        """The closed loop the replay runs (None: open loop, the measured effort)."""
+        if self.controller is not None:
+            return self.controller
+        if self.feedback:
+            return feedback_controller(self.feedback, self.columns, self.sample_period)
+        return None
 
     @property
     def joints(self) -> list[str]:
@@ -82,8 +99,10 @@ def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
     return rows
 
 
-def read_csv(path: str | Path, obj: ArticulatedObject) -> Trajectory:
-    """Read and check one trajectory CSV against the model ``obj``."""
+def read_csv(path: str | Path, obj: ArticulatedObject,
+             experiment: Experiment | None = None) -> Trajectory:
+    """Read and check one trajectory CSV against the model ``obj`` (and the experiment
+    that declares its columns and units, if any), converted to SI."""
     path = Path(path)
     rows = _data_lines(path)
     if not rows:
@@ -98,30 +117,7 @@ def read_csv(path: str | Path, obj: ArticulatedObject) -> Trajectory:
         if h in seen:
             raise _error(path, f"column {h!r}", "appears twice", header_line)
         seen.add(h)
-    movable = {j.name: j for j in obj.movable_joints}
-    fixed = {j.name for j in obj.joints if not j.type.movable}
-    positions_cols, effort_cols = [], []
-    for h in header:
-        if h == "time":
-            continue
-        joint = h[: -len(EFFORT_SUFFIX)] if h.endswith(EFFORT_SUFFIX) else h
-        if joint in fixed:
-            raise _error(path, f"column {h!r}", f"joint {joint!r} of model {obj.name!r} is "
-                         "fixed: it has no motion to calibrate", header_line)
-        if joint not in movable:
-            known = ", ".join(sorted(movable)) or "none"
-            raise _error(path, f"column {h!r}", f"names no joint of model {obj.name!r} "
-                         f"(its movable joints: {known})", header_line)
-        (effort_cols if h.endswith(EFFORT_SUFFIX) else positions_cols).append(h)
-    for h in effort_cols:
-        joint = h[: -len(EFFORT_SUFFIX)]
-        if joint not in positions_cols:
-            raise _error(path, f"column {h!r}", f"effort without a position column {joint!r}",
-                         header_line)
-    if not positions_cols:
-        raise _error(path, "header", "no joint position column (expected time,<joint>,...)",
-                     header_line)
-
+    position_of, effort_of, extra = _columns(path, header, header_line, obj, experiment)
     values = np.empty((len(rows) - 1, len(header)))
     for i, (line, cells) in enumerate(rows[1:]):
         if len(cells) != len(header):
@@ -148,18 +144,108 @@ def read_csv(path: str | Path, obj: ArticulatedObject) -> Trajectory:
         k = int(bad[0]) + 1
         raise _error(path, "column 'time'", f"time does not increase ({t[k]!r} after "
                      f"{t[k - 1]!r})", lines[k])
+    col = {h: values[:, i] for i, h in enumerate(header)}
+    exp = experiment
+    time_scale = exp.time_scale if exp is not None else 1.0
+
+    def position_scale(joint: str) -> float:
+        if exp is None:
+            return 1.0
+        return exp.angle_scale if movable_type(obj, joint) else exp.length_scale
+
+    columns = {}
+    feedback = {}
+    if exp is not None:
+        for joint, jc in exp.joints.items():
+            if jc.feedback is None:
+                continue
+            feedback[joint] = jc.feedback
+            # the reference is a position (the joint's unit); the added column a command
+            columns[jc.feedback.reference] = col[jc.feedback.reference] * position_scale(joint)
+            if jc.feedback.added is not None:
+                columns[jc.feedback.added] = col[jc.feedback.added].copy()
     return Trajectory(
         source=str(path),
-        time=t.copy(),
-        positions={h: values[:, header.index(h)].copy() for h in positions_cols},
-        efforts={h[: -len(EFFORT_SUFFIX)]: values[:, header.index(h)].copy()
-                 for h in effort_cols},
+        time=t * time_scale,
+        positions={j: col[c] * position_scale(j) for j, c in position_of.items()},
+        efforts={j: col[c].copy() for j, c in effort_of.items()},
+        feedback=feedback, columns=columns,
+        gravity=exp.gravity if exp is not None else None,
+        window=(exp.start, exp.end) if exp is not None else (None, None),
     )
 
 
-def read_all(paths: Sequence[str | Path], obj: ArticulatedObject) -> list[Trajectory]:
-    """Read every file; all must measure the same joints."""
-    trajectories = [read_csv(p, obj) for p in paths]
+def movable_type(obj: ArticulatedObject, joint: str) -> bool:
+    """Whether ``joint`` is angular (its positions in radians, else metres)."""
+    return obj.joint(joint).type.angular
+
+
+def _columns(path: Path, header: list[str], header_line: int, obj: ArticulatedObject,
+             experiment: Experiment | None
+             ) -> tuple[dict[str, str], dict[str, str], set[str]]:
+    """joint -> position column, joint -> effort column, and the other columns the
+    experiment names (references, added commands)."""
+    movable = {j.name: j for j in obj.movable_joints}
+    fixed = {j.name for j in obj.joints if not j.type.movable}
+    position_of: dict[str, str] = {}
+    effort_of: dict[str, str] = {}
+    extra: set[str] = set()
+    if experiment is not None:
+        exp_path = Path(experiment.source) if experiment.source else path
+        for name in experiment.joints:
+            if name not in movable:
+                known = ", ".join(sorted(movable)) or "none"
+                raise FormatError(exp_path, f"joints.{name}", f"names no movable joint of "
+                                  f"model {obj.name!r} (its movable joints: {known})")
+        for key, column in experiment.referenced():
+            if column not in header:
+                raise FormatError(exp_path, key, f"column {column!r} is not in {path} "
+                                  f"(its columns: {', '.join(header)})")
+        for name, jc in experiment.joints.items():
+            position_of[name] = jc.position or name
+            if jc.effort is not None:
+                effort_of[name] = jc.effort
+            elif name + EFFORT_SUFFIX in header:
+                effort_of[name] = name + EFFORT_SUFFIX
+            if jc.feedback is not None:
+                extra.add(jc.feedback.reference)
+                if jc.feedback.added is not None:
+                    extra.add(jc.feedback.added)
+    used = set(position_of.values()) | set(effort_of.values()) | extra
+    for h in header:
+        if h == "time" or h in used:
+            continue
+        joint = h[: -len(EFFORT_SUFFIX)] if h.endswith(EFFORT_SUFFIX) else h
+        if joint in fixed:
+            raise _error(path, f"column {h!r}", f"joint {joint!r} of model {obj.name!r} is "
+                         "fixed: it has no motion to calibrate", header_line)
+        if joint not in movable:
+            known = ", ".join(sorted(movable)) or "none"
+            raise _error(path, f"column {h!r}", f"names no joint of model {obj.name!r} "
+                         f"(its movable joints: {known})", header_line)
+        if h.endswith(EFFORT_SUFFIX):
+            effort_of.setdefault(joint, h)
+        else:
+            position_of.setdefault(joint, h)
+    for joint, h in effort_of.items():
+        if joint not in position_of:
+            raise _error(path, f"column {h!r}", f"effort without a position column {joint!r}",
+                         header_line)
+    for joint, h in position_of.items():
+        if h not in header:
+            raise _error(path, f"column {h!r}", f"missing: the position of joint {joint!r}",
+                         header_line)
+    if not position_of:
+        raise _error(path, "header", "no joint position column (expected time,<joint>,...)",
+                     header_line)
+    return position_of, effort_of, extra
+
+
+def read_all(paths: Sequence[str | Path], obj: ArticulatedObject,
+             experiment: Experiment | None = None) -> list[Trajectory]:
+    """Read every file (each with its own experiment file beside it, else ``experiment``);
+    all must measure the same joints."""
+    trajectories = [read_csv(p, obj, experiment_for(p, experiment)) for p in paths]
     if trajectories:
         first = set(trajectories[0].joints)
         for tr in trajectories[1:]:

@@ -1,0 +1,94 @@
+"""No false causes: a chosen structure is kept only if it also predicts data it was not
+fitted on better than the nominal model does.
+
+Cross-validation across the fit runs (leave one run out); with a single run, across its two
+halves (each its own initial state). Each fold refits the chosen structure on the rest
+(started from the full fit's values: a parameter the rest cannot inform stays where the
+full fit put it) and replays the left-out piece; the nominal model replays it too (its
+initial state fitted alike). The sums of squared position errors, in noise units, decide.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .fit import Fit, fit_candidate
+from .problem import build_problem
+from .trajectory import MIN_SAMPLES, Trajectory
+from .windows import window
+
+MIN_HALF = 0.5  # s: a single run shorter than twice this is not split
+
+
+@dataclass
+class CrossValidation:
+    folds: int
+    sse_nominal: float  # squared errors (noise units) of the left-out pieces, nominal model
+    sse_calibrated: float  # the same, the chosen structure refitted without them
+    kind: str  # "runs" | "halves" | "none"
+
+    @property
+    def improves(self) -> bool:
+        return self.folds == 0 or self.sse_calibrated < self.sse_nominal
+
+    def as_json(self) -> dict:
+        return {"folds": self.folds, "by": self.kind, "sse_nominal": self.sse_nominal,
+                "sse_calibrated": self.sse_calibrated, "improves": self.improves}
+
+
+def _folds(trajectories: list[Trajectory]) -> tuple[str, list[tuple[list, Trajectory]]]:
+    if len(trajectories) >= 2:
+        return "runs", [([t for t in trajectories if t is not left], left)
+                        for left in trajectories]
+    tr = trajectories[0]
+    if tr.duration < 2 * MIN_HALF or tr.n < 4 * MIN_SAMPLES:
+        return "none", []
+    mid = float(tr.time[0] + 0.5 * tr.duration)
+    first = window(tr, None, mid)
+    second = window(tr, mid, None)
+    first.source, second.source = f"{tr.source} [first half]", f"{tr.source} [second half]"
+    return "halves", [([first], second), ([second], first)]
+
+
+def _sse(fit: Fit) -> float:
+    return float(fit.residual @ fit.residual)
+
+
+def cross_validate(obj, trajectories: list[Trajectory], chosen: Fit) -> CrossValidation:
+    """Leave-out prediction error of ``chosen``'s structure against the nominal model."""
+    if not chosen.effects:
+        return CrossValidation(0, 0.0, 0.0, "none")
+    kind, folds = _folds(trajectories)
+    sse_nom = sse_cal = 0.0
+    for rest, left in folds:
+        train = build_problem(obj, rest)
+        # the chosen effects as they are (a stop only one run reaches keeps its place)
+        fold = fit_candidate(train, chosen.effects, refine=False, warm=dict(chosen.values))
+        test = build_problem(obj, [left])
+        nominal = fit_candidate(test, (), refine=False)
+        predicted = _predict(test, chosen.effects, fold.values)
+        sse_nom += _sse(nominal)
+        sse_cal += predicted
+    return CrossValidation(len(folds), sse_nom, sse_cal, kind)
+
+
+def _predict(problem, effects, values: dict[str, float]) -> float:
+    """Squared error of the structure with ``values`` held fixed (only the initial state
+    fitted) on ``problem``'s runs."""
+    from .effects import Param
+
+    fixed = []
+    for e in effects:
+        params = tuple(Param(p.effect, p.joint, p.name, p.unit, values[p.key],
+                             values[p.key] - 1e-12 * max(abs(values[p.key]), 1.0),
+                             values[p.key] + 1e-12 * max(abs(values[p.key]), 1.0), p.null)
+                       for p in e.params)
+        fixed.append(_with_params(e, params))
+    fit = fit_candidate(problem, tuple(fixed), refine=False, warm=dict(values))
+    return _sse(fit)
+
+
+def _with_params(effect, params):
+    import dataclasses
+
+    return dataclasses.replace(effect, params=params)

@@ -1,0 +1,189 @@
+"""Which parts of a record to fit: the user's window (``--start``/``--end``), and the
+stretches where a joint is driven by something the data do not hold (a hand on a pendulum,
+a push on a door), found by the energy it puts in and left out.
+
+A push is what no candidate effect explains: the effort equation (measured effort against
+the nominal rigid-body dynamics) is fitted with every linear candidate term at once
+(damping, Coulomb friction, a spring, a constant force; the inertia too where the effort is
+measured) under a robust loss, so the effects the calibration may still name are absorbed
+and a short foreign force is left as an outlier. A stretch of outliers counts as a push when
+the work it does on the joint is positive and large against the joint's kinetic energy: an
+unmodelled effect of the state (inertia, a spring) only moves energy back and forth, and a
+stop or friction takes it out. The run is cut there; each piece keeps its own initial state
+(multiple shooting across the push).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import features
+from .trajectory import MIN_SAMPLES, Trajectory
+
+# outliers: this many robust standard deviations of the equation residual
+OUTLIER_SIGMAS = 5.0
+# a push's work, against the joint's typical kinetic energy (1/2 I v95^2)
+PUSH_ENERGY = 0.1
+MIN_PUSH = 0.02  # s: shorter outlier runs are impacts or spikes
+MERGE_GAP = 0.1  # s: outlier runs this close are one push
+GUARD = 0.05  # s: left out on each side of a push (the smoothing spreads it)
+MIN_PIECE = 0.25  # s: a piece shorter than this is dropped with the push
+
+
+@dataclass(frozen=True)
+class Excluded:
+    """A stretch of one run that the fit leaves out, and why."""
+
+    source: str
+    joint: str
+    start: float  # s, in the run's time
+    end: float
+    work: float  # J: energy put into the joint over the stretch
+    reason: str
+
+    def as_json(self) -> dict:
+        return {"file": self.source, "joint": self.joint, "start": self.start,
+                "end": self.end, "work": self.work, "reason": self.reason}
+
+
+def window(tr: Trajectory, start: float | None, end: float | None) -> Trajectory:
+    """The part of ``tr`` between ``start`` and ``end`` (its own time, seconds)."""
+    if start is None and end is None:
+        return tr
+    keep = np.ones(tr.n, bool)
+    if start is not None:
+        keep &= tr.time >= start - 1e-12
+    if end is not None:
+        keep &= tr.time <= end + 1e-12
+    return _piece(tr, keep, tr.source)
+
+
+def _piece(tr: Trajectory, keep: np.ndarray, source: str) -> Trajectory:
+    if tr.controller is not None:  # a coded law indexes the whole run's samples
+        raise ValueError(f"{tr.source}: a run with a coded controller cannot be cut")
+    return dataclasses.replace(
+        tr, source=source, time=tr.time[keep].copy(),
+        positions={j: q[keep].copy() for j, q in tr.positions.items()},
+        efforts={j: u[keep].copy() for j, u in tr.efforts.items()},
+        columns={c: x[keep].copy() for c, x in tr.columns.items()})
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, end) index ranges where ``mask`` holds."""
+    edges = np.diff(np.concatenate([[0], mask.astype(int), [0]]))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list[Excluded]:
+    """Stretches of ``tr`` where a joint gains energy no candidate effect explains.
+    ``spec``: the nominal replay spec; ``dynamics``: joint -> its model ``Dynamics``."""
+    from .problem import rigid_effort
+
+    if tr.law() is not None:
+        return []  # a closed loop drives the joint by design
+    passive = [j for j in joints if j not in tr.efforts]
+    if not passive:
+        return []  # every joint's effort is measured: nothing drives them unseen
+    period = tr.sample_period
+    qs = np.column_stack([tr.positions[j] for j in joints])
+    smooth = [features.derivatives(qs[:, k], period)
+              for k in range(len(joints))]
+    q = np.column_stack([s[0] for s in smooth])
+    dq = np.column_stack([s[1] for s in smooth])
+    ddq = np.column_stack([s[2] for s in smooth])
+    tau_rb = rigid_effort(spec, joints, q, dq, ddq)
+    found = []
+    edge = features.smoothing_window(period) // 2 + 1
+    for k, j in enumerate(joints):
+        if j not in passive:
+            continue
+        d = dynamics[j]
+        v95 = float(np.percentile(np.abs(dq[:, k]), 95))
+        if v95 <= 0:
+            continue
+        sgn = np.tanh(dq[:, k] / max(0.05 * v95, 1e-12))
+        required = (tau_rb[:, k] + d.armature * ddq[:, k] + d.damping * dq[:, k]
+                    + d.friction * sgn + d.stiffness * (q[:, k] - d.spring_ref))
+        y = -required  # the unmeasured force, less what candidate effects explain
+        # (the inertia stays nominal: without an effort its scale is not observable)
+        x = np.column_stack([dq[:, k], sgn, q[:, k] - q[:, k].mean(), np.ones(tr.n)])
+        use = np.zeros(tr.n, bool)
+        use[edge:-edge] = True
+        if use.sum() < MIN_SAMPLES:
+            continue
+        scale = np.maximum(np.linalg.norm(x[use], axis=0), 1e-12)
+        ys = max(float(np.std(y[use])), 1e-12)
+        # damping and friction only take energy out: a push cannot hide in them
+        lower = np.array([0.0, 0.0, -np.inf, -np.inf])
+        a_use, y_use = x[use] / scale, y[use] / ys
+        fit = least_squares(lambda b, a=a_use, yy=y_use: a @ b - yy,
+                            np.array([1e-6, 1e-6, 0.0, 0.0]), bounds=(lower, np.inf),
+                            loss="soft_l1", f_scale=0.1)
+        r = y - (x / scale) @ fit.x * ys
+        core = r[use]
+        sigma = 1.4826 * float(np.median(np.abs(core - np.median(core))))
+        if sigma <= 0:
+            continue
+        out = np.abs(r) > OUTLIER_SIGMAS * sigma
+        out &= use
+        # close runs merge into one push
+        gap = max(1, int(round(MERGE_GAP / period)))
+        runs = _runs(out)
+        merged: list[list[int]] = []
+        for a, b in runs:
+            if merged and a - merged[-1][1] <= gap:
+                merged[-1][1] = b
+            else:
+                merged.append([a, b])
+        inertia = _inertia(tau_rb[:, k], ddq[:, k], d.armature)
+        energy_scale = 0.5 * inertia * v95**2
+        for a, b in merged:
+            if (b - a) * period < MIN_PUSH:
+                continue
+            # the unmeasured force is -r: its work on the joint
+            work = float(np.sum(-r[a:b] * dq[a:b, k]) * period)
+            if work > PUSH_ENERGY * energy_scale and work > 0:
+                # grow the stretch to where the force starts and ends (half the threshold)
+                lo, hi = a, b
+                while lo > 0 and abs(r[lo - 1]) > 0.5 * OUTLIER_SIGMAS * sigma:
+                    lo -= 1
+                while hi < tr.n and abs(r[hi]) > 0.5 * OUTLIER_SIGMAS * sigma:
+                    hi += 1
+                found.append(Excluded(tr.source, j, float(tr.time[lo]),
+                                      float(tr.time[hi - 1]), work,
+                                      f"energy rises by {work:.3g} J ({work / energy_scale:.2g}"
+                                      " x the joint's kinetic energy) with no effort measured:"
+                                      " an unmeasured push"))
+    return found
+
+
+def _inertia(tau_rb: np.ndarray, ddq: np.ndarray, armature: float) -> float:
+    """The joint's effective inertia, from the rigid-body effort's part that follows the
+    acceleration (least squares: the model's inertia at the measured configurations)."""
+    a = float(ddq @ ddq)
+    if a <= 0:
+        return max(armature, 1e-12)
+    return max(float(ddq @ tau_rb) / a + armature, 1e-12)
+
+
+def cut(tr: Trajectory, excluded: list[Excluded]) -> list[Trajectory]:
+    """``tr`` without the excluded stretches (a guard on each side): the pieces long enough
+    to fit, each its own run with its own initial state."""
+    mine = [e for e in excluded if e.source == tr.source]
+    if not mine:
+        return [tr]
+    keep = np.ones(tr.n, bool)
+    for e in mine:
+        keep &= ~((tr.time >= e.start - GUARD) & (tr.time <= e.end + GUARD))
+    pieces = []
+    for a, b in _runs(keep):
+        if tr.time[b - 1] - tr.time[a] < MIN_PIECE or b - a < MIN_SAMPLES:
+            continue
+        mask = np.zeros(tr.n, bool)
+        mask[a:b] = True
+        pieces.append(_piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b - 1]:.3f} s]"))
+    return pieces

@@ -1,0 +1,194 @@
+"""The experiment file (docs/calibration_contract.md): units, gravity, window, columns and
+a declared feedback law, read with the CSV; bad files refused naming the file and the key,
+exit status 2, nothing written; a closed loop replayed through the declared law.
+
+The closed-loop data are made here, independently of the package: a drawer (mass m, hidden
+viscous damping b) under a PD law held over each sample interval, integrated exactly (the
+linear ODE's closed form per interval).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from real2code_export.calibrate import calibrate, read_csv
+from real2code_export.calibrate.experiment import beside, read_experiment
+from real2code_export.cli import run as cli_run
+from real2code_export.errors import FormatError
+from real2code_export.formats import object_json
+
+from synthetic_joint_data import make_case, nominal_object, physics_for
+
+
+@pytest.fixture(scope="module")
+def lid():
+    return make_case(2, kind="lid", effects=["damping"])
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+def test_units_columns_window_gravity(lid, tmp_path):
+    j = lid.joint
+    lines = ["time,angle_deg,torque"]
+    lines += [f"{1000 * t!r},{math.degrees(q)!r},{u!r}" for t, q, u in
+              zip(lid.time.tolist(), lid.position.tolist(), lid.effort.tolist(), strict=True)]
+    csv = _write(tmp_path / "run.csv", "\n".join(lines) + "\n")
+    _write(beside(csv), f"""
+[units]
+time = "ms"
+angle = "deg"
+[world]
+gravity = [0.0, 0.0, -9.7]
+[window]
+start = 0.5
+end = 2.0
+[joints.{j}]
+position = "angle_deg"
+effort = "torque"
+""")
+    exp = read_experiment(beside(csv))
+    tr = read_csv(csv, lid.obj, exp)
+    assert tr.joints == [j]
+    np.testing.assert_allclose(tr.time, lid.time, atol=1e-12)
+    np.testing.assert_allclose(tr.positions[j], lid.position, atol=1e-12)
+    np.testing.assert_allclose(tr.efforts[j], lid.effort)
+    assert tr.gravity == (0.0, 0.0, -9.7)
+    assert tr.window == (0.5, 2.0)
+
+
+@pytest.mark.parametrize("text, key, fragment", [
+    ("[units]\ntime = 'min'\n", "units.time", "unknown unit 'min'"),
+    ("[unit]\ntime = 's'\n", "unit", "unknown key"),
+    ("[world]\ngravity = [0, -9.81]\n", "world.gravity", "must be [x, y, z]"),
+    ("[window]\nstart = 'a'\n", "window.start", "finite number"),
+    ("[window]\nstart = 2.0\nend = 1.0\n", "window.end", "not after"),
+    ("[joints.hinge]\nposition = 'nope'\n", "joints.hinge.position",
+     "column 'nope' is not in"),
+    ("[joints.hinge]\nspeed = 'x'\n", "joints.hinge.speed", "unknown key"),
+    ("[joints.hinge.feedback]\nkp = 1.0\n", "joints.hinge.feedback.reference", "missing"),
+    ("[joints.hinge.feedback]\nreference = 'hinge'\nadded = 'pulse'\n",
+     "joints.hinge.feedback.added", "column 'pulse' is not in"),
+    ("[joints.hinge.feedback]\nreference = 'hinge'\nvelocity_taps = 0\n",
+     "joints.hinge.feedback.velocity_taps", ">= 1"),
+    ("[joints.door]\nposition = 'hinge'\n", "joints.door", "names no movable joint"),
+    ("[units\n", None, "not valid TOML"),
+])
+def test_bad_experiment_refused(lid, tmp_path, text, key, fragment):
+    csv = _write(tmp_path / "run.csv", lid.csv())
+    toml = _write(beside(csv), text)
+    model = object_json.save(lid.obj, tmp_path / "model")
+    with pytest.raises(FormatError) as info:
+        read_csv(csv, lid.obj, read_experiment(toml))
+    err = info.value
+    assert err.path == str(toml), str(err)
+    assert err.element == key, str(err)
+    assert fragment in str(err), str(err)
+    out = tmp_path / "out"
+    assert cli_run(["calibrate", str(model), "--data", str(csv), "--out", str(out)]) == 2
+    assert not out.exists()
+
+
+def test_given_experiment_applies_where_none_beside(lid, tmp_path):
+    csv = _write(tmp_path / "run.csv", lid.csv().replace("time,", "time,", 1))
+    toml = _write(tmp_path / "shared.toml", "[joints.hinge]\nposition = 'missing'\n")
+    model = object_json.save(lid.obj, tmp_path / "model")
+    out = tmp_path / "out"
+    assert cli_run(["calibrate", str(model), "--data", str(csv), "--experiment", str(toml),
+                    "--out", str(out)]) == 2
+    assert not out.exists()
+
+
+def test_run_too_short_to_fit_its_initial_state(lid, tmp_path):
+    csv = _write(tmp_path / "run.csv", lid.csv())
+    model = object_json.save(lid.obj, tmp_path / "model")
+    out = tmp_path / "out"
+    # a window of a few samples: nothing to fit the initial state from
+    assert cli_run(["calibrate", str(model), "--data", str(csv), "--start", "1.0",
+                    "--end", "1.02", "--out", str(out)]) == 2
+    assert not out.exists()
+    with pytest.raises(FormatError, match="at least"):
+        calibrate(lid.obj, [csv], start=1.0, end=1.02)
+
+
+# -- a closed loop, declared ------------------------------------------------------------------
+def _pd_drawer(seed: int, damping: float, rate: float = 500.0, duration: float = 3.0):
+    """Positions and commands of a drawer under a discrete PD law on a step reference,
+    integrated exactly: m x'' = gain * u - b x' with u held over each interval."""
+    rng = np.random.default_rng(seed)
+    obj, joint = nominal_object("drawer", rng)
+    m = physics_for(obj, joint).inertia
+    h = 1.0 / rate
+    t = np.arange(0.0, duration, h)
+    ref = 0.2 + 0.1 * (np.floor(t / 0.75) % 2)  # steps between 0.2 and 0.3 m
+    kp, kd, gain, taps = 40.0, 8.0, 2.0 * m, 2
+    x, v = 0.2, 0.0
+    q = np.empty(len(t))
+    u_out = np.empty(len(t))
+    for k in range(len(t)):
+        q[k] = x
+        back = min(taps, k)
+        vel = (q[k] - q[k - back]) / (back * h) if back else 0.0
+        u = kp * (ref[k] - q[k]) - kd * vel
+        u_out[k] = gain * u
+        f = gain * u
+        a = damping / m
+        # closed form over [0, h] of x'' = f/m - a x'
+        e = math.exp(-a * h)
+        vinf = f / damping
+        x = x + vinf * h + (v - vinf) * (1 - e) / a
+        v = vinf + (v - vinf) * e
+    noise = 1e-5
+    q_meas = q + rng.normal(0.0, noise, len(t))
+    return obj, joint, t, q_meas, ref, u_out, dict(kp=kp, kd=kd, gain=gain, taps=taps)
+
+
+def test_closed_loop_replayed_through_the_declared_law(tmp_path):
+    b = 6.0
+    obj, joint, t, q, ref, u, law = _pd_drawer(3, damping=b)
+    lines = ["time,pos,ref,force"] + [f"{a!r},{x!r},{r!r},{f!r}" for a, x, r, f in
+                                      zip(t.tolist(), q.tolist(), ref.tolist(), u.tolist(),
+                                          strict=True)]
+    csv = _write(tmp_path / "loop.csv", "\n".join(lines) + "\n")
+    _write(beside(csv), f"""
+[joints.{joint}]
+position = "pos"
+effort = "force"
+[joints.{joint}.feedback]
+reference = "ref"
+kp = {law['kp']}
+kd = {law['kd']}
+velocity_taps = {law['taps']}
+gain = {law['gain']}
+""")
+    result = calibrate(obj, [csv])
+    report = result.report
+    assert report["causes"] == ["damping"], report["selection_log"]
+    p = report["parameters"][f"{joint}.damping"]
+    assert abs(p["value"] - b) <= p["halfwidth95"], p
+    assert report["rmse_after"] < 0.1 * report["rmse_before"]
+    assert result.problem.trajectories[0].law() is not None  # replayed in closed loop
+
+
+def test_declared_law_is_the_controller(tmp_path):
+    """The law computed on the recorded positions gives the recorded effort (saturation
+    and an added column included)."""
+    from real2code_export.calibrate.feedback import Feedback, controller
+
+    obj, joint, t, q, ref, u, law = _pd_drawer(4, damping=3.0)
+    added = 0.01 * np.sin(7 * t)
+    fb = Feedback("ref", law["kp"], law["kd"], law["taps"], "pulse", (-1.0, 1.0), law["gain"])
+    run = controller({joint: fb}, {"ref": ref, "pulse": added}, float(t[1] - t[0]))
+    got = np.array([run(k, {joint: q})[joint] for k in range(len(t))])
+    h = float(t[1] - t[0])
+    vel = np.zeros(len(t))
+    vel[2:] = (q[2:] - q[:-2]) / (2 * h)
+    vel[1] = (q[1] - q[0]) / h
+    want = law["gain"] * np.clip(law["kp"] * (ref - q) - law["kd"] * vel + added, -1, 1)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
