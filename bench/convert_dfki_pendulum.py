@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _convert import DataError, main_guard, source_folder, write_model, write_run  # noqa: E402
 
+from real2code_export import atomic  # noqa: E402
 from real2code_export import transforms as tf  # noqa: E402
 from real2code_export.model import (  # noqa: E402
     ArticulatedObject,
@@ -119,15 +120,15 @@ def convert(folder: Path, out: Path) -> list[Path]:
     runs = sorted(folder.glob("control_method_*.csv"))
     if not runs:
         raise DataError(folder, None, "no control_method_*.csv files")
-    out.mkdir(parents=True, exist_ok=True)
-    written = [write_model(out, nominal_model())]
-    for path in runs:
-        d = read_run(path)
-        stem = path.stem.removeprefix("control_method_")
-        written.append(write_run(
-            out, stem, d["time"], {JOINT: d["position"], f"{JOINT}.effort": d["torque"]},
-            [f"from {path.name} by bench/convert_dfki_pendulum.py (velocity column left out)"]))
-    return written
+    with atomic.staged_output(out) as staging:  # every file or none
+        written = [write_model(staging, nominal_model())]
+        for path in runs:
+            d = read_run(path)
+            stem = path.stem.removeprefix("control_method_")
+            written.append(write_run(
+                staging, stem, d["time"], {JOINT: d["position"], f"{JOINT}.effort": d["torque"]},
+                [f"from {path.name} by bench/convert_dfki_pendulum.py (velocity column left out)"]))
+    return [out / p.relative_to(staging) for p in written]
 
 
 def main() -> int:

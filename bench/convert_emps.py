@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _convert import DataError, main_guard, source_folder, write_model, write_run  # noqa: E402
 
+from real2code_export import atomic  # noqa: E402
 from real2code_export import transforms as tf  # noqa: E402
 from real2code_export.model import ArticulatedObject, Inertial, Joint, Limits, Part  # noqa: E402
 
@@ -108,17 +109,17 @@ def nominal_model(mass: float = NOMINAL_MASS) -> ArticulatedObject:
 
 
 def convert(folder: Path, out: Path) -> list[Path]:
-    out.mkdir(parents=True, exist_ok=True)
-    written = [write_model(out, nominal_model())]
-    for name in FILES:
-        rec = read_mat(folder / name)
-        columns = {JOINT: rec.qm, f"{JOINT}.effort": rec.force, "reference": rec.qg}
-        if np.any(rec.pulses):
-            columns["pulse"] = rec.pulses
-        written.append(write_run(out, Path(name).stem, rec.t - rec.t[0], columns,
-                                 [f"from {name} (EMPS benchmark) by bench/convert_emps.py"],
-                                 experiment(rec)))
-    return written
+    with atomic.staged_output(out) as staging:  # every file or none
+        written = [write_model(staging, nominal_model())]
+        for name in FILES:
+            rec = read_mat(folder / name)
+            columns = {JOINT: rec.qm, f"{JOINT}.effort": rec.force, "reference": rec.qg}
+            if np.any(rec.pulses):
+                columns["pulse"] = rec.pulses
+            written.append(write_run(staging, Path(name).stem, rec.t - rec.t[0], columns,
+                                     [f"from {name} (EMPS benchmark) by bench/convert_emps.py"],
+                                     experiment(rec)))
+    return [out / p.relative_to(staging) for p in written]
 
 
 # -- the benchmark's own inverse-model force error (its scripts, in Python) -------------------

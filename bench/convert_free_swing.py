@@ -26,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _convert import DataError, main_guard, source_folder, write_model, write_run  # noqa: E402
 
+from real2code_export import atomic  # noqa: E402
 from real2code_export import transforms as tf  # noqa: E402
 from real2code_export.model import ArticulatedObject, Inertial, Joint, Part  # noqa: E402
 
@@ -107,13 +108,13 @@ def convert(folder: Path, out: Path) -> list[Path]:
     runs = sorted(folder.glob("free_swing_*.txt"))
     if not runs:
         raise DataError(folder, None, "no free_swing_*.txt files")
-    out.mkdir(parents=True, exist_ok=True)
-    written = [write_model(out, nominal_model())]
-    for path in runs:
-        t, q, trigger = read_run(path)
-        written.append(write_run(out, path.stem, t, {JOINT: q}, [
-            f"from {path.name} (trigger {trigger:g} deg) by bench/convert_free_swing.py"]))
-    return written
+    with atomic.staged_output(out) as staging:  # every file or none
+        written = [write_model(staging, nominal_model())]
+        for path in runs:
+            t, q, trigger = read_run(path)
+            written.append(write_run(staging, path.stem, t, {JOINT: q}, [
+                f"from {path.name} (trigger {trigger:g} deg) by bench/convert_free_swing.py"]))
+    return [out / p.relative_to(staging) for p in written]
 
 
 def main() -> int:

@@ -5,8 +5,8 @@ model with it, fit it, and measure the gain on data it did not fit.
 Modules: ``trajectory`` (the CSV contract), ``spec`` / ``simulate`` (the replay),
 ``features`` (what points at causes), ``effects`` (the candidate library), ``inverse`` and
 ``fit`` (fitting), ``select`` (model selection), ``apply`` / ``extras`` (into the model),
-``report``, ``run`` (the entry points), ``emps`` / ``pendulum`` (real-data adapters) and
-``evaluate`` (the published-vs-ours tables).
+``report``, ``run`` (the entry points). Real data sets reach it through the general
+command: their converters to CSV + experiment file are scripts in ``bench/``.
 """
 
 from .run import CalibrationResult, calibrate, calibrate_trajectories, replay, run_calibrate
