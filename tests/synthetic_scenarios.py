@@ -67,7 +67,7 @@ SCENARIOS = {
     "mass_distribution": Scenario(("lid",), "pushed", forced=("mass_distribution",),
                                   clean=False),
     "sensor_offset": Scenario(("lid",), "either", forced=("encoder_offset",), clean=False),
-    "sensor_delay": Scenario(("door", "drawer", "lid"), "pushed", forced=("delay",),
+    "sensor_delay": Scenario(("door", "drawer", "lid"), "pushed", forced=("effort_delay",),
                              clean=False, rates=(500.0, 1000.0)),
     "unmeasured_push": Scenario(("door", "drawer", "lid"), "either", duration=(3.0, 5.0)),
     "stop": Scenario(("door", "drawer"), "either", forced=("limit",), clean=False),
@@ -104,10 +104,13 @@ class ScenarioCase:
 
     def expected_causes(self) -> set[str]:
         """The truth under the names a physicist would give what the data show: extra
-        inertia on a joint gravity has no hold on is inertia, whatever its source."""
+        inertia on a joint gravity has no hold on is inertia, whatever its source, and so
+        is a rotor's where no effort shows the joint driven (a passive hinge has none)."""
+        driven = f"{self.joint}.effort" in self.fit.columns
         out = set()
         for c in self.truth:
-            if c == "mass_distribution" or (c == "armature" and self.kind != "lid"):
+            if c == "mass_distribution" or (c == "armature" and (
+                    self.kind != "lid" or not driven)):
                 out.add("inertia")
             else:
                 out.add(c)
@@ -157,7 +160,8 @@ def _compatible(chosen: set[str]) -> bool:
     exclusive = [{"friction", "asymmetric_friction"}, {"damping", "asymmetric_friction"},
                  {"spring", "offset"}, {"asymmetric_friction", "offset"},
                  {"asymmetric_friction", "spring"}, {"inertia", "mass_distribution"},
-                 {"encoder_offset", "offset"}, {"encoder_offset", "spring"}]
+                 {"encoder_offset", "offset"}, {"encoder_offset", "spring"},
+                 {"inertia", "armature"}]
     return not any(pair <= chosen for pair in exclusive)
 
 
@@ -285,7 +289,7 @@ def _drive(case: dict, p: JointPhysics, rng, held: bool) -> Run:
     push, window = _no_push, None
     if case["name"] == "unmeasured_push" and not held:
         push, window = _unmeasured_push(rng, amplitude, t_end)
-    delay = case["truth"].get("delay", {}).get("delay", 0.0)
+    delay = case["truth"].get("effort_delay", {}).get("effort_delay", 0.0)
     offset = case["truth"].get("encoder_offset", {}).get("encoder_offset", 0.0)
     columns: dict[str, np.ndarray] = {}
     experiment = None
@@ -374,8 +378,8 @@ def _make(seed: int, attempt: int, name: str, clean: bool) -> ScenarioCase:
             truth[e] = _mass_distribution(p, obj, joint, rng)
         elif e == "encoder_offset":
             truth[e] = {"encoder_offset": float(rng.uniform(0.02, 0.06) * rng.choice([-1, 1]))}
-        elif e == "delay":
-            truth[e] = {"delay": float(rng.uniform(0.008, 0.03))}
+        elif e == "effort_delay":  # the position recorded late: the effort leads it
+            truth[e] = {"effort_delay": float(rng.uniform(0.008, 0.03))}
         elif e != "limit":
             _apply_effect(p, e, rng, p.inertia, amplitude, q_mid, truth)
     case = {"kind": kind, "times": times, "joint": joint, "scenario": scenario, "name": name,

@@ -40,9 +40,9 @@ def truth_params(case) -> dict[str, float]:
                     out[f"{j}.rotational_scale"] = 1.0
             elif effect == "limit":
                 out[f"{j}.limit_{name}"] = value
-            elif effect == "armature" and case.kind != "lid":
-                # no gravity load: armature is extra inertia, reported as the inertia scale
-                out[f"{j}.inertia_scale"] = 1.0 + value / case.notes["inertia"]
+            elif effect == "armature" and "inertia" in case.expected_causes():
+                if case.kind != "lid":  # no gravity load: the inertia scale holds it
+                    out[f"{j}.inertia_scale"] = 1.0 + value / case.notes["inertia"]
             else:
                 out[f"{j}.{name}"] = value
     return out
