@@ -21,7 +21,8 @@ def calibrated_object(obj: ArticulatedObject, fit: Fit) -> ArticulatedObject:
     for joint, effects in by_joint.items():
         extras = dict(ex.joint_extras(out, joint))
         for e in effects:
-            if e.name in ("offset", "asymmetric_friction", "limit"):
+            if e.name in ("offset", "asymmetric_friction", "limit", "encoder_offset",
+                          "effort_delay"):
                 extras.pop(e.name, None)
             e.apply_to_model(out, fit.effect_values(e), extras)
         if out.joint(joint).dynamics.friction > 0:

@@ -27,7 +27,11 @@ from ..model import ArticulatedObject, Dynamics, Limits
 from .simulate import SMOOTH_TIMESTEP, AppliedLaw, set_direction_dependent_damping
 
 VOCABULARY = ("damping", "friction", "asymmetric_friction", "spring", "limit", "inertia",
-              "armature", "offset")
+              "armature", "offset", "encoder_offset", "effort_delay")
+# causes on the sensor's side, not forces: the reading is the joint position plus a zero
+# error (kept in the metadata, applied to every replay's reading)
+SENSOR = ("encoder_offset", "effort_delay")
+MAX_DELAY = 0.05  # s: the largest lag between the effort's and the position's clocks tried
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,12 @@ class JointContext:
     timestep: float = 1e-3
     law: AppliedLaw = AppliedLaw()  # the model's own applied-force law (metadata)
     has_effort: bool = True  # some trajectory measures the effort (or closes the loop)
+    # a rotor may drive the joint: the model declares one (armature, an effort limit) or
+    # the data show the joint driven (a measured effort, a closed loop)
+    actuated: bool = True
+    sensor_offset: float = 0.0  # the model's encoder zero error (metadata), rad or m
+    measured_effort: bool = False  # an effort is measured and replayed open loop
+    effort_delay: float = 0.0  # the model's lag of the effort behind the position (s)
 
     def unit(self, kind: str) -> str:
         a = self.angular
@@ -88,6 +98,8 @@ class Effect:
     aliases: tuple[str, ...] = ()
     ctx: JointContext = field(repr=False, default=None)  # type: ignore[assignment]
     variant: str = ""  # unique within a joint's library ("limit:upper"); default: name
+    # why this name rather than its aliases (which the data cannot tell from it)
+    choice: str = ""
 
     def __post_init__(self) -> None:
         if not self.variant:
@@ -121,6 +133,7 @@ class Effect:
                             v.get("rotational_scale", 1.0))
         elif n == "armature":
             j.armature = v["armature"]
+        # encoder_offset: nothing in the dynamics (the replay adds it to the reading)
 
     def sysid_parameter(self):
         """This effect's parameters as one (vector) ``mujoco.sysid.Parameter`` whose
@@ -145,12 +158,21 @@ class Effect:
         return AppliedLaw()
 
     # -- inverse-dynamics regressor (start values) ------------------------------------------
-    def columns(self, q, dq, ddq, tau_rb, sgn, tau_rot=None
+    def columns(self, q, dq, ddq, tau_rb, sgn, tau_rot=None, tau_dq=None, tau_dt=None
                 ) -> tuple[np.ndarray, list[str]] | None:
         """Columns of tau = sum(column * coefficient); coefficients named (linear).
         ``tau_rot``: the part of ``tau_rb`` due to the parts' rotational inertia about
-        their centres of mass."""
+        their centres of mass; ``tau_dq``: the nominal effort's derivative by the position
+        (an encoder zero error d reads q for the true q - d: tau(q - d) ~ tau - d tau_dq);
+        ``tau_dt``: the measured effort's time derivative (an effort felt d seconds after
+        it is recorded: u(t - d) ~ u - d u')."""
         n = self.name
+        if n == "effort_delay":
+            col = tau_dt if tau_dt is not None else np.zeros_like(q)
+            return col[:, None], ["effort_delay"]
+        if n == "encoder_offset":
+            col = -(tau_dq if tau_dq is not None else np.zeros_like(q))
+            return col[:, None], ["encoder_offset"]
         if n == "damping":
             return dq[:, None], ["damping"]
         if n == "friction":
@@ -220,7 +242,8 @@ class Effect:
                     best = (d, se)
             return best
         p = {"damping": "damping", "friction": "friction", "spring": "stiffness",
-             "armature": "armature", "offset": "offset"}[n]
+             "armature": "armature", "offset": "offset",
+             "encoder_offset": "encoder_offset", "effort_delay": "effort_delay"}[n]
         null = next(x.null for x in self.params if x.name == p)
         return abs(v[p] - (null or 0.0)), math.sqrt(max(var(p), 0.0))
 
@@ -276,6 +299,10 @@ class Effect:
             d.armature = v["armature"]
         elif n == "offset":
             extras["offset"] = {"effort": float(v["offset"])}
+        elif n == "encoder_offset":
+            extras["encoder_offset"] = {"position": float(v["encoder_offset"])}
+        elif n == "effort_delay":
+            extras["effort_delay"] = {"seconds": float(v["effort_delay"])}
 
 
 def _range(ctx: JointContext) -> tuple[float, float]:
@@ -329,14 +356,20 @@ def library(ctx: JointContext) -> list[Effect]:
               d.damping + ctx.law.damping_asym, 0, b_max),
             p("asymmetric_friction", "damping_neg", "damping",
               max(d.damping - ctx.law.damping_asym, 0.0), 0, b_max),
-        ), ctx=ctx),
+        ), ctx=ctx, aliases=("friction+offset",),
+            choice="direction-dependent Coulomb friction is exactly symmetric friction plus a "
+                   "constant force (in slip and in stick): named only because the viscous "
+                   "part differs with the direction too, which no constant force explains"),
         Effect("spring", j, (
             p("spring", "stiffness", "stiffness", d.stiffness, 0, k_max, d.stiffness),
             p("spring", "spring_ref", "position", d.spring_ref if d.stiffness else
               0.5 * (ctx.q_low + ctx.q_high), ctx.q_low - 10 * span, ctx.q_high + 10 * span),
         ), ctx=ctx),
         Effect("offset", j, (p("offset", "offset", "force", ctx.law.offset, -c_max, c_max,
-                                 ctx.law.offset),), ctx=ctx),
+                                 ctx.law.offset),), ctx=ctx,
+               aliases=("encoder_offset",) if _zero_shows(ctx) else (),
+               choice="a constant force and a zero error of the encoder both move the rest "
+                      "position; the force fits better here"),
     ]
     # Mass off (with its weight), and where gravity makes them differ the rotational
     # inertia about the centres of mass besides. Without a measured effort the scale of
@@ -347,12 +380,40 @@ def library(ctx: JointContext) -> list[Effect]:
         inertia_params.append(p("inertia", "inertia_scale", "scale", 1.0, 0.05, 20.0, 1.0))
     if ctx.gravity_loaded and ctx.angular:
         inertia_params.append(p("inertia", "rotational_scale", "scale", 1.0, 0.05, 20.0, 1.0))
+    # Added inertia and a rotor's armature move the joint alike where gravity has no hold
+    # on it, and wherever no effort is measured (then only their sum against the weight's
+    # moment shows); a rotor is named only on a joint that may have one.
+    rotor_alike = not ctx.gravity_loaded or not ctx.has_effort
+    rotor_reason = ("gravity has no hold on this joint" if not ctx.gravity_loaded else
+                    "no effort is measured")
     if inertia_params:
-        out.append(Effect("inertia", j, tuple(inertia_params),
-                          aliases=() if ctx.gravity_loaded else ("armature",), ctx=ctx))
-    if ctx.gravity_loaded:
+        out.append(Effect(
+            "inertia", j, tuple(inertia_params),
+            aliases=("armature",) if rotor_alike else (), ctx=ctx,
+            choice=(f"{rotor_reason}: added inertia and a rotor's armature move the joint "
+                    "alike; " + ("no actuator is declared or measured, so the mass "
+                                 "distribution is named, not a rotor" if not ctx.actuated
+                                 else "reported as the parts' inertia")) if rotor_alike
+            else ""))
+    if ctx.gravity_loaded and ctx.actuated and ctx.has_effort:
         out.append(Effect("armature", j, (p("armature", "armature", "inertia", d.armature, 0,
                                             20 * inertia, d.armature),), ctx=ctx))
+    if _zero_shows(ctx):
+        # where the position has an absolute meaning (gravity or a spring pulls toward a
+        # place) a zero error of the encoder shows, and must not pass for a force
+        out.append(Effect("encoder_offset", j, (
+            p("encoder_offset", "encoder_offset", "position", ctx.sensor_offset,
+              ctx.sensor_offset - 0.5 * span - 0.1, ctx.sensor_offset + 0.5 * span + 0.1,
+              ctx.sensor_offset),), ctx=ctx, aliases=("offset",),
+            choice="a constant force and a zero error of the encoder both move the rest "
+                   "position; the zero error fits better here (a sensor's cause, not a "
+                   "force)"))
+    if ctx.measured_effort:
+        # the effort and the position sampled by two clocks: the joint feels the effort
+        # recorded d seconds earlier (a sensor's cause, not a force)
+        out.append(Effect("effort_delay", j, (
+            p("effort_delay", "effort_delay", "time", ctx.effort_delay, -MAX_DELAY,
+              MAX_DELAY, ctx.effort_delay),), ctx=ctx))
     for sides in _limit_sides(ctx):
         params = []
         variant = "limit:" + "+".join(sides)
@@ -366,6 +427,12 @@ def library(ctx: JointContext) -> list[Effect]:
         params.append(p("limit", "limit_dampratio", "scale", 1.0, 0.05, 3.0))
         out.append(Effect("limit", j, tuple(params), ctx=ctx, variant=variant))
     return out
+
+
+def _zero_shows(ctx: JointContext) -> bool:
+    """Whether an encoder's zero error shows in the motion (the dynamics depend on where
+    the joint is: gravity, a spring)."""
+    return ctx.gravity_loaded or ctx.dynamics.stiffness > 0
 
 
 def _limit_sides(ctx: JointContext) -> list[tuple[str, ...]]:
@@ -382,6 +449,7 @@ EXCLUSIVE = {
     frozenset({"asymmetric_friction", "damping"}),
     frozenset({"asymmetric_friction", "offset"}),
     frozenset({"spring", "offset"}),
+    frozenset({"encoder_offset", "offset"}),
 }
 # (asymmetric friction with a spring is offered: its viscous asymmetry is identifiable,
 # while its Coulomb asymmetry and the spring's rest position share one constant force and

@@ -30,6 +30,27 @@ def derivatives(x: np.ndarray, period: float, window: int | None = None
             savgol_filter(x, deriv=2, **kw))
 
 
+def despike(x: np.ndarray, width: int = 7, sigmas: float = 6.0) -> tuple[np.ndarray, int]:
+    """``x`` with isolated spikes (a motor's current-derived torque) replaced by the running
+    median (a Hampel filter), and how many were replaced: a spike smoothed with the rest
+    would spread into a bump no robust loss could tell from the signal."""
+    from scipy.signal import medfilt
+
+    if len(x) < 3 * width:
+        return x, 0
+    med = medfilt(x, width)
+    r = x - med
+    sigma = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+    if sigma <= 0:
+        return x, 0
+    spikes = np.abs(r) > sigmas * sigma
+    if not spikes.any():
+        return x, 0
+    out = x.copy()
+    out[spikes] = med[spikes]
+    return out, int(spikes.sum())
+
+
 def noise_level(x: np.ndarray) -> float:
     """Standard deviation of the sensor noise (quantisation included), from what a short
     local cubic cannot follow; corrected for the part of the noise the fit absorbs."""

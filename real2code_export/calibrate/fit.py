@@ -173,6 +173,7 @@ class _Evaluator:
         self.fine = problem.nonsmooth or any(e.name in NONSMOOTH for e in effects)
         self.count = 0
         self._models: dict[tuple, object] = {}
+        self._lagged: dict[tuple, BatchRunner] = {}
         self.runners = [BatchRunner(tr, problem.joints) for tr in problem.trajectories]
         sizes = [tr.n * len(problem.joints) for tr in problem.trajectories]
         self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
@@ -211,16 +212,62 @@ class _Evaluator:
         another replay of the same trajectory, e.g. with a perturbed input)."""
         if not points:
             return []
-        models, initials, laws = [], [], []
+        models, initials, laws, zeros = [], [], [], []
         for x in points:
             values, x0 = self.split(x)
             models.append(self.model(values))
-            initials.append({j: (float(x0[t][k, 0]), float(x0[t][k, 1]))
+            # the initial state is fitted as read; the joint starts at the reading less the
+            # encoder's zero error, and what the encoder reads is compared with the data
+            zero = self.sensor_offsets(values)
+            zeros.append(zero)
+            initials.append({j: (float(x0[t][k, 0] - zero[k]), float(x0[t][k, 1]))
                              for k, j in enumerate(self.problem.joints)})
             laws.append(laws_for(self.effects, values, self.problem.base_laws))
         self.count += len(points)
-        ros = (runner or self.runners[t]).run(models, initials, laws, self.fine, self.refine)
+        ros: list = [None] * len(points)
+        groups: dict[tuple, list[int]] = {}
+        for i, x in enumerate(points):  # points with one lag replay one input
+            groups.setdefault(self.delays(self.split(x)[0]), []).append(i)
+        for lag, idx in groups.items():
+            use = self._runner(t, lag, runner)
+            out = use.run([models[i] for i in idx], [initials[i] for i in idx],
+                          [laws[i] for i in idx], self.fine, self.refine)
+            for i, ro in zip(idx, out, strict=True):
+                ros[i] = ro
+        for zero, ro in zip(zeros, ros, strict=True):
+            if np.any(zero):
+                ro.positions = ro.positions + zero
         return [(self._block(t, ro), ro) for ro in ros]
+
+    def delays(self, values: dict[str, float]) -> tuple[float, ...]:
+        pr = self.problem
+        return tuple(values.get(f"{j}.effort_delay", pr.contexts[j].effort_delay)
+                     for j in pr.joints)
+
+    def _runner(self, t: int, lag: tuple[float, ...], given: BatchRunner | None = None
+                ) -> BatchRunner:
+        """The replay of trajectory ``t`` (or of ``given``'s input) with each joint's effort
+        felt ``lag`` seconds after it was recorded (cached: a fit tries few lags)."""
+        base = given if given is not None else self.runners[t]
+        if not any(lag):
+            return base
+        key = (t, lag)
+        if given is None and key in self._lagged:
+            return self._lagged[key]
+        tr = base.traj
+        efforts = {j: np.interp(tr.time - lag[k], tr.time, tr.efforts[j])
+                   for k, j in enumerate(self.problem.joints) if j in tr.efforts}
+        lagged = BatchRunner(dataclasses.replace(tr, efforts=efforts), self.problem.joints)
+        if given is None:
+            if len(self._lagged) > 16:
+                self._lagged.clear()
+            self._lagged[key] = lagged
+        return lagged
+
+    def sensor_offsets(self, values: dict[str, float]) -> np.ndarray:
+        pr = self.problem
+        return np.array([values.get(f"{j}.encoder_offset", pr.contexts[j].sensor_offset)
+                         for j in pr.joints])
 
     def residual(self, x: np.ndarray) -> tuple[np.ndarray, list[Rollout]]:
         out = [self.run(t, [x])[0] for t in range(len(self.problem.trajectories))]

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import lsq_linear
+from scipy.optimize import least_squares, lsq_linear
 
 from . import features
 from .effects import Effect
@@ -61,6 +61,26 @@ def _nominal_effort(problem: Problem, joint: str, k: int, sig, names: set[str]) 
     return out
 
 
+SPIKE_SIGMAS = 3.0  # residuals beyond this many robust deviations weigh less (soft L1)
+
+
+def _robust(x: np.ndarray, y: np.ndarray, coef: np.ndarray, colscale: np.ndarray,
+            lb: np.ndarray, ub: np.ndarray) -> np.ndarray:
+    """Refit with a soft-L1 loss when the residual has spikes (a motor's current-derived
+    torque; samples at impacts): scale from the residual's median absolute deviation, so
+    Gaussian noise is fitted as by least squares and spikes pull linearly, not
+    quadratically."""
+    r = y - x @ coef
+    sigma = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+    if sigma <= 0 or not np.any(np.abs(r) > 2 * SPIKE_SIGMAS * sigma):
+        return coef
+    a = x / colscale
+    start = np.clip(coef * colscale, lb, ub)
+    res = least_squares(lambda c: a @ c - y, start, bounds=(lb, ub), loss="soft_l1",
+                        f_scale=SPIKE_SIGMAS * sigma)
+    return res.x / colscale
+
+
 def equation_fit(problem: Problem, effects: tuple[Effect, ...]) -> EquationFit:
     """Least squares of the effort equation for one candidate structure."""
     names_by_joint: dict[str, set[str]] = {j: set() for j in problem.joints}
@@ -79,7 +99,9 @@ def equation_fit(problem: Problem, effects: tuple[Effect, ...]) -> EquationFit:
             c = 0
             for e in effects:
                 cols = e.columns(sig.q[:, k], sig.dq[:, k], sig.ddq[:, k], sig.tau_rb[:, k],
-                                 sgn, sig.tau_rot[:, k]) if e.joint == joint else None
+                                 sgn, sig.tau_rot[:, k], sig.tau_dq[:, k],
+                                 sig.tau_dt[:, k]) \
+                    if e.joint == joint else None
                 width = len(e.coefficient_names)
                 if cols is not None:
                     x[:, c:c + width] = cols[0]
@@ -98,9 +120,10 @@ def equation_fit(problem: Problem, effects: tuple[Effect, ...]) -> EquationFit:
             lower.append(p.lower if p is not None else -np.inf)
             upper.append(p.upper if p is not None else np.inf)
         colscale = np.maximum(np.linalg.norm(x, axis=0), 1e-12)
-        res = lsq_linear(x / colscale, y, bounds=(np.array(lower) * colscale,
-                                                   np.array(upper) * colscale))
+        lb, ub = np.array(lower) * colscale, np.array(upper) * colscale
+        res = lsq_linear(x / colscale, y, bounds=(lb, ub))
         coef = res.x / colscale
+        coef = _robust(x, y, coef, colscale, lb, ub)
     resid = y - x @ coef if len(y) else y
     values: dict[str, float] = {}
     c = 0

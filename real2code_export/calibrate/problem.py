@@ -29,6 +29,8 @@ class Signals:
     tau: np.ndarray
     tau_rb: np.ndarray
     tau_rot: np.ndarray  # the part of tau_rb due to rotational inertia about the com
+    tau_dq: np.ndarray  # d(nominal effort)/d(position): what an encoder zero error moves
+    tau_dt: np.ndarray  # the measured effort's time derivative: what a lag moves
     dq_noise: np.ndarray  # per joint: noise of the smoothed velocity
     usable: np.ndarray  # (n,) samples away from impacts and the ends
 
@@ -118,6 +120,29 @@ def _initial_state(t: np.ndarray, q: np.ndarray, noise: float
                                               float(np.sqrt(cov[1, 1])))
 
 
+def sensor_offset(obj: ArticulatedObject, joint: str) -> float:
+    """The encoder zero error the model's metadata records for ``joint`` (0 if none)."""
+    from .extras import joint_extras
+
+    return float(joint_extras(obj, joint).get("encoder_offset", {}).get("position", 0.0))
+
+
+def effort_delay(obj: ArticulatedObject, joint: str) -> float:
+    """The lag of the effort behind the position the model's metadata records (s)."""
+    from .extras import joint_extras
+
+    return float(joint_extras(obj, joint).get("effort_delay", {}).get("seconds", 0.0))
+
+
+def _actuated(joint, trajectories: list[Trajectory]) -> bool:
+    """Whether a rotor may drive ``joint``: the model declares one (armature, an effort
+    limit) or the data show the joint driven (a measured effort, a closed loop)."""
+    declared = joint.dynamics.armature > 0 or (joint.limits is not None and
+                                               bool(joint.limits.effort))
+    return declared or any(joint.name in tr.efforts or tr.law() is not None
+                           for tr in trajectories)
+
+
 def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Problem:
     joints = trajectories[0].joints
     for name in joints:
@@ -152,10 +177,15 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         q_s = np.column_stack([s[0] for s in smoothed])
         dq = np.column_stack([s[1] for s in smoothed])
         ddq = np.column_stack([s[2] for s in smoothed])
-        tau_s = np.column_stack([features.derivatives(taus[:, k], period)[0]
-                                 for k in range(len(joints))])
+        tau_d = [features.derivatives(features.despike(taus[:, k])[0], period)
+                 for k in range(len(joints))]
+        tau_s = np.column_stack([d[0] for d in tau_d])
+        tau_dt = np.column_stack([d[1] for d in tau_d])
         tau_rb = rigid_effort(spec, joints, q_s, dq, ddq)
         tau_rot = tau_rb - rigid_effort(spec, joints, q_s, dq, ddq, point_masses=True)
+        eps = 1e-5 * max(float(np.ptp(qs)), 1e-3)
+        tau_dq = (rigid_effort(spec, joints, q_s + eps, dq, ddq) - tau_rb) / eps
+        tau_dq += np.array([obj.joint(j).dynamics.stiffness for j in joints])
         w = features.smoothing_window(period)
         c1 = savgol_coeffs(max(w, 5), min(4, w - 1), deriv=1, delta=period)
         dq_noise = sig_q * float(np.sqrt(np.sum(c1**2)))
@@ -183,7 +213,8 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         x0s.append(x0)
         x0_free.append(free)
         x0_se.append(se)
-        signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, dq_noise, usable))
+        signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, tau_dq, tau_dt,
+                               dq_noise, usable))
 
     # samples near an end stop are left out of the inverse-dynamics start (impacts)
     for sig in signals:
@@ -216,6 +247,11 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             law=base_law(obj, name),
             has_effort=any(name in tr.efforts or tr.law() is not None
                            for tr in trajectories),
+            actuated=_actuated(j, trajectories),
+            sensor_offset=sensor_offset(obj, name),
+            measured_effort=any(name in tr.efforts and tr.law() is None
+                                for tr in trajectories),
+            effort_delay=effort_delay(obj, name),
         )
         contexts[name] = ctx
         effects[name] = {e.variant: e for e in library(ctx)}

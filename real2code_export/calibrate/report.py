@@ -78,6 +78,7 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
     for e in sorted(chosen.effects, key=lambda e: (e.joint, order[e.name])):
         strength, se = e.strength(chosen.effect_values(e), chosen.effect_cov(e))
         details.append({"effect": e.name, "joint": e.joint, "aliases": list(e.aliases),
+                        "indistinguishable_from": list(e.aliases), "choice": e.choice,
                         "motion_change_rms_noise": _num(chosen.material.get(e.name)),
                         "departure_from_absence": _num(strength),
                         "departure_stderr": _num(se)})
@@ -215,7 +216,7 @@ def markdown(report: dict[str, Any], images: dict[str, str]) -> str:
     for d in report["cause_details"]:
         if d["aliases"]:
             lines.append(f"- `{d['effect']}` on `{d['joint']}` is indistinguishable here from "
-                         f"{', '.join(d['aliases'])} (gravity has no hold on this joint).")
+                         f"{', '.join(d['aliases'])}: {d.get('choice', '')}.")
     if report["unexplained"]:
         lines += ["", f"**Unexplained:** the residual left by the best model is "
                   f"{report['residual_to_noise']:.1f} times the sensor noise (threshold "

@@ -197,6 +197,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     report = build_report(problem, selection, fits, holdouts, _features(problem, selection.nominal),
                           [tr.source for tr in trajectories], [tr.source for tr in held],
                           model.name)
+    report["equation_error"] = _equation_error(problem, selection.chosen)
     report["excluded"] = [e.as_json() for e in excluded + held_excluded]
     report["cross_validation"] = cv.as_json()
     report["rejected"] = rejected
@@ -207,6 +208,22 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
         files = write_outputs(Path(out_dir), calibrated, report, fits + holdouts, problem,
                               list(formats) if formats is not None else _export_formats())
     return CalibrationResult(calibrated, report, selection, problem, fits, holdouts, files)
+
+
+def _equation_error(problem: Problem, chosen: Fit) -> dict | None:
+    """The inverse-dynamics (equation-error) estimate of the chosen structure beside the
+    simulation (output-error) one: where the effort is measured both are reported."""
+    if not any(problem.contexts[j].has_effort for j in problem.joints):
+        return None
+    start = chosen.start
+    if start is None:
+        return {"parameters": {}, "note": "nominal model: nothing fitted"}
+    return {"parameters": dict(start.values),
+            "residual_rms": float(np.sqrt(start.rss / max(start.n, 1))),
+            "unit": "effort / effort scale",
+            "loss": "soft L1 where the effort residual has spikes, else least squares",
+            "note": "measured effort regressed on Savitzky-Golay smoothed motion; the "
+                    "simulation fit starts from it and decides"}
 
 
 def _total_rmse(replays: list[Replay], which: str) -> float:

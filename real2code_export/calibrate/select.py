@@ -103,6 +103,36 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
     return best
 
 
+def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
+    """An effect the data can hardly tell from another (a constant force and an encoder's
+    zero error) may have won the cheap screen by a hair: its alias is fitted by simulation
+    too, and the better of the two by BIC kept."""
+    best = kept
+    for e in kept.effects:
+        lib = problem.effects[e.joint]
+        for alias in e.aliases:
+            if alias not in lib:
+                continue
+            swapped = tuple(x for x in kept.effects if x is not e) + (lib[alias],)
+            if _key(swapped) in fits:
+                f = fits[_key(swapped)]
+            else:
+                f = fit_candidate(problem, swapped, refine=False, warm=dict(kept.values))
+                fits[_key(swapped)] = f
+            n_ref = _n_ref(fits.values())
+            if f.bic(n_ref) < best.bic(n_ref):
+                f = refine_fit(f)
+                fits[_key(swapped)] = f
+                if all(f.present(x) for x in f.effects) and not f.degenerate():
+                    log.append(f"tried {'+'.join(f.names)} in place of "
+                               f"{'+'.join(kept.names)}: BIC {f.bic(n_ref):.1f}, better")
+                    best = f
+                    continue
+            log.append(f"tried {'+'.join(f.names)} in place of {'+'.join(kept.names)}: "
+                       f"BIC {f.bic(n_ref):.1f}, no better")
+    return best
+
+
 def _warm_start(current: Fit) -> dict[str, float]:
     """Start values from the current model: its parameters, and direction-dependent
     friction started from the symmetric friction it refines. (Initial states start from
@@ -187,7 +217,7 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             log.append(f"no extension of {'+'.join(current.names) or 'the nominal model'} "
                        "earns its parameters")
             break
-        current = kept
+        current = _try_aliases(problem, kept, fits, log)
         log.append(f"kept {'+'.join(current.names)}")
         if _nothing_left(current):
             log.append(f"residual {math.sqrt(current.rss / current.n):.2f} x noise: nothing "

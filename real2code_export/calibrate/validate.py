@@ -18,6 +18,7 @@ from .trajectory import MIN_SAMPLES, Trajectory
 from .windows import window
 
 MIN_HALF = 0.5  # s: a single run shorter than twice this is not split
+FOLD_NFEV = 8  # a fold starts at the full fit: a few steps move it to its own optimum
 
 
 @dataclass
@@ -58,37 +59,17 @@ def cross_validate(obj, trajectories: list[Trajectory], chosen: Fit) -> CrossVal
     """Leave-out prediction error of ``chosen``'s structure against the nominal model."""
     if not chosen.effects:
         return CrossValidation(0, 0.0, 0.0, "none")
+    from .apply import calibrated_object
+
     kind, folds = _folds(trajectories)
     sse_nom = sse_cal = 0.0
     for rest, left in folds:
-        train = build_problem(obj, rest)
-        # the chosen effects as they are (a stop only one run reaches keeps its place)
-        fold = fit_candidate(train, chosen.effects, refine=False, warm=dict(chosen.values))
-        test = build_problem(obj, [left])
-        nominal = fit_candidate(test, (), refine=False)
-        predicted = _predict(test, chosen.effects, fold.values)
-        sse_nom += _sse(nominal)
-        sse_cal += predicted
+        # the chosen effects as they are (a stop only one run reaches keeps its place),
+        # refitted from the full fit's values
+        fold = fit_candidate(build_problem(obj, rest), chosen.effects, refine=False,
+                             warm=dict(chosen.values), max_nfev=FOLD_NFEV)
+        sse_nom += _sse(fit_candidate(build_problem(obj, [left]), (), refine=False))
+        # the fold's model as it would be exported, only the initial state fitted
+        predicted = build_problem(calibrated_object(obj, fold), [left])
+        sse_cal += _sse(fit_candidate(predicted, (), refine=False))
     return CrossValidation(len(folds), sse_nom, sse_cal, kind)
-
-
-def _predict(problem, effects, values: dict[str, float]) -> float:
-    """Squared error of the structure with ``values`` held fixed (only the initial state
-    fitted) on ``problem``'s runs."""
-    from .effects import Param
-
-    fixed = []
-    for e in effects:
-        params = tuple(Param(p.effect, p.joint, p.name, p.unit, values[p.key],
-                             values[p.key] - 1e-12 * max(abs(values[p.key]), 1.0),
-                             values[p.key] + 1e-12 * max(abs(values[p.key]), 1.0), p.null)
-                       for p in e.params)
-        fixed.append(_with_params(e, params))
-    fit = fit_candidate(problem, tuple(fixed), refine=False, warm=dict(values))
-    return _sse(fit)
-
-
-def _with_params(effect, params):
-    import dataclasses
-
-    return dataclasses.replace(effect, params=params)

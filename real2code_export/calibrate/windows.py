@@ -109,8 +109,10 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         required = (tau_rb[:, k] + d.armature * ddq[:, k] + d.damping * dq[:, k]
                     + d.friction * sgn + d.stiffness * (q[:, k] - d.spring_ref))
         y = -required  # the unmeasured force, less what candidate effects explain
-        # (the inertia stays nominal: without an effort its scale is not observable)
-        x = np.column_stack([dq[:, k], sgn, q[:, k] - q[:, k].mean(), np.ones(tr.n)])
+        # (the inertia stays nominal: without an effort its scale is not observable; a
+        # constant force is the residual's median, kept out of the regression where, with
+        # damping, it would pass for a push from rest)
+        x = np.column_stack([dq[:, k], sgn, q[:, k] - q[:, k].mean()])
         use = np.zeros(tr.n, bool)
         use[edge:-edge] = True
         if use.sum() < MIN_SAMPLES:
@@ -118,12 +120,17 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         scale = np.maximum(np.linalg.norm(x[use], axis=0), 1e-12)
         ys = max(float(np.std(y[use])), 1e-12)
         # damping and friction only take energy out: a push cannot hide in them
-        lower = np.array([0.0, 0.0, -np.inf, -np.inf])
+        lower = np.array([0.0, 0.0, -np.inf])
         a_use, y_use = x[use] / scale, y[use] / ys
-        fit = least_squares(lambda b, a=a_use, yy=y_use: a @ b - yy,
-                            np.array([1e-6, 1e-6, 0.0, 0.0]), bounds=(lower, np.inf),
+
+        def resid(b, a=a_use, yy=y_use):
+            r = a @ b - yy
+            return r - np.median(r)
+
+        fit = least_squares(resid, np.array([1e-6, 1e-6, 0.0]), bounds=(lower, np.inf),
                             loss="soft_l1", f_scale=0.1)
         r = y - (x / scale) @ fit.x * ys
+        r -= np.median(r[use])
         core = r[use]
         sigma = 1.4826 * float(np.median(np.abs(core - np.median(core))))
         if sigma <= 0:

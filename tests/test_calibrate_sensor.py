@@ -1,0 +1,69 @@
+"""Sensor-side causes are named as such, not as forces: an encoder's zero error on a joint
+gravity acts on (the data: the independent generator's effect-free lid, pushed with a
+measured effort or swinging freely, read through an encoder that is off by a constant)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from real2code_export.calibrate import calibrate
+
+from synthetic_joint_data import integrate, make_case, physics_for
+
+
+@pytest.mark.parametrize("seed, zero, with_effort", [(2, 0.06, True), (5, -0.08, False)])
+def test_encoder_zero_error_is_not_a_force(tmp_path, seed, zero, with_effort):
+    case = make_case(seed, kind="lid", effects=[])
+    text = case.csv()
+    if not with_effort:  # a free swing from 0.8 rad, position only
+        p = physics_for(case.obj, case.joint)
+        q = integrate(p, lambda _t: 0.0, float(case.time[-1]) + 1e-9, 0.8, 0.0, case.time)
+        rng = np.random.default_rng(seed)
+        case.position = np.round((q + rng.normal(0, case.noise, len(q))) / case.quantum) \
+            * case.quantum
+        text = f"time,{case.joint}\n" + "\n".join(
+            f"{t!r},{x!r}" for t, x in zip(case.time.tolist(), case.position.tolist(),
+                                           strict=True)) + "\n"
+    text = _shifted(text, zero)
+    csv = Path(tmp_path / "run.csv")
+    csv.write_text(text)
+    result = calibrate(case.obj, [csv])
+    report = result.report
+    assert report["causes"] == ["encoder_offset"], report["selection_log"]
+    p = report["parameters"][f"{case.joint}.encoder_offset"]
+    assert abs(p["value"] - zero) <= p["halfwidth95"], p
+    # the calibrated model carries the zero error and replays the reading
+    extras = result.model.metadata["real2code:dynamics"][case.joint]
+    assert extras["encoder_offset"]["position"] == pytest.approx(p["value"])
+    assert report["rmse_after"] < 3 * case.noise + case.quantum
+
+
+def _shifted(text: str, zero: float) -> str:
+    """The CSV as an encoder off by ``zero`` reads it (the position column shifted)."""
+    lines = text.splitlines()
+    out = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        cells[1] = repr(float(cells[1]) + zero)
+        out.append(",".join(cells))
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("seed, kind, lag", [(1, "drawer", 0.02), (0, "door", -0.015)])
+def test_effort_lag_is_a_delay_not_a_force(tmp_path, seed, kind, lag):
+    """The effort recorded by a clock ``lag`` seconds behind the position's: the joint
+    feels at t what the file says at t - lag. Named ``effort_delay``, nothing else."""
+    case = make_case(seed, kind=kind, effects=[])
+    u_true = case.notes["u_true"]
+    rng = np.random.default_rng(seed)
+    case.effort = np.interp(case.time + lag, case.time, u_true) + rng.normal(
+        0.0, 3e-4 * case.notes["amplitude"], len(u_true))
+    csv = Path(tmp_path / "run.csv")
+    csv.write_text(case.csv())
+    report = calibrate(case.obj, [csv]).report
+    assert report["causes"] == ["effort_delay"], report["selection_log"]
+    p = report["parameters"][f"{case.joint}.effort_delay"]
+    assert abs(p["value"] - lag) <= p["halfwidth95"], p
