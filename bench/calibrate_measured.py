@@ -94,20 +94,33 @@ def summary(report: dict, seconds: float) -> list[str]:
 
 
 def joint_terms(obj_path: Path, joint: str) -> dict[str, float]:
-    """Inertia about the axis (with armature) and first moment normal to it, of the joint's
-    child part, and the joint's dynamics, read from an object file."""
+    """Mass, inertia about the axis (with armature) and first moment normal to it of what
+    the joint moves (its child and the parts fixed to it), and the joint's dynamics, read
+    from an object file."""
     obj = load(obj_path)
     j = obj.joint(joint)
-    part = obj.part(j.child)
     axis = np.asarray(j.axis, float)
-    c = part.inertial.com
-    c_perp = c - axis * float(axis @ c)
-    parallel = part.inertial.mass * (float(c @ c) * np.eye(3) - np.outer(c, c))
-    about_axis = float(axis @ (part.inertial.inertia + parallel) @ axis)
+    mass, moment, about_axis = 0.0, np.zeros(3), 0.0
+    frames = {j.child: np.eye(4)}  # part -> its pose in the child's frame
+    while True:
+        more = {f.child: frames[f.parent] @ f.origin for f in obj.joints
+                if not f.type.movable and f.parent in frames and f.child not in frames}
+        if not more:
+            break
+        frames.update(more)
+    for name, pose in frames.items():
+        inertial = obj.part(name).inertial
+        if inertial is None:
+            continue
+        r = pose[:3, :3]
+        c = r @ inertial.com + pose[:3, 3]
+        parallel = inertial.mass * (float(c @ c) * np.eye(3) - np.outer(c, c))
+        about_axis += float(axis @ (r @ inertial.inertia @ r.T + parallel) @ axis)
+        mass += inertial.mass
+        moment += inertial.mass * (c - axis * float(axis @ c))
     d = j.dynamics
-    return {"mass": part.inertial.mass, "J": about_axis + d.armature,
-            "m_cx": part.inertial.mass * float(np.linalg.norm(c_perp)), "damping": d.damping,
-            "friction": d.friction, "armature": d.armature}
+    return {"mass": mass, "J": about_axis + d.armature, "m_cx": float(np.linalg.norm(moment)),
+            "damping": d.damping, "friction": d.friction, "armature": d.armature}
 
 
 # -- the data sets ----------------------------------------------------------------------------
