@@ -181,7 +181,7 @@ def cmd_calibrate(args) -> int:
 
     return run_calibrate(Path(args.model), [Path(x) for x in args.data],
                          [Path(x) for x in args.holdout or []], Path(args.out),
-                         start=args.start, end=args.end,
+                         start=args.start, end=args.end, segment=args.segment,
                          experiment=Path(args.experiment) if args.experiment else None)
 
 
@@ -268,6 +268,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--experiment", metavar="TOML", help="experiment file (units, gravity, "
                    "window, columns, feedback law) for every CSV without its own "
                    "<stem>.experiment.toml")
+    s.add_argument("--segment", type=float, metavar="S", help="fit runs as pieces of S "
+                   "seconds, each with its own initial state (multiple shooting)")
     s.set_defaults(func=cmd_calibrate)
 
     s = sub.add_parser("evaluate", help="accuracy tables (the paper's metrics)")

@@ -9,6 +9,8 @@ replay of the object (calibrated or not) applies them:
                                     "damping_pos": b+, "damping_neg": b-},
             "limit": {"timeconst": tc, "dampratio": z},       # MJCF solreflimit
             "friction": {"timeconst": tc, "dampratio": 1.0},  # MJCF solreffriction
+            "encoder_offset": {"position": d},                # the sensor reads q + d
+            "effort_delay": {"seconds": s},                   # effort felt s after recorded
         }, ...}
 
 The force law for a simulator without these attributes (MuJoCo: ``qfrc_applied``):

@@ -60,7 +60,7 @@ class Problem:
 FRICTION_TIMECONST = 2 * MAX_TIMESTEP
 
 
-def _replay_spec(obj: ArticulatedObject, joints: list[str], gravity=None):
+def calibration_spec(obj: ArticulatedObject, joints: list[str], gravity=None):
     spec = replay_spec(obj, joints)
     if gravity is not None:  # the experiment's, in the model's world frame
         spec.option.gravity = list(gravity)
@@ -157,7 +157,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         if tr.gravity != gravity:
             raise FormatError(tr.source, "gravity", f"declares {tr.gravity}, "
                              f"{trajectories[0].source} {gravity}: fit them separately")
-    spec = _replay_spec(obj, joints, gravity)
+    spec = calibration_spec(obj, joints, gravity)
     nominal = spec.copy().compile()
     from .simulate import joint_addresses
 
@@ -173,11 +173,13 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         taus = np.column_stack([tr.efforts.get(j, np.zeros(tr.n)) for j in joints])
         eff_noise.append(np.array([features.noise_level(taus[:, k]) if j in tr.efforts
                                    else 0.0 for k, j in enumerate(joints)]))
-        smoothed = [features.derivatives(qs[:, k], period) for k in range(len(joints))]
+        # the filter from the data: one window for the run (its widest joint's bandwidth)
+        w = min(features.bandwidth_window(qs[:, k], period) for k in range(len(joints)))
+        smoothed = [features.derivatives(qs[:, k], period, w) for k in range(len(joints))]
         q_s = np.column_stack([s[0] for s in smoothed])
         dq = np.column_stack([s[1] for s in smoothed])
         ddq = np.column_stack([s[2] for s in smoothed])
-        tau_d = [features.derivatives(features.despike(taus[:, k])[0], period)
+        tau_d = [features.derivatives(features.despike(taus[:, k])[0], period, w)
                  for k in range(len(joints))]
         tau_s = np.column_stack([d[0] for d in tau_d])
         tau_dt = np.column_stack([d[1] for d in tau_d])
@@ -186,7 +188,6 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         eps = 1e-5 * max(float(np.ptp(qs)), 1e-3)
         tau_dq = (rigid_effort(spec, joints, q_s + eps, dq, ddq) - tau_rb) / eps
         tau_dq += np.array([obj.joint(j).dynamics.stiffness for j in joints])
-        w = features.smoothing_window(period)
         c1 = savgol_coeffs(max(w, 5), min(4, w - 1), deriv=1, delta=period)
         dq_noise = sig_q * float(np.sqrt(np.sum(c1**2)))
         usable = np.ones(tr.n, bool)

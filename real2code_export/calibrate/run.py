@@ -18,13 +18,19 @@ from . import features as ft
 from .apply import calibrated_object
 from .experiment import read_experiment
 from .fit import Fit, fit_candidate
+from .inertial import compared
 from .inverse import _nominal_effort
-from .problem import Problem, _replay_spec, build_problem
+from .problem import Problem, build_problem, calibration_spec
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
 from .trajectory import MIN_SAMPLES, Trajectory, read_all
 from .validate import cross_validate
-from .windows import Excluded, cut, find_pushes, window
+from .windows import Excluded, cut, find_pushes, segments, window
+
+# Multiple shooting for a plant that integrates its input (no restoring force, a measured
+# effort replayed open loop): its replay drifts with every error of the input, so long runs
+# are fitted as pieces of about this length, each with its own initial state.
+SHOOTING_SECONDS = 5.0
 
 
 @dataclass
@@ -108,17 +114,22 @@ def _export_formats() -> list[str]:
 def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[Path] = (),
               out_dir: Path | None = None, formats: Sequence[str] | None = None,
               start: float | None = None, end: float | None = None,
-              experiment: Path | None = None) -> CalibrationResult:
+              experiment: Path | None = None, segment: float | None = None
+              ) -> CalibrationResult:
     """Fit the model's joint dynamics to measured trajectories (CSV files, DESIGN.md).
 
     Every file is read and checked before anything runs; ``start``/``end`` (seconds, in the
     files' time) keep a window of every run (over the experiment files' own windows);
-    ``experiment``: the experiment file for every CSV that has none beside it. With ``out_dir`` the report (``report.json``,
-    ``report.md`` and its plots), the calibrated ``object.json`` and the exports are
-    written there atomically.
+    ``experiment``: the experiment file for every CSV that has none beside it;
+    ``segment`` (s): fit runs as pieces this long (multiple shooting; by default only a
+    plant that integrates an open-loop effort is cut, into SHOOTING_SECONDS). With
+    ``out_dir`` the report (``report.json``, ``report.md`` and its plots), the calibrated
+    ``object.json`` and the exports are written there atomically.
     """
     if not data:
         raise FormatError(None, "--data", "no trajectory to fit")
+    if segment is not None and not segment > 0:
+        raise FormatError(None, "--segment", f"{segment} s: a segment must last a while")
     if start is not None and end is not None and end <= start:
         raise FormatError(None, "--end", f"{end} is not after --start {start}")
     declared = read_experiment(experiment) if experiment is not None else None
@@ -128,7 +139,7 @@ def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[
     if held and set(held[0].joints) != set(trajectories[0].joints):
         raise FormatError(held[0].source, "header", f"measures joints {held[0].joints}, the "
                           f"fitted data measure {trajectories[0].joints}")
-    return calibrate_trajectories(model, trajectories, held, out_dir, formats)
+    return calibrate_trajectories(model, trajectories, held, out_dir, formats, segment)
 
 
 def _windowed(tr: Trajectory, start: float | None, end: float | None) -> Trajectory:
@@ -150,16 +161,31 @@ def leave_out_pushes(model: ArticulatedObject, trajectories: list[Trajectory]
     if not trajectories:
         return [], []
     joints = trajectories[0].joints
-    spec = _replay_spec(model, joints)
+    spec = calibration_spec(model, joints, trajectories[0].gravity)
     dynamics = {j: model.joint(j).dynamics for j in joints}
     excluded = [e for tr in trajectories for e in find_pushes(tr, joints, spec, dynamics)]
     pieces = [p for tr in trajectories for p in cut(tr, excluded)]
     return pieces, excluded
 
 
+def shooting_length(model: ArticulatedObject, trajectories: list[Trajectory]) -> float | None:
+    """SHOOTING_SECONDS where a measured joint has no restoring force (no gravity load, no
+    spring) and its measured effort is replayed open loop; None otherwise."""
+    from .spec import gravity_loaded
+
+    for j in trajectories[0].joints:
+        gravity = trajectories[0].gravity
+        restoring = gravity_loaded(model, j, *([gravity] if gravity else [])) or \
+            model.joint(j).dynamics.stiffness > 0
+        if not restoring and any(j in tr.efforts and tr.law() is None for tr in trajectories):
+            return SHOOTING_SECONDS
+    return None
+
+
 def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajectory],
                            held: list[Trajectory], out_dir: Path | None = None,
-                           formats: Sequence[str] | None = None) -> CalibrationResult:
+                           formats: Sequence[str] | None = None,
+                           segment: float | None = None) -> CalibrationResult:
     """:func:`calibrate` on trajectories already in memory (adapters with a feedback law)."""
     whole = trajectories
     trajectories, excluded = leave_out_pushes(model, trajectories)
@@ -168,6 +194,9 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
         raise FormatError(whole[0].source, None, "nothing left to fit: an unmeasured force "
                           "drives the joint throughout (" + "; ".join(
                               f"{e.start:.3f}-{e.end:.3f} s" for e in excluded) + ")")
+    segment = segment if segment is not None else shooting_length(model, trajectories)
+    if segment is not None:
+        trajectories = [p for tr in trajectories for p in segments(tr, segment)]
     problem = build_problem(model, trajectories)
     selection = select(problem)
     rejected = None
@@ -198,7 +227,9 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                           [tr.source for tr in trajectories], [tr.source for tr in held],
                           model.name)
     report["equation_error"] = _equation_error(problem, selection.chosen)
+    report["base_parameters"] = {j: compared(model, calibrated, j) for j in problem.joints}
     report["excluded"] = [e.as_json() for e in excluded + held_excluded]
+    report["shooting_segment"] = segment
     report["cross_validation"] = cv.as_json()
     report["rejected"] = rejected
     if rejected is not None:
@@ -262,14 +293,14 @@ def write_outputs(out_dir: Path, calibrated: ArticulatedObject, report: dict[str
 
 def run_calibrate(model_path: Path, data: Sequence[Path], holdout: Sequence[Path],
                   out_dir: Path, start: float | None = None, end: float | None = None,
-                  experiment: Path | None = None) -> int:
+                  experiment: Path | None = None, segment: float | None = None) -> int:
     """The ``real2code calibrate`` command: 0 on success (errors raise Real2CodeError,
     which the CLI prints, exiting non-zero, with nothing written)."""
     from ..formats import load
 
     model = load(model_path)
     result = calibrate(model, list(data), list(holdout), Path(out_dir), start=start, end=end,
-                       experiment=experiment)
+                       experiment=experiment, segment=segment)
     r = result.report
     causes = ", ".join(r["causes"]) or "none (the nominal model explains the data)"
     print(f"causes      {causes}")

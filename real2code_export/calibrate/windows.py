@@ -4,12 +4,14 @@ a push on a door), found by the energy it puts in and left out.
 
 A push is what no candidate effect explains: the effort equation (measured effort against
 the nominal rigid-body dynamics) is fitted with every linear candidate term at once
-(damping, Coulomb friction, a spring, a constant force; the inertia too where the effort is
-measured) under a robust loss, so the effects the calibration may still name are absorbed
-and a short foreign force is left as an outlier. A stretch of outliers counts as a push when
+(damping and Coulomb friction, which only take energy out; a spring; the inertia too where
+the effort is measured; a constant force as the residual's median) under a redescending
+(Cauchy) loss, so the effects the calibration may still name are absorbed and a short
+foreign force is left as an outlier. A stretch of outliers counts as a push when
 the work it does on the joint is positive and large against the joint's kinetic energy: an
 unmodelled effect of the state (inertia, a spring) only moves energy back and forth, and a
-stop or friction takes it out. The run is cut there; each piece keeps its own initial state
+stop or friction takes it out (a stop's rebound, which gives back what it took, is not
+counted). The run is cut there; each piece keeps its own initial state
 (multiple shooting across the push).
 """
 
@@ -85,22 +87,21 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
 
     if tr.law() is not None:
         return []  # a closed loop drives the joint by design
-    passive = [j for j in joints if j not in tr.efforts]
-    if not passive:
-        return []  # every joint's effort is measured: nothing drives them unseen
     period = tr.sample_period
     qs = np.column_stack([tr.positions[j] for j in joints])
-    smooth = [features.derivatives(qs[:, k], period)
-              for k in range(len(joints))]
+    smooth = [features.derivatives(qs[:, k], period) for k in range(len(joints))]
     q = np.column_stack([s[0] for s in smooth])
     dq = np.column_stack([s[1] for s in smooth])
     ddq = np.column_stack([s[2] for s in smooth])
     tau_rb = rigid_effort(spec, joints, q, dq, ddq)
+    # the joint-space inertia at each sample: the effort a unit acceleration needs at rest
+    zero = np.zeros_like(q)
+    mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - rigid_effort(spec, joints, q, zero,
+                                                                         zero)
     found = []
     edge = features.smoothing_window(period) // 2 + 1
+    window = features.smoothing_window(period)
     for k, j in enumerate(joints):
-        if j not in passive:
-            continue
         d = dynamics[j]
         v95 = float(np.percentile(np.abs(dq[:, k]), 95))
         if v95 <= 0:
@@ -108,11 +109,18 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         sgn = np.tanh(dq[:, k] / max(0.05 * v95, 1e-12))
         required = (tau_rb[:, k] + d.armature * ddq[:, k] + d.damping * dq[:, k]
                     + d.friction * sgn + d.stiffness * (q[:, k] - d.spring_ref))
-        y = -required  # the unmeasured force, less what candidate effects explain
-        # (the inertia stays nominal: without an effort its scale is not observable; a
-        # constant force is the residual's median, kept out of the regression where, with
-        # damping, it would pass for a push from rest)
-        x = np.column_stack([dq[:, k], sgn, q[:, k] - q[:, k].mean()])
+        # minus the unmeasured force, less what candidate effects explain (a constant force
+        # is the residual's median, kept out of the regression where, with damping, it
+        # would pass for a push from rest)
+        cols = [dq[:, k], sgn, q[:, k] - q[:, k].mean()]
+        if j in tr.efforts:  # smoothed as the motion is; the effort fixes the inertia's scale
+            measured = features.derivatives(features.despike(tr.efforts[j])[0], period,
+                                            window)[0]
+            y = measured - required
+            cols.append(ddq[:, k])
+        else:  # without an effort the inertia's scale is not observable: it stays nominal
+            y = -required
+        x = np.column_stack(cols)
         use = np.zeros(tr.n, bool)
         use[edge:-edge] = True
         if use.sum() < MIN_SAMPLES:
@@ -120,16 +128,23 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         scale = np.maximum(np.linalg.norm(x[use], axis=0), 1e-12)
         ys = max(float(np.std(y[use])), 1e-12)
         # damping and friction only take energy out: a push cannot hide in them
-        lower = np.array([0.0, 0.0, -np.inf])
+        lower = np.array([0.0, 0.0] + [-np.inf] * (x.shape[1] - 2))
         a_use, y_use = x[use] / scale, y[use] / ys
 
         def resid(b, a=a_use, yy=y_use):
             r = a @ b - yy
             return r - np.median(r)
 
-        fit = least_squares(resid, np.array([1e-6, 1e-6, 0.0]), bounds=(lower, np.inf),
-                            loss="soft_l1", f_scale=0.1)
-        r = y - (x / scale) @ fit.x * ys
+        # a push is a minority of samples with a large force: a redescending (Cauchy) loss
+        # whose scale follows the residual's own spread leaves it out of the fit
+        coef = np.array([1e-6, 1e-6] + [0.0] * (x.shape[1] - 2))
+        f_scale = 0.1
+        for _ in range(4):
+            coef = least_squares(resid, coef, bounds=(lower, np.inf), loss="cauchy",
+                                 f_scale=f_scale).x
+            rr = resid(coef)
+            f_scale = max(2.0 * 1.4826 * float(np.median(np.abs(rr))), 1e-9)
+        r = y - (x / scale) @ coef * ys
         r -= np.median(r[use])
         core = r[use]
         sigma = 1.4826 * float(np.median(np.abs(core - np.median(core))))
@@ -146,11 +161,12 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                 merged[-1][1] = b
             else:
                 merged.append([a, b])
-        inertia = _inertia(tau_rb[:, k], ddq[:, k], d.armature)
+        inertia = float(np.median(mass[:, k])) + d.armature
         energy_scale = 0.5 * inertia * v95**2
+        at_stop = _at_stops(qs[:, k], period)
         for a, b in merged:
-            if (b - a) * period < MIN_PUSH:
-                continue
+            if (b - a) * period < MIN_PUSH or at_stop[a:b].any():
+                continue  # too short, or a stop's rebound (it gives back what it took)
             # the unmeasured force is -r: its work on the joint
             work = float(np.sum(-r[a:b] * dq[a:b, k]) * period)
             if work > PUSH_ENERGY * energy_scale and work > 0:
@@ -163,18 +179,24 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                 found.append(Excluded(tr.source, j, float(tr.time[lo]),
                                       float(tr.time[hi - 1]), work,
                                       f"energy rises by {work:.3g} J ({work / energy_scale:.2g}"
-                                      " x the joint's kinetic energy) with no effort measured:"
-                                      " an unmeasured push"))
+                                      " x the joint's kinetic energy) that no candidate effect "
+                                      "and no measured effort explains: an unmeasured push"))
     return found
 
 
-def _inertia(tau_rb: np.ndarray, ddq: np.ndarray, armature: float) -> float:
-    """The joint's effective inertia, from the rigid-body effort's part that follows the
-    acceleration (least squares: the model's inertia at the measured configurations)."""
-    a = float(ddq @ ddq)
-    if a <= 0:
-        return max(armature, 1e-12)
-    return max(float(ddq @ tau_rb) / a + armature, 1e-12)
+def _at_stops(q: np.ndarray, period: float) -> np.ndarray:
+    """Samples near an end of the motion where the joint is stopped hard (a stop's rebound
+    returns the energy its compression took: positive work, but no push)."""
+    short = features.smoothing_window(period, seconds=0.08)
+    qq, dq, ddq = features.derivatives(q, period, short)
+    sides = features.sudden_stops(qq, dq, ddq, features.noise_level(q))
+    span = float(np.ptp(q))
+    near = np.zeros(len(q), bool)
+    if "upper" in sides:
+        near |= q > q.max() - 0.05 * span
+    if "lower" in sides:
+        near |= q < q.min() + 0.05 * span
+    return near
 
 
 def cut(tr: Trajectory, excluded: list[Excluded]) -> list[Trajectory]:
@@ -193,4 +215,21 @@ def cut(tr: Trajectory, excluded: list[Excluded]) -> list[Trajectory]:
         mask = np.zeros(tr.n, bool)
         mask[a:b] = True
         pieces.append(_piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b - 1]:.3f} s]"))
+    return pieces
+
+
+def segments(tr: Trajectory, seconds: float) -> list[Trajectory]:
+    """``tr`` as consecutive pieces of about ``seconds`` each (sharing their boundary
+    sample), each its own run with its own initial state: multiple shooting, so that an
+    open-loop replay cannot drift away over a long record and take the fit with it."""
+    if tr.controller is not None or tr.duration <= 1.5 * seconds:
+        return [tr]
+    count = max(1, int(round(tr.duration / seconds)))
+    edges = np.searchsorted(tr.time, tr.time[0] + np.arange(1, count) * tr.duration / count)
+    bounds = [0, *edges.tolist(), tr.n - 1]
+    pieces = []
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        mask = np.zeros(tr.n, bool)
+        mask[a:b + 1] = True
+        pieces.append(_piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b]:.3f} s]"))
     return pieces
