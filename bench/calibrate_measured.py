@@ -67,12 +67,28 @@ def _pct(x: float) -> str:
     return f"{100 * x:+.2f} %"
 
 
+def _value(v) -> str:
+    v = v.get("value") if isinstance(v, dict) else v
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    return f"{v:.6g}" if isinstance(v, (int, float)) else str(v)
+
+
 def parameters_table(report: dict) -> list[str]:
-    lines = ["| parameter | value | 95 % interval | unit |", "|---|---|---|---|"]
+    """The chosen model's parameters (simulation fit), the inverse-dynamics estimate beside
+    them where an effort is measured, and the base inertial parameters."""
+    eq = (report.get("equation_error") or {}).get("parameters") or {}
+    lines = ["| parameter | simulation fit | 95 % interval | inverse dynamics | unit |",
+             "|---|---|---|---|---|"]
     for key, p in report["parameters"].items():
         ci = p.get("ci95")
         ci = f"[{ci[0]:.4g}, {ci[1]:.4g}]" if ci and None not in ci else "not identifiable"
-        lines.append(f"| {key} | {p['value']:.6g} | {ci} | {p['unit']} |")
+        inverse = _value(eq[key]) if key in eq else "—"
+        lines.append(f"| {key} | {p['value']:.6g} | {ci} | {inverse} | {p['unit']} |")
+    for joint, base in (report.get("base_parameters") or {}).items():
+        for which in ("nominal", "calibrated"):
+            terms = ", ".join(f"{k} = {_value(v)}" for k, v in (base.get(which) or {}).items())
+            lines.append(f"| {joint} base parameters, {which} | {terms} | | | |")
     return lines
 
 
