@@ -161,3 +161,26 @@ def test_dfki_hand_moved_run_is_unexplained(dfki, tmp_path):
                   tmp_path / "out")
     assert r["unexplained"], r
     assert r["causes"] == [], r["causes"]
+
+
+@pytest.mark.slow
+def test_emps_through_calibrate(emps, tmp_path):
+    """The declared closed loop, the estimation file fitted, the pulses file held out:
+    direction-dependent friction named, the moving mass within 3 % of the published M, and
+    the held-out run predicted no worse than by the nominal model."""
+    r = calibrate(emps / "object.json", [emps / "DATA_EMPS.csv"],
+                  [emps / "DATA_EMPS_PULSES.csv"], tmp_path / "out")
+    assert "asymmetric_friction" in r["causes"], r["causes"]
+    mass = r["base_parameters"][convert_emps.JOINT]["calibrated"]["moving_mass"]
+    assert mass == pytest.approx(convert_emps.PUBLISHED["M"], rel=0.03)
+    assert r["holdout_rmse_after"] <= r["holdout_rmse_before"]
+
+
+@pytest.mark.slow
+def test_dfki_identification_run_never_worse_on_other_controllers(dfki, tmp_path):
+    """The identification run fitted, the other controllers' runs held out: whatever is
+    named, the calibrated model predicts them no worse than the nominal one."""
+    r = calibrate(dfki / "object.json", [dfki / "pd_system_identification.csv"],
+                  [dfki / f"{n}.csv" for n in ("energy_shaping", "ilqr", "sac")],
+                  tmp_path / "out")
+    assert r["holdout_rmse_after"] <= r["holdout_rmse_before"], r
