@@ -127,11 +127,12 @@ def _diffcent(y: np.ndarray, h: float) -> np.ndarray:
     return np.concatenate([[y[1] - y[0]], (y[2:] - y[:-2]) / 2, [y[-1] - y[-2]]]) / h
 
 
-def relative_force_error(rec: EmpsRecord, mass: float, damping: float, friction: float,
+def relative_force_error(rec: EmpsRecord, mass: float, damping, friction,
                          resistive_offset: float, border: int = 50) -> float:
     """Percent: 4th-order Butterworth at 100 Hz (zero phase), central differences, the first
     ``border`` samples dropped, decimated by 10, as the benchmark publishes it. The model
-    tau = M ddq + Fv dq + Fc sgn(dq) + OF (``resistive_offset`` = OF)."""
+    tau = M ddq + Fv dq + Fc sgn(dq) + OF (``resistive_offset`` = OF); ``damping`` and
+    ``friction`` either one value or (moving forward, moving back) pairs."""
     from scipy.signal import butter, decimate, filtfilt
 
     h = float(np.median(np.diff(rec.t)))
@@ -140,7 +141,10 @@ def relative_force_error(rec: EmpsRecord, mass: float, damping: float, friction:
     dq = _diffcent(q, h)
     ddq = _diffcent(dq, h)
     s = slice(border - 1, None)
-    predicted = mass * ddq + damping * dq + friction * np.sign(dq) + resistive_offset
+    forward = dq > 0
+    fv = np.where(forward, *damping) if np.ndim(damping) else damping
+    fc = np.where(forward, *friction) if np.ndim(friction) else friction
+    predicted = mass * ddq + fv * dq + fc * np.sign(dq) + resistive_offset
     measured = decimate(rec.force[s], 10, ftype="iir", zero_phase=True)
     predicted = decimate(predicted[s], 10, ftype="iir", zero_phase=True)
     return 100.0 * float(np.linalg.norm(measured - predicted) / np.linalg.norm(measured))
