@@ -33,12 +33,16 @@ def test_encoder_zero_error_is_not_a_force(tmp_path, seed, zero, with_effort):
     result = calibrate(case.obj, [csv])
     report = result.report
     assert report["causes"] == ["encoder_offset"], report["selection_log"]
+    assert report["cause_details"][0]["side"] == "sensor"
     p = report["parameters"][f"{case.joint}.encoder_offset"]
     assert abs(p["value"] - zero) <= p["halfwidth95"], p
     # the calibrated model carries the zero error and replays the reading
     extras = result.model.metadata["real2code:dynamics"][case.joint]
     assert extras["encoder_offset"]["position"] == pytest.approx(p["value"])
     assert report["rmse_after"] < 3 * case.noise + case.quantum
+    # the encoder's step is reported as the sensor's, not fitted
+    (sensor,) = report["sensor"].values()
+    assert sensor[case.joint]["quantum"] == pytest.approx(case.quantum, rel=1e-6)
 
 
 def _shifted(text: str, zero: float) -> str:

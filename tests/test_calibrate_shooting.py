@@ -19,6 +19,7 @@ def test_long_open_loop_run_is_fitted_in_pieces(tmp_path):
     report = result.report
     assert report["shooting_segment"] == 5.0
     assert len(report["data"]) == 2 and all(str(csv) in d for d in report["data"])
+    assert result.problem.links == [(0, 1)]  # the pieces are joined by continuity
     assert report["causes"] == ["damping"], report["selection_log"]
     p = report["parameters"][f"{case.joint}.damping"]
     assert abs(p["value"] - case.truth["damping"]["damping"]) <= p["halfwidth95"], p

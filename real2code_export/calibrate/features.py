@@ -19,30 +19,6 @@ def smoothing_window(period: float, seconds: float = 0.15, minimum: int = 7) -> 
     return w + 1 if w % 2 == 0 else w
 
 
-def bandwidth_window(x: np.ndarray, period: float, order: int = 4) -> int:
-    """A Savitzky-Golay window chosen from the data: the signal's bandwidth is where its
-    spectrum falls to 100 x the noise floor (the median of the upper half of the
-    spectrum); the window whose cut-off (Schafer 2011: fc ~ (order + 1) / (3.2 M - 4.6)
-    of the sample rate) sits at twice that bandwidth passes the motion and stops the noise.
-    Bounded to 0.03 .. 0.3 s."""
-    from scipy.signal import welch
-
-    lo, hi = smoothing_window(period, 0.03), smoothing_window(period, 0.3)
-    if len(x) < 64:
-        return smoothing_window(period)
-    freqs, psd = welch(x - np.mean(x), fs=1.0 / period, nperseg=min(len(x), 1024))
-    floor = float(np.median(psd[len(psd) // 2:]))
-    if floor <= 0:
-        return smoothing_window(period)
-    above = np.flatnonzero(psd > 100.0 * floor)
-    if not above.size:
-        return hi
-    fc = 2.0 * max(float(freqs[above[-1]]), freqs[1])
-    m = int(round(((order + 1) / (fc * period) + 4.6) / 3.2))
-    m = min(max(m, lo), hi)
-    return m + 1 if m % 2 == 0 else m
-
-
 def derivatives(x: np.ndarray, period: float, window: int | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Savitzky-Golay smoothed value, first and second derivative."""
@@ -73,6 +49,22 @@ def despike(x: np.ndarray, width: int = 7, sigmas: float = 6.0) -> tuple[np.ndar
     out = x.copy()
     out[spikes] = med[spikes]
     return out, int(spikes.sum())
+
+
+def quantum(x: np.ndarray) -> float | None:
+    """The encoder's step where the readings lie on a grid (None: they do not): the
+    smallest step between consecutive distinct readings, kept when every reading is a
+    whole number of steps from the first. Quantisation is part of the sensor noise the
+    fit weighs by, never a force."""
+    steps = np.abs(np.diff(x))
+    steps = steps[steps > 1e-12 * max(float(np.max(np.abs(x))), 1e-300)]
+    if steps.size < 10:
+        return None
+    q = float(np.percentile(steps, 5))
+    units = (x - x[0]) / q
+    if np.max(np.abs(units - np.round(units))) > 0.02:
+        return None
+    return q
 
 
 def noise_level(x: np.ndarray) -> float:

@@ -38,6 +38,9 @@ MATERIAL = 1.0
 # measured by one replay this many times finer, with the input interpolated: the
 # Gauss-Newton step it asks for corrects the estimate and widens its interval.
 REFINE = 4
+# Multiple shooting: a gap of one noise deviation between a piece's replayed end and the
+# next piece's start weighs as much as CONTINUITY**2 samples off by one deviation
+CONTINUITY = 10.0
 
 
 @dataclass
@@ -271,7 +274,20 @@ class _Evaluator:
 
     def residual(self, x: np.ndarray) -> tuple[np.ndarray, list[Rollout]]:
         out = [self.run(t, [x])[0] for t in range(len(self.problem.trajectories))]
-        return np.concatenate([r for r, _ in out]), [ro for _, ro in out]
+        ros = [ro for _, ro in out]
+        links = [self._link(ros[a], x, b) for a, b in self.problem.links]
+        return np.concatenate([r for r, _ in out] + links), ros
+
+    def _link(self, ro_prev: Rollout, x: np.ndarray, nxt: int) -> np.ndarray:
+        """Continuity between pieces of one run: where the previous piece's replay ends
+        against where the next one's fitted start is (noise units, CONTINUITY weight)."""
+        pr = self.problem
+        _, x0 = self.split(x)
+        out = np.empty(len(pr.joints))
+        for k, j in enumerate(pr.joints):
+            sigma = _floor(pr.position_noise[nxt][k], pr.trajectories[nxt].positions[j])
+            out[k] = CONTINUITY * (ro_prev.positions[-1, k] - x0[nxt][k, 0]) / sigma
+        return out
 
     def jacobian(self, x: np.ndarray, r0: np.ndarray, ub: np.ndarray) -> np.ndarray:
         """Forward differences; an initial velocity moves only its own trajectory."""
@@ -289,9 +305,26 @@ class _Evaluator:
                 x1[c] += steps[c]
                 points.append(x1)
             a, b = self.offsets[t], self.offsets[t + 1]
-            for c, (r1, _) in zip(cols, self.run(t, points), strict=True):
+            for c, x1, (r1, ro) in zip(cols, points, self.run(t, points), strict=True):
                 jmat[a:b, c] = (r1 - r0[a:b]) / steps[c]
+                for n, (prev, nxt) in enumerate(self.problem.links):
+                    if prev == t:
+                        rows = self._link_rows(n)
+                        jmat[rows, c] = (self._link(ro, x1, nxt) - r0[rows]) / steps[c]
+        # the next piece's start enters its link directly
+        for n, (_, nxt) in enumerate(self.problem.links):
+            rows = self._link_rows(n)
+            for i, (t, k, c) in enumerate(self.slots):
+                if t == nxt and c == 0:
+                    j = self.problem.joints[k]
+                    sigma = _floor(self.problem.position_noise[nxt][k],
+                                   self.problem.trajectories[nxt].positions[j])
+                    jmat[rows[k], p + i] = -CONTINUITY * self.scales[p + i] / sigma
         return jmat
+
+    def _link_rows(self, n: int) -> np.ndarray:
+        nj = len(self.problem.joints)
+        return self.offsets[-1] + n * nj + np.arange(nj)
 
 
 def _floor(sigma: float, x: np.ndarray) -> float:

@@ -55,6 +55,8 @@ class Problem:
     stops: dict[str, list[str]] = field(default_factory=dict)
     nonsmooth: bool = False  # the nominal model has dry friction or the data reach a limit
     base_laws: dict = field(default_factory=dict)  # joint -> the model's own AppliedLaw
+    # (previous, next) trajectory indices of pieces of one run (multiple shooting)
+    links: list[tuple[int, int]] = field(default_factory=list)
 
 
 FRICTION_TIMECONST = 2 * MAX_TIMESTEP
@@ -173,13 +175,11 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         taus = np.column_stack([tr.efforts.get(j, np.zeros(tr.n)) for j in joints])
         eff_noise.append(np.array([features.noise_level(taus[:, k]) if j in tr.efforts
                                    else 0.0 for k, j in enumerate(joints)]))
-        # the filter from the data: one window for the run (its widest joint's bandwidth)
-        w = min(features.bandwidth_window(qs[:, k], period) for k in range(len(joints)))
-        smoothed = [features.derivatives(qs[:, k], period, w) for k in range(len(joints))]
+        smoothed = [features.derivatives(qs[:, k], period) for k in range(len(joints))]
         q_s = np.column_stack([s[0] for s in smoothed])
         dq = np.column_stack([s[1] for s in smoothed])
         ddq = np.column_stack([s[2] for s in smoothed])
-        tau_d = [features.derivatives(features.despike(taus[:, k])[0], period, w)
+        tau_d = [features.derivatives(features.despike(taus[:, k])[0], period)
                  for k in range(len(joints))]
         tau_s = np.column_stack([d[0] for d in tau_d])
         tau_dt = np.column_stack([d[1] for d in tau_d])
@@ -188,6 +188,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         eps = 1e-5 * max(float(np.ptp(qs)), 1e-3)
         tau_dq = (rigid_effort(spec, joints, q_s + eps, dq, ddq) - tau_rb) / eps
         tau_dq += np.array([obj.joint(j).dynamics.stiffness for j in joints])
+        w = features.smoothing_window(period)
         c1 = savgol_coeffs(max(w, 5), min(4, w - 1), deriv=1, delta=period)
         dq_noise = sig_q * float(np.sqrt(np.sum(c1**2)))
         usable = np.ones(tr.n, bool)
@@ -265,6 +266,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         if j.limits is not None and (ctx.q_low < j.limits.lower + margin
                                      or ctx.q_high > j.limits.upper - margin):
             nonsmooth = True
+    links = [(t - 1, t) for t in range(1, len(trajectories)) if trajectories[t].continues]
     return Problem(obj, joints, trajectories, spec, contexts, effects, pos_noise, eff_noise,
                    signals, x0s, x0_free, x0_se, stops, nonsmooth,
-                   {name: contexts[name].law for name in joints})
+                   {name: contexts[name].law for name in joints}, links)

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .effects import VOCABULARY
+from .effects import SENSOR, VOCABULARY
 from .fit import Fit
 from .select import Selection
 
@@ -78,6 +78,7 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
     for e in sorted(chosen.effects, key=lambda e: (e.joint, order[e.name])):
         strength, se = e.strength(chosen.effect_values(e), chosen.effect_cov(e))
         details.append({"effect": e.name, "joint": e.joint, "aliases": list(e.aliases),
+                        "side": "sensor" if e.name in SENSOR else "dynamics",
                         "indistinguishable_from": list(e.aliases), "choice": e.choice,
                         "motion_change_rms_noise": _num(chosen.material.get(e.name)),
                         "departure_from_absence": _num(strength),
@@ -241,6 +242,7 @@ def markdown(report: dict[str, Any], images: dict[str, str]) -> str:
                 ident += f" (correlated with {', '.join(p['correlated_with'])})"
             lines.append(f"| `{key}` | {_fmt(p['value'], 6)} | {interval} | {p['unit']} | {ident} |")
         lines.append("")
+    lines += _checks_markdown(report)
     lines += ["## What the data show", ""]
     for f in report["features"]:
         lines.append(f"- `{Path(f['file']).name}`: " + "; ".join(f["summary"]))
@@ -263,3 +265,44 @@ def markdown(report: dict[str, Any], images: dict[str, str]) -> str:
         lines += [f"![{title}]({path})", ""]
     lines += ["## Selection", ""] + [f"1. {s}" for s in report["selection_log"]] + [""]
     return "\n".join(lines)
+
+
+def _checks_markdown(report: dict[str, Any]) -> list[str]:
+    """What was left out, whether the result held on data it was not fitted on, the
+    inverse-dynamics estimate, the base inertial parameters."""
+    lines: list[str] = []
+    if report.get("excluded"):
+        lines += ["## Left out", ""]
+        for e in report["excluded"]:
+            lines.append(f"- `{Path(e['file']).name}` {e['start']:.3f}-{e['end']:.3f} s, "
+                         f"joint `{e['joint']}`: {e['reason']}")
+        lines.append("")
+    cv = report.get("cross_validation")
+    if report.get("rejected"):
+        lines += ["## Rejected", "", f"{report['rejected']}: the nominal model is kept.", ""]
+    elif cv and cv["folds"]:
+        lines += ["## Cross-validation", "", f"Refitted without each of {cv['folds']} "
+                  f"{cv['by']}, the calibrated structure predicts the left-out data with "
+                  f"squared error {cv['sse_calibrated']:.4g} against the nominal model's "
+                  f"{cv['sse_nominal']:.4g} (noise units).", ""]
+    eq = report.get("equation_error")
+    if eq and eq.get("parameters"):
+        lines += ["## Inverse dynamics (equation error)", "",
+                  "| parameter | equation error | simulation |", "|---|---|---|"]
+        for key, v in eq["parameters"].items():
+            sim = report["parameters"].get(key, {}).get("value")
+            lines.append(f"| `{key}` | {_fmt(v, 6)} | {_fmt(sim, 6)} |")
+        lines.append("")
+    base = report.get("base_parameters") or {}
+    if base:
+        lines += ["## Base inertial parameters", "", "| joint | parameter | nominal | "
+                  "calibrated | unit |", "|---|---|---|---|---|"]
+        for joint, both in base.items():
+            units = both["nominal"]["unit"]
+            for name, unit in units.items():
+                a, b = both["nominal"][name], both["calibrated"][name]
+                fmt = (lambda x: ", ".join(_fmt(v) for v in x)) if isinstance(a, list) \
+                    else _fmt
+                lines.append(f"| `{joint}` | {name} | {fmt(a)} | {fmt(b)} | {unit} |")
+        lines.append("")
+    return lines

@@ -230,6 +230,10 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     report["base_parameters"] = {j: compared(model, calibrated, j) for j in problem.joints}
     report["excluded"] = [e.as_json() for e in excluded + held_excluded]
     report["shooting_segment"] = segment
+    report["sensor"] = {tr.source: {j: {"noise": float(problem.position_noise[t][k]),
+                                        "quantum": ft.quantum(tr.positions[j])}
+                                    for k, j in enumerate(problem.joints)}
+                        for t, tr in enumerate(problem.trajectories)}
     report["cross_validation"] = cv.as_json()
     report["rejected"] = rejected
     if rejected is not None:

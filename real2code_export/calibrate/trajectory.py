@@ -53,6 +53,9 @@ class Trajectory:
     columns: dict[str, np.ndarray] = field(default_factory=dict)
     gravity: tuple[float, float, float] | None = None
     window: tuple[float | None, float | None] = (None, None)  # the experiment's (s)
+    # a piece of a longer run that starts on the previous piece's last sample (multiple
+    # shooting: the fit keeps the two joined)
+    continues: bool = False
 
     def law(self) -> Controller | None:
         """The closed loop the replay runs (None: open loop, the measured effort)."""

@@ -4,12 +4,14 @@ fitted on better than the nominal model does.
 Cross-validation across the fit runs (leave one run out); with a single run, across its two
 halves (each its own initial state). Each fold refits the chosen structure on the rest
 (started from the full fit's values: a parameter the rest cannot inform stays where the
-full fit put it) and replays the left-out piece; the nominal model replays it too (its
+full fit put it, and one the rest does not identify is reset there) and replays the
+left-out piece; the nominal model replays it too (its
 initial state fitted alike). The sums of squared position errors, in noise units, decide.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from .fit import Fit, fit_candidate
@@ -42,8 +44,8 @@ def _folds(trajectories: list[Trajectory]) -> tuple[str, list[tuple[list, Trajec
         return "runs", [([t for t in trajectories if t is not left], left)
                         for left in trajectories]
     tr = trajectories[0]
-    if tr.duration < 2 * MIN_HALF or tr.n < 4 * MIN_SAMPLES:
-        return "none", []
+    if tr.duration < 2 * MIN_HALF or tr.n < 4 * MIN_SAMPLES or tr.controller is not None:
+        return "none", []  # too short to halve, or a coded law indexed by the whole run
     mid = float(tr.time[0] + 0.5 * tr.duration)
     first = window(tr, None, mid)
     second = window(tr, mid, None)
@@ -68,6 +70,11 @@ def cross_validate(obj, trajectories: list[Trajectory], chosen: Fit) -> CrossVal
         # refitted from the full fit's values
         fold = fit_candidate(build_problem(obj, rest), chosen.effects, refine=False,
                              warm=dict(chosen.values), max_nfev=FOLD_NFEV)
+        # what the fold's data cannot identify (a half without pushes says nothing of the
+        # inertia) stays at the full fit's value rather than wherever the fold drifted
+        fold = dataclasses.replace(fold, values={
+            k: v if fold.identifiable.get(k, False) else chosen.values[k]
+            for k, v in fold.values.items()})
         sse_nom += _sse(fit_candidate(build_problem(obj, [left]), (), refine=False))
         # the fold's model as it would be exported, only the initial state fitted
         predicted = build_problem(calibrated_object(obj, fold), [left])

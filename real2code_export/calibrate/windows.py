@@ -68,7 +68,7 @@ def _piece(tr: Trajectory, keep: np.ndarray, source: str) -> Trajectory:
     if tr.controller is not None:  # a coded law indexes the whole run's samples
         raise ValueError(f"{tr.source}: a run with a coded controller cannot be cut")
     return dataclasses.replace(
-        tr, source=source, time=tr.time[keep].copy(),
+        tr, source=source, continues=False, time=tr.time[keep].copy(),
         positions={j: q[keep].copy() for j, q in tr.positions.items()},
         efforts={j: u[keep].copy() for j, u in tr.efforts.items()},
         columns={c: x[keep].copy() for c, x in tr.columns.items()})
@@ -221,7 +221,8 @@ def cut(tr: Trajectory, excluded: list[Excluded]) -> list[Trajectory]:
 def segments(tr: Trajectory, seconds: float) -> list[Trajectory]:
     """``tr`` as consecutive pieces of about ``seconds`` each (sharing their boundary
     sample), each its own run with its own initial state: multiple shooting, so that an
-    open-loop replay cannot drift away over a long record and take the fit with it."""
+    open-loop replay cannot drift away over a long record and take the fit with it (the
+    fit weighs each piece's end against the next one's start: ``continues``)."""
     if tr.controller is not None or tr.duration <= 1.5 * seconds:
         return [tr]
     count = max(1, int(round(tr.duration / seconds)))
@@ -231,5 +232,6 @@ def segments(tr: Trajectory, seconds: float) -> list[Trajectory]:
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):
         mask = np.zeros(tr.n, bool)
         mask[a:b + 1] = True
-        pieces.append(_piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b]:.3f} s]"))
+        piece = _piece(tr, mask, f"{tr.source} [{tr.time[a]:.3f}-{tr.time[b]:.3f} s]")
+        pieces.append(dataclasses.replace(piece, continues=bool(pieces)))
     return pieces
