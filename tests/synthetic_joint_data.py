@@ -312,7 +312,7 @@ def _make_case(seed: int, attempt: int, kind: str, n_effects: int | None,
     scale_force = amplitude
 
     for e in effects:
-        _apply_effect(p, e, rng, inertia, scale_force, q0, truth)
+        apply_effect(p, e, rng, inertia, scale_force, q0, truth)
 
     times = np.arange(0.0, t_end, 1.0 / rate)
     if "limit" in effects:
@@ -333,7 +333,7 @@ def _make_case(seed: int, attempt: int, kind: str, n_effects: int | None,
     return _measure(kind, seed, obj, joint, truth, p, effort_fn, times, q0, rng, notes)
 
 
-def _apply_effect(p: JointPhysics, e: str, rng: np.random.Generator, inertia: float,
+def apply_effect(p: JointPhysics, e: str, rng: np.random.Generator, inertia: float,
                   scale_force: float, q0: float, truth: dict) -> None:
     """Draw effect ``e``'s hidden values into the physics ``p`` and ``truth``."""
     ang = p.angular

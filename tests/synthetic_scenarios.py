@@ -35,8 +35,8 @@ from real2code_export.model import ArticulatedObject
 from synthetic_joint_data import (
     EFFECTS,
     JointPhysics,
-    _apply_effect,
     advance,
+    apply_effect,
     integrate,
     nominal_object,
     physics_for,
@@ -388,7 +388,7 @@ def _make(seed: int, attempt: int, name: str, clean: bool) -> ScenarioCase:
         elif e == "effort_delay":  # the position recorded late: the effort leads it
             truth[e] = {"effort_delay": float(rng.uniform(0.008, 0.03))}
         elif e != "limit":
-            _apply_effect(p, e, rng, p.inertia, amplitude, q_mid, truth)
+            apply_effect(p, e, rng, p.inertia, amplitude, q_mid, truth)
     case = {"kind": kind, "times": times, "joint": joint, "scenario": scenario, "name": name,
             "drive": drive, "amplitude": amplitude, "truth": truth}
     fit_seed, held_seed = (int(x) for x in rng.integers(0, 2**31, 2))
