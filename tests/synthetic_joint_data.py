@@ -93,6 +93,8 @@ class JointPhysics:
     rotation0: np.ndarray  # joint frame orientation in the world
     angular: bool
     scale: float = 1.0  # inertia effect: mass and inertia x scale
+    moment_scale: float = 1.0  # mass distribution: the first moment (gravity) alone x this
+    rotational_scale: float = 1.0  # mass distribution: the inertia about the axis alone x this
     armature: float = 0.0
     damping_pos: float = 0.0
     damping_neg: float = 0.0
@@ -108,7 +110,7 @@ class JointPhysics:
 
     @property
     def total_inertia(self) -> float:
-        return self.scale * self.inertia + self.armature
+        return self.scale * self.rotational_scale * self.inertia + self.armature
 
     def __post_init__(self) -> None:
         # gravity's generalized force as g_cos * cos(q) + g_sin * sin(q) (hinge) or a
@@ -125,9 +127,10 @@ class JointPhysics:
                    float(np.cross(u_sin, weight) @ axis_world))
 
     def gravity(self, q: float) -> float:
+        s = self.scale * self.moment_scale
         if not self.angular:
-            return self.scale * self._g[0]
-        return self.scale * (self._g[0] * math.cos(q) + self._g[1] * math.sin(q))
+            return s * self._g[0]
+        return s * (self._g[0] * math.cos(q) + self._g[1] * math.sin(q))
 
     def passive_except_friction(self, q: float, v: float) -> float:
         f = -self.stiffness * (q - self.spring_ref) + self.offset
@@ -159,10 +162,17 @@ def physics_for(obj: ArticulatedObject, joint: str) -> JointPhysics:
 
 def integrate(p: JointPhysics, effort, t_end: float, q0: float, v0: float,
               times: np.ndarray) -> np.ndarray:
-    """Positions at ``times``: slip phases by solve_ivp, stick phases held until the other
-    forces break away (exact Coulomb stick-slip)."""
+    """Positions at ``times`` (from t = 0 in state q0, v0): slip phases by solve_ivp, stick
+    phases held until the other forces break away (exact Coulomb stick-slip)."""
     out = np.full(len(times), np.nan)
-    t, q, v = 0.0, q0, v0
+    advance(p, effort, 0.0, t_end, q0, v0, times, out)
+    return out
+
+
+def advance(p: JointPhysics, effort, t: float, t_end: float, q: float, v: float,
+            times: np.ndarray, out: np.ndarray) -> tuple[float, float]:
+    """Integrate from state (q, v) at ``t`` to ``t_end``; positions at the ``times`` inside
+    go into ``out``; returns the state at ``t_end``."""
     has_friction = p.friction_pos > 0 or p.friction_neg > 0
     stick_tol = 1e-9
 
@@ -214,12 +224,13 @@ def integrate(p: JointPhysics, effort, t_end: float, q0: float, v0: float,
                         rtol=1e-9, atol=1e-11, method="DOP853")
         t_next = sol.t[-1]
         mask = (times >= t - 1e-12) & (times <= t_next + 1e-12)
-        out[mask] = sol.sol(times[mask])[0]
+        if mask.any():
+            out[mask] = sol.sol(times[mask])[0]
         q, v = sol.y[0, -1], sol.y[1, -1]
         t = t_next
         if has_friction and sol.status == 1:
             v = 0.0
-    return out
+    return q, v
 
 
 # -- effort: smooth pushes (a person or a test rig), measured -----------------------------------
@@ -298,45 +309,10 @@ def _make_case(seed: int, attempt: int, kind: str, n_effects: int | None,
     amplitude = accel * inertia
     effort_fn = push_profile(rng, amplitude, t_end)
     truth: dict[str, dict[str, float]] = {}
-    ang = p.angular
     scale_force = amplitude
 
     for e in effects:
-        if e == "damping":
-            b = inertia / rng.uniform(0.6, 2.0)
-            p.damping_pos = p.damping_neg = b
-            truth[e] = {"damping": b}
-        elif e == "friction":
-            c = scale_force * rng.uniform(0.06, 0.15)
-            p.friction_pos = p.friction_neg = c
-            truth[e] = {"friction": c}
-        elif e == "asymmetric_friction":
-            c = scale_force * rng.uniform(0.06, 0.12)
-            dc = c * rng.uniform(0.4, 0.7) * rng.choice([-1, 1])
-            b = inertia / rng.uniform(0.8, 2.0)
-            db = b * rng.uniform(0.4, 0.7) * rng.choice([-1, 1])
-            p.friction_pos, p.friction_neg = c + dc, c - dc
-            p.damping_pos, p.damping_neg = b + db, b - db
-            truth[e] = {"friction_pos": c + dc, "friction_neg": c - dc,
-                        "damping_pos": b + db, "damping_neg": b - db}
-        elif e == "spring":
-            period = rng.uniform(0.8, 1.6)
-            k = inertia * (2 * math.pi / period) ** 2
-            ref = q0 + rng.uniform(-0.3, 0.3) * (1.0 if ang else 0.2)
-            p.stiffness, p.spring_ref = k, ref
-            truth[e] = {"stiffness": k, "spring_ref": ref}
-        elif e == "inertia":
-            s = float(rng.choice([rng.uniform(0.6, 0.75), rng.uniform(1.35, 1.7)]))
-            p.scale = s
-            truth[e] = {"scale": s}
-        elif e == "armature":
-            a = inertia * rng.uniform(0.3, 0.6)
-            p.armature = a
-            truth[e] = {"armature": a}
-        elif e == "offset":
-            c = scale_force * rng.uniform(0.08, 0.15) * rng.choice([-1, 1])
-            p.offset = c
-            truth[e] = {"offset": c}
+        apply_effect(p, e, rng, inertia, scale_force, q0, truth)
 
     times = np.arange(0.0, t_end, 1.0 / rate)
     if "limit" in effects:
@@ -355,6 +331,47 @@ def _make_case(seed: int, attempt: int, kind: str, n_effects: int | None,
 
     notes = {"inertia": inertia, "amplitude": amplitude, "rate": rate, "physics": p}
     return _measure(kind, seed, obj, joint, truth, p, effort_fn, times, q0, rng, notes)
+
+
+def apply_effect(p: JointPhysics, e: str, rng: np.random.Generator, inertia: float,
+                  scale_force: float, q0: float, truth: dict) -> None:
+    """Draw effect ``e``'s hidden values into the physics ``p`` and ``truth``."""
+    ang = p.angular
+    if e == "damping":
+        b = inertia / rng.uniform(0.6, 2.0)
+        p.damping_pos = p.damping_neg = b
+        truth[e] = {"damping": b}
+    elif e == "friction":
+        c = scale_force * rng.uniform(0.06, 0.15)
+        p.friction_pos = p.friction_neg = c
+        truth[e] = {"friction": c}
+    elif e == "asymmetric_friction":
+        c = scale_force * rng.uniform(0.06, 0.12)
+        dc = c * rng.uniform(0.4, 0.7) * rng.choice([-1, 1])
+        b = inertia / rng.uniform(0.8, 2.0)
+        db = b * rng.uniform(0.4, 0.7) * rng.choice([-1, 1])
+        p.friction_pos, p.friction_neg = c + dc, c - dc
+        p.damping_pos, p.damping_neg = b + db, b - db
+        truth[e] = {"friction_pos": c + dc, "friction_neg": c - dc,
+                    "damping_pos": b + db, "damping_neg": b - db}
+    elif e == "spring":
+        period = rng.uniform(0.8, 1.6)
+        k = inertia * (2 * math.pi / period) ** 2
+        ref = q0 + rng.uniform(-0.3, 0.3) * (1.0 if ang else 0.2)
+        p.stiffness, p.spring_ref = k, ref
+        truth[e] = {"stiffness": k, "spring_ref": ref}
+    elif e == "inertia":
+        s = float(rng.choice([rng.uniform(0.6, 0.75), rng.uniform(1.35, 1.7)]))
+        p.scale = s
+        truth[e] = {"scale": s}
+    elif e == "armature":
+        a = inertia * rng.uniform(0.3, 0.6)
+        p.armature = a
+        truth[e] = {"armature": a}
+    elif e == "offset":
+        c = scale_force * rng.uniform(0.08, 0.15) * rng.choice([-1, 1])
+        p.offset = c
+        truth[e] = {"offset": c}
 
 
 def _measure(kind, seed, obj, joint, truth, p, effort_fn, times, q0, rng, notes) -> Case:

@@ -1,117 +1,87 @@
-"""Hidden effects must be found: trajectories of doors, drawers and lids made by an
-independent generator (scipy's solve_ivp, true stick-slip, its own equations; see
-synthetic_joint_data.py) with one or two effects drawn at random, sensor noise and encoder
-quantisation; ``calibrate`` is not told what is hidden.
+"""Hidden effects must be found in the data users have: runs made by an independent
+generator (the joint's own equation of motion, scipy's solve_ivp, true stick-slip; see
+synthetic_joint_data.py and synthetic_scenarios.py) in ten scenarios (pushed with measured
+effort, released mid-motion or at rest with position only, a drifting open-loop record, a
+declared closed loop, a wrong mass distribution, sensor offset and delay, an unmeasured
+push, a stop short of the nominal range), each with hidden effects drawn at random or none.
 
-The seeded suite (marked slow, run in CI) computes and asserts the rates: right causes
-named in >= 95 % of 50 cases with effects, no cause named in >= 95 % of 20 effect-free
-cases, fitted values within their reported 95 % intervals of the truth in >= 90 %.
+The suite (synthetic_suite.py) is judged by the issue's rates: right causes >= 95 %, no
+cause on effect-free data >= 97 %, fitted values inside their 95 % intervals >= 90 %, and
+no case whose calibrated model predicts the held-out run worse than the nominal one.
+CI runs the first ``CI_ROUNDS`` rounds (every scenario, effect-free rounds included);
+``python bench/calibrate_suite.py`` runs all 210 cases and prints the table in
+docs/calibration.md.
 """
 
 from __future__ import annotations
 
-import math
-import multiprocessing
-import os
-from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
-
+import numpy as np
 import pytest
+from synthetic_scenarios import NAMES, SCENARIOS, make
+from synthetic_suite import ci_seeds, run_case, run_cases, score
 
-from real2code_export.calibrate import calibrate
-
-from synthetic_joint_data import make_case
-
-N_EFFECT_CASES = 50
-N_CLEAN_CASES = 20
-CLEAN_SEED0 = 1000
+CI_ROUNDS = 3  # 30 cases, 6 effect-free: about 4 minutes on CI's two cores
 
 
-def _truth_params(case) -> dict[str, float]:
-    """The hidden values under calibrate's parameter names (joint.name)."""
-    j = case.joint
-    out = {}
-    for effect, values in case.truth.items():
-        for name, value in values.items():
-            if effect == "inertia":
-                out[f"{j}.inertia_scale"] = value
-                if case.kind == "lid":  # mass and inertia scaled alike: nothing extra
-                    out[f"{j}.rotational_scale"] = 1.0
-            elif effect == "limit":
-                out[f"{j}.limit_{name}"] = value
-            elif effect == "armature" and case.kind != "lid":
-                # no gravity load: armature is extra inertia, reported as the inertia scale
-                out[f"{j}.inertia_scale"] = 1.0 + value / case.notes["inertia"]
-            else:
-                out[f"{j}.{name}"] = value
-    return out
+def test_every_scenario_is_drawn_as_declared():
+    """The generator itself: each scenario's runs hold what it says (fast, no calibration)."""
+    for seed in range(len(NAMES)):
+        case = make(seed, clean=False)
+        scenario = SCENARIOS[case.scenario]
+        assert case.kind in scenario.kinds
+        assert set(scenario.forced) <= set(case.truth)
+        cols = list(case.fit.columns)
+        assert cols[0] == case.joint
+        if case.notes["drive"] in ("released", "at_rest"):
+            assert cols == [case.joint]  # position only
+        if scenario.declared_loop:
+            fb = case.fit.experiment[f"joints.{case.joint}.feedback"]
+            assert fb["reference"] in cols
+        if case.notes["drive"] == "released":
+            v0 = np.diff(case.fit.true_position[:2])[0]
+            assert abs(v0) > 0  # starts moving
+    assert make(3, "drift").fit.experiment is None  # the loop is not declared: it drifts
 
 
-def expected_causes(case) -> set[str]:
-    """The truth, with armature named by its alias where gravity cannot tell them apart."""
-    return {"inertia" if (c == "armature" and case.kind != "lid") else c for c in case.truth}
+def test_declared_loop_reproduces_its_effort():
+    """The declared feedback law, applied to the recorded positions, gives the recorded
+    effort (up to the effort sensor's noise): the experiment file says what happened."""
+    case = make(4, "closed_loop", clean=True)
+    fb = case.fit.experiment[f"joints.{case.joint}.feedback"]
+    q = case.fit.columns[case.joint]
+    r = case.fit.columns[fb["reference"]]
+    h = float(case.fit.time[1] - case.fit.time[0])
+    taps = fb["velocity_taps"]
+    k = np.arange(taps, len(q))
+    u = fb["kp"] * (r[k] - q[k]) - fb["kd"] * (q[k] - q[k - taps]) / (taps * h)
+    if "added" in fb:
+        u += case.fit.columns[fb["added"]][k]
+    u = np.clip(u, *fb["saturation"]) * fb["gain"]
+    effort = case.fit.columns[f"{case.joint}.effort"][k]
+    assert np.percentile(np.abs(u - effort), 99) < 0.01 * np.abs(effort).max()
 
 
-def run_case(seed: int, n_effects: int | None, tmp: str) -> dict:
-    case = make_case(seed, n_effects=n_effects)
-    csv = Path(tmp) / f"case_{seed}.csv"
-    csv.write_text(case.csv())
-    result = calibrate(case.obj, [csv])
-    report = result.report
-    checks = []
-    for key, truth in _truth_params(case).items():
-        p = report["parameters"].get(key)
-        if p is None:
-            continue
-        hw = p["halfwidth95"]
-        inside = hw is not None and math.isfinite(hw) and abs(p["value"] - truth) <= hw
-        checks.append((key, p["value"], hw, truth, inside))
-    return {"seed": seed, "kind": case.kind, "truth": sorted(case.truth),
-            "named": report["causes"], "right": set(report["causes"]) == expected_causes(case),
-            "checks": checks, "unexplained": report["unexplained"]}
-
-
-def _run_all(jobs: list[tuple[int, int | None]], tmp: Path) -> list[dict]:
-    workers = max(1, min(len(jobs), os.cpu_count() or 1))
-    # Fresh interpreters: forking a pytest process whose earlier tests started threads
-    # (torch, open3d, tqdm) can deadlock the children on a lock held at the fork.
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        return list(pool.map(run_case, *zip(*jobs, strict=True), [str(tmp)] * len(jobs)))
-
-
-def test_one_case_each_kind(tmp_path):
-    """A quick check outside the slow suite: a damped lid, a drawer with friction."""
-    lid = run_case(2, None, str(tmp_path))
-    assert lid["right"], lid
-    assert all(c[4] for c in lid["checks"]), lid["checks"]
-    drawer = run_case(10, None, str(tmp_path))
-    assert drawer["right"], drawer
-
-
-def test_effect_free_data_names_nothing(tmp_path):
-    out = run_case(CLEAN_SEED0, 0, str(tmp_path))
-    assert out["named"] == [], out
-    assert not out["unexplained"]
+def test_one_case_each_of_two_scenarios():
+    """Outside the slow suite: a pushed run with effects and an effect-free released run."""
+    pushed = run_case(10)
+    assert pushed["right"], pushed
+    assert not pushed["worse"], pushed
+    released = run_case(1)
+    assert released["clean"] and released["named"] == [], released
+    assert not released["worse"], released
 
 
 @pytest.mark.slow
-def test_hidden_effect_suite(tmp_path):
-    with_effects = _run_all([(s, None) for s in range(N_EFFECT_CASES)], tmp_path)
-    clean = _run_all([(CLEAN_SEED0 + s, 0) for s in range(N_CLEAN_CASES)], tmp_path)
-    right = sum(r["right"] for r in with_effects) / len(with_effects)
-    quiet = sum(not r["named"] for r in clean) / len(clean)
-    checks = [c for r in with_effects if r["right"] for c in r["checks"]]
-    covered = sum(c[4] for c in checks) / len(checks)
-    wrong = [(r["seed"], r["kind"], r["truth"], r["named"]) for r in with_effects
-             if not r["right"]]
-    noisy = [(r["seed"], r["named"]) for r in clean if r["named"]]
-    missed = [c for c in checks if not c[4]]
-    summary = (f"right causes {right:.0%} ({len(with_effects)} cases), no cause on "
-               f"effect-free data {quiet:.0%} ({len(clean)}), values within their 95 % "
-               f"intervals {covered:.0%} ({len(checks)}); wrong: {wrong}; named on clean "
-               f"data: {noisy}; outside: {missed}")
+def test_hidden_effect_suite():
+    results = run_cases(ci_seeds(CI_ROUNDS))
+    s = score(results)
+    summary = (f"right causes {s['right']:.0%} ({s['effect_cases']} cases), no cause on "
+               f"effect-free data {s['quiet']:.0%} ({s['clean_cases']}), values within their "
+               f"95 % intervals {s['covered']:.0%} ({s['values']}), held out worse than "
+               f"nominal in {s['worse']}; wrong: {s['wrong']}; named on clean data: "
+               f"{s['noisy']}; outside: {s['outside']}; worse: {s['worse_cases']}")
     print(summary)
-    assert right >= 0.95, summary
-    assert quiet >= 0.95, summary
-    assert covered >= 0.90, summary
+    assert s["right"] >= 0.95, summary
+    assert s["quiet"] >= 0.97, summary
+    assert s["covered"] >= 0.90, summary
+    assert s["worse"] == 0, summary

@@ -8,8 +8,8 @@ Modules: ``trajectory`` (the CSV contract), ``spec`` / ``simulate`` (the replay)
 causes), ``effects`` (the candidate library), ``inverse`` and ``fit`` (fitting), ``select``
 (model selection), ``validate`` (cross-validation: no false causes), ``inertial`` (base
 inertial parameters), ``apply`` / ``extras`` (into the model), ``report``, ``run`` (the
-entry points), ``emps`` / ``pendulum`` (real-data adapters) and ``evaluate`` (the
-published-vs-ours tables).
+entry points). Real data sets reach it through the general command: their converters to
+CSV + experiment file are scripts in ``bench/``.
 """
 
 from .run import CalibrationResult, calibrate, calibrate_trajectories, replay, run_calibrate
