@@ -19,23 +19,19 @@ EXIT_OK, EXIT_DISAGREE, EXIT_ERROR = 0, 1, 2
 
 
 def _formats_arg(text: str) -> list[str]:
-    from .formats import FORMATS
+    from .formats import parse_names
 
-    names = [t.strip().lower() for t in text.split(",") if t.strip()]
-    bad = [n for n in names if n not in FORMATS]
-    if bad or not names:
-        raise argparse.ArgumentTypeError(
-            f"unknown format(s) {bad or text!r}; choose from {', '.join(FORMATS)}")
-    return names
+    try:
+        return parse_names(text)
+    except Real2CodeError as e:
+        raise argparse.ArgumentTypeError(e.message) from e
 
 
 def _available_export_formats() -> list[str]:
-    """The default --to: every export format whose module imports here."""
-    import importlib.util
+    """The default --to: every export format whose imports work here (the registry's)."""
+    from .formats import export_formats
 
-    from .formats import EXPORT_FORMATS, FORMATS
-
-    return [f for f in EXPORT_FORMATS if importlib.util.find_spec(FORMATS[f].module) is not None]
+    return export_formats()
 
 
 # -- commands ----------------------------------------------------------------------------------

@@ -33,7 +33,7 @@ class BatchTaskError(Real2CodeError):
 class TaskOptions:
     """The options a task runs with (part of every object's key: changing one redoes all)."""
 
-    formats: tuple[str, ...] = ("json", "mjcf", "urdf", "usd", "gltf")  # export/calibrate
+    formats: tuple[str, ...] = ()  # export/calibrate; () = json and every available format
     check: bool = True  # check the files a task writes (check: the files it is given)
     configurations: int = 100
     seed: int = 0
@@ -41,8 +41,10 @@ class TaskOptions:
     tol_rotation: float = 1e-6
 
     def __post_init__(self):
-        from ..formats import FORMATS
+        from ..formats import FORMATS, export_formats
 
+        if not self.formats:
+            object.__setattr__(self, "formats", ("json", *export_formats()))
         unknown = [f for f in self.formats if f not in FORMATS]
         if unknown or not self.formats:
             raise BatchTaskError(f"--to: unknown or no format(s) {unknown or ''}; choose from "
@@ -147,11 +149,16 @@ def reconstruct_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskR
     return TaskResult(_listing(out), check, None, error, timings)
 
 
-# The heavy libraries every task's export and check use (a missing one is skipped).
-_WARM = ("trimesh", "mujoco", "pinocchio", "pxr.Usd", "pxr.UsdPhysics", "pygltflib",
-         "real2code_export.check", "real2code_export.formats.mjcf",
-         "real2code_export.formats.urdf", "real2code_export.formats.usd",
-         "real2code_export.formats.gltf")
+def _format_imports() -> tuple[str, ...]:
+    from ..formats import FORMATS
+
+    names = (n for f in FORMATS.values() for n in (*f.requires, f.module, *f.probes))
+    return tuple(dict.fromkeys(names))
+
+
+# The heavy libraries every task's export and check use (a missing one is skipped): every
+# format's, as the registry names them.
+_WARM = ("trimesh", "real2code_export.check", *_format_imports())
 TASKS: dict[str, TaskSpec] = {
     "export": TaskSpec("export", export_task, _WARM),
     "check": TaskSpec("check", check_task, _WARM),

@@ -3,7 +3,6 @@ and the report out (atomically: all of it or nothing)."""
 
 from __future__ import annotations
 
-import importlib.util
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -96,10 +95,9 @@ def _features(problem: Problem, nominal: Fit) -> list[dict]:
 
 
 def _export_formats() -> list[str]:
-    from ..formats import EXPORT_FORMATS, FORMATS
+    from ..formats import export_formats
 
-    return ["json"] + [f for f in EXPORT_FORMATS
-                       if importlib.util.find_spec(FORMATS[f].module) is not None]
+    return ["json", *export_formats()]
 
 
 def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[Path] = (),

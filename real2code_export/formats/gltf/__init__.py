@@ -16,7 +16,5 @@ from ._read import load
 from ._write import save
 from .validator import ValidatorUnavailable, validate_gltf, validate_gltf_files
 
-EXTENSIONS = (".glb", ".gltf")
-
-__all__ = ["EXTENSIONS", "ValidatorUnavailable", "load", "save", "validate_gltf",
+__all__ = ["ValidatorUnavailable", "load", "save", "validate_gltf",
            "validate_gltf_files"]
