@@ -268,28 +268,6 @@ def example_figure(obj, base, path: Path, seed: int = 0, model=None,
     return path
 
 
-def add_evaluate_completion_parser(evaluate_sub) -> argparse.ArgumentParser:
-    """``real2code evaluate completion``: added by the CLI to its ``evaluate`` subparsers."""
-    s = evaluate_sub.add_parser("completion",
-                                help="shape completion against the segment-only baseline")
-    _arguments(s)
-    s.set_defaults(func=cmd_evaluate_completion)
-    return s
-
-
-def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--objects", type=int, default=40, help="held-out procedural objects (40)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--partnet", type=Path, default=None,
-                   help="the PartNet-Mobility folder (with index.json): add its dev objects")
-    p.add_argument("--arc", type=float, default=120.0,
-                   help="the cameras' azimuth span in degrees (120; 360: a full ring)")
-    p.add_argument("--figure", type=int, default=None,
-                   help="also draw this procedural test object (its index)")
-    p.add_argument("--out", type=Path, default=Path("completion_eval"),
-                   help="folder for completion.json, completion.md and the figures")
-
-
 def cmd_evaluate_completion(args) -> int:
     from real2code_export.atomic import write_text
 
@@ -325,8 +303,10 @@ def cmd_evaluate_completion(args) -> int:
 
 
 def main(argv=None) -> int:
+    from real2code_export.cli.reconstruct import completion_arguments
+
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    _arguments(p)
+    completion_arguments(p)
     return cmd_evaluate_completion(p.parse_args(argv))
 
 
