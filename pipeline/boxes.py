@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from real2code_export.errors import InputError
 from real2code_export.model import ArticulatedObject, JointType, Mesh, forward_kinematics
 
 from .joint_code import ArticulationProgram, ChildJoint, encode_joint
@@ -48,7 +49,7 @@ def ground_truth_program(obj: ArticulatedObject, order: list[str], boxes: list[O
     joints = []
     for j in obj.joints:
         if j.type is JointType.FIXED:
-            raise ValueError(f"joint {j.name!r} is fixed: merge its part into its parent first")
+            raise InputError(f"joint {j.name!r} is fixed: merge its part into its parent first")
         axis, point = axes[j.name]
         kind = "slide" if j.type is JointType.PRISMATIC else "hinge"
         enc = encode_joint(boxes[index[j.child]], kind, axis, point)

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from real2code_export.errors import InputError
+
 from .capture import Capture, Frame
 
 
@@ -142,7 +144,7 @@ def object_diagonal(capture: Capture) -> float:
             lo = np.minimum(lo, pts[valid].min(0))
             hi = np.maximum(hi, pts[valid].max(0))
     if not np.all(np.isfinite(lo)):
-        raise ValueError("the capture has no depth: nothing to reconstruct")
+        raise InputError("the capture has no depth: nothing to reconstruct")
     return float(np.linalg.norm(hi - lo))
 
 
@@ -163,7 +165,7 @@ def oriented_part_clouds(capture: Capture, labels: list[np.ndarray] | None = Non
     drops stray points."""
     if labels is None:
         if not capture.has_masks:
-            raise ValueError("the capture has no masks; pass labels")
+            raise InputError("the capture has no masks; pass labels")
         labels = [f.mask for f in capture.frames]
     voxel = object_diagonal(capture) / 150 if voxel is None else voxel
     gathered: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}

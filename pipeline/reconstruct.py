@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from real2code_export.errors import Real2CodeError, warn
+from real2code_export.errors import InputError, Real2CodeError, warn
 
 from .capture import Capture, read_capture
 from .segment import PromptingOptions, Segmentation, segment
@@ -77,7 +77,7 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
     """One watertight mesh per part cloud: the occupancy network, given the other parts as
     context, or the segment-only surface reconstruction."""
     if completion not in COMPLETIONS:
-        raise ValueError(f"unknown completion {completion!r}; choose from {list(COMPLETIONS)}")
+        raise InputError(f"unknown completion {completion!r}; choose from {list(COMPLETIONS)}")
     if completion == "learned":
         from .complete import complete_part, load_model
 

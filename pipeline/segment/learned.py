@@ -3,7 +3,6 @@ behind the promptable-segmenter interface of :mod:`pipeline.segment.prompting`."
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -33,25 +32,13 @@ class LearnedSegmenter:
 
     @classmethod
     def load(cls, path: str | Path | None = None) -> LearnedSegmenter:
-        import torch
-
-        from real2code_export.errors import FormatError
-
+        from ..weights import load_network
         from .network import build_network
 
-        path = Path(path) if path is not None else WEIGHTS
-        if not path.is_file():
-            raise FormatError(path, None, "segmentation weights not found (train them with "
-                              "`python -m pipeline.segment.train`)")
-        try:
-            blob = torch.load(path, map_location="cpu", weights_only=True)
-            config = json.loads(blob["config"])
-            net_cfg = config["network"]
-            network = build_network(net_cfg["dim"], tuple(net_cfg["widths"]),
-                                    net_cfg.get("fine", 0))
-            network.load_state_dict(blob["state_dict"])
-        except (KeyError, RuntimeError, ValueError) as e:
-            raise FormatError(path, None, f"not mask-network weights: {e}") from e
+        network, config = load_network(
+            WEIGHTS if path is None else path, "segmentation",
+            lambda c: build_network(c["dim"], tuple(c["widths"]), c.get("fine", 0)),
+            "python -m pipeline.segment.train")
         return cls(network, config)
 
     def set_views(self, frames) -> None:

@@ -222,4 +222,9 @@ def completion_arguments(p: argparse.ArgumentParser) -> None:
 def cmd_evaluate_completion(args) -> int:
     from pipeline.complete.evaluate import cmd_evaluate_completion as evaluate_completion
 
+    from ..errors import Real2CodeError
+
+    if args.partnet is not None and not (args.partnet / "index.json").is_file():
+        raise Real2CodeError(f"{args.partnet}: no PartNet-Mobility index.json here")
+
     return evaluate_completion(args)

@@ -46,7 +46,7 @@ class Probe(Protocol):
 def open_probes(path: str | Path) -> list[Probe]:
     """Every probe for ``path``: the registry's probe modules for its format, in report
     order (chosen by suffix)."""
-    from ..formats import FORMATS, format_for_path
+    from ..formats import FORMATS, format_for_path, unavailable_reason
 
     path = Path(path)
     if not path.exists():
@@ -59,6 +59,9 @@ def open_probes(path: str | Path) -> list[Probe]:
         known = sorted(s for f in FORMATS.values() if f.probes for s in f.suffixes)
         raise CheckError(f"{path}: cannot check files of type {path.suffix!r} "
                          f"(known: {', '.join(known)})")
+    problem = unavailable_reason(fmt.name)
+    if problem:
+        raise CheckError(f"{path}: {fmt.name} files cannot be checked here: {problem}")
     probes: list[Probe] = []
     for name in fmt.probes:
         probes.extend(_probe_module(name, path).open_probes(path))
