@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
+from real2code_export.kinematics import world_part_meshes
 from real2code_export.model import ArticulatedObject
 
 from .articulate import articulate
-from .boxes import world_part_meshes
 from .evaluate_joints import BUCKETS, PAPER_FULL, PAPER_GT_BOXES, Scores, score_object
 from .train_joint_predictor import ajar_configuration, random_placement
 

@@ -76,7 +76,7 @@ class SettingResult:
 
 
 def _truth_meshes(case: Case) -> list:
-    from .boxes import world_part_meshes
+    from real2code_export.kinematics import world_part_meshes
 
     return [m.to_trimesh() for m in world_part_meshes(case.obj, None, case.base).values()]
 

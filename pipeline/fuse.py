@@ -148,14 +148,6 @@ def object_diagonal(capture: Capture) -> float:
     return float(np.linalg.norm(hi - lo))
 
 
-def foreground_cloud(capture: Capture, voxel: float | None = None) -> np.ndarray:
-    """Every measured point of every view, fused and thinned (``voxel`` default: 1/150 of
-    the object's diagonal). Background pixels carry no depth in a capture of an object."""
-    voxel = object_diagonal(capture) / 150 if voxel is None else voxel
-    points = [point_map(f)[0][f.depth > 0] for f in capture.frames]
-    return voxel_downsample(np.concatenate(points), voxel)
-
-
 def oriented_part_clouds(capture: Capture, labels: list[np.ndarray] | None = None,
                          voxel: float | None = None, clean: bool = False,
                          ) -> dict[int, tuple[np.ndarray, np.ndarray]]:

@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from real2code_export.errors import InputError
+from real2code_export.kinematics import world_part_meshes
 from real2code_export.model import ArticulatedObject, Mesh
 
-from .boxes import world_part_meshes
 from .capture import Camera, Capture, Frame
 
 DEFAULT_VIEWS = 12  # as the paper

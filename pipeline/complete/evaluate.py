@@ -1,6 +1,6 @@
 """Shape completion against the segment-only baseline, by the paper's part-count buckets.
 
-    python -m pipeline.complete.evaluate [--objects 40] [--partnet DIR] [--out DIR]
+    real2code evaluate completion [--objects 40] [--partnet DIR] [--out DIR]
 
 Held-out procedural objects (``pipeline.evaluate_articulation.procedural_cases``: ajar,
 randomly placed) and, when given, the dev PartNet-Mobility objects are seen from 12 noisy
@@ -14,7 +14,6 @@ distance (:mod:`pipeline.chamfer`); the whole object is scored on all its meshes
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -65,7 +64,8 @@ def paper_column(category: str, n_parts: int) -> str:
 
 def seen_parts(obj, base, rng: np.random.Generator, arc_deg: float = 120.0):
     """The part meshes in the world and each part's points from 12 views (true labels)."""
-    from ..boxes import world_part_meshes
+    from real2code_export.kinematics import world_part_meshes
+
     from ..render import front_direction
 
     meshes = world_part_meshes(obj, None, base)
@@ -300,15 +300,3 @@ def cmd_evaluate_completion(args) -> int:
     print("\n".join(text))
     print(f"-> {args.out / 'completion.md'}, {args.out / 'completion.json'}")
     return 0
-
-
-def main(argv=None) -> int:
-    from real2code_export.cli.reconstruct import completion_arguments
-
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    completion_arguments(p)
-    return cmd_evaluate_completion(p.parse_args(argv))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 
 from .features import SIZE, frame_features, object_window, whole_view
-from .train import WEIGHTS
 
 STABILITY_OFFSET = 1.0  # SAM's: how far the logit threshold moves for the stability score
 # The point head refines only the points whose coarse logit is this unsure (PointRend's
@@ -16,6 +15,7 @@ STABILITY_OFFSET = 1.0  # SAM's: how far the logit threshold moves for the stabi
 # (on 24 views of 6 dev captures it turned 0.014 % of those points to the other side, 0.08 %
 # beyond 4) while they are most of the points (87 % of them beyond 6).
 POINT_HEAD_MARGIN = 6.0
+WEIGHTS = Path(__file__).resolve().parent / "weights" / "segmenter.pt"  # the shipped weights
 
 
 class LearnedSegmenter:

@@ -206,7 +206,7 @@ def add_evaluate_completion_parser(evaluate_sub) -> argparse.ArgumentParser:
 
 
 def completion_arguments(p: argparse.ArgumentParser) -> None:
-    """``evaluate completion``'s options (also ``python -m pipeline.complete.evaluate``'s)."""
+    """``evaluate completion``'s options."""
     p.add_argument("--objects", type=int, default=40, help="held-out procedural objects (40)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--partnet", type=Path, default=None,
