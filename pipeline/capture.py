@@ -28,6 +28,9 @@ import numpy as np
 from real2code_export import atomic
 from real2code_export.errors import FormatError
 
+# The capture ``real2code demo`` reconstructs: package data, so it ships in the wheel.
+SAMPLE_CAPTURE = Path(__file__).resolve().parent / "samples" / "cabinet_capture"
+
 TRANSFORMS = "transforms.json"
 GROUND_TRUTH_DIR = "ground_truth"
 DEFAULT_DEPTH_SCALE = 1e-3  # nerfstudio's default: depth PNGs in millimetres

@@ -167,9 +167,9 @@ def _bad_commands(tmp_path: Path) -> dict[str, list[str]]:
 
 
 def test_every_command_refuses_bad_input_with_exit_2(tmp_path, capsys, monkeypatch):
-    from real2code_export.cli import reconstruct
+    import pipeline.capture
 
-    monkeypatch.setattr(reconstruct, "SAMPLE_CAPTURE", tmp_path / "no_capture")
+    monkeypatch.setattr(pipeline.capture, "SAMPLE_CAPTURE", tmp_path / "no_capture")
     commands = {**_bad_commands(tmp_path), "demo": ["demo", "--out", str(tmp_path / "d")]}
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     evaluate = next(a for a in sub.choices["evaluate"]._actions if a.dest == "what")
@@ -211,3 +211,18 @@ def test_nan_metadata_is_the_same_error_for_every_format(tmp_path):
         with pytest.raises(ModelError, match="metadata: not JSON"):
             formats.export(obj, tmp_path / name, [name])
         assert not (tmp_path / name).exists()
+
+
+def test_the_demo_capture_ships_as_package_data():
+    """``real2code demo`` reads its capture from the installed package, never a checkout."""
+    import tomllib
+
+    import pipeline
+    from pipeline.capture import SAMPLE_CAPTURE
+
+    root = Path(pipeline.__file__).resolve().parent
+    config = tomllib.loads((REPO / "pyproject.toml").read_text())
+    patterns = config["tool"]["setuptools"]["package-data"]["pipeline"]
+    shipped = {p for pattern in patterns for p in root.glob(pattern) if p.is_file()}
+    needed = {p for p in SAMPLE_CAPTURE.rglob("*") if p.is_file()}
+    assert (SAMPLE_CAPTURE / "transforms.json") in needed and needed <= shipped

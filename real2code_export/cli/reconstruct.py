@@ -12,10 +12,6 @@ import argparse
 import time
 from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-SAMPLE_CAPTURE = REPO_ROOT / "samples" / "cabinet_capture"
-
-
 # The renderer's defaults, for --help without importing it (a test holds them equal to
 # pipeline.render's DEFAULT_VIEWS and DEFAULT_SIZE).
 RENDER_VIEWS, RENDER_SIZE = 12, 256
@@ -129,11 +125,13 @@ def cmd_demo(args) -> int:
 def run_demo(out: str | Path) -> int:
     """``real2code demo``: reconstruct the shipped sample capture with the shipped models,
     print where every stage's output went and what the check found."""
+    from pipeline.capture import SAMPLE_CAPTURE
+
     from ..errors import Real2CodeError
 
     if not (SAMPLE_CAPTURE / "transforms.json").is_file():
-        raise Real2CodeError(f"{SAMPLE_CAPTURE}: the shipped sample capture is missing "
-                             "(reinstall from a checkout)")
+        raise Real2CodeError(f"{SAMPLE_CAPTURE}: the sample capture shipped with the package is "
+                             "missing (reinstall real2code-export)")
     parser = argparse.ArgumentParser()
     _reconstruct_options(parser)
     args = parser.parse_args([])
