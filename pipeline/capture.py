@@ -1,6 +1,6 @@
 """The capture folder: posed RGB-D frames in nerfstudio's ``transforms.json`` convention.
 
-Layout (DESIGN.md)::
+Layout (docs/design.md)::
 
     CAPTURE/transforms.json      cameras, frames, parts
     CAPTURE/images/frame_00000.png   RGB, 8 bit

@@ -1,6 +1,6 @@
 """The articulated-object model every importer fills and every exporter reads.
 
-Conventions (DESIGN.md): SI units, Z up, right-handed. A part's frame is its joint frame
+Conventions (docs/design.md): SI units, Z up, right-handed. A part's frame is its joint frame
 (URDF style): ``joint.origin`` is the pose of the child frame in the parent frame at q = 0,
 ``joint.axis`` a unit vector in that frame. A part's visual and collision meshes and its
 inertial are expressed in the part frame. Colours are linear RGBA in [0, 1].

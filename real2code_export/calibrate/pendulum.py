@@ -126,7 +126,7 @@ def small_swing_frequency(obj: ArticulatedObject | None = None) -> float:
 
 
 def write_csv(traj: Trajectory, path: str | Path) -> Path:
-    """The run as a trajectory CSV (DESIGN.md), for ``real2code calibrate``."""
+    """The run as a trajectory CSV (docs/design.md), for ``real2code calibrate``."""
     from .. import atomic
 
     return atomic.write_text(path, csv_text(traj, [f"from {Path(traj.source).name}"]))

@@ -1,4 +1,4 @@
-"""The calibration report: ``report.json`` (keys as DESIGN.md says), and a human report in
+"""The calibration report: ``report.json`` (keys in docs/design.md), and a human report in
 markdown with PNG plots (measured vs simulated, residuals, the candidates' scores)."""
 
 from __future__ import annotations

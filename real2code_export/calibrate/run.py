@@ -103,7 +103,7 @@ def _export_formats() -> list[str]:
 def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[Path] = (),
               out_dir: Path | None = None, formats: Sequence[str] | None = None
               ) -> CalibrationResult:
-    """Fit the model's joint dynamics to measured trajectories (CSV files, DESIGN.md).
+    """Fit the model's joint dynamics to measured trajectories (CSV files, docs/design.md).
 
     Every file is read and checked before anything runs; with ``out_dir`` the report
     (``report.json``, ``report.md`` and its plots), the calibrated ``object.json`` and the
