@@ -10,7 +10,6 @@ inspect). Heavy modules are imported inside the tasks.
 from __future__ import annotations
 
 import json
-import math
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -20,6 +19,7 @@ from typing import Any
 
 from .. import atomic
 from ..errors import Real2CodeError
+from ..jsonsafe import finite_or_null
 from .inputs import BatchObject, is_model_file
 
 CHECK_REPORT = "check.json"
@@ -122,7 +122,7 @@ def calibrate_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskRes
                                          "unexplained")}
     models = [p for name, p in cal.files.items() if name in FORMATS]
     check, error = _check_outputs(models, out, options, timings)
-    return TaskResult(_listing(out), check, _finite(result), error, timings)
+    return TaskResult(_listing(out), check, finite_or_null(result), error, timings)
 
 
 def reconstruct_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskResult:
@@ -191,7 +191,7 @@ def _check_arguments(options: TaskOptions) -> dict[str, Any]:
 
 def _summary(report) -> tuple[dict[str, Any], str | None]:
     """What the manifest keeps of a check report."""
-    summary = _finite({
+    summary = finite_or_null({
         "ok": report.ok,
         "probes": [p.label for p in report.probes],
         "max_position_error": report.max_position_error,
@@ -228,15 +228,6 @@ def replace_text(value, old: str, new: str):
     return value
 
 
-def _finite(value):
-    """JSON has no inf or nan: null instead."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    return value
 
 
 @contextmanager
