@@ -226,3 +226,27 @@ def test_the_demo_capture_ships_as_package_data():
     shipped = {p for pattern in patterns for p in root.glob(pattern) if p.is_file()}
     needed = {p for p in SAMPLE_CAPTURE.rglob("*") if p.is_file()}
     assert (SAMPLE_CAPTURE / "transforms.json") in needed and needed <= shipped
+
+
+def test_building_the_parser_imports_no_stage():
+    """``real2code --help`` stays quick: no pipeline, numpy, scipy or format module loads."""
+    import subprocess
+
+    code = ("import sys; from real2code_export.cli import build_parser; build_parser(); "
+            "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('pipeline', 'numpy', 'scipy', 'trimesh', 'mujoco', 'pxr', 'pygltflib', 'torch') "
+            "or m.startswith(('real2code_export.formats.', 'real2code_export.model')))))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=REPO)
+    assert done.stdout.strip() == "", done.stdout
+
+
+def test_the_parser_restates_no_stage_fact_wrongly():
+    """The few facts the parser carries so as not to import a stage match the stage's own."""
+    from pipeline.render import DEFAULT_SIZE, DEFAULT_VIEWS
+    from real2code_export.batch.inputs import KINDS
+    from real2code_export.batch.tasks import TASKS
+    from real2code_export.cli import batch, reconstruct
+
+    assert (reconstruct.RENDER_VIEWS, reconstruct.RENDER_SIZE) == (DEFAULT_VIEWS, DEFAULT_SIZE)
+    assert batch.KINDS == KINDS == tuple(TASKS)
