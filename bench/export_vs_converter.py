@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -33,10 +34,15 @@ DATA = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "da
 CONVERTER = REPO / ".venv-bench" / "bin" / "urdf_usd_converter"
 
 
-def _wall(command: list[str]) -> float:
+def _run(command: list[str]) -> tuple[float, float]:
+    """Wall seconds and CPU seconds (user + system) of one run of ``command``: on a shared
+    machine the CPU time is what the command itself costs, the wall time what a user waits."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main() -> None:
@@ -54,28 +60,31 @@ def main() -> None:
     index = json.loads((root / "index.json").read_text())
     ids = [e["id"] for e in index if e["split"] == "dev"][:args.objects]
     print(f"machine: {describe()}; load average at start {load_average()}")
-    print(f"{'object':8s} {'real2code s':>12s} {'converter s':>12s} {'ratio':>6s}  "
-          f"(median of {args.repeat} runs each, wall time)")
-    ratios, totals = [], {"ours": 0.0, "theirs": 0.0}
+    print(f"{'object':8s} {'wall s: ours':>12s} {'converter':>10s} {'ratio':>6s}   "
+          f"{'cpu s: ours':>11s} {'converter':>10s} {'ratio':>6s}  (medians of {args.repeat} runs)")
+    totals = {"wall": [0.0, 0.0], "cpu": [0.0, 0.0]}
     with tempfile.TemporaryDirectory() as tmp:
         for oid in ids:
             urdf = str(root / oid / "mobility.urdf")
-            a, b = [], []
+            runs: dict[str, list[tuple[float, float]]] = {"ours": [], "theirs": []}
             for k in range(args.repeat):
                 out = Path(tmp) / f"{oid}_{k}"
-                a.append(_wall([ours, "export", urdf, "--to", "usd", "--out", str(out / "a")]))
-                b.append(_wall([str(CONVERTER), urdf, str(out / "b")]))
-            ma, mb = statistics.median(a), statistics.median(b)
-            ratios.append(mb / ma)
-            totals["ours"] += ma
-            totals["theirs"] += mb
-            print(f"{oid:8s} {ma:12.3f} {mb:12.3f} {mb / ma:6.2f}")
-    ratio = totals["theirs"] / totals["ours"]
-    verdict = "met" if ratio >= 2 else "NOT met"
-    print(f"all {len(ids)}: real2code {totals['ours']:.2f} s, converter {totals['theirs']:.2f} s, "
-          f"converter/real2code = {ratio:.2f} (target >= 2: {verdict}); "
-          f"load average at end {load_average()}")
-
+                runs["ours"].append(_run([ours, "export", urdf, "--to", "usd", "--out",
+                                          str(out / "a")]))
+                runs["theirs"].append(_run([str(CONVERTER), urdf, str(out / "b")]))
+            row = []
+            for i, kind in enumerate(("wall", "cpu")):
+                a = statistics.median(r[i] for r in runs["ours"])
+                b = statistics.median(r[i] for r in runs["theirs"])
+                totals[kind][0] += a
+                totals[kind][1] += b
+                row.append(f"{a:12.3f} {b:10.3f} {b / a:6.2f}")
+            print(f"{oid:8s} " + "   ".join(row))
+    for kind, (a, b) in totals.items():
+        verdict = "met" if b / a >= 2 else "NOT met"
+        print(f"all {len(ids)}, {kind}: real2code {a:.2f} s, converter {b:.2f} s, "
+              f"converter/real2code = {b / a:.2f} (target >= 2: {verdict})")
+    print(f"load average at end {load_average()}")
 
 if __name__ == "__main__":
     main()
