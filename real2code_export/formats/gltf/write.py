@@ -32,8 +32,8 @@ import numpy as np
 from ... import atomic
 from ...meshfiles import write_object_meshes
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
-from . import _physics as physics
-from ._common import (
+from . import physics
+from .conventions import (
     ARRAY_BUFFER,
     ELEMENT_ARRAY_BUFFER,
     EXTRAS_KEY,
@@ -48,7 +48,7 @@ from ._common import (
     axis_angle_xyzw,
     quat_xyzw,
 )
-from ._mesh import VertexData, encode_collision, encode_visual
+from .mesh import VertexData, encode_collision, encode_visual
 
 GENERATOR = "real2code_export"
 SWEEP_SECONDS = 2.0  # one leg of a joint's animation (lower -> upper)
