@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from real2code_export.markdown import table as markdown_table
+
 from ..chamfer import REPORT_SCALE, chamfer_distance, object_chamfer
 from ..evaluate_joints import BUCKETS, bucket_of
 from .baseline import segment_only_mesh
@@ -170,35 +172,31 @@ def summary(results: list[ObjectResult], key=lambda r: r.bucket,
 
 
 def markdown(title: str, rows: dict[str, dict], group: str = "parts") -> str:
-    lines = [f"### {title}", "",
-             f"| {group} | objects / parts | part CD: completion | part CD: segment-only | "
-             "whole CD: completion | whole CD: segment-only | parts better completed |",
-             "|---|---|---|---|---|---|---|"]
-    for name, r in rows.items():
-        lines.append(f"| {name} | {r['objects']} / {r['parts']} | {r['part_completion']:.2f} | "
-                     f"{r['part_segment_only']:.2f} | {r['whole_completion']:.2f} | "
-                     f"{r['whole_segment_only']:.2f} | {100 * r['completion_better']:.0f} % |")
-    return "\n".join(lines)
+    header = [group, "objects / parts", "part CD: completion", "part CD: segment-only",
+              "whole CD: completion", "whole CD: segment-only", "parts better completed"]
+    cells = [[name, f"{r['objects']} / {r['parts']}", f"{r['part_completion']:.2f}",
+              f"{r['part_segment_only']:.2f}", f"{r['whole_completion']:.2f}",
+              f"{r['whole_segment_only']:.2f}", f"{100 * r['completion_better']:.0f} %"]
+             for name, r in rows.items()]
+    return "\n".join([f"### {title}", "", *markdown_table(header, cells)])
 
 
 def paper_markdown(rows: dict[str, dict]) -> str:
     """Our part CD by the paper's Table 2 columns, next to the paper's own."""
     cols = list(PAPER_PART_CD["completion"])
-    lines = ["### Part chamfer distance (x1000) by the paper's columns", "",
-             "| method | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
 
     def cell(v):
         return "N/A" if v is None else f"{v:.2f}"
 
-    lines.append("| Real2Code (paper, PartNet-Mobility, predicted masks) | "
-                 + " | ".join(cell(PAPER_PART_CD["completion"][c]) for c in cols) + " |")
-    lines.append("| Real2Code-SegOnly (paper) | "
-                 + " | ".join(cell(PAPER_PART_CD["segment_only"][c]) for c in cols) + " |")
+    cells = [["Real2Code (paper, PartNet-Mobility, predicted masks)",
+              *(cell(PAPER_PART_CD["completion"][c]) for c in cols)],
+             ["Real2Code-SegOnly (paper)", *(cell(PAPER_PART_CD["segment_only"][c]) for c in cols)]]
     for m, label in (("completion", "ours: completion (gt masks)"),
                      ("segment_only", "ours: segment-only, alpha shape (gt masks)")):
-        lines.append(f"| {label} | " + " | ".join(
-            "-" if c not in rows else cell(rows[c][f"part_{m}"]) for c in cols) + " |")
-    return "\n".join(lines)
+        cells.append([label, *("-" if c not in rows else cell(rows[c][f"part_{m}"])
+                               for c in cols)])
+    return "\n".join(["### Part chamfer distance (x1000) by the paper's columns", "",
+                      *markdown_table(["method", *cols], cells)])
 
 
 def bar_figure(rows: dict[str, dict], path: Path, title: str) -> Path:
