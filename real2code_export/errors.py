@@ -59,6 +59,10 @@ class FormatError(Real2CodeError):
         super().__init__(text + message)
 
 
+class UnavailableError(Real2CodeError):
+    """A format (or tool) whose dependencies do not import here: says which and why."""
+
+
 class ExportError(Real2CodeError):
     """A model could not be written to a format (the format's own tool refused it)."""
 

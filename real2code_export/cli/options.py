@@ -35,7 +35,7 @@ def add_formats_option(parser, default_help: str = "every available one") -> Non
 
 def chosen_formats(args) -> list[str]:
     """``--to`` as given, or every exported format that works here; a named format that
-    cannot work here is a FormatError (exit 2) saying why."""
+    cannot work here is an UnavailableError (exit 2) saying why."""
     from ..formats import FORMATS, export_formats
 
     if not args.to:

@@ -22,7 +22,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING
 
-from ..errors import FormatError
+from ..errors import FormatError, UnavailableError
 
 if TYPE_CHECKING:
     from ..model import ArticulatedObject
@@ -46,10 +46,11 @@ class Format:
         return self.suffixes[0]
 
     def load_module(self) -> ModuleType:
-        """The format's module; FormatError (exit 2) naming why when it cannot be used here."""
+        """The format's module; UnavailableError (exit 2) naming why when it cannot be used
+        here."""
         problem = unavailable_reason(self.name)
         if problem:
-            raise FormatError(None, f"format {self.name!r}", f"not available here: {problem}")
+            raise UnavailableError(f"format {self.name!r} is not available here: {problem}")
         return importlib.import_module(self.module)
 
 
