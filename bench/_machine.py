@@ -35,3 +35,11 @@ def timeit(fn, repeat: int) -> list[float]:
         fn()
         times.append(time.perf_counter() - t0)
     return times
+
+
+def load_average() -> str:
+    """The 1, 5 and 15 minute load averages (how busy the shared machine was)."""
+    try:
+        return " ".join(f"{x:.1f}" for x in os.getloadavg())
+    except OSError:
+        return "unknown"

@@ -18,9 +18,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe  # noqa: E402
 
 from pipeline.articulate import articulate  # noqa: E402
-from pipeline.boxes import world_part_meshes  # noqa: E402
 from pipeline.predictors import get_predictor  # noqa: E402
 from pipeline.procedural import generate  # noqa: E402
+from real2code_export.kinematics import world_part_meshes  # noqa: E402
 
 
 def main() -> None:

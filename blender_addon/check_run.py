@@ -20,9 +20,10 @@ from pathlib import Path
 import bpy
 
 from real2code_export.errors import CheckError
+from real2code_export.formats import FORMATS
 
 TIMEOUT_S = 600.0
-USD_SUFFIXES = (".usda", ".usd", ".usdc")
+USD_SUFFIXES = FORMATS["usd"].suffixes
 
 
 @dataclass
@@ -111,9 +112,7 @@ def run_inside(files: list[Path], configurations: int = 100) -> CheckOutcome:
         skipped.append("Khronos glTF validator: needs Node.js and its npm package, not run "
                        "inside Blender")
     report = check_files(usable, n_configurations=configurations, validate=False)
-    for f in usable:
-        if f.suffix.lower() in USD_SUFFIXES:
-            report.validations.append(validate_usd(f))
+    report.validations += validate_usd([f for f in usable if f.suffix.lower() in USD_SUFFIXES])
     result = report.to_json()
     for v in report.validations:
         if v.errors:

@@ -9,16 +9,13 @@ from pathlib import Path
 import bpy
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
+from real2code_export.formats import FORMATS
+
 from . import rig_props as rp
 from .from_blender import find_rig, read_rig
 
-FORMAT_ITEMS = (
-    ("json", "object.json", "The project's own lossless format"),
-    ("mjcf", "MJCF", "MuJoCo"),
-    ("urdf", "URDF", "URDF (ROS, Pinocchio, Isaac, ...)"),
-    ("usd", "USD", "USD with UsdPhysics joints"),
-    ("gltf", "glTF", "Binary glTF with KHR physics joints"),
-)
+# every format the registry knows (a format's label and description are the registry's)
+FORMAT_ITEMS = tuple((f.name, f.label, f.description) for f in FORMATS.values())
 
 
 def export_rig(root: bpy.types.Object, out: Path, formats, depsgraph=None) -> dict[str, Path]:

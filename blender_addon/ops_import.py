@@ -10,7 +10,9 @@ import bpy
 from bpy.props import CollectionProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper, poll_file_object_drop
 
-EXTENSIONS = (".json", ".urdf", ".xml", ".mjcf", ".glb", ".gltf", ".usda", ".usd", ".usdc")
+from real2code_export.formats import FORMATS, suffixes
+
+EXTENSIONS = suffixes()  # every format the project reads (the registry's list)
 MAX_WARNINGS_SHOWN = 5
 
 
@@ -19,7 +21,7 @@ def load_model(path: Path):
     from real2code_export.errors import Real2CodeWarning
     from real2code_export.formats import load
 
-    if path.suffix.lower() in (".usda", ".usd", ".usdc"):
+    if path.suffix.lower() in FORMATS["usd"].suffixes:
         from .usd_support import ensure_pxr
 
         ensure_pxr()

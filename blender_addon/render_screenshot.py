@@ -21,7 +21,7 @@ from pathlib import Path
 
 ADDON = Path(__file__).resolve().parent
 REPO = ADDON.parent
-SAMPLE = REPO / "samples" / "cabinet" / "object.json"
+SAMPLE = REPO / "pipeline" / "samples" / "cabinet" / "object.json"
 MODULE = "bl_ext.user_default.real2code"
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from real2code_export import transforms as tf
+from real2code_export.errors import InputError
 from real2code_export.model import (
     ArticulatedObject,
     Joint,
@@ -70,7 +71,7 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     from real2code_export.inertia import DEFAULT_DENSITY, inertial_from_mesh
 
     if len(meshes) < 2:
-        raise ValueError(f"need at least two parts to articulate, got {len(meshes)}")
+        raise InputError(f"need at least two parts to articulate, got {len(meshes)}")
     taken: set[str] = set()
     names = [sanitize_name(n, taken) for n in meshes]
     world = dict(zip(names, meshes.values(), strict=True))
@@ -95,7 +96,7 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     while pending:
         ready = [j for j in pending if names[program.parent_of(j)] in pose]
         if not ready:
-            raise ValueError("predicted joints do not form a tree")
+            raise InputError("predicted joints do not form a tree")
         for cj in ready:
             pending.remove(cj)
             parent_name, child_name = names[program.parent_of(cj)], names[cj.box]

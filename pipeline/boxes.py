@@ -5,33 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from real2code_export.model import ArticulatedObject, JointType, Mesh, forward_kinematics
+from real2code_export.errors import InputError
+from real2code_export.kinematics import world_joints
+from real2code_export.model import ArticulatedObject, JointType, Mesh
 
 from .joint_code import ArticulationProgram, ChildJoint, encode_joint
 from .obb import OBB, part_obb
 
 
-def world_part_meshes(obj: ArticulatedObject, q: dict[str, float] | None = None,
-                      base: np.ndarray | None = None) -> dict[str, Mesh]:
-    """Every part's visual mesh in the world frame at ``q`` (default: the observed state)."""
-    poses = forward_kinematics(obj, obj.observed_configuration() if q is None else q, base)
-    return {p.name: p.visual.transformed(poses[p.name]) for p in obj.parts if p.visual is not None}
-
-
 def part_boxes(meshes: dict[str, Mesh], fit=part_obb) -> dict[str, OBB]:
     return {name: fit(m.vertices) for name, m in meshes.items()}
-
-
-def world_joints(obj: ArticulatedObject, q: dict[str, float] | None = None,
-                 base: np.ndarray | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Each movable joint's world axis (unit) and a point on it at ``q``."""
-    q = obj.observed_configuration() if q is None else q
-    poses = forward_kinematics(obj, q, base)
-    out = {}
-    for j in obj.movable_joints:
-        frame = poses[j.parent] @ j.origin
-        out[j.name] = (frame[:3, :3] @ j.axis, frame[:3, 3].copy())
-    return out
 
 
 def ground_truth_program(obj: ArticulatedObject, order: list[str], boxes: list[OBB],
@@ -48,7 +31,7 @@ def ground_truth_program(obj: ArticulatedObject, order: list[str], boxes: list[O
     joints = []
     for j in obj.joints:
         if j.type is JointType.FIXED:
-            raise ValueError(f"joint {j.name!r} is fixed: merge its part into its parent first")
+            raise InputError(f"joint {j.name!r} is fixed: merge its part into its parent first")
         axis, point = axes[j.name]
         kind = "slide" if j.type is JointType.PRISMATIC else "hinge"
         enc = encode_joint(boxes[index[j.child]], kind, axis, point)

@@ -1,6 +1,6 @@
 """The capture folder: posed RGB-D frames in nerfstudio's ``transforms.json`` convention.
 
-Layout (DESIGN.md)::
+Layout (docs/design.md)::
 
     CAPTURE/transforms.json      cameras, frames, parts
     CAPTURE/images/frame_00000.png   RGB, 8 bit
@@ -27,6 +27,9 @@ import numpy as np
 
 from real2code_export import atomic
 from real2code_export.errors import FormatError
+
+# The capture ``real2code demo`` reconstructs: package data, so it ships in the wheel.
+SAMPLE_CAPTURE = Path(__file__).resolve().parent / "samples" / "cabinet_capture"
 
 TRANSFORMS = "transforms.json"
 GROUND_TRUTH_DIR = "ground_truth"

@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
+from real2code_export.kinematics import world_part_meshes
+from real2code_export.markdown import table as markdown_table
 from real2code_export.model import ArticulatedObject
 
 from .articulate import articulate
-from .boxes import world_part_meshes
 from .evaluate_joints import BUCKETS, PAPER_FULL, PAPER_GT_BOXES, Scores, score_object
 from .train_joint_predictor import ajar_configuration, random_placement
 
@@ -95,13 +96,12 @@ def evaluate(predictor, cases: list[Case]) -> tuple[Scores, float]:
 def markdown(title: str, rows: dict[str, dict], show_paper: bool) -> str:
     """One table: a row per predictor, and the paper's rows; columns by bucket."""
     names = [b for b, *_ in BUCKETS]
-    head = "| method | " + " | ".join(f"{b} parts: type / axis° / pos" for b in names) + " |"
-    lines = [f"### {title}", "", head, "|" + "---|" * (len(names) + 1)]
+    joints = []
     if show_paper:
         for label, paper in (("Real2Code + gt boxes (paper)", PAPER_GT_BOXES),
                              ("Real2Code, full pipeline (paper)", PAPER_FULL)):
-            cells = [f"{paper[b][2]:.2f} / {paper[b][0]:.1f} / {paper[b][1]:.2f}" for b in names]
-            lines.append(f"| {label} | " + " | ".join(cells) + " |")
+            joints.append([label, *(f"{paper[b][2]:.2f} / {paper[b][0]:.1f} / {paper[b][1]:.2f}"
+                                    for b in names)])
     for method, table in rows.items():
         cells = []
         for b in names:
@@ -110,11 +110,8 @@ def markdown(title: str, rows: dict[str, dict], show_paper: bool) -> str:
                    else f"{t['position_error_rel'] * 100:.1f} %")
             cells.append("-" if t is None else
                          f"{t['type_accuracy']:.2f} / {t['axis_error_deg']:.1f} / {pos}")
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
-    lines += ["", "Closed state and range (the paper predicts neither): mean error of the "
-              "observed opening and of the upper limit, revolute in degrees / prismatic in cm.",
-              "", "| method | " + " | ".join(f"{b} parts: state / upper" for b in names) + " |",
-              "|" + "---|" * (len(names) + 1)]
+        joints.append([method, *cells])
+    ranges = []
     for method, table in rows.items():
         cells = []
         for b in names:
@@ -122,8 +119,13 @@ def markdown(title: str, rows: dict[str, dict], show_paper: bool) -> str:
             cells.append("-" if t is None else
                          f"{_deg(t['state_error_rad'])}° {_cm(t['state_error_m'])} / "
                          f"{_deg(t['upper_error_rad'])}° {_cm(t['upper_error_m'])}")
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        ranges.append([method, *cells])
+    return "\n".join([
+        f"### {title}", "",
+        *markdown_table(["method", *(f"{b} parts: type / axis° / pos" for b in names)], joints),
+        "", "Closed state and range (the paper predicts neither): mean error of the observed "
+        "opening and of the upper limit, revolute in degrees / prismatic in cm.", "",
+        *markdown_table(["method", *(f"{b} parts: state / upper" for b in names)], ranges)])
 
 
 def _deg(rad: float) -> str:

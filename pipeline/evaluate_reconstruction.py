@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from real2code_export.markdown import table as markdown_table
+
 from .evaluate_articulation import Case
 from .evaluate_joints import BUCKETS, PAPER_FULL, Scores, bucket_of, score_object
 
@@ -76,7 +78,7 @@ class SettingResult:
 
 
 def _truth_meshes(case: Case) -> list:
-    from .boxes import world_part_meshes
+    from real2code_export.kinematics import world_part_meshes
 
     return [m.to_trimesh() for m in world_part_meshes(case.obj, None, case.base).values()]
 
@@ -146,29 +148,28 @@ def _fmt(row: dict | None, key: str, fmt: str, scale: float = 1.0) -> str:
 def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool) -> str:
     """Joint and shape tables: a row per setting (and the paper's full-pipeline row)."""
     names = [b for b, *_ in BUCKETS]
-    head = "| method | " + " | ".join(f"{b} parts" for b in names) + " |"
-    rule = "|" + "---|" * (len(names) + 1)
-    lines = [f"### {title}", "", "Joints: type accuracy / axis error (degrees) / axis position "
-             "error (% of the object's diagonal, revolute joints):", "", head, rule]
+    header = ["method", *(f"{b} parts" for b in names)]
+    joints = []
     if show_paper:
-        cells = [f"{PAPER_FULL[b][2]:.2f} / {PAPER_FULL[b][0]:.2f} / -" for b in names]
-        lines.append("| Real2Code, full pipeline (paper) | " + " | ".join(cells) + " |")
+        joints.append(["Real2Code, full pipeline (paper)",
+                       *(f"{PAPER_FULL[b][2]:.2f} / {PAPER_FULL[b][0]:.2f} / -" for b in names)])
     for method, table in tables.items():
-        cells = [" / ".join([_fmt(table.get(b), "type_accuracy", "{:.2f}"),
-                             _fmt(table.get(b), "axis_error_deg", "{:.2f}"),
-                             _fmt(table.get(b), "position_error_rel", "{:.1f} %", 100)])
-                 for b in names]
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
-    lines += ["", "Shapes: chamfer distance x 1000 (whole object / mean per part), the share "
-              "of objects whose part count came out right, and the segmentation's matched "
-              "per-part IoU over all views:", "", head, rule]
-    for method, table in tables.items():
-        cells = [" / ".join([_fmt(table.get(b), "whole_cd", "{:.2f}"),
-                             _fmt(table.get(b), "part_cd", "{:.2f}"),
-                             _fmt(table.get(b), "part_count_exact", "{:.2f}"),
-                             _fmt(table.get(b), "segmentation_iou", "{:.3f}")])
-                 for b in names]
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+        joints.append([method, *(" / ".join([_fmt(table.get(b), "type_accuracy", "{:.2f}"),
+                                             _fmt(table.get(b), "axis_error_deg", "{:.2f}"),
+                                             _fmt(table.get(b), "position_error_rel",
+                                                  "{:.1f} %", 100)])
+                                 for b in names)])
+    shapes = [[method, *(" / ".join([_fmt(table.get(b), "whole_cd", "{:.2f}"),
+                                     _fmt(table.get(b), "part_cd", "{:.2f}"),
+                                     _fmt(table.get(b), "part_count_exact", "{:.2f}"),
+                                     _fmt(table.get(b), "segmentation_iou", "{:.3f}")])
+                         for b in names)] for method, table in tables.items()]
+    lines = [f"### {title}", "", "Joints: type accuracy / axis error (degrees) / axis position "
+             "error (% of the object's diagonal, revolute joints):", "",
+             *markdown_table(header, joints),
+             "", "Shapes: chamfer distance x 1000 (whole object / mean per part), the share "
+             "of objects whose part count came out right, and the segmentation's matched "
+             "per-part IoU over all views:", "", *markdown_table(header, shapes)]
     failures = {m: sum(int(r.get("failures", 0)) for r in t.values()) for m, t in tables.items()}
     if any(failures.values()):
         lines += ["", "Failed reconstructions (scored as wrong joints, no shape): " + ", ".join(

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from real2code_export.errors import InputError
+
 from .capture import Capture, Frame
 
 
@@ -142,16 +144,8 @@ def object_diagonal(capture: Capture) -> float:
             lo = np.minimum(lo, pts[valid].min(0))
             hi = np.maximum(hi, pts[valid].max(0))
     if not np.all(np.isfinite(lo)):
-        raise ValueError("the capture has no depth: nothing to reconstruct")
+        raise InputError("the capture has no depth: nothing to reconstruct")
     return float(np.linalg.norm(hi - lo))
-
-
-def foreground_cloud(capture: Capture, voxel: float | None = None) -> np.ndarray:
-    """Every measured point of every view, fused and thinned (``voxel`` default: 1/150 of
-    the object's diagonal). Background pixels carry no depth in a capture of an object."""
-    voxel = object_diagonal(capture) / 150 if voxel is None else voxel
-    points = [point_map(f)[0][f.depth > 0] for f in capture.frames]
-    return voxel_downsample(np.concatenate(points), voxel)
 
 
 def oriented_part_clouds(capture: Capture, labels: list[np.ndarray] | None = None,
@@ -163,7 +157,7 @@ def oriented_part_clouds(capture: Capture, labels: list[np.ndarray] | None = Non
     drops stray points."""
     if labels is None:
         if not capture.has_masks:
-            raise ValueError("the capture has no masks; pass labels")
+            raise InputError("the capture has no masks; pass labels")
         labels = [f.mask for f in capture.frames]
     voxel = object_diagonal(capture) / 150 if voxel is None else voxel
     gathered: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}

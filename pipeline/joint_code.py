@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from real2code_export.errors import Real2CodeError
+from real2code_export.errors import InputError, Real2CodeError
 
 from .obb import OBB
 
@@ -98,7 +98,7 @@ def encode_joint(box: OBB, joint_type: str, axis, position=None) -> ChildJoint:
     edge = (0, 0)
     if joint_type == "hinge":
         if position is None:
-            raise ValueError("a hinge needs a position to pick its edge")
+            raise InputError("a hinge needs a position to pick its edge")
         edge = min(
             ((ea, eb) for ea in (-1, 1) for eb in (-1, 1)),
             key=lambda e: line_distance(joint_axis_and_position(box, idx, e, sign)[1], axis,

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from real2code_export.errors import InputError
+
 
 @dataclass(frozen=True, eq=False)
 class OBB:
@@ -64,7 +66,7 @@ def canonical(center, rotation, extent) -> OBB:
 def _points(points) -> np.ndarray:
     pts = np.asarray(points, dtype=float).reshape(-1, 3)
     if len(pts) < 4 or not np.all(np.isfinite(pts)):
-        raise ValueError(f"need at least 4 finite points to fit a box, got {len(pts)}")
+        raise InputError(f"need at least 4 finite points to fit a box, got {len(pts)}")
     return pts
 
 
@@ -135,7 +137,7 @@ def frame_aligned_obb(points, frame: np.ndarray, hold: str = "all") -> OBB:
         lo, hi = local.min(axis=0), local.max(axis=0)
         return canonical(frame @ ((lo + hi) / 2), frame, (hi - lo) / 2)
     if hold != "one":
-        raise ValueError(f"hold must be 'all' or 'one', got {hold!r}")
+        raise InputError(f"hold must be 'all' or 'one', got {hold!r}")
     box = gravity_aligned_obb(local)
     return canonical(frame @ box.center, frame @ box.R, box.extent)
 

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from real2code_export.errors import Real2CodeError, warn
+from real2code_export.errors import InputError, Real2CodeError, warn
 
 from .capture import Capture, read_capture
 from .segment import PromptingOptions, Segmentation, segment
@@ -77,7 +77,7 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
     """One watertight mesh per part cloud: the occupancy network, given the other parts as
     context, or the segment-only surface reconstruction."""
     if completion not in COMPLETIONS:
-        raise ValueError(f"unknown completion {completion!r}; choose from {list(COMPLETIONS)}")
+        raise InputError(f"unknown completion {completion!r}; choose from {list(COMPLETIONS)}")
     if completion == "learned":
         from .complete import complete_part, load_model
 
@@ -188,7 +188,7 @@ def write_stages(result: ReconstructResult, folder: Path,
     """Every stage's output and the model's files into ``folder`` (a staging folder)."""
     import trimesh
 
-    from real2code_export.formats import EXPORT_FORMATS, write_formats
+    from real2code_export.formats import export_formats, write_formats
 
     from .program_source import program_source
 
@@ -209,7 +209,7 @@ def write_stages(result: ReconstructResult, folder: Path,
     for name, mesh in result.meshes.items():
         mesh.export(mesh_dir / f"{name}.obj")
     art = result.articulation
-    staged = write_formats(art.obj, folder, ["json", *(formats or EXPORT_FORMATS)])
+    staged = write_formats(art.obj, folder, ["json", *(formats or export_formats())])
     code_dir = folder / "articulation"
     code_dir.mkdir()
     (code_dir / "boxes.txt").write_text(art.prompt + "\n")

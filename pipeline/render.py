@@ -15,9 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
+from real2code_export.errors import InputError
+from real2code_export.kinematics import world_part_meshes
 from real2code_export.model import ArticulatedObject, Mesh
 
-from .boxes import world_part_meshes
 from .capture import Camera, Capture, Frame
 
 DEFAULT_VIEWS = 12  # as the paper
@@ -157,14 +158,14 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
     and pose the object was rendered at.
     """
     if views < 1:
-        raise ValueError(f"need at least one view, got {views}")
+        raise InputError(f"need at least one view, got {views}")
     rng = np.random.default_rng(seed)
     base = np.eye(4) if base is None else np.asarray(base, float)
     config = obj.observed_configuration() if q is None else dict(q)
     meshes = world_part_meshes(obj, config, base)
     names = [p.name for p in obj.parts if p.name in meshes]
     if not names:
-        raise ValueError(f"object {obj.name!r} has no visual meshes to render")
+        raise InputError(f"object {obj.name!r} has no visual meshes to render")
     palette = {p.name: p.color for p in obj.parts} | (colors or {})
     caster = Raycaster([meshes[n] for n in names], [palette[n] for n in names])
     points = np.concatenate([meshes[n].vertices for n in names])
@@ -206,7 +207,7 @@ def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIE
     from .train_joint_predictor import ajar_configuration
 
     if state not in ("observed", "random"):
-        raise ValueError(f"state must be 'observed' or 'random', got {state!r}")
+        raise InputError(f"state must be 'observed' or 'random', got {state!r}")
     # One rigid part per mask: parts welded by fixed joints are one part.
     obj = copy.deepcopy(merge_fixed_joints(load(model)))
     if state == "random":

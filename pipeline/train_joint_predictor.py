@@ -21,9 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from real2code_export import transforms as tf
+from real2code_export.kinematics import world_joints, world_part_meshes
 from real2code_export.model import JointType, Mesh
 
-from .boxes import ground_truth_program, part_boxes, world_joints, world_part_meshes
+from .boxes import ground_truth_program, part_boxes
 from .predictors.features import EDGES, box_features
 from .predictors.learned import JOINT_TYPES, WEIGHTS, build_network
 from .weights import save_weights

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .errors import CheckError
+from .jsonsafe import finite_or_null
 from .probes import JointInfo, Probe, open_probes
 from .probes.model import LABEL as MODEL_LABEL
 from .validators import Validation, validate_files
@@ -95,8 +96,8 @@ class CheckReport:
                     "label": p.label, "path": p.path, "name": p.name,
                     "reference": p.is_reference, "parts": p.parts,
                     "joints": [_joint_json(j) for j in p.joints],
-                    "max_position_error": _num(p.max_position_error),
-                    "max_rotation_error": _num(p.max_rotation_error),
+                    "max_position_error": finite_or_null(p.max_position_error),
+                    "max_rotation_error": finite_or_null(p.max_rotation_error),
                     "worst_part": p.worst_part, "ok": p.ok,
                 }
                 for p in self.probes
@@ -104,14 +105,14 @@ class CheckReport:
             "joints": [_joint_json(j) for j in self.joints],
             "configurations": self.configurations,
             "tolerance": {"position": self.tol_position, "rotation": self.tol_rotation},
-            "max_position_error": _num(self.max_position_error),
-            "max_rotation_error": _num(self.max_rotation_error),
+            "max_position_error": finite_or_null(self.max_position_error),
+            "max_rotation_error": finite_or_null(self.max_rotation_error),
             "parts": [
                 {
                     "part": r.part,
-                    "position_error": _num(r.position_error), "position_probe": r.position_probe,
+                    "position_error": finite_or_null(r.position_error), "position_probe": r.position_probe,
                     "position_configuration": r.position_configuration,
-                    "rotation_error": _num(r.rotation_error), "rotation_probe": r.rotation_probe,
+                    "rotation_error": finite_or_null(r.rotation_error), "rotation_probe": r.rotation_probe,
                     "rotation_configuration": r.rotation_configuration,
                     "missing_in": r.missing_in,
                 }
@@ -124,10 +125,6 @@ class CheckReport:
             "validations": [v.to_json() for v in self.validations],
             "ok": self.ok,
         }
-
-
-def _num(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None  # JSON has no inf/nan
 
 
 def _joint_json(j: JointInfo) -> dict[str, Any]:

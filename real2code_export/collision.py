@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import write_bytes
-from .errors import warn
+from .errors import InputError, warn
 from .model import Mesh
 
 METHODS = ("auto", "hull", "pieces", "coacd")
@@ -58,20 +58,20 @@ def convex_hull(mesh: Mesh, *, min_thickness: float = DEFAULT_MIN_THICKNESS) -> 
 
     points = _used_vertices(mesh)
     if len(points) == 0:
-        raise ValueError("cannot take the convex hull of an empty mesh")
+        raise InputError("cannot take the convex hull of an empty mesh")
     # Duplicate points (pieces sharing a face) make qhull's triangulated output leaky.
     points = np.unique(np.round(points, 12), axis=0)
     points = _thickened(points, min_thickness)
     try:
         hull = trimesh.convex.convex_hull(points, qhull_options="QbB Pp Qt")
     except Exception as e:  # qhull raises QhullError; trimesh may raise ValueError
-        raise ValueError(f"convex hull failed on {len(points)} points: {e}") from e
+        raise InputError(f"convex hull failed on {len(points)} points: {e}") from e
     if not (hull.is_volume and hull.volume > 0):
         # trimesh merges vertices closer than its tolerance, which tears hulls of small
         # pieces (a few mm); qhull's own triangulation is closed by construction.
         hull = _qhull_mesh(points)
     if not (hull.is_volume and hull.volume > 0):
-        raise ValueError(f"convex hull of {len(points)} points has no volume")
+        raise InputError(f"convex hull of {len(points)} points has no volume")
     return Mesh.from_trimesh(hull)
 
 
@@ -147,9 +147,9 @@ def collision_pieces(
 
     Every piece is convex with positive volume; pieces are sorted by centroid."""
     if method not in METHODS:
-        raise ValueError(f"unknown collision method {method!r}; expected one of {METHODS}")
+        raise InputError(f"unknown collision method {method!r}; expected one of {METHODS}")
     if max_pieces < 1:
-        raise ValueError(f"max_pieces must be >= 1, got {max_pieces}")
+        raise InputError(f"max_pieces must be >= 1, got {max_pieces}")
     if method == "auto":
         method = _auto_method(mesh, source_pieces)
     if method == "hull":
@@ -230,7 +230,7 @@ def _depth_inside(planes: np.ndarray, points: np.ndarray) -> np.ndarray:
 def _piece_hulls(pieces: Sequence[Mesh], max_pieces: int, min_thickness: float) -> list[Mesh]:
     hulls = [_Hull(_used_vertices(p), min_thickness) for p in pieces if len(p.vertices)]
     if not hulls:
-        raise ValueError("no non-empty pieces to build collision hulls from")
+        raise InputError("no non-empty pieces to build collision hulls from")
     part_diag = float(np.linalg.norm(np.ptp(np.concatenate([h.points for h in hulls]), axis=0)))
     tol = max(1e-6 * part_diag, 1e-9)
     hulls = _drop_contained(hulls, tol)
@@ -356,7 +356,7 @@ def _read_cache(path: Path) -> list[Mesh] | None:
             count = int(data["count"])
             pieces = [Mesh(data[f"v{k}"], data[f"f{k}"]) for k in range(count)]
         if not pieces or any(len(p.faces) == 0 or p.faces.max() >= len(p.vertices) for p in pieces):
-            raise ValueError("empty or inconsistent pieces")
+            raise InputError("empty or inconsistent pieces")
         return pieces
     except Exception as e:  # a truncated or foreign file: ignore it, it will be rewritten
         warn(f"ignoring unreadable collision cache entry {path}: {e}")

@@ -15,6 +15,18 @@ class Real2CodeError(Exception):
     """Base of every error this project raises on purpose."""
 
 
+class InputError(Real2CodeError, ValueError):
+    """A value handed to the library is unusable (an option out of range, geometry a step
+    cannot work on); a ValueError too, for callers that catch those."""
+
+
+class NameNotFoundError(Real2CodeError, KeyError):
+    """A part or joint name that is not there; a KeyError too, for callers that catch those."""
+
+    def __str__(self) -> str:  # KeyError's own would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
 class ModelError(Real2CodeError):
     """The articulated-object model is invalid (names the part or joint and what is wrong)."""
 
@@ -45,6 +57,10 @@ class FormatError(Real2CodeError):
         if element:
             text += f"{element}: "
         super().__init__(text + message)
+
+
+class UnavailableError(Real2CodeError):
+    """A format (or tool) whose dependencies do not import here: says which and why."""
 
 
 class ExportError(Real2CodeError):

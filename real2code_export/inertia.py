@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .errors import warn
+from .errors import InputError, warn
 from .model import Inertial, Mesh
 
 # Furniture (the main category here) is wood, plywood, particleboard or MDF: roughly
@@ -180,7 +180,7 @@ def inertial_from_meshes(meshes: Sequence[Mesh], density: float = DEFAULT_DENSIT
     Overlapping pieces count twice (PartNet pieces rarely overlap much; a boolean union of
     many open pieces is neither possible nor worth it)."""
     if density <= 0 or shell_thickness <= 0:
-        raise ValueError(f"density and shell_thickness must be > 0, got {density}, {shell_thickness}")
+        raise InputError(f"density and shell_thickness must be > 0, got {density}, {shell_thickness}")
     total = _zero_moments()
     for mesh in meshes:
         total = _add(total, _mesh_moments(mesh, density, shell_thickness))
@@ -202,7 +202,7 @@ def combine_inertials(items: Sequence[tuple[Inertial, np.ndarray]]) -> Inertial:
         m = inertial.mass
         total = _add(total, (m, m * com, second_c + m * np.outer(com, com)))
     if not total[0] > 0:
-        raise ValueError("combine_inertials needs at least one positive mass")
+        raise InputError("combine_inertials needs at least one positive mass")
     mass, first, second = total
     com = first / mass
     second_c = second - mass * np.outer(com, com)
@@ -219,10 +219,10 @@ def box_inertial(extents: Sequence[float] | np.ndarray, *, mass: float | None = 
     its axes ``rotation`` (3x3) in the part frame; ``mass`` given, or from ``density``."""
     ext = np.asarray(extents, dtype=float).reshape(3)
     if np.any(ext <= 0):
-        raise ValueError(f"box extents must be > 0, got {ext.tolist()}")
+        raise InputError(f"box extents must be > 0, got {ext.tolist()}")
     m = float(mass) if mass is not None else density * float(np.prod(ext))
     if not m > 0:
-        raise ValueError(f"box mass must be > 0, got {m}")
+        raise InputError(f"box mass must be > 0, got {m}")
     x2, y2, z2 = ext**2
     inertia = m / 12.0 * np.diag([y2 + z2, x2 + z2, x2 + y2])
     if rotation is not None:

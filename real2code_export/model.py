@@ -1,6 +1,6 @@
 """The articulated-object model every importer fills and every exporter reads.
 
-Conventions (DESIGN.md): SI units, Z up, right-handed. A part's frame is its joint frame
+Conventions (docs/design.md): SI units, Z up, right-handed. A part's frame is its joint frame
 (URDF style): ``joint.origin`` is the pose of the child frame in the parent frame at q = 0,
 ``joint.axis`` a unit vector in that frame. A part's visual and collision meshes and its
 inertial are expressed in the part frame. Colours are linear RGBA in [0, 1].
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from . import transforms as tf
-from .errors import ModelError
+from .errors import ModelError, NameNotFoundError
 
 NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 AXIS_UNIT_TOLERANCE = 1e-6
@@ -203,13 +203,13 @@ class ArticulatedObject:
         for p in self.parts:
             if p.name == name:
                 return p
-        raise KeyError(f"no part named {name!r} in {self.name!r}")
+        raise NameNotFoundError(f"no part named {name!r} in {self.name!r}")
 
     def joint(self, name: str) -> Joint:
         for j in self.joints:
             if j.name == name:
                 return j
-        raise KeyError(f"no joint named {name!r} in {self.name!r}")
+        raise NameNotFoundError(f"no joint named {name!r} in {self.name!r}")
 
     def parent_joint(self, part_name: str) -> Joint | None:
         for j in self.joints:
@@ -306,10 +306,23 @@ def validate_mesh(mesh: Mesh, element: str) -> None:
         raise ModelError(element, "mesh face indices out of range")
 
 
+def metadata_json(obj: ArticulatedObject, **dumps_options: Any) -> str:
+    """``obj.metadata`` as JSON text, as every format stores it; the same ModelError for
+    every format when it cannot be (NaN, infinity, a value JSON has no type for)."""
+    import json
+
+    try:
+        return json.dumps(obj.metadata, allow_nan=False, **dumps_options)
+    except (TypeError, ValueError) as e:
+        raise ModelError(f"object {obj.name!r} metadata",
+                         f"not JSON (finite numbers, strings, lists, dicts only): {e}") from e
+
+
 def validate(obj: ArticulatedObject) -> ArticulatedObject:
     """Check the whole object; raise :class:`ModelError` at the first problem. Returns ``obj``."""
     if not NAME_PATTERN.match(obj.name or ""):
         raise ModelError(f"object {obj.name!r}", "name must be an identifier ([A-Za-z_][A-Za-z0-9_]*)")
+    metadata_json(obj)
     if not obj.parts:
         raise ModelError(f"object {obj.name!r}", "has no parts")
     seen: set[str] = set()
@@ -431,7 +444,7 @@ def forward_kinematics(
     q = dict(q or {})
     unknown = set(q) - {j.name for j in obj.movable_joints}
     if unknown:
-        raise KeyError(f"unknown joint(s) {sorted(unknown)} for {obj.name!r}")
+        raise NameNotFoundError(f"unknown joint(s) {sorted(unknown)} for {obj.name!r}")
     poses = {obj.root.name: np.eye(4) if base is None else np.asarray(base, float)}
     for j in obj.joints_in_tree_order():
         poses[j.child] = poses[j.parent] @ j.transform(q.get(j.name, 0.0))

@@ -51,21 +51,6 @@ def rpy_to_matrix(rpy) -> np.ndarray:
     )
 
 
-def matrix_to_rpy(r: np.ndarray) -> np.ndarray:
-    """URDF roll-pitch-yaw of a rotation matrix (exact inverse of :func:`rpy_to_matrix`)."""
-    r = np.asarray(r, dtype=float)
-    sp = -r[2, 0]
-    if abs(sp) < 1.0 - 1e-12:
-        pitch = np.arcsin(np.clip(sp, -1.0, 1.0))
-        roll = np.arctan2(r[2, 1], r[2, 2])
-        yaw = np.arctan2(r[1, 0], r[0, 0])
-    else:  # gimbal lock: put everything in yaw
-        pitch = np.pi / 2 if sp > 0 else -np.pi / 2
-        roll = 0.0
-        yaw = np.arctan2(-r[0, 1], r[1, 1])
-    return np.array([roll, pitch, yaw])
-
-
 def quat_to_matrix(q) -> np.ndarray:
     """3x3 rotation of a (w, x, y, z) quaternion (normalised first)."""
     w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)

@@ -25,7 +25,11 @@ class Validation:
                 "warnings": self.warnings, "messages": self.messages}
 
 
-def validate_usd(path: str | Path) -> Validation:
+def validate_usd(paths: list[Path]) -> list[Validation]:
+    return [_validate_usd(p) for p in paths]
+
+
+def _validate_usd(path: Path) -> Validation:
     from pxr import Usd, UsdValidation
 
     stage = Usd.Stage.Open(str(path))
@@ -51,10 +55,23 @@ def validate_gltf(paths: list[Path]) -> list[Validation]:
 
 
 def validate_files(paths: list[str | Path]) -> list[Validation]:
-    """Run every validator that applies to ``paths`` (files of other kinds are skipped)."""
-    paths = [Path(p) for p in paths]
-    out = [validate_usd(p) for p in paths if p.suffix.lower() in (".usda", ".usd", ".usdc")]
-    gltf = [p for p in paths if p.suffix.lower() in (".glb", ".gltf")]
-    if gltf:
-        out += validate_gltf(gltf)
+    """Run every validator the registry names for ``paths`` (files of formats without one,
+    or of no known format, are skipped), one call per validator with all of its files."""
+    import importlib
+
+    from .errors import Real2CodeError
+    from .formats import format_for_path
+
+    groups: dict[str, list[Path]] = {}
+    for p in map(Path, paths):
+        try:
+            validator = format_for_path(p).validator
+        except Real2CodeError:
+            continue
+        if validator:
+            groups.setdefault(validator, []).append(p)
+    out = []
+    for validator, files in groups.items():
+        module, function = validator.split(":")
+        out += getattr(importlib.import_module(module), function)(files)
     return out

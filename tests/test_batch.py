@@ -23,8 +23,8 @@ from real2code_export.batch import (
     manifest,
     run_batch,
 )
-from real2code_export.batch import cli as batch_cli
 from real2code_export.batch.fingerprint import input_files, inputs_hash
+from real2code_export.cli import batch as batch_cli
 from real2code_export.formats import object_json
 from real2code_export.meshfiles import read_mesh
 
@@ -184,7 +184,7 @@ def test_manifest_last_line_wins_and_cut_lines_are_skipped(tmp_path):
 # -- CLI, failures, every task -----------------------------------------------------------------
 def _cli(argv: list[str]) -> int:
     parser = argparse.ArgumentParser()
-    batch_cli.add_parser(parser.add_subparsers(dest="command"))
+    batch_cli.add_parsers(parser.add_subparsers(dest="command"))
     return batch_cli.run_parsed(parser.parse_args(["batch", *argv]))
 
 

@@ -83,8 +83,8 @@ def test_demo_runs_on_the_shipped_sample(tmp_path, capsys):
 
 
 def _ajar_parts(tmp_path):
-    from pipeline.boxes import world_part_meshes
     from pipeline.procedural import generate
+    from real2code_export.kinematics import world_part_meshes
 
     obj = generate("storage_furniture", 4, 21)
     return obj, world_part_meshes(obj)

@@ -20,6 +20,7 @@ from pipeline.complete.network import PLANES, build_network, sample_planes
 from pipeline.complete.occupancy import inside, piece_planes, query_points
 from pipeline.complete.views import DEFAULT_VIEWS, cast_views, partial_clouds
 from pipeline.procedural import generate
+from pipeline.weights import WeightsError
 
 EXACT = replace(DEFAULT_VIEWS, depth_noise=0.0, depth_step=0.0, border_swap=0.0)
 
@@ -177,5 +178,5 @@ def test_bad_input_is_refused_with_a_reason(tmp_path):
         complete_part(np.zeros((50, 2)))
     bad = tmp_path / "broken.pt"
     bad.write_bytes(b"not a checkpoint")
-    with pytest.raises(CompletionError, match="broken.pt: cannot load the occupancy network"):
+    with pytest.raises(WeightsError, match="broken.pt: not occupancy-network weights"):
         complete_part(np.random.default_rng(0).uniform(size=(100, 3)), model=bad)

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from pipeline.boxes import world_part_meshes
 from pipeline.fuse import axis_mean, normal_map, oriented_part_clouds, part_clouds, point_map
 from pipeline.obb import Surface, alignment
 from pipeline.procedural import generate
 from pipeline.render import render_object
+from real2code_export.kinematics import world_part_meshes
 
 
 def _angle_to(normals: np.ndarray, reference: np.ndarray) -> np.ndarray:

@@ -46,8 +46,9 @@ def test_training_script_runs_and_its_weights_load(tmp_path):
 
 
 def _boxes():
-    from pipeline.boxes import part_boxes, world_part_meshes
+    from pipeline.boxes import part_boxes
     from pipeline.procedural import generate
+    from real2code_export.kinematics import world_part_meshes
 
     obj = generate("laptop", None, 5)
     boxes = part_boxes(world_part_meshes(obj))

@@ -9,11 +9,11 @@ import json
 import numpy as np
 import pytest
 
-from pipeline.capture import read_capture
-from pipeline.commands import SAMPLE_CAPTURE, add_reconstruct_parser, run_demo
+from pipeline.capture import SAMPLE_CAPTURE, read_capture
 from pipeline.reconstruct import ReconstructionError, reconstruct
 from pipeline.render import render_model
 from pipeline.segment.learned import WEIGHTS as SEGMENTER_WEIGHTS
+from real2code_export.cli.reconstruct import add_reconstruct_parser, run_demo
 from real2code_export.formats import load, object_json
 from real2code_export.model import ArticulatedObject, Part
 

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.boxes import world_part_meshes
 from pipeline.capture import read_capture
-from pipeline.commands import add_render_parser
 from pipeline.fuse import part_clouds, point_map
 from pipeline.procedural import generate
 from pipeline.render import front_direction, render_object
+from real2code_export.cli.reconstruct import add_render_parser
 from real2code_export.formats import load
+from real2code_export.kinematics import world_part_meshes
 from real2code_export.model import forward_kinematics
 
 from conftest import partnet_objects

@@ -75,7 +75,7 @@ def test_missing_or_foreign_weights(tmp_path):
     with pytest.raises(FormatError, match="segmentation weights not found"):
         LearnedSegmenter.load(tmp_path / "none.pt")
     torch.save({"state_dict": {}, "config": "{}"}, tmp_path / "bad.pt")
-    with pytest.raises(FormatError, match="not mask-network weights"):
+    with pytest.raises(FormatError, match="bad.pt: not segmentation weights"):
         LearnedSegmenter.load(tmp_path / "bad.pt")
 
 

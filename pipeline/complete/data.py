@@ -66,9 +66,8 @@ def object_samples(obj, rng: np.random.Generator, n_queries: int = 3072,
     """Samples of every well-seen part of ``obj`` (at ``q`` placed at ``base``)."""
     import trimesh
 
+    from real2code_export.kinematics import world_part_meshes
     from real2code_export.model import forward_kinematics
-
-    from ..boxes import world_part_meshes
 
     meshes = world_part_meshes(obj, q, base)
     poses = forward_kinematics(obj, obj.observed_configuration() if q is None else q, base)

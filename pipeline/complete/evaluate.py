@@ -1,6 +1,6 @@
 """Shape completion against the segment-only baseline, by the paper's part-count buckets.
 
-    python -m pipeline.complete.evaluate [--objects 40] [--partnet DIR] [--out DIR]
+    real2code evaluate completion [--objects 40] [--partnet DIR] [--out DIR]
 
 Held-out procedural objects (``pipeline.evaluate_articulation.procedural_cases``: ajar,
 randomly placed) and, when given, the dev PartNet-Mobility objects are seen from 12 noisy
@@ -14,13 +14,14 @@ distance (:mod:`pipeline.chamfer`); the whole object is scored on all its meshes
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+
+from real2code_export.markdown import table as markdown_table
 
 from ..chamfer import REPORT_SCALE, chamfer_distance, object_chamfer
 from ..evaluate_joints import BUCKETS, bucket_of
@@ -65,7 +66,8 @@ def paper_column(category: str, n_parts: int) -> str:
 
 def seen_parts(obj, base, rng: np.random.Generator, arc_deg: float = 120.0):
     """The part meshes in the world and each part's points from 12 views (true labels)."""
-    from ..boxes import world_part_meshes
+    from real2code_export.kinematics import world_part_meshes
+
     from ..render import front_direction
 
     meshes = world_part_meshes(obj, None, base)
@@ -170,35 +172,31 @@ def summary(results: list[ObjectResult], key=lambda r: r.bucket,
 
 
 def markdown(title: str, rows: dict[str, dict], group: str = "parts") -> str:
-    lines = [f"### {title}", "",
-             f"| {group} | objects / parts | part CD: completion | part CD: segment-only | "
-             "whole CD: completion | whole CD: segment-only | parts better completed |",
-             "|---|---|---|---|---|---|---|"]
-    for name, r in rows.items():
-        lines.append(f"| {name} | {r['objects']} / {r['parts']} | {r['part_completion']:.2f} | "
-                     f"{r['part_segment_only']:.2f} | {r['whole_completion']:.2f} | "
-                     f"{r['whole_segment_only']:.2f} | {100 * r['completion_better']:.0f} % |")
-    return "\n".join(lines)
+    header = [group, "objects / parts", "part CD: completion", "part CD: segment-only",
+              "whole CD: completion", "whole CD: segment-only", "parts better completed"]
+    cells = [[name, f"{r['objects']} / {r['parts']}", f"{r['part_completion']:.2f}",
+              f"{r['part_segment_only']:.2f}", f"{r['whole_completion']:.2f}",
+              f"{r['whole_segment_only']:.2f}", f"{100 * r['completion_better']:.0f} %"]
+             for name, r in rows.items()]
+    return "\n".join([f"### {title}", "", *markdown_table(header, cells)])
 
 
 def paper_markdown(rows: dict[str, dict]) -> str:
     """Our part CD by the paper's Table 2 columns, next to the paper's own."""
     cols = list(PAPER_PART_CD["completion"])
-    lines = ["### Part chamfer distance (x1000) by the paper's columns", "",
-             "| method | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
 
     def cell(v):
         return "N/A" if v is None else f"{v:.2f}"
 
-    lines.append("| Real2Code (paper, PartNet-Mobility, predicted masks) | "
-                 + " | ".join(cell(PAPER_PART_CD["completion"][c]) for c in cols) + " |")
-    lines.append("| Real2Code-SegOnly (paper) | "
-                 + " | ".join(cell(PAPER_PART_CD["segment_only"][c]) for c in cols) + " |")
+    cells = [["Real2Code (paper, PartNet-Mobility, predicted masks)",
+              *(cell(PAPER_PART_CD["completion"][c]) for c in cols)],
+             ["Real2Code-SegOnly (paper)", *(cell(PAPER_PART_CD["segment_only"][c]) for c in cols)]]
     for m, label in (("completion", "ours: completion (gt masks)"),
                      ("segment_only", "ours: segment-only, alpha shape (gt masks)")):
-        lines.append(f"| {label} | " + " | ".join(
-            "-" if c not in rows else cell(rows[c][f"part_{m}"]) for c in cols) + " |")
-    return "\n".join(lines)
+        cells.append([label, *("-" if c not in rows else cell(rows[c][f"part_{m}"])
+                               for c in cols)])
+    return "\n".join(["### Part chamfer distance (x1000) by the paper's columns", "",
+                      *markdown_table(["method", *cols], cells)])
 
 
 def bar_figure(rows: dict[str, dict], path: Path, title: str) -> Path:
@@ -268,28 +266,6 @@ def example_figure(obj, base, path: Path, seed: int = 0, model=None,
     return path
 
 
-def add_evaluate_completion_parser(evaluate_sub) -> argparse.ArgumentParser:
-    """``real2code evaluate completion``: added by the CLI to its ``evaluate`` subparsers."""
-    s = evaluate_sub.add_parser("completion",
-                                help="shape completion against the segment-only baseline")
-    _arguments(s)
-    s.set_defaults(func=cmd_evaluate_completion)
-    return s
-
-
-def _arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--objects", type=int, default=40, help="held-out procedural objects (40)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--partnet", type=Path, default=None,
-                   help="the PartNet-Mobility folder (with index.json): add its dev objects")
-    p.add_argument("--arc", type=float, default=120.0,
-                   help="the cameras' azimuth span in degrees (120; 360: a full ring)")
-    p.add_argument("--figure", type=int, default=None,
-                   help="also draw this procedural test object (its index)")
-    p.add_argument("--out", type=Path, default=Path("completion_eval"),
-                   help="folder for completion.json, completion.md and the figures")
-
-
 def cmd_evaluate_completion(args) -> int:
     from real2code_export.atomic import write_text
 
@@ -322,13 +298,3 @@ def cmd_evaluate_completion(args) -> int:
     print("\n".join(text))
     print(f"-> {args.out / 'completion.md'}, {args.out / 'completion.json'}")
     return 0
-
-
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    _arguments(p)
-    return cmd_evaluate_completion(p.parse_args(argv))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -12,7 +12,6 @@ across its thickness as it needs. Small stray components are dropped.
 from __future__ import annotations
 
 import functools
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,21 +40,11 @@ class OccupancyModel:
 
 @functools.lru_cache(maxsize=4)
 def _load(path: Path) -> OccupancyModel:
-    import pickle
-
-    import torch
-
+    from ..weights import load_network
     from .network import build_network
 
-    try:
-        blob = torch.load(path, map_location="cpu", weights_only=True)
-        config = json.loads(blob["config"])
-        net = build_network(**config["network"])
-        net.load_state_dict(blob["state_dict"])
-    except (OSError, RuntimeError, KeyError, ValueError, TypeError, EOFError,
-            pickle.UnpicklingError) as e:
-        raise CompletionError(f"{path}: cannot load the occupancy network: {e}") from e
-    net.eval()
+    net, config = load_network(path, "occupancy-network", lambda c: build_network(**c),
+                               "python -m pipeline.complete.train")
     return OccupancyModel(net, config, path)
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from real2code_export.errors import InputError
+
 from ..joint_code import ArticulationProgram
 from ..obb import OBB
 
@@ -35,4 +37,4 @@ def get_predictor(name: str, **options) -> JointPredictor:
         from .llm import LLMPredictor
 
         return LLMPredictor.from_pretrained(**options)
-    raise ValueError(f"unknown predictor {name!r} (geometric, learned, llm)")
+    raise InputError(f"unknown predictor {name!r} (geometric, learned, llm)")

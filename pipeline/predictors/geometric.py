@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from real2code_export.errors import InputError
+
 from ..closing import box_surface_distance, hinge_opening
 from ..joint_code import ArticulationProgram, ChildJoint, joint_axis_and_position
 from ..obb import OBB
@@ -33,7 +35,7 @@ class GeometricPredictor:
 
     def predict(self, boxes: list[OBB]) -> ArticulationProgram:
         if not boxes:
-            raise ValueError("no boxes")
+            raise InputError("no boxes")
         root = int(np.argmax([b.volume for b in boxes]))
         joints = [self._child(boxes[root], boxes[i], i) for i in range(len(boxes)) if i != root]
         return ArticulationProgram(root, tuple(joints))

@@ -9,7 +9,6 @@ ships its weights with the package.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -70,19 +69,11 @@ class LearnedPredictor:
 
     @classmethod
     def load(cls, path: str | Path | None = None) -> LearnedPredictor:
-        import torch
+        from ..weights import load_network
 
-        path = Path(path) if path else WEIGHTS
-        if not path.is_file():
-            from real2code_export.errors import Real2CodeError
-
-            raise Real2CodeError(f"{path}: joint predictor weights not found "
-                                 "(train them: python -m pipeline.train_joint_predictor)")
-        blob = torch.load(path, map_location="cpu", weights_only=True)
-        config = json.loads(blob["config"])
-        net = build_network(**config["network"])
-        net.load_state_dict(blob["state_dict"])
-        net.eval()
+        net, config = load_network(path or WEIGHTS, "joint-predictor",
+                                   lambda c: build_network(**c),
+                                   "python -m pipeline.train_joint_predictor")
         return cls(net, config)
 
     def predict(self, boxes: list[OBB]) -> ArticulationProgram:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from real2code_export.errors import InputError
+
 from ..capture import Capture
 from .prompting import PromptingOptions, Segmentation, ground_truth_segmentation, segment_capture
 
@@ -35,7 +37,7 @@ def get_segmenter(method: str, *, weights: str | Path | None = None,
         if sam_checkpoint is None:
             raise Real2CodeError("segmentation 'sam' needs a checkpoint (--sam-checkpoint PATH)")
         return SamSegmenter.load(sam_checkpoint, sam_model_type)
-    raise ValueError(f"unknown segmentation {method!r}; choose from {list(METHODS)}")
+    raise InputError(f"unknown segmentation {method!r}; choose from {list(METHODS)}")
 
 
 def segment(capture: Capture, method: str = "learned", *, segmenter=None,

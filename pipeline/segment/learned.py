@@ -3,13 +3,11 @@ behind the promptable-segmenter interface of :mod:`pipeline.segment.prompting`."
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from .features import SIZE, frame_features, object_window, whole_view
-from .train import WEIGHTS
 
 STABILITY_OFFSET = 1.0  # SAM's: how far the logit threshold moves for the stability score
 # The point head refines only the points whose coarse logit is this unsure (PointRend's
@@ -17,6 +15,7 @@ STABILITY_OFFSET = 1.0  # SAM's: how far the logit threshold moves for the stabi
 # (on 24 views of 6 dev captures it turned 0.014 % of those points to the other side, 0.08 %
 # beyond 4) while they are most of the points (87 % of them beyond 6).
 POINT_HEAD_MARGIN = 6.0
+WEIGHTS = Path(__file__).resolve().parent / "weights" / "segmenter.pt"  # the shipped weights
 
 
 class LearnedSegmenter:
@@ -33,25 +32,13 @@ class LearnedSegmenter:
 
     @classmethod
     def load(cls, path: str | Path | None = None) -> LearnedSegmenter:
-        import torch
-
-        from real2code_export.errors import FormatError
-
+        from ..weights import load_network
         from .network import build_network
 
-        path = Path(path) if path is not None else WEIGHTS
-        if not path.is_file():
-            raise FormatError(path, None, "segmentation weights not found (train them with "
-                              "`python -m pipeline.segment.train`)")
-        try:
-            blob = torch.load(path, map_location="cpu", weights_only=True)
-            config = json.loads(blob["config"])
-            net_cfg = config["network"]
-            network = build_network(net_cfg["dim"], tuple(net_cfg["widths"]),
-                                    net_cfg.get("fine", 0))
-            network.load_state_dict(blob["state_dict"])
-        except (KeyError, RuntimeError, ValueError) as e:
-            raise FormatError(path, None, f"not mask-network weights: {e}") from e
+        network, config = load_network(
+            WEIGHTS if path is None else path, "segmentation",
+            lambda c: build_network(c["dim"], tuple(c["widths"]), c.get("fine", 0)),
+            "python -m pipeline.segment.train")
         return cls(network, config)
 
     def set_views(self, frames) -> None:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from real2code_export.errors import InputError
+
 
 def matched_part_iou(predicted: list[np.ndarray], truth: list[np.ndarray],
                      ) -> tuple[float, dict[int, float]]:
@@ -17,7 +19,7 @@ def matched_part_iou(predicted: list[np.ndarray], truth: list[np.ndarray],
     t_labels = [k for k in np.unique(t) if k > 0]
     p_labels = [k for k in np.unique(p) if k > 0]
     if not t_labels:
-        raise ValueError("the ground truth has no parts")
+        raise InputError("the ground truth has no parts")
     if not p_labels:
         return 0.0, dict.fromkeys(map(int, t_labels), 0.0)
     pairs = np.zeros((max(t_labels) + 1, max(p_labels) + 1))

@@ -26,8 +26,8 @@ import numpy as np
 from ..weights import save_weights
 from .data import View, make_views
 from .features import SIZE, grid_features
+from .learned import WEIGHTS
 
-WEIGHTS = Path(__file__).resolve().parent / "weights" / "segmenter.pt"
 # The shipped network: wider at the coarse levels than the first one (16..64, dim 32; cheap,
 # they run at 1/8 to 1/32 of the grid) and with the point head (fine = 16). A step of 8 images
 # x 24 prompts takes about 0.55 s. The first network was underfitting (training-view IoU 0.737,

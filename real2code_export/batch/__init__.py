@@ -4,7 +4,8 @@ on a local process pool or on Ray, recorded in ``DIR/manifest.jsonl`` and resuma
 Modules: ``inputs`` (INPUTS to objects), ``fingerprint`` (what an object reads, its content
 hash), ``tasks`` (one function per task), ``worker`` (one object in a worker process),
 ``local`` and ``ray_engine`` (the engines), ``manifest``, ``progress``, ``run`` (a batch
-from start to end) and ``cli``. Importing this package imports no engine.
+from start to end); its command is ``real2code_export.cli.batch``. Importing this package
+imports no engine.
 """
 
 from .inputs import BatchInputError, BatchObject, expand_inputs

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import Real2CodeError
+from ..formats import suffixes
 
-MODEL_JSON = "object.json"
-MODEL_SUFFIXES = (".urdf", ".xml", ".mjcf", ".usd", ".usda", ".usdc", ".glb", ".gltf")
+MODEL_JSON = "object.json"  # the one .json file that is a model (others are reports)
 CAPTURE_FILE = "transforms.json"
 KINDS = ("export", "check", "calibrate", "reconstruct")
 
@@ -126,7 +126,7 @@ def _model_files(folder: Path) -> list[Path]:
 
 
 def is_model_file(path: Path) -> bool:
-    return path.name == MODEL_JSON or path.suffix.lower() in MODEL_SUFFIXES
+    return path.name == MODEL_JSON or path.suffix.lower() in suffixes(exported_only=True)
 
 
 def _file_object(path: Path, kind: str) -> Iterator[_Found]:
@@ -135,7 +135,7 @@ def _file_object(path: Path, kind: str) -> Iterator[_Found]:
         return
     if not is_model_file(path):
         raise BatchInputError(f"{path}: not a model file (object.json, "
-                              f"{', '.join(MODEL_SUFFIXES)})")
+                              f"{', '.join(suffixes(exported_only=True))})")
     alone = _model_files(path.parent) == [path]
     yield _Found(path.parent if alone else path.with_suffix(""), path.parent, (path,))
 

@@ -22,6 +22,7 @@ from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
+from ..errors import InputError
 from .worker import WorkItem, crashed_record, run_one, warm_up
 
 # One thread per worker process in the numeric libraries: the pool already fills the cores
@@ -35,7 +36,7 @@ class LocalEngine:
 
     def __init__(self, workers: int, retries: int, warm_modules: Sequence[str] = ()):
         if workers < 1:
-            raise ValueError(f"workers must be >= 1, got {workers}")
+            raise InputError(f"workers must be >= 1, got {workers}")
         self.workers = workers
         self.retries = retries
         self.warm_modules = tuple(warm_modules)

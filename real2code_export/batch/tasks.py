@@ -10,7 +10,6 @@ inspect). Heavy modules are imported inside the tasks.
 from __future__ import annotations
 
 import json
-import math
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -20,6 +19,7 @@ from typing import Any
 
 from .. import atomic
 from ..errors import Real2CodeError
+from ..jsonsafe import finite_or_null
 from .inputs import BatchObject, is_model_file
 
 CHECK_REPORT = "check.json"
@@ -33,7 +33,7 @@ class BatchTaskError(Real2CodeError):
 class TaskOptions:
     """The options a task runs with (part of every object's key: changing one redoes all)."""
 
-    formats: tuple[str, ...] = ("json", "mjcf", "urdf", "usd", "gltf")  # export/calibrate
+    formats: tuple[str, ...] = ()  # export/calibrate; () = json and every available format
     check: bool = True  # check the files a task writes (check: the files it is given)
     configurations: int = 100
     seed: int = 0
@@ -41,8 +41,10 @@ class TaskOptions:
     tol_rotation: float = 1e-6
 
     def __post_init__(self):
-        from ..formats import FORMATS
+        from ..formats import FORMATS, export_formats
 
+        if not self.formats:
+            object.__setattr__(self, "formats", ("json", *export_formats()))
         unknown = [f for f in self.formats if f not in FORMATS]
         if unknown or not self.formats:
             raise BatchTaskError(f"--to: unknown or no format(s) {unknown or ''}; choose from "
@@ -120,7 +122,7 @@ def calibrate_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskRes
                                          "unexplained")}
     models = [p for name, p in cal.files.items() if name in FORMATS]
     check, error = _check_outputs(models, out, options, timings)
-    return TaskResult(_listing(out), check, _finite(result), error, timings)
+    return TaskResult(_listing(out), check, finite_or_null(result), error, timings)
 
 
 def reconstruct_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskResult:
@@ -147,11 +149,16 @@ def reconstruct_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskR
     return TaskResult(_listing(out), check, None, error, timings)
 
 
-# The heavy libraries every task's export and check use (a missing one is skipped).
-_WARM = ("trimesh", "mujoco", "pinocchio", "pxr.Usd", "pxr.UsdPhysics", "pygltflib",
-         "real2code_export.check", "real2code_export.formats.mjcf",
-         "real2code_export.formats.urdf", "real2code_export.formats.usd",
-         "real2code_export.formats.gltf")
+def _format_imports() -> tuple[str, ...]:
+    from ..formats import FORMATS
+
+    names = (n for f in FORMATS.values() for n in (*f.requires, f.module, *f.probes))
+    return tuple(dict.fromkeys(names))
+
+
+# The heavy libraries every task's export and check use (a missing one is skipped): every
+# format's, as the registry names them.
+_WARM = ("trimesh", "real2code_export.check", *_format_imports())
 TASKS: dict[str, TaskSpec] = {
     "export": TaskSpec("export", export_task, _WARM),
     "check": TaskSpec("check", check_task, _WARM),
@@ -184,7 +191,7 @@ def _check_arguments(options: TaskOptions) -> dict[str, Any]:
 
 def _summary(report) -> tuple[dict[str, Any], str | None]:
     """What the manifest keeps of a check report."""
-    summary = _finite({
+    summary = finite_or_null({
         "ok": report.ok,
         "probes": [p.label for p in report.probes],
         "max_position_error": report.max_position_error,
@@ -221,15 +228,6 @@ def replace_text(value, old: str, new: str):
     return value
 
 
-def _finite(value):
-    """JSON has no inf or nan: null instead."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    return value
 
 
 @contextmanager

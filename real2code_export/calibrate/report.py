@@ -1,4 +1,4 @@
-"""The calibration report: ``report.json`` (keys as DESIGN.md says), and a human report in
+"""The calibration report: ``report.json`` (keys in docs/design.md), and a human report in
 markdown with PNG plots (measured vs simulated, residuals, the candidates' scores)."""
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..jsonsafe import finite_or_null as _num
 from .effects import SENSOR, VOCABULARY
 from .fit import Fit
 from .select import Selection
@@ -37,10 +38,6 @@ class Replay:
     def rmse(self, which: str) -> float:
         sim = self.nominal if which == "nominal" else self.calibrated
         return float(np.sqrt(np.mean((sim - self.measured) ** 2)))
-
-
-def _num(x: float) -> float | None:
-    return float(x) if x is not None and math.isfinite(x) else None
 
 
 def _rmse(replays: list[Replay], which: str) -> float | None:

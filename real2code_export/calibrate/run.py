@@ -3,7 +3,6 @@ and the report out (atomically: all of it or nothing)."""
 
 from __future__ import annotations
 
-import importlib.util
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -105,10 +104,9 @@ def _features(problem: Problem, nominal: Fit) -> list[dict]:
 
 
 def _export_formats() -> list[str]:
-    from ..formats import EXPORT_FORMATS, FORMATS
+    from ..formats import export_formats
 
-    return ["json"] + [f for f in EXPORT_FORMATS
-                       if importlib.util.find_spec(FORMATS[f].module) is not None]
+    return ["json", *export_formats()]
 
 
 def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[Path] = (),
@@ -116,7 +114,7 @@ def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[
               start: float | None = None, end: float | None = None,
               experiment: Path | None = None, segment: float | None = None
               ) -> CalibrationResult:
-    """Fit the model's joint dynamics to measured trajectories (CSV files, DESIGN.md).
+    """Fit the model's joint dynamics to measured trajectories (CSV files, docs/design.md).
 
     Every file is read and checked before anything runs; ``start``/``end`` (seconds, in the
     files' time) keep a window of every run (over the experiment files' own windows);

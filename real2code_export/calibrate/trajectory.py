@@ -1,4 +1,4 @@
-"""Measured joint trajectories: the CSV contract (DESIGN.md), read and checked.
+"""Measured joint trajectories: the CSV contract (docs/design.md), read and checked.
 
 A header row; ``time`` in seconds; one column per measured joint, named as the joint, holding
 its position (rad or m); optional ``<joint>.effort`` (applied torque or force). Lines starting

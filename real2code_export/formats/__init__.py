@@ -1,8 +1,17 @@
-"""Format registry: one module per file format, each with ``load(path)`` and/or
-``save(obj, out_dir, *, write_meshes=True) -> Path``, found by name or by extension.
+"""The format registry: every fact about a file format in one place, asked by everything else
+(the CLI's choices and defaults, batch inputs, ``check``'s probes and validators, calibrate's
+exports, the Blender add-on).
 
-Modules are imported only when used, so ``import real2code_export`` stays light and a
-missing optional dependency only affects its own format. No format module imports another.
+A format is a module with ``load(path)`` and/or ``save(obj, out_dir, *, write_meshes=True)
+-> Path``, found by name or by suffix. Its module and the imports it needs are imported only
+when used: this module imports nothing but the standard library, so the CLI's parser and
+``import real2code_export`` stay light. :func:`available` really imports a format's
+dependencies and its module (once; the answer is cached), so a package that is installed but
+broken makes its format unavailable, with the reason, instead of failing mid-command. No
+format module imports another.
+
+To add a format, :func:`register` it (here, or from a plug-in): the CLI, batch, check and the
+add-on offer it from then on.
 """
 
 from __future__ import annotations
@@ -11,48 +20,136 @@ import importlib
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
-from .. import atomic
-from ..errors import FormatError
-from ..meshfiles import write_object_meshes
-from ..model import ArticulatedObject, validate
+from ..errors import FormatError, UnavailableError
+
+if TYPE_CHECKING:
+    from ..model import ArticulatedObject
 
 
 @dataclass(frozen=True)
 class Format:
     name: str  # as on the command line: --to mjcf,urdf,usd,gltf
-    module: str
-    extensions: tuple[str, ...]
-    output_suffix: str  # the file an export writes: DIR/<object name><suffix>
+    label: str  # as shown to people (the add-on's menus)
+    description: str
+    module: str  # has load(path) and/or save(obj, out_dir, *, write_meshes)
+    suffixes: tuple[str, ...]  # files of this format; the first is what an export writes
+    requires: tuple[str, ...] = ()  # modules the format's reader/writer cannot work without
+    probes: tuple[str, ...] = ()  # modules whose open_probes(path) load it in its own tools
+    validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
+    exported: bool = True  # written by default (``export`` without --to)
+
+    @property
+    def output_suffix(self) -> str:
+        """The file an export writes: DIR/<object name><suffix>."""
+        return self.suffixes[0]
 
     def load_module(self) -> ModuleType:
+        """The format's module; UnavailableError (exit 2) naming why when it cannot be used
+        here."""
+        problem = unavailable_reason(self.name)
+        if problem:
+            raise UnavailableError(f"format {self.name!r} is not available here: {problem}")
         return importlib.import_module(self.module)
 
 
-FORMATS: dict[str, Format] = {
-    f.name: f
-    for f in (
-        Format("json", "real2code_export.formats.object_json", (".json",), ".json"),
-        Format("mjcf", "real2code_export.formats.mjcf", (".xml", ".mjcf"), ".xml"),
-        Format("urdf", "real2code_export.formats.urdf", (".urdf",), ".urdf"),
-        Format("usd", "real2code_export.formats.usd", (".usda", ".usd", ".usdc"), ".usda"),
-        Format("gltf", "real2code_export.formats.gltf", (".glb", ".gltf"), ".glb"),
-    )
-}
-EXPORT_FORMATS = ("mjcf", "urdf", "usd", "gltf")
+FORMATS: dict[str, Format] = {}
+_PROBLEMS: dict[str, str | None] = {}  # format name -> why it cannot be used here (None: it can)
+
+
+def register(fmt: Format) -> Format:
+    """Add (or replace) a format; everything that offers formats asks :data:`FORMATS`."""
+    FORMATS[fmt.name] = fmt
+    _PROBLEMS.pop(fmt.name, None)
+    return fmt
+
+
+_P = "real2code_export.probes."
+for _fmt in (
+    Format("json", "object.json", "The project's own lossless format",
+           "real2code_export.formats.object_json", (".json",), probes=(_P + "model",),
+           exported=False),
+    Format("mjcf", "MJCF", "MuJoCo", "real2code_export.formats.mjcf", (".xml", ".mjcf"),
+           requires=("mujoco",), probes=(_P + "mujoco",)),
+    Format("urdf", "URDF", "URDF (ROS, Pinocchio, Isaac, ...)", "real2code_export.formats.urdf",
+           (".urdf",), requires=("lxml.etree",), probes=(_P + "mujoco", _P + "pinocchio")),
+    Format("usd", "USD", "USD with UsdPhysics joints", "real2code_export.formats.usd",
+           (".usda", ".usd", ".usdc"), requires=("pxr.Usd", "pxr.UsdPhysics"),
+           probes=(_P + "usd",), validator="real2code_export.validators:validate_usd"),
+    Format("gltf", "glTF", "Binary glTF with KHR physics joints", "real2code_export.formats.gltf",
+           (".glb", ".gltf"), requires=("pygltflib",), probes=(_P + "gltf",),
+           validator="real2code_export.validators:validate_gltf"),
+):
+    register(_fmt)
+
+
+# -- availability --------------------------------------------------------------------------------
+
+
+def unavailable_reason(name: str) -> str | None:
+    """Why format ``name`` cannot be used here (its imports fail), or None when it can.
+    Imports its dependencies and its module the first time; cached."""
+    if name not in FORMATS:
+        raise FormatError(None, "--to", f"unknown format {name!r}; choose from "
+                          f"{', '.join(FORMATS)}")
+    if name not in _PROBLEMS:
+        _PROBLEMS[name] = _import_problem(FORMATS[name])
+    return _PROBLEMS[name]
+
+
+def _import_problem(fmt: Format) -> str | None:
+    for module in (*fmt.requires, fmt.module):
+        try:
+            importlib.import_module(module)
+        except Exception as e:  # noqa: BLE001 - a broken package fails in any way it likes
+            return f"cannot import {module} ({type(e).__name__}: {e})"
+    return None
+
+
+def available(name: str) -> bool:
+    """Whether format ``name`` can be read and written here (its imports really work)."""
+    return unavailable_reason(name) is None
+
+
+def forget_availability() -> None:
+    """Ask again next time (after installing a package, or in tests)."""
+    _PROBLEMS.clear()
+
+
+def export_formats() -> list[str]:
+    """The formats an export writes by default: every exported format available here."""
+    return [f.name for f in FORMATS.values() if f.exported and available(f.name)]
+
+
+def suffixes(exported_only: bool = False) -> tuple[str, ...]:
+    """Every file suffix the registry knows (model files), in registration order."""
+    return tuple(s for f in FORMATS.values() if f.exported or not exported_only
+                 for s in f.suffixes)
 
 
 def format_for_path(path: str | Path) -> Format:
     suffix = Path(path).suffix.lower()
     for fmt in FORMATS.values():
-        if suffix in fmt.extensions:
+        if suffix in fmt.suffixes:
             return fmt
-    known = sorted(e for f in FORMATS.values() for e in f.extensions)
-    raise FormatError(path, None, f"unknown file type {suffix!r} (known: {', '.join(known)})")
+    raise FormatError(path, None, f"unknown file type {suffix!r} "
+                      f"(known: {', '.join(sorted(suffixes()))})")
 
 
+def parse_names(text: str) -> list[str]:
+    """``--to mjcf,urdf`` -> ["mjcf", "urdf"]; FormatError naming the unknown ones."""
+    names = [t.strip().lower() for t in text.split(",") if t.strip()]
+    bad = [n for n in names if n not in FORMATS]
+    if bad or not names:
+        raise FormatError(None, "--to", f"unknown format(s) {bad or text!r}; choose from "
+                          f"{', '.join(FORMATS)}")
+    return names
+
+
+# -- reading and writing ------------------------------------------------------------------------
 def load(path: str | Path) -> ArticulatedObject:
-    """Load any supported file into the model; the format is chosen by extension."""
+    """Load any supported file into the model; the format is chosen by suffix."""
     path = Path(path)
     if not path.exists():
         raise FormatError(path, None, "no such file")
@@ -62,18 +159,20 @@ def load(path: str | Path) -> ArticulatedObject:
             path = candidate
         else:
             raise FormatError(path, None, "is a folder without object.json")
-    module = format_for_path(path).load_module()
+    fmt = format_for_path(path)
+    module = fmt.load_module()
     if not hasattr(module, "load"):
-        raise FormatError(path, None, f"format {module.__name__} cannot be read")
+        raise FormatError(path, None, f"format {fmt.name!r} cannot be read")
     return module.load(path)
 
 
 def export(obj: ArticulatedObject, out_dir: str | Path,
-           formats: tuple[str, ...] | list[str] = EXPORT_FORMATS) -> dict[str, Path]:
-    """Write ``obj`` in each format into ``out_dir`` atomically: all files or none.
-
-    Meshes are written once and shared by every format's file.
+           formats: tuple[str, ...] | list[str] | None = None) -> dict[str, Path]:
+    """Write ``obj`` in each format (default: :func:`export_formats`) into ``out_dir``
+    atomically: all files or none. Meshes are written once and shared by every format's file.
     """
+    from .. import atomic
+
     out_dir = Path(out_dir)
     with atomic.staged_output(out_dir) as staging:
         staged = write_formats(obj, staging, formats)
@@ -81,14 +180,21 @@ def export(obj: ArticulatedObject, out_dir: str | Path,
 
 
 def write_formats(obj: ArticulatedObject, folder: str | Path,
-                  formats: tuple[str, ...] | list[str] = EXPORT_FORMATS) -> dict[str, Path]:
-    """Write ``obj`` in each format into ``folder`` (a staging folder: not atomic by itself,
-    see :func:`export`)."""
+                  formats: tuple[str, ...] | list[str] | None = None) -> dict[str, Path]:
+    """Write ``obj`` in each format (default: :func:`export_formats`) into ``folder`` (a
+    staging folder: not atomic by itself, see :func:`export`)."""
+    from ..meshfiles import write_object_meshes
+    from ..model import validate
+
+    formats = export_formats() if formats is None else list(formats)
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise FormatError(None, "--to", f"unknown format(s) {unknown}; choose from {list(FORMATS)}")
     validate(obj)
     modules = {name: FORMATS[name].load_module() for name in formats}
+    unwritable = [name for name, module in modules.items() if not hasattr(module, "save")]
+    if unwritable:
+        raise FormatError(None, "--to", f"format(s) {unwritable} cannot be written")
     folder = Path(folder)
     # object.json wants exact mesh text; the other formats share the same files.
     write_object_meshes(obj, folder, exact="json" in formats)

@@ -22,7 +22,6 @@ from ..model import ArticulatedObject, Dynamics, Inertial, Joint, JointType, Lim
 
 SCHEMA = "real2code_export/object"
 SCHEMA_VERSION = 1
-EXTENSIONS = (".json",)
 FILENAME = "object.json"
 
 

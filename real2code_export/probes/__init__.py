@@ -14,7 +14,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..errors import CheckError
+from ..errors import CheckError, Real2CodeError
 
 
 @dataclass(frozen=True)
@@ -43,30 +43,34 @@ class Probe(Protocol):
     #   -> (N, len(parts), 4, 4) world poses in the order of ``parts``.
 
 
-# extension -> modules whose open_probes() handle it, in report order
-PROBE_MODULES: dict[str, tuple[str, ...]] = {
-    ".json": ("real2code_export.probes.model",),
-    ".xml": ("real2code_export.probes.mujoco",),
-    ".mjcf": ("real2code_export.probes.mujoco",),
-    ".urdf": ("real2code_export.probes.mujoco", "real2code_export.probes.pinocchio"),
-    ".usda": ("real2code_export.probes.usd",),
-    ".usd": ("real2code_export.probes.usd",),
-    ".usdc": ("real2code_export.probes.usd",),
-    ".glb": ("real2code_export.probes.gltf",),
-    ".gltf": ("real2code_export.probes.gltf",),
-}
-
-
 def open_probes(path: str | Path) -> list[Probe]:
-    """Every probe for ``path`` (chosen by extension)."""
+    """Every probe for ``path``: the registry's probe modules for its format, in report
+    order (chosen by suffix)."""
+    from ..formats import FORMATS, format_for_path, unavailable_reason
+
     path = Path(path)
     if not path.exists():
         raise CheckError(f"{path}: no such file")
-    modules = PROBE_MODULES.get(path.suffix.lower())
-    if modules is None:
+    try:
+        fmt = format_for_path(path)
+    except Real2CodeError:
+        fmt = None
+    if fmt is None or not fmt.probes:
+        known = sorted(s for f in FORMATS.values() if f.probes for s in f.suffixes)
         raise CheckError(f"{path}: cannot check files of type {path.suffix!r} "
-                         f"(known: {', '.join(sorted(PROBE_MODULES))})")
+                         f"(known: {', '.join(known)})")
+    problem = unavailable_reason(fmt.name)
+    if problem:
+        raise CheckError(f"{path}: {fmt.name} files cannot be checked here: {problem}")
     probes: list[Probe] = []
-    for name in modules:
-        probes.extend(importlib.import_module(name).open_probes(path))
+    for name in fmt.probes:
+        probes.extend(_probe_module(name, path).open_probes(path))
     return probes
+
+
+def _probe_module(name: str, path: Path):
+    try:
+        return importlib.import_module(name)
+    except Exception as e:  # noqa: BLE001 - a broken tool fails in any way it likes
+        raise CheckError(f"{path}: its tool cannot be loaded here: {name} "
+                         f"({type(e).__name__}: {e})") from e

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import transforms as tf
-from ..errors import CheckError, Real2CodeError
+from ..errors import CheckError, NameNotFoundError, Real2CodeError
 from . import JointInfo
 
 LABEL = "glTF (nodes + joint metadata)"
@@ -88,7 +88,7 @@ class GltfProbe:
         known = {j.name for j in self.joints}
         unknown = set(q) - known
         if unknown:
-            raise KeyError(f"unknown joint(s) {sorted(unknown)} in {self.path}")
+            raise NameNotFoundError(f"unknown joint(s) {sorted(unknown)} in {self.path}")
         world: dict[int, np.ndarray] = {}
         stack = [(r, Z_UP_FROM_Y_UP) for r in reversed(self.roots)]
         while stack:

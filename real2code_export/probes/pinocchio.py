@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import CheckError
+from ..errors import CheckError, NameNotFoundError
 from . import JointInfo
 from ._stdio import captured_c_output
 
@@ -86,7 +86,7 @@ class PinocchioProbe:
         values = np.zeros(len(self.joints))
         for name, value in q.items():
             if name not in self._column:
-                raise KeyError(f"{self.path}: no movable joint named {name!r} in Pinocchio's model")
+                raise NameNotFoundError(f"{self.path}: no movable joint named {name!r} in Pinocchio's model")
             values[self._column[name]] = value
         return dict(zip(self.parts, self.pose_array(values)[0], strict=True))
 

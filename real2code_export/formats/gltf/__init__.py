@@ -4,7 +4,7 @@
   kinematic tree (each joint's motion is one node's rotation or translation), PBR
   materials, one animation per movable joint, the physics in KHR_physics_rigid_bodies
   and every model value in ``extras`` (namespace ``real2code``). Y up: the scene root node
-  carries the Z-up -> Y-up rotation (see ``_common``).
+  carries the Z-up -> Y-up rotation (see ``conventions``).
 - ``load(path)`` reads our files losslessly (vertices are float32), other files from their
   KHR_physics_rigid_bodies joints or, failing that, as parts on fixed joints.
 - ``validate_gltf(path)`` runs the Khronos glTF validator (npm ``gltf-validator``).
@@ -12,11 +12,9 @@
 
 from __future__ import annotations
 
-from ._read import load
-from ._write import save
+from .read import load
 from .validator import ValidatorUnavailable, validate_gltf, validate_gltf_files
+from .write import save
 
-EXTENSIONS = (".glb", ".gltf")
-
-__all__ = ["EXTENSIONS", "ValidatorUnavailable", "load", "save", "validate_gltf",
+__all__ = ["ValidatorUnavailable", "load", "save", "validate_gltf",
            "validate_gltf_files"]

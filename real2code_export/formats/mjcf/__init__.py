@@ -12,6 +12,4 @@ from .conventions import CUSTOM_PREFIX, KEYFRAME
 from .read import load
 from .write import build_spec, save, to_xml
 
-EXTENSIONS = (".xml", ".mjcf")
-
-__all__ = ["CUSTOM_PREFIX", "EXTENSIONS", "KEYFRAME", "build_spec", "load", "save", "to_xml"]
+__all__ = ["CUSTOM_PREFIX", "KEYFRAME", "build_spec", "load", "save", "to_xml"]

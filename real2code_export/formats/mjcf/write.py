@@ -11,7 +11,6 @@ kept in the keyframe "observed" (joint states) and in ``<custom>`` data named
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
@@ -21,7 +20,7 @@ from ... import atomic
 from ... import transforms as tf
 from ...errors import ExportError
 from ...meshfiles import MESH_DIR, collision_relpath, visual_relpath, write_object_meshes
-from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, validate
+from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
 from .conventions import (
     COLLISION_GROUP,
     KEYFRAME,
@@ -232,11 +231,7 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
             spec.add_numeric(name=custom_name(WORLD, "inertial"),
                              data=[i.mass, *i.com, *full_inertia(i.inertia)])
     if obj.metadata:
-        try:
-            text = json.dumps(obj.metadata, sort_keys=True, separators=(",", ":"),
-                              allow_nan=False)
-        except (TypeError, ValueError) as e:
-            raise ExportError(f"object {obj.name!r}: metadata is not JSON-serialisable: {e}") from e
+        text = metadata_json(obj, sort_keys=True, separators=(",", ":"))
         # MuJoCo writes text as CDATA, which "]]>" would end; \u003e is the same JSON.
         spec.add_text(name=METADATA, data=text.replace(">", "\\u003e"))
 

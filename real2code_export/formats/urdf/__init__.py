@@ -10,7 +10,5 @@ from .read import load
 from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE
 from .write import save, to_bytes
 
-EXTENSIONS = (".urdf",)
-
-__all__ = ["DEFAULT_EFFORT", "DEFAULT_VELOCITY", "EXTENSIONS", "NAMESPACE", "load", "save",
+__all__ = ["DEFAULT_EFFORT", "DEFAULT_VELOCITY", "NAMESPACE", "load", "save",
            "to_bytes"]

@@ -10,7 +10,6 @@ load every link as its own body, with its visual.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +17,8 @@ from lxml import etree
 
 from ... import atomic
 from ... import transforms as tf
-from ...errors import ExportError
 from ...meshfiles import collision_relpath, visual_relpath, write_object_meshes
-from ...model import ArticulatedObject, Joint, JointType, Part, validate
+from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
 from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE, PREFIX, UNKNOWN, ns, number, numbers
 
 SUFFIX = ".urdf"
@@ -47,10 +45,7 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
     robot = etree.Element("robot", nsmap={PREFIX: NAMESPACE})
     robot.set("name", obj.name)
     if obj.metadata:
-        try:
-            robot.set(ns("metadata"), json.dumps(obj.metadata, sort_keys=True, allow_nan=False))
-        except (TypeError, ValueError) as e:
-            raise ExportError(f"object {obj.name!r}: metadata is not JSON-serialisable: {e}") from e
+        robot.set(ns("metadata"), metadata_json(obj, sort_keys=True))
     compiler = etree.SubElement(etree.SubElement(robot, "mujoco"), "compiler")
     for key, value in MUJOCO_COMPILER:
         compiler.set(key, value)

@@ -25,6 +25,7 @@ from ...model import (
     Mesh,
     Part,
     forward_kinematics,
+    metadata_json,
     sanitize_name,
     validate,
 )
@@ -72,7 +73,7 @@ def to_usda(obj: ArticulatedObject) -> str:
     UsdPhysics.ArticulationRootAPI.Apply(root)
     root.SetAssetInfoByKey("name", obj.name)
     root.CreateAttribute(METADATA, Sdf.ValueTypeNames.String, custom=True).Set(
-        json.dumps(obj.metadata, sort_keys=True, allow_nan=False))
+        metadata_json(obj, sort_keys=True))
 
     base = f"/{obj.name}"
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])

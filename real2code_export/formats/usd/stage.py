@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import transforms as tf
-from ...errors import FormatError
+from ...errors import FormatError, InputError
 
 GEOMETRY, PHYSICS, LOOKS = "Geometry", "Physics", "Looks"
 SCENE = "PhysicsScene"
@@ -189,7 +189,7 @@ def rotation_of(quat) -> np.ndarray:
     im = quat.GetImaginary()
     q = [float(quat.GetReal()), float(im[0]), float(im[1]), float(im[2])]
     if not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-12:
-        raise ValueError(f"not a rotation quaternion: {q}")
+        raise InputError(f"not a rotation quaternion: {q}")
     return tf.quat_to_matrix(q)
 
 

@@ -13,8 +13,8 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import Mesh
-from ._common import TRIANGLES, Z_UP_FROM_Y_UP, AccessorReader, node_matrix, ours
-from ._mesh import decode
+from .conventions import TRIANGLES, Z_UP_FROM_Y_UP, AccessorReader, node_matrix, ours
+from .mesh import decode
 
 GLB_MAGIC = b"glTF"
 # glTF properties that default to an empty list / object when absent

@@ -1,31 +1,47 @@
-"""Command-line glue for the reconstruction stages: ``render``, ``reconstruct``, ``evaluate
-reconstruction`` and the demo on the shipped capture.
+"""The reconstruction stages' commands: ``render``, ``reconstruct``, ``demo`` (on the shipped
+capture), ``evaluate reconstruction`` and ``evaluate completion``.
 
-``real2code_export.cli`` adds these with ``add_render_parser(sub)``,
-``add_reconstruct_parser(sub)``, ``add_evaluate_reconstruction_parser(evaluate_sub)``
-and calls :func:`run_demo` from its demo command. Every ``cmd_*`` returns an exit status
-(0 success, 1 the final check disagreed); errors are raised as ``Real2CodeError``.
+Building their parsers imports no stage; each ``cmd_*`` imports its ``pipeline`` stage when it
+runs and returns an exit status (0 success, 1 the final check disagreed); errors are raised
+as ``Real2CodeError``.
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-SAMPLE_CAPTURE = REPO_ROOT / "samples" / "cabinet_capture"
+# The renderer's defaults, for --help without importing it (a test holds them equal to
+# pipeline.render's DEFAULT_VIEWS and DEFAULT_SIZE).
+RENDER_VIEWS, RENDER_SIZE = 12, 256
+
+
+def add_demo_parser(sub) -> None:
+    s = sub.add_parser("demo", help="the main job: reconstruct the sample capture shipped with "
+                       "the package")
+    s.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
+    s.set_defaults(func=cmd_demo)
+
+
+def add_parsers(sub) -> None:
+    add_render_parser(sub)
+    add_reconstruct_parser(sub)
+
+
+def add_evaluate_parsers(evaluate_sub) -> None:
+    add_evaluate_completion_parser(evaluate_sub)
+    add_evaluate_reconstruction_parser(evaluate_sub)
 
 
 # -- render -----------------------------------------------------------------------------------
 def add_render_parser(sub) -> argparse.ArgumentParser:
-    from .render import DEFAULT_SIZE, DEFAULT_VIEWS
-
     s = sub.add_parser("render", help="a synthetic posed RGB-D capture with part masks")
     s.add_argument("model", help="any importable model (object.json, .urdf, MJCF .xml, ...)")
     s.add_argument("--out", required=True, help="capture folder to write")
-    s.add_argument("--views", type=int, default=DEFAULT_VIEWS, help="number of views (12)")
-    s.add_argument("--width", type=int, default=DEFAULT_SIZE, help="pixels (256)")
-    s.add_argument("--height", type=int, default=DEFAULT_SIZE, help="pixels (256)")
+    s.add_argument("--views", type=int, default=RENDER_VIEWS, help="number of views (12)")
+    s.add_argument("--width", type=int, default=RENDER_SIZE, help="pixels (256)")
+    s.add_argument("--height", type=int, default=RENDER_SIZE, help="pixels (256)")
     s.add_argument("--state", choices=["observed", "random"], default="observed",
                    help="the model's observed state, or every joint partly open (random)")
     s.add_argument("--seed", type=int, default=0, help="cameras and the random state")
@@ -34,9 +50,9 @@ def add_render_parser(sub) -> argparse.ArgumentParser:
 
 
 def cmd_render(args) -> int:
-    from real2code_export.errors import Real2CodeError
+    from pipeline.render import render_model
 
-    from .render import render_model
+    from ..errors import Real2CodeError
 
     if args.views < 1 or args.width < 8 or args.height < 8:
         raise Real2CodeError("--views must be >= 1 and --width/--height >= 8")
@@ -72,15 +88,15 @@ def _reconstruct_options(s) -> None:
 
 
 def _run_reconstruct(capture, out, args) -> int:
-    from .reconstruct import reconstruct
+    from pipeline.reconstruct import reconstruct
+
+    from ..check import format_table
 
     result = reconstruct(capture, out, segmentation=args.segmentation,
                          completion=args.completion, predictor=args.predictor,
                          sam_checkpoint=args.sam_checkpoint, sam_model_type=args.sam_model_type,
                          check_configurations=args.configurations,
                          progress=lambda msg: print(msg, flush=True))
-    from real2code_export.check import format_table
-
     out = Path(out)
     for stage in ("segmentation", "clouds", "part_meshes", "articulation"):
         print(f"{stage:13s} {out / stage}")
@@ -97,14 +113,25 @@ def cmd_reconstruct(args) -> int:
 
 
 # -- demo -------------------------------------------------------------------------------------
+def cmd_demo(args) -> int:
+    """The main job on the shipped capture: posed RGB-D views in, the articulated object and
+    every export out, checked across the tools."""
+    t0 = time.perf_counter()
+    status = run_demo(args.out)
+    print(f"done in {time.perf_counter() - t0:.1f} s; outputs in {args.out}")
+    return status
+
+
 def run_demo(out: str | Path) -> int:
     """``real2code demo``: reconstruct the shipped sample capture with the shipped models,
     print where every stage's output went and what the check found."""
-    from real2code_export.errors import Real2CodeError
+    from pipeline.capture import SAMPLE_CAPTURE
+
+    from ..errors import Real2CodeError
 
     if not (SAMPLE_CAPTURE / "transforms.json").is_file():
-        raise Real2CodeError(f"{SAMPLE_CAPTURE}: the shipped sample capture is missing "
-                             "(reinstall from a checkout)")
+        raise Real2CodeError(f"{SAMPLE_CAPTURE}: the sample capture shipped with the package is "
+                             "missing (reinstall real2code-export)")
     parser = argparse.ArgumentParser()
     _reconstruct_options(parser)
     args = parser.parse_args([])
@@ -133,11 +160,11 @@ def cmd_evaluate_reconstruction(args) -> int:
 
     import numpy as np
 
-    from real2code_export import atomic
-    from real2code_export.errors import Real2CodeError
+    from pipeline.evaluate_articulation import partnet_cases, procedural_cases
+    from pipeline.evaluate_reconstruction import SETTING_NAMES, evaluate, markdown
 
-    from .evaluate_articulation import partnet_cases, procedural_cases
-    from .evaluate_reconstruction import SETTING_NAMES, evaluate, markdown
+    from .. import atomic
+    from ..errors import Real2CodeError
 
     sets = {"procedural test set": procedural_cases(args.objects, args.seed)}
     if args.partnet:
@@ -165,3 +192,37 @@ def cmd_evaluate_reconstruction(args) -> int:
     if args.markdown:
         atomic.write_text(args.markdown, table + "\n")
     return 0
+
+
+# -- evaluate completion ----------------------------------------------------------------------
+def add_evaluate_completion_parser(evaluate_sub) -> argparse.ArgumentParser:
+    s = evaluate_sub.add_parser("completion",
+                                help="shape completion against the segment-only baseline")
+    completion_arguments(s)
+    s.set_defaults(func=cmd_evaluate_completion)
+    return s
+
+
+def completion_arguments(p: argparse.ArgumentParser) -> None:
+    """``evaluate completion``'s options."""
+    p.add_argument("--objects", type=int, default=40, help="held-out procedural objects (40)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--partnet", type=Path, default=None,
+                   help="the PartNet-Mobility folder (with index.json): add its dev objects")
+    p.add_argument("--arc", type=float, default=120.0,
+                   help="the cameras' azimuth span in degrees (120; 360: a full ring)")
+    p.add_argument("--figure", type=int, default=None,
+                   help="also draw this procedural test object (its index)")
+    p.add_argument("--out", type=Path, default=Path("completion_eval"),
+                   help="folder for completion.json, completion.md and the figures")
+
+
+def cmd_evaluate_completion(args) -> int:
+    from pipeline.complete.evaluate import cmd_evaluate_completion as evaluate_completion
+
+    from ..errors import Real2CodeError
+
+    if args.partnet is not None and not (args.partnet / "index.json").is_file():
+        raise Real2CodeError(f"{args.partnet}: no PartNet-Mobility index.json here")
+
+    return evaluate_completion(args)

@@ -31,9 +31,9 @@ import numpy as np
 
 from ... import atomic
 from ...meshfiles import write_object_meshes
-from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, validate
-from . import _physics as physics
-from ._common import (
+from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from . import physics
+from .conventions import (
     ARRAY_BUFFER,
     ELEMENT_ARRAY_BUFFER,
     EXTRAS_KEY,
@@ -48,7 +48,7 @@ from ._common import (
     axis_angle_xyzw,
     quat_xyzw,
 )
-from ._mesh import VertexData, encode_collision, encode_visual
+from .mesh import VertexData, encode_collision, encode_visual
 
 GENERATOR = "real2code_export"
 SWEEP_SECONDS = 2.0  # one leg of a joint's animation (lower -> upper)
@@ -280,7 +280,7 @@ def build(obj: ArticulatedObject) -> bytes:
     root = b.node(obj.name, rotation=list(ROOT_ROTATION_XYZW), extras={EXTRAS_KEY: {
         "schema": SCHEMA, "schema_version": SCHEMA_VERSION, "object": obj.name,
         # metadata as JSON text: pygltflib drops empty values from extras, which would lose them
-        "metadata_json": json.dumps(obj.metadata, allow_nan=False)}})
+        "metadata_json": metadata_json(obj)}})
     b.gltf.nodes[root].children.append(add_part(obj.root, None)[0])
     b.gltf.scenes.append(g.Scene(name=obj.name, nodes=[root]))
     b.gltf.scene = 0

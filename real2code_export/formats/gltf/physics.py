@@ -27,7 +27,7 @@ import numpy as np
 
 from ... import transforms as tf
 from ...model import ArticulatedObject, Dynamics, Joint, JointType, Part
-from ._common import quat_xyzw
+from .conventions import quat_xyzw
 
 LOCK = 1e-9  # a limit with |min|, |max| below this locks its axes
 

@@ -1,8 +1,9 @@
 """``real2code batch export|check|calibrate|reconstruct INPUTS... --out DIR``.
 
-The main CLI wires it with ``add_parser(subparsers)``; ``python -m real2code_export.batch``
+The main CLI wires it with ``add_parsers(subparsers)``; ``python -m real2code_export.batch``
 runs it alone. Exit status: 0 every object done, 1 some object failed (the manifest says
-why), 2 bad input (nothing ran), 130 interrupted (rerun the same command to continue).
+why), 2 bad input (nothing ran), 3 an internal error, 130 interrupted (rerun the same command
+to continue).
 """
 
 from __future__ import annotations
@@ -11,12 +12,14 @@ import argparse
 import json
 import sys
 
-from .inputs import KINDS
+from .options import EXIT_DISAGREE as EXIT_FAILED
+from .options import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_OK, formats_arg
 
-EXIT_OK, EXIT_FAILED, EXIT_ERROR, EXIT_INTERRUPTED = 0, 1, 2, 130
+KINDS = ("export", "check", "calibrate", "reconstruct")  # batch.tasks.TASKS (a test holds it)
+__all__ = ["EXIT_ERROR", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "add_parsers", "main"]
 
 
-def add_parser(subparsers) -> argparse.ArgumentParser:
+def add_parsers(subparsers) -> argparse.ArgumentParser:
     """Add the ``batch`` command to a CLI's subparsers."""
     s = subparsers.add_parser(
         "batch", help="export, check, calibrate or reconstruct many objects (process pool or Ray)",
@@ -44,7 +47,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="the summary as JSON, on stdout (the table then goes to stderr) or to FILE")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     t = s.add_argument_group("task options")
-    t.add_argument("--to", type=_formats_arg, default=None,
+    t.add_argument("--to", type=formats_arg, default=None,
                    help="export/calibrate: comma-separated formats "
                    "(default: json and every available one of mjcf,urdf,usd,gltf)")
     t.add_argument("--check", action=argparse.BooleanOptionalAction, default=True,
@@ -59,11 +62,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def cmd_batch(args) -> int:
     from .. import atomic
-    from .progress import format_summary
-    from .run import run_batch
-    from .tasks import TaskOptions
+    from ..batch.progress import format_summary
+    from ..batch.run import run_batch
+    from ..batch.tasks import TaskOptions
 
-    options = TaskOptions(formats=tuple(args.to or _default_formats()), check=args.check,
+    options = TaskOptions(formats=tuple(args.to or ()), check=args.check,
                           configurations=args.configurations, seed=args.seed,
                           tol_position=args.tol_position, tol_rotation=args.tol_rotation)
     summary = run_batch(args.task, args.inputs, args.out, options=options, engine=args.engine,
@@ -86,29 +89,13 @@ def cmd_batch(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     """``python -m real2code_export.batch ...`` (the same as ``real2code batch ...``)."""
     parser = argparse.ArgumentParser(prog="python -m real2code_export.batch")
-    add_parser(parser.add_subparsers(dest="command", required=True))
+    add_parsers(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(["batch", *(sys.argv[1:] if argv is None else argv)])
     return run_parsed(args)
 
 
 def run_parsed(args) -> int:
-    """Run parsed arguments with the main CLI's error handling (message, exit status 2)."""
-    from ..errors import Real2CodeError
+    """Run parsed arguments inside the main CLI's error boundary."""
+    from .boundary import call
 
-    try:
-        return args.func(args)
-    except Real2CodeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return EXIT_ERROR
-
-
-def _formats_arg(text: str) -> list[str]:
-    from ..cli import _formats_arg as formats
-
-    return formats(text)
-
-
-def _default_formats() -> list[str]:
-    from ..cli import _available_export_formats
-
-    return ["json", *_available_export_formats()]
+    return call(args.func, args)

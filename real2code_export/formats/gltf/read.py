@@ -4,7 +4,7 @@
   binary data (float32 vertices).
 - Without our extras but with KHR_physics_rigid_bodies joints: one part per rigid body
   (``motion`` node; the static world is the root), joints from the physics joints
-  (see ``_khr.py``).
+  (see ``khr_physics.py``).
 - Anything else: one part per mesh node, joined by fixed joints along the node tree (a
   single mesh node gives a single part); warned, since no joint can be recovered.
 """
@@ -29,9 +29,9 @@ from ...model import (
     sanitize_name,
     validate,
 )
-from ._common import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
-from ._document import Document, rigid
-from ._khr import load_khr
+from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
+from .document import Document, rigid
+from .khr_physics import load_khr
 
 
 def load(path: str | Path) -> ArticulatedObject:

@@ -2,7 +2,7 @@
 
 Bodies are the ``motion`` nodes plus the static world (nodes under no motion), which is the
 root part. A joint between two bodies becomes a model joint when it leaves exactly one
-degree of freedom (see ``_physics.free_axis``); the kinematic tree is grown from the root
+degree of freedom (see ``physics.free_axis``); the kinematic tree is grown from the root
 along the joints. A child part's frame has its body node's orientation and sits at the
 child attachment point, so the joint axis passes through the part origin as the model
 requires: with child attachment B (pose T_CB in body node C) and parent attachment A,
@@ -31,9 +31,9 @@ from ...model import (
     Part,
     sanitize_name,
 )
-from ._common import KHR_PHYSICS, KHR_SHAPES, khr, node_matrix, rotation_from_xyzw
-from ._document import Document, rigid
-from ._physics import FreeAxis, drive_dynamics, free_axis
+from .conventions import KHR_PHYSICS, KHR_SHAPES, khr, node_matrix, rotation_from_xyzw
+from .document import Document, rigid
+from .physics import FreeAxis, drive_dynamics, free_axis
 
 WORLD = -1  # the static world body
 

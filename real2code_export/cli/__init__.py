@@ -1,0 +1,59 @@
+"""The ``real2code`` command line (contracts in docs/design.md).
+
+One module per command group (``models``: export, check, generate; ``articulate``;
+``reconstruct``: demo, render, reconstruct and their evaluations; ``calibrate``; ``batch``).
+Building the parser imports none of the stages: each command imports its stage when it runs,
+so ``real2code --help`` is quick. Every command runs inside :mod:`.boundary`.
+
+Exit status: 0 success, 1 a check found a disagreement, 2 bad input (the message names the
+file, the element and what is wrong; nothing half-written is left), 3 an internal error (a
+short message and the file the traceback was written to).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .. import __version__
+from . import articulate, batch, calibrate, models, reconstruct
+from .boundary import call
+from .options import EXIT_DISAGREE, EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
+
+__all__ = ["EXIT_DISAGREE", "EXIT_ERROR", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_OK",
+           "build_parser", "main", "run"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="real2code",
+        description="Articulated objects in, simulation-ready digital twins out "
+        "(MJCF, URDF, USD, glTF), proven by loading them back in their own tools.",
+    )
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    reconstruct.add_demo_parser(sub)
+    models.add_parsers(sub)  # export, check, generate
+    articulate.add_parsers(sub)
+    reconstruct.add_parsers(sub)  # render, reconstruct
+    calibrate.add_parsers(sub)
+    s = sub.add_parser("evaluate", help="accuracy tables (the paper's metrics)")
+    evaluate_sub = s.add_subparsers(dest="what", required=True, metavar="WHAT")
+    articulate.add_evaluate_parsers(evaluate_sub)  # joints
+    reconstruct.add_evaluate_parsers(evaluate_sub)  # completion, reconstruction
+    batch.add_parsers(sub)
+    return p
+
+
+def run(argv: list[str] | None = None) -> int:
+    """Parse ``argv`` and run its command inside the error boundary; the exit status."""
+    args = build_parser().parse_args(argv)
+    return call(args.func, args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    sys.exit(run(argv))
+
+
+if __name__ == "__main__":
+    main()

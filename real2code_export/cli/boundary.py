@@ -1,0 +1,58 @@
+"""The sealed error boundary every command runs inside: the project's errors are exit 2 with
+their message, anything else is exit 3 with a short message and the file the traceback was
+written to; never a bare traceback. Repair warnings are printed once each."""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import traceback
+import warnings
+
+from ..errors import Real2CodeError, Real2CodeWarning
+from .options import EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED
+
+
+def call(func, args) -> int:
+    """``func(args)``'s exit status, with every failure turned into a message and a status."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", Real2CodeWarning)
+        try:
+            status = func(args)
+        except Real2CodeError as e:
+            return _fail(caught, f"error: {e}", EXIT_ERROR)
+        except OSError as e:  # the input or output path: missing, unreadable, disk full
+            where = e.filename if e.filename is not None else ""
+            text = e.strerror or str(e)
+            return _fail(caught, f"error: {where}: {text}" if where else f"error: {text}",
+                         EXIT_ERROR)
+        except KeyboardInterrupt:
+            return _fail(caught, "interrupted", EXIT_INTERRUPTED)
+        except Exception as e:  # noqa: BLE001 - the boundary: a bug, reported, never raw
+            path = _write_traceback()
+            return _fail(caught, f"internal error: {type(e).__name__}: {e}\n"
+                         f"(a bug; the traceback is in {path})", EXIT_INTERNAL)
+    _print_warnings(caught)
+    return status
+
+
+def _fail(caught, message: str, status: int) -> int:
+    _print_warnings(caught)
+    print(message, file=sys.stderr)
+    return status
+
+
+def _write_traceback() -> str:
+    with tempfile.NamedTemporaryFile("w", prefix="real2code-traceback-", suffix=".txt",
+                                     delete=False) as f:
+        f.write(f"real2code {' '.join(sys.argv[1:])}\n\n")
+        f.write(traceback.format_exc())
+    return f.name
+
+
+def _print_warnings(caught) -> None:
+    seen = set()
+    for w in caught:
+        if issubclass(w.category, Real2CodeWarning) and str(w.message) not in seen:
+            seen.add(str(w.message))
+            print(f"warning: {w.message}", file=sys.stderr)

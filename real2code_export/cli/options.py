@@ -1,0 +1,45 @@
+"""What every command shares: the exit statuses and the ``--to`` option (the registry's
+formats). Imports nothing heavy: the parser is built from this on every run."""
+
+from __future__ import annotations
+
+import argparse
+
+# docs/design.md, "Exit status"
+EXIT_OK = 0  # success
+EXIT_DISAGREE = 1  # the check found a disagreement (batch: some object failed)
+EXIT_ERROR = 2  # bad input: the message names the file, the element and what is wrong
+EXIT_INTERNAL = 3  # a bug: a short message and the file the traceback was written to
+EXIT_INTERRUPTED = 130  # Ctrl-C (batch: rerun the same command to continue)
+
+
+def formats_arg(text: str) -> list[str]:
+    """``--to mjcf,urdf``: names the registry knows (whether they work here is asked when the
+    command runs, so building the parser imports no format)."""
+    from ..errors import FormatError
+    from ..formats import parse_names
+
+    try:
+        return parse_names(text)
+    except FormatError as e:
+        raise argparse.ArgumentTypeError(e.message) from e
+
+
+def add_formats_option(parser, default_help: str = "every available one") -> None:
+    from ..formats import FORMATS
+
+    parser.add_argument("--to", type=formats_arg, default=None, metavar="FORMATS",
+                        help=f"comma-separated formats of {','.join(FORMATS)} "
+                        f"(default: {default_help})")
+
+
+def chosen_formats(args) -> list[str]:
+    """``--to`` as given, or every exported format that works here; a named format that
+    cannot work here is an UnavailableError (exit 2) saying why."""
+    from ..formats import FORMATS, export_formats
+
+    if not args.to:
+        return export_formats()
+    for name in args.to:
+        FORMATS[name].load_module()  # raises, naming what fails to import
+    return list(args.to)

@@ -1,0 +1,252 @@
+"""The one front door: the format registry is the only list of formats (a toy format
+registered in one place is offered everywhere), every command fails with an exit status and
+a message (never a bare traceback), and a format whose dependency is broken is not offered."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+from real2code_export import formats
+from real2code_export.cli import EXIT_ERROR, EXIT_INTERNAL, EXIT_OK, build_parser, run
+from real2code_export.formats import object_json
+from real2code_export.probes.model import ModelProbe
+
+from conftest import REPO
+from helpers import small_cabinet
+
+
+# -- a toy format, registered in one place ------------------------------------------------------
+def _toy_module() -> types.ModuleType:
+    """A format storing object.json's document under another suffix (meshes shared)."""
+    toy = types.ModuleType("toy_format")
+
+    def save(obj, out_dir, *, write_meshes=True):
+        path = Path(out_dir) / f"{obj.name}.toy"
+        path.write_text(object_json.dumps(obj))
+        return path
+
+    def load(path):
+        path = Path(path)
+        return object_json.from_dict(json.loads(path.read_text()), path)
+
+    class ToyProbe(ModelProbe):
+        label = "toy"
+
+    def open_probes(path):
+        return [ToyProbe(load(path), Path(path))]
+
+    toy.save, toy.load, toy.open_probes = save, load, open_probes
+    return toy
+
+
+@pytest.fixture
+def toy_format(monkeypatch):
+    monkeypatch.setitem(sys.modules, "toy_format", _toy_module())
+    monkeypatch.setattr(formats, "FORMATS", dict(formats.FORMATS))
+    formats.register(formats.Format("toy", "Toy", "A toy format for tests", "toy_format",
+                                    (".toy",), probes=("toy_format",)))
+    yield formats.FORMATS["toy"]
+    formats.forget_availability()
+
+
+@pytest.fixture
+def cabinet_json(tmp_path) -> Path:
+    object_json.save(small_cabinet(), tmp_path / "model")
+    return tmp_path / "model" / "object.json"
+
+
+def test_a_registered_format_is_offered_by_the_cli_batch_and_check(toy_format, cabinet_json,
+                                                                   tmp_path, capsys):
+    from real2code_export.batch.inputs import is_model_file
+
+    out = tmp_path / "out"
+    assert run(["export", str(cabinet_json), "--to", "urdf,toy", "--out", str(out)]) == EXIT_OK
+    toy = next(out.glob("*.toy"))
+    assert "toy" in formats.export_formats()  # the default --to offers it
+    assert is_model_file(toy)  # batch finds it in a folder
+    capsys.readouterr()
+    assert run(["check", str(cabinet_json), str(toy), str(next(out.glob("*.urdf")))]) == EXIT_OK
+    assert "toy" in capsys.readouterr().out
+
+
+def test_a_registered_format_is_offered_by_the_blender_addon(toy_format, monkeypatch):
+    """The add-on's import filter and export menu are the registry's (bpy stubbed: the
+    add-on itself is tested inside Blender by blender_addon/tests)."""
+
+    class Stub(types.ModuleType):
+        def __getattr__(self, name):
+            if name.startswith("__"):
+                raise AttributeError(name)
+            value = type(name, (), {"__init__": lambda self, *a, **k: None})
+            setattr(self, name, value)
+            return value
+
+    for name in ("bpy", "bpy.props", "bpy.types", "bpy.utils", "bpy_extras",
+                 "bpy_extras.io_utils", "mathutils"):
+        monkeypatch.setitem(sys.modules, name, Stub(name))
+    sys.modules["bpy"].props = sys.modules["bpy.props"]
+    sys.modules["bpy"].types = sys.modules["bpy.types"]
+    sys.modules["bpy_extras.io_utils"].poll_file_object_drop = lambda *a: True
+    for name in [m for m in sys.modules if m.split(".")[0] == "blender_addon"]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.syspath_prepend(str(REPO))
+    from blender_addon import ops_export, ops_import
+
+    assert ".toy" in ops_import.EXTENSIONS
+    assert ("toy", "Toy", "A toy format for tests") in ops_export.FORMAT_ITEMS
+    for name in [m for m in sys.modules if m.split(".")[0] == "blender_addon"]:
+        monkeypatch.delitem(sys.modules, name)
+
+
+# -- a broken dependency ---------------------------------------------------------------------
+@pytest.fixture
+def broken_pxr(monkeypatch):
+    """pxr installed but failing to import (None in sys.modules: the import raises)."""
+    for name in [m for m in sys.modules if m == "pxr" or m.startswith("pxr.")] or ["pxr"]:
+        monkeypatch.setitem(sys.modules, name, None)
+    formats.forget_availability()
+    yield
+    formats.forget_availability()
+
+
+def test_a_format_whose_dependency_fails_is_not_offered(broken_pxr, cabinet_json, tmp_path,
+                                                        capsys):
+    assert not formats.available("usd")
+    assert "pxr" in formats.unavailable_reason("usd")
+    assert "usd" not in formats.export_formats()
+    out = tmp_path / "out"
+    assert run(["export", str(cabinet_json), "--out", str(out)]) == EXIT_OK
+    assert not list(out.glob("*.usd*")) and list(out.glob("*.urdf"))
+    capsys.readouterr()
+    status = run(["export", str(cabinet_json), "--to", "usd", "--out", str(tmp_path / "o2")])
+    err = capsys.readouterr().err
+    assert status == EXIT_ERROR and "usd" in err and "pxr" in err, err
+    assert not (tmp_path / "o2").exists()
+    usda = tmp_path / "x.usda"
+    usda.write_text("#usda 1.0\n")
+    assert run(["check", str(usda)]) == EXIT_ERROR
+    assert "pxr" in capsys.readouterr().err
+
+
+# -- every command: bad input is exit 2 with a message, never a traceback ------------------------
+def _no_visuals(tmp_path) -> Path:
+    obj = small_cabinet()
+    obj = dataclasses.replace(obj, parts=[dataclasses.replace(p, visual=None, collision=[])
+                                          for p in obj.parts])
+    object_json.save(obj, tmp_path / "bare")
+    return tmp_path / "bare" / "object.json"
+
+
+def _bad_commands(tmp_path: Path) -> dict[str, list[str]]:
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (tmp_path / "model.obj").write_text("v 0 0 0\n")
+    return {
+        "export": ["export", str(tmp_path / "missing.urdf"), "--out", str(tmp_path / "o")],
+        "check": ["check", str(tmp_path / "model.obj")],
+        "generate": ["generate", "--category", "box", "--parts", "0", "--out", str(tmp_path / "o")],
+        "articulate": ["articulate", str(empty), "--out", str(tmp_path / "o")],
+        "render": ["render", str(_no_visuals(tmp_path)), "--out", str(tmp_path / "o")],
+        "reconstruct": ["reconstruct", str(empty), "--out", str(tmp_path / "o")],
+        "calibrate": ["calibrate", str(tmp_path / "missing.json"), "--data", "x.csv",
+                      "--out", str(tmp_path / "o")],
+        "evaluate joints": ["evaluate", "joints", "--objects", "1", "--partnet", str(empty)],
+        "evaluate completion": ["evaluate", "completion", "--partnet", str(empty),
+                                "--out", str(tmp_path / "o")],
+        "evaluate reconstruction": ["evaluate", "reconstruction", "--objects", "1",
+                                    "--partnet", str(empty)],
+        "batch": ["batch", "export", str(tmp_path / "nothing" / "*.urdf"), "--out",
+                  str(tmp_path / "o")],
+    }
+
+
+def test_every_command_refuses_bad_input_with_exit_2(tmp_path, capsys, monkeypatch):
+    import pipeline.capture
+
+    monkeypatch.setattr(pipeline.capture, "SAMPLE_CAPTURE", tmp_path / "no_capture")
+    commands = {**_bad_commands(tmp_path), "demo": ["demo", "--out", str(tmp_path / "d")]}
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    evaluate = next(a for a in sub.choices["evaluate"]._actions if a.dest == "what")
+    names = set(sub.choices) | {f"evaluate {w}" for w in evaluate.choices}
+    assert names - {"evaluate"} == set(commands)
+    for name, argv in commands.items():
+        status = run(argv)
+        err = capsys.readouterr().err
+        assert status == EXIT_ERROR, (name, status, err)
+        assert err.startswith(("error: ", "warning: ")) and "Traceback" not in err, (name, err)
+    assert not (tmp_path / "o").exists() and not (tmp_path / "d").exists()
+
+
+def test_render_without_visual_meshes_names_the_object(tmp_path, capsys):
+    assert run(["render", str(_no_visuals(tmp_path)), "--out", str(tmp_path / "o")]) == 2
+    assert "no visual meshes" in capsys.readouterr().err
+
+
+def test_an_internal_error_is_exit_3_with_the_traceback_in_a_file(tmp_path, capsys,
+                                                                  monkeypatch, cabinet_json):
+    def broken(path):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(formats, "load", broken)
+    status = run(["export", str(cabinet_json), "--to", "urdf", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert status == EXIT_INTERNAL and "Traceback" not in err
+    assert "internal error: ZeroDivisionError: a bug" in err
+    written = Path(err.rsplit("traceback is in ", 1)[1].split(")")[0])
+    assert "ZeroDivisionError" in written.read_text()
+    written.unlink()
+
+
+def test_nan_metadata_is_the_same_error_for_every_format(tmp_path):
+    from real2code_export.errors import ModelError
+
+    obj = dataclasses.replace(small_cabinet(), metadata={"scale": float("nan")})
+    for name in ("json", "mjcf", "urdf", "usd", "gltf"):
+        with pytest.raises(ModelError, match="metadata: not JSON"):
+            formats.export(obj, tmp_path / name, [name])
+        assert not (tmp_path / name).exists()
+
+
+def test_the_demo_capture_ships_as_package_data():
+    """``real2code demo`` reads its capture from the installed package, never a checkout."""
+    import tomllib
+
+    import pipeline
+    from pipeline.capture import SAMPLE_CAPTURE
+
+    root = Path(pipeline.__file__).resolve().parent
+    config = tomllib.loads((REPO / "pyproject.toml").read_text())
+    patterns = config["tool"]["setuptools"]["package-data"]["pipeline"]
+    shipped = {p for pattern in patterns for p in root.glob(pattern) if p.is_file()}
+    needed = {p for p in SAMPLE_CAPTURE.rglob("*") if p.is_file()}
+    assert (SAMPLE_CAPTURE / "transforms.json") in needed and needed <= shipped
+
+
+def test_building_the_parser_imports_no_stage():
+    """``real2code --help`` stays quick: no pipeline, numpy, scipy or format module loads."""
+    import subprocess
+
+    code = ("import sys; from real2code_export.cli import build_parser; build_parser(); "
+            "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('pipeline', 'numpy', 'scipy', 'trimesh', 'mujoco', 'pxr', 'pygltflib', 'torch') "
+            "or m.startswith(('real2code_export.formats.', 'real2code_export.model')))))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=REPO)
+    assert done.stdout.strip() == "", done.stdout
+
+
+def test_the_parser_restates_no_stage_fact_wrongly():
+    """The few facts the parser carries so as not to import a stage match the stage's own."""
+    from pipeline.render import DEFAULT_SIZE, DEFAULT_VIEWS
+    from real2code_export.batch.inputs import KINDS
+    from real2code_export.batch.tasks import TASKS
+    from real2code_export.cli import batch, reconstruct
+
+    assert (reconstruct.RENDER_VIEWS, reconstruct.RENDER_SIZE) == (DEFAULT_VIEWS, DEFAULT_SIZE)
+    assert batch.KINDS == KINDS == tuple(TASKS)
