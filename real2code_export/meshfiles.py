@@ -3,8 +3,7 @@
 Every format references the same files (``meshes/<part>.obj``,
 ``meshes/<part>_collision_<k>.obj``), written once per export, deterministically, so the
 same model gives byte-identical files. Reading goes through trimesh (STL, OBJ, glTF, PLY,
-...; Collada through pycollada, with its scene graph's node transforms applied and its
-``<unit meter>`` scaled to metres, as ROS tools show it: trimesh only records the unit).
+...), Collada through ``collada_mesh`` (pycollada: scene-graph transforms and unit applied).
 """
 
 from __future__ import annotations
@@ -70,45 +69,33 @@ def read_mesh(path: str | Path, *, source: str | Path | None = None, element: st
     path = Path(path)
     if not path.is_file():
         raise FormatError(source or path, element, f"mesh file not found: {path}", line)
-    collada = path.suffix.lower() == ".dae"
-    if collada:
-        _require_pycollada(path, source, element, line)
-    try:
-        loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
-    except Exception as e:  # trimesh raises many types for broken files
-        what = "Collada (.dae) " if collada else ""
-        raise FormatError(source or path, element,
-                          f"cannot read {what}mesh {path}: {type(e).__name__}: {e}", line) from e
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
-    mesh = Mesh.from_trimesh(loaded)
-    factor = np.ones(3) if scale is None else np.broadcast_to(np.asarray(scale, float), (3,))
-    if collada:
-        factor = factor * _collada_unit(loaded, path, source, element, line)
-    if not np.all(factor == 1.0):
-        mesh = Mesh(mesh.vertices * factor, mesh.faces)
+    if path.suffix.lower() == ".dae":
+        mesh = _read_collada(path, source, element, line)
+    else:
+        try:
+            loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
+        except Exception as e:  # trimesh raises many types for broken files
+            raise FormatError(source or path, element,
+                              f"cannot read mesh {path}: {type(e).__name__}: {e}", line) from e
+        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+            raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
+        mesh = Mesh.from_trimesh(loaded)
+    if scale is not None:
+        mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces)
     return mesh
 
 
-def _require_pycollada(path: Path, source, element, line) -> None:
+def _read_collada(path: Path, source, element, line) -> Mesh:
     try:
-        import collada  # noqa: F401 - trimesh reads Collada through it
+        import collada  # noqa: F401 - pycollada reads the file
     except ImportError as e:
         raise FormatError(source or path, element, f"cannot read Collada mesh {path}: "
                           "pycollada is not installed (pip install pycollada)", line) from e
+    from .collada_mesh import read_collada
 
-
-def _collada_unit(loaded, path: Path, source, element, line) -> float:
-    """Metres per unit of a Collada file (its ``<asset><unit meter>``; 1 when absent)."""
-    import trimesh.units
-
-    units = getattr(loaded, "units", None) or "meters"
     try:
-        factor = float(trimesh.units.unit_conversion(units, "meters"))
-    except Exception as e:  # an unknown unit name: trimesh raises ValueError or KeyError
+        vertices, faces, _ = read_collada(path)
+    except ValueError as e:
         raise FormatError(source or path, element,
-                          f"Collada mesh {path} has an unknown <unit> {units!r}", line) from e
-    if not np.isfinite(factor) or factor <= 0:
-        raise FormatError(source or path, element,
-                          f"Collada mesh {path} has an invalid <unit> {units!r}", line)
-    return factor
+                          f"cannot read Collada (.dae) mesh {path}: {e}", line) from e
+    return Mesh(vertices, faces)

@@ -36,6 +36,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
+from ...repairs import balanced_inertia
 from .conventions import (
     COLLISION_GROUP,
     KEYFRAME,
@@ -368,7 +369,12 @@ class _Reader:
             rot = frame[:3, :3]
             com = rot @ com + frame[:3, 3]
             inertia = rot @ inertia @ rot.T
-        return Inertial(mass, com, inertia)
+        # MuJoCo accepts a zero or degenerate tensor on a body that does not move.
+        inertial, change = balanced_inertia(Inertial(mass, com, inertia))
+        if change is not None:
+            warn(f"{self.path}:{_info_line(self.spec_bodies[b]) or ''}: "
+                 f"{self._body_label(b)}: {change}")
+        return inertial
 
     def _inertia_tensor(self, b: int) -> np.ndarray:
         import mujoco
