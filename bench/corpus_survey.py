@@ -1,5 +1,6 @@
-"""Where we stand on the robot corpora: load each source file, report the first error (or
-warnings count). Usage: python bench/corpus_survey.py [urdf|mjcf] [--export]"""
+"""Where we stand on the robot corpora: load each source file (then export, check, check
+against the source), report the first error or the warnings count.
+Usage: python bench/corpus_survey.py urdf|mjcf [--export [--check [--reference]]]"""
 from __future__ import annotations
 
 import json
@@ -9,9 +10,8 @@ import time
 import warnings
 from pathlib import Path
 
+from real2code_export.check import check_files
 from real2code_export.formats import export, load
-
-ERD = Path(__import__("example_robot_data_dir", fromlist=[""]).__file__) if False else None
 
 
 def erd_files() -> list[Path]:
@@ -38,7 +38,16 @@ def main() -> None:
                 obj = load(f)
                 if "--export" in sys.argv:
                     with tempfile.TemporaryDirectory() as d:
-                        export(obj, Path(d) / "out")
+                        written = export(obj, Path(d) / "out")
+                        if "--check" in sys.argv:
+                            checked = list(written.values())
+                            if "--reference" in sys.argv:
+                                checked.append(f)
+                            report = check_files(checked, reference=f if "--reference" in sys.argv
+                                                 else None)
+                            if not report.ok:
+                                raise RuntimeError("check: " + "; ".join(
+                                    m.message for m in report.mismatches[:3]))
                 status = f"ok ({len(obj.parts)} parts, {len(caught)} warnings)"
                 ok += 1
             except Exception as e:  # noqa: BLE001 - a survey lists every failure

@@ -18,11 +18,12 @@ from typing import Any
 import numpy as np
 
 from .errors import CheckError
-from .probes import JointInfo, Probe, open_probes
+from .probes import JointInfo, Probe, open_probes, open_source_probes
 from .probes.model import LABEL as MODEL_LABEL
 from .validators import Validation, validate_files
 
 UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
+WORLD = "world"  # the world frame, as a part where a tool names it (URDF link, MuJoCo body 0)
 
 
 @dataclass(frozen=True)
@@ -144,6 +145,7 @@ def check_files(
     tol_rotation: float = 1e-6,
     reference: str | Path | None = None,
     validate: bool = True,
+    source: str | Path | None = None,
 ) -> CheckReport:
     """Load every file in its own tool(s) and compare part poses at shared configurations.
 
@@ -151,18 +153,21 @@ def check_files(
     (its first probe) or a probe label such as ``"MuJoCo (MJCF)"``; by default the model
     (object.json) if present, else the first file's first probe. With ``validate`` the
     formats' own validators run too (glTF, USD); any error they report is a mismatch.
+    ``source``: the user's input file (URDF or MJCF), loaded in its own tools
+    (``probes.open_source_probes``), is the reference every file is compared with.
     """
     if not paths:
         raise CheckError("no files to check")
     if n_configurations < 1:
         raise CheckError(f"n_configurations must be >= 1, got {n_configurations}")
-    probes: list[Probe] = []
+    probes: list[Probe] = list(open_source_probes(source)) if source is not None else []
     for path in paths:
         probes.extend(open_probes(path))
     if not probes:
         raise CheckError("no probe could load any of the files")
     names = _display_names(probes)
-    ref = _pick_reference(probes, names, reference)
+    ref = 0 if source is not None and reference is None else \
+        _pick_reference(probes, names, reference)
     mismatches: list[Mismatch] = []
 
     joints = _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches)
@@ -306,6 +311,17 @@ def rotation_angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return 2.0 * np.arcsin(np.minimum(dist / (2.0 * math.sqrt(2.0)), 1.0))
 
 
+def _implicit_world(ref_probe, ref_poses, ref_index, probe, probe_poses, index) -> str | None:
+    """WORLD when one side has the world frame as a part (a URDF ``world`` link, our MJCF's
+    world body) and the other leaves it implicit: at the identity it is the same frame."""
+    for poses_, names, other in ((ref_poses, ref_index, index), (probe_poses, index, ref_index)):
+        if WORLD in names and WORLD not in other:
+            world = poses_[:, names[WORLD]]
+            if np.allclose(world, np.eye(4), atol=1e-12, rtol=0):
+                return WORLD
+    return None
+
+
 def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotation,
                    mismatches) -> list[PartResult]:
     ref_parts = list(probes[ref].parts)
@@ -315,13 +331,14 @@ def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotatio
         if i == ref:
             continue
         index = {name: k for k, name in reversed(list(enumerate(probe.parts)))}
+        implicit = _implicit_world(probes[ref], poses[ref], ref_index, probe, poses[i], index)
         for name in ref_index:
-            if name not in index:
+            if name not in index and name != implicit:
                 part_results[name].missing_in.append(names[i])
                 mismatches.append(Mismatch("missing_part", names[i], name,
                                            f"part {name!r} is missing (found in {names[ref]})"))
         for name in index:
-            if name not in ref_index:
+            if name not in ref_index and name != implicit:
                 mismatches.append(Mismatch("extra_part", names[i], name,
                                            f"part {name!r} is not in the reference {names[ref]}"))
         common = [name for name in ref_index if name in index]

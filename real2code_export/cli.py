@@ -42,18 +42,49 @@ def _available_export_formats() -> list[str]:
 def cmd_export(args) -> int:
     from .formats import export, load
 
+    _use_package_path(args)
     obj = load(args.input)
     written = export(obj, args.out, args.to or _available_export_formats())
     for name, path in written.items():
         print(f"{name:5s} {path}")
-    return EXIT_OK
+    if not args.check:
+        return EXIT_OK
+    # --check: every export against the input file, loaded in its own tools when it has them.
+    from .check import check_files, format_table
+
+    source = Path(args.input) if Path(args.input).suffix.lower() in SOURCE_SUFFIXES else None
+    report = check_files(list(written.values()), source=source,
+                         n_configurations=args.configurations)
+    print(format_table(report))
+    return EXIT_OK if report.ok else EXIT_DISAGREE
+
+
+# -- issue 18: files other people wrote (--package-path, --reference) ----------------------------
+SOURCE_SUFFIXES = (".urdf", ".xml", ".mjcf")  # what check --reference loads in its own tools
+
+
+def _add_source_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--package-path", action="append", default=[], metavar="DIR",
+                        help="a folder holding ROS packages, for package:// and model:// mesh "
+                             "URIs (repeatable; searched before ROS_PACKAGE_PATH)")
+
+
+def _use_package_path(args) -> None:
+    import os
+
+    if args.package_path:
+        folders = [str(Path(p).resolve()) for p in args.package_path]
+        rest = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+        os.environ["ROS_PACKAGE_PATH"] = os.pathsep.join(folders + rest)
 
 
 def cmd_check(args) -> int:
     from .check import check_files, format_table
 
+    _use_package_path(args)
     report = check_files(
         [Path(p) for p in args.files],
+        source=args.reference,
         n_configurations=args.configurations,
         seed=args.seed,
         tol_position=args.tol_position,
@@ -212,6 +243,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--to", type=_formats_arg, default=None,
                    help="comma-separated formats (default: mjcf,urdf,usd,gltf)")
     s.add_argument("--out", required=True, help="output folder")
+    s.add_argument("--check", action="store_true",
+                   help="check every export against the input (a URDF or MJCF input loaded in "
+                        "its own tools as the reference); exit 1 on disagreement")
+    s.add_argument("--configurations", type=int, default=100, help="for --check")
+    _add_source_options(s)
     s.set_defaults(func=cmd_export)
 
     s = sub.add_parser("check", help="load files in their own tools and compare kinematics")
@@ -221,6 +257,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--tol-position", type=float, default=1e-6, help="metres (default 1e-6)")
     s.add_argument("--tol-rotation", type=float, default=1e-6, help="radians (default 1e-6)")
+    s.add_argument("--reference", metavar="FILE",
+                   help="the URDF or MJCF the files were made from, loaded in its own tools "
+                        "(MuJoCo; and Pinocchio for URDF) as the reference")
+    _add_source_options(s)
     s.set_defaults(func=cmd_check)
 
     s = sub.add_parser("generate", help="a procedural articulated object")

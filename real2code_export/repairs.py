@@ -20,6 +20,7 @@ from .model import ArticulatedObject, Inertial, JointType
 # Principal moments below this fraction of the largest one are raised to it: far below any
 # physical body's anisotropy, enough to keep the tensor positive definite in float64.
 RELATIVE_MOMENT_FLOOR = 1e-6
+TRIANGLE_MARGIN = 1e-6
 # A point mass (an all-zero tensor) gets the inertia of a solid sphere this wide.
 POINT_MASS_RADIUS = 1e-3  # m
 # A movable part without mass gets this mass and the inertia of a POINT_MASS_RADIUS sphere
@@ -55,8 +56,10 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
         raise ValueError(f"inertia tensor has no positive principal moment "
                          f"({_fmt(moments)}): not a rounding error")
     new = np.maximum(moments, RELATIVE_MOMENT_FLOOR * largest)
-    deficit = new[2] - new[0] - new[1]
-    if deficit > 0:  # raise the two smaller moments evenly until A + B = C
+    # Raise the two smaller moments evenly until A + B = C, with a margin so that the
+    # tensor still passes once rotated and written as text (MuJoCo checks it strictly).
+    deficit = new[2] * (1 + TRIANGLE_MARGIN) - new[0] - new[1]
+    if deficit > 0:
         new[0] += deficit / 2
         new[1] += deficit / 2
     repaired = axes @ np.diag(new) @ axes.T

@@ -456,10 +456,16 @@ def load_with_warnings(path):
 def test_third_party_structure_names_and_repairs(third_party):
     obj, said = load_with_warnings(third_party)
     assert obj.name == "third_party"
-    assert {p.name for p in obj.parts} == {"base_frame", "lid", "knob", "slider"}
-    assert obj.root.name == "base_frame"
+    # The free body stands 0.5 m up, turned 30 degrees: it hangs from the world at that pose.
+    assert {p.name for p in obj.parts} == {"world", "base_frame", "lid", "knob", "slider"}
+    assert obj.root.name == "world"
     assert {j.name: j.type.value for j in obj.joints} == {
-        "lid_hinge": "revolute", "knob_joint": "continuous", "slide": "prismatic"}
+        "world_to_base_frame": "fixed", "lid_hinge": "revolute", "knob_joint": "continuous",
+        "slide": "prismatic"}
+    base_pose = forward_kinematics(obj)["base_frame"]
+    np.testing.assert_allclose(base_pose[:3, 3], [0, 0, 0.5])
+    np.testing.assert_allclose(base_pose[:3, :3], tf.axis_angle_matrix([0, 0, 1], np.radians(30)),
+                               atol=1e-12)
     for expected in ("free joints ignored", "'base frame' -> 'base_frame'",
                      "'lid hinge' -> 'lid_hinge'", "1 actuator"):
         assert expected in said, said

@@ -343,9 +343,9 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
                    "imported as a fixed joint at q = 0.5"):
         assert needle in messages, messages
     np.testing.assert_allclose(np.linalg.eigvalsh(obj.part("arm").inertial.inertia),
-                               [0.005, 0.005, 0.01])
+                               [0.005, 0.005, 0.01], rtol=1e-5)
     np.testing.assert_allclose(np.linalg.eigvalsh(obj.part("base").inertial.inertia),
-                               [1.5e-6, 1.5e-6, 3e-6])
+                               [1.5e-6, 1.5e-6, 3e-6], rtol=1e-5)
     assert obj.joint("shoulder").type is JointType.CONTINUOUS
     locked = obj.joint("locked")
     assert locked.type is JointType.FIXED

@@ -70,3 +70,51 @@ def open_probes(path: str | Path) -> list[Probe]:
     for name in modules:
         probes.extend(importlib.import_module(name).open_probes(path))
     return probes
+
+
+class SourceProbe:
+    """A probe of the user's own input file (``check --reference``), its names made the
+    identifiers our importers make of them (``model.sanitize_name``), so that each part and
+    joint of the source is compared with the part or joint it became."""
+
+    def __init__(self, probe: Probe):
+        from ..model import sanitize_name
+
+        self._probe = probe
+        self.label = f"source {probe.label}"
+        self.path = probe.path
+        self.parts = [sanitize_name(n) for n in probe.parts]
+        self.joints = [JointInfo(sanitize_name(j.name), j.kind, j.lower, j.upper)
+                       for j in probe.joints]
+        self._raw = {new.name: old.name for new, old in zip(self.joints, probe.joints,
+                                                              strict=True)}
+
+    def pose_array(self, values: np.ndarray) -> np.ndarray:
+        if hasattr(self._probe, "pose_array"):
+            return self._probe.pose_array(values)
+        rows = [self.poses(dict(zip((j.name for j in self.joints), row, strict=True)))
+                for row in np.atleast_2d(values)]
+        return np.array([[r[p] for p in self.parts] for r in rows])
+
+    def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
+        raw = self._probe.poses({self._raw[name]: v for name, v in q.items()})
+        return dict(zip(self.parts, (raw[p] for p in self._probe.parts), strict=True))
+
+
+def open_source_probes(path: str | Path) -> list[Probe]:
+    """Probes of a user's input file as the reference: MJCF in MuJoCo; URDF in MuJoCo (its
+    kinematics: MuJoCo reads neither ``package://`` nor Collada) and in Pinocchio."""
+    path = Path(path)
+    if not path.exists():
+        raise CheckError(f"{path}: no such file")
+    suffix = path.suffix.lower()
+    if suffix not in (".urdf", ".xml", ".mjcf"):
+        raise CheckError(f"{path}: a reference must be a URDF or MJCF file, not {suffix!r}")
+    from . import mujoco as mujoco_probe
+
+    probes: list[Probe] = list(mujoco_probe.open_probes(path, source=True))
+    if suffix == ".urdf":
+        from . import pinocchio as pinocchio_probe
+
+        probes += pinocchio_probe.open_probes(path)
+    return [SourceProbe(p) for p in probes]

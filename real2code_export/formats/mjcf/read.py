@@ -149,8 +149,12 @@ class _Reader:
         free = int(mujoco.mjtJoint.mjJNT_FREE)
         for b in range(1, m.nbody):
             self._check_joints(b, top_level=b in top)
+        # The world is a part when it holds geoms, several bodies or a joint, or when the one
+        # top-level body is placed away from it: the root part's frame must stay that body's.
         world_used = (m.body_geomnum[0] > 0 or len(top) != 1
                       or any(self._movable_joint(b) is not None for b in top)
+                      or not np.array_equal(pose(m.body_pos[top[0]], m.body_quat[top[0]]),
+                                            np.eye(4))
                       or (WORLD, "part") in self.custom)
         parts: list[Part] = []
         joints: list[Joint] = []
