@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .errors import CheckError
-from .probes import JointInfo, Probe, open_probes, open_source_probes
+from .probes import SOURCE_LABEL, JointInfo, Probe, open_probes, open_source_probes
 from .probes.model import LABEL as MODEL_LABEL
 from .validators import Validation, validate_files
 
@@ -332,13 +332,17 @@ def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotatio
             continue
         index = {name: k for k, name in reversed(list(enumerate(probe.parts)))}
         implicit = _implicit_world(probes[ref], poses[ref], ref_index, probe, poses[i], index)
+        # Against a user's source file, an export may hold frames the source has not (the
+        # world, the intermediate parts of a body with several joints): every part of the
+        # source must be where the source puts it.
+        extra_allowed = probes[ref].label.startswith(SOURCE_LABEL)
         for name in ref_index:
             if name not in index and name != implicit:
                 part_results[name].missing_in.append(names[i])
                 mismatches.append(Mismatch("missing_part", names[i], name,
                                            f"part {name!r} is missing (found in {names[ref]})"))
         for name in index:
-            if name not in ref_index and name != implicit:
+            if name not in ref_index and name != implicit and not extra_allowed:
                 mismatches.append(Mismatch("extra_part", names[i], name,
                                            f"part {name!r} is not in the reference {names[ref]}"))
         common = [name for name in ref_index if name in index]

@@ -72,6 +72,9 @@ def open_probes(path: str | Path) -> list[Probe]:
     return probes
 
 
+SOURCE_LABEL = "source"  # the label of every probe of a user's own file starts with it
+
+
 class SourceProbe:
     """A probe of the user's own input file (``check --reference``), its names made the
     identifiers our importers make of them (``model.sanitize_name``), so that each part and
@@ -81,7 +84,7 @@ class SourceProbe:
         from ..model import sanitize_name
 
         self._probe = probe
-        self.label = f"source {probe.label}"
+        self.label = f"{SOURCE_LABEL} {probe.label}"
         self.path = probe.path
         self.parts = [sanitize_name(n) for n in probe.parts]
         self.joints = [JointInfo(sanitize_name(j.name), j.kind, j.lower, j.upper)

@@ -141,5 +141,5 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
 
     first = 0 if (_urdf_has_world_link(path) if is_urdf else _mjcf_world_is_part(model)) else 1
     body_ids = list(range(first, model.nbody))
-    names = [model.body(i).name or f"<body {i}>" for i in body_ids]
+    names = [model.body(i).name or f"body_{i}" for i in body_ids]  # as the MJCF reader names it
     return [MujocoProbe(path, label, model, body_ids, names)]
