@@ -228,6 +228,11 @@ def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) ->
     every probe admits; records missing joints and differing kinds or limits."""
     order: list[str] = []
     by_probe = [{j.name: j for j in p.joints} for p in probes]
+    # The source's other tools may read its joints differently from the reference tool
+    # (MuJoCo loads an empty revolute range unlimited, Pinocchio keeps it): their poses are
+    # compared, their joint kinds and ranges are the tools' business, not the export's.
+    tools_of_source = {i for i, p in enumerate(probes)
+                       if i != ref and p.label.startswith(SOURCE_LABEL)}
     for i in [ref] + [k for k in range(len(probes)) if k != ref]:
         order.extend(j.name for j in probes[i].joints if j.name not in order)
 
@@ -242,7 +247,7 @@ def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) ->
                     "missing_joint", names[i], name,
                     f"joint {name!r} is missing (found in {names[base_i]})"))
                 continue
-            if i == base_i:
+            if i == base_i or i in tools_of_source:
                 continue
             info = by_probe[i][name]
             if info.kind != base.kind:
@@ -257,14 +262,17 @@ def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) ->
                     "joint_limits", names[i], name,
                     f"joint {name!r} limits [{info.lower}, {info.upper}] differ from "
                     f"[{base.lower}, {base.upper}] in {names[base_i]}"))
-        union.append(_agreed_range(name, base, [by_probe[i][name] for i in having]))
+        union.append(_agreed_range(name, base, [by_probe[i][name] for i in having
+                                                if i not in tools_of_source]))
     return union
 
 
 def _limit_close(a: float | None, b: float | None, tol: float) -> bool:
+    """Within ``tol``, relative beyond 1 (rad or m): formats store limits as float32 (USD in
+    degrees), so +-1800 degrees or a +-1e16 rotor limit is not exact to 1e-6 absolute."""
     if a is None or b is None:
         return a is None and b is None
-    return abs(a - b) <= tol
+    return abs(a - b) <= tol * max(1.0, abs(a), abs(b))
 
 
 def _agreed_range(name: str, base: JointInfo, infos: list[JointInfo]) -> JointInfo:

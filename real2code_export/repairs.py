@@ -28,8 +28,13 @@ POINT_MASS_RADIUS = 1e-3  # m
 NEGLIGIBLE_MASS = 1e-6  # kg
 
 
+# No principal moment below this (kg m^2): MuJoCo refuses moments under its mjMINVAL (1e-15)
+# once rotated and written as text; a 1e-9 kg "virtual" link would get 4e-16.
+MIN_MOMENT = 1e-12
+
+
 def _sphere(mass: float) -> np.ndarray:
-    return np.eye(3) * 0.4 * mass * POINT_MASS_RADIUS**2
+    return np.eye(3) * max(0.4 * mass * POINT_MASS_RADIUS**2, MIN_MOMENT)
 
 
 def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:

@@ -297,7 +297,8 @@ def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
 def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_path):
     """What real robot files carry and Pinocchio / MuJoCo load: a tensor negative by rounding,
     a zero tensor (a sensor frame), one off the triangle inequality, a moving massless link, a
-    revolute joint without <limit>, one with lower == upper."""
+    revolute joint without <limit>, one with only effort and velocity (lower == upper == 0), a
+    slide with lower == upper."""
     zero = ('<inertial><mass value="0.1"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" '
             'izz="0"/></inertial>')
     rounding = ('<inertial><mass value="1"/><inertia ixx="-2e-22" ixy="0" ixz="0" iyy="1e-22" '
@@ -325,9 +326,14 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
     <origin xyz="0 0 0.5"/>
     <limit lower="-1" upper="1" effort="1" velocity="1"/>
   </joint>
-  <joint name="locked" type="revolute">
+  <joint name="locked" type="prismatic">
     <parent link="hand"/><child link="finger"/><axis xyz="1 0 0"/><origin xyz="0.1 0 0"/>
     <limit lower="0.5" upper="0.5" effort="1" velocity="1"/>
+  </joint>
+  <link name="wheel">{INERTIAL}</link>
+  <joint name="wheel" type="revolute">
+    <parent link="base"/><child link="wheel"/><axis xyz="0 1 0"/><origin xyz="0 0.2 0"/>
+    <limit effort="35" velocity="20"/>
   </joint>
 </robot>""")
     with pytest.warns(Real2CodeWarning) as record:
@@ -339,8 +345,10 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
                    "<joint name='virtual_z'>: moves part 'virtual', which has no mass",
                    "<joint name='shoulder'>: a revolute joint without <limit>: imported as "
                    "continuous",
-                   "<joint name='locked'>: <limit> lower == upper == 0.5: the joint cannot move; "
-                   "imported as a fixed joint at q = 0.5"):
+                   "<joint name='locked'>: <limit> lower == upper == 0.5: the slide cannot "
+                   "move; imported as a fixed joint at q = 0.5",
+                   "<joint name='wheel'>: <limit> lower == upper == 0: an empty range, which "
+                   "MuJoCo loads unlimited; imported as continuous"):
         assert needle in messages, messages
     np.testing.assert_allclose(np.linalg.eigvalsh(obj.part("arm").inertial.inertia),
                                [0.005, 0.005, 0.01], rtol=1e-5)
@@ -349,7 +357,8 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
     assert obj.joint("shoulder").type is JointType.CONTINUOUS
     locked = obj.joint("locked")
     assert locked.type is JointType.FIXED
-    np.testing.assert_allclose(locked.origin[:3, :3], tf.axis_angle_matrix([1, 0, 0], 0.5))
+    np.testing.assert_allclose(locked.origin[:3, 3], [0.6, 0, 0])  # 0.1 + 0.5 along x
+    assert obj.joint("wheel").type is JointType.CONTINUOUS
     path = assert_round_trip(obj, tmp_path)  # the repaired model is what every tool loads
     rng = np.random.default_rng(0)
     assert pinocchio_matches(obj, path, rng) < 1e-6

@@ -11,7 +11,8 @@ get convex pieces from their visual meshes; non-unit axes are normalised; names 
 not identifiers are sanitised; mimic tags are ignored; a zero mass means massless; inertia
 tensors off positive definiteness or the triangle inequality are balanced, massless parts
 that a joint moves get a negligible mass (``repairs``); a revolute joint without <limit> is
-continuous, one with lower == upper is fixed at that value. Everything else that is wrong is
+continuous, as is one with lower == upper (MuJoCo loads both unlimited); a prismatic one with
+lower == upper is fixed at that value. Everything else that is wrong is
 a :class:`FormatError`.
 
 URDF has no observed joint state: it is q = 0, or the nearest limit when the range excludes 0
@@ -270,20 +271,31 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
             raise ctx.error(owner, f"a {jtype.value} joint needs a <limit>", el.sourceline)
         joint.limits = _limits(ctx, limit, owner, name)
         if joint.limits.lower == joint.limits.upper:
-            # MuJoCo refuses an empty range; a joint that cannot move is a fixed joint there.
-            value = joint.limits.lower
-            ctx.warn(owner, f"<limit> lower == upper == {value:g}: the joint cannot move; "
-                     f"imported as a fixed joint at q = {value:g}", limit.sourceline)
-            joint.origin = joint.transform(value)
-            joint.type, joint.limits, joint.state = JointType.FIXED, None, 0.0
-            joint.dynamics = Dynamics()
-            return joint
+            return _empty_range(ctx, joint, owner, limit)
         if el.get(ns("state")) is None:
             # URDF has no observed state; q = 0 is the rest pose, or the nearest limit when the
             # range excludes 0 (PartNet has such drawers).
             joint.state = min(max(0.0, joint.limits.lower), joint.limits.upper)
     elif limit is not None:
         ctx.note("limit_dropped", repr(name))
+    return joint
+
+
+def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
+    """``lower == upper`` (often a <limit> giving only effort and velocity, its range left at
+    urdfdom's 0): MuJoCo loads such a hinge unlimited, so does this reader (continuous); a
+    slide, which the model needs limited, is fixed at that value."""
+    value = joint.limits.lower
+    if joint.type is JointType.REVOLUTE:
+        ctx.warn(owner, f"<limit> lower == upper == {value:g}: an empty range, which MuJoCo "
+                 "loads unlimited; imported as continuous", limit.sourceline)
+        joint.type, joint.limits = JointType.CONTINUOUS, None
+        return joint
+    ctx.warn(owner, f"<limit> lower == upper == {value:g}: the slide cannot move; imported as "
+             f"a fixed joint at q = {value:g}", limit.sourceline)
+    joint.origin = joint.transform(value)
+    joint.type, joint.limits, joint.state = JointType.FIXED, None, 0.0
+    joint.dynamics = Dynamics()
     return joint
 
 
