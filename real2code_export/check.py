@@ -319,7 +319,7 @@ def rotation_angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return 2.0 * np.arcsin(np.minimum(dist / (2.0 * math.sqrt(2.0)), 1.0))
 
 
-def _implicit_world(ref_probe, ref_poses, ref_index, probe, probe_poses, index) -> str | None:
+def _implicit_world(ref_poses, ref_index, probe_poses, index) -> str | None:
     """WORLD when one side has the world frame as a part (a URDF ``world`` link, our MJCF's
     world body) and the other leaves it implicit: at the identity it is the same frame."""
     for poses_, names, other in ((ref_poses, ref_index, index), (probe_poses, index, ref_index)):
@@ -339,7 +339,7 @@ def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotatio
         if i == ref:
             continue
         index = {name: k for k, name in reversed(list(enumerate(probe.parts)))}
-        implicit = _implicit_world(probes[ref], poses[ref], ref_index, probe, poses[i], index)
+        implicit = _implicit_world(poses[ref], ref_index, poses[i], index)
         # Against a user's source file, an export may hold frames the source has not (the
         # world, the intermediate parts of a body with several joints): every part of the
         # source must be where the source puts it.

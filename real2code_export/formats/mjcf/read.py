@@ -4,10 +4,12 @@ orientation notations, ``fromto`` are resolved by MuJoCo itself); the compiled m
 One part per body: hinge -> revolute (limited) or continuous, slide -> prismatic, no joint ->
 fixed; a body with several hinges/slides becomes a chain of massless intermediate parts
 ``<body>_<joint>`` (given a negligible mass, warned). A free joint on a top-level body is
-ignored (a fixed base, at the body's pose), a ball joint is refused. A joint away from its body origin moves
-the part frame to the joint (meshes and inertial follow); a joint ``ref`` moves it to the
-pose at qpos = 0, so joint values mean the same here and in MuJoCo. When the world itself
-holds geoms or joints, it becomes a root part ``world``.
+ignored (a fixed base, at the body's pose), a ball joint is refused. A joint away from its
+body origin moves the part frame to the joint (meshes and inertial follow); a joint ``ref``
+moves it to the pose at qpos = 0, so joint values mean the same here and in MuJoCo. When the
+world itself holds geoms or joints, several top-level bodies, or one placed away from the
+origin (a robot standing on the floor), it becomes a root part ``world`` and the bodies hang
+from it by fixed joints at their poses.
 
 Colliding geoms are collision pieces (primitives become meshes); the visual is what MuJoCo
 shows by default (groups 0-2), so a third-party geom that collides and shows serves as both,
@@ -188,9 +190,8 @@ class _Reader:
         except ModelError as e:
             raise FormatError(self.path, e.element, e.message) from e
 
-    def note(self, kind: str, name: str | None) -> None:
-        if name is not None:
-            self.notes.setdefault(kind, []).append(name)
+    def note(self, kind: str, name: str) -> None:
+        self.notes.setdefault(kind, []).append(name)
 
     def _name(self, raw: str, taken: set[str], what: str) -> str:
         name = sanitize_name(raw, taken)
@@ -271,8 +272,9 @@ class _Reader:
             joints.append(self._joint(j, parent_name, link, start, taken))
             if not last:
                 parts.append(Part(link))
+            if k == 0 and len(movable) > 1:
                 self.note("bodies with several joints split into a chain of massless parts",
-                          f"{child} ({len(movable)} joints)" if k == 0 else None)
+                          f"{child} ({len(movable)} joints)")
             parent_name, previous = link, np.asarray(m.jnt_pos[j], dtype=np.float64)
         self.frames[b] = tf.make(translation=-previous) if previous.any() else np.eye(4)
         return joints
@@ -411,8 +413,9 @@ class _Reader:
         # MuJoCo accepts a zero or degenerate tensor on a body that does not move.
         inertial, change = balanced_inertia(Inertial(mass, com, inertia))
         if change is not None:
-            warn(f"{self.path}:{_info_line(self.spec_bodies[b]) or ''}: "
-                 f"{self._body_label(b)}: {change}")
+            line = _info_line(self.spec_bodies[b])
+            where = f"{self.path}:{line}" if line is not None else str(self.path)
+            warn(f"{where}: {self._body_label(b)}: {change}")
         return inertial
 
     def _inertia_tensor(self, b: int) -> np.ndarray:
