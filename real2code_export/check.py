@@ -19,11 +19,12 @@ import numpy as np
 
 from .errors import CheckError
 from .jsonsafe import finite_or_null
-from .probes import JointInfo, Probe, open_probes
+from .probes import SOURCE_LABEL, JointInfo, Probe, open_probes, open_source_probes
 from .probes.model import LABEL as MODEL_LABEL
 from .validators import Validation, validate_files
 
 UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
+WORLD = "world"  # the world frame, as a part where a tool names it (URDF link, MuJoCo body 0)
 
 
 @dataclass(frozen=True)
@@ -141,6 +142,7 @@ def check_files(
     tol_rotation: float = 1e-6,
     reference: str | Path | None = None,
     validate: bool = True,
+    source: str | Path | None = None,
 ) -> CheckReport:
     """Load every file in its own tool(s) and compare part poses at shared configurations.
 
@@ -148,18 +150,21 @@ def check_files(
     (its first probe) or a probe label such as ``"MuJoCo (MJCF)"``; by default the model
     (object.json) if present, else the first file's first probe. With ``validate`` the
     formats' own validators run too (glTF, USD); any error they report is a mismatch.
+    ``source``: the user's input file (URDF or MJCF), loaded in its own tools
+    (``probes.open_source_probes``), is the reference every file is compared with.
     """
     if not paths:
         raise CheckError("no files to check")
     if n_configurations < 1:
         raise CheckError(f"n_configurations must be >= 1, got {n_configurations}")
-    probes: list[Probe] = []
+    probes: list[Probe] = list(open_source_probes(source)) if source is not None else []
     for path in paths:
         probes.extend(open_probes(path))
     if not probes:
         raise CheckError("no probe could load any of the files")
     names = _display_names(probes)
-    ref = _pick_reference(probes, names, reference)
+    ref = 0 if source is not None and reference is None else \
+        _pick_reference(probes, names, reference)
     mismatches: list[Mismatch] = []
 
     joints = _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches)
@@ -220,6 +225,11 @@ def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) ->
     every probe admits; records missing joints and differing kinds or limits."""
     order: list[str] = []
     by_probe = [{j.name: j for j in p.joints} for p in probes]
+    # The source's other tools may read its joints differently from the reference tool
+    # (MuJoCo loads an empty revolute range unlimited, Pinocchio keeps it): their poses are
+    # compared, their joint kinds and ranges are the tools' business, not the export's.
+    tools_of_source = {i for i, p in enumerate(probes)
+                       if i != ref and p.label.startswith(SOURCE_LABEL)}
     for i in [ref] + [k for k in range(len(probes)) if k != ref]:
         order.extend(j.name for j in probes[i].joints if j.name not in order)
 
@@ -234,7 +244,7 @@ def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) ->
                     "missing_joint", names[i], name,
                     f"joint {name!r} is missing (found in {names[base_i]})"))
                 continue
-            if i == base_i:
+            if i == base_i or i in tools_of_source:
                 continue
             info = by_probe[i][name]
             if info.kind != base.kind:
@@ -249,14 +259,17 @@ def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) ->
                     "joint_limits", names[i], name,
                     f"joint {name!r} limits [{info.lower}, {info.upper}] differ from "
                     f"[{base.lower}, {base.upper}] in {names[base_i]}"))
-        union.append(_agreed_range(name, base, [by_probe[i][name] for i in having]))
+        union.append(_agreed_range(name, base, [by_probe[i][name] for i in having
+                                                if i not in tools_of_source]))
     return union
 
 
 def _limit_close(a: float | None, b: float | None, tol: float) -> bool:
+    """Within ``tol``, relative beyond 1 (rad or m): formats store limits as float32 (USD in
+    degrees), so +-1800 degrees or a +-1e16 rotor limit is not exact to 1e-6 absolute."""
     if a is None or b is None:
         return a is None and b is None
-    return abs(a - b) <= tol
+    return abs(a - b) <= tol * max(1.0, abs(a), abs(b))
 
 
 def _agreed_range(name: str, base: JointInfo, infos: list[JointInfo]) -> JointInfo:
@@ -303,6 +316,17 @@ def rotation_angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return 2.0 * np.arcsin(np.minimum(dist / (2.0 * math.sqrt(2.0)), 1.0))
 
 
+def _implicit_world(ref_poses, ref_index, probe_poses, index) -> str | None:
+    """WORLD when one side has the world frame as a part (a URDF ``world`` link, our MJCF's
+    world body) and the other leaves it implicit: at the identity it is the same frame."""
+    for poses_, names, other in ((ref_poses, ref_index, index), (probe_poses, index, ref_index)):
+        if WORLD in names and WORLD not in other:
+            world = poses_[:, names[WORLD]]
+            if np.allclose(world, np.eye(4), atol=1e-12, rtol=0):
+                return WORLD
+    return None
+
+
 def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotation,
                    mismatches) -> list[PartResult]:
     ref_parts = list(probes[ref].parts)
@@ -312,13 +336,18 @@ def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotatio
         if i == ref:
             continue
         index = {name: k for k, name in reversed(list(enumerate(probe.parts)))}
+        implicit = _implicit_world(poses[ref], ref_index, poses[i], index)
+        # Against a user's source file, an export may hold frames the source has not (the
+        # world, the intermediate parts of a body with several joints): every part of the
+        # source must be where the source puts it.
+        extra_allowed = probes[ref].label.startswith(SOURCE_LABEL)
         for name in ref_index:
-            if name not in index:
+            if name not in index and name != implicit:
                 part_results[name].missing_in.append(names[i])
                 mismatches.append(Mismatch("missing_part", names[i], name,
                                            f"part {name!r} is missing (found in {names[ref]})"))
         for name in index:
-            if name not in ref_index:
+            if name not in ref_index and name != implicit and not extra_allowed:
                 mismatches.append(Mismatch("extra_part", names[i], name,
                                            f"part {name!r} is not in the reference {names[ref]}"))
         common = [name for name in ref_index if name in index]

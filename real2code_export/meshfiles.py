@@ -2,7 +2,8 @@
 
 Every format references the same files (``meshes/<part>.obj``,
 ``meshes/<part>_collision_<k>.obj``), written once per export, deterministically, so the
-same model gives byte-identical files. Reading goes through trimesh.
+same model gives byte-identical files. Reading goes through trimesh (STL, OBJ, glTF, PLY,
+...), Collada through ``collada_mesh`` (pycollada: scene-graph transforms and unit applied).
 """
 
 from __future__ import annotations
@@ -68,13 +69,33 @@ def read_mesh(path: str | Path, *, source: str | Path | None = None, element: st
     path = Path(path)
     if not path.is_file():
         raise FormatError(source or path, element, f"mesh file not found: {path}", line)
-    try:
-        loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
-    except Exception as e:  # trimesh raises many types for broken files
-        raise FormatError(source or path, element, f"cannot read mesh {path}: {e}", line) from e
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
-    mesh = Mesh.from_trimesh(loaded)
+    if path.suffix.lower() == ".dae":
+        mesh = _read_collada(path, source, element, line)
+    else:
+        try:
+            loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
+        except Exception as e:  # trimesh raises many types for broken files
+            raise FormatError(source or path, element,
+                              f"cannot read mesh {path}: {type(e).__name__}: {e}", line) from e
+        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+            raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
+        mesh = Mesh.from_trimesh(loaded)
     if scale is not None:
         mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces)
     return mesh
+
+
+def _read_collada(path: Path, source, element, line) -> Mesh:
+    try:
+        import collada  # noqa: F401 - pycollada reads the file
+    except ImportError as e:
+        raise FormatError(source or path, element, f"cannot read Collada mesh {path}: "
+                          "pycollada is not installed (pip install pycollada)", line) from e
+    from .collada_mesh import read_collada
+
+    try:
+        vertices, faces, _ = read_collada(path)
+    except ValueError as e:
+        raise FormatError(source or path, element,
+                          f"cannot read Collada (.dae) mesh {path}: {e}", line) from e
+    return Mesh(vertices, faces)

@@ -41,3 +41,31 @@ def measured_dir() -> Path:
     if not path.is_dir():
         pytest.skip(f"measured trajectories not found at {path} (set REAL2CODE_SHARED_DATA)")
     return path
+
+
+# -- public robot corpora (the `corpus` tests) ----------------------------------------------------
+def example_robot_data_dir() -> Path | None:
+    """The URDF corpus the PyPI package example-robot-data installs (None when absent)."""
+    import sysconfig
+
+    path = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+    return path if path.is_dir() else None
+
+
+def corpus_sources() -> list[tuple[str, Path]]:
+    """(id, file) of every URDF of example-robot-data and every main model of the MuJoCo
+    Menagerie snapshot in ../shared/data; a placeholder id when a corpus is absent (its
+    test then skips with a message)."""
+    out: list[tuple[str, Path]] = []
+    erd = example_robot_data_dir()
+    if erd is None:
+        out.append(("erd-absent", Path("example-robot-data (pip install example-robot-data)")))
+    else:
+        out += [(f"erd/{p.relative_to(erd)}", p) for p in sorted(erd.rglob("*.urdf"))]
+    menagerie = SHARED_DATA / "mujoco_menagerie"
+    if not (menagerie / "index.json").is_file():
+        out.append(("menagerie-absent", menagerie))
+    else:
+        out += [(f"menagerie/{e['model']}", menagerie / e["model"])
+                for e in json.loads((menagerie / "index.json").read_text())]
+    return out

@@ -589,3 +589,17 @@ def test_no_warnings_on_our_own_files(exported):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         gltf.load(exported["cabinet"])
+
+
+def test_a_range_wider_than_a_turn_is_swept_once_and_kept(tmp_path):
+    """Rotors limited to +-1e16 (real URDFs have them): the animation sweeps one turn, the
+    range itself reads back exactly."""
+    obj = door_object()
+    joint = obj.joints[0]
+    joint.limits = Limits(-1e16, 1e16)
+    path = gltf.save(obj, tmp_path)
+    document = pygltflib.GLTF2().load(str(path))
+    assert sum(a.count for a in document.accessors) < 10_000
+    back = gltf.load(path)
+    assert back.joint(joint.name).limits.lower == -1e16
+    assert back.joint(joint.name).limits.upper == 1e16

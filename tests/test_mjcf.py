@@ -352,16 +352,16 @@ def test_ball_joint_is_refused_naming_the_body(tmp_path):
         mjcf.load(path)
 
 
-def test_two_joints_in_one_body_are_refused(tmp_path):
+def test_a_ball_among_several_joints_is_refused(tmp_path):
     path = write(tmp_path / "two.xml", """<mujoco>
   <worldbody>
     <body name="base"><geom size="0.1"/>
-      <body name="arm"><joint axis="1 0 0"/><joint axis="0 1 0"/><geom size="0.1"/></body>
+      <body name="arm"><joint axis="0 1 0"/><joint type="ball"/><geom size="0.1"/></body>
     </body>
   </worldbody>
 </mujoco>
 """)
-    with pytest.raises(FormatError, match=r"two\.xml:4: <body name='arm'>: has 2 joints"):
+    with pytest.raises(FormatError, match=r"two\.xml:4: <body name='arm'>: has 2 joints, a ball"):
         mjcf.load(path)
 
 
@@ -456,10 +456,16 @@ def load_with_warnings(path):
 def test_third_party_structure_names_and_repairs(third_party):
     obj, said = load_with_warnings(third_party)
     assert obj.name == "third_party"
-    assert {p.name for p in obj.parts} == {"base_frame", "lid", "knob", "slider"}
-    assert obj.root.name == "base_frame"
+    # The free body stands 0.5 m up, turned 30 degrees: it hangs from the world at that pose.
+    assert {p.name for p in obj.parts} == {"world", "base_frame", "lid", "knob", "slider"}
+    assert obj.root.name == "world"
     assert {j.name: j.type.value for j in obj.joints} == {
-        "lid_hinge": "revolute", "knob_joint": "continuous", "slide": "prismatic"}
+        "world_to_base_frame": "fixed", "lid_hinge": "revolute", "knob_joint": "continuous",
+        "slide": "prismatic"}
+    base_pose = forward_kinematics(obj)["base_frame"]
+    np.testing.assert_allclose(base_pose[:3, 3], [0, 0, 0.5])
+    np.testing.assert_allclose(base_pose[:3, :3], tf.axis_angle_matrix([0, 0, 1], np.radians(30)),
+                               atol=1e-12)
     for expected in ("free joints ignored", "'base frame' -> 'base_frame'",
                      "'lid hinge' -> 'lid_hinge'", "1 actuator"):
         assert expected in said, said
@@ -613,3 +619,41 @@ def test_partnet_objects_through_mjcf(object_id, tmp_path):
     back = mjcf.load(path)
     assert differences(obj, back, tol=1e-6) == []
     assert mjcf.save(back, tmp_path / "b").read_bytes() == path.read_bytes()
+
+
+TWO_JOINTS = """<mujoco model="two_joints">
+  <worldbody>
+    <body name="base">
+      <geom type="box" size="0.1 0.1 0.1" mass="1"/>
+      <body name="head" pos="0 0 0.3" euler="0 0 20">
+        <joint name="pitch" axis="0 1 0" pos="0.05 0 0" range="-1 1" ref="0.2"/>
+        <joint name="roll" axis="1 0 0" pos="0 0.02 0.1" range="-1 1"/>
+        <joint name="lift" type="slide" axis="0 0 1" range="0 0.1"/>
+        <geom type="box" size="0.05 0.03 0.02" pos="0.1 0 0" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_body_with_several_joints_is_a_chain_that_moves_as_mujoco_moves_it(tmp_path):
+    path = write(tmp_path / "two_joints.xml", TWO_JOINTS)
+    obj, said = load_with_warnings(path)
+    assert "split into a chain of massless parts" in said and "head (3 joints)" in said
+    assert [j.name for j in obj.joints] == ["pitch", "roll", "lift"]
+    assert {p.name for p in obj.parts} == {"base", "head_pitch", "head_roll", "head"}
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        q = sample_configuration(obj, rng)
+        for name, value in q.items():
+            data.qpos[model.joint(name).qposadr[0]] = value
+        mujoco.mj_kinematics(model, data)
+        head = forward_kinematics(obj, q)["head"]
+        np.testing.assert_allclose(head[:3, 3], data.xpos[model.body("head").id], atol=1e-12)
+        np.testing.assert_allclose(head[:3, :3], data.xmat[model.body("head").id].reshape(3, 3),
+                                   atol=1e-12)
+    back = mjcf.load(mjcf.save(obj, tmp_path / "out"))
+    assert not differences(obj, back)

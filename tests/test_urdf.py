@@ -236,10 +236,13 @@ def line_of(path: Path, needle: str) -> int:
     ("lower_above_upper.urdf", "<joint name='slide'>", "<limit", "lower"),
     ("unknown_joint_type.urdf", "<joint name='hinge'>", 'type="hinge"', "unknown joint type"),
     ("floating_joint.urdf", "<joint name='free'>", 'type="floating"', "not supported"),
-    ("revolute_without_limit.urdf", "<joint name='hinge'>", "<joint", "needs a <limit>"),
     ("unknown_parent.urdf", "<joint name='hinge'>", '<parent link="frame"', "not a link"),
     ("duplicate_link.urdf", "<link name='door'>", '<link name="door"/>', "duplicate"),
-    ("massless_child.urdf", "<joint name='spin'>", '<joint name="spin"', "has no mass"),
+    ("not_collada_mesh.urdf", "<link name='base'>", "not_collada.dae", "not a Collada file"),
+    ("unresolved_package.urdf", "<link name='base'>", "package://no_such_package",
+     "cannot resolve 'package://no_such_package/meshes/base.stl'"),
+    ("negative_largest_moment.urdf", "<link name='base'>", 'ixx="-0.01"',
+     "no positive principal"),
 ])
 def test_bad_input_names_file_element_and_line(fixture, element, needle, what):
     path = FIXTURES / fixture
@@ -289,6 +292,113 @@ def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
     assert hinge.state == 0.2  # URDF has no observed state: q = 0, or the nearest limit
     assert obj.joint("flap_hinge").limits.effort == 3.0
     assert_round_trip(obj, tmp_path)  # the unknowns stay unknown through our own file
+
+
+def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_path):
+    """What real robot files carry and Pinocchio / MuJoCo load: a tensor negative by rounding,
+    a zero tensor (a sensor frame), one off the triangle inequality, a moving massless link, a
+    revolute joint without <limit>, one with only effort and velocity (lower == upper == 0), a
+    slide with lower == upper."""
+    zero = ('<inertial><mass value="0.1"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" '
+            'izz="0"/></inertial>')
+    rounding = ('<inertial><mass value="1"/><inertia ixx="-2e-22" ixy="0" ixz="0" iyy="1e-22" '
+                'iyz="0" izz="3e-6"/></inertial>')
+    triangle = ('<inertial><mass value="1"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" '
+                'iyz="0" izz="0.01"/></inertial>')
+    path = tmp_path / "repairs.urdf"
+    path.write_text(f"""<robot name="repairs">
+  <link name="base">{rounding}</link>
+  <link name="camera">{zero}</link>
+  <link name="arm">{triangle}</link>
+  <link name="virtual"/>
+  <link name="hand">{INERTIAL}</link>
+  <link name="finger">{INERTIAL}</link>
+  <joint name="mount" type="fixed"><parent link="base"/><child link="camera"/></joint>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+  </joint>
+  <joint name="virtual_z" type="revolute">
+    <parent link="arm"/><child link="virtual"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+  <joint name="wrist" type="revolute">
+    <parent link="virtual"/><child link="hand"/><axis xyz="0 1 0"/>
+    <origin xyz="0 0 0.5"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+  <joint name="locked" type="prismatic">
+    <parent link="hand"/><child link="finger"/><axis xyz="1 0 0"/><origin xyz="0.1 0 0"/>
+    <limit lower="0.5" upper="0.5" effort="1" velocity="1"/>
+  </joint>
+  <link name="wheel">{INERTIAL}</link>
+  <joint name="wheel" type="revolute">
+    <parent link="base"/><child link="wheel"/><axis xyz="0 1 0"/><origin xyz="0 0.2 0"/>
+    <limit effort="35" velocity="20"/>
+  </joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    messages = "\n".join(str(w.message) for w in record)
+    for needle in ("<link name='base'>: inertia tensor is not positive definite",
+                   "<link name='camera'>: inertia tensor is zero",
+                   "<link name='arm'>: inertia tensor violates the triangle",
+                   "<joint name='virtual_z'>: moves part 'virtual', which has no mass",
+                   "<joint name='shoulder'>: a revolute joint without <limit>: imported as "
+                   "continuous",
+                   "<joint name='locked'>: <limit> lower == upper == 0.5: the slide cannot "
+                   "move; imported as a fixed joint at q = 0.5",
+                   "<joint name='wheel'>: <limit> lower == upper == 0: an empty range, which "
+                   "MuJoCo loads unlimited; imported as continuous"):
+        assert needle in messages, messages
+    np.testing.assert_allclose(np.linalg.eigvalsh(obj.part("arm").inertial.inertia),
+                               [0.005, 0.005, 0.01], rtol=1e-5)
+    np.testing.assert_allclose(np.linalg.eigvalsh(obj.part("base").inertial.inertia),
+                               [1.5e-6, 1.5e-6, 3e-6], rtol=1e-5)
+    assert obj.joint("shoulder").type is JointType.CONTINUOUS
+    locked = obj.joint("locked")
+    assert locked.type is JointType.FIXED
+    np.testing.assert_allclose(locked.origin[:3, 3], [0.6, 0, 0])  # 0.1 + 0.5 along x
+    assert obj.joint("wheel").type is JointType.CONTINUOUS
+    path = assert_round_trip(obj, tmp_path)  # the repaired model is what every tool loads
+    rng = np.random.default_rng(0)
+    assert pinocchio_matches(obj, path, rng) < 1e-6
+    assert mujoco_matches(obj, path, rng) < 1e-6
+
+
+def test_collada_scene_graph_and_unit(tmp_path):
+    """A .dae in millimetres whose geometry sits under a translated, scaled node."""
+    (tmp_path / "part.dae").write_text(COLLADA_MM)
+    path = tmp_path / "robot.urdf"
+    path.write_text('<robot name="dae"><link name="base"><visual><geometry>'
+                    '<mesh filename="part.dae"/></geometry></visual></link></robot>')
+    with pytest.warns(Real2CodeWarning):  # mass and collision made from the visual
+        obj = urdf.load(path)
+    # vertices 0..10 units, node: scale 2 then translate 100 units; 1 unit = 1 mm
+    np.testing.assert_allclose(obj.part("base").visual.bounds(),
+                               [[0.1, 0.0, 0.0], [0.12, 0.02, 0.0]], atol=1e-12)
+
+
+COLLADA_MM = """<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="millimeter" meter="0.001"/><up_axis>Y_UP</up_axis></asset>
+  <library_geometries><geometry id="tri" name="tri"><mesh>
+    <source id="pos"><float_array id="pos-array" count="9">0 0 0 10 0 0 0 10 0</float_array>
+      <technique_common><accessor source="#pos-array" count="3" stride="3">
+        <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+      </accessor></technique_common></source>
+    <vertices id="verts"><input semantic="POSITION" source="#pos"/></vertices>
+    <triangles count="1"><input semantic="VERTEX" source="#verts" offset="0"/><p>0 1 2</p>
+    </triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="scene"><node id="n">
+    <translate>100 0 0</translate><scale>2 2 2</scale>
+    <instance_geometry url="#tri"><bind_material><technique_common>
+      <instance_material symbol="m" target="#missing-material"/>
+    </technique_common></bind_material></instance_geometry>
+  </node></visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#scene"/></scene>
+</COLLADA>
+"""
 
 
 def test_primitives_materials_inertial_frame_and_packages(tmp_path):

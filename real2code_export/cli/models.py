@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from ..errors import Real2CodeError
 from .options import EXIT_DISAGREE, EXIT_OK, add_formats_option, chosen_formats
 
 
@@ -14,6 +15,11 @@ def add_parsers(sub) -> None:
     s.add_argument("input", help="object.json, .urdf, MJCF .xml, .usd/.usda/.usdc, .glb/.gltf")
     add_formats_option(s, "every available one but json")
     s.add_argument("--out", required=True, help="output folder")
+    s.add_argument("--check", action="store_true",
+                   help="check every export against the input (a URDF or MJCF input loaded in "
+                        "its own tools as the reference); exit 1 on disagreement")
+    s.add_argument("--configurations", type=int, default=100, help="for --check")
+    _add_source_options(s)
     s.set_defaults(func=cmd_export)
 
     s = sub.add_parser("check", help="load files in their own tools and compare kinematics")
@@ -23,6 +29,10 @@ def add_parsers(sub) -> None:
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--tol-position", type=float, default=1e-6, help="metres (default 1e-6)")
     s.add_argument("--tol-rotation", type=float, default=1e-6, help="radians (default 1e-6)")
+    s.add_argument("--reference", metavar="FILE",
+                   help="the URDF or MJCF the files were made from, loaded in its own tools "
+                        "(MuJoCo; and Pinocchio for URDF) as the reference")
+    _add_source_options(s)
     s.set_defaults(func=cmd_check)
 
     s = sub.add_parser("generate", help="a procedural articulated object")
@@ -34,22 +44,54 @@ def add_parsers(sub) -> None:
     s.set_defaults(func=cmd_generate)
 
 
+def _add_source_options(parser) -> None:
+    parser.add_argument("--package-path", action="append", default=[], metavar="DIR",
+                        help="a folder holding ROS packages, for package:// and model:// mesh "
+                             "URIs (repeatable; searched before ROS_PACKAGE_PATH)")
+
+
+def _use_package_path(args) -> None:
+    import os
+
+    if args.package_path:
+        folders = [str(Path(p).resolve()) for p in args.package_path]
+        rest = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+        os.environ["ROS_PACKAGE_PATH"] = os.pathsep.join(folders + rest)
+
+
 def cmd_export(args) -> int:
-    from ..formats import export, load
+    from ..formats import export, format_for_path, load
 
     formats = chosen_formats(args)
+    _use_package_path(args)
     obj = load(args.input)
     written = export(obj, args.out, formats)
     for name, path in written.items():
         print(f"{name:5s} {path}")
-    return EXIT_OK
+    if not args.check:
+        return EXIT_OK
+    # --check: every export against the input file, loaded in its own tools when it has them
+    # (a URDF or MJCF source; other inputs are compared through the exports alone).
+    from ..check import check_files, format_table
+
+    try:
+        kind = format_for_path(args.input).name
+    except Real2CodeError:  # a folder holding object.json
+        kind = None
+    source = Path(args.input) if kind in ("urdf", "mjcf") else None
+    report = check_files(list(written.values()), source=source,
+                         n_configurations=args.configurations)
+    print(format_table(report))
+    return EXIT_OK if report.ok else EXIT_DISAGREE
 
 
 def cmd_check(args) -> int:
     from ..check import check_files, format_table
 
+    _use_package_path(args)
     report = check_files(
         [Path(p) for p in args.files],
+        source=args.reference,
         n_configurations=args.configurations,
         seed=args.seed,
         tol_position=args.tol_position,

@@ -84,7 +84,33 @@ def _urdf_has_world_link(path: Path) -> bool:
     return root.find("link[@name='world']") is not None
 
 
-def open_probes(path: str | Path) -> list[MujocoProbe]:
+def _mjcf_world_is_part(model) -> bool:
+    """Our MJCF marks a root part that is MuJoCo's world body (a text element)."""
+    import mujoco
+
+    from ..formats.mjcf.conventions import WORLD, custom_name
+
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, custom_name(WORLD, "part")) >= 0
+
+
+def _urdf_kinematics(path: Path) -> str:
+    """The URDF's text without <visual>/<collision>: its kinematics and masses, which is
+    all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada)."""
+    from lxml import etree
+
+    try:
+        root = etree.parse(str(path)).getroot()
+    except etree.XMLSyntaxError as e:
+        raise CheckError(f"{path}: MuJoCo refused it: malformed XML: {e}") from e
+    for el in root.findall("link/visual") + root.findall("link/collision"):
+        el.getparent().remove(el)
+    return etree.tostring(root, encoding="unicode")
+
+
+def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
+    """``source``: the user's own file as the reference; a URDF is loaded for its kinematics
+    (geometry removed) with MuJoCo's own repairs of bad inertia (``balanceinertia``,
+    ``boundmass``, ``boundinertia``), as a user importing it into MuJoCo would set them."""
     import mujoco
 
     path = Path(path)
@@ -93,7 +119,13 @@ def open_probes(path: str | Path) -> list[MujocoProbe]:
     try:
         # qhull prints pages on a degenerate mesh; MuJoCo's own error says it in a line.
         with captured_c_output():
-            spec = mujoco.MjSpec.from_file(str(path))
+            if source and is_urdf:
+                spec = mujoco.MjSpec.from_string(_urdf_kinematics(path))
+                spec.compiler.balanceinertia = True
+                spec.compiler.boundmass = 1e-6
+                spec.compiler.boundinertia = 1e-12
+            else:
+                spec = mujoco.MjSpec.from_file(str(path))
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
             # bodies attached by fixed joints); visual-only geoms do not move anything.
             spec.compiler.fusestatic = False
@@ -107,7 +139,7 @@ def open_probes(path: str | Path) -> list[MujocoProbe]:
             message += f" (and {len(lines) - 2} more lines of MuJoCo warnings)"
         raise CheckError(f"{path}: MuJoCo refused it: {message}") from e
 
-    first = 0 if is_urdf and _urdf_has_world_link(path) else 1
+    first = 0 if (_urdf_has_world_link(path) if is_urdf else _mjcf_world_is_part(model)) else 1
     body_ids = list(range(first, model.nbody))
-    names = [model.body(i).name or f"<body {i}>" for i in body_ids]
+    names = [model.body(i).name or f"body_{i}" for i in body_ids]  # as the MJCF reader names it
     return [MujocoProbe(path, label, model, body_ids, names)]

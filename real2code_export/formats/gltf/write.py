@@ -189,6 +189,11 @@ def sweep(joint: Joint) -> tuple[np.ndarray, np.ndarray]:
         values = joint.state + np.linspace(0.0, 2 * math.pi, n + 1)
         return np.linspace(0.0, 2 * SWEEP_SECONDS, n + 1), values
     lo, hi = joint.limits.lower, joint.limits.upper
+    if joint.type.angular and hi - lo > 2 * math.pi:
+        # A range wider than a turn (rotors limited to +-1e16): one turn, from the state's
+        # half turn back, shows every pose; the range itself is kept in the extras.
+        lo = max(lo, joint.state - math.pi)
+        hi = lo + 2 * math.pi
     n = max(1, int(math.ceil((hi - lo) / MAX_KEY_STEP))) if joint.type.angular else 1
     leg = np.linspace(lo, hi, n + 1)
     values = np.concatenate([leg, leg[-2::-1]])

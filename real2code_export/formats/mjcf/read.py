@@ -1,12 +1,15 @@
 """MJCF -> ArticulatedObject. MuJoCo parses and compiles the file (defaults, classes, frames,
 orientation notations, ``fromto`` are resolved by MuJoCo itself); the compiled mjModel is read.
 
-One part per body, one joint per body: hinge -> revolute (limited) or continuous, slide ->
-prismatic, no joint -> fixed. A free joint on a top-level body is ignored (a fixed base), a
-ball joint or several joints in one body is refused. A joint away from its body origin moves
-the part frame to the joint (meshes and inertial follow); a joint ``ref`` moves it to the
-pose at qpos = 0, so joint values mean the same here and in MuJoCo. When the world itself
-holds geoms or joints, it becomes a root part ``world``.
+One part per body: hinge -> revolute (limited) or continuous, slide -> prismatic, no joint ->
+fixed; a body with several hinges/slides becomes a chain of massless intermediate parts
+``<body>_<joint>`` (given a negligible mass, warned). A free joint on a top-level body is
+ignored (a fixed base, at the body's pose), a ball joint is refused. A joint away from its
+body origin moves the part frame to the joint (meshes and inertial follow); a joint ``ref``
+moves it to the pose at qpos = 0, so joint values mean the same here and in MuJoCo. When the
+world itself holds geoms or joints, several top-level bodies, or one placed away from the
+origin (a robot standing on the floor), it becomes a root part ``world`` and the bodies hang
+from it by fixed joints at their poses.
 
 Colliding geoms are collision pieces (primitives become meshes); the visual is what MuJoCo
 shows by default (groups 0-2), so a third-party geom that collides and shows serves as both,
@@ -36,6 +39,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
+from ...repairs import balanced_inertia, massless_moving_parts
 from .conventions import (
     COLLISION_GROUP,
     KEYFRAME,
@@ -133,6 +137,7 @@ class _Reader:
     spec_joints: dict[int, object] = field(default_factory=dict)
     mesh_assets: dict[int, tuple[Mesh, np.ndarray]] = field(default_factory=dict)  # read once
     notes: dict[str, list[str]] = field(default_factory=dict)
+    taken_parts: set[str] = field(default_factory=set)
 
     def read(self) -> ArticulatedObject:
         import mujoco
@@ -141,15 +146,19 @@ class _Reader:
         self.spec_bodies = {int(b.id): b for b in self.spec.bodies}
         self.spec_joints = {int(j.id): j for j in self.spec.joints}
         self.custom = self._custom_data()
-        taken: set[str] = set()
+        taken = self.taken_parts
         for b in range(1, m.nbody):
             self.part_names[b] = self._name(m.body(b).name or f"body_{b}", taken, "body")
         top = [b for b in range(1, m.nbody) if int(m.body_parentid[b]) == 0]
         free = int(mujoco.mjtJoint.mjJNT_FREE)
         for b in range(1, m.nbody):
             self._check_joints(b, top_level=b in top)
+        # The world is a part when it holds geoms, several bodies or a joint, or when the one
+        # top-level body is placed away from it: the root part's frame must stay that body's.
         world_used = (m.body_geomnum[0] > 0 or len(top) != 1
                       or any(self._movable_joint(b) is not None for b in top)
+                      or not np.array_equal(pose(m.body_pos[top[0]], m.body_quat[top[0]]),
+                                            np.eye(4))
                       or (WORLD, "part") in self.custom)
         parts: list[Part] = []
         joints: list[Joint] = []
@@ -167,13 +176,15 @@ class _Reader:
                 self.frames[b] = body_pose
                 parts.append(self._part(b))
                 continue
-            joints.append(self._joint(b, parent, body_pose, joint_names))
+            joints += self._joints(b, parent, body_pose, joint_names, parts)
             parts.append(self._part(b))
         name = self._object_name()
         self._report_ignored()
         for kind, names in self.notes.items():
             warn(f"{self.path}: {kind}: {', '.join(names)}")
         obj = ArticulatedObject(name, parts, joints, self._metadata())
+        for joint_name, message in massless_moving_parts(obj):
+            warn(f"{self.path}: joint {joint_name!r}: {message}")
         try:
             return validate(obj)
         except ModelError as e:
@@ -205,9 +216,10 @@ class _Reader:
         m = self.model
         count = int(m.body_jntnum[b])
         line = _info_line(self.spec_bodies[b])
-        if count > 1:
-            raise FormatError(self.path, self._body_label(b), f"has {count} joints; the model "
-                              "has one joint per part (split the body)", line)
+        if count > 1 and len(self._movable_joints(b)) != count:
+            raise FormatError(self.path, self._body_label(b), f"has {count} joints, a ball or "
+                              "free one among them; the model splits only hinges and slides",
+                              line)
         if count == 1:
             kind = int(m.jnt_type[m.body_jntadr[b]])
             if kind == mujoco.mjtJoint.mjJNT_BALL:
@@ -215,6 +227,15 @@ class _Reader:
                                   "has a ball joint, which the model cannot represent", line)
             if kind == mujoco.mjtJoint.mjJNT_FREE and not top_level:
                 raise FormatError(self.path, self._body_label(b), "has a free joint", line)
+
+    def _movable_joints(self, b: int) -> list[int]:
+        import mujoco
+
+        m = self.model
+        kinds = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+        first = int(m.body_jntadr[b])
+        return [j for j in range(first, first + int(m.body_jntnum[b]))
+                if int(m.jnt_type[j]) in kinds]
 
     def _movable_joint(self, b: int) -> int | None:
         import mujoco
@@ -226,21 +247,43 @@ class _Reader:
         kinds = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
         return j if int(m.jnt_type[j]) in kinds else None
 
-    def _joint(self, b: int, parent: int, body_pose: np.ndarray, taken: set[str]) -> Joint:
-        import mujoco
-
+    def _joints(self, b: int, parent: int, body_pose: np.ndarray, taken: set[str],
+                parts: list[Part]) -> list[Joint]:
+        """The joints that place body ``b``: one, or for a body with several joints a chain
+        through intermediate parts ``<body>_<joint>`` (massless; MuJoCo applies a body's
+        joints in order, each about its anchor in the frame the previous ones moved)."""
         m = self.model
         child = self.part_names[b]
         parent_name = self.part_names[parent]
         base = self.frames[parent] @ body_pose
-        j = self._movable_joint(b)
-        if j is None:
+        movable = self._movable_joints(b)
+        if not movable:
             self.frames[b] = np.eye(4)
             raw = self.custom.get((m.body(b).name, "parent_joint"))
             name = self._name(raw, taken, "joint") if isinstance(raw, str) else sanitize_name(
                 f"{parent_name}_to_{child}", taken)
-            return Joint(name, JointType.FIXED, parent_name, child, origin=base)
+            return [Joint(name, JointType.FIXED, parent_name, child, origin=base)]
+        joints, previous = [], np.zeros(3)
+        for k, j in enumerate(movable):
+            last = k == len(movable) - 1
+            link = child if last else sanitize_name(
+                f"{child}_{m.joint(j).name or f'joint_{k}'}", self.taken_parts)
+            start = base if k == 0 else tf.make(translation=-previous)
+            joints.append(self._joint(j, parent_name, link, start, taken))
+            if not last:
+                parts.append(Part(link))
+            if k == 0 and len(movable) > 1:
+                self.note("bodies with several joints split into a chain of massless parts",
+                          f"{child} ({len(movable)} joints)")
+            parent_name, previous = link, np.asarray(m.jnt_pos[j], dtype=np.float64)
+        self.frames[b] = tf.make(translation=-previous) if previous.any() else np.eye(4)
+        return joints
 
+    def _joint(self, j: int, parent_name: str, child: str, base: np.ndarray,
+               taken: set[str]) -> Joint:
+        import mujoco
+
+        m = self.model
         raw = m.joint(j).name
         name = self._name(raw, taken, "joint") if raw else sanitize_name(f"{child}_joint", taken)
         hinge = int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE
@@ -260,7 +303,6 @@ class _Reader:
         joint = Joint(name, kind, parent_name, child, axis=axis)
         # Part frame = joint frame at qpos = 0: at the anchor, turned back by the reference.
         joint.origin = base @ tf.make(translation=anchor) @ joint.motion(-ref)
-        self.frames[b] = tf.make(translation=-anchor) if anchor.any() else np.eye(4)
         joint.limits = self._limits(j, kind, name)
         joint.dynamics = Dynamics(
             damping=float(m.dof_damping[dof]), friction=float(m.dof_frictionloss[dof]),
@@ -368,7 +410,13 @@ class _Reader:
             rot = frame[:3, :3]
             com = rot @ com + frame[:3, 3]
             inertia = rot @ inertia @ rot.T
-        return Inertial(mass, com, inertia)
+        # MuJoCo accepts a zero or degenerate tensor on a body that does not move.
+        inertial, change = balanced_inertia(Inertial(mass, com, inertia))
+        if change is not None:
+            line = _info_line(self.spec_bodies[b])
+            where = f"{self.path}:{line}" if line is not None else str(self.path)
+            warn(f"{where}: {self._body_label(b)}: {change}")
+        return inertial
 
     def _inertia_tensor(self, b: int) -> np.ndarray:
         import mujoco

@@ -1,14 +1,16 @@
 """<visual>/<collision> contents: origins, shapes (mesh files or primitives) and colours.
 
-Mesh filenames are relative to the URDF, ``file://`` paths, or ``package://name/rest``
-(resolved by searching the URDF's parent folders for one named ``name``, or holding a
-folder ``name``: there is no ROS package index here). Primitives become meshes with
+Mesh filenames are relative to the URDF, ``file://`` paths, or ``package://name/rest`` /
+``model://name/rest`` (resolved by searching the URDF's parent folders, then
+``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``: there is no ROS
+package index here). Primitives become meshes with
 trimesh.creation. A visual's colour is its URDF material, else the area-weighted diffuse
 colour of the OBJ's own MTL materials (PartNet ships MTLs), else none.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -89,18 +91,36 @@ def _primitive(ctx: Context, shape: etree._Element, owner: str) -> Mesh:
     return Mesh.from_trimesh(tm)
 
 
+def package_search_path() -> list[Path]:
+    """Folders named by ``ROS_PACKAGE_PATH`` (ROS) and ``GZ_SIM_RESOURCE_PATH`` /
+    ``GAZEBO_MODEL_PATH`` (Gazebo's ``model://``), in that order; ``real2code
+    --package-path`` prepends to the first."""
+    folders = []
+    for var in ("ROS_PACKAGE_PATH", "GZ_SIM_RESOURCE_PATH", "GAZEBO_MODEL_PATH"):
+        folders += [Path(p) for p in os.environ.get(var, "").split(os.pathsep) if p]
+    return folders
+
+
 def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) -> Path:
-    """The file a mesh ``filename`` refers to (existence is checked by the reader)."""
-    if filename.startswith("package://"):
-        package, _, rest = filename[len("package://"):].partition("/")
+    """The file a mesh ``filename`` refers to (existence is checked by the reader).
+
+    ``package://NAME/REST`` and ``model://NAME/REST``: the first folder named NAME holding
+    REST, looked for in the URDF's own folder and its parents (a package inside a source or
+    install tree), then in the search path (:func:`package_search_path`)."""
+    scheme = next((s for s in ("package://", "model://") if filename.startswith(s)), None)
+    if scheme is not None:
+        package, _, rest = filename[len(scheme):].partition("/")
         here = ctx.path.resolve().parent
-        for folder in (here, *here.parents):
+        search = package_search_path()
+        for folder in (here, *here.parents, *search):
             if folder.name == package and (folder / rest).exists():
                 return folder / rest
             if (folder / package / rest).exists():
                 return folder / package / rest
         raise ctx.error(owner, f"cannot resolve {filename!r}: no parent folder of the URDF is "
-                        f"named {package!r} (or holds one) with {rest!r} in it", line)
+                        f"named {package!r} (or holds one) with {rest!r} in it, nor any folder "
+                        f"of the search path {[str(f) for f in search]} (ROS_PACKAGE_PATH, "
+                        "--package-path)", line)
     if filename.startswith("file://"):
         return Path(unquote(filename[len("file://"):]))
     path = Path(filename)

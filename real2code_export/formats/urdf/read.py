@@ -8,8 +8,12 @@ reports no line numbers, while lxml keeps every element's line, so each error re
 Repairs (each warned about): limits without effort/velocity are kept as unknown; links
 without inertials get mass properties from their visual meshes; links without collision
 get convex pieces from their visual meshes; non-unit axes are normalised; names that are
-not identifiers are sanitised; mimic tags are ignored; a zero mass means massless. Everything
-else that is wrong is a :class:`FormatError`.
+not identifiers are sanitised; mimic tags are ignored; a zero mass means massless; inertia
+tensors off positive definiteness or the triangle inequality are balanced, massless parts
+that a joint moves get a negligible mass (``repairs``); a revolute joint without <limit> is
+continuous, as is one with lower == upper (MuJoCo loads both unlimited); a prismatic one with
+lower == upper is fixed at that value. Everything else that is wrong is
+a :class:`FormatError`.
 
 URDF has no observed joint state: it is q = 0, or the nearest limit when the range excludes 0
 (unless our own ``real2code:state`` says otherwise).
@@ -42,6 +46,7 @@ from ...model import (
     validate,
     validate_inertial,
 )
+from ...repairs import balanced_inertia, massless_moving_parts
 from .context import Context, label
 from .geometry import (
     average_color,
@@ -79,6 +84,10 @@ def load(path: str | Path) -> ArticulatedObject:
     _report_notes(ctx)
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
                             metadata=_metadata(ctx, robot))
+    joint_el = {joint_names[raw]: el for raw, el in joints.items()}
+    for joint_name, message in massless_moving_parts(obj):
+        el = joint_el[joint_name]
+        ctx.warn(label(el), message, el.sourceline)
     lines = {f"part {part_names[r]!r}": el for r, el in links.items()}
     lines.update({f"joint {joint_names[r]!r}": el for r, el in joints.items()})
     try:
@@ -219,6 +228,17 @@ def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
         tensor = rot @ tensor @ rot.T
         tensor = 0.5 * (tensor + tensor.T)
     inertial = Inertial(mass=mass, com=frame[:3, 3], inertia=tensor)
+    if not np.all(np.isfinite(tensor)):
+        raise ctx.error(owner, "<inertia> is not finite", inertia_el.sourceline)
+    if mass < 0:
+        raise ctx.error(owner, f"<mass value='{mass_el.get('value')}'> is negative",
+                        mass_el.sourceline)
+    try:
+        inertial, change = balanced_inertia(inertial)
+    except ValueError as e:
+        raise ctx.error(owner, str(e), inertia_el.sourceline) from e
+    if change is not None:
+        ctx.warn(owner, change, inertia_el.sourceline)
     try:
         validate_inertial(inertial, owner)
     except ModelError as e:
@@ -241,16 +261,41 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
         joint.dynamics = _dynamics(ctx, el, owner)
         joint.state = ctx.number(el, ns("state"), owner, default=0.0)
     limit = el.find("limit")
+    if jtype is JointType.REVOLUTE and limit is None:
+        # urdfdom refuses it; MuJoCo's URDF import makes an unlimited hinge, as we do.
+        ctx.warn(owner, "a revolute joint without <limit>: imported as continuous",
+                 el.sourceline)
+        joint.type = jtype = JointType.CONTINUOUS
     if jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
         if limit is None:
             raise ctx.error(owner, f"a {jtype.value} joint needs a <limit>", el.sourceline)
         joint.limits = _limits(ctx, limit, owner, name)
+        if joint.limits.lower == joint.limits.upper:
+            return _empty_range(ctx, joint, owner, limit)
         if el.get(ns("state")) is None:
             # URDF has no observed state; q = 0 is the rest pose, or the nearest limit when the
             # range excludes 0 (PartNet has such drawers).
             joint.state = min(max(0.0, joint.limits.lower), joint.limits.upper)
     elif limit is not None:
         ctx.note("limit_dropped", repr(name))
+    return joint
+
+
+def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
+    """``lower == upper`` (often a <limit> giving only effort and velocity, its range left at
+    urdfdom's 0): MuJoCo loads such a hinge unlimited, so does this reader (continuous); a
+    slide, which the model needs limited, is fixed at that value."""
+    value = joint.limits.lower
+    if joint.type is JointType.REVOLUTE:
+        ctx.warn(owner, f"<limit> lower == upper == {value:g}: an empty range, which MuJoCo "
+                 "loads unlimited; imported as continuous", limit.sourceline)
+        joint.type, joint.limits = JointType.CONTINUOUS, None
+        return joint
+    ctx.warn(owner, f"<limit> lower == upper == {value:g}: the slide cannot move; imported as "
+             f"a fixed joint at q = {value:g}", limit.sourceline)
+    joint.origin = joint.transform(value)
+    joint.type, joint.limits, joint.state = JointType.FIXED, None, 0.0
+    joint.dynamics = Dynamics()
     return joint
 
 

@@ -1,0 +1,78 @@
+"""Where we stand on the public robot corpora, file by file: load, export to all four
+formats, check every export against the SOURCE file in its own tools (100 configurations,
+1e-6), and list the repairs made. The table in docs/corpora.md comes from it.
+
+    .venv/bin/python bench/corpus_survey.py urdf|mjcf [--load-only] [--markdown FILE]
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import sysconfig
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+from real2code_export.check import check_files
+from real2code_export.errors import Real2CodeError
+from real2code_export.formats import export, load
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def erd_files() -> list[Path]:
+    root = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+    return sorted(root.rglob("*.urdf"))
+
+
+def menagerie_files() -> list[Path]:
+    root = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
+    root = root / "mujoco_menagerie"
+    return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
+
+
+def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
+    """(status, detail, number of warnings)."""
+    with warnings.catch_warnings(record=True) as caught, tempfile.TemporaryDirectory() as tmp:
+        warnings.simplefilter("always")
+        try:
+            obj = load(path)
+            if load_only:
+                return "loads", f"{len(obj.parts)} parts", len(caught)
+            written = export(obj, Path(tmp) / "out")
+        except Real2CodeError as e:
+            return "refused", str(e).replace(str(path), path.name), len(caught)
+        report = check_files(list(written.values()), source=path, validate=False)
+    if not report.ok:
+        worst = "; ".join(m.message for m in report.mismatches[:2])
+        return "disagrees", worst.replace("|", "/"), len(caught)
+    return "agrees", f"{len(obj.parts)} parts, {len(obj.movable_joints)} joints", len(caught)
+
+
+def main() -> None:
+    which = sys.argv[1]
+    load_only = "--load-only" in sys.argv
+    files = erd_files() if which == "urdf" else menagerie_files()
+    rows, counts = [], {}
+    for f in files:
+        start = time.perf_counter()
+        status, detail, n_warn = survey(f, load_only)
+        counts[status] = counts.get(status, 0) + 1
+        row = f"| {f.name} | {status} | {n_warn} | {time.perf_counter() - start:.1f} | {detail} |"
+        print(row, flush=True)
+        rows.append(row)
+    print(", ".join(f"{n} {s}" for s, n in counts.items()) + f" (of {len(files)})")
+    if "--markdown" in sys.argv:
+        out = Path(sys.argv[sys.argv.index("--markdown") + 1])
+        head = ["| file | status | warnings | seconds | parts, joints / reason |",
+                "|---|---|---|---|---|"]
+        out.write_text("\n".join(head + rows) + "\n\n" +
+                       ", ".join(f"{n} {s}" for s, n in counts.items()) +
+                       f" (of {len(files)})\n")
+
+
+if __name__ == "__main__":
+    main()

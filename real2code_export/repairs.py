@@ -1,0 +1,106 @@
+"""Repairs of the mass properties real description files carry, for readers to apply.
+
+Robot files are written by hand and by CAD exporters: an inertia tensor off positive
+definiteness by rounding (-2e-22), an all-zero tensor on a sensor frame, principal moments
+that miss the triangle inequality, links without mass that carry a joint. Pinocchio loads
+them all and MuJoCo loads most with its compiler's ``balanceinertia`` / ``boundmass`` /
+``boundinertia``; the model (``model.validate``) wants a tensor a simulator can integrate. So
+each reader repairs what those tools accept, says what it changed, and refuses the rest.
+
+Plain functions: each returns the repaired value and a sentence describing the change (None
+when nothing changed); the reader warns with the file and element.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .model import ArticulatedObject, Inertial, JointType
+
+# Principal moments below this fraction of the largest one are raised to it: far below any
+# physical body's anisotropy, enough to keep the tensor positive definite in float64.
+RELATIVE_MOMENT_FLOOR = 1e-6
+TRIANGLE_MARGIN = 1e-6
+# A point mass (an all-zero tensor) gets the inertia of a solid sphere this wide.
+POINT_MASS_RADIUS = 1e-3  # m
+# A movable part without mass gets this mass and the inertia of a POINT_MASS_RADIUS sphere
+# (MuJoCo's ``boundmass``/``boundinertia`` do the same with the user's bounds).
+NEGLIGIBLE_MASS = 1e-6  # kg
+
+
+# No principal moment below this (kg m^2): MuJoCo refuses moments under its mjMINVAL (1e-15)
+# once rotated and written as text; a 1e-9 kg "virtual" link would get 4e-16.
+MIN_MOMENT = 1e-12
+
+
+def _sphere(mass: float) -> np.ndarray:
+    return np.eye(3) * max(0.4 * mass * POINT_MASS_RADIUS**2, MIN_MOMENT)
+
+
+def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
+    """``inertial`` with a tensor a simulator accepts: symmetric, principal moments positive
+    and satisfying the triangle inequality. Moments are only ever raised (never lowered), in
+    the tensor's own principal axes: a negative or zero moment to the floor, the two smaller
+    ones together just enough for A + B >= C. An all-zero tensor is a point mass and gets a
+    1 mm sphere's inertia. Raises ValueError when no moment is positive but some is clearly
+    negative (a tensor with its sign wrong, not rounding)."""
+    tensor = 0.5 * (inertial.inertia + inertial.inertia.T)
+    moments, axes = np.linalg.eigh(tensor)
+    largest = float(moments[-1])
+    scale = max(float(np.abs(moments).max()), 1e-300)
+    ok = moments[0] > 0 and moments[0] + moments[1] >= moments[2] * (1 - 1e-9) - 1e-9 * scale
+    if ok:
+        return inertial, None
+    if scale <= 1e-12 * inertial.mass:  # zero, or zero up to rounding: a point mass
+        repaired = _sphere(inertial.mass)
+        return (Inertial(inertial.mass, inertial.com, repaired),
+                f"inertia tensor is zero (principal moments {_fmt(moments)}; a point mass of "
+                f"{inertial.mass:g} kg): given the inertia of a solid sphere "
+                f"{2 * POINT_MASS_RADIUS * 1e3:g} mm wide")
+    if largest <= 0:
+        raise ValueError(f"inertia tensor has no positive principal moment "
+                         f"({_fmt(moments)}): not a rounding error")
+    new = np.maximum(moments, RELATIVE_MOMENT_FLOOR * largest)
+    # Raise the two smaller moments evenly until A + B = C, with a margin so that the
+    # tensor still passes once rotated and written as text (MuJoCo checks it strictly).
+    deficit = new[2] * (1 + TRIANGLE_MARGIN) - new[0] - new[1]
+    if deficit > 0:
+        new[0] += deficit / 2
+        new[1] += deficit / 2
+    repaired = axes @ np.diag(new) @ axes.T
+    repaired = 0.5 * (repaired + repaired.T)
+    change = float(np.abs(new - moments).max() / largest)
+    why = ("is not positive definite" if moments[0] <= 0 else
+           "violates the triangle inequality (A + B >= C)")
+    return (Inertial(inertial.mass, inertial.com, repaired),
+            f"inertia tensor {why}: principal moments {_fmt(moments)} raised to {_fmt(new)} "
+            f"(largest change {change:.3g} of the largest moment)")
+
+
+def _fmt(values) -> str:
+    return "[" + ", ".join(f"{v:.6g}" for v in values) + "]"
+
+
+def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
+    """Give every movable joint's child something to move: where the child and the parts
+    fixed to it have no mass at all, the child gets a negligible mass (NEGLIGIBLE_MASS, a
+    1 mm sphere's inertia at its frame origin). Changes ``obj`` in place; returns (joint name,
+    message) for each part changed."""
+    changed = []
+    for joint in obj.movable_joints:
+        if _rigid_mass(obj, joint.child) > 0:
+            continue
+        part = obj.part(joint.child)
+        part.inertial = Inertial(NEGLIGIBLE_MASS, np.zeros(3), _sphere(NEGLIGIBLE_MASS))
+        changed.append((joint.name, f"moves part {joint.child!r}, which has no mass (nor any "
+                        f"part fixed to it): given {NEGLIGIBLE_MASS:g} kg (a "
+                        f"{2 * POINT_MASS_RADIUS * 1e3:g} mm sphere) as MuJoCo's boundmass "
+                        "would"))
+    return changed
+
+
+def _rigid_mass(obj: ArticulatedObject, part_name: str) -> float:
+    part = obj.part(part_name)
+    mass = part.inertial.mass if part.inertial is not None else 0.0
+    return mass + sum(_rigid_mass(obj, j.child) for j in obj.child_joints(part_name)
+                      if j.type is JointType.FIXED)
