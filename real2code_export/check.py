@@ -19,8 +19,9 @@ import numpy as np
 
 from .errors import CheckError
 from .jsonsafe import finite_or_null
-from .probes import SOURCE_LABEL, JointInfo, Probe, open_probes, open_source_probes
+from .probes import JointInfo, Probe, open_probes
 from .probes.model import LABEL as MODEL_LABEL
+from .probes.source import SOURCE_LABEL, open_source_probes
 from .validators import Validation, validate_files
 
 UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
@@ -151,7 +152,7 @@ def check_files(
     (object.json) if present, else the first file's first probe. With ``validate`` the
     formats' own validators run too (glTF, USD); any error they report is a mismatch.
     ``source``: the user's input file (URDF or MJCF), loaded in its own tools
-    (``probes.open_source_probes``), is the reference every file is compared with.
+    (``probes.source.open_source_probes``), is the reference every file is compared with.
     """
     if not paths:
         raise CheckError("no files to check")

@@ -8,14 +8,13 @@ Pinocchio). Modules are imported only when a file of their kind is checked.
 from __future__ import annotations
 
 import importlib
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
-from ..errors import CheckError, Real2CodeError, Real2CodeWarning
+from ..errors import CheckError, Real2CodeError
 
 
 @dataclass(frozen=True)
@@ -75,66 +74,3 @@ def _probe_module(name: str, path: Path):
     except Exception as e:  # noqa: BLE001 - a broken tool fails in any way it likes
         raise CheckError(f"{path}: its tool cannot be loaded here: {name} "
                          f"({type(e).__name__}: {e})") from e
-
-
-SOURCE_LABEL = "source"  # the label of every probe of a user's own file starts with it
-
-
-class SourceProbe:
-    """A probe of the user's own input file (``check --reference``), its names made the
-    identifiers our importers make of them (``model.sanitize_name``), so that each part and
-    joint of the source is compared with the part or joint it became."""
-
-    def __init__(self, probe: Probe):
-        from ..model import sanitize_name
-
-        self._probe = probe
-        self.label = f"{SOURCE_LABEL} {probe.label}"
-        self.path = probe.path
-        self.parts = [sanitize_name(n) for n in probe.parts]
-        self.joints = [JointInfo(sanitize_name(j.name), j.kind, j.lower, j.upper)
-                       for j in probe.joints]
-        self._raw = {new.name: old.name for new, old in zip(self.joints, probe.joints,
-                                                              strict=True)}
-
-    def pose_array(self, values: np.ndarray) -> np.ndarray:
-        if hasattr(self._probe, "pose_array"):
-            return self._probe.pose_array(values)
-        rows = [self.poses(dict(zip((j.name for j in self.joints), row, strict=True)))
-                for row in np.atleast_2d(values)]
-        return np.array([[r[p] for p in self.parts] for r in rows])
-
-    def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
-        raw = self._probe.poses({self._raw[name]: v for name, v in q.items()})
-        return dict(zip(self.parts, (raw[p] for p in self._probe.parts), strict=True))
-
-
-def open_source_probes(path: str | Path) -> list[Probe]:
-    """Probes of a user's input file as the reference: MJCF in MuJoCo; URDF in MuJoCo (its
-    kinematics: MuJoCo reads neither ``package://`` nor Collada) and in Pinocchio."""
-    path = Path(path)
-    if not path.exists():
-        raise CheckError(f"{path}: no such file")
-    from ..formats import format_for_path
-
-    try:
-        kind = format_for_path(path).name
-    except Real2CodeError:
-        kind = None
-    if kind not in ("urdf", "mjcf"):
-        raise CheckError(f"{path}: a reference must be a URDF or MJCF file, "
-                         f"not {path.suffix.lower()!r}")
-    from . import mujoco as mujoco_probe
-
-    if kind == "mjcf":
-        return [SourceProbe(p) for p in mujoco_probe.open_probes(path, source=True)]
-    from . import pinocchio as pinocchio_probe
-
-    probes: list[Probe] = []
-    try:
-        probes += mujoco_probe.open_probes(path, source=True)
-    except CheckError as e:  # a tensor MuJoCo's balanceinertia does not mend: Pinocchio loads it
-        warnings.warn(f"{e}; the source is compared in Pinocchio only", Real2CodeWarning,
-                      stacklevel=2)
-    probes += pinocchio_probe.open_probes(path)
-    return [SourceProbe(p) for p in probes]
