@@ -194,6 +194,7 @@ def build_parser() -> argparse.ArgumentParser:
     from pipeline.complete.evaluate import add_evaluate_completion_parser
 
     from .batch.cli import add_parser as add_batch_parser
+    from .dynamics.cli import add_parser as add_simulate_parser
 
     p = argparse.ArgumentParser(
         prog="real2code",
@@ -222,6 +223,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--tol-position", type=float, default=1e-6, help="metres (default 1e-6)")
     s.add_argument("--tol-rotation", type=float, default=1e-6, help="radians (default 1e-6)")
     s.set_defaults(func=cmd_check)
+
+    add_simulate_parser(sub)
 
     s = sub.add_parser("generate", help="a procedural articulated object")
     s.add_argument("--category", required=True,

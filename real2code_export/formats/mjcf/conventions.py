@@ -14,6 +14,14 @@ CUSTOM_PREFIX = "real2code"  # <custom> numeric/text names: "real2code:<element>
 METADATA = f"{CUSTOM_PREFIX}:metadata"
 WORLD = "world"  # MuJoCo's world body: a root part of this name is it
 
+# Joint limits and dry friction as the other engines have them (docs/engines.md): MuJoCo's
+# default solref (0.02 s, critically damped) lets a door sink ~1 mm past its limit and
+# bounce back off it, and lets friction creep; a 2 ms time constant (MuJoCo raises it to two
+# time steps where the step is longer) makes a limit a stop without rebound (damping ratio
+# 5) and friction stick, as in Bullet, PhysX and Pinocchio's hard constraints.
+LIMIT_SOLREF = (0.002, 5.0)
+FRICTION_SOLREF = (0.002, 1.0)
+
 
 def custom_name(element: str, field: str) -> str:
     return f"{CUSTOM_PREFIX}:{element}:{field}"
