@@ -44,7 +44,9 @@ def _run(pb, client, path: Path, experiment: Experiment) -> Trajectory:
     # default): a door thrown into its stop bounces off it. A small erp makes the stop
     # inelastic, as in MuJoCo (our MJCF's solreflimit) and PhysX.
     pb.setPhysicsEngineParameter(erp=JOINT_ERP, **kw)
-    body = pb.loadURDF(str(path), useFixedBase=True, flags=pb.URDF_USE_INERTIA_FROM_FILE, **kw)
+    with captured_c_output():  # its notes on links without an inertial (a fixed root's)
+        body = pb.loadURDF(str(path), useFixedBase=True, flags=pb.URDF_USE_INERTIA_FROM_FILE,
+                           **kw)
     by_name, friction = {}, {}
     for j in range(pb.getNumJoints(body, **kw)):
         info = pb.getJointInfo(body, j, **kw)

@@ -8,7 +8,8 @@
   model says.
 
 The variants are written by our own exporters, so every engine reads the file it reads
-natively; what each engine then does with it is what is compared.
+natively; what each engine then does with it is what is compared. None of these has
+contacts: the variants carry no collision geometry.
 """
 
 from __future__ import annotations
@@ -54,14 +55,34 @@ def _without_laws(obj: ArticulatedObject) -> ArticulatedObject:
     return out
 
 
+def _without_velocity_limits(obj: ArticulatedObject) -> ArticulatedObject:
+    """PhysX clamps a joint's speed at its velocity limit; MuJoCo, Bullet and Pinocchio do
+    not: the experiments compare motion, so no run has one (docs/engines.md)."""
+    out = copy.deepcopy(obj)
+    for j in out.movable_joints:
+        if j.limits is not None:
+            j.limits.velocity = None
+    return out
+
+
+def _without_collision(obj: ArticulatedObject) -> ArticulatedObject:
+    """No contacts in any engine: the collision geometry left out (inertials are explicit).
+    Parts overlapping at some joint value would otherwise push each other apart, wherever
+    a format does not exclude the pair."""
+    out = _without_velocity_limits(obj)
+    for part in out.parts:
+        part.collision = []
+    return out
+
+
 def swing(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment]:
-    variant = _without_laws(_without_limits(obj))
+    variant = _without_collision(_without_laws(_without_limits(obj)))
     v0 = [SWING_SPEED[j.type.angular] for j in obj.movable_joints]
     return variant, _experiment("swing", variant, v0)
 
 
 def laws(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment]:
-    variant = _without_limits(obj)
+    variant = _without_collision(_without_limits(obj))
     v0 = [SWING_SPEED[j.type.angular] for j in obj.movable_joints]
     return variant, _experiment("laws", variant, v0)
 
@@ -77,7 +98,8 @@ def limit(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment]:
         up, down = j.limits.upper - s, s - j.limits.lower
         distance, sign = (up, 1.0) if up <= down else (down, -1.0)
         v0.append(sign * max(LIMIT_MIN_SPEED[j.type.angular], distance / LIMIT_REACH_TIME))
-    return obj, _experiment("limit", obj, v0)
+    variant = _without_collision(obj)
+    return variant, _experiment("limit", variant, v0)
 
 
 EXPERIMENTS = {"swing": swing, "laws": laws, "limit": limit}

@@ -21,10 +21,11 @@ def load(path: Path):
     if path.suffix.lower() == ".urdf":
         # URDF has no place for MuJoCo's constraint softness: the settings our MJCF authors
         # are what a user must set (docs/engines.md).
-        from ..formats.mjcf.conventions import FRICTION_SOLREF, LIMIT_SOLREF
+        from ..formats.mjcf.conventions import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 
         for joint in spec.joints:
             joint.solref_limit = list(LIMIT_SOLREF)
+            joint.solimp_limit = list(LIMIT_SOLIMP)
             joint.solref_friction = list(FRICTION_SOLREF)
     return mujoco, spec.compile()
 

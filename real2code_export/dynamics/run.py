@@ -38,6 +38,10 @@ ENGINES: dict[str, Engine] = {e.name: e for e in (
     Engine("mujoco-urdf", "MuJoCo (URDF)", "urdf", "real2code_export.dynamics.mujoco"),
     Engine("pinocchio", "Pinocchio (URDF)", "urdf", "real2code_export.dynamics.pinocchio"),
     Engine("bullet", "Bullet (URDF)", "urdf", "real2code_export.dynamics.bullet"),
+    Engine("physx", "PhysX (USD)", "usd", "real2code_export.dynamics.physx"),
+    Engine("newton-usd", "Newton (USD)", "usd", "real2code_export.dynamics.newton"),
+    Engine("newton-mjcf", "Newton (MJCF)", "mjcf", "real2code_export.dynamics.newton"),
+    Engine("newton-urdf", "Newton (URDF)", "urdf", "real2code_export.dynamics.newton"),
 )}
 
 

@@ -7,6 +7,9 @@ import re
 
 import numpy as np
 
+# Limit and friction softness as the other engines have them (re-exported for the writer).
+from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF  # noqa: F401
+
 KEYFRAME = "observed"  # qpos of every joint at capture time (Joint.state)
 VISUAL_GROUP = 2  # MuJoCo shows groups 0-2 by default and hides 3-5
 COLLISION_GROUP = 3
@@ -14,13 +17,6 @@ CUSTOM_PREFIX = "real2code"  # <custom> numeric/text names: "real2code:<element>
 METADATA = f"{CUSTOM_PREFIX}:metadata"
 WORLD = "world"  # MuJoCo's world body: a root part of this name is it
 
-# Joint limits and dry friction as the other engines have them (docs/engines.md): MuJoCo's
-# default solref (0.02 s, critically damped) lets a door sink ~1 mm past its limit and
-# bounce back off it, and lets friction creep; a 2 ms time constant (MuJoCo raises it to two
-# time steps where the step is longer) makes a limit a stop without rebound (damping ratio
-# 5) and friction stick, as in Bullet, PhysX and Pinocchio's hard constraints.
-LIMIT_SOLREF = (0.002, 5.0)
-FRICTION_SOLREF = (0.002, 1.0)
 
 
 def custom_name(element: str, field: str) -> str:

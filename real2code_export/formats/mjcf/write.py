@@ -26,6 +26,7 @@ from .conventions import (
     COLLISION_GROUP,
     FRICTION_SOLREF,
     KEYFRAME,
+    LIMIT_SOLIMP,
     LIMIT_SOLREF,
     METADATA,
     VISUAL_GROUP,
@@ -128,6 +129,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     compiler.savecanonical = False
     spec.meshdir = meshdir
     spec.default.joint.solref_limit = list(LIMIT_SOLREF)
+    spec.default.joint.solimp_limit = list(LIMIT_SOLIMP)
     spec.default.joint.solref_friction = list(FRICTION_SOLREF)
     if model_dir is not None:
         spec.modelfiledir = str(model_dir) + "/"
