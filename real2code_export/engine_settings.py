@@ -11,8 +11,6 @@ as the hard constraints of Bullet, PhysX and Newton do (measured: ``real2code si
 
 from __future__ import annotations
 
-import math
-
 LIMIT_SOLREF = (0.002, 20.0)
 LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 FRICTION_SOLREF = (0.002, 1.0)
@@ -22,7 +20,3 @@ LINK_DAMPING = 0.0
 
 # PhysX's scene solver: its default TGS integrates a freely swinging door less exactly.
 PHYSX_SOLVER = "PGS"
-
-# Newton's default limit is a spring (ke 1e4, kd 10): a flap rebounds off it. inf = a hard
-# limit (NewtonJointAPI newton:limitStiffness).
-NEWTON_LIMIT_STIFFNESS = math.inf

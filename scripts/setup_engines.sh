@@ -2,7 +2,7 @@
 # Set up .venv-engines: the physics engines whose pins clash with the main venv, run by
 # `real2code simulate` as subprocesses (real2code_export/dynamics/venv.py): PhysX through
 # ovphysx 0.7 (+ its schemas) and Newton 1.8 with its importers (usd-core < 26.9, its own
-# warp). About 2.5 minutes and 1.3 GB on a fresh machine (measured here: 2 min 33 s).
+# warp) and its MuJoCo solver (mujoco 3.17, mujoco-warp). About 2.5 minutes and 1.3 GB on a fresh machine (measured here: 2 min 33 s).
 # Idempotent: reruns skip what is in place (stamp = hash of this script).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,7 +15,8 @@ if [ "$(cat .venv-engines/.real2code-stamp 2>/dev/null)" != "$stamp" ]; then
   # (this machine's pip config lists local package folders; silence their "ignored" notes)
   .venv-engines/bin/python -m pip install -q --upgrade pip 2> >(grep -v "is ignored" >&2)
   .venv-engines/bin/python -m pip install -q "ovphysx==0.7.0.74035321" \
-    "physx-usd-schemas==25.11.2.72696984" "newton[importers]==1.8.0" "numpy>=2.0" "lxml>=5.0" \
+    "physx-usd-schemas==25.11.2.72696984" "newton[importers]==1.8.0" "mujoco~=3.17.0" \
+    "mujoco-warp~=3.17.0" "numpy>=2.0" "lxml>=5.0" \
     2> >(grep -v "is ignored" >&2)
   echo "$stamp" > .venv-engines/.real2code-stamp
 fi

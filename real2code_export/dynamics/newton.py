@@ -1,11 +1,11 @@
-"""Newton (its Featherstone solver on warp's CPU device): the USD, the MJCF or the URDF,
-each through Newton's own importer, base fixed. Runs in the engines venv (venv.py): its
-importers pin usd-core < 26.9 and mujoco 3.17.
+"""Newton 1.8 (its MuJoCo solver, ``use_mujoco_cpu``): the USD, the MJCF or the URDF, each
+through Newton's own importer, base fixed. Runs in the engines venv (venv.py): its
+importers and solver pin usd-core < 26.9 and mujoco 3.17.
 
-The files carry what Newton would otherwise default: a hard limit (``newton:limitStiffness
-= inf`` in the USD; its default is a spring, ke 1e4 / kd 10, that a flap rebounds off),
-joint damping and armature. The experiment sets the initial state by joint name (Newton's
-USD importer starts at q = 0 otherwise).
+Newton reads joint damping, friction and armature from each file; the constraint softness
+only from the MJCF (solreflimit, solreffriction): from the USD and the URDF it makes a limit
+its default spring (ke 1e4, kd 10), off which a door rebounds (docs/engines.md). The
+experiment sets the initial state by joint name (Newton's USD importer starts at q = 0).
 """
 
 from __future__ import annotations
@@ -50,7 +50,9 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     qd = model.joint_qd.numpy()
     q[q_idx] = experiment.q0
     qd[qd_idx] = experiment.v0
-    solver = newton.solvers.SolverFeatherstone(model)
+    # Its MuJoCo solver (on MuJoCo's CPU library): Featherstone applies no joint friction and
+    # makes every limit a spring (docs/engines.md).
+    solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True, disable_contacts=True)
     state_0, state_1, control = model.state(), model.state(), model.control()
     state_0.joint_q.assign(q)
     state_0.joint_qd.assign(qd)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib
 import math
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -59,6 +60,7 @@ class Run:
     worst_joint: str | None = None
     per_joint: dict[str, float] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0  # the engine's wall time: loading, stepping (and its subprocess)
 
 
 @dataclass
@@ -82,7 +84,7 @@ class DynamicsReport:
                 "experiment": r.experiment, "engine": r.engine, "file": r.file,
                 "status": r.status, "message": r.message, "max_angle": r.max_angle,
                 "max_distance": r.max_distance, "worst_joint": r.worst_joint,
-                "per_joint": r.per_joint, "notes": r.notes,
+                "per_joint": r.per_joint, "notes": r.notes, "seconds": r.seconds,
             } for r in self.runs],
             "ok": self.ok,
         }
@@ -117,9 +119,10 @@ def simulate_file(source: str | Path, engines: list[str] | None = None,
         report.experiments.append(experiment)
         with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
             files = write_formats(variant, folder, formats)
+            start = time.perf_counter()
             reference = REFERENCE.simulate(files[REFERENCE.format], experiment)
             report.runs.append(Run(name, REFERENCE.label, files[REFERENCE.format].name,
-                                   "reference"))
+                                   "reference", seconds=time.perf_counter() - start))
             for engine in chosen:
                 report.runs.append(_run(engine, files[engine.format], experiment, reference,
                                         tol_angle, tol_distance))
@@ -129,6 +132,7 @@ def simulate_file(source: str | Path, engines: list[str] | None = None,
 def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajectory,
          tol_angle: float, tol_distance: float) -> Run:
     run = Run(experiment.name, engine.label, path.name, "ok")
+    start = time.perf_counter()
     try:
         trajectory = engine.simulate(path, experiment)
     except EngineUnavailable as e:
@@ -137,6 +141,7 @@ def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajecto
     except (KeyError, ValueError, RuntimeError) as e:  # the engine refused the file
         run.status, run.message = "failed", f"{engine.label}: {e}"
         return run
+    run.seconds = time.perf_counter() - start
     run.notes = trajectory.notes
     try:
         run.per_joint, run.max_angle, run.max_distance = compare(experiment, reference,
@@ -155,11 +160,12 @@ def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajecto
 def format_table(report: DynamicsReport) -> str:
     lines = [f"{report.source}: {len(report.experiments)} experiment(s), 2 s at 1 ms vs "
              f"MuJoCo (MJCF); tolerance {report.tol_angle:g} rad / {report.tol_distance:g} m", ""]
-    rows = [("experiment", "engine", "file", "max rad", "max m", "worst joint", "verdict")]
+    rows = [("experiment", "engine", "file", "max rad", "max m", "worst joint", "s", "verdict")]
     for r in report.runs:
         numbers = ("-", "-") if r.status in ("reference", "skipped", "failed") else \
             (f"{r.max_angle:.2e}", f"{r.max_distance:.2e}")
-        rows.append((r.experiment, r.engine, r.file, *numbers, r.worst_joint or "-", r.status))
+        rows.append((r.experiment, r.engine, r.file, *numbers, r.worst_joint or "-",
+                     f"{r.seconds:.1f}", r.status))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     lines += ["  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip()
               for row in rows]

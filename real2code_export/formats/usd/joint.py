@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import transforms as tf
-from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF, NEWTON_LIMIT_STIFFNESS
+from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
 from ...model import Dynamics, Joint, JointType, Limits
 from .stage import NAMESPACE, as_float32, float_outward, snapped_quat
@@ -148,8 +148,6 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
     if joint.limits is not None and joint.limits.velocity is not None:
         prim.GetAttribute("newton:velocityLimit").Set(
             as_float32(to_file(joint.limits.velocity)))
-    if joint.limits is not None:  # a hard limit, not Newton's default spring
-        prim.GetAttribute("newton:limitStiffness").Set(NEWTON_LIMIT_STIFFNESS)
 
     prim.AddAppliedSchema("MjcJointAPI")  # not registered here: see the module docstring
     values = (d.damping, d.friction, d.armature, d.stiffness, to_file(d.spring_ref),
