@@ -2,7 +2,8 @@
 # Set up .venv-engines: the physics engines whose pins clash with the main venv, run by
 # `real2code simulate` as subprocesses (real2code_export/dynamics/venv.py): PhysX through
 # ovphysx 0.7 (+ its schemas) and Newton 1.8 with its importers (usd-core < 26.9, its own
-# warp) and its MuJoCo solver (mujoco 3.17, mujoco-warp). About 2.5 minutes and 1.3 GB on a fresh machine (measured here: 2 min 33 s).
+# warp) and its MuJoCo solver (mujoco 3.17, mujoco-warp). About 3 minutes and 2.9 GB on a
+# fresh machine (measured here: 2 min 48 s; open3d, which newton's importers pull, is 0.9 GB).
 # Idempotent: reruns skip what is in place (stamp = hash of this script).
 set -euo pipefail
 cd "$(dirname "$0")/.."
