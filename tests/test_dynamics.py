@@ -17,6 +17,8 @@ from real2code_export.dynamics.experiments import EXPERIMENTS
 from real2code_export.dynamics.run import ENGINES, compare, simulate_file
 from real2code_export.formats import export, load, object_json
 
+from conftest import REPO
+
 
 @pytest.fixture(scope="module")
 def laptop(tmp_path_factory):
@@ -123,3 +125,22 @@ def test_engines_registry_names_formats_we_export():
     from real2code_export.formats import EXPORT_FORMATS
 
     assert all(e.format in EXPORT_FORMATS for e in ENGINES.values())
+
+
+def test_overlapping_collision_pieces_are_reported(tmp_path):
+    """Two parts' pieces overlapping at q = 0 are named with their depth, parent and child
+    included (URDF excludes no pair); the shipped cabinet has none."""
+    from real2code_export.dynamics.overlap import overlaps
+
+    cabinet = load(REPO / "samples" / "cabinet" / "object.json")
+    assert overlaps(export(cabinet, tmp_path / "cabinet", ["mjcf"])["mjcf"]) == []
+    obj = generate("box", seed=1)
+    lid = next(p for p in obj.parts if p is not obj.root)
+    joint = next(j for j in obj.joints if j.child == lid.name)
+    # the lid's pieces moved 2 cm into its parent, in the lid's frame
+    down = np.linalg.inv(joint.origin[:3, :3]) @ np.array([0.0, 0.0, -0.02])
+    lid.collision = [m.transformed(np.block([[np.eye(3), down[:, None]], [0, 0, 0, 1]]))
+                     for m in lid.collision]
+    found = overlaps(export(obj, tmp_path / "box", ["mjcf"])["mjcf"])
+    assert any({o.part_a, o.part_b} == {obj.root.name, lid.name} and o.depth > 0.005
+               for o in found)

@@ -17,6 +17,7 @@ import numpy as np
 from ..formats import load, write_formats
 from . import EngineUnavailable, Experiment, Trajectory
 from .experiments import EXPERIMENTS
+from .overlap import Overlap, overlaps
 
 TOL_ANGLE = 0.01  # rad
 TOL_DISTANCE = 0.001  # m
@@ -70,6 +71,8 @@ class DynamicsReport:
     runs: list[Run]
     tol_angle: float
     tol_distance: float
+    # collision pieces of two parts overlapping at q = 0 (reported; not part of ``ok`` yet)
+    overlaps: list[Overlap] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -86,6 +89,8 @@ class DynamicsReport:
                 "max_distance": r.max_distance, "worst_joint": r.worst_joint,
                 "per_joint": r.per_joint, "notes": r.notes, "seconds": r.seconds,
             } for r in self.runs],
+            "overlaps_at_zero": [{"parts": [o.part_a, o.part_b], "depth": o.depth}
+                                 for o in self.overlaps],
             "ok": self.ok,
         }
 
@@ -112,6 +117,9 @@ def simulate_file(source: str | Path, engines: list[str] | None = None,
     chosen = [ENGINES[n] for n in (engines or list(ENGINES)) if n != REFERENCE.name]
     formats = sorted({REFERENCE.format, *(e.format for e in chosen)})
     report = DynamicsReport(str(source), [], [], tol_angle, tol_distance)
+    if any(part.collision for part in obj.parts):
+        with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
+            report.overlaps = overlaps(write_formats(obj, folder, ["mjcf"])["mjcf"])
     for name in experiments or list(EXPERIMENTS):
         variant, experiment = EXPERIMENTS[name](obj)
         if not experiment.joints:
@@ -175,4 +183,7 @@ def format_table(report: DynamicsReport) -> str:
         lines += [""] + said
     if not report.experiments:
         lines.append("(no movable joint: nothing to simulate)")
+    lines += ["", f"collision pieces of two parts overlapping at q = 0: {len(report.overlaps)}"
+              + (" pair(s)" if report.overlaps else "")]
+    lines += [f"  {o.part_a} / {o.part_b}: {o.depth * 1000:.1f} mm" for o in report.overlaps]
     return "\n".join(lines)
