@@ -38,7 +38,6 @@ class Experiment:
     gravity: tuple[float, float, float] = GRAVITY
     contacts: bool = False
     sample_every: int = 10
-    probe_body: str | None = None  # a free body whose position is recorded (contact runs)
 
     @property
     def steps(self) -> int:
@@ -55,24 +54,21 @@ class Experiment:
 
 @dataclass
 class Trajectory:
-    """Joint values (samples, joints) at ``times``; ``body`` (samples, 3) for a probe body."""
+    """Joint values (samples, joints) at ``times``; what the engine said about the run."""
 
     joints: list[str]
     times: np.ndarray
     q: np.ndarray
-    body: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict:
         return {"joints": self.joints, "times": self.times.tolist(), "q": self.q.tolist(),
-                "body": None if self.body is None else self.body.tolist(), "notes": self.notes}
+                "notes": self.notes}
 
     @classmethod
     def from_json(cls, data: dict) -> Trajectory:
-        body = data.get("body")
         return cls(list(data["joints"]), np.asarray(data["times"], dtype=float),
                    np.asarray(data["q"], dtype=float).reshape(len(data["times"]), -1),
-                   None if body is None else np.asarray(body, dtype=float),
                    list(data.get("notes", [])))
 
 
@@ -83,18 +79,14 @@ class Recorder:
         self.experiment = experiment
         self.times: list[float] = []
         self.rows: list[np.ndarray] = []
-        self.bodies: list[np.ndarray] = []
 
     def due(self, step: int) -> bool:
         return step % self.experiment.sample_every == 0
 
-    def add(self, step: int, q, body=None) -> None:
+    def add(self, step: int, q) -> None:
         self.times.append(step * self.experiment.dt)
         self.rows.append(np.asarray(q, dtype=float).copy())
-        if body is not None:
-            self.bodies.append(np.asarray(body, dtype=float).copy())
 
     def trajectory(self, notes: list[str] | None = None) -> Trajectory:
-        body = np.array(self.bodies) if self.bodies else None
         return Trajectory(list(self.experiment.joints), np.array(self.times),
-                          np.array(self.rows).reshape(len(self.times), -1), body, notes or [])
+                          np.array(self.rows).reshape(len(self.times), -1), notes or [])

@@ -21,7 +21,7 @@ def load(path: Path):
     if path.suffix.lower() == ".urdf":
         # URDF has no place for MuJoCo's constraint softness: the settings our MJCF authors
         # are what a user must set (docs/engines.md).
-        from ..formats.mjcf.conventions import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+        from ..engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 
         for joint in spec.joints:
             joint.solref_limit = list(LIMIT_SOLREF)
@@ -46,14 +46,11 @@ def simulate(path: Path, experiment: Experiment) -> Trajectory:
         dadr.append(int(model.jnt_dofadr[jid]))
     data.qpos[qadr] = experiment.q0
     data.qvel[dadr] = experiment.v0
-    body = None
-    if experiment.probe_body is not None:
-        body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, experiment.probe_body)
     mujoco.mj_forward(model, data)
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
-            recorder.add(step, data.qpos[qadr], None if body is None else data.xpos[body])
+            recorder.add(step, data.qpos[qadr])
         if step < experiment.steps:
             mujoco.mj_step(model, data)
     return recorder.trajectory()

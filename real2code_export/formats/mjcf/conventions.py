@@ -7,16 +7,12 @@ import re
 
 import numpy as np
 
-# Limit and friction softness as the other engines have them (re-exported for the writer).
-from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF  # noqa: F401
-
 KEYFRAME = "observed"  # qpos of every joint at capture time (Joint.state)
 VISUAL_GROUP = 2  # MuJoCo shows groups 0-2 by default and hides 3-5
 COLLISION_GROUP = 3
 CUSTOM_PREFIX = "real2code"  # <custom> numeric/text names: "real2code:<element>:<field>"
 METADATA = f"{CUSTOM_PREFIX}:metadata"
 WORLD = "world"  # MuJoCo's world body: a root part of this name is it
-
 
 
 def custom_name(element: str, field: str) -> str:

@@ -19,15 +19,13 @@ import numpy as np
 
 from ... import atomic
 from ... import transforms as tf
+from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import ExportError
 from ...meshfiles import MESH_DIR, collision_relpath, visual_relpath, write_object_meshes
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, validate
 from .conventions import (
     COLLISION_GROUP,
-    FRICTION_SOLREF,
     KEYFRAME,
-    LIMIT_SOLIMP,
-    LIMIT_SOLREF,
     METADATA,
     VISUAL_GROUP,
     WORLD,
@@ -128,6 +126,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     compiler.savecompiled = False
     compiler.savecanonical = False
     spec.meshdir = meshdir
+    # Limits and dry friction as the other engines have them (engine_settings.py).
     spec.default.joint.solref_limit = list(LIMIT_SOLREF)
     spec.default.joint.solimp_limit = list(LIMIT_SOLIMP)
     spec.default.joint.solref_friction = list(FRICTION_SOLREF)
