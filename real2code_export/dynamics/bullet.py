@@ -5,7 +5,7 @@ docs/engines.md): ``URDF_USE_INERTIA_FROM_FILE`` (else inertia comes from the co
 shapes); link damping 0 (Bullet's default is 0.04); its default velocity motors off, and a
 velocity motor with target 0 and the URDF friction as its force limit in their place (Bullet
 reads ``<dynamics damping>`` but not ``friction``); springs from our ``real2code:`` attributes
-as a torque each step; a joint error reduction of 0.01 (its 0.2 default makes a joint
+as a torque each step; a joint error reduction of 0.001 (its 0.2 default makes a joint
 bounce off its limit). Bullet's limits are hard stops; it has no armature.
 """
 
@@ -19,7 +19,7 @@ from ..probes._stdio import captured_c_output
 from . import EngineUnavailable, Experiment, Recorder, Trajectory
 from .pinocchio import _extra_laws
 
-JOINT_ERP = 0.01
+JOINT_ERP = 0.001
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
