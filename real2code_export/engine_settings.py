@@ -5,8 +5,9 @@ MuJoCo's constraint softness: its default (solref 0.02 s, critically damped; sol
 0.9-0.95) lets a door sink into its limit and bounce back off it, and lets dry friction
 creep. A 2 ms time constant (MuJoCo raises it to two time steps where the step is longer),
 heavily overdamped (ratio 20: no rebound velocity left when it lets go) with an impedance
-near 1 (a load holds it ~0.1 mrad deep) makes a limit an inelastic stop and friction stick,
-as the hard constraints of Bullet, PhysX and Newton do (measured: ``real2code simulate``).
+near 1 (gravity holds a door a few mrad deep) makes a limit an inelastic stop and friction
+stick, as the hard constraints of Bullet, PhysX and Pinocchio's loop do (measured:
+``real2code simulate``, docs/engines.md).
 """
 
 from __future__ import annotations
