@@ -17,6 +17,7 @@ import numpy as np
 from . import EngineUnavailable, Experiment, Recorder, Trajectory
 
 PGS_ITERATIONS = 60
+PGS_TOLERANCE = 1e-12  # N m s (or N s): an impulse change below this ends the passes
 
 
 def _extra_laws(path: Path) -> dict[str, dict[str, float]]:
@@ -136,18 +137,24 @@ def _constrain(v_free, inverse, theta, dt, friction, lower, upper) -> np.ndarray
     impulse_l = np.zeros(n)
     v = v_free.copy()
     for _ in range(PGS_ITERATIONS):
+        change = 0.0
         for i in rows:  # friction: drive v_i to 0 within the bound
             old = impulse_f[i]
             impulse_f[i] = np.clip(old - v[i] / inverse[i, i], -friction[i] * dt, friction[i] * dt)
             v += inverse[:, i] * (impulse_f[i] - old)
+            change = max(change, abs(impulse_f[i] - old))
         for i in at_lower:  # v_i >= (lower - theta_i) / dt, push only
             old = impulse_l[i]
             target = (lower[i] - theta[i]) / dt
             impulse_l[i] = max(0.0, old + (target - v[i]) / inverse[i, i])
             v += inverse[:, i] * (impulse_l[i] - old)
+            change = max(change, abs(impulse_l[i] - old))
         for i in at_upper:
             old = impulse_l[i]
             target = (upper[i] - theta[i]) / dt
             impulse_l[i] = min(0.0, old + (target - v[i]) / inverse[i, i])
             v += inverse[:, i] * (impulse_l[i] - old)
+            change = max(change, abs(impulse_l[i] - old))
+        if change <= PGS_TOLERANCE:  # converged: a further pass would change nothing
+            break
     return v
