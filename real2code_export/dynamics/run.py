@@ -147,7 +147,7 @@ def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajecto
         run.status, run.message = "skipped", str(e)
         return run
     except (KeyError, ValueError, RuntimeError) as e:  # the engine refused the file
-        run.status, run.message = "failed", f"{engine.label}: {e}"
+        run.status, run.message = "failed", str(e)
         return run
     run.seconds = time.perf_counter() - start
     run.notes = trajectory.notes
@@ -155,7 +155,7 @@ def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajecto
         run.per_joint, run.max_angle, run.max_distance = compare(experiment, reference,
                                                                  trajectory)
     except ValueError as e:
-        run.status, run.message = "failed", f"{engine.label}: {e}"
+        run.status, run.message = "failed", str(e)
         return run
     tolerance = {n: tol_angle if a else tol_distance
                  for n, a in zip(experiment.joints, experiment.angular, strict=True)}
