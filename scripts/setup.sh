@@ -35,3 +35,6 @@ if [ -f "$validator/package.json" ] && [ ! -d "$validator/node_modules/gltf-vali
   echo "setup: installing the Khronos glTF validator (npm)"
   (cd "$validator" && npm ci --silent --no-audit --no-fund)
 fi
+
+# The engines that need their own venv (PhysX via ovphysx, Newton): see setup_engines.sh.
+scripts/setup_engines.sh

@@ -16,7 +16,7 @@ import argparse
 import sys
 
 from .. import __version__
-from . import articulate, batch, calibrate, models, reconstruct
+from . import articulate, batch, calibrate, models, reconstruct, simulate
 from .boundary import call
 from .options import EXIT_DISAGREE, EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
 
@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     articulate.add_parsers(sub)
     reconstruct.add_parsers(sub)  # render, reconstruct
     calibrate.add_parsers(sub)
+    simulate.add_parsers(sub)
     s = sub.add_parser("evaluate", help="accuracy tables (the paper's metrics)")
     evaluate_sub = s.add_subparsers(dest="what", required=True, metavar="WHAT")
     articulate.add_evaluate_parsers(evaluate_sub)  # joints

@@ -18,6 +18,7 @@ import numpy as np
 
 from ... import atomic
 from ... import transforms as tf
+from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import ExportError
 from ...meshfiles import MESH_DIR, collision_relpath, visual_relpath, write_object_meshes
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
@@ -82,7 +83,23 @@ def to_xml(spec, obj: ArticulatedObject) -> str:
         message, name, _tag, _line = describe_mujoco_error(str(e))
         where = _element_owner(obj, name) if name is not None else f"object {obj.name!r}"
         raise ExportError(f"MJCF: MuJoCo refused {where}: {message}") from e
-    return _INERTIAL_WITHOUT_POS.sub('<inertial pos="0 0 0" ', text)
+    return _text_as_attribute(_INERTIAL_WITHOUT_POS.sub('<inertial pos="0 0 0" ', text))
+
+
+def _text_as_attribute(text: str) -> str:
+    """``<text name="..."><![CDATA[...]]></text>`` (MuJoCo's output) as ``<text name="..."
+    data="..."/>``: XML tools that rewrite a file turn CDATA into text content, which MuJoCo
+    then refuses ("text field cannot be empty"); an attribute survives every rewrite."""
+    if "<![CDATA[" not in text:
+        return text
+    from lxml import etree
+
+    root = etree.fromstring(text.encode("utf-8"))
+    for element in root.iter("text"):
+        if element.text is not None and element.get("data") is None:
+            element.set("data", element.text)
+            element.text = None
+    return etree.tostring(root, encoding="unicode") + "\n"
 
 
 def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
@@ -108,6 +125,10 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     compiler.savecompiled = False
     compiler.savecanonical = False
     spec.meshdir = meshdir
+    # Limits and dry friction as the other engines have them (engine_settings.py).
+    spec.default.joint.solref_limit = list(LIMIT_SOLREF)
+    spec.default.joint.solimp_limit = list(LIMIT_SOLIMP)
+    spec.default.joint.solref_friction = list(FRICTION_SOLREF)
     if model_dir is not None:
         spec.modelfiledir = str(model_dir) + "/"
 
@@ -232,7 +253,8 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
                              data=[i.mass, *i.com, *full_inertia(i.inertia)])
     if obj.metadata:
         text = metadata_json(obj, sort_keys=True, separators=(",", ":"))
-        # MuJoCo writes text as CDATA, which "]]>" would end; \u003e is the same JSON.
+        # MuJoCo writes text as CDATA (turned into an attribute by to_xml), which
+        # "]]>" would end; \u003e is the same JSON.
         spec.add_text(name=METADATA, data=text.replace(">", "\\u003e"))
 
 

@@ -3,6 +3,7 @@
 diagonalInertia + principalAxes from the principal decomposition). NewtonMassAPI's
 ``newton:inertia`` (the full tensor, double precision, body frame) is written too: Newton
 reads it in place of the principal form, and our importer uses it to stay exact.
+PhysxRigidBodyAPI's link damping is written as 0 (PhysX's default is not).
 """
 
 from __future__ import annotations
@@ -10,19 +11,28 @@ from __future__ import annotations
 import numpy as np
 
 from ... import transforms as tf
+from ...engine_settings import LINK_DAMPING
 from ...errors import warn
 from ...model import Inertial, Mesh, Part
 from .stage import as_float32, quatd, quatf
 
+PHYSX_RIGID_BODY = "PhysxRigidBodyAPI"
+PHYSX_LINK_DAMPING = ("physxRigidBody:linearDamping", "physxRigidBody:angularDamping")
+
 
 def write_body(stage, path: str, part: Part, world: np.ndarray):
-    from pxr import Gf, UsdGeom, UsdPhysics
+    from pxr import Gf, Sdf, UsdGeom, UsdPhysics
 
     xform = UsdGeom.Xform.Define(stage, path)
     xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(*world[:3, 3].tolist()))
     xform.AddOrientOp(UsdGeom.XformOp.PrecisionDouble).Set(quatd(world[:3, :3]))
     prim = xform.GetPrim()
     UsdPhysics.RigidBodyAPI.Apply(prim)
+    # PhysX damps every body it is not told otherwise about (angular 0.05): our parts move
+    # by their joint laws alone. Codeless: usd-core has no PhysxSchema, the tokens suffice.
+    prim.AddAppliedSchema(PHYSX_RIGID_BODY)
+    for name in PHYSX_LINK_DAMPING:
+        prim.CreateAttribute(name, Sdf.ValueTypeNames.Float, custom=False).Set(LINK_DAMPING)
     inertial = part.inertial
     if inertial is None:
         return prim

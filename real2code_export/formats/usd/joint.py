@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import transforms as tf
+from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
 from ...model import Dynamics, Joint, JointType, Limits
 from .stage import NAMESPACE, as_float32, float_outward, snapped_quat
@@ -154,6 +155,12 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
     for name, value in zip(MJC_ATTRS, values, strict=True):
         prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=False,
                              variability=Sdf.VariabilityUniform).Set(float(value))
+    # The constraint softness our MJCF authors (MjcJointAPI: solreflimit, solimplimit,
+    # solreffriction), for importers that build a MuJoCo model from the USD.
+    for name, value in (("mjc:solreflimit", LIMIT_SOLREF), ("mjc:solimplimit", LIMIT_SOLIMP),
+                        ("mjc:solreffriction", FRICTION_SOLREF)):
+        prim.CreateAttribute(name, Sdf.ValueTypeNames.DoubleArray, custom=False,
+                             variability=Sdf.VariabilityUniform).Set(list(value))
 
 
 # -- reading ---------------------------------------------------------------------------------

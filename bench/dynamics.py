@@ -1,0 +1,111 @@
+"""Benchmark and agreement table: `real2code simulate` per object and per engine.
+
+    .venv/bin/python bench/dynamics.py [--engines a,b] [--objects cabinet,generated,partnet]
+
+Objects: the shipped cabinet (samples/cabinet, the demo's ground truth), a demo output if
+given (--demo DIR/object.json), one generated object of each of 5 categories, and the first
+5 dev PartNet-Mobility objects (../shared/data; skipped when absent). For every object and
+engine: the worst joint error against MuJoCo's MJCF over the three experiments (swing, laws,
+limit; 2 s at 1 ms) and the engine's wall time beside MuJoCo's (a ratio from one run).
+Prints a markdown table (docs/engines.md holds the one measured here).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import warnings
+from collections import defaultdict
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "bench"))
+from _machine import describe  # noqa: E402
+
+from pipeline.procedural import generate  # noqa: E402
+from real2code_export.dynamics.run import ENGINES, REFERENCE, simulate_file  # noqa: E402
+from real2code_export.formats import object_json  # noqa: E402
+
+CATEGORIES = [("storage_furniture", 1), ("table", 2), ("refrigerator", 3), ("laptop", 4),
+              ("box", 5)]
+PARTNET = REPO.parent / "shared" / "data" / "partnet_mobility"
+
+
+def objects(kinds: list[str], demo: str | None, folder: Path) -> list[tuple[str, Path]]:
+    out = []
+    if "cabinet" in kinds:
+        out.append(("samples/cabinet", REPO / "samples" / "cabinet" / "object.json"))
+    if demo:
+        out.append(("demo output", Path(demo)))
+    if "generated" in kinds:
+        for category, seed in CATEGORIES:
+            d = folder / category
+            d.mkdir()
+            out.append((f"generated {category}", object_json.save(generate(category, seed=seed),
+                                                                   d)))
+    if "partnet" in kinds and (PARTNET / "index.json").is_file():
+        index = json.loads((PARTNET / "index.json").read_text())
+        dev = [e for e in index if e["split"] == "dev"][:5]
+        out += [(f"PartNet {e['id']} ({e['category']})", PARTNET / e["id"] / "mobility.urdf")
+                for e in dev]
+    return out
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--engines", default=",".join(ENGINES))
+    p.add_argument("--objects", default="cabinet,generated,partnet")
+    p.add_argument("--demo", help="a demo output's object.json, added to the objects")
+    args = p.parse_args()
+    engines = [e for e in args.engines.split(",") if e]
+    print(f"machine: {describe()}")
+    labels = [REFERENCE.label] + [ENGINES[e].label for e in engines if e != REFERENCE.name]
+    rows = []
+    totals: dict[str, float] = defaultdict(float)
+    failed = []
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, path in objects(args.objects.split(","), args.demo, Path(tmp)):
+            report = simulate_file(path, engines)
+            worst: dict[str, tuple[float, float, float, str]] = {}
+            for r in report.runs:
+                a, m, s, st = worst.get(r.engine, (0.0, 0.0, 0.0, "ok"))
+                st = st if r.status in ("ok", "reference") else r.status
+                worst[r.engine] = (max(a, r.max_angle), max(m, r.max_distance), s + r.seconds,
+                                   st)
+                if r.status not in ("ok", "reference", "skipped"):
+                    failed.append(f"{name}: {r.experiment} {r.engine}: {r.status} "
+                                  f"{r.worst_joint} {r.message}")
+            joints = len(report.experiments[0].joints) if report.experiments else 0
+            cells = []
+            for label in labels:
+                if label not in worst:
+                    cells.append("-")
+                    continue
+                a, m, s, st = worst[label]
+                totals[label] += s
+                if label == REFERENCE.label:
+                    cells.append(f"reference, {s:.1f} s")
+                elif st == "skipped":
+                    cells.append("skipped")
+                else:
+                    ratio = s / max(worst[REFERENCE.label][2], 1e-9)
+                    cells.append(f"{a:.1e} rad / {m:.1e} m, {s:.1f} s (x{ratio:.1f})"
+                                 + ("" if st == "ok" else f" **{st}**"))
+            rows.append((name, str(joints), *cells))
+            print(f"{name}: {'ok' if report.ok else 'DISAGREE'}", flush=True)
+    print()
+    print("| object | joints | " + " | ".join(labels) + " |")
+    print("|---|---|" + "---|" * len(labels))
+    for row in rows:
+        print("| " + " | ".join(row) + " |")
+    print()
+    print("total seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in totals.items()))
+    for line in failed:
+        print("beyond tolerance:", line)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,92 @@
+"""The dynamic check: the same experiment simulated by every engine, each from the file it
+reads natively, and every joint's trajectory compared with MuJoCo's (MJCF).
+
+An :class:`Experiment` says what to simulate (joints released from a state with a velocity,
+gravity, time step, contacts on or off); an engine module offers
+``simulate(path, experiment) -> Trajectory``. Modules are imported only when used, so an
+engine that is not installed is skipped with a message (:class:`EngineUnavailable`).
+This module needs numpy only: engines with their own venv import it in a subprocess.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ..errors import Real2CodeError
+
+GRAVITY = (0.0, 0.0, -9.81)
+
+
+class EngineUnavailable(Real2CodeError):
+    """The engine is not installed here (the message says how to get it)."""
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One run: every joint in ``joints`` starts at ``q0`` with ``v0`` (rad, rad/s or m, m/s),
+    the base fixed, for ``duration`` s at ``dt`` s, sampled every ``sample_every`` steps."""
+
+    name: str
+    joints: tuple[str, ...]
+    angular: tuple[bool, ...]
+    q0: tuple[float, ...]
+    v0: tuple[float, ...]
+    dt: float = 1e-3
+    duration: float = 2.0
+    gravity: tuple[float, float, float] = GRAVITY
+    contacts: bool = False
+    sample_every: int = 10
+
+    @property
+    def steps(self) -> int:
+        return int(round(self.duration / self.dt))
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, data: dict) -> Experiment:
+        tuples = ("joints", "angular", "q0", "v0", "gravity")
+        return cls(**{k: tuple(v) if k in tuples else v for k, v in data.items()})
+
+
+@dataclass
+class Trajectory:
+    """Joint values (samples, joints) at ``times``; what the engine said about the run."""
+
+    joints: list[str]
+    times: np.ndarray
+    q: np.ndarray
+    notes: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {"joints": self.joints, "times": self.times.tolist(), "q": self.q.tolist(),
+                "notes": self.notes}
+
+    @classmethod
+    def from_json(cls, data: dict) -> Trajectory:
+        return cls(list(data["joints"]), np.asarray(data["times"], dtype=float),
+                   np.asarray(data["q"], dtype=float).reshape(len(data["times"]), -1),
+                   list(data.get("notes", [])))
+
+
+class Recorder:
+    """Collects samples every ``experiment.sample_every`` steps (step 0 included)."""
+
+    def __init__(self, experiment: Experiment):
+        self.experiment = experiment
+        self.times: list[float] = []
+        self.rows: list[np.ndarray] = []
+
+    def due(self, step: int) -> bool:
+        return step % self.experiment.sample_every == 0
+
+    def add(self, step: int, q) -> None:
+        self.times.append(step * self.experiment.dt)
+        self.rows.append(np.asarray(q, dtype=float).copy())
+
+    def trajectory(self, notes: list[str] | None = None) -> Trajectory:
+        return Trajectory(list(self.experiment.joints), np.array(self.times),
+                          np.array(self.rows).reshape(len(self.times), -1), notes or [])

@@ -1,0 +1,68 @@
+"""MuJoCo: the MJCF (the reference) and the URDF, each compiled by MjSpec and stepped with
+the file's own integrator and joint laws; the experiment sets time step, gravity, contacts
+and the initial state by joint name. For a URDF, MuJoCo's limit and friction softness are
+set as our MJCF authors them (URDF has no place for them)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import EngineUnavailable, Experiment, Recorder, Trajectory
+
+
+def load(path: Path):
+    try:
+        import mujoco
+    except ImportError as e:
+        raise EngineUnavailable("MuJoCo is not installed (pip install 'real2code-export[sim]')") \
+            from e
+    spec = mujoco.MjSpec.from_file(str(path))
+    spec.compiler.discardvisual = True
+    if path.suffix.lower() == ".urdf":
+        # URDF has no place for MuJoCo's constraint softness: the settings our MJCF authors
+        # are what a user must set (docs/engines.md).
+        from ..engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+
+        for joint in spec.joints:
+            joint.solref_limit = list(LIMIT_SOLREF)
+            joint.solimp_limit = list(LIMIT_SOLIMP)
+            joint.solref_friction = list(FRICTION_SOLREF)
+    return mujoco, spec.compile()
+
+
+def simulate(path: Path, experiment: Experiment) -> Trajectory:
+    mujoco, model = load(path)
+    model.opt.timestep = experiment.dt
+    model.opt.gravity[:] = experiment.gravity
+    if not experiment.contacts:
+        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    data = mujoco.MjData(model)
+    qadr, dadr = [], []
+    for name in experiment.joints:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if jid < 0:
+            raise KeyError(f"{path}: MuJoCo's model has no joint named {name!r}")
+        qadr.append(int(model.jnt_qposadr[jid]))
+        dadr.append(int(model.jnt_dofadr[jid]))
+    data.qpos[qadr] = experiment.q0
+    data.qvel[dadr] = experiment.v0
+    mujoco.mj_forward(model, data)
+    recorder = Recorder(experiment)
+    for step in range(experiment.steps + 1):
+        if recorder.due(step):
+            recorder.add(step, data.qpos[qadr])
+        if step < experiment.steps:
+            mujoco.mj_step(model, data)
+    return recorder.trajectory()
+
+
+def joint_ranges(path: Path) -> dict[str, tuple[float, float] | None]:
+    """Each hinge/slide joint's range as MuJoCo compiled it (None: unlimited)."""
+    mujoco, model = load(path)
+    out: dict[str, tuple[float, float] | None] = {}
+    for i in range(model.njnt):
+        if int(model.jnt_type[i]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                      int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            out[model.joint(i).name] = (tuple(float(v) for v in model.jnt_range[i])
+                                        if model.jnt_limited[i] else None)
+    return out

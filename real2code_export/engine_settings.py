@@ -1,0 +1,23 @@
+"""Values engines default differently, authored in every export so that no engine's default
+decides how the object moves (one source of truth for the writers; docs/engines.md).
+
+MuJoCo's constraint softness: its default (solref 0.02 s, critically damped; solimp
+0.9-0.95) lets a door sink into its limit and bounce back off it, and lets dry friction
+creep. A 2 ms time constant (MuJoCo raises it to two time steps where the step is longer),
+heavily overdamped (ratio 20: no rebound velocity left when it lets go) with an impedance
+near 1 (gravity holds a door a few mrad deep) makes a limit an inelastic stop and friction
+stick, as the hard constraints of Bullet, PhysX and Pinocchio's loop do (measured:
+``real2code simulate``, docs/engines.md).
+"""
+
+from __future__ import annotations
+
+LIMIT_SOLREF = (0.002, 20.0)
+LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+FRICTION_SOLREF = (0.002, 1.0)
+
+# PhysX damps every rigid body it is not told otherwise about (linear and angular 0.05).
+LINK_DAMPING = 0.0
+
+# PhysX's scene solver: its default TGS integrates a freely swinging door less exactly.
+PHYSX_SOLVER = "PGS"

@@ -1,0 +1,146 @@
+"""The dynamic check: the same experiments in every engine installed here, each from the
+file it reads natively, compared with MuJoCo's MJCF (real files, real engines)."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+from lxml import etree
+
+from pipeline.procedural import generate
+from real2code_export.cli import run
+from real2code_export.dynamics import Experiment, Trajectory
+from real2code_export.dynamics.experiments import EXPERIMENTS
+from real2code_export.dynamics.run import ENGINES, compare, simulate_file
+from real2code_export.formats import export, load, object_json
+
+from conftest import REPO
+
+
+@pytest.fixture(scope="module")
+def laptop(tmp_path_factory):
+    """A small object: a hinge under gravity, light to simulate."""
+    folder = tmp_path_factory.mktemp("laptop")
+    obj = generate("laptop", seed=3)
+    for j in obj.movable_joints:  # the laws experiment must have laws to apply
+        j.dynamics.damping, j.dynamics.friction = 0.05, 0.02
+    return object_json.save(obj, folder)
+
+
+# The engines that agree with MuJoCo in every experiment (docs/engines.md); PhysX and Newton
+# run in .venv-engines (scripts/setup_engines.sh) and are skipped with a message without it.
+AGREEING = ["mujoco-urdf", "pinocchio", "bullet", "physx"]
+
+
+def test_every_engine_agrees_with_mujoco(laptop):
+    report = simulate_file(laptop, AGREEING)
+    assert {r.experiment for r in report.runs} == set(EXPERIMENTS)
+    by = {(r.experiment, r.engine): r for r in report.runs}
+    for r in report.runs:
+        assert r.status in ("ok", "reference", "skipped"), (r.experiment, r.engine, r.message)
+        if r.status == "skipped":
+            warnings.warn(f"{r.engine}: {r.message}", stacklevel=1)
+    # Without laws or limits, Pinocchio's integration is MuJoCo's (semi-implicit Euler).
+    assert by[("swing", "Pinocchio (URDF)")].max_angle < 1e-9
+    assert report.ok
+
+
+def test_newton_from_the_mjcf_agrees_at_a_limit(laptop):
+    """Newton (its MuJoCo solver) reads our MJCF's limit softness: a joint thrown into its
+    limit stops as in MuJoCo. One experiment: each Newton run costs ~15 s of start-up."""
+    report = simulate_file(laptop, ["newton-mjcf"], ["limit"])
+    run = next(r for r in report.runs if r.engine == "Newton (MJCF)")
+    if run.status == "skipped":
+        pytest.skip(run.message)
+    assert run.status == "ok", run.message
+    assert run.max_angle < 1e-3
+
+
+def test_report_json_and_exit_status(laptop, tmp_path, capsys):
+    out = tmp_path / "report.json"
+    assert run(["simulate", str(laptop), "--engines", "pinocchio", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["ok"] and {r["engine"] for r in data["runs"]} == {"MuJoCo (MJCF)",
+                                                                 "Pinocchio (URDF)"}
+    # Beyond tolerance: exit 1 (friction and limits differ by ~1e-4 rad, not by 1e-12).
+    assert run(["simulate", str(laptop), "--engines", "pinocchio", "--experiments", "laws",
+                "--tol-angle", "1e-12"]) == 1
+    assert "disagree" in capsys.readouterr().out
+
+
+def test_compare_names_the_worst_joint():
+    exp = Experiment("t", ("a", "b"), (True, False), (0.0, 0.0), (0.0, 0.0))
+    times = np.array([0.0, 0.01])
+    ref = Trajectory(["a", "b"], times, np.zeros((2, 2)))
+    other = Trajectory(["a", "b"], times, np.array([[0.0, 0.0], [0.002, 0.003]]))
+    per_joint, angle, distance = compare(exp, ref, other)
+    assert per_joint == pytest.approx({"a": 0.002, "b": 0.003})
+    assert (angle, distance) == pytest.approx((0.002, 0.003))
+
+
+def test_experiments_start_at_the_observed_state():
+    obj = generate("storage_furniture", seed=7)
+    _, exp = EXPERIMENTS["limit"](obj)
+    for j, q0, v0 in zip(obj.movable_joints, exp.q0, exp.v0, strict=True):
+        assert q0 == pytest.approx(min(max(j.state, j.limits.lower), j.limits.upper))
+        # thrown toward the nearer limit, fast enough to reach it within about 0.25 s
+        near_upper = j.limits.upper - q0 <= q0 - j.limits.lower
+        assert (v0 > 0) == near_upper
+    variant, _ = EXPERIMENTS["swing"](obj)
+    assert all(j.dynamics.damping == 0 and j.dynamics.friction == 0
+               for j in variant.movable_joints)
+
+
+def test_mjcf_metadata_survives_an_xml_rewrite(tmp_path):
+    """Any XML tool turns CDATA into text content, which MuJoCo refuses; our metadata is an
+    attribute, so the rewritten file still loads with it."""
+    import mujoco
+
+    obj = generate("box", seed=1)
+    path = export(obj, tmp_path / "out", ["mjcf"])["mjcf"]
+    assert "CDATA" not in path.read_text()
+    tree = etree.parse(str(path))
+    rewritten = tmp_path / "out" / "rewritten.xml"
+    rewritten.write_bytes(etree.tostring(tree))
+    mujoco.MjModel.from_xml_path(str(rewritten))
+    assert load(rewritten).metadata == obj.metadata
+
+
+def test_mjcf_old_cdata_metadata_still_read(tmp_path):
+    obj = generate("box", seed=1)
+    path = export(obj, tmp_path / "out", ["mjcf"])["mjcf"]
+    root = etree.parse(str(path)).getroot()
+    text = root.find("custom/text[@name='real2code:metadata']")
+    text.text = etree.CDATA(text.attrib.pop("data"))
+    old = tmp_path / "out" / "old.xml"
+    old.write_bytes(etree.tostring(root))
+    assert "CDATA" in old.read_text()
+    assert load(old).metadata == obj.metadata
+
+
+def test_engines_registry_names_formats_we_export():
+    from real2code_export.formats import EXPORT_FORMATS
+
+    assert all(e.format in EXPORT_FORMATS for e in ENGINES.values())
+
+
+def test_overlapping_collision_pieces_are_reported(tmp_path):
+    """Two parts' pieces overlapping at q = 0 are named with their depth, parent and child
+    included (URDF excludes no pair); the shipped cabinet has none."""
+    from real2code_export.dynamics.overlap import overlaps
+
+    cabinet = load(REPO / "samples" / "cabinet" / "object.json")
+    assert overlaps(export(cabinet, tmp_path / "cabinet", ["mjcf"])["mjcf"]) == []
+    obj = generate("box", seed=1)
+    lid = next(p for p in obj.parts if p is not obj.root)
+    joint = next(j for j in obj.joints if j.child == lid.name)
+    # the lid's pieces moved 2 cm into its parent, in the lid's frame
+    down = np.linalg.inv(joint.origin[:3, :3]) @ np.array([0.0, 0.0, -0.02])
+    lid.collision = [m.transformed(np.block([[np.eye(3), down[:, None]], [0, 0, 0, 1]]))
+                     for m in lid.collision]
+    found = overlaps(export(obj, tmp_path / "box", ["mjcf"])["mjcf"])
+    assert any({o.part_a, o.part_b} == {obj.root.name, lid.name} and o.depth > 0.005
+               for o in found)
