@@ -3,7 +3,7 @@ USD converter) on PartNet-Mobility objects, each as the whole command a user run
 process: imports, reading the URDF and its meshes, writing the USD), side by side in one run,
 the two alternating so a busy machine slows both alike.
 
-    scripts/setup_bench.sh   # .venv-bench with urdf-usd-converter (it cannot share .venv)
+    bench/setup_converters.sh   # .venv-converters with the converters (they cannot share .venv)
     .venv/bin/python bench/export_vs_converter.py [--objects 3] [--repeat 3]
 
 Target (issue 17): ``real2code export`` at least 2x faster than the converter (ratio >= 2).
@@ -31,7 +31,7 @@ from _machine import describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
-CONVERTER = REPO / ".venv-bench" / "bin" / "urdf_usd_converter"
+CONVERTER = REPO / ".venv-converters" / "bin" / "urdf_usd_converter"
 
 
 def _run(command: list[str]) -> tuple[float, float]:
@@ -54,7 +54,7 @@ def main() -> None:
     if not (root / "index.json").is_file():
         sys.exit(f"PartNet-Mobility data not found at {root} (set REAL2CODE_SHARED_DATA)")
     if not CONVERTER.is_file():
-        sys.exit(f"{CONVERTER} not found: run scripts/setup_bench.sh first")
+        sys.exit(f"{CONVERTER} not found: run bench/setup_converters.sh first")
     ours = shutil.which("real2code", path=str(Path(sys.executable).parent)) or "real2code"
     os.environ["PYTHONPATH"] = str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")
     index = json.loads((root / "index.json").read_text())
