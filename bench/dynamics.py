@@ -2,7 +2,7 @@
 
     .venv/bin/python bench/dynamics.py [--engines a,b] [--objects cabinet,generated,partnet]
 
-Objects: the shipped cabinet (samples/cabinet, the demo's ground truth), a demo output if
+Objects: the shipped cabinet (pipeline/samples/cabinet, the demo's ground truth), a demo output if
 given (--demo DIR/object.json), one generated object of each of 5 categories, and the first
 5 dev PartNet-Mobility objects (../shared/data; skipped when absent). For every object and
 engine: the worst joint error against MuJoCo's MJCF over the three experiments (swing, laws,
@@ -36,7 +36,7 @@ PARTNET = REPO.parent / "shared" / "data" / "partnet_mobility"
 def objects(kinds: list[str], demo: str | None, folder: Path) -> list[tuple[str, Path]]:
     out = []
     if "cabinet" in kinds:
-        out.append(("samples/cabinet", REPO / "samples" / "cabinet" / "object.json"))
+        out.append(("pipeline/samples/cabinet", REPO / "pipeline" / "samples" / "cabinet" / "object.json"))
     if demo:
         out.append(("demo output", Path(demo)))
     if "generated" in kinds:

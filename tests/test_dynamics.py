@@ -122,9 +122,9 @@ def test_mjcf_old_cdata_metadata_still_read(tmp_path):
 
 
 def test_engines_registry_names_formats_we_export():
-    from real2code_export.formats import EXPORT_FORMATS
+    from real2code_export.formats import FORMATS
 
-    assert all(e.format in EXPORT_FORMATS for e in ENGINES.values())
+    assert all(e.format in FORMATS and FORMATS[e.format].exported for e in ENGINES.values())
 
 
 def test_overlapping_collision_pieces_are_reported(tmp_path):
@@ -132,7 +132,7 @@ def test_overlapping_collision_pieces_are_reported(tmp_path):
     included (URDF excludes no pair); the shipped cabinet has none."""
     from real2code_export.dynamics.overlap import overlaps
 
-    cabinet = load(REPO / "samples" / "cabinet" / "object.json")
+    cabinet = load(REPO / "pipeline" / "samples" / "cabinet" / "object.json")
     assert overlaps(export(cabinet, tmp_path / "cabinet", ["mjcf"])["mjcf"]) == []
     obj = generate("box", seed=1)
     lid = next(p for p in obj.parts if p is not obj.root)
@@ -144,3 +144,11 @@ def test_overlapping_collision_pieces_are_reported(tmp_path):
     found = overlaps(export(obj, tmp_path / "box", ["mjcf"])["mjcf"])
     assert any({o.part_a, o.part_b} == {obj.root.name, lid.name} and o.depth > 0.005
                for o in found)
+
+
+def test_an_unknown_engine_is_bad_input(capsys):
+    from real2code_export.cli import EXIT_ERROR, run
+
+    cabinet = REPO / "pipeline" / "samples" / "cabinet" / "object.json"
+    assert run(["simulate", str(cabinet), "--engines", "mujoco,nonesuch"]) == EXIT_ERROR
+    assert "--engines: unknown name(s) ['nonesuch']" in capsys.readouterr().err

@@ -161,6 +161,7 @@ def _bad_commands(tmp_path: Path) -> dict[str, list[str]]:
                                 "--out", str(tmp_path / "o")],
         "evaluate reconstruction": ["evaluate", "reconstruction", "--objects", "1",
                                     "--partnet", str(empty)],
+        "simulate": ["simulate", str(tmp_path / "missing.urdf")],
         "batch": ["batch", "export", str(tmp_path / "nothing" / "*.urdf"), "--out",
                   str(tmp_path / "o")],
     }
