@@ -464,3 +464,27 @@ def test_exported_mesh_missing_is_reported(tmp_path):
     shutil.rmtree(tmp_path / "out" / "meshes")
     with pytest.raises(FormatError, match=r"cabinet\.urdf:\d+: <link name='body'>: mesh file not"):
         urdf.load(path)
+
+
+def test_a_default_xml_namespace_on_robot_is_read_as_urdfdom_reads_it(tmp_path):
+    """A real file (Drake-style `<robot xmlns="...">`): ROS's urdfdom ignores the namespace,
+    so we read it the same, with a warning naming it; a foreign root is still refused."""
+    text = """<robot name="arm" xmlns="https://drake.mit.edu">
+  <link name="base"/>
+  <link name="arm"><inertial><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <transmission name="t"><joint name="elbow"/></transmission>
+</robot>"""
+    path = tmp_path / "ns.urdf"
+    path.write_text(text)
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    said = " ".join(str(w.message) for w in record)
+    assert "drake.mit.edu" in said and "<transmission> (line 7)" in said
+    assert obj.joint("shoulder").limits.upper == 1.0
+    assert np.allclose(obj.joint("shoulder").axis, [0, 1, 0])
+    (tmp_path / "other.urdf").write_text('<model xmlns="https://example.org"/>')
+    with pytest.raises(FormatError, match="root element must be <robot>"):
+        urdf.load(tmp_path / "other.urdf")

@@ -12,6 +12,9 @@ from ...model import NAME_PATTERN, JointType, sanitize_name
 from .context import Context, label
 
 JOINT_TYPES = tuple(t.value for t in JointType)
+# The children of <robot> the reader uses, and <mujoco>: MuJoCo's compiler hints for loading
+# the file (our writer emits one), which describe no part of the object.
+READ_TAGS = ("link", "joint", "material", "mujoco")
 
 
 def parse(ctx: Context) -> etree._Element:
@@ -24,8 +27,22 @@ def parse(ctx: Context) -> etree._Element:
         robot = etree.parse(str(ctx.path), parser).getroot()
     except etree.XMLSyntaxError as e:
         raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+    namespace = etree.QName(robot).namespace
+    if namespace is not None and etree.QName(robot).localname == "robot":
+        # urdfdom (TinyXML) reads tags without namespaces, so ROS and Pinocchio load a
+        # <robot xmlns="..."> as a plain URDF: read it the same way, and say so.
+        ctx.warn(None, f"the default XML namespace {namespace!r} of <robot> is ignored, as "
+                 "urdfdom ignores it", robot.sourceline)
+        for el in robot.iter(f"{{{namespace}}}*"):
+            el.tag = etree.QName(el).localname
+        etree.cleanup_namespaces(robot)
     if robot.tag != "robot":
         raise ctx.error(label(robot), "the root element must be <robot>", robot.sourceline)
+    unread = [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
+    if unread:  # transmissions, Gazebo tags, Drake frames...: said, never dropped in silence
+        ctx.warn(None, "not carried into the model (no kinematics or dynamics of its parts): "
+                 + ", ".join(f"<{etree.QName(el).localname}> (line {el.sourceline})"
+                             for el in unread))
     return robot
 
 
