@@ -16,8 +16,8 @@ the CSV contract carries positions and efforts. No experiment file is needed: gr
 default one, the units are SI.
 
 The authors' own URDF (``simplependul_dfki_pino_Modi.urdf``) is not used as the nominal
-model: ``real2code`` refuses it (see docs/calibration.md for why); the model written here
-is the rig as the data set's README states it.
+model: its inertial is not the rig (twice the stated inertia about the axis; see
+docs/calibration.md); the model written here is the rig as the data set's README states it.
 """
 
 from __future__ import annotations
