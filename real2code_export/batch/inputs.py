@@ -14,8 +14,8 @@ What makes a folder an object depends on the task:
 
 A folder that is not an object is searched, subfolder by subfolder (hidden ones and the
 batch's own output folder skipped), so a whole dataset tree is one INPUT. Ids are the
-objects' paths relative to the folder all of them share (``100154`` for
-``partnet_mobility/100154/``), the same on every rerun of the same command.
+objects' paths relative to the folder all of them share (``cabinet_7`` for
+``dataset/cabinet_7/``), the same on every rerun of the same command.
 """
 
 from __future__ import annotations

@@ -3,10 +3,9 @@ joint metrics for the joint predictors)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from .options import EXIT_DISAGREE, EXIT_OK, add_formats_option, chosen_formats
+from .options import EXIT_DISAGREE, EXIT_OK, add_formats_option, chosen_formats, write_evaluation
 
 
 def add_parsers(sub) -> None:
@@ -91,7 +90,6 @@ def cmd_evaluate_joints(args) -> int:
     from pipeline.evaluate_articulation import evaluate, markdown, partnet_cases, procedural_cases
     from pipeline.predictors import get_predictor
 
-    from .. import atomic
     from ..errors import Real2CodeError
 
     sets = {"procedural test set": procedural_cases(args.objects, args.seed)}
@@ -115,10 +113,5 @@ def cmd_evaluate_joints(args) -> int:
             print(f"{set_name}: {name}: {len(cases)} objects, {seconds:.2f} s per object")
         text.append(markdown(f"{set_name} ({len(cases)} objects)", rows,
                              show_paper=set_name.startswith("procedural")))
-    table = "\n\n".join(text)
-    print(table)
-    if args.json:
-        atomic.write_text(args.json, json.dumps(results, indent=1) + "\n")
-    if args.markdown:
-        atomic.write_text(args.markdown, table + "\n")
+    write_evaluation(args, "\n\n".join(text), results)
     return EXIT_OK

@@ -43,3 +43,17 @@ def chosen_formats(args) -> list[str]:
     for name in args.to:
         FORMATS[name].load_module()  # raises, naming what fails to import
     return list(args.to)
+
+
+def write_evaluation(args, table: str, figures: dict) -> None:
+    """The tail of every ``evaluate`` command: the tables printed, and written as JSON
+    (``--json``) and markdown (``--markdown``) where asked."""
+    import json
+
+    from .. import atomic
+
+    print(table)
+    if args.json:
+        atomic.write_text(args.json, json.dumps(figures, indent=1) + "\n")
+    if args.markdown:
+        atomic.write_text(args.markdown, table + "\n")

@@ -156,15 +156,13 @@ def add_evaluate_reconstruction_parser(evaluate_sub) -> argparse.ArgumentParser:
 
 
 def cmd_evaluate_reconstruction(args) -> int:
-    import json
-
     import numpy as np
 
     from pipeline.evaluate_articulation import partnet_cases, procedural_cases
     from pipeline.evaluate_reconstruction import SETTING_NAMES, evaluate, markdown
 
-    from .. import atomic
     from ..errors import Real2CodeError
+    from .options import write_evaluation
 
     sets = {"procedural test set": procedural_cases(args.objects, args.seed)}
     if args.partnet:
@@ -185,12 +183,7 @@ def cmd_evaluate_reconstruction(args) -> int:
             for k, r in results.items()}
         text.append(markdown(f"{set_name} ({len(cases)} objects)", tables,
                              show_paper=set_name.startswith("procedural")))
-    table = "\n\n".join(text)
-    print(table)
-    if args.json:
-        atomic.write_text(args.json, json.dumps(figures, indent=1) + "\n")
-    if args.markdown:
-        atomic.write_text(args.markdown, table + "\n")
+    write_evaluation(args, "\n\n".join(text), figures)
     return 0
 
 
