@@ -1,0 +1,90 @@
+"""A disk cache of what is derived from meshes: convex collision pieces, mass properties.
+
+Exporting the same object again (a user iterating on options, a batch rerun, ``check`` after
+``export``) would otherwise recompute qhull hulls and mesh integrals, and import trimesh and
+scipy for them, which costs more than the rest of a URDF -> USD export together. Entries are
+keyed by the content hash of the input meshes, the parameters and the code version, written
+atomically (concurrent processes never see half a file) and ignored when unreadable. A
+computation that gave a repair warning (``Real2CodeWarning``) is not stored, so that its
+warnings are never silenced by a rerun.
+
+``$REAL2CODE_CACHE`` moves the cache (default ``~/.cache/real2code_export``);
+``REAL2CODE_CACHE=off`` turns it off.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import os
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import write_bytes
+from .errors import Real2CodeWarning
+from .model import Mesh
+
+# Bump when what is stored for the same key would change (the code that computes it changed).
+CACHE_VERSION = 1
+
+Arrays = dict[str, np.ndarray]
+
+
+def cache_root() -> Path | None:
+    """The cache folder (None when the cache is turned off)."""
+    env = os.environ.get("REAL2CODE_CACHE")
+    if env and env.lower() == "off":
+        return None
+    return Path(env) if env else Path.home() / ".cache" / "real2code_export"
+
+
+def key(kind: str, meshes: Sequence[Mesh], params: dict) -> str:
+    """Content key of ``kind`` computed from ``meshes`` with ``params`` (JSON-able)."""
+    h = hashlib.sha256(json.dumps({"kind": kind, "version": CACHE_VERSION, **params},
+                                  sort_keys=True).encode())
+    for mesh in meshes:
+        h.update(mesh.digest().encode())
+    return h.hexdigest()
+
+
+def cached(kind: str, meshes: Sequence[Mesh], params: dict, compute: Callable[[], object],
+           encode: Callable[[object], Arrays], decode: Callable[[Arrays], object]):
+    """``compute()``, or its stored result for the same meshes and parameters."""
+    root = cache_root()
+    if root is None:
+        return compute()
+    path = root / kind / f"{key(kind, meshes, params)}.npz"
+    if path.is_file():
+        with contextlib.suppress(Exception):  # truncated or foreign: recompute, rewrite
+            with np.load(path, allow_pickle=False) as data:
+                return decode({name: data[name] for name in data.files})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = compute()
+    for w in caught:  # pass them on as they came
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if not any(issubclass(w.category, Real2CodeWarning) for w in caught):
+        buf = io.BytesIO()
+        np.savez(buf, **encode(result))
+        with contextlib.suppress(OSError):  # a cache that cannot be written is a lost speed-up
+            write_bytes(path, buf.getvalue())
+    return result
+
+
+def encode_meshes(meshes: Sequence[Mesh]) -> Arrays:
+    arrays = {"count": np.array(len(meshes))}
+    for k, m in enumerate(meshes):
+        arrays[f"v{k}"], arrays[f"f{k}"] = m.vertices, m.faces
+    return arrays
+
+
+def decode_meshes(arrays: Arrays) -> list[Mesh]:
+    meshes = [Mesh(arrays[f"v{k}"], arrays[f"f{k}"]) for k in range(int(arrays["count"]))]
+    if any(len(m.faces) and m.faces.max() >= len(m.vertices) for m in meshes):
+        raise ValueError("inconsistent cached mesh")
+    return meshes
