@@ -60,9 +60,9 @@ def cached(kind: str, meshes: Sequence[Mesh], params: dict, compute: Callable[[]
         return compute()
     path = root / kind / f"{key(kind, meshes, params)}.npz"
     if path.is_file():
-        with contextlib.suppress(Exception):  # truncated or foreign: recompute, rewrite
-            with np.load(path, allow_pickle=False) as data:
-                return decode({name: data[name] for name in data.files})
+        # truncated or foreign: recompute, rewrite
+        with contextlib.suppress(Exception), np.load(path, allow_pickle=False) as data:
+            return decode({name: data[name] for name in data.files})
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = compute()

@@ -122,8 +122,10 @@ def _read_obj(path: Path, source, element, line) -> tuple[Mesh, RGBA | None]:
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise FormatError(source or path, element, f"mesh {path}: a face refers to vertex "
                           f"{int(faces.max()) + 1} of {len(vertices)}", line)
-    used, faces = np.unique(faces, return_inverse=True)
-    mesh = Mesh(vertices[used], faces.reshape(-1, 3))
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces] = True
+    renumber = np.cumsum(used) - 1  # a mask, not np.unique: no sort
+    mesh = Mesh(vertices[used], renumber[faces].reshape(-1, 3))
     material = np.concatenate([np.zeros(0, np.int64)]
                               + [np.array(m.material_ids, dtype=np.int64) for m in shapes])
     return mesh, _area_weighted_color(mesh, material, reader.GetMaterials())
