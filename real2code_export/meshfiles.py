@@ -11,6 +11,7 @@ through trimesh (STL, glTF, PLY, ...).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -112,7 +113,7 @@ def _read_obj(path: Path, source, element, line) -> tuple[Mesh, RGBA | None]:
     if not reader.ParseFromFile(str(path), config):
         raise FormatError(source or path, element,
                           f"cannot read mesh {path}: {reader.Error().strip()}", line)
-    vertices = np.array(reader.GetAttrib().vertices, dtype=np.float64).reshape(-1, 3)
+    vertices = _exact_vertices(path, np.array(reader.GetAttrib().vertices, dtype=np.float64))
     # the list accessors: numpy_vertices()/numpy_indices() of 2.0.0rc13 return wrong values
     shapes = [s.mesh for s in reader.GetShapes()]
     faces = np.concatenate([np.zeros(0, np.int64)]
@@ -129,6 +130,23 @@ def _read_obj(path: Path, source, element, line) -> tuple[Mesh, RGBA | None]:
     material = np.concatenate([np.zeros(0, np.int64)]
                               + [np.array(m.material_ids, dtype=np.int64) for m in shapes])
     return mesh, _area_weighted_color(mesh, material, reader.GetMaterials())
+
+
+_VERTEX_LINE = re.compile(rb"^v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
+
+
+def _exact_vertices(path: Path, parsed: np.ndarray) -> np.ndarray:
+    """The OBJ's vertices as the nearest float64 to each number written: tinyobjloader's own
+    number parser can be one unit in the last place off, which would break the lossless
+    object.json round trip. Its values stand when the ``v`` lines do not read plainly."""
+    try:
+        exact = np.array(_VERTEX_LINE.findall(path.read_bytes()), dtype=np.float64)
+    except ValueError:
+        exact = np.zeros((0, 3))
+    if exact.shape == (len(parsed) // 3, 3) and np.allclose(exact.ravel(), parsed, rtol=1e-6,
+                                                               atol=1e-12):
+        return exact
+    return parsed.reshape(-1, 3)
 
 
 def _area_weighted_color(mesh: Mesh, material: np.ndarray, materials) -> RGBA | None:
