@@ -165,7 +165,7 @@ def collision_pieces(
         return meshcache.cached(
             "pieces", pieces, {"max_pieces": max_pieces, "min_thickness": min_thickness},
             lambda: _sorted(_piece_hulls(pieces, max_pieces, min_thickness)),
-            meshcache.encode_meshes, meshcache.decode_meshes)
+            meshcache.encode_meshes, meshcache.decode_meshes, sources=(__file__,))
     return _coacd_cached(mesh, threshold, max_pieces, min_thickness, cache_dir)
 
 

@@ -190,7 +190,7 @@ def inertial_from_meshes(meshes: Sequence[Mesh], density: float = DEFAULT_DENSIT
         "inertial", meshes, {"density": density, "shell_thickness": shell_thickness},
         lambda: _inertial_of_pieces(meshes, density, shell_thickness),
         lambda i: {"mass": np.array(i.mass), "com": i.com, "inertia": i.inertia},
-        lambda a: Inertial(float(a["mass"]), a["com"], a["inertia"]))
+        lambda a: Inertial(float(a["mass"]), a["com"], a["inertia"]), sources=(__file__,))
 
 
 def _inertial_of_pieces(meshes: Sequence[Mesh], density: float,

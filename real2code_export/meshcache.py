@@ -3,8 +3,8 @@
 Exporting the same object again (a user iterating on options, a batch rerun, ``check`` after
 ``export``) would otherwise recompute qhull hulls and mesh integrals, and import trimesh and
 scipy for them, which costs more than the rest of a URDF -> USD export together. Entries are
-keyed by the content hash of the input meshes, the parameters and the code version, written
-atomically (concurrent processes never see half a file) and ignored when unreadable. A
+keyed by the content hash of the input meshes, the parameters and the source of the module
+that computes them (a change to that code never reads a stale entry), written atomically (concurrent processes never see half a file) and ignored when unreadable. A
 computation that gave a repair warning (``Real2CodeWarning``) is not stored, so that its
 warnings are never silenced by a rerun.
 
@@ -29,7 +29,7 @@ from .atomic import write_bytes
 from .errors import Real2CodeWarning
 from .model import Mesh
 
-# Bump when what is stored for the same key would change (the code that computes it changed).
+# Bump when what is stored changes shape (the computing code's own changes are in the key).
 CACHE_VERSION = 1
 
 Arrays = dict[str, np.ndarray]
@@ -43,22 +43,27 @@ def cache_root() -> Path | None:
     return Path(env) if env else Path.home() / ".cache" / "real2code_export"
 
 
-def key(kind: str, meshes: Sequence[Mesh], params: dict) -> str:
-    """Content key of ``kind`` computed from ``meshes`` with ``params`` (JSON-able)."""
+def key(kind: str, meshes: Sequence[Mesh], params: dict, sources: Sequence[str] = ()) -> str:
+    """Content key of ``kind`` computed from ``meshes`` with ``params`` (JSON-able) by the
+    code in the files ``sources``."""
     h = hashlib.sha256(json.dumps({"kind": kind, "version": CACHE_VERSION, **params},
                                   sort_keys=True).encode())
+    for source in sources:
+        h.update(Path(source).read_bytes())
     for mesh in meshes:
         h.update(mesh.digest().encode())
     return h.hexdigest()
 
 
 def cached(kind: str, meshes: Sequence[Mesh], params: dict, compute: Callable[[], object],
-           encode: Callable[[object], Arrays], decode: Callable[[Arrays], object]):
-    """``compute()``, or its stored result for the same meshes and parameters."""
+           encode: Callable[[object], Arrays], decode: Callable[[Arrays], object], *,
+           sources: Sequence[str] = ()):
+    """``compute()``, or its stored result for the same meshes, parameters and ``sources``
+    (the files of the code ``compute`` runs: pass the caller's ``__file__``)."""
     root = cache_root()
     if root is None:
         return compute()
-    path = root / kind / f"{key(kind, meshes, params)}.npz"
+    path = root / kind / f"{key(kind, meshes, params, sources)}.npz"
     if path.is_file():
         # truncated or foreign: recompute, rewrite
         with contextlib.suppress(Exception), np.load(path, allow_pickle=False) as data:

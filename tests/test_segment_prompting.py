@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pipeline.predictors.data import ajar_configuration
 from pipeline.procedural import generate
 from pipeline.render import render_object
 from pipeline.segment import segment
@@ -19,7 +20,6 @@ from pipeline.segment.features import (
 )
 from pipeline.segment.metrics import matched_part_iou
 from pipeline.segment.prompting import segment_capture
-from pipeline.train_joint_predictor import ajar_configuration
 
 
 class MaskOracle:
