@@ -45,6 +45,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                         np.concatenate([n for _, n in measured]))
     labels, moved = return_compartments(seg.points, seg.point_labels, seg.spacing, options,
                                         normals)
+    if not moved:  # the labels stand (already numbered by size): no views to redo
+        return replace(seg, details={**seg.details, "returned_to_carcass": []})
     return replace(seg, labels=label_views(capture, seg.points, labels),
                    n_parts=int(labels.max()), point_labels=labels,
                    details={**seg.details, "parts": int(labels.max()),
