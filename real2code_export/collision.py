@@ -22,7 +22,6 @@ import contextlib
 import hashlib
 import io
 import json
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -293,10 +292,11 @@ def _sorted(pieces: list[Mesh]) -> list[Mesh]:
 
 
 # -- "coacd" -----------------------------------------------------------------------------------
-def default_cache_dir() -> Path:
-    env = os.environ.get("REAL2CODE_CACHE")
-    base = Path(env) if env else Path.home() / ".cache" / "real2code_export"
-    return base / "coacd"
+def default_cache_dir() -> Path | None:
+    """``$REAL2CODE_CACHE/coacd`` (default ``~/.cache/real2code_export/coacd``); None when
+    ``REAL2CODE_CACHE=off``."""
+    root = meshcache.cache_root()
+    return None if root is None else root / "coacd"
 
 
 def _coacd_key(mesh: Mesh, threshold: float, max_pieces: int, min_thickness: float) -> str:
@@ -325,8 +325,10 @@ def _coacd_version() -> str:
 
 def _coacd_cached(mesh: Mesh, threshold: float, max_pieces: int, min_thickness: float,
                   cache_dir: Path | None) -> list[Mesh]:
-    path = Path(cache_dir or default_cache_dir()) / f"{_coacd_key(mesh, threshold, max_pieces, min_thickness)}.npz"
-    cached = _read_cache(path)
+    folder = cache_dir or default_cache_dir()
+    path = None if folder is None else (
+        Path(folder) / f"{_coacd_key(mesh, threshold, max_pieces, min_thickness)}.npz")
+    cached = None if path is None else _read_cache(path)
     if cached is not None:
         return cached
     try:
@@ -339,7 +341,8 @@ def _coacd_cached(mesh: Mesh, threshold: float, max_pieces: int, min_thickness: 
         warn("CoACD returned no pieces; using one convex hull instead")
         return [convex_hull(mesh, min_thickness=min_thickness)]
     pieces = _sorted(pieces)
-    _write_cache(path, pieces)
+    if path is not None:
+        _write_cache(path, pieces)
     return pieces
 
 

@@ -107,6 +107,9 @@ def test_cache_returns_the_stored_result_and_keeps_warnings(tmp_path, monkeypatc
     meshcache.cached(*args)
     meshcache.cached(*args)
     assert len(calls) == 5
+    from real2code_export.collision import default_cache_dir
+
+    assert default_cache_dir() is None  # nor CoACD's decompositions
 
 
 def test_cached_hulls_and_inertials_equal_fresh_ones(tmp_path, monkeypatch):
