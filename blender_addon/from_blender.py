@@ -365,7 +365,7 @@ def _joint_motion(je, jtype: JointType, world: _Frames) -> _Motion:
     """The Empty's motion channel turns about (angular) or moves along (prismatic) the Z axis
     of the frame its parent gives it; whatever else its own transform holds is its rest."""
     parent = world.matrix(je.parent) @ _matrix(je.matrix_parent_inverse)
-    local = tf.inverse(parent) @ world.matrix(je)
+    local = np.linalg.inv(parent) @ world.matrix(je)  # (a scaled frame: no rigid inverse)
     along = float(np.linalg.norm(parent[:3, 2]))
     rest, value = local.copy(), 0.0
     if jtype.angular:
