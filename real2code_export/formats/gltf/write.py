@@ -12,8 +12,9 @@ Node tree (names are the model's; the scene holds one root node):
             ...
 
 The joint motion is the child part node's own rotation (revolute, continuous) or
-translation (prismatic), so a viewer plays a joint by animating one node. One animation per
-movable joint sweeps lower -> upper -> lower (continuous: one full turn from the state).
+translation (prismatic), so a viewer plays a joint by animating one node. Each movable
+joint's sweep goes lower -> upper -> lower (continuous: one full turn from the state); the
+first animation plays every sweep together, and one animation per joint follows.
 Node transforms are float64 JSON numbers, so poses survive to ~1e-15; vertex data is
 float32. Our extras hold every model value exactly, so our reader is lossless (up to the
 float32 vertices) and re-exporting what it read gives the same bytes.
@@ -200,28 +201,45 @@ def sweep(joint: Joint) -> tuple[np.ndarray, np.ndarray]:
     return np.linspace(0.0, 2 * SWEEP_SECONDS, 2 * n + 1), values
 
 
-def _animation(b: _Builder, joint: Joint, node: int) -> None:
+def _animations(b: _Builder, obj: ArticulatedObject, animated: list[tuple[Joint, int]]) -> None:
+    """First one animation that plays every joint together (importers such as Blender's
+    make the first animation the active one, so pressing play moves the whole object), then
+    one per joint; both share each joint's key accessors."""
     g = b.g
-    times, values = sweep(joint)
-    if joint.type.angular:
-        keys = np.array([axis_angle_xyzw(joint.axis, q) for q in values], dtype=np.float32)
-        path, type_ = "rotation", "VEC4"
-    else:
-        keys = (values[:, None] * joint.axis[None, :]).astype(np.float32)
-        path, type_ = "translation", "VEC3"
-    sampler = g.AnimationSampler(
-        input=b.accessor(times.astype(np.float32), FLOAT, "SCALAR", bounds=True),
-        output=b.accessor(keys, FLOAT, type_), interpolation="LINEAR")
+    order = {joint.name: k for k, joint in enumerate(obj.joints)}
+    animated = sorted(animated, key=lambda pair: order[pair[0].name])  # the model's order
+    samplers, channels = [], []
+    for joint, node in animated:
+        times, values = sweep(joint)
+        if joint.type.angular:
+            keys = np.array([axis_angle_xyzw(joint.axis, q) for q in values], dtype=np.float32)
+            path, type_ = "rotation", "VEC4"
+        else:
+            keys = (values[:, None] * joint.axis[None, :]).astype(np.float32)
+            path, type_ = "translation", "VEC3"
+        samplers.append(g.AnimationSampler(
+            input=b.accessor(times.astype(np.float32), FLOAT, "SCALAR", bounds=True),
+            output=b.accessor(keys, FLOAT, type_), interpolation="LINEAR"))
+        channels.append((g.AnimationChannelTarget(node=node, path=path), _floats(values)))
+    if not animated:
+        return
     b.gltf.animations.append(g.Animation(
-        name=joint.name, samplers=[sampler],
-        channels=[g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=node, path=path))],
-        extras={EXTRAS_KEY: {"joint": joint.name, "values": _floats(values)}}))
+        name=f"{obj.name} all joints", samplers=samplers,
+        channels=[g.AnimationChannel(sampler=k, target=target)
+                  for k, (target, _) in enumerate(channels)],
+        extras={EXTRAS_KEY: {"joints": [joint.name for joint, _ in animated]}}))
+    for (joint, _), sampler, (target, values) in zip(animated, samplers, channels, strict=True):
+        b.gltf.animations.append(g.Animation(
+            name=joint.name, samplers=[sampler],
+            channels=[g.AnimationChannel(sampler=0, target=target)],
+            extras={EXTRAS_KEY: {"joint": joint.name, "values": values}}))
 
 
 def build(obj: ArticulatedObject) -> bytes:
     b = _Builder()
     g = b.g
     physics_joints: list[dict] = []
+    animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
 
     def material(part: Part) -> int:
         color = _floats(part.color)
@@ -279,7 +297,7 @@ def build(obj: ArticulatedObject) -> bytes:
             b.gltf.nodes[attach].extensions = {KHR_PHYSICS: {"joint": {
                 "connectedNode": connected, "joint": joint_index}}}
         if joint.type.movable:
-            _animation(b, joint, child_node)
+            animated.append((joint, child_node))
         return node
 
     root = b.node(obj.name, rotation=list(ROOT_ROTATION_XYZW), extras={EXTRAS_KEY: {
@@ -287,6 +305,7 @@ def build(obj: ArticulatedObject) -> bytes:
         # metadata as JSON text: pygltflib drops empty values from extras, which would lose them
         "metadata_json": metadata_json(obj)}})
     b.gltf.nodes[root].children.append(add_part(obj.root, None)[0])
+    _animations(b, obj, animated)
     b.gltf.scenes.append(g.Scene(name=obj.name, nodes=[root]))
     b.gltf.scene = 0
     uses_physics = physics_joints or any(n.extensions for n in b.gltf.nodes)
