@@ -2,6 +2,11 @@
 with the part's linear colour) and its convex collision pieces (UsdGeom.Mesh with
 PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
 renderers skip them). Geometry is inline, in the part frame, so the file is self-contained.
+
+Mesh prims are named after their part (``<part>/<part>``, ``<part>/<part>_collision_<k>``),
+never a generic ``visual``: importers that fold a single-mesh Xform into one object (Blender's
+does) name it after the mesh prim, and should show the part's name. The reader tells visual
+from collision by the PhysicsCollisionAPI, not by name.
 """
 
 from __future__ import annotations
@@ -11,11 +16,12 @@ import numpy as np
 from ...errors import FormatError, warn
 from ...model import DEFAULT_COLOR, Mesh, Part
 
-VISUAL = "visual"
+def visual_name(part: Part) -> str:
+    return part.name
 
 
-def collision_name(k: int) -> str:
-    return f"collision_{k}"
+def collision_name(part: Part, k: int) -> str:
+    return f"{part.name}_collision_{k}"
 
 
 def _define_mesh(stage, path: str, mesh: Mesh):
@@ -49,12 +55,12 @@ def write_part_geometry(stage, part: Part, body_path: str, material_path: str) -
     UsdShade.MaterialBindingAPI.Apply(body).Bind(material)
 
     if part.visual is not None:
-        visual = _define_mesh(stage, f"{body_path}/{VISUAL}", part.visual)
+        visual = _define_mesh(stage, f"{body_path}/{visual_name(part)}", part.visual)
         # displayColor too, for viewers and importers (MuJoCo's) that read no materials
         visual.CreateDisplayColorAttr([Gf.Vec3f(r, g, b)])
         visual.CreateDisplayOpacityAttr([a])
     for k, piece in enumerate(part.collision):
-        geom = _define_mesh(stage, f"{body_path}/{collision_name(k)}", piece)
+        geom = _define_mesh(stage, f"{body_path}/{collision_name(part, k)}", piece)
         geom.CreatePurposeAttr("guide")
         UsdPhysics.CollisionAPI.Apply(geom.GetPrim())
         UsdPhysics.MeshCollisionAPI.Apply(geom.GetPrim()).CreateApproximationAttr(
