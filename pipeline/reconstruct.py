@@ -106,11 +106,13 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                         precomputed_segmentation: Segmentation | None = None,
                         progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Every stage in memory (the evaluation calls this; :func:`reconstruct` also writes).
-    ``precomputed_segmentation`` skips the segmentation stage (the evaluation segments
-    once and completes twice)."""
+    ``precomputed_segmentation`` skips the segmentation stages (segmentation, then the
+    compartments behind open doors back to the carcass; the evaluation segments once and
+    completes twice)."""
     from real2code_export.model import Mesh
 
     from .articulate import articulate
+    from .compartments import return_to_carcass
     from .complete.data import MIN_POINTS  # the fewest points completion takes
     from .fuse import oriented_part_clouds
     from .predictors import get_predictor
@@ -119,9 +121,11 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     timings: dict[str, float] = {}
     t = time.perf_counter()
     say(f"segmentation ({segmentation}) of {len(capture.frames)} views ...")
-    seg = precomputed_segmentation or segment(
-        capture, segmentation, segmenter=segmenter, options=prompting,
-        sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type)
+    seg = precomputed_segmentation
+    if seg is None:
+        seg = return_to_carcass(capture, segment(
+            capture, segmentation, segmenter=segmenter, options=prompting,
+            sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type))
     timings["segmentation"] = time.perf_counter() - t
     say(f"  {seg.n_parts} parts ({timings['segmentation']:.1f} s)")
 

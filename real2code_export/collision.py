@@ -6,7 +6,8 @@ by orders of magnitude:
 
 - ``"hull"``: one convex hull (milliseconds). Right for convex-ish parts.
 - ``"pieces"``: the hull of each source piece (PartNet parts come as many OBJ pieces that
-  are mostly boxes and cylinders already): 40 pieces in ~0.2 s.
+  are mostly boxes and cylinders already): 40 pieces in ~0.2 s, cached on disk
+  (``meshcache``) so that exporting the same object again costs nothing.
 - ``"coacd"``: CoACD approximate convex decomposition of one mesh (a watertight scan).
   Slow: a 10k-face PartNet part took ~80 s at threshold 0.1 on 2 cores, so results are
   cached on disk by mesh hash and parameters.
@@ -27,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import meshcache
 from .atomic import write_bytes
 from .errors import InputError, warn
 from .model import Mesh
@@ -160,7 +162,10 @@ def collision_pieces(
             warn(f"mesh has more than {_MAX_COMPONENTS} loose components; using one convex hull "
                  "(pass source_pieces, or use method='coacd')")
             return [convex_hull(mesh, min_thickness=min_thickness)]
-        return _sorted(_piece_hulls(pieces, max_pieces, min_thickness))
+        return meshcache.cached(
+            "pieces", pieces, {"max_pieces": max_pieces, "min_thickness": min_thickness},
+            lambda: _sorted(_piece_hulls(pieces, max_pieces, min_thickness)),
+            meshcache.encode_meshes, meshcache.decode_meshes, sources=(__file__,))
     return _coacd_cached(mesh, threshold, max_pieces, min_thickness, cache_dir)
 
 

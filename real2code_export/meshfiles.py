@@ -2,18 +2,24 @@
 
 Every format references the same files (``meshes/<part>.obj``,
 ``meshes/<part>_collision_<k>.obj``), written once per export, deterministically, so the
-same model gives byte-identical files. Reading goes through trimesh (STL, OBJ, glTF, PLY,
-...), Collada through ``collada_mesh`` (pycollada: scene-graph transforms and unit applied).
+same model gives byte-identical files. Reading: OBJ through tinyobjloader (the geometry and
+its MTL colours in one pass, without importing trimesh and scipy: a PartNet object is ~100
+OBJ files and the export of one is a command a user waits on), Collada through
+``collada_mesh`` (pycollada: scene-graph transforms and unit applied), everything else
+through trimesh (STL, glTF, PLY, ...).
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
 from .errors import FormatError
 from .model import ArticulatedObject, Mesh
+
+RGBA = tuple[float, float, float, float]
 
 MESH_DIR = "meshes"
 
@@ -64,14 +70,25 @@ def read_mesh(path: str | Path, *, source: str | Path | None = None, element: st
 
     ``source``/``element``/``line`` name the referencing file for the error message.
     """
-    import trimesh
+    return read_mesh_file(path, source=source, element=element, line=line, scale=scale)[0]
 
+
+def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
+                   element: str | None = None, line: int | None = None,
+                   scale=None) -> tuple[Mesh, RGBA | None]:
+    """:func:`read_mesh` and the file's own colour: for an OBJ the area-weighted diffuse
+    colour (``Kd``) of its MTL materials, None when it names none (or other formats)."""
     path = Path(path)
     if not path.is_file():
         raise FormatError(source or path, element, f"mesh file not found: {path}", line)
-    if path.suffix.lower() == ".dae":
+    color = None
+    if path.suffix.lower() == ".obj":
+        mesh, color = _read_obj(path, source, element, line)
+    elif path.suffix.lower() == ".dae":
         mesh = _read_collada(path, source, element, line)
     else:
+        import trimesh
+
         try:
             loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
         except Exception as e:  # trimesh raises many types for broken files
@@ -82,7 +99,68 @@ def read_mesh(path: str | Path, *, source: str | Path | None = None, element: st
         mesh = Mesh.from_trimesh(loaded)
     if scale is not None:
         mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces)
-    return mesh
+    return mesh, color
+
+
+def _read_obj(path: Path, source, element, line) -> tuple[Mesh, RGBA | None]:
+    """An OBJ's triangles (polygons fanned by tinyobjloader; only the vertices the faces use,
+    in file order, as trimesh keeps them) and its MTL colour. A missing MTL or texture costs
+    the colour only, as in trimesh and the viewers."""
+    import tinyobjloader
+
+    reader, config = tinyobjloader.ObjReader(), tinyobjloader.ObjReaderConfig()
+    config.triangulate = True
+    if not reader.ParseFromFile(str(path), config):
+        raise FormatError(source or path, element,
+                          f"cannot read mesh {path}: {reader.Error().strip()}", line)
+    vertices = _exact_vertices(path, np.array(reader.GetAttrib().vertices, dtype=np.float64))
+    # the list accessors: numpy_vertices()/numpy_indices() of 2.0.0rc13 return wrong values
+    shapes = [s.mesh for s in reader.GetShapes()]
+    faces = np.concatenate([np.zeros(0, np.int64)]
+                           + [np.array(m.vertex_indices(), dtype=np.int64) for m in shapes])
+    if len(faces) == 0 or len(faces) % 3:
+        raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise FormatError(source or path, element, f"mesh {path}: a face refers to vertex "
+                          f"{int(faces.max()) + 1} of {len(vertices)}", line)
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces] = True
+    renumber = np.cumsum(used) - 1  # a mask, not np.unique: no sort
+    mesh = Mesh(vertices[used], renumber[faces].reshape(-1, 3))
+    material = np.concatenate([np.zeros(0, np.int64)]
+                              + [np.array(m.material_ids, dtype=np.int64) for m in shapes])
+    return mesh, _area_weighted_color(mesh, material, reader.GetMaterials())
+
+
+_VERTEX_LINE = re.compile(rb"^v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
+
+
+def _exact_vertices(path: Path, parsed: np.ndarray) -> np.ndarray:
+    """The OBJ's vertices as the nearest float64 to each number written: tinyobjloader's own
+    number parser can be one unit in the last place off, which would break the lossless
+    object.json round trip. Its values stand when the ``v`` lines do not read plainly."""
+    try:
+        exact = np.array(_VERTEX_LINE.findall(path.read_bytes()), dtype=np.float64)
+    except ValueError:
+        exact = np.zeros((0, 3))
+    if exact.shape == (len(parsed) // 3, 3) and np.allclose(exact.ravel(), parsed, rtol=1e-6,
+                                                               atol=1e-12):
+        return exact
+    return parsed.reshape(-1, 3)
+
+
+def _area_weighted_color(mesh: Mesh, material: np.ndarray, materials) -> RGBA | None:
+    """The faces' diffuse colours weighted by face area (alpha 1, as trimesh reads MTLs)."""
+    known = (material >= 0) & (material < len(materials))
+    if not known.any():
+        return None
+    diffuse = np.array([list(m.diffuse)[:3] for m in materials], dtype=np.float64)
+    tri = mesh.vertices[mesh.faces[known]]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    if area.sum() <= 0:
+        return None
+    rgb = np.clip(area @ diffuse[material[known]] / area.sum(), 0.0, 1.0)
+    return (*(float(v) for v in rgb), 1.0)
 
 
 def _read_collada(path: Path, source, element, line) -> Mesh:
