@@ -32,7 +32,16 @@ import numpy as np
 
 from ... import atomic
 from ...meshfiles import write_object_meshes
-from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from ...model import (
+    ArticulatedObject,
+    Joint,
+    JointType,
+    Mesh,
+    Part,
+    Texture,
+    metadata_json,
+    validate,
+)
 from . import physics
 from .conventions import (
     ARRAY_BUFFER,
@@ -40,6 +49,9 @@ from .conventions import (
     EXTRAS_KEY,
     FLOAT,
     KHR_PHYSICS,
+    LINEAR,
+    LINEAR_MIPMAP_LINEAR,
+    REPEAT,
     ROOT_ROTATION_XYZW,
     SCHEMA,
     SCHEMA_VERSION,
@@ -89,6 +101,9 @@ class _Builder:
                                                          target=ARRAY_BUFFER, bounds=True))
         if data.normals is not None:
             attributes.NORMAL = self.accessor(data.normals, FLOAT, "VEC3", target=ARRAY_BUFFER)
+        if data.texcoords is not None:
+            attributes.TEXCOORD_0 = self.accessor(data.texcoords, FLOAT, "VEC2",
+                                                  target=ARRAY_BUFFER)
         component = UNSIGNED_SHORT if data.indices.dtype == np.uint16 else UNSIGNED_INT
         indices = self.accessor(data.indices.reshape(-1), component, "SCALAR",
                                 target=ELEMENT_ARRAY_BUFFER)
@@ -99,6 +114,21 @@ class _Builder:
                                                                             "SCALAR")}}
         self.gltf.meshes.append(g.Mesh(name=name, primitives=[primitive]))
         return len(self.gltf.meshes) - 1
+
+    def texture(self, texture: Texture) -> int:
+        """The image in the binary buffer (its bytes as read: never re-encoded), one shared
+        sampler (linear, repeat), and the texture that joins them."""
+        g = self.g
+        self.gltf.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(self.blob),
+                                                  byteLength=len(texture.image)))
+        self.blob += texture.image + b"\0" * (-len(texture.image) % 4)
+        self.gltf.images.append(g.Image(name=texture.name, mimeType=texture.mime,
+                                        bufferView=len(self.gltf.bufferViews) - 1))
+        if not self.gltf.samplers:
+            self.gltf.samplers.append(g.Sampler(magFilter=LINEAR, minFilter=LINEAR_MIPMAP_LINEAR,
+                                                wrapS=REPEAT, wrapT=REPEAT))
+        self.gltf.textures.append(g.Texture(sampler=0, source=len(self.gltf.images) - 1))
+        return len(self.gltf.textures) - 1
 
     def node(self, name: str, **fields) -> int:
         self.gltf.nodes.append(self.g.Node(name=name, **fields))
@@ -243,11 +273,14 @@ def build(obj: ArticulatedObject) -> bytes:
 
     def material(part: Part) -> int:
         color = _floats(part.color)
+        pbr = g.PbrMetallicRoughness(baseColorFactor=color, metallicFactor=0.0,
+                                     roughnessFactor=0.8)
+        if part.texture is not None:  # the factor multiplies the image: ours is its tint
+            pbr.baseColorTexture = g.TextureInfo(index=b.texture(part.texture))
         b.gltf.materials.append(g.Material(
             name=part.name, doubleSided=True,  # scans may have inconsistent winding
             alphaMode="BLEND" if color[3] < 1.0 else "OPAQUE", alphaCutoff=None,
-            pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=color, metallicFactor=0.0,
-                                                        roughnessFactor=0.8)))
+            pbrMetallicRoughness=pbr))
         return len(b.gltf.materials) - 1
 
     def add_part(part: Part, joint: Joint | None) -> tuple[int, int | None]:
