@@ -13,10 +13,9 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
-
-from typing import NamedTuple
 
 from .errors import FormatError, warn
 from .model import ArticulatedObject, Mesh, Part, Texture
@@ -102,9 +101,22 @@ def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = Fal
             put(visual_relpath(part.name), obj_bytes(part.visual, exact, material))
             if material is not None:
                 put(material_relpath(part.name), mtl_bytes(part))
-                put(texture_relpath(part), part.texture.image)
         for k, mesh in enumerate(part.collision):
             put(collision_relpath(part.name, k), obj_bytes(mesh, exact))
+    written.update(write_texture_images(obj, out_dir))
+    return written
+
+
+def write_texture_images(obj: ArticulatedObject, out_dir: Path) -> dict[str, Path]:
+    """Only the textured parts' images (formats that hold geometry inline, as USD does, still
+    refer to them as files); returns relpath -> absolute path."""
+    written = {}
+    for part in obj.parts:
+        if part.texture is not None:
+            path = out_dir / texture_relpath(part)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(part.texture.image)
+            written[texture_relpath(part)] = path
     return written
 
 

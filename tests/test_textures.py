@@ -10,7 +10,7 @@ import io
 import numpy as np
 import pytest
 
-from real2code_export.formats import FORMATS, export, load
+from real2code_export.formats import export, load
 from real2code_export.model import (
     ArticulatedObject,
     Inertial,
