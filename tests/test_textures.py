@@ -94,3 +94,48 @@ def test_texture_round_trip(tmp_path, fmt):
 def _only_mesh_precision(a, b, fmt) -> bool:
     """float32 formats (glTF, USD) differ in the vertices' last digits only."""
     return fmt in ("gltf", "usd") and not differences(a, b, 1e-5)
+
+
+def test_textured_exports_pass_the_validators_and_the_check(tmp_path):
+    from real2code_export.check import check_files
+    from real2code_export.validators import validate_files
+
+    written = export(textured_cabinet(), tmp_path, ["json", "urdf", "mjcf", "usd", "gltf"])
+    for result in validate_files([written["gltf"], written["usd"]]):
+        assert result.errors == 0, result.messages
+    report = check_files([str(p) for p in written.values()], n_configurations=5)
+    assert report.ok, report
+
+
+def test_what_cannot_be_kept_is_warned_about(tmp_path):
+    """An OBJ naming an image that is not there, and a TGA converted to PNG."""
+    from PIL import Image
+
+    from real2code_export.errors import Real2CodeWarning
+    from real2code_export.meshfiles import obj_bytes, read_mesh_file
+
+    mesh = uv_box()
+    (tmp_path / "a.obj").write_bytes(obj_bytes(mesh, material="a"))
+    (tmp_path / "a.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd missing.png\n")
+    with pytest.warns(Real2CodeWarning, match="missing.png not found"):
+        assert read_mesh_file(tmp_path / "a.obj").texture is None
+    Image.new("RGB", (4, 4), (200, 10, 10)).save(tmp_path / "wood.tga")
+    (tmp_path / "a.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd wood.tga\n")
+    with pytest.warns(Real2CodeWarning, match="converted to PNG"):
+        texture = read_mesh_file(tmp_path / "a.obj").texture
+    assert texture.mime == "image/png" and texture.name == "wood"
+    assert read_mesh_file(tmp_path / "a.obj").mesh.uv is not None
+
+
+def test_obj_corners_with_two_coordinates_become_two_vertices(tmp_path):
+    """OBJ indexes positions and texture coordinates apart; the model keeps one UV per
+    vertex, so a corner shared by faces with different coordinates is split."""
+    from real2code_export.meshfiles import read_mesh
+
+    (tmp_path / "q.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                                    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0.5\n"
+                                    "f 1/1 2/2 3/3\nf 1/5 3/3 4/4\n")
+    mesh = read_mesh(tmp_path / "q.obj")
+    assert len(mesh.vertices) == 5 and len(mesh.faces) == 2
+    corner_uv = {tuple(mesh.vertices[i][:2]) + tuple(mesh.uv[i]) for i in mesh.faces.ravel()}
+    assert (0.0, 0.0, 0.0, 0.0) in corner_uv and (0.0, 0.0, 0.5, 0.5) in corner_uv

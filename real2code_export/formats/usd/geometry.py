@@ -94,9 +94,11 @@ def _texture_network(stage, material, material_path: str, diffuse, part: Part) -
 
     reader = UsdShade.Shader.Define(stage, f"{material_path}/TexCoords")
     reader.CreateIdAttr("UsdPrimvarReader_float2")
-    varname = material.CreateInput("frame:stPrimvarName", Sdf.ValueTypeNames.Token)
+    # (varname is a string since UsdPreviewSurface 2.3; a token before, which UsdValidation
+    # now calls an error)
+    varname = material.CreateInput("frame:stPrimvarName", Sdf.ValueTypeNames.String)
     varname.Set(ST)
-    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).ConnectToSource(varname)
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).ConnectToSource(varname)
     image = UsdShade.Shader.Define(stage, f"{material_path}/Image")
     image.CreateIdAttr("UsdUVTexture")
     image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(
