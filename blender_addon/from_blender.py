@@ -49,6 +49,7 @@ from real2code_export.model import (
     Limits,
     Mesh,
     Part,
+    Texture,
     forward_kinematics,
     sanitize_name,
 )
@@ -288,13 +289,18 @@ def _read_part(ob, name: str, frame: np.ndarray, world: _Frames, depsgraph) -> t
     for extra in _attached(ob, el):
         meshes.append(mesh_data.object_mesh(extra, depsgraph,
                                             tf.inverse(frame) @ world.child_matrix(extra)))
-    visual = _concatenate(meshes) if meshes else None
+    visual = Mesh.concatenate(meshes) if meshes else None
     pieces = sorted(_children(ob, rp.ROLE_COLLISION), key=rp.model_order)
     collision = [mesh_data.from_blender(piece.data, _bake(frame, world.child_matrix(piece)))
                  for piece in pieces]
     exact = rp.exact(ob)
     color = DEFAULT_COLOR
     material = ob.active_material if ob.type == "MESH" else None
+    texture = _material_texture(material, el) if material is not None else None
+    if texture is not None and (visual is None or visual.uv is None):
+        warn(f"{el}: its material has an image but the mesh no UV map; the image is not "
+             "exported")
+        texture = None
     if material is not None:
         color = tuple(_snap(list(material.diffuse_color), exact.get("color"), 1e-6))
     elif "color" in exact:
@@ -309,7 +315,36 @@ def _read_part(ob, name: str, frame: np.ndarray, world: _Frames, depsgraph) -> t
             raise ModelError(el, f"custom properties {rp.MASS}/{rp.COM}/{rp.INERTIA}: {e}") from e
         if bake is not None:
             inertial = _moved_inertial(inertial, bake, el)
-    return Part(name, visual, collision, inertial, tuple(float(c) for c in color)), own
+    return Part(name, visual, collision, inertial, tuple(float(c) for c in color),
+                texture), own
+
+
+def _material_texture(material, el: str) -> Texture | None:
+    """The image an Image Texture node feeds into the Principled BSDF's Base Color: its packed
+    bytes, or its file; PNG and JPEG only (what every format reads)."""
+    if material.node_tree is None:
+        return None
+    bsdf = next((n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    links = bsdf.inputs["Base Color"].links if bsdf is not None else []
+    node = links[0].from_node if links else None
+    if node is None or node.type != "TEX_IMAGE" or node.image is None:
+        return None
+    image = node.image
+    if image.packed_file is not None:
+        data = bytes(image.packed_file.data)
+    else:
+        path = bpy.path.abspath(image.filepath)
+        try:
+            with open(path, "rb") as f:
+                data = f.read()
+        except OSError as e:
+            raise ModelError(el, f"image {image.name!r}: cannot read {path}: {e}") from e
+    mime = Texture.sniff(data)
+    if mime is None:
+        warn(f"{el}: image {image.name!r} is neither PNG nor JPEG; not exported (save it as "
+             "PNG)")
+        return None
+    return Texture(data, mime, sanitize_name(rp.base_name(image)))
 
 
 def _attached(part_ob, el: str) -> list[bpy.types.Object]:
@@ -325,14 +360,6 @@ def _attached(part_ob, el: str) -> list[bpy.types.Object]:
                  "geometry; it is not exported")
         stack.extend(c for c in ob.children if rp.role(c) is None)
     return sorted(out, key=lambda o: o.name)
-
-
-def _concatenate(meshes: list[Mesh]) -> Mesh:
-    if len(meshes) == 1:
-        return meshes[0]
-    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
-    return Mesh(np.concatenate([m.vertices for m in meshes]),
-                np.concatenate([m.faces + k for m, k in zip(meshes, offsets, strict=True)]))
 
 
 def _moved_inertial(inertial: Inertial, bake: np.ndarray, el: str) -> Inertial:

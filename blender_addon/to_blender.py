@@ -143,7 +143,8 @@ def _part_object(object_name: str, part: Part, index: int, parent, parent_invers
     if part.visual is not None:
         data = made.add(mesh_data.to_blender(part.name, part.visual))
         data.set_sharp_from_angle(angle=SHARP_ANGLE)
-        data.materials.append(_material(f"{object_name}.{part.name}", part.color, made))
+        data.materials.append(_material(f"{object_name}.{part.name}", part.color, made,
+                                        part.texture))
     ob = made.add(bpy.data.objects.new(part.name, data))
     if data is None:
         ob.empty_display_type, ob.empty_display_size = "CUBE", 0.02
@@ -167,7 +168,7 @@ def _part_object(object_name: str, part: Part, index: int, parent, parent_invers
     return ob
 
 
-def _material(name: str, color, made: _Made) -> bpy.types.Material:
+def _material(name: str, color, made: _Made, texture=None) -> bpy.types.Material:
     mat = made.add(bpy.data.materials.new(name))
     mat.diffuse_color = color  # the viewport (Solid, Workbench) colour
     if mat.node_tree is None:  # Blender < 5.0 makes no node tree by default
@@ -176,7 +177,21 @@ def _material(name: str, color, made: _Made) -> bpy.types.Material:
     if bsdf is not None:
         bsdf.inputs["Base Color"].default_value = color
         bsdf.inputs["Alpha"].default_value = color[3]
+        if texture is not None:
+            node = mat.node_tree.nodes.new("ShaderNodeTexImage")
+            node.image = _image(texture, made)
+            mat.node_tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
     return mat
+
+
+def _image(texture, made: _Made) -> bpy.types.Image:
+    """The texture's file packed into the .blend as it is (never re-encoded), as Blender's
+    own glTF importer packs images."""
+    image = made.add(bpy.data.images.new(texture.name, 8, 8))
+    image.pack(data=texture.image, data_len=len(texture.image))
+    image.source = "FILE"
+    image.filepath_raw = f"//{texture.name}{texture.suffix}"
+    return image
 
 
 def _joint_empty(joint: Joint, index: int, parent, made: _Made, rig,
