@@ -31,8 +31,8 @@ WHEEL_CACHE = BUILD / "wheels"
 MANIFEST = "blender_manifest.toml"
 PACKAGE = "real2code_export"
 # Blender platform -> the pip platform tags its compiled wheels are fetched for (pip takes an
-# explicit --platform literally, so older manylinux tags are named too: tinyobjloader ships
-# manylinux2014 wheels).
+# explicit --platform literally: the older manylinux tags a glibc-2.28 Blender also runs are
+# listed too, for wheels built only for those).
 PIP_PLATFORMS = {"linux-x64": ("manylinux_2_28_x86_64", "manylinux2014_x86_64")}
 PYTHON_VERSION = "3.11"  # Blender 4.2 to 5.0
 

@@ -104,8 +104,11 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                         sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                         name: str = "reconstruction", collision: str = "auto",
                         precomputed_segmentation: Segmentation | None = None,
+                        texture: bool = True,
                         progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Every stage in memory (the evaluation calls this; :func:`reconstruct` also writes).
+    ``texture``: bake the views' colours onto the parts (:mod:`.texture`; the evaluation,
+    which scores geometry and joints, leaves it out).
     ``precomputed_segmentation`` skips the segmentation stages (segmentation, then the
     compartments behind open doors back to the carcass; the evaluation segments once and
     completes twice)."""
@@ -159,6 +162,14 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                      collision=collision, align_boxes=segmentation != "gt",
                      observed={n: (clouds[n], normals[n]) for n in clouds})
     timings["articulation"] = time.perf_counter() - t
+    if texture:
+        from .texture import bake_textures
+
+        t = time.perf_counter()
+        say("texture baking ...")
+        labels = {n: (k, seg.labels) for k, n in names.items() if n in clouds}
+        art.obj = bake_textures(art.obj, capture, labels)
+        timings["texture"] = time.perf_counter() - t
     for j in art.obj.movable_joints:
         say(f"  {j.name:20s} {j.type.value:9s} state {j.state:+.3f}  "
             f"range [{j.limits.lower:.3f}, {j.limits.upper:.3f}]")
@@ -228,7 +239,7 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
                 completion: str = "learned", predictor: str = "learned",
                 sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                 formats: list[str] | None = None, check_configurations: int = 100,
-                name: str | None = None,
+                name: str | None = None, texture: bool = True,
                 progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Read the capture folder, run every stage, write everything into ``out`` (atomically:
     all of it or nothing) and check the exports against each other in their own tools."""
@@ -240,7 +251,8 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
     result = reconstruct_capture(
         capture, segmentation=segmentation, completion=completion, predictor=predictor,
         sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type,
-        name=name or capture.extra.get("object") or capture.path.name, progress=progress)
+        name=name or capture.extra.get("object") or capture.path.name, texture=texture,
+        progress=progress)
     out = Path(out)
     t = time.perf_counter()
     with atomic.staged_output(out) as staging:

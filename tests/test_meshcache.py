@@ -44,7 +44,8 @@ def _cube(tmp_path, mtl: str | None = "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0
 
 
 def test_obj_geometry_and_mtl_colour_in_one_read(tmp_path):
-    mesh, color = read_mesh_file(_cube(tmp_path))
+    mesh, color, texture = read_mesh_file(_cube(tmp_path))
+    assert texture is None  # its MTL names no image
     assert mesh.vertices.shape == (8, 3)  # the unused vertex 9 is dropped, as trimesh does
     assert mesh.faces.shape == (12, 3)  # quads fanned into triangles
     assert np.isclose(abs(mesh.to_trimesh().volume), 1.0)
@@ -53,7 +54,7 @@ def test_obj_geometry_and_mtl_colour_in_one_read(tmp_path):
 
 
 def test_obj_without_its_mtl_has_no_colour_and_a_broken_obj_is_an_error(tmp_path):
-    assert read_mesh_file(_cube(tmp_path, mtl=None))[1] is None
+    assert read_mesh_file(_cube(tmp_path, mtl=None)).color is None
     bad = tmp_path / "bad.obj"
     bad.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
     with pytest.raises(FormatError, match="bad.obj"):

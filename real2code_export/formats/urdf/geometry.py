@@ -139,11 +139,11 @@ def _file_mesh(ctx: Context, shape: etree._Element, owner: str) -> tuple[Mesh, P
         raise ctx.error(owner, f"<mesh> scale {shape.get('scale')!r} has a zero", shape.sourceline)
     key = (path, tuple(scale.tolist()))
     if key not in ctx.meshes:
-        mesh, ctx.colors[path] = read_mesh_file(path, source=ctx.path, element=owner,
-                                                line=shape.sourceline,
-                                                scale=None if np.all(scale == 1.0) else scale)
+        mesh, ctx.colors[path], ctx.textures[path] = read_mesh_file(
+            path, source=ctx.path, element=owner, line=shape.sourceline,
+            scale=None if np.all(scale == 1.0) else scale)
         if np.prod(scale) < 0:  # a mirroring scale turns the faces inside out: turn them back
-            mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1])
+            mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1], mesh.uv)
         ctx.meshes[key] = mesh
     return ctx.meshes[key], path
 

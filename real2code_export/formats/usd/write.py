@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ... import atomic
-from ...meshfiles import write_object_meshes
+from ...meshfiles import write_object_meshes, write_texture_images
 from ...model import (
     ArticulatedObject,
     Joint,
@@ -58,10 +58,12 @@ def to_usda(obj: ArticulatedObject) -> str:
 
 
 def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
-    """Write ``out_dir/<name>.usda`` (self-contained: geometry inline) and, if asked, the
-    shared mesh files."""
+    """Write ``out_dir/<name>.usda`` (geometry inline; texture images as files beside it,
+    which USD refers to) and, if asked, the shared mesh files."""
     validate(obj)
     out_dir = Path(out_dir)
     if write_meshes:
         write_object_meshes(obj, out_dir)
+    else:
+        write_texture_images(obj, out_dir)
     return atomic.write_text(out_dir / f"{obj.name}.usda", to_usda(obj))
