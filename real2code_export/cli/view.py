@@ -23,9 +23,11 @@ def add_parsers(sub) -> None:
                    help="with --screenshot: a joint's value, set through its slider (radians "
                    "or metres; '60deg' for degrees); repeat for several")
     s.add_argument("--size", default="640x480", help="with --screenshot: WIDTHxHEIGHT pixels")
-    s.add_argument("--view", default="35,25", help="with --screenshot: camera azimuth,elevation "
-                   "in degrees around the object")
+    s.add_argument("--view", default="-30,25", help="with --screenshot: camera azimuth (from "
+                   "the object's +x towards +y) and elevation, in degrees")
     s.add_argument("--panel", action="store_true", help="with --screenshot: show the sliders")
+    s.add_argument("--no-axes", dest="axes", action="store_false",
+                   help="with --screenshot: leave the joint axes out")
     s.set_defaults(func=cmd_view)
 
 
@@ -62,7 +64,8 @@ def cmd_view(args) -> int:
     if args.screenshot:
         state = screenshot(args.input, args.screenshot, pose=_pose(args.pose),
                            size=_pair(args.size, "x", "--size", int),
-                           view=_pair(args.view, ",", "--view"), panel=args.panel)
+                           view=_pair(args.view, ",", "--view"), panel=args.panel,
+                           axes=args.axes)
         posed = ", ".join(f"{k} = {v:.4g}" for k, v in state["joints"].items())
         print(f"wrote {args.screenshot} ({posed or 'no movable joints'})")
         return EXIT_OK

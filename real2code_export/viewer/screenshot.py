@@ -46,7 +46,7 @@ def find_chromium() -> str:
 
 
 def screenshot(path: str | Path, out: str | Path, *, pose: dict[str, float] | None = None,
-               size: tuple[int, int] = (640, 480), view: tuple[float, float] = (35.0, 25.0),
+               size: tuple[int, int] = (640, 480), view: tuple[float, float] = (-30.0, 25.0),
                panel: bool = False, axes: bool = True) -> dict:
     """Write ``out`` (PNG): the page showing ``path`` with each joint in ``pose`` set through
     its slider (others at their observed state); returns the state the page reported."""

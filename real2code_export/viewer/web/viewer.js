@@ -6,7 +6,8 @@
 // writer poses it, so the page shows the model's forward kinematics. Query parameters:
 //   pose=<joint>:<value>,...   set sliders at load (radians or metres), through the sliders
 //   panel=0                    hide the panel (screenshots of the object alone)
-//   view=<azimuth>,<elevation> camera direction in degrees around the object (default 35,25)
+//   view=<azimuth>,<elevation> camera direction in degrees: azimuth from the object's +x
+//                              towards +y, elevation above its xy plane (default -30,25)
 //   axes=0                     joint axes hidden at load
 //   report=1                   POST the state to the server whenever it changes (headless)
 // The page writes its state (each part's matrix and the camera, in the object's frame) into
@@ -127,9 +128,12 @@ function frameCamera() {
   const box = new THREE.Box3().setFromObject(objectNode, true);
   const center = box.getCenter(new THREE.Vector3());
   const radius = box.getSize(new THREE.Vector3()).length() / 2;
-  const [az, el] = (params.get('view') ?? '35,25').split(',').map(Number);
-  const dir = new THREE.Vector3().setFromSphericalCoords(
-    1, THREE.MathUtils.degToRad(90 - el), THREE.MathUtils.degToRad(az));
+  // azimuth from the object's +x towards its +y, elevation above its xy plane (Z up: the
+  // object node turns the model's frame into three.js's Y-up world)
+  const [az, el] = (params.get('view') ?? '-30,25').split(',').map(Number);
+  const [a, e] = [THREE.MathUtils.degToRad(az), THREE.MathUtils.degToRad(el)];
+  const dir = new THREE.Vector3(Math.cos(e) * Math.cos(a), Math.cos(e) * Math.sin(a), Math.sin(e))
+    .transformDirection(objectNode.matrixWorld);
   const distance = radius / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2)) * 1.1;
   camera.position.copy(center).addScaledVector(dir, distance);
   camera.near = distance / 100;
