@@ -4,10 +4,13 @@ a push on a door), found by the energy it puts in and left out.
 
 A push is what no candidate effect explains: the effort equation (measured effort against
 the nominal rigid-body dynamics) is fitted with every linear candidate term at once
-(damping and Coulomb friction, which only take energy out; a spring; the inertia too where
+(damping and Coulomb friction, which only take energy out; a spring; gravity's load scaled,
+where gravity loads the joint: a first moment off against the inertia; the inertia too where
 the effort is measured; a constant force as the residual's median) under a redescending
 (Cauchy) loss, so the effects the calibration may still name are absorbed and a short
-foreign force is left as an outlier. A stretch of outliers counts as a push when
+foreign force is left as an outlier. A stretch of outliers (grown to where the force rises
+and falls, into the smoothing's edges: a hand that lets go at the start of the record acts
+from its first sample) counts as a push when
 the work it does on the joint is positive and large against the joint's kinetic energy: an
 unmodelled effect of the state (inertia, a spring) only moves energy back and forth, and a
 stop or friction takes it out (a stop's rebound, which gives back what it took, is not
@@ -96,8 +99,8 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     tau_rb = rigid_effort(spec, joints, q, dq, ddq)
     # the joint-space inertia at each sample: the effort a unit acceleration needs at rest
     zero = np.zeros_like(q)
-    mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - rigid_effort(spec, joints, q, zero,
-                                                                         zero)
+    weight = rigid_effort(spec, joints, q, zero, zero)  # gravity's load at each sample
+    mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - weight
     found = []
     edge = features.smoothing_window(period) // 2 + 1
     window = features.smoothing_window(period)
@@ -113,6 +116,8 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # is the residual's median, kept out of the regression where, with damping, it
         # would pass for a push from rest)
         cols = [dq[:, k], sgn, q[:, k] - q[:, k].mean()]
+        if np.ptp(weight[:, k]) > 0:  # a first moment off against the inertia (the mass
+            cols.append(weight[:, k])  # distribution): gravity's load scaled
         if j in tr.efforts:  # smoothed as the motion is; the effort fixes the inertia's scale
             measured = features.derivatives(features.despike(tr.efforts[j])[0], period,
                                             window)[0]
@@ -167,15 +172,16 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         for a, b in merged:
             if (b - a) * period < MIN_PUSH or at_stop[a:b].any():
                 continue  # too short, or a stop's rebound (it gives back what it took)
+            # grow the stretch to where the force starts and ends (half the threshold): the
+            # smoothing's edges and the force's own rise and fall belong to the push
+            lo, hi = a, b
+            while lo > 0 and abs(r[lo - 1]) > 0.5 * OUTLIER_SIGMAS * sigma:
+                lo -= 1
+            while hi < tr.n and abs(r[hi]) > 0.5 * OUTLIER_SIGMAS * sigma:
+                hi += 1
             # the unmeasured force is -r: its work on the joint
-            work = float(np.sum(-r[a:b] * dq[a:b, k]) * period)
+            work = float(np.sum(-r[lo:hi] * dq[lo:hi, k]) * period)
             if work > PUSH_ENERGY * energy_scale and work > 0:
-                # grow the stretch to where the force starts and ends (half the threshold)
-                lo, hi = a, b
-                while lo > 0 and abs(r[lo - 1]) > 0.5 * OUTLIER_SIGMAS * sigma:
-                    lo -= 1
-                while hi < tr.n and abs(r[hi]) > 0.5 * OUTLIER_SIGMAS * sigma:
-                    hi += 1
                 found.append(Excluded(tr.source, j, float(tr.time[lo]),
                                       float(tr.time[hi - 1]), work,
                                       f"energy rises by {work:.3g} J ({work / energy_scale:.2g}"
