@@ -4,9 +4,10 @@ a push on a door), found by the energy it puts in and left out.
 
 A push is what no candidate effect explains: the effort equation (measured effort against
 the nominal rigid-body dynamics) is fitted with every linear candidate term at once
-(damping and Coulomb friction, which only take energy out; a spring; gravity's load scaled,
-where gravity loads the joint: a first moment off against the inertia; the inertia too where
-the effort is measured; a constant force as the residual's median) under a redescending
+(damping and Coulomb friction, which only take energy out; a spring; the inertia where the
+effort is measured, else gravity's load scaled against the inertia, where gravity loads the
+joint (a first moment off: a free swing's frequency); a constant force as the residual's
+median) under a redescending
 (Cauchy) loss, so the effects the calibration may still name are absorbed and a short
 foreign force is left as an outlier. A stretch of outliers (grown to where the force rises
 and falls, into the smoothing's edges: a hand that lets go at the start of the record acts
@@ -116,15 +117,15 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # is the residual's median, kept out of the regression where, with damping, it
         # would pass for a push from rest)
         cols = [dq[:, k], sgn, q[:, k] - q[:, k].mean()]
-        if np.ptp(weight[:, k]) > 0:  # a first moment off against the inertia (the mass
-            cols.append(weight[:, k])  # distribution): gravity's load scaled
         if j in tr.efforts:  # smoothed as the motion is; the effort fixes the inertia's scale
             measured = features.derivatives(features.despike(tr.efforts[j])[0], period,
                                             window)[0]
             y = measured - required
             cols.append(ddq[:, k])
-        else:  # without an effort the inertia's scale is not observable: it stays nominal
-            y = -required
+        else:  # without an effort the inertia's scale is not observable: it stays nominal,
+            y = -required  # but gravity's load against it (a free swing's frequency) is not
+            if np.ptp(weight[:, k]) > 0:
+                cols.append(weight[:, k])
         x = np.column_stack(cols)
         use = np.zeros(tr.n, bool)
         use[edge:-edge] = True
