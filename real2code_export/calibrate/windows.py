@@ -9,9 +9,9 @@ effort is measured, else gravity's load scaled against the inertia, where gravit
 joint (a first moment off: a free swing's frequency); a constant force as the residual's
 median) under a redescending
 (Cauchy) loss, so the effects the calibration may still name are absorbed and a short
-foreign force is left as an outlier. A stretch of outliers (grown to where the force rises
-and falls, into the smoothing's edges: a hand that lets go at the start of the record acts
-from its first sample) counts as a push when
+foreign force is left as an outlier. A stretch of outliers (one that reaches the
+smoothing's edge runs on to the record's end: a hand that lets go at the start of the
+record acts from its first sample) counts as a push when
 the work it does on the joint is positive and large against the joint's kinetic energy: an
 unmodelled effect of the state (inertia, a spring) only moves energy back and forth, and a
 stop or friction takes it out (a stop's rebound, which gives back what it took, is not
@@ -173,16 +173,19 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         for a, b in merged:
             if (b - a) * period < MIN_PUSH or at_stop[a:b].any():
                 continue  # too short, or a stop's rebound (it gives back what it took)
-            # grow the stretch to where the force starts and ends (half the threshold): the
-            # smoothing's edges and the force's own rise and fall belong to the push
-            lo, hi = a, b
-            while lo > 0 and abs(r[lo - 1]) > 0.5 * OUTLIER_SIGMAS * sigma:
-                lo -= 1
-            while hi < tr.n and abs(r[hi]) > 0.5 * OUTLIER_SIGMAS * sigma:
-                hi += 1
+            # the outlier test cannot see the smoothing's edges: a stretch that reaches one
+            # runs on to the record's end (a hand that lets go acts from the first sample)
+            wa = 0 if a <= edge else a
+            wb = tr.n if b >= tr.n - edge else b
             # the unmeasured force is -r: its work on the joint
-            work = float(np.sum(-r[lo:hi] * dq[lo:hi, k]) * period)
+            work = float(np.sum(-r[wa:wb] * dq[wa:wb, k]) * period)
             if work > PUSH_ENERGY * energy_scale and work > 0:
+                # grow the stretch to where the force starts and ends (half the threshold)
+                lo, hi = a, b
+                while lo > 0 and abs(r[lo - 1]) > 0.5 * OUTLIER_SIGMAS * sigma:
+                    lo -= 1
+                while hi < tr.n and abs(r[hi]) > 0.5 * OUTLIER_SIGMAS * sigma:
+                    hi += 1
                 found.append(Excluded(tr.source, j, float(tr.time[lo]),
                                       float(tr.time[hi - 1]), work,
                                       f"energy rises by {work:.3g} J ({work / energy_scale:.2g}"
