@@ -150,12 +150,11 @@ def test_free_swing_through_calibrate(free_swing, tmp_path):
     runs = [free_swing / f"free_swing_0{k}.csv" for k in (1, 2, 3)]
     r = calibrate(free_swing / "object.json", runs[:2], runs[2:], tmp_path / "out")
     assert r["causes"], r["causes"]
+    # the hand that lets go: left out at the start of the record (where it pushes hardest)
+    starts = {Path(e["file"]).name for e in r["excluded"] if e["start"] == 0.0}
+    assert {"free_swing_01.csv", "free_swing_03.csv"} <= starts, r["excluded"]
     reduction = 1 - r["holdout_rmse_after"] / r["holdout_rmse_before"]
-    assert reduction > 0, (r["causes"], r["holdout_rmse_before"], r["holdout_rmse_after"])
-    if reduction < 0.80:  # issue 16's target, not met yet (10 % measured): shown, not hidden
-        pytest.xfail(f"held-out RMSE {reduction:.0%} below nominal, target 80 %: "
-                     f"{r['causes']}, {r['holdout_rmse_before']:.4g} -> "
-                     f"{r['holdout_rmse_after']:.4g} rad")
+    assert reduction >= 0.80, (r["causes"], r["holdout_rmse_before"], r["holdout_rmse_after"])
 
 
 @pytest.mark.slow

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import savgol_coeffs, savgol_filter
+from scipy.signal import find_peaks, savgol_coeffs, savgol_filter
 
 
 def smoothing_window(period: float, seconds: float = 0.15, minimum: int = 7) -> int:
@@ -168,6 +168,21 @@ def dominant_frequency(t, q) -> float | None:
     return float(freqs[k])
 
 
+def swing_period(t: np.ndarray, q: np.ndarray) -> float | None:
+    """The period of a motion that swings back and forth (turning points, each far above
+    the noise from the last), from the time between its first and last turning points;
+    None where it turns fewer than three times."""
+    if len(q) < 16:
+        return None
+    smooth = derivatives(q, float(np.median(np.diff(t))))[0]
+    prominence = max(20.0 * noise_level(q), 1e-12)
+    turns = np.sort(np.concatenate([find_peaks(smooth, prominence=prominence)[0],
+                                    find_peaks(-smooth, prominence=prominence)[0]]))
+    if len(turns) < 3:
+        return None
+    return 2.0 * float(t[turns[-1]] - t[turns[0]]) / (len(turns) - 1)
+
+
 def sudden_stops(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, noise: float) -> list[str]:
     """Sides ('lower', 'upper') where the joint is stopped hard: at the extreme of the
     motion, the deceleration peaks far above what the rest of the motion shows."""
@@ -197,6 +212,8 @@ def missing_force(dq: np.ndarray, ddq: np.ndarray, force_residual: np.ndarray) -
     with the velocity's sign at constant size (dry friction), one that grows with the speed
     (viscous damping), one that does not flip (an offset), one that follows the
     acceleration (inertia). Terms are reported when larger than three standard errors."""
+    if len(dq) < 10:  # a piece held at a stop throughout has no usable samples
+        return {"terms": []}
     moving = np.abs(dq) > 0.05 * np.percentile(np.abs(dq), 90)
     if moving.sum() < 10 or np.all(dq[moving] > 0) or np.all(dq[moving] < 0):
         return {"terms": []}

@@ -30,6 +30,9 @@ from .windows import Excluded, cut, find_pushes, segments, window
 # effort replayed open loop): its replay drifts with every error of the input, so long runs
 # are fitted as pieces of about this length, each with its own initial state.
 SHOOTING_SECONDS = 5.0
+# ... and a free swing over many periods in pieces of this many of its periods
+SHOOTING_PERIODS = 4
+MIN_SHOOTING = 1.0  # s: a piece holds enough samples past its smoothing's edges to fit
 
 
 @dataclass
@@ -119,8 +122,9 @@ def calibrate(model: ArticulatedObject, data: Sequence[Path], holdout: Sequence[
     Every file is read and checked before anything runs; ``start``/``end`` (seconds, in the
     files' time) keep a window of every run (over the experiment files' own windows);
     ``experiment``: the experiment file for every CSV that has none beside it;
-    ``segment`` (s): fit runs as pieces this long (multiple shooting; by default only a
-    plant that integrates an open-loop effort is cut, into SHOOTING_SECONDS). With
+    ``segment`` (s): fit runs as pieces this long (multiple shooting; by default a plant
+    that integrates an open-loop effort and a free swing over many periods are cut:
+    :func:`shooting_length`). With
     ``out_dir`` the report (``report.json``, ``report.md`` and its plots), the calibrated
     ``object.json`` and the exports are written there atomically.
     """
@@ -171,17 +175,29 @@ def leave_out_pushes(model: ArticulatedObject, trajectories: list[Trajectory]
 
 
 def shooting_length(model: ArticulatedObject, trajectories: list[Trajectory]) -> float | None:
-    """SHOOTING_SECONDS where a measured joint has no restoring force (no gravity load, no
-    spring) and its measured effort is replayed open loop; None otherwise."""
+    """How long the pieces of multiple shooting are, or None (runs fitted whole):
+    SHOOTING_SECONDS where a measured joint has no restoring force (no gravity load, no
+    spring) and its measured effort is replayed open loop; SHOOTING_PERIODS of its swing
+    where a joint moves freely (no effort measured, no law) through many swings: each
+    period's small error of frequency shifts the replay's phase, until after a few seconds
+    it swings against the data and the fit loses every effect in it."""
     from .spec import gravity_loaded
 
+    free_periods = []
     for j in trajectories[0].joints:
         gravity = trajectories[0].gravity
         restoring = gravity_loaded(model, j, *([gravity] if gravity else [])) or \
             model.joint(j).dynamics.stiffness > 0
         if not restoring and any(j in tr.efforts and tr.law() is None for tr in trajectories):
             return SHOOTING_SECONDS
-    return None
+        for tr in trajectories:
+            if j not in tr.efforts and tr.law() is None:
+                period = ft.swing_period(tr.time, tr.positions[j])
+                if period is not None and tr.duration > 1.5 * SHOOTING_PERIODS * period:
+                    free_periods.append(period)
+    if not free_periods:
+        return None
+    return max(SHOOTING_PERIODS * max(free_periods), MIN_SHOOTING)
 
 
 def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajectory],

@@ -4,10 +4,14 @@ a push on a door), found by the energy it puts in and left out.
 
 A push is what no candidate effect explains: the effort equation (measured effort against
 the nominal rigid-body dynamics) is fitted with every linear candidate term at once
-(damping and Coulomb friction, which only take energy out; a spring; the inertia too where
-the effort is measured; a constant force as the residual's median) under a redescending
+(damping and Coulomb friction, which only take energy out; a spring; the inertia where the
+effort is measured, else gravity's load scaled against the inertia, where gravity loads the
+joint (a first moment off: a free swing's frequency); a constant force as the residual's
+median) under a redescending
 (Cauchy) loss, so the effects the calibration may still name are absorbed and a short
-foreign force is left as an outlier. A stretch of outliers counts as a push when
+foreign force is left as an outlier. A stretch of outliers (one that reaches the
+smoothing's edge runs on to the record's end: a hand that lets go at the start of the
+record acts from its first sample) counts as a push when
 the work it does on the joint is positive and large against the joint's kinetic energy: an
 unmodelled effect of the state (inertia, a spring) only moves energy back and forth, and a
 stop or friction takes it out (a stop's rebound, which gives back what it took, is not
@@ -96,8 +100,8 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     tau_rb = rigid_effort(spec, joints, q, dq, ddq)
     # the joint-space inertia at each sample: the effort a unit acceleration needs at rest
     zero = np.zeros_like(q)
-    mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - rigid_effort(spec, joints, q, zero,
-                                                                         zero)
+    weight = rigid_effort(spec, joints, q, zero, zero)  # gravity's load at each sample
+    mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - weight
     found = []
     edge = features.smoothing_window(period) // 2 + 1
     window = features.smoothing_window(period)
@@ -118,8 +122,10 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                                             window)[0]
             y = measured - required
             cols.append(ddq[:, k])
-        else:  # without an effort the inertia's scale is not observable: it stays nominal
-            y = -required
+        else:  # without an effort the inertia's scale is not observable: it stays nominal,
+            y = -required  # but gravity's load against it (a free swing's frequency) is not
+            if np.ptp(weight[:, k]) > 0:
+                cols.append(weight[:, k])
         x = np.column_stack(cols)
         use = np.zeros(tr.n, bool)
         use[edge:-edge] = True
@@ -167,8 +173,12 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         for a, b in merged:
             if (b - a) * period < MIN_PUSH or at_stop[a:b].any():
                 continue  # too short, or a stop's rebound (it gives back what it took)
+            # the outlier test cannot see the smoothing's edges: a stretch that reaches one
+            # runs on to the record's end (a hand that lets go acts from the first sample)
+            wa = 0 if a <= edge else a
+            wb = tr.n if b >= tr.n - edge else b
             # the unmeasured force is -r: its work on the joint
-            work = float(np.sum(-r[a:b] * dq[a:b, k]) * period)
+            work = float(np.sum(-r[wa:wb] * dq[wa:wb, k]) * period)
             if work > PUSH_ENERGY * energy_scale and work > 0:
                 # grow the stretch to where the force starts and ends (half the threshold)
                 lo, hi = a, b
