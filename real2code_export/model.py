@@ -35,10 +35,24 @@ class JointType(StrEnum):
     PRISMATIC = "prismatic"
     CONTINUOUS = "continuous"
     FIXED = "fixed"
+    BALL = "ball"  # three rotations about the joint origin (MJCF ball, USD spherical)
+    FLOATING = "floating"  # six degrees of freedom: a free body (MJCF free, URDF floating)
 
     @property
     def movable(self) -> bool:
-        return self is not JointType.FIXED
+        """Posed by one joint value (``q`` by joint name, a state, an axis, limits)."""
+        return self in (JointType.REVOLUTE, JointType.PRISMATIC, JointType.CONTINUOUS)
+
+    @property
+    def free(self) -> bool:
+        """Moves with several degrees of freedom the model gives no value: the child is held
+        at the joint origin (its reference pose) in kinematics, as MuJoCo's ``qpos0`` and
+        Pinocchio's neutral configuration hold it; no axis, limits or state."""
+        return self in (JointType.BALL, JointType.FLOATING)
+
+    @property
+    def dof(self) -> int:
+        return {JointType.FIXED: 0, JointType.BALL: 3, JointType.FLOATING: 6}.get(self, 1)
 
     @property
     def angular(self) -> bool:
@@ -187,7 +201,8 @@ class Part:
 
 @dataclass(eq=False)
 class ArticulatedObject:
-    """Parts connected by joints in one tree with a single, fixed root.
+    """Parts connected by joints in one tree with a single, fixed root. A floating base is
+    a root part for the world (often massless, named ``world``) and a floating joint to it.
 
     ``metadata`` holds JSON-serialisable facts about the object (category, source file, ...);
     exporters that have a place for free data keep it namespaced.
@@ -230,6 +245,7 @@ class ArticulatedObject:
 
     @property
     def movable_joints(self) -> list[Joint]:
+        """The joints posed by one value (ball and floating joints are not among them)."""
         return [j for j in self.joints if j.type.movable]
 
     def joints_in_tree_order(self) -> Iterator[Joint]:
@@ -395,8 +411,8 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                 )
         elif j.limits is not None:
             raise ModelError(el, f"a {j.type.value} joint takes no limits")
-        if j.type is JointType.FIXED and j.state != 0.0:
-            raise ModelError(el, "a fixed joint has no state")
+        if not j.type.movable and j.state != 0.0:
+            raise ModelError(el, f"a {j.type.value} joint has no state")
 
     roots = [p.name for p in obj.parts if p.name not in child_of]
     if len(roots) != 1:
@@ -414,9 +430,14 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
         cyc = sorted(seen - reached)
         raise ModelError(f"object {obj.name!r}", f"joints form a cycle through parts {cyc}")
 
-    # A movable joint must move something with mass (MuJoCo and Pinocchio both need it).
-    for j in obj.movable_joints:
-        if _rigid_group_mass(obj, j.child) <= 0:
+    # A floating body hangs from the world: MuJoCo allows free joints on top-level bodies only.
+    for j in obj.joints:
+        if j.type is JointType.FLOATING and j.parent != roots[0]:
+            raise ModelError(f"joint {j.name!r}", f"a floating joint must hang from the root "
+                             f"part {roots[0]!r} (the world), not from {j.parent!r}")
+    # A joint that moves must move something with mass (MuJoCo and Pinocchio both need it).
+    for j in obj.joints:
+        if j.type is not JointType.FIXED and _rigid_group_mass(obj, j.child) <= 0:
             raise ModelError(
                 f"joint {j.name!r}",
                 f"child part {j.child!r} (with the parts fixed to it) has no mass",

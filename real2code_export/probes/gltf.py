@@ -23,6 +23,7 @@ from . import JointInfo
 
 LABEL = "glTF (nodes + joint metadata)"
 EXTRAS_KEY = "real2code"
+_ONE_VALUE = ("revolute", "continuous", "prismatic")  # joint kinds posed by a value
 # glTF world (Y up) -> model world (Z up): +90 degrees about X
 Z_UP_FROM_Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
 
@@ -79,7 +80,7 @@ class GltfProbe:
                                  f"part node {d.get('child')!r} below it")
             axis = np.asarray(d.get("axis", [0, 0, 1]), dtype=float)
             self._motion[child] = (d["joint"], d["type"], axis)
-            if d["type"] != "fixed":
+            if d["type"] in _ONE_VALUE:  # ball / floating: held at the written pose
                 lim = d.get("limits") or {}
                 self.joints.append(JointInfo(d["joint"], d["type"], lim.get("lower"),
                                              lim.get("upper")))

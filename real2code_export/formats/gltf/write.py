@@ -266,7 +266,8 @@ def build(obj: ArticulatedObject) -> bytes:
                       rotation=quat_xyzw(joint.origin[:3, :3]), extras=_joint_extras(joint))
         child = obj.part(joint.child)
         attach = joint_index = None
-        if physics.has_body(obj, child):
+        # A floating part is a free body: a rigid body no physics joint holds.
+        if physics.has_body(obj, child) and joint.type is not JointType.FLOATING:
             attach = b.node(f"{joint.name}_attach_parent",
                             rotation=quat_xyzw(physics.attachment_rotation(joint)),
                             extras={EXTRAS_KEY: {"attachment": joint.name}})

@@ -1,8 +1,9 @@
 """ArticulatedObject -> MjSpec -> MJCF text, compiled by MuJoCo before anything is kept.
 
-One body per part, named as the part, posed at its joint origin; the joint (hinge or slide)
-at the body origin; the root a jointless child of the world (fixed base); a fixed joint a
-jointless nested body. Each body has its explicit inertial (``fullinertia``), a non-colliding
+One body per part, named as the part, posed at its joint origin; the joint (hinge, slide or
+ball) at the body origin; the root a jointless child of the world (fixed base), or the world
+body itself when it is the part ``world`` (a floating joint from it is a free joint); a fixed
+joint a jointless nested body. Each body has its explicit inertial (``fullinertia``), a non-colliding
 visual mesh geom (group 2, the part colour) and one colliding mesh geom per convex piece
 (group 3). Every parent/child pair is excluded from contact. What MJCF has no place for is
 kept in the keyframe "observed" (joint states) and in ``<custom>`` data named
@@ -146,6 +147,11 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
 
     joints = list(obj.joints_in_tree_order())
     root = obj.root
+    for joint in joints:
+        if joint.type is JointType.FLOATING and root.name != WORLD:
+            raise ExportError(f"MJCF: joint {joint.name!r} is floating from the root part "
+                              f"{root.name!r}; MuJoCo's free joints hang from its world body, "
+                              f"which only a root part named {WORLD!r} is")
     if root.name == WORLD:  # MuJoCo's own world body is that part (its mass goes to <custom>)
         bodies = {WORLD: spec.worldbody}
         _add_geoms(spec.worldbody, root)
@@ -156,10 +162,21 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
         spec.add_exclude(bodyname1=joint.parent, bodyname2=joint.child)
     _add_custom(spec, obj, parts, joints)
-    movable = [j for j in joints if j.type.movable]
-    if movable:  # bodies, hence qpos, are in this same depth-first order
-        spec.add_key(name=KEYFRAME, qpos=[j.state for j in movable])
+    qpos = [x for j in joints for x in _qpos(j)]
+    if qpos:  # bodies, hence qpos, are in this same depth-first order
+        spec.add_key(name=KEYFRAME, qpos=qpos)
     return spec
+
+
+def _qpos(joint: Joint) -> list[float]:
+    """The joint's coordinates in the keyframe: its state, or the reference pose of a ball
+    (the identity) or free joint (the body's pose in the world, as qpos0 holds it)."""
+    if joint.type is JointType.BALL:
+        return [1.0, 0.0, 0.0, 0.0]
+    if joint.type is JointType.FLOATING:
+        quat = snap_unit(tf.matrix_to_quat(joint.origin[:3, :3]), sign_free=True)
+        return [x + 0.0 for x in joint.origin[:3, 3]] + quat
+    return [joint.state] if joint.type.movable else []
 
 
 def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:
@@ -180,7 +197,7 @@ def _add_body(parent, part: Part, joint: Joint | None):
         rotation = tf.matrix_to_quat(joint.origin[:3, :3])
         body = parent.add_body(name=part.name, pos=[x + 0.0 for x in joint.origin[:3, 3]],
                                quat=snap_unit(rotation, sign_free=True))
-        if joint.type.movable:
+        if joint.type is not JointType.FIXED:
             _add_joint(body, joint)
     if part.inertial is not None:
         body.explicitinertial = True
@@ -216,10 +233,15 @@ def _add_joint(body, joint: Joint) -> None:
     import mujoco
 
     d = joint.dynamics
+    options = dict(name=joint.name, damping=d.damping, frictionloss=d.friction,
+                   stiffness=d.stiffness, armature=d.armature)
+    if joint.type.free:
+        kind = mujoco.mjtJoint.mjJNT_BALL if joint.type is JointType.BALL else \
+            mujoco.mjtJoint.mjJNT_FREE
+        body.add_joint(type=kind, **options)
+        return
     kind = mujoco.mjtJoint.mjJNT_HINGE if joint.type.angular else mujoco.mjtJoint.mjJNT_SLIDE
-    options = dict(name=joint.name, type=kind, axis=snap_unit(joint.axis), damping=d.damping,
-                   frictionloss=d.friction, stiffness=d.stiffness, springref=d.spring_ref,
-                   armature=d.armature)
+    options.update(type=kind, axis=snap_unit(joint.axis), springref=d.spring_ref)
     limits = joint.limits
     if limits is None:
         options["limited"] = mujoco.mjtLimited.mjLIMITED_FALSE

@@ -250,12 +250,16 @@ def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
 def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str]) -> Joint:
     owner = label(el)
     jtype = JointType(el.get("type"))
+    if jtype is JointType.FIXED and el.get(ns("type")) == JointType.BALL.value:
+        jtype = JointType.BALL  # our writer's ball joint (URDF has none)
     parent, child = joint_ends(el)
     if el.find("mimic") is not None:
         ctx.warn(owner, "<mimic> is ignored: the joint is imported as an independent joint",
                  el.find("mimic").sourceline)
     joint = Joint(name=name, type=jtype, parent=part_names[parent], child=part_names[child],
                   origin=origin_matrix(ctx, el, owner))
+    if jtype.free:
+        joint.dynamics = _dynamics(ctx, el, owner)
     if jtype.movable:
         joint.axis = _axis(ctx, el, owner)
         joint.dynamics = _dynamics(ctx, el, owner)

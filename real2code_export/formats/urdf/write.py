@@ -17,6 +17,7 @@ from lxml import etree
 
 from ... import atomic
 from ... import transforms as tf
+from ...errors import warn
 from ...meshfiles import collision_relpath, visual_relpath, write_object_meshes
 from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
 from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE, PREFIX, UNKNOWN, ns, number, numbers
@@ -99,12 +100,21 @@ def _joint(joint: Joint) -> etree._Element:
     el = etree.Element("joint")
     el.set("name", joint.name)
     el.set("type", joint.type.value)
+    if joint.type is JointType.BALL:
+        warn(f"URDF: joint {joint.name!r}: URDF has no ball joint; written as fixed at its "
+             f"reference pose, marked {PREFIX}:type=\"ball\" for our reader")
+        el.set("type", JointType.FIXED.value)
+        el.set(ns("type"), joint.type.value)
     if joint.type.movable and joint.state != 0.0:
         el.set(ns("state"), number(joint.state))
     _sub(el, "origin", ("xyz", numbers(joint.origin[:3, 3])),
          ("rpy", numbers(stable_rpy(joint.origin[:3, :3]))))
     _sub(el, "parent", ("link", joint.parent))
     _sub(el, "child", ("link", joint.child))
+    if joint.type.free:
+        if not joint.dynamics.is_zero():
+            _dynamics(el, joint)
+        return el
     if not joint.type.movable:
         return el
     axis = joint.axis
@@ -121,6 +131,11 @@ def _joint(joint: Joint) -> etree._Element:
         for attr in ("effort", "velocity"):
             if getattr(lim, attr) is None:
                 limit.set(ns(attr), UNKNOWN)
+    _dynamics(el, joint)
+    return el
+
+
+def _dynamics(el: etree._Element, joint: Joint) -> None:
     d = joint.dynamics
     dynamics = _sub(el, "dynamics", ("damping", number(d.damping)),
                     ("friction", number(d.friction)))
@@ -128,7 +143,6 @@ def _joint(joint: Joint) -> etree._Element:
                         ("armature", d.armature)):
         if value != 0.0:
             dynamics.set(ns(attr), number(value))
-    return el
 
 
 RPY_DECIMALS = 13  # rotation error <= ~1e-13 (URDF tools read these as doubles)

@@ -20,6 +20,7 @@ from ...errors import FormatError, ModelError, warn
 from ...meshfiles import write_object_meshes
 from ...model import (
     ArticulatedObject,
+    Dynamics,
     Joint,
     JointType,
     Mesh,
@@ -57,6 +58,7 @@ from .stage import (
 )
 
 METADATA = f"{NAMESPACE}:metadata"
+FLOATING_JOINT = f"{NAMESPACE}:floatingJoint"  # on a free body: its floating joint's name
 
 
 # -- save ------------------------------------------------------------------------------------
@@ -89,6 +91,10 @@ def to_usda(obj: ArticulatedObject) -> str:
                 Joint(world_joint, JointType.FIXED, "", root_part), None,
                 f"{base}/{GEOMETRY}/{root_part}")
     for j in obj.joints:
+        if j.type is JointType.FLOATING:  # a free body: no joint holds it; its name kept
+            stage.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}").CreateAttribute(
+                FLOATING_JOINT, Sdf.ValueTypeNames.String, custom=True).Set(j.name)
+            continue
         write_joint(stage, f"{base}/{PHYSICS}/{j.name}", j, f"{base}/{GEOMETRY}/{j.parent}",
                     f"{base}/{GEOMETRY}/{j.child}")
     return stage_text(stage)
@@ -125,6 +131,9 @@ def load(path: str | Path) -> ArticulatedObject:
         placement = art.root_placement if art.root_placement is not None else world[art.root]
         to_part[art.root] = up @ placement
     for e in art.edges:
+        if e.desc is None:  # a free body: its part frame is its body frame
+            to_part[e.child] = np.eye(4)
+            continue
         child_frame = art_.joint_frame(e.desc, 0 if e.reversed else 1, mpu)
         to_part[e.child] = tf.make(translation=-child_frame[:3, 3])
 
@@ -215,6 +224,13 @@ def _joint(stage, e, names, to_part, world, mpu, kpu, path, taken: set[str]) -> 
     """A model joint from a parsed one: origin = (parent body -> part) T_parent R_child^-1,
     axis = R_child * token (negated for a joint that runs child -> parent), state from the
     bodies' poses."""
+    if e.kind is JointType.FLOATING:  # a free body, where it stands in the root part
+        named = stage.GetPrimAtPath(e.child).GetAttribute(FLOATING_JOINT)
+        raw = named.Get() if named and named.HasAuthoredValue() else None
+        return Joint(sanitize_name(raw or f"{names[e.child]}_floating", taken), e.kind,
+                     names[e.parent], names[e.child],
+                     origin=_rigid(to_part[e.parent] @ tf.inverse(world[e.parent])
+                                   @ world[e.child], path, e.child))
     prim = stage.GetPrimAtPath(e.path)
     where = f"{path}: joint prim <{e.path}>"
     kind = e.kind
@@ -224,8 +240,9 @@ def _joint(stage, e, names, to_part, world, mpu, kpu, path, taken: set[str]) -> 
         else (_quat(e.desc, 0), _quat(e.desc, 1))
     origin = to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
     if not kind.movable:
+        dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.free else None
         return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent],
-                     names[e.child], origin=origin)
+                     names[e.child], origin=origin, dynamics=dynamics or Dynamics())
     token = str(e.desc.axis)
     axis = axis_in_body1(child_quat, token) * (-1.0 if e.reversed else 1.0)
     motion = tf.inverse(world[e.body0] @ t0) @ (world[e.body1] @ t1)
