@@ -1,7 +1,9 @@
 """MJCF and URDF loaded in MuJoCo (MjSpec), posed with ``mj_kinematics``.
 
 Joints are addressed by name (``qposadr``), bodies by name; a free or ball joint is not a
-part joint and is held at its reference pose.
+part joint and is held at its reference pose. A body's reported pose is its frame moved to its
+(last) joint's anchor, the model's "part frame = joint frame" (as the MJCF reader and the USD
+probe have it); a joint at the body origin, as in every file we write, moves nothing.
 """
 
 from __future__ import annotations
@@ -43,6 +45,13 @@ class MujocoProbe:
             adr.append(int(model.jnt_qposadr[i]))
         self._qpos_adr = np.array(adr, dtype=np.int64)
         self._column = {info.name: k for k, info in enumerate(self.joints)}
+        free = int(mujoco.mjtJoint.mjJNT_FREE)
+        self._anchor = np.zeros((len(body_ids), 3))  # joint anchor in the body frame
+        for k, b in enumerate(body_ids):
+            count = int(model.body_jntnum[b])
+            last = int(model.body_jntadr[b]) + count - 1
+            if count and int(model.jnt_type[last]) != free:
+                self._anchor[k] = model.jnt_pos[last]
 
     def pose_array(self, values: np.ndarray) -> np.ndarray:
         """(N, len(joints)) joint values in the order of ``joints`` -> (N, len(parts), 4, 4)."""
@@ -60,7 +69,7 @@ class MujocoProbe:
             xmat[i] = d.xmat[ids]
         out = np.zeros((n, len(ids), 4, 4))
         out[..., :3, :3] = xmat.reshape(n, len(ids), 3, 3)
-        out[..., :3, 3] = xpos
+        out[..., :3, 3] = xpos + np.einsum("npij,pj->npi", out[..., :3, :3], self._anchor)
         out[..., 3, 3] = 1.0
         return out
 
