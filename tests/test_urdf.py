@@ -235,7 +235,7 @@ def line_of(path: Path, needle: str) -> int:
     ("zero_axis.urdf", "<joint name='hinge'>", "<axis", "zero length"),
     ("lower_above_upper.urdf", "<joint name='slide'>", "<limit", "lower"),
     ("unknown_joint_type.urdf", "<joint name='hinge'>", 'type="hinge"', "unknown joint type"),
-    ("floating_joint.urdf", "<joint name='free'>", 'type="floating"', "not supported"),
+    ("planar_joint.urdf", "<joint name='free'>", 'type="planar"', "not supported"),
     ("unknown_parent.urdf", "<joint name='hinge'>", '<parent link="frame"', "not a link"),
     ("duplicate_link.urdf", "<link name='door'>", '<link name="door"/>', "duplicate"),
     ("not_collada_mesh.urdf", "<link name='base'>", "not_collada.dae", "not a Collada file"),
@@ -488,3 +488,31 @@ def test_a_default_xml_namespace_on_robot_is_read_as_urdfdom_reads_it(tmp_path):
     (tmp_path / "other.urdf").write_text('<model xmlns="https://example.org"/>')
     with pytest.raises(FormatError, match="root element must be <robot>"):
         urdf.load(tmp_path / "other.urdf")
+
+
+def test_floating_base_through_every_format(tmp_path):
+    """A URDF floating joint (from the ``world`` link, the one MuJoCo's URDF import takes) is
+    a floating joint: every export reads back equal and agrees with the source; a floating
+    base hanging from a root named otherwise keeps that name through MJCF's world body."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export, load, mjcf
+
+    source = FIXTURES / "floating_base.urdf"
+    obj = urdf.load(source)
+    assert obj.joint("free").type.value == "floating" and obj.root.name == "world"
+    np.testing.assert_allclose(forward_kinematics(obj)["body"][:3, 3], [0.1, 0.2, 0.5])
+    written = export(obj, tmp_path / "out")
+    for fmt, path in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            back = load(path)
+        assert not [d for d in differences(obj, back) if "object name" not in d], fmt
+    report = check_files(list(written.values()), source=source, n_configurations=5,
+                         validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+
+    odom = tmp_path / "odom.urdf"
+    odom.write_text(source.read_text().replace('"world"', '"odom"'))
+    obj = urdf.load(odom)
+    back = mjcf.load(mjcf.save(obj, tmp_path / "odom_mjcf"))
+    assert back.root.name == "odom" and not differences(obj, back)

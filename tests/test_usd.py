@@ -443,6 +443,6 @@ def test_joint_whose_body1_does_not_exist(tmp_path):
 def test_unsupported_joint_type_is_refused(tmp_path):
     path = usd.save(small_cabinet(), tmp_path, write_meshes=False)
     path.write_text(path.read_text().replace('def PhysicsRevoluteJoint "knob_turn"',
-                                             'def PhysicsSphericalJoint "knob_turn"'))
-    with pytest.raises(FormatError, match="knob_turn.*SphericalJoint cannot be represented"):
+                                             'def PhysicsDistanceJoint "knob_turn"'))
+    with pytest.raises(FormatError, match="knob_turn.*DistanceJoint cannot be represented"):
         usd.load(path)

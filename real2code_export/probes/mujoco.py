@@ -93,13 +93,20 @@ def _urdf_has_world_link(path: Path) -> bool:
     return root.find("link[@name='world']") is not None
 
 
-def _mjcf_world_is_part(model) -> bool:
-    """Our MJCF marks a root part that is MuJoCo's world body (a text element)."""
+def _mjcf_world_part(model) -> str | None:
+    """The name of the root part our MJCF marks as MuJoCo's world body (text elements), or
+    None when there is none."""
     import mujoco
 
     from ..formats.mjcf.conventions import WORLD, custom_name
 
-    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, custom_name(WORLD, "part")) >= 0
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, custom_name(WORLD, "part")) < 0:
+        return None
+    named = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, custom_name(WORLD, "name"))
+    if named < 0:
+        return WORLD
+    adr, size = int(model.text_adr[named]), int(model.text_size[named])
+    return bytes(model.text_data[adr:adr + size]).split(b"\0", 1)[0].decode("utf-8")
 
 
 def _urdf_kinematics(path: Path) -> str:
@@ -148,7 +155,10 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
             message += f" (and {len(lines) - 2} more lines of MuJoCo warnings)"
         raise CheckError(f"{path}: MuJoCo refused it: {message}") from e
 
-    first = 0 if (_urdf_has_world_link(path) if is_urdf else _mjcf_world_is_part(model)) else 1
+    world = None if is_urdf else _mjcf_world_part(model)
+    first = 0 if (_urdf_has_world_link(path) if is_urdf else world is not None) else 1
     body_ids = list(range(first, model.nbody))
     names = [model.body(i).name or f"body_{i}" for i in body_ids]  # as the MJCF reader names it
+    if world is not None:
+        names[0] = world
     return [MujocoProbe(path, label, model, body_ids, names)]

@@ -162,7 +162,7 @@ class _Reader:
         joints: list[Joint] = []
         joint_names: set[str] = set()
         if world_used:
-            self.part_names[0] = sanitize_name(WORLD, taken)
+            self.part_names[0] = sanitize_name(world_part_name(self.custom), taken)
             self.frames[0] = np.eye(4)
             parts.append(self._part(0))
         for b in range(1, m.nbody):
@@ -476,6 +476,13 @@ class _Reader:
         if left:
             warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
                  f"{', '.join(left)}")
+
+
+def world_part_name(custom: dict) -> str:
+    """The root part's name when it is the world body: ``world``, or the name our writer
+    kept in <custom> (a floating base's root named otherwise)."""
+    name = custom.get((WORLD, "name"))
+    return name if isinstance(name, str) and name else WORLD
 
 
 def _world_inertial(values) -> Inertial | None:

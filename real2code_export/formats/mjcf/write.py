@@ -147,25 +147,26 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
 
     joints = list(obj.joints_in_tree_order())
     root = obj.root
-    for joint in joints:
-        if joint.type is JointType.FLOATING and root.name != WORLD:
-            raise ExportError(f"MJCF: joint {joint.name!r} is floating from the root part "
-                              f"{root.name!r}; MuJoCo's free joints hang from its world body, "
-                              f"which only a root part named {WORLD!r} is")
-    if root.name == WORLD:  # MuJoCo's own world body is that part (its mass goes to <custom>)
-        bodies = {WORLD: spec.worldbody}
+    if root_is_world(obj):  # MuJoCo's own world body is that part (its mass in <custom>)
+        bodies = {root.name: spec.worldbody}
         _add_geoms(spec.worldbody, root)
     else:
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
     for joint in joints:
         bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
     for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
-        spec.add_exclude(bodyname1=joint.parent, bodyname2=joint.child)
+        spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
     _add_custom(spec, obj, parts, joints)
     qpos = [x for j in joints for x in _qpos(j)]
     if qpos:  # bodies, hence qpos, are in this same depth-first order
         spec.add_key(name=KEYFRAME, qpos=qpos)
     return spec
+
+
+def root_is_world(obj: ArticulatedObject) -> bool:
+    """The root part is written as MuJoCo's world body when it is named so, or when a floating
+    joint hangs from it (MuJoCo's free joints hang from the world body only)."""
+    return obj.root.name == WORLD or any(j.type is JointType.FLOATING for j in obj.joints)
 
 
 def _qpos(joint: Joint) -> list[float]:
@@ -267,8 +268,10 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
         if part.visual is None and not part.collision:  # no geom to carry its colour
             spec.add_numeric(name=custom_name(part.name, "color"), data=list(part.color))
     root = parts[0]
-    if root.name == WORLD:
+    if root_is_world(obj):
         spec.add_text(name=custom_name(WORLD, "part"), data="root")
+        if root.name != WORLD:
+            spec.add_text(name=custom_name(WORLD, "name"), data=root.name)
         if root.inertial is not None:
             i = root.inertial
             spec.add_numeric(name=custom_name(WORLD, "inertial"),
