@@ -156,6 +156,17 @@ class Dynamics:
         return not any((self.damping, self.friction, self.stiffness, self.armature))
 
 
+@dataclass
+class Mimic:
+    """A joint coupled to another (URDF ``<mimic>``, MJCF joint equality, NewtonMimicAPI):
+    q = multiplier * q[joint] + offset (offset in rad or m). The coupling is physics, not
+    kinematics: poses are still given for every joint value."""
+
+    joint: str  # the leader
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
 @dataclass(eq=False)
 class Joint:
     name: str
@@ -167,6 +178,7 @@ class Joint:
     limits: Limits | None = None
     dynamics: Dynamics = field(default_factory=Dynamics)
     state: float = 0.0  # the joint value observed at capture time
+    mimic: Mimic | None = None
 
     def __post_init__(self) -> None:
         self.type = JointType(self.type)
@@ -414,6 +426,11 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
         if not j.type.movable and j.state != 0.0:
             raise ModelError(el, f"a {j.type.value} joint has no state")
 
+    by_name = {j.name: j for j in obj.joints}
+    for j in obj.joints:
+        if j.mimic is not None:
+            _validate_mimic(j, by_name)
+
     roots = [p.name for p in obj.parts if p.name not in child_of]
     if len(roots) != 1:
         detail = f"parts without a parent joint: {roots}" if roots else "every part has a parent (a cycle)"
@@ -443,6 +460,21 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                 f"child part {j.child!r} (with the parts fixed to it) has no mass",
             )
     return obj
+
+
+def _validate_mimic(j: Joint, by_name: dict[str, Joint]) -> None:
+    el, m = f"joint {j.name!r}", j.mimic
+    _finite([m.multiplier, m.offset], el, "mimic multiplier/offset")
+    leader = by_name.get(m.joint)
+    if leader is None:
+        raise ModelError(el, f"mimics joint {m.joint!r}, which does not exist")
+    if leader is j:
+        raise ModelError(el, "mimics itself")
+    if not (j.type.movable and leader.type.movable):
+        raise ModelError(el, f"a mimic couples two one-value joints ({j.type.value} mimics "
+                         f"{leader.type.value})")
+    if leader.mimic is not None:
+        raise ModelError(el, f"mimics {m.joint!r}, which mimics another joint itself")
 
 
 def _rigid_group_mass(obj: ArticulatedObject, part_name: str) -> float:
@@ -545,6 +577,10 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
             u, v = getattr(x.dynamics, attr), getattr(y.dynamics, attr)
             if not close(u, v):
                 out.append(f"{el}: {attr} {u} != {v}")
+        if (x.mimic is None) != (y.mimic is None) or (
+                x.mimic is not None and (x.mimic.joint != y.mimic.joint or not close(
+                    [x.mimic.multiplier, x.mimic.offset], [y.mimic.multiplier, y.mimic.offset]))):
+            out.append(f"{el}: mimic {x.mimic} != {y.mimic}")
     return out
 
 

@@ -263,7 +263,7 @@ INERTIAL = ('<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy=
             'iyz="0" izz="0.01"/></inertial>')
 
 
-def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
+def test_limit_without_effort_and_axis_are_repaired_mimic_carried(tmp_path):
     path = tmp_path / "repairs.urdf"
     path.write_text(f"""<robot name="repairs">
   <link name="base"/>
@@ -283,7 +283,6 @@ def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
         obj = urdf.load(path)
     messages = "\n".join(str(w.message) for w in record)
     assert "without effort and/or velocity" in messages and "'hinge'" in messages
-    assert "<mimic> is ignored" in messages
     assert "normalised" in messages
     assert "'flap hinge' -> 'flap_hinge'" in messages
     hinge = obj.joint("hinge")
@@ -291,6 +290,7 @@ def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
     assert hinge.limits.effort is None and hinge.limits.velocity is None
     assert hinge.state == 0.2  # URDF has no observed state: q = 0, or the nearest limit
     assert obj.joint("flap_hinge").limits.effort == 3.0
+    assert obj.joint("flap_hinge").mimic.joint == "hinge"  # carried, no longer ignored
     assert_round_trip(obj, tmp_path)  # the unknowns stay unknown through our own file
 
 
@@ -516,3 +516,30 @@ def test_floating_base_through_every_format(tmp_path):
     obj = urdf.load(odom)
     back = mjcf.load(mjcf.save(obj, tmp_path / "odom_mjcf"))
     assert back.root.name == "odom" and not differences(obj, back)
+
+
+def test_mimic_joints_through_every_format(tmp_path):
+    """<mimic> is carried: MJCF as a joint equality (MuJoCo applies it), URDF as <mimic>, USD
+    as NewtonMimicAPI, glTF and object.json in our metadata; a mimic of a joint that does not
+    exist is dropped with a warning naming both."""
+    import mujoco
+
+    from real2code_export.formats import export, load
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = urdf.load(FIXTURES / "mimic_gripper.urdf")
+    said = "\n".join(str(w.message) for w in caught)
+    assert "<joint name='tip_bend'>" in said and "'no_such_joint' dropped" in said
+    mimic = obj.joint("right_finger").mimic
+    assert (mimic.joint, mimic.multiplier, mimic.offset) == ("left_finger", -1.0, 0.001)
+    assert obj.joint("tip_bend").mimic is None
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf", "json"])
+    for fmt, path in written.items():
+        back = load(path)
+        assert not [d for d in differences(obj, back) if "object name" not in d], fmt
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert int(model.eq_type[0]) == mujoco.mjtEq.mjEQ_JOINT
+    assert model.joint(int(model.eq_obj1id[0])).name == "right_finger"
+    np.testing.assert_allclose(model.eq_data[0][:5], [0.001, -1.0, 0, 0, 0])
+    assert 'newton:mimicJoint = </mimic_gripper/Physics/left_finger>' in written["usd"].read_text()

@@ -32,6 +32,7 @@ import numpy as np
 from ... import atomic
 from ...meshfiles import write_object_meshes
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from ..object_json import mimic_json
 from . import physics
 from .conventions import (
     ARRAY_BUFFER,
@@ -164,6 +165,8 @@ def _joint_extras(joint: Joint) -> dict:
                      for k in ("damping", "friction", "stiffness", "spring_ref", "armature")},
         "state": joint.state,
     }
+    if joint.mimic is not None:
+        out["mimic"] = mimic_json(joint.mimic)
     if joint.limits is not None:  # pygltflib drops None values: absent means None
         lim = {"lower": joint.limits.lower, "upper": joint.limits.upper}
         for key in ("effort", "velocity"):

@@ -35,6 +35,7 @@ from ...model import (
     JointType,
     Limits,
     Mesh,
+    Mimic,
     Part,
     sanitize_name,
     validate,
@@ -138,6 +139,8 @@ class _Reader:
     mesh_assets: dict[int, tuple[Mesh, np.ndarray]] = field(default_factory=dict)  # read once
     notes: dict[str, list[str]] = field(default_factory=dict)
     taken_parts: set[str] = field(default_factory=set)
+    joint_of: dict[int, Joint] = field(default_factory=dict)  # MuJoCo joint id -> model joint
+    mimics: int = 0  # joint equality constraints read as mimics
 
     def read(self) -> ArticulatedObject:
 
@@ -175,6 +178,7 @@ class _Reader:
             joints += self._joints(b, parent, body_pose, joint_names, parts)
             parts.append(self._part(b))
         name = self._object_name()
+        self._read_mimics()
         self._report_ignored()
         for kind, names in self.notes.items():
             warn(f"{self.path}: {kind}: {', '.join(names)}")
@@ -292,6 +296,7 @@ class _Reader:
                               "range: the model needs limits for prismatic joints",
                               _info_line(self.spec_joints[j]))
         joint = Joint(name, kind, parent_name, child, axis=axis)
+        self.joint_of[j] = joint
         # Part frame = joint frame at qpos = 0: at the anchor, turned back by the reference.
         joint.origin = base @ tf.make(translation=anchor) @ joint.motion(-ref)
         joint.limits = self._limits(j, kind, name)
@@ -464,12 +469,32 @@ class _Reader:
             return {}
         return data
 
+    def _read_mimics(self) -> None:
+        """Joint equality constraints that couple one hinge/slide to another linearly (MuJoCo:
+        y - y0 = a0 + a1 (x - x0), y0 and x0 the joints' qpos0) as the follower's mimic:
+        q_y = a1 q_x + (y0 + a0 - a1 x0). Others stay unread (warned with the rest)."""
+        import mujoco
+
+        m = self.model
+        for e in range(m.neq):
+            follower = self.joint_of.get(int(m.eq_obj1id[e]))
+            leader = self.joint_of.get(int(m.eq_obj2id[e]))
+            a0, a1, *higher = (float(v) for v in m.eq_data[e][:5])
+            if (int(m.eq_type[e]) != mujoco.mjtEq.mjEQ_JOINT or not m.eq_active0[e]
+                    or follower is None or leader is None or any(higher)
+                    or follower.mimic is not None):
+                continue
+            y0 = float(m.qpos0[m.jnt_qposadr[int(m.eq_obj1id[e])]])
+            x0 = float(m.qpos0[m.jnt_qposadr[int(m.eq_obj2id[e])]])
+            follower.mimic = Mimic(leader.name, a1, y0 + a0 - a1 * x0)
+            self.mimics += 1
+
     def _report_ignored(self) -> None:
         import mujoco
 
         m = self.model
         observed = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, KEYFRAME) >= 0
-        counts = {"actuator": m.nu, "tendon": m.ntendon, "equality constraint": m.neq,
+        counts = {"actuator": m.nu, "tendon": m.ntendon, "equality constraint": m.neq - self.mimics,
                   "sensor": m.nsensor, "keyframe": m.nkey - int(observed),
                   "flex": m.nflex, "skin": m.nskin, "custom tuple": m.ntuple}
         left = [f"{n} {what}{'s' if n > 1 else ''}" for what, n in counts.items() if n]

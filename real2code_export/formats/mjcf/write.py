@@ -156,6 +156,11 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
     for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
         spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
+    for joint in joints:  # our joints have no ref: qpos0 = 0, polycoef = offset, multiplier
+        if joint.mimic is not None:
+            spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                              name1=joint.name, name2=joint.mimic.joint,
+                              data=[joint.mimic.offset, joint.mimic.multiplier] + [0.0] * 10)
     _add_custom(spec, obj, parts, joints)
     qpos = [x for j in joints for x in _qpos(j)]
     if qpos:  # bodies, hence qpos, are in this same depth-first order

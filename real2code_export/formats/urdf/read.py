@@ -41,12 +41,13 @@ from ...model import (
     JointType,
     Limits,
     Mesh,
+    Mimic,
     Part,
     sanitize_name,
     validate,
     validate_inertial,
 )
-from ...repairs import balanced_inertia, massless_moving_parts
+from ...repairs import balanced_inertia, massless_moving_parts, unusable_mimics
 from .context import Context, label
 from .geometry import (
     average_color,
@@ -80,12 +81,13 @@ def load(path: str | Path) -> ArticulatedObject:
     joint_names = identifiers(ctx, joints)
     materials = robot_materials(ctx, robot)
     parts = [_part(ctx, el, part_names[raw], materials) for raw, el in links.items()]
-    joint_list = [_joint(ctx, el, joint_names[raw], part_names) for raw, el in joints.items()]
+    joint_list = [_joint(ctx, el, joint_names[raw], part_names, joint_names)
+                  for raw, el in joints.items()]
     _report_notes(ctx)
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
                             metadata=_metadata(ctx, robot))
     joint_el = {joint_names[raw]: el for raw, el in joints.items()}
-    for joint_name, message in massless_moving_parts(obj):
+    for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
         el = joint_el[joint_name]
         ctx.warn(label(el), message, el.sourceline)
     lines = {f"part {part_names[r]!r}": el for r, el in links.items()}
@@ -247,17 +249,16 @@ def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
 
 
 # -- joints ---------------------------------------------------------------------------------------
-def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str]) -> Joint:
+def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str],
+           joint_names: dict[str, str]) -> Joint:
     owner = label(el)
     jtype = JointType(el.get("type"))
     if jtype is JointType.FIXED and el.get(ns("type")) == JointType.BALL.value:
         jtype = JointType.BALL  # our writer's ball joint (URDF has none)
     parent, child = joint_ends(el)
-    if el.find("mimic") is not None:
-        ctx.warn(owner, "<mimic> is ignored: the joint is imported as an independent joint",
-                 el.find("mimic").sourceline)
     joint = Joint(name=name, type=jtype, parent=part_names[parent], child=part_names[child],
-                  origin=origin_matrix(ctx, el, owner))
+                  origin=origin_matrix(ctx, el, owner),
+                  mimic=_mimic(ctx, el, owner, joint_names))
     if jtype.free:
         joint.dynamics = _dynamics(ctx, el, owner)
     if jtype.movable:
@@ -283,6 +284,21 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
     elif limit is not None:
         ctx.note("limit_dropped", repr(name))
     return joint
+
+
+def _mimic(ctx: Context, el: etree._Element, owner: str,
+           joint_names: dict[str, str]) -> Mimic | None:
+    """``<mimic joint= multiplier= offset=>`` (urdfdom's defaults 1 and 0), the leader named
+    as this reader names joints (identifiers)."""
+    mimic = el.find("mimic")
+    if mimic is None:
+        return None
+    leader = mimic.get("joint")
+    if not leader:
+        raise ctx.error(owner, "<mimic> names no joint", mimic.sourceline)
+    return Mimic(joint_names.get(leader, leader),
+                 ctx.number(mimic, "multiplier", owner, default=1.0),
+                 ctx.number(mimic, "offset", owner, default=0.0))
 
 
 def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:

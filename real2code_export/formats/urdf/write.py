@@ -132,6 +132,10 @@ def _joint(joint: Joint) -> etree._Element:
             if getattr(lim, attr) is None:
                 limit.set(ns(attr), UNKNOWN)
     _dynamics(el, joint)
+    if joint.mimic is not None:
+        m = joint.mimic
+        _sub(el, "mimic", ("joint", m.joint), ("multiplier", number(m.multiplier)),
+             ("offset", number(m.offset)))
     return el
 
 

@@ -30,6 +30,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
+from ...repairs import unusable_mimics
 from . import articulation as art_
 from .body import read_inertial, write_body
 from .geometry import read_color, read_mesh, shape_mesh, write_part_geometry
@@ -40,9 +41,11 @@ from .joint import (
     axis_in_body1,
     read_dynamics,
     read_limits,
+    read_mimic,
     rest_origin,
     state_from_motion,
     write_joint,
+    write_mimic,
 )
 from .stage import (
     GEOMETRY,
@@ -97,6 +100,9 @@ def to_usda(obj: ArticulatedObject) -> str:
             continue
         write_joint(stage, f"{base}/{PHYSICS}/{j.name}", j, f"{base}/{GEOMETRY}/{j.parent}",
                     f"{base}/{GEOMETRY}/{j.child}")
+        if j.mimic is not None:
+            write_mimic(stage.GetPrimAtPath(f"{base}/{PHYSICS}/{j.name}"), j.mimic,
+                        f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
     return stage_text(stage)
 
 
@@ -152,6 +158,10 @@ def load(path: str | Path) -> ArticulatedObject:
     joints, joint_names = [], set()
     for e in art.edges:
         joints.append(_joint(stage, e, names, to_part, world, mpu, kpu, path, joint_names))
+    joint_at = {e.path: j.name for e, j in zip(art.edges, joints, strict=True)}
+    for j in joints:  # a mimic's leader: from its prim path to its joint's name
+        if j.mimic is not None:
+            j.mimic.joint = joint_at.get(j.mimic.joint, j.mimic.joint)
 
     root_prim = stage.GetDefaultPrim() or next(iter(stage.GetPseudoRoot().GetChildren()), None)
     name = sanitize_name(root_prim.GetName() if root_prim else path.stem)
@@ -163,6 +173,8 @@ def load(path: str | Path) -> ArticulatedObject:
             raise FormatError(path, f"prim <{root_prim.GetPath()}>",
                               f"{METADATA} is not JSON: {e}") from e
     obj = ArticulatedObject(name, parts, joints, metadata)
+    for joint_name, message in unusable_mimics(obj):
+        warn(f"{path}: joint {joint_name!r}: {message}")
     try:
         return validate(obj)
     except ModelError as e:
@@ -253,7 +265,8 @@ def _joint(stage, e, names, to_part, world, mpu, kpu, path, taken: set[str]) -> 
         state = _into_limits(state, limits, kind, where)
     return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent], names[e.child],
                  origin=origin, axis=axis, limits=limits, state=state,
-                 dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where))
+                 dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where),
+                 mimic=read_mimic(prim, kind.angular, mpu))
 
 
 def _quat(desc, side: int) -> np.ndarray:

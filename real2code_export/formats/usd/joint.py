@@ -44,7 +44,7 @@ import numpy as np
 from ... import transforms as tf
 from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
-from ...model import Dynamics, Joint, JointType, Limits
+from ...model import Dynamics, Joint, JointType, Limits, Mimic
 from .stage import NAMESPACE, as_float32, float_outward, snapped_quat
 
 TOKENS = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
@@ -178,7 +178,35 @@ def _write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) 
                              variability=Sdf.VariabilityUniform).Set(list(value))
 
 
+def write_mimic(prim, mimic: Mimic, leader_path: str, angular: bool) -> None:
+    """NewtonMimicAPI (newton-usd-schemas): q = coef0 + coef1 * q_leader on the follower,
+    coef0 in degrees for an angular joint."""
+    from pxr import Sdf
+
+    prim.ApplyAPI("NewtonMimicAPI")
+    prim.GetRelationship("newton:mimicJoint").SetTargets([Sdf.Path(leader_path)])
+    prim.GetAttribute("newton:mimicCoef0").Set(
+        as_float32(math.degrees(mimic.offset) if angular else mimic.offset))
+    prim.GetAttribute("newton:mimicCoef1").Set(as_float32(mimic.multiplier))
+    prim.GetAttribute("newton:mimicEnabled").Set(True)
+
+
 # -- reading ---------------------------------------------------------------------------------
+def read_mimic(prim, angular: bool, mpu: float) -> Mimic | None:
+    """The mimic of an enabled NewtonMimicAPI, naming the leader by its prim path (the
+    reader renames it to the leader's joint)."""
+    if "NewtonMimicAPI" not in prim.GetAppliedSchemas():
+        return None
+    enabled = prim.GetAttribute("newton:mimicEnabled")
+    targets = prim.GetRelationship("newton:mimicJoint").GetTargets()
+    if (enabled and enabled.Get() is False) or len(targets) != 1:
+        return None
+    coef0 = authored_value(prim, "newton:mimicCoef0") or 0.0
+    coef1 = authored_value(prim, "newton:mimicCoef1")
+    offset = math.radians(coef0) if angular else coef0 * mpu
+    return Mimic(str(targets[0]), 1.0 if coef1 is None else coef1, offset)
+
+
 def authored_value(prim, name: str) -> float | None:
     attr = prim.GetAttribute(name)
     if not attr or not attr.HasAuthoredValue():
