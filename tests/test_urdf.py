@@ -543,3 +543,29 @@ def test_mimic_joints_through_every_format(tmp_path):
     assert model.joint(int(model.eq_obj1id[0])).name == "right_finger"
     np.testing.assert_allclose(model.eq_data[0][:5], [0.001, -1.0, 0, 0, 0])
     assert 'newton:mimicJoint = </mimic_gripper/Physics/left_finger>' in written["usd"].read_text()
+
+
+def test_unread_elements_are_kept_and_written_back(tmp_path):
+    """<transmission> and <gazebo> have no place in the model: kept (warned) in the metadata,
+    carried by every format, and written back as they were by the URDF writer."""
+    from real2code_export.formats import export, load
+
+    text = (FIXTURES / "floating_base.urdf").read_text().replace("</robot>", """
+  <transmission name="elbow_tx"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="elbow"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+  </transmission>
+  <gazebo reference="arm"><material>Gazebo/Grey</material></gazebo>
+</robot>""")
+    source = tmp_path / "tx.urdf"
+    source.write_text(text)
+    with pytest.warns(Real2CodeWarning, match=r"kept as metadata 'urdf_elements'.*<transmission>"):
+        obj = urdf.load(source)
+    kept = obj.metadata["urdf_elements"]
+    assert [k.split(" ", 1)[0] for k in kept] == ["<transmission", "<gazebo"]
+    written = export(obj, tmp_path / "out", formats=["mjcf", "usd", "gltf"])
+    for path in written.values():
+        again = urdf.load(urdf.save(load(path), tmp_path / path.suffix[1:]))
+        assert again.metadata == obj.metadata
+    out = (tmp_path / "xml" / "floating_base.urdf").read_text()
+    assert "<hardwareInterface>EffortJointInterface</hardwareInterface>" in out
+    assert "urdf_elements" not in out  # the elements themselves, not their text twice

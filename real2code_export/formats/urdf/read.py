@@ -21,6 +21,7 @@ URDF has no observed joint state: it is q = 0, or the nearest limit when the ran
 
 from __future__ import annotations
 
+import copy
 import json
 import re
 from pathlib import Path
@@ -58,8 +59,16 @@ from .geometry import (
     robot_materials,
     shape_mesh,
 )
-from .spec import UNKNOWN, ns
-from .structure import check_tree, identifiers, joint_elements, joint_ends, link_elements, parse
+from .spec import ELEMENTS_KEY, UNKNOWN, ns
+from .structure import (
+    check_tree,
+    identifiers,
+    joint_elements,
+    joint_ends,
+    link_elements,
+    parse,
+    unread_children,
+)
 
 # An axis this close to unit length is kept as written, so that what we write reads back
 # bit for bit; beyond it we normalise (and warn beyond the model's tolerance).
@@ -85,7 +94,7 @@ def load(path: str | Path) -> ArticulatedObject:
                   for raw, el in joints.items()]
     _report_notes(ctx)
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
-                            metadata=_metadata(ctx, robot))
+                            metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
     joint_el = {joint_names[raw]: el for raw, el in joints.items()}
     for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
         el = joint_el[joint_name]
@@ -133,6 +142,30 @@ def _metadata(ctx: Context, robot: etree._Element) -> dict:
     if not isinstance(data, dict):
         raise ctx.error(label(robot), "real2code:metadata must be a JSON object", robot.sourceline)
     return data
+
+
+def _with_unread_elements(ctx: Context, robot: etree._Element, metadata: dict) -> dict:
+    """The metadata with the children of <robot> the model has no place for, as XML text."""
+    unread = unread_children(robot)
+    if not unread:
+        return metadata
+    ctx.warn(None, f"kept as metadata {ELEMENTS_KEY!r} (the URDF writer writes them back; no "
+             "other format acts on them): " + ", ".join(
+                 f"<{el.tag}> (line {el.sourceline})" for el in unread))
+    return {**metadata, ELEMENTS_KEY: [_element_text(el) for el in unread]}
+
+
+def _element_text(el: etree._Element) -> str:
+    """An element as XML text, without the layout whitespace between elements (a writer
+    indents it again) or namespace declarations it does not use."""
+    el = copy.deepcopy(el)
+    for sub in el.iter():
+        if sub.text is not None and not sub.text.strip() and len(sub):
+            sub.text = None
+        if sub.tail is not None and not sub.tail.strip():
+            sub.tail = None
+    etree.cleanup_namespaces(el)
+    return etree.tostring(el, encoding="unicode", with_tail=False)
 
 
 def _report_notes(ctx: Context) -> None:

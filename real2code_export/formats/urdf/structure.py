@@ -40,12 +40,13 @@ def parse(ctx: Context) -> etree._Element:
         etree.cleanup_namespaces(robot)
     if robot.tag != "robot":
         raise ctx.error(label(robot), "the root element must be <robot>", robot.sourceline)
-    unread = [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
-    if unread:  # transmissions, Gazebo tags, Drake frames...: said, never dropped in silence
-        ctx.warn(None, "not carried into the model (no kinematics or dynamics of its parts): "
-                 + ", ".join(f"<{etree.QName(el).localname}> (line {el.sourceline})"
-                             for el in unread))
     return robot
+
+
+def unread_children(robot: etree._Element) -> list[etree._Element]:
+    """The children of <robot> the model has no place for: transmissions, Gazebo tags,
+    Drake frames... (kept in the metadata by the reader, never dropped in silence)."""
+    return [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
 
 
 def _named(ctx: Context, robot: etree._Element, tag: str) -> dict[str, etree._Element]:

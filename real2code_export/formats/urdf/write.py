@@ -10,6 +10,7 @@ load every link as its own body, with its visual.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -17,10 +18,21 @@ from lxml import etree
 
 from ... import atomic
 from ... import transforms as tf
-from ...errors import warn
+from ...errors import ModelError, warn
 from ...meshfiles import collision_relpath, visual_relpath, write_object_meshes
 from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
-from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE, PREFIX, UNKNOWN, ns, number, numbers
+from .spec import (
+    DEFAULT_EFFORT,
+    DEFAULT_VELOCITY,
+    ELEMENTS_KEY,
+    NAMESPACE,
+    PREFIX,
+    UNKNOWN,
+    ns,
+    number,
+    numbers,
+)
+from .structure import READ_TAGS
 
 SUFFIX = ".urdf"
 
@@ -45,8 +57,10 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
 def to_bytes(obj: ArticulatedObject) -> bytes:
     robot = etree.Element("robot", nsmap={PREFIX: NAMESPACE})
     robot.set("name", obj.name)
-    if obj.metadata:
-        robot.set(ns("metadata"), metadata_json(obj, sort_keys=True))
+    elements = _kept_elements(obj)
+    metadata = {k: v for k, v in obj.metadata.items() if k != ELEMENTS_KEY}
+    if metadata:
+        robot.set(ns("metadata"), json.dumps(metadata, sort_keys=True, allow_nan=False))
     compiler = etree.SubElement(etree.SubElement(robot, "mujoco"), "compiler")
     for key, value in MUJOCO_COMPILER:
         compiler.set(key, value)
@@ -54,7 +68,27 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
         robot.append(_link(part))
     for joint in obj.joints:
         robot.append(_joint(joint))
+    robot.extend(elements)
     return etree.tostring(robot, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+
+
+def _kept_elements(obj: ArticulatedObject) -> list[etree._Element]:
+    """The URDF elements a reader kept in the metadata (spec.ELEMENTS_KEY), parsed again."""
+    metadata_json(obj)  # the same error as every format for metadata that is not JSON
+    texts = obj.metadata.get(ELEMENTS_KEY, [])
+    where = f"object {obj.name!r} metadata {ELEMENTS_KEY!r}"
+    if not isinstance(texts, list) or not all(isinstance(t, str) for t in texts):
+        raise ModelError(where, "must be a list of XML texts")
+    out = []
+    for k, text in enumerate(texts):
+        try:
+            el = etree.fromstring(text)
+        except etree.XMLSyntaxError as e:
+            raise ModelError(f"{where}[{k}]", f"not XML: {e}") from e
+        if el.tag in READ_TAGS:  # those are the model's own: never written twice
+            raise ModelError(f"{where}[{k}]", f"<{el.tag}> is the model's to write")
+        out.append(el)
+    return out
 
 
 def _sub(parent: etree._Element, tag: str, *attrs: tuple[str, str]) -> etree._Element:
