@@ -510,6 +510,9 @@ def test_third_party_structure_names_and_repairs(third_party):
     np.testing.assert_allclose(base_pose[:3, 3], [0, 0, 0.5])
     np.testing.assert_allclose(base_pose[:3, :3], tf.axis_angle_matrix([0, 0, 1], np.radians(30)),
                                atol=1e-12)
+    # The actuator has no place in the model: kept as MuJoCo writes it, in the metadata.
+    assert 'joint="slide"' in obj.metadata["mjcf_elements"]["actuator"]
+    assert "kept as metadata 'mjcf_elements'" in said
     for expected in ("'base frame' -> 'base_frame'",
                      "'lid hinge' -> 'lid_hinge'", "1 actuator"):
         assert expected in said, said

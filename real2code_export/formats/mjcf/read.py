@@ -50,6 +50,7 @@ from .conventions import (
     parse_custom_name,
 )
 from .geometry import geom_mesh, pose
+from .kept import ELEMENTS_KEY, unread_sections
 
 _DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's: the material's colour shows instead
 _MUJOCO_DEFAULT_NAME = "MuJoCo Model"
@@ -140,7 +141,7 @@ class _Reader:
     notes: dict[str, list[str]] = field(default_factory=dict)
     taken_parts: set[str] = field(default_factory=set)
     joint_of: dict[int, Joint] = field(default_factory=dict)  # MuJoCo joint id -> model joint
-    mimics: int = 0  # joint equality constraints read as mimics
+    mimics: set[tuple[str, str]] = field(default_factory=set)  # (joint1, joint2) in the file
 
     def read(self) -> ArticulatedObject:
 
@@ -183,6 +184,9 @@ class _Reader:
         for kind, names in self.notes.items():
             warn(f"{self.path}: {kind}: {', '.join(names)}")
         obj = ArticulatedObject(name, parts, joints, self._metadata())
+        kept = unread_sections(self.spec, self.mimics) if self._has_unread() else {}
+        if kept:
+            obj.metadata[ELEMENTS_KEY] = kept
         for joint_name, message in massless_moving_parts(obj):
             warn(f"{self.path}: joint {joint_name!r}: {message}")
         try:
@@ -487,20 +491,35 @@ class _Reader:
             y0 = float(m.qpos0[m.jnt_qposadr[int(m.eq_obj1id[e])]])
             x0 = float(m.qpos0[m.jnt_qposadr[int(m.eq_obj2id[e])]])
             follower.mimic = Mimic(leader.name, a1, y0 + a0 - a1 * x0)
-            self.mimics += 1
+            self.mimics.add((m.joint(int(m.eq_obj1id[e])).name, m.joint(int(m.eq_obj2id[e])).name))
 
     def _report_ignored(self) -> None:
         import mujoco
 
         m = self.model
         observed = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, KEYFRAME) >= 0
-        counts = {"actuator": m.nu, "tendon": m.ntendon, "equality constraint": m.neq - self.mimics,
-                  "sensor": m.nsensor, "keyframe": m.nkey - int(observed),
-                  "flex": m.nflex, "skin": m.nskin, "custom tuple": m.ntuple}
-        left = [f"{n} {what}{'s' if n > 1 else ''}" for what, n in counts.items() if n]
+
+        def listed(counts: dict[str, int]) -> str:
+            return ", ".join(f"{n} {what}{'s' if n > 1 else ''}" for what, n in counts.items()
+                             if n)
+
+        kept = listed(self._unread_counts())
+        if kept:
+            warn(f"{self.path}: MJCF elements with no place in the model kept as metadata "
+                 f"{ELEMENTS_KEY!r} (no writer writes them back): {kept}")
+        left = listed({"keyframe": m.nkey - int(observed), "flex": m.nflex, "skin": m.nskin,
+                       "custom tuple": m.ntuple})
         if left:
             warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
-                 f"{', '.join(left)}")
+                 f"{left}")
+
+    def _unread_counts(self) -> dict[str, int]:
+        m = self.model
+        return {"actuator": m.nu, "tendon": m.ntendon,
+                "equality constraint": m.neq - len(self.mimics), "sensor": m.nsensor}
+
+    def _has_unread(self) -> bool:
+        return any(self._unread_counts().values())
 
 
 def world_part_name(custom: dict) -> str:
