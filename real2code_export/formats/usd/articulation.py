@@ -110,6 +110,9 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
         lim = desc.limit
         limited = lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)
         kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
+    elif kind is JointType.BALL and desc.limit.enabled:
+        warn(f"{path}: {element}: the spherical joint's cone limit is dropped (the model's ball "
+             "joints are free)")
     elif kind is JointType.PRISMATIC:
         lim = desc.limit
         if not (lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)):
