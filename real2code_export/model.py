@@ -44,15 +44,11 @@ class JointType(StrEnum):
         return self in (JointType.REVOLUTE, JointType.PRISMATIC, JointType.CONTINUOUS)
 
     @property
-    def free(self) -> bool:
+    def multi_dof(self) -> bool:
         """Moves with several degrees of freedom the model gives no value: the child is held
         at the joint origin (its reference pose) in kinematics, as MuJoCo's ``qpos0`` and
         Pinocchio's neutral configuration hold it; no axis, limits or state."""
         return self in (JointType.BALL, JointType.FLOATING)
-
-    @property
-    def dof(self) -> int:
-        return {JointType.FIXED: 0, JointType.BALL: 3, JointType.FLOATING: 6}.get(self, 1)
 
     @property
     def angular(self) -> bool:

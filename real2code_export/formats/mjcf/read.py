@@ -144,7 +144,6 @@ class _Reader:
     mimics: set[tuple[str, str]] = field(default_factory=set)  # (joint1, joint2) in the file
 
     def read(self) -> ArticulatedObject:
-
         m = self.model
         self.spec_bodies = {int(b.id): b for b in self.spec.bodies}
         self.spec_joints = {int(j.id): j for j in self.spec.joints}

@@ -2,12 +2,13 @@
 
 One body per part, named as the part, posed at its joint origin; the joint (hinge, slide or
 ball) at the body origin; the root a jointless child of the world (fixed base), or the world
-body itself when it is the part ``world`` (a floating joint from it is a free joint); a fixed
-joint a jointless nested body. Each body has its explicit inertial (``fullinertia``), a non-colliding
-visual mesh geom (group 2, the part colour) and one colliding mesh geom per convex piece
-(group 3). Every parent/child pair is excluded from contact. What MJCF has no place for is
-kept in the keyframe "observed" (joint states) and in ``<custom>`` data named
-``real2code:<element>:<field>`` (velocity limits, fixed-joint names, metadata, ...).
+body itself when it is named ``world`` or a floating joint (a free joint) hangs from it; a
+fixed joint a jointless nested body; a mimic a joint equality. Each body has its explicit
+inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
+one colliding mesh geom per convex piece (group 3). Every parent/child pair is excluded from
+contact. What MJCF has no place for is kept in the keyframe "observed" (joint states) and in
+``<custom>`` data named ``real2code:<element>:<field>`` (velocity limits, fixed-joint names,
+metadata, ...).
 """
 
 from __future__ import annotations
@@ -241,7 +242,7 @@ def _add_joint(body, joint: Joint) -> None:
     d = joint.dynamics
     options = dict(name=joint.name, damping=d.damping, frictionloss=d.friction,
                    stiffness=d.stiffness, armature=d.armature)
-    if joint.type.free:
+    if joint.type.multi_dof:
         kind = mujoco.mjtJoint.mjJNT_BALL if joint.type is JointType.BALL else \
             mujoco.mjtJoint.mjJNT_FREE
         body.add_joint(type=kind, **options)

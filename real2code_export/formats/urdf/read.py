@@ -151,7 +151,7 @@ def _with_unread_elements(ctx: Context, robot: etree._Element, metadata: dict) -
         return metadata
     ctx.warn(None, f"kept as metadata {ELEMENTS_KEY!r} (the URDF writer writes them back; no "
              "other format acts on them): " + ", ".join(
-                 f"<{el.tag}> (line {el.sourceline})" for el in unread))
+                 f"<{etree.QName(el).localname}> (line {el.sourceline})" for el in unread))
     return {**metadata, ELEMENTS_KEY: [_element_text(el) for el in unread]}
 
 
@@ -292,7 +292,7 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
     joint = Joint(name=name, type=jtype, parent=part_names[parent], child=part_names[child],
                   origin=origin_matrix(ctx, el, owner),
                   mimic=_mimic(ctx, el, owner, joint_names))
-    if jtype.free:
+    if jtype.multi_dof:
         joint.dynamics = _dynamics(ctx, el, owner)
     if jtype.movable:
         joint.axis = _axis(ctx, el, owner)

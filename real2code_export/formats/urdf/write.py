@@ -145,7 +145,7 @@ def _joint(joint: Joint) -> etree._Element:
          ("rpy", numbers(stable_rpy(joint.origin[:3, :3]))))
     _sub(el, "parent", ("link", joint.parent))
     _sub(el, "child", ("link", joint.child))
-    if joint.type.free:
+    if joint.type.multi_dof:
         if not joint.dynamics.is_zero():
             _dynamics(el, joint)
         return el

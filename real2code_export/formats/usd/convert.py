@@ -252,7 +252,7 @@ def _joint(stage, e, names, to_part, world, mpu, kpu, path, taken: set[str]) -> 
         else (_quat(e.desc, 0), _quat(e.desc, 1))
     origin = to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
     if not kind.movable:
-        dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.free else None
+        dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.multi_dof else None
         return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent],
                      names[e.child], origin=origin, dynamics=dynamics or Dynamics())
     token = str(e.desc.axis)
