@@ -183,7 +183,7 @@ class _Reader:
         for kind, names in self.notes.items():
             warn(f"{self.path}: {kind}: {', '.join(names)}")
         obj = ArticulatedObject(name, parts, joints, self._metadata())
-        kept = unread_sections(self.spec, self.mimics) if self._has_unread() else {}
+        kept = unread_sections(self.path, self.mimics) if self._has_unread() else {}
         if kept:
             obj.metadata[ELEMENTS_KEY] = kept
         for joint_name, message in massless_moving_parts(obj):
