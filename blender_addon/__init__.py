@@ -19,6 +19,7 @@ def register():
     usd_support.ensure_pxr()
     for cls in CLASSES:
         bpy.utils.register_class(cls)
+    panel.register_properties()
     for menu, draw in MENUS:
         menu.append(draw)
 
@@ -26,5 +27,6 @@ def register():
 def unregister():
     for menu, draw in reversed(MENUS):
         menu.remove(draw)
+    panel.unregister_properties()
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

@@ -30,8 +30,10 @@ BUILD = REPO / "build" / "blender_addon"
 WHEEL_CACHE = BUILD / "wheels"
 MANIFEST = "blender_manifest.toml"
 PACKAGE = "real2code_export"
-# Blender platform -> the pip platform tag its compiled wheels are fetched for.
-PIP_PLATFORMS = {"linux-x64": "manylinux_2_28_x86_64"}
+# Blender platform -> the pip platform tags its compiled wheels are fetched for (pip takes an
+# explicit --platform literally: the older manylinux tags a glibc-2.28 Blender also runs are
+# listed too, for wheels built only for those).
+PIP_PLATFORMS = {"linux-x64": ("manylinux_2_28_x86_64", "manylinux2014_x86_64")}
 PYTHON_VERSION = "3.11"  # Blender 4.2 to 5.0
 
 
@@ -84,9 +86,10 @@ def fetch_wheels(cache: Path = WHEEL_CACHE) -> list[Path]:
     lists = {"any": ADDON / "wheels-any.txt"}
     lists |= {p: ADDON / f"wheels-{p}.txt" for p in PIP_PLATFORMS}
     for platform, requirements in lists.items():
-        tag = "any" if platform == "any" else PIP_PLATFORMS[platform]
+        tags = ("any",) if platform == "any" else PIP_PLATFORMS[platform]
         _run([sys.executable, "-m", "pip", "download", "--quiet", "--no-deps",
-              "--only-binary=:all:", "--python-version", PYTHON_VERSION, "--platform", tag,
+              "--only-binary=:all:", "--python-version", PYTHON_VERSION,
+              *(arg for tag in tags for arg in ("--platform", tag)),
               "--require-hashes", "-r", str(requirements), "-d", str(cache)])
         wheels += [_wheel_for(n, cache) for n in _requirement_names(requirements)]
     return wheels

@@ -108,7 +108,7 @@ def run_inside(files: list[Path], configurations: int = 100) -> CheckOutcome:
             skipped.append(f"{f.name}: {reason}")
         else:
             usable.append(f)
-    if any(f.suffix.lower() in (".glb", ".gltf") for f in usable):
+    if any(f.suffix.lower() in FORMATS["gltf"].suffixes for f in usable):
         skipped.append("Khronos glTF validator: needs Node.js and its npm package, not run "
                        "inside Blender")
     report = check_files(usable, n_configurations=configurations, validate=False)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import traceback
+import warnings
 from pathlib import Path
 
 import bpy
@@ -12,22 +13,32 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 from real2code_export.formats import FORMATS
 
 from . import rig_props as rp
-from .from_blender import find_rig, read_rig
+from .from_blender import compare_with_viewport, find_rig, read_rig, read_rig_objects
 
 # every format the registry knows (a format's label and description are the registry's)
 FORMAT_ITEMS = tuple((f.name, f.label, f.description) for f in FORMATS.values())
 
 
-def export_rig(root: bpy.types.Object, out: Path, formats, depsgraph=None) -> dict[str, Path]:
-    """Write the model the rig shows into ``out`` in ``formats`` (all files or none)."""
+def export_rig(root: bpy.types.Object, out: Path, formats, view_layer=None) -> dict[str, Path]:
+    """Write the model the rig shows into ``out`` in ``formats`` (all files or none). With a
+    view layer, the model is first posed beside the viewport (``compare_with_viewport``) and
+    nothing is written where they part."""
+    from real2code_export.errors import ModelError
     from real2code_export.formats import export
 
     if "usd" in formats:
         from .usd_support import ensure_pxr
 
         ensure_pxr()
-    model = read_rig(root, depsgraph)
-    return export(model, out, list(formats))
+    if view_layer is None:
+        return export(read_rig(root), out, list(formats))
+    view_layer.update()
+    reading = read_rig_objects(root, view_layer.depsgraph)
+    mismatches = compare_with_viewport(reading, view_layer)
+    if mismatches:
+        raise ModelError(f"rig {root.name!r}", "the exported model would not move as Blender "
+                         "shows it: " + "; ".join(mismatches[:3]))
+    return export(reading.model, out, list(formats))
 
 
 def check_exported(files: list[Path], executable: str, configurations: int):
@@ -65,7 +76,7 @@ class EXPORT_SCENE_OT_real2code(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
-        from real2code_export.errors import Real2CodeError
+        from real2code_export.errors import Real2CodeError, Real2CodeWarning
 
         from . import preferences
 
@@ -74,10 +85,10 @@ class EXPORT_SCENE_OT_real2code(bpy.types.Operator):
             self.report({"ERROR"}, "Export: choose a folder")
             return {"CANCELLED"}
         out = Path(bpy.path.abspath(self.directory))
-        context.view_layer.update()
         try:
-            written = export_rig(root, out, sorted(self.formats),
-                                 context.evaluated_depsgraph_get())
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", Real2CodeWarning)
+                written = export_rig(root, out, sorted(self.formats), context.view_layer)
         except Real2CodeError as e:
             self.report({"ERROR"}, f"Export failed, nothing written: {e}")
             return {"CANCELLED"}
@@ -85,7 +96,10 @@ class EXPORT_SCENE_OT_real2code(bpy.types.Operator):
             traceback.print_exc()
             self.report({"ERROR"}, f"Export failed, nothing written: {type(e).__name__}: {e}")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Wrote {len(written)} files to {out}")
+        for note in dict.fromkeys(str(w.message) for w in caught
+                                  if issubclass(w.category, Real2CodeWarning)):
+            self.report({"WARNING"}, note)
+        self.report({"INFO"}, f"Wrote {len(written)} files to {out}, matching the viewport")
         if not self.run_check:
             return {"FINISHED"}
         prefs = preferences.get(context)

@@ -1,10 +1,16 @@
 """The sidebar panel (View3D > Sidebar > Real2Code): a slider per joint that poses the parts,
-export, and the last check's result."""
+export, and the last check's result.
+
+A slider is a property of every object (``real2code_angle``, ``real2code_distance``) that
+reads and writes a joint Empty's motion channel, held inside the joint's range as its custom
+properties give it now: edit a limit and the slider stops at the new one."""
 
 from __future__ import annotations
 
+import math
+
 import bpy
-from bpy.props import EnumProperty
+from bpy.props import EnumProperty, FloatProperty
 
 from . import rig_props as rp
 from .from_blender import find_rig, rig_joints
@@ -12,18 +18,44 @@ from .from_blender import find_rig, rig_joints
 CHECK_LINES_SHOWN = 6
 
 
+SLIDER_ANGLE, SLIDER_DISTANCE = "real2code_angle", "real2code_distance"
+
+
+def _slider_get(ob) -> float:
+    return rp.joint_value(ob) if rp.motion_channel(ob) is not None else 0.0
+
+
+def _slider_set(ob, value: float) -> None:
+    if rp.motion_channel(ob) is not None:
+        rp.set_joint_value(ob, value)
+
+
+SLIDER_PROPERTIES = {
+    SLIDER_ANGLE: FloatProperty(name="Joint angle", subtype="ANGLE", unit="ROTATION",
+                                soft_min=-math.pi, soft_max=math.pi, get=_slider_get,
+                                set=_slider_set, description="The joint's angle, held in its "
+                                "range"),
+    SLIDER_DISTANCE: FloatProperty(name="Joint distance", subtype="DISTANCE", unit="LENGTH",
+                                   soft_min=-1.0, soft_max=1.0, get=_slider_get,
+                                   set=_slider_set, description="The joint's travel, held in "
+                                   "its range"),
+}
+
+
 def joint_sliders(root: bpy.types.Object) -> list[tuple[bpy.types.Object, str, str]]:
-    """(object, property path, label) of every slider the panel draws: one per movable joint,
-    the joint Empty's ``real2code_value``."""
-    return [(je, f'["{rp.VALUE}"]', je.get(rp.NAME, je.name))
-            for je in rig_joints(root) if rp.VALUE in je]
+    """(object, property, label) of every slider the panel draws: one per movable joint."""
+    out = []
+    for je in rig_joints(root):
+        channel = rp.motion_channel(je)
+        if channel is not None:
+            prop = SLIDER_ANGLE if channel[0] == "rotation_euler" else SLIDER_DISTANCE
+            out.append((je, prop, je.get(rp.NAME, je.name)))
+    return out
 
 
 def set_joint_value(je: bpy.types.Object, value: float) -> None:
-    """Set a joint the way the slider does (the UI tags the object for re-evaluation; a
-    script must do it itself)."""
-    je[rp.VALUE] = value
-    je.update_tag()
+    """Set a joint the way the slider does: held in its range now."""
+    rp.set_joint_value(je, value)
 
 
 class REAL2CODE_OT_pose(bpy.types.Operator):
@@ -42,11 +74,8 @@ class REAL2CODE_OT_pose(bpy.types.Operator):
 
     def execute(self, context):
         for je, _, _ in joint_sliders(find_rig(context.active_object)):
-            if self.pose == "OBSERVED":
-                value = float(je.get(rp.STATE, 0.0))
-            else:
-                value = min(max(0.0, je.get(rp.LOWER, 0.0)), je.get(rp.UPPER, 0.0)) \
-                    if rp.LOWER in je else 0.0
+            # (the rest pose 0 is held inside the range when the range excludes it)
+            value = float(je.get(rp.STATE, 0.0)) if self.pose == "OBSERVED" else 0.0
             set_joint_value(je, value)
         return {"FINISHED"}
 
@@ -100,3 +129,13 @@ def _draw_check(layout, root) -> None:
 
 
 CLASSES = (REAL2CODE_OT_pose, VIEW3D_PT_real2code)
+
+
+def register_properties() -> None:
+    for name, prop in SLIDER_PROPERTIES.items():
+        setattr(bpy.types.Object, name, prop)
+
+
+def unregister_properties() -> None:
+    for name in SLIDER_PROPERTIES:
+        delattr(bpy.types.Object, name)

@@ -2,8 +2,9 @@
 
 Every object the importer makes carries ``real2code_role`` (``object``, ``part``, ``joint`` or
 ``collision``) and its model name (Blender may add ``.001`` to the object name; the model name
-stays). Joint facts an artist may edit are visible custom properties in SI units (radians or
-metres); the exact float64 values read from the file sit in ``_real2code_exact`` (hidden: a
+stays). A joint's value is its Empty's own motion channel (the Z rotation of a hinge, the Z location
+of a slide), so the gizmo, keyframes and the panel's slider all pose the same thing. Joint
+facts an artist may edit are visible custom properties in SI units (radians or metres); the exact float64 values read from the file sit in ``_real2code_exact`` (hidden: a
 leading underscore hides a property in Blender's UI), used on export wherever the rig still
 shows them up to Blender's float32 precision, so an unedited rig exports exactly what it read.
 """
@@ -16,7 +17,6 @@ import re
 PREFIX = "real2code_"
 ROLE = PREFIX + "role"
 NAME = PREFIX + "name"
-VALUE = PREFIX + "value"  # the joint value the panel slider drives
 TYPE = PREFIX + "type"
 AXIS = PREFIX + "axis"
 LOWER = PREFIX + "lower"
@@ -67,3 +67,32 @@ def set_exact(obj, values: dict) -> None:
 def model_order(obj) -> tuple[int, str]:
     """Sort key: the position the object had in the model, new objects last, by name."""
     return (obj.get(INDEX, 1 << 30), obj.name)
+
+
+def joint_kind(je) -> str | None:
+    """The joint type a joint Empty was built for (its motion channel follows it)."""
+    return exact(je).get("type", je.get(TYPE))
+
+
+def motion_channel(je) -> tuple[str, int] | None:
+    """(property, index) of a joint Empty's motion channel; None for a fixed joint."""
+    kind = joint_kind(je)
+    if kind in ("revolute", "continuous"):
+        return "rotation_euler", 2
+    if kind == "prismatic":
+        return "location", 2
+    return None
+
+
+def joint_value(je) -> float:
+    path, index = motion_channel(je)
+    return float(getattr(je, path)[index])
+
+
+def set_joint_value(je, value: float) -> None:
+    """Pose a joint, held inside the range its custom properties give now (an edited limit
+    takes effect at once); a continuous joint is not held."""
+    path, index = motion_channel(je)
+    if joint_kind(je) != "continuous" and LOWER in je and UPPER in je:
+        value = min(max(value, float(je[LOWER])), float(je[UPPER]))
+    getattr(je, path)[index] = value

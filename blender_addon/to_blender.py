@@ -15,9 +15,12 @@ joint axis (the arrow it draws); its own transform is the motion alone: a rotati
 local Z (revolute, continuous) or a translation along it (prismatic). So a part's local
 transform is ``origin @ motion(q)``, its world matrix is the model's forward kinematics, and
 the joint's limits are plain Limit Rotation / Limit Location constraints in local space.
-The joint value is the custom property ``real2code_value`` (the panel's slider), which a
-driver copies into the motion channel; the limits are the custom properties
-``real2code_lower``/``real2code_upper``, which drivers copy into the constraint.
+The joint value is that motion channel itself (the panel's slider, the rotate and move tools
+and keyframes all pose it); the limits are the custom properties
+``real2code_lower``/``real2code_upper``, which drivers copy into the constraint, so the
+gizmo stops at an edited limit too. Faces are smooth with edges sharper than
+``SHARP_ANGLE`` marked sharp, as Blender's "Shade Auto Smooth" does: box furniture looks
+flat, a rounded handle round.
 
 Nothing is linked into the scene until every datablock exists; on any error all of them are
 removed again, so a failed import leaves the file exactly as it was.
@@ -39,6 +42,7 @@ from . import mesh_data
 from . import rig_props as rp
 
 Z = np.array([0.0, 0.0, 1.0])
+SHARP_ANGLE = math.radians(30.0)
 
 
 def joint_alignment(joint: Joint) -> np.ndarray:
@@ -138,7 +142,9 @@ def _part_object(object_name: str, part: Part, index: int, parent, parent_invers
     data = None
     if part.visual is not None:
         data = made.add(mesh_data.to_blender(part.name, part.visual))
-        data.materials.append(_material(f"{object_name}.{part.name}", part.color, made))
+        data.set_sharp_from_angle(angle=SHARP_ANGLE)
+        data.materials.append(_material(f"{object_name}.{part.name}", part.color, made,
+                                        part.texture))
     ob = made.add(bpy.data.objects.new(part.name, data))
     if data is None:
         ob.empty_display_type, ob.empty_display_size = "CUBE", 0.02
@@ -162,7 +168,7 @@ def _part_object(object_name: str, part: Part, index: int, parent, parent_invers
     return ob
 
 
-def _material(name: str, color, made: _Made) -> bpy.types.Material:
+def _material(name: str, color, made: _Made, texture=None) -> bpy.types.Material:
     mat = made.add(bpy.data.materials.new(name))
     mat.diffuse_color = color  # the viewport (Solid, Workbench) colour
     if mat.node_tree is None:  # Blender < 5.0 makes no node tree by default
@@ -171,7 +177,21 @@ def _material(name: str, color, made: _Made) -> bpy.types.Material:
     if bsdf is not None:
         bsdf.inputs["Base Color"].default_value = color
         bsdf.inputs["Alpha"].default_value = color[3]
+        if texture is not None:
+            node = mat.node_tree.nodes.new("ShaderNodeTexImage")
+            node.image = _image(texture, made)
+            mat.node_tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
     return mat
+
+
+def _image(texture, made: _Made) -> bpy.types.Image:
+    """The texture's file packed into the .blend as it is (never re-encoded), as Blender's
+    own glTF importer packs images."""
+    image = made.add(bpy.data.images.new(texture.name, 8, 8))
+    image.pack(data=texture.image, data_len=len(texture.image))
+    image.source = "FILE"
+    image.filepath_raw = f"//{texture.name}{texture.suffix}"
+    return image
 
 
 def _joint_empty(joint: Joint, index: int, parent, made: _Made, rig,
@@ -192,10 +212,11 @@ def _joint_empty(joint: Joint, index: int, parent, made: _Made, rig,
     je.lock_location = je.lock_rotation = je.lock_scale = (True, True, True)
     if joint.type.angular:
         je.lock_rotation = (True, True, False)
-        _drive(je, "rotation_euler", 2, je, rp.VALUE)
     elif joint.type is JointType.PRISMATIC:
         je.lock_location = (True, True, False)
-        _drive(je, "location", 2, je, rp.VALUE)
+    if joint.type.movable:
+        path, index = rp.motion_channel(je)
+        getattr(je, path)[index] = joint.state
     if joint.type.movable:
         _limit_constraint(je, joint)
     return je
@@ -204,23 +225,16 @@ def _joint_empty(joint: Joint, index: int, parent, made: _Made, rig,
 def _joint_properties(je, joint: Joint) -> None:
     unit = "ANGLE" if joint.type.angular else "DISTANCE"
     if joint.type.movable:
-        je[rp.VALUE] = joint.state
         je[rp.STATE] = joint.state
-        for key in (rp.VALUE, rp.STATE):
-            je.id_properties_ui(key).update(subtype=unit)
+        je.id_properties_ui(rp.STATE).update(subtype=unit)
     if joint.limits is not None:
         je[rp.LOWER], je[rp.UPPER] = joint.limits.lower, joint.limits.upper
         for key in (rp.LOWER, rp.UPPER):
             je.id_properties_ui(key).update(subtype=unit)
-        lo, hi = joint.limits.lower, joint.limits.upper
-        je.id_properties_ui(rp.VALUE).update(min=lo, max=hi, soft_min=lo, soft_max=hi,
-                                             description=f"{joint.name} ({joint.type.value})")
         if joint.limits.effort is not None:
             je[rp.EFFORT] = joint.limits.effort
         if joint.limits.velocity is not None:
             je[rp.VELOCITY] = joint.limits.velocity
-    elif joint.type is JointType.CONTINUOUS:
-        je.id_properties_ui(rp.VALUE).update(soft_min=-math.pi, soft_max=math.pi)
     for name in rp.DYNAMICS:
         je[rp.dynamics_key(name)] = float(getattr(joint.dynamics, name))
 

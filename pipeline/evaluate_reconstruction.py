@@ -114,7 +114,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
                     capture, segmentation=seg_method, completion=completion,
                     segmenter=segmenter if seg_method == "learned" else None,
                     completion_model=completion_model, name=case.obj.name, collision="hull",
-                    precomputed_segmentation=segmentations.get(seg_method))
+                    precomputed_segmentation=segmentations.get(seg_method), texture=False)
             except Exception as e:  # a failed reconstruction is scored as missing, not hidden
                 result.failures.append(f"{bucket}: {case.label}: {type(e).__name__}: {e}")
                 result.joints.objects[bucket] = result.joints.objects.get(bucket, 0) + 1

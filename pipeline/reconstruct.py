@@ -104,13 +104,18 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                         sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                         name: str = "reconstruction", collision: str = "auto",
                         precomputed_segmentation: Segmentation | None = None,
+                        texture: bool = True,
                         progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Every stage in memory (the evaluation calls this; :func:`reconstruct` also writes).
-    ``precomputed_segmentation`` skips the segmentation stage (the evaluation segments
-    once and completes twice)."""
+    ``texture``: bake the views' colours onto the parts (:mod:`.texture`; the evaluation,
+    which scores geometry and joints, leaves it out).
+    ``precomputed_segmentation`` skips the segmentation stages (segmentation, then the
+    compartments behind open doors back to the carcass; the evaluation segments once and
+    completes twice)."""
     from real2code_export.model import Mesh
 
     from .articulate import articulate
+    from .compartments import return_to_carcass
     from .complete.data import MIN_POINTS  # the fewest points completion takes
     from .fuse import oriented_part_clouds
     from .predictors import get_predictor
@@ -119,9 +124,11 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     timings: dict[str, float] = {}
     t = time.perf_counter()
     say(f"segmentation ({segmentation}) of {len(capture.frames)} views ...")
-    seg = precomputed_segmentation or segment(
-        capture, segmentation, segmenter=segmenter, options=prompting,
-        sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type)
+    seg = precomputed_segmentation
+    if seg is None:
+        seg = return_to_carcass(capture, segment(
+            capture, segmentation, segmenter=segmenter, options=prompting,
+            sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type))
     timings["segmentation"] = time.perf_counter() - t
     say(f"  {seg.n_parts} parts ({timings['segmentation']:.1f} s)")
 
@@ -155,6 +162,14 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                      collision=collision, align_boxes=segmentation != "gt",
                      observed={n: (clouds[n], normals[n]) for n in clouds})
     timings["articulation"] = time.perf_counter() - t
+    if texture:
+        from .texture import bake_textures
+
+        t = time.perf_counter()
+        say("texture baking ...")
+        labels = {n: (k, seg.labels) for k, n in names.items() if n in clouds}
+        art.obj = bake_textures(art.obj, capture, labels)
+        timings["texture"] = time.perf_counter() - t
     for j in art.obj.movable_joints:
         say(f"  {j.name:20s} {j.type.value:9s} state {j.state:+.3f}  "
             f"range [{j.limits.lower:.3f}, {j.limits.upper:.3f}]")
@@ -224,7 +239,7 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
                 completion: str = "learned", predictor: str = "learned",
                 sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                 formats: list[str] | None = None, check_configurations: int = 100,
-                name: str | None = None,
+                name: str | None = None, texture: bool = True,
                 progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Read the capture folder, run every stage, write everything into ``out`` (atomically:
     all of it or nothing) and check the exports against each other in their own tools."""
@@ -236,7 +251,8 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
     result = reconstruct_capture(
         capture, segmentation=segmentation, completion=completion, predictor=predictor,
         sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type,
-        name=name or capture.extra.get("object") or capture.path.name, progress=progress)
+        name=name or capture.extra.get("object") or capture.path.name, texture=texture,
+        progress=progress)
     out = Path(out)
     t = time.perf_counter()
     with atomic.staged_output(out) as staging:

@@ -204,7 +204,7 @@ def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIE
     from real2code_export.simplify import merge_fixed_joints
 
     from .capture import GROUND_TRUTH_DIR, write_capture
-    from .train_joint_predictor import ajar_configuration
+    from .predictors.data import ajar_configuration
 
     if state not in ("observed", "random"):
         raise InputError(f"state must be 'observed' or 'random', got {state!r}")

@@ -6,7 +6,8 @@ by orders of magnitude:
 
 - ``"hull"``: one convex hull (milliseconds). Right for convex-ish parts.
 - ``"pieces"``: the hull of each source piece (PartNet parts come as many OBJ pieces that
-  are mostly boxes and cylinders already): 40 pieces in ~0.2 s.
+  are mostly boxes and cylinders already): 40 pieces in ~0.2 s, cached on disk
+  (``meshcache``) so that exporting the same object again costs nothing.
 - ``"coacd"``: CoACD approximate convex decomposition of one mesh (a watertight scan).
   Slow: a 10k-face PartNet part took ~80 s at threshold 0.1 on 2 cores, so results are
   cached on disk by mesh hash and parameters.
@@ -21,12 +22,12 @@ import contextlib
 import hashlib
 import io
 import json
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from . import meshcache
 from .atomic import write_bytes
 from .errors import InputError, warn
 from .model import Mesh
@@ -160,7 +161,10 @@ def collision_pieces(
             warn(f"mesh has more than {_MAX_COMPONENTS} loose components; using one convex hull "
                  "(pass source_pieces, or use method='coacd')")
             return [convex_hull(mesh, min_thickness=min_thickness)]
-        return _sorted(_piece_hulls(pieces, max_pieces, min_thickness))
+        return meshcache.cached(
+            "pieces", pieces, {"max_pieces": max_pieces, "min_thickness": min_thickness},
+            lambda: _sorted(_piece_hulls(pieces, max_pieces, min_thickness)),
+            meshcache.encode_meshes, meshcache.decode_meshes, sources=(__file__,))
     return _coacd_cached(mesh, threshold, max_pieces, min_thickness, cache_dir)
 
 
@@ -288,10 +292,11 @@ def _sorted(pieces: list[Mesh]) -> list[Mesh]:
 
 
 # -- "coacd" -----------------------------------------------------------------------------------
-def default_cache_dir() -> Path:
-    env = os.environ.get("REAL2CODE_CACHE")
-    base = Path(env) if env else Path.home() / ".cache" / "real2code_export"
-    return base / "coacd"
+def default_cache_dir() -> Path | None:
+    """``$REAL2CODE_CACHE/coacd`` (default ``~/.cache/real2code_export/coacd``); None when
+    ``REAL2CODE_CACHE=off``."""
+    root = meshcache.cache_root()
+    return None if root is None else root / "coacd"
 
 
 def _coacd_key(mesh: Mesh, threshold: float, max_pieces: int, min_thickness: float) -> str:
@@ -320,8 +325,10 @@ def _coacd_version() -> str:
 
 def _coacd_cached(mesh: Mesh, threshold: float, max_pieces: int, min_thickness: float,
                   cache_dir: Path | None) -> list[Mesh]:
-    path = Path(cache_dir or default_cache_dir()) / f"{_coacd_key(mesh, threshold, max_pieces, min_thickness)}.npz"
-    cached = _read_cache(path)
+    folder = cache_dir or default_cache_dir()
+    path = None if folder is None else (
+        Path(folder) / f"{_coacd_key(mesh, threshold, max_pieces, min_thickness)}.npz")
+    cached = None if path is None else _read_cache(path)
     if cached is not None:
         return cached
     try:
@@ -334,7 +341,8 @@ def _coacd_cached(mesh: Mesh, threshold: float, max_pieces: int, min_thickness: 
         warn("CoACD returned no pieces; using one convex hull instead")
         return [convex_hull(mesh, min_thickness=min_thickness)]
     pieces = _sorted(pieces)
-    _write_cache(path, pieces)
+    if path is not None:
+        _write_cache(path, pieces)
     return pieces
 
 

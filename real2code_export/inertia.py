@@ -6,6 +6,10 @@ surface density ``density * shell_thickness``, integrated exactly over its trian
 A part made of several pieces sums them (solid where closed, shell where open) about the
 total centre of mass.
 
+Results are cached on disk by the meshes' content (``meshcache``): the integrals need trimesh
+(and scipy), which cost more to import than a whole URDF -> USD export of a PartNet object
+otherwise takes.
+
 Every result passes :func:`model.validate_inertial`: principal moments that come out tiny or
 zero (a flat panel has one moment equal to the sum of the other two; a stick has a zero
 moment) are raised to what a body ``shell_thickness`` thick would have, so simulators get a
@@ -18,6 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from . import meshcache
 from .errors import InputError, warn
 from .model import Inertial, Mesh
 
@@ -181,6 +186,15 @@ def inertial_from_meshes(meshes: Sequence[Mesh], density: float = DEFAULT_DENSIT
     many open pieces is neither possible nor worth it)."""
     if density <= 0 or shell_thickness <= 0:
         raise InputError(f"density and shell_thickness must be > 0, got {density}, {shell_thickness}")
+    return meshcache.cached(
+        "inertial", meshes, {"density": density, "shell_thickness": shell_thickness},
+        lambda: _inertial_of_pieces(meshes, density, shell_thickness),
+        lambda i: {"mass": np.array(i.mass), "com": i.com, "inertia": i.inertia},
+        lambda a: Inertial(float(a["mass"]), a["com"], a["inertia"]), sources=(__file__,))
+
+
+def _inertial_of_pieces(meshes: Sequence[Mesh], density: float,
+                        shell_thickness: float) -> Inertial:
     total = _zero_moments()
     for mesh in meshes:
         total = _add(total, _mesh_moments(mesh, density, shell_thickness))

@@ -2,18 +2,34 @@
 
 Every format references the same files (``meshes/<part>.obj``,
 ``meshes/<part>_collision_<k>.obj``), written once per export, deterministically, so the
-same model gives byte-identical files. Reading goes through trimesh (STL, OBJ, glTF, PLY,
-...), Collada through ``collada_mesh`` (pycollada: scene-graph transforms and unit applied).
+same model gives byte-identical files. Reading: OBJ through tinyobjloader (the geometry and
+its MTL colours in one pass, without importing trimesh and scipy: a PartNet object is ~100
+OBJ files and the export of one is a command a user waits on), Collada through
+``collada_mesh`` (pycollada: scene-graph transforms and unit applied), everything else
+through trimesh (STL, glTF, PLY, ...).
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
-from .errors import FormatError
-from .model import ArticulatedObject, Mesh
+from .errors import FormatError, warn
+from .model import ArticulatedObject, Mesh, Part, Texture
+
+RGBA = tuple[float, float, float, float]
+
+
+class MeshFile(NamedTuple):
+    """What a mesh file holds for a part: its triangles (with UVs where it has them), its own
+    colour (an OBJ's MTL ``Kd``) and its colour image (the MTL's ``map_Kd``)."""
+
+    mesh: Mesh
+    color: RGBA | None = None
+    texture: Texture | None = None
 
 MESH_DIR = "meshes"
 
@@ -26,35 +42,81 @@ def collision_relpath(part_name: str, k: int) -> str:
     return f"{MESH_DIR}/{part_name}_collision_{k}.obj"
 
 
-def obj_bytes(mesh: Mesh, exact: bool = False) -> bytes:
+def material_relpath(part_name: str) -> str:
+    return f"{MESH_DIR}/{part_name}.mtl"
+
+
+def texture_relpath(part: Part) -> str:
+    """Where a textured part's image goes, beside its meshes (every format refers to it)."""
+    return f"{MESH_DIR}/{part.name}_texture{part.texture.suffix}"
+
+
+def obj_bytes(mesh: Mesh, exact: bool = False, material: str | None = None) -> bytes:
     """OBJ text: 9 decimals (nanometres) for exports, or the shortest exact float64 text
-    (``exact=True``, for the lossless object.json).
+    (``exact=True``, for the lossless object.json); texture coordinates as ``vt`` (one per
+    vertex, so faces read ``f a/a b/b c/c``); ``material``: the MTL file (``<material>.mtl``
+    beside it) and material the faces use.
 
     Written directly rather than with trimesh's exporter, whose header and number
     formatting change between releases and would break byte-identical outputs.
     """
     lines = ["# real2code_export mesh"]
-    if exact:
-        lines += [f"v {x!r} {y!r} {z!r}" for x, y, z in mesh.vertices.tolist()]
+    if material is not None:
+        lines.append(f"mtllib {material}.mtl")
+    number = repr if exact else (lambda x: f"{x:.9f}")
+    lines += [f"v {number(x)} {number(y)} {number(z)}" for x, y, z in mesh.vertices.tolist()]
+    if mesh.uv is not None:
+        lines += [f"vt {number(u)} {number(v)}" for u, v in mesh.uv.tolist()]
+    if material is not None:
+        lines.append(f"usemtl {material}")
+    if mesh.uv is not None:
+        lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in (mesh.faces + 1).tolist()]
     else:
-        lines += [f"v {x:.9f} {y:.9f} {z:.9f}" for x, y, z in mesh.vertices.tolist()]
-    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in mesh.faces.tolist()]
+        lines += [f"f {a} {b} {c}" for a, b, c in (mesh.faces + 1).tolist()]
+    return ("\n".join(lines) + "\n").encode("ascii")
+
+
+def mtl_bytes(part: Part) -> bytes:
+    """A textured part's MTL: its colour (``Kd``, ``d``) and image (``map_Kd``)."""
+    r, g, b, a = part.color
+    lines = ["# real2code_export material", f"newmtl {part.name}", f"Kd {r!r} {g!r} {b!r}",
+             f"d {a!r}", f"map_Kd {Path(texture_relpath(part)).name}"]
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
 def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = False) -> dict[str, Path]:
-    """Write every mesh of ``obj`` under ``out_dir``; returns relpath -> absolute path."""
+    """Write every mesh of ``obj`` under ``out_dir`` (a textured part's visual with its MTL and
+    image beside it); returns relpath -> absolute path."""
+    written = {}
+
+    def put(rel: str, data: bytes) -> None:
+        path = out_dir / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        written[rel] = path
+
+    for part in obj.parts:
+        if part.visual is not None:
+            material = part.name if part.texture is not None else None
+            put(visual_relpath(part.name), obj_bytes(part.visual, exact, material))
+            if material is not None:
+                put(material_relpath(part.name), mtl_bytes(part))
+        for k, mesh in enumerate(part.collision):
+            put(collision_relpath(part.name, k), obj_bytes(mesh, exact))
+    written.update(write_texture_images(obj, out_dir))
+    return written
+
+
+def write_texture_images(obj: ArticulatedObject, out_dir: Path) -> dict[str, Path]:
+    """Only the textured parts' images (formats that hold geometry inline, as USD does, still
+    refer to them as files); returns relpath -> absolute path."""
     written = {}
     for part in obj.parts:
-        items = []
-        if part.visual is not None:
-            items.append((visual_relpath(part.name), part.visual))
-        items += [(collision_relpath(part.name, k), m) for k, m in enumerate(part.collision)]
-        for rel, mesh in items:
-            path = out_dir / rel
+        if part.texture is not None:
+            path = out_dir / texture_relpath(part)
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_bytes(obj_bytes(mesh, exact))
-            written[rel] = path
+            path.write_bytes(part.texture.image)
+            written[texture_relpath(part)] = path
     return written
 
 
@@ -64,14 +126,26 @@ def read_mesh(path: str | Path, *, source: str | Path | None = None, element: st
 
     ``source``/``element``/``line`` name the referencing file for the error message.
     """
-    import trimesh
+    return read_mesh_file(path, source=source, element=element, line=line, scale=scale).mesh
 
+
+def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
+                   element: str | None = None, line: int | None = None,
+                   scale=None) -> MeshFile:
+    """:func:`read_mesh` and the file's own colour: for an OBJ the area-weighted diffuse
+    colour (``Kd``) of its MTL materials, None when it names none (or other formats), and its
+    texture (``map_Kd``) where its faces have texture coordinates."""
     path = Path(path)
     if not path.is_file():
         raise FormatError(source or path, element, f"mesh file not found: {path}", line)
-    if path.suffix.lower() == ".dae":
+    color = texture = None
+    if path.suffix.lower() == ".obj":
+        mesh, color, texture = _read_obj(path, source, element, line)
+    elif path.suffix.lower() == ".dae":
         mesh = _read_collada(path, source, element, line)
     else:
+        import trimesh
+
         try:
             loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
         except Exception as e:  # trimesh raises many types for broken files
@@ -81,8 +155,126 @@ def read_mesh(path: str | Path, *, source: str | Path | None = None, element: st
             raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
         mesh = Mesh.from_trimesh(loaded)
     if scale is not None:
-        mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces)
-    return mesh
+        mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces, mesh.uv)
+    return MeshFile(mesh, color, texture)
+
+
+def _read_obj(path: Path, source, element, line) -> MeshFile:
+    """An OBJ's triangles (polygons fanned by tinyobjloader; only the vertices the faces use,
+    in file order, as trimesh keeps them) and its MTL colour. A missing MTL or texture costs
+    the colour only, as in trimesh and the viewers."""
+    import tinyobjloader
+
+    reader, config = tinyobjloader.ObjReader(), tinyobjloader.ObjReaderConfig()
+    config.triangulate = True
+    if not reader.ParseFromFile(str(path), config):
+        raise FormatError(source or path, element,
+                          f"cannot read mesh {path}: {reader.Error().strip()}", line)
+    vertices = _exact_vertices(path, np.array(reader.GetAttrib().vertices, dtype=np.float64))
+    # the list accessors: numpy_vertices()/numpy_indices() of 2.0.0rc13 return wrong values
+    shapes = [s.mesh for s in reader.GetShapes()]
+    faces = np.concatenate([np.zeros(0, np.int64)]
+                           + [np.array(m.vertex_indices(), dtype=np.int64) for m in shapes])
+    if len(faces) == 0 or len(faces) % 3:
+        raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise FormatError(source or path, element, f"mesh {path}: a face refers to vertex "
+                          f"{int(faces.max()) + 1} of {len(vertices)}", line)
+    uv_faces = np.concatenate([np.zeros(0, np.int64)]
+                              + [np.array(m.texcoord_indices(), dtype=np.int64) for m in shapes])
+    texcoords = np.array(reader.GetAttrib().texcoords, dtype=np.float64).reshape(-1, 2)
+    material = np.concatenate([np.zeros(0, np.int64)]
+                              + [np.array(m.material_ids, dtype=np.int64) for m in shapes])
+    if len(texcoords) and len(uv_faces) == len(faces) and uv_faces.min() >= 0 \
+            and uv_faces.max() < len(texcoords):
+        # a vertex seen with two texture coordinates becomes two (the model keeps one UV
+        # per vertex, as glTF and USD's vertex primvars do)
+        pairs, corners = np.unique(np.stack([faces, uv_faces], axis=1), axis=0,
+                                   return_inverse=True)
+        mesh = Mesh(vertices[pairs[:, 0]], corners.reshape(-1, 3), texcoords[pairs[:, 1]])
+    else:
+        used = np.zeros(len(vertices), dtype=bool)
+        used[faces] = True
+        renumber = np.cumsum(used) - 1  # a mask, not np.unique: no sort
+        mesh = Mesh(vertices[used], renumber[faces].reshape(-1, 3))
+    materials = reader.GetMaterials()
+    texture = _obj_texture(path, mesh, material, materials)
+    return MeshFile(mesh, _area_weighted_color(mesh, material, materials), texture)
+
+
+def _obj_texture(path: Path, mesh: Mesh, material: np.ndarray, materials) -> Texture | None:
+    """The colour image (``map_Kd``) the OBJ's faces use: one per mesh, as a part has one;
+    more, a missing image, or one without texture coordinates to place it are warned about
+    (the part keeps its colour, as viewers show it)."""
+    used = sorted({int(k) for k in np.unique(material) if 0 <= k < len(materials)})
+    names = list(dict.fromkeys(materials[k].diffuse_texname for k in used
+                               if materials[k].diffuse_texname))
+    if not names:
+        return None
+    if mesh.uv is None:
+        warn(f"{path}: texture {names[0]!r} without texture coordinates on every face: "
+             "not kept")
+        return None
+    if len(names) > 1:
+        warn(f"{path}: {len(names)} textures ({', '.join(names)}); a part holds one: "
+             f"{names[0]!r} kept")
+    image_path = path.parent / names[0].replace("\\", "/")
+    if not image_path.is_file():
+        warn(f"{path}: texture image {image_path} not found: not kept")
+        return None
+    return texture_from_file(image_path)
+
+
+def texture_from_file(image_path: Path) -> Texture:
+    """A texture from an image file: PNG and JPEG as they are; anything Pillow reads (TGA, BMP,
+    ...) converted to PNG, with a warning, since glTF, USD and MuJoCo read only those two."""
+    data = image_path.read_bytes()
+    mime = Texture.sniff(data)
+    if mime is None:
+        import io
+
+        from PIL import Image
+
+        try:
+            image = Image.open(io.BytesIO(data))
+            buffer = io.BytesIO()
+            image.save(buffer, format="PNG")
+        except Exception as e:  # Pillow raises many types for unreadable images
+            raise FormatError(image_path, None, f"cannot read texture image: {e}") from e
+        warn(f"{image_path}: texture converted to PNG (glTF, USD and MuJoCo read PNG and JPEG)")
+        data, mime = buffer.getvalue(), "image/png"
+    return Texture(data, mime, image_path.stem)
+
+
+_VERTEX_LINE = re.compile(rb"^v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
+
+
+def _exact_vertices(path: Path, parsed: np.ndarray) -> np.ndarray:
+    """The OBJ's vertices as the nearest float64 to each number written: tinyobjloader's own
+    number parser can be one unit in the last place off, which would break the lossless
+    object.json round trip. Its values stand when the ``v`` lines do not read plainly."""
+    try:
+        exact = np.array(_VERTEX_LINE.findall(path.read_bytes()), dtype=np.float64)
+    except ValueError:
+        exact = np.zeros((0, 3))
+    if exact.shape == (len(parsed) // 3, 3) and np.allclose(exact.ravel(), parsed, rtol=1e-6,
+                                                               atol=1e-12):
+        return exact
+    return parsed.reshape(-1, 3)
+
+
+def _area_weighted_color(mesh: Mesh, material: np.ndarray, materials) -> RGBA | None:
+    """The faces' diffuse colours weighted by face area (alpha 1, as trimesh reads MTLs)."""
+    known = (material >= 0) & (material < len(materials))
+    if not known.any():
+        return None
+    diffuse = np.array([list(m.diffuse)[:3] for m in materials], dtype=np.float64)
+    tri = mesh.vertices[mesh.faces[known]]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    if area.sum() <= 0:
+        return None
+    rgb = np.clip(area @ diffuse[material[known]] / area.sum(), 0.0, 1.0)
+    return (*(float(v) for v in rgb), 1.0)
 
 
 def _read_collada(path: Path, source, element, line) -> Mesh:

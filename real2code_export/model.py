@@ -57,14 +57,22 @@ class JointType(StrEnum):
 
 @dataclass(eq=False)
 class Mesh:
-    """A triangle mesh: float64 vertices (N, 3) and int64 faces (M, 3)."""
+    """A triangle mesh: float64 vertices (N, 3), int64 faces (M, 3) and, for a textured
+    mesh, one texture coordinate per vertex (N, 2; u right, v up, as OBJ, glTF after its
+    flip, and USD's st have it). A vertex seen with two UVs is two vertices."""
 
     vertices: np.ndarray
     faces: np.ndarray
+    uv: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
         self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
+        if self.uv is not None:
+            self.uv = np.ascontiguousarray(self.uv, dtype=np.float64).reshape(-1, 2)
+            if len(self.uv) != len(self.vertices):
+                raise ModelError("mesh", f"{len(self.uv)} texture coordinates for "
+                                 f"{len(self.vertices)} vertices")
 
     def digest(self) -> str:
         """A content hash (used for caching collision decompositions and naming files)."""
@@ -75,7 +83,7 @@ class Mesh:
 
     def transformed(self, transform: np.ndarray) -> Mesh:
         v = self.vertices @ transform[:3, :3].T + transform[:3, 3]
-        return Mesh(v, self.faces.copy())
+        return Mesh(v, self.faces.copy(), None if self.uv is None else self.uv.copy())
 
     def bounds(self) -> np.ndarray:
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
@@ -91,6 +99,7 @@ class Mesh:
 
     @staticmethod
     def concatenate(meshes: list[Mesh]) -> Mesh:
+        """One mesh of all; texture coordinates kept only when every mesh has them."""
         verts, faces, offset = [], [], 0
         for m in meshes:
             verts.append(m.vertices)
@@ -98,7 +107,42 @@ class Mesh:
             offset += len(m.vertices)
         if not verts:
             return Mesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
-        return Mesh(np.concatenate(verts), np.concatenate(faces))
+        uv = None
+        if all(m.uv is not None for m in meshes):
+            uv = np.concatenate([m.uv for m in meshes])
+        return Mesh(np.concatenate(verts), np.concatenate(faces), uv)
+
+
+IMAGE_SUFFIXES = {"image/png": ".png", "image/jpeg": ".jpg"}
+
+
+@dataclass(eq=False)
+class Texture:
+    """An image on a part's visual mesh, through the mesh's texture coordinates: the encoded
+    file (PNG or JPEG) as read, so every format writes the very same pixels, never
+    re-encoded. ``name`` is the stem its file gets next to the meshes."""
+
+    image: bytes
+    mime: str
+    name: str
+
+    def __post_init__(self) -> None:
+        if self.mime not in IMAGE_SUFFIXES:
+            raise ModelError(f"texture {self.name!r}", f"image type {self.mime!r}: PNG or JPEG "
+                             "only (what glTF, USD and MuJoCo all read)")
+
+    @property
+    def suffix(self) -> str:
+        return IMAGE_SUFFIXES[self.mime]
+
+    @staticmethod
+    def sniff(data: bytes) -> str | None:
+        """The MIME type of PNG or JPEG bytes, from their signature; None for anything else."""
+        if data.startswith(b"\x89PNG\r\n\x1a\n"):
+            return "image/png"
+        if data.startswith(b"\xff\xd8\xff"):
+            return "image/jpeg"
+        return None
 
 
 @dataclass(eq=False)
@@ -202,9 +246,13 @@ class Part:
     collision: list[Mesh] = field(default_factory=list)
     inertial: Inertial | None = None
     color: tuple[float, float, float, float] = DEFAULT_COLOR
+    texture: Texture | None = None  # the colour image on the visual mesh (needs its UVs)
 
     def __post_init__(self) -> None:
         self.color = tuple(float(c) for c in self.color)
+        if self.texture is not None and (self.visual is None or self.visual.uv is None):
+            raise ModelError(f"part {self.name!r}", "a texture needs a visual mesh with "
+                             "texture coordinates")
 
 
 @dataclass(eq=False)
@@ -541,6 +589,7 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
             if not close(x.inertial.inertia, y.inertial.inertia):
                 out.append(f"{el}: inertia differs")
         out.extend(_mesh_differences(el + " visual", x.visual, y.visual, tol))
+        out.extend(_texture_differences(el, x.texture, y.texture))
         if len(x.collision) != len(y.collision):
             out.append(f"{el}: {len(x.collision)} vs {len(y.collision)} collision pieces")
         else:
@@ -591,4 +640,29 @@ def _mesh_differences(el: str, x: Mesh | None, y: Mesh | None, tol: float) -> li
     if not np.allclose(x.vertices, y.vertices, atol=tol, rtol=0):
         err = float(np.abs(x.vertices - y.vertices).max())
         return [f"{el}: mesh vertices differ by up to {err:.3g}"]
+    if (x.uv is None) != (y.uv is None):
+        return [f"{el}: texture coordinates in only one"]
+    if x.uv is not None and not np.allclose(x.uv, y.uv, atol=tol, rtol=0):
+        return [f"{el}: texture coordinates differ by up to "
+                f"{float(np.abs(x.uv - y.uv).max()):.3g}"]
+    return []
+
+
+def _texture_differences(el: str, x: Texture | None, y: Texture | None) -> list[str]:
+    """Textures are equal when their images are: the same bytes, or the same pixels."""
+    if x is None or y is None:
+        return [] if x is y else [f"{el}: texture in only one"]
+    if x.image == y.image:
+        return []
+    try:
+        from io import BytesIO
+
+        from PIL import Image
+
+        a, b = (np.asarray(Image.open(BytesIO(t.image)).convert("RGBA")) for t in (x, y))
+    except Exception as e:  # an image PIL cannot decode is a difference, said as such
+        return [f"{el}: texture images differ and cannot be compared ({e})"]
+    if a.shape != b.shape or not np.array_equal(a, b):
+        return [f"{el}: texture images differ ({a.shape[1]}x{a.shape[0]} vs "
+                f"{b.shape[1]}x{b.shape[0]})"]
     return []

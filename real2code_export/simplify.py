@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from .errors import warn
 from .model import ArticulatedObject, Inertial, Joint, JointType, Mesh, Part
 
 
@@ -42,7 +43,13 @@ def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
             visual = visuals[0]
         elif visuals:
             visual = Mesh.concatenate(visuals)
-        parts.append(Part(kept.name, visual, collision, inertial, kept.color))
+        textures = [p.texture for p in members if p.texture is not None]
+        texture = textures[0] if len(textures) == 1 else None
+        if textures and (texture is None or visual is None or visual.uv is None):
+            warn(f"part {kept.name!r}: merged with the parts fixed to it, whose meshes do not all "
+                 "carry texture coordinates for one image: the texture is not kept")
+            texture = None
+        parts.append(Part(kept.name, visual, collision, inertial, kept.color, texture))
 
     joints = []
     for j in obj.joints:

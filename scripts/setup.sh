@@ -4,9 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# System libraries: open3d needs libusb-1.0-0, offscreen MuJoCo rendering needs libosmesa6.
+# System libraries: open3d needs libusb-1.0-0, offscreen MuJoCo rendering needs libosmesa6,
+# the web viewer's headless screenshots need Debian's chromium.
 need=()
-for pkg in libusb-1.0-0 libosmesa6; do
+for pkg in libusb-1.0-0 libosmesa6 chromium; do
   dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 command -v node >/dev/null 2>&1 || need+=(nodejs npm)
@@ -34,6 +35,13 @@ validator=real2code_export/formats/gltf_validator
 if [ -f "$validator/package.json" ] && [ ! -d "$validator/node_modules/gltf-validator" ]; then
   echo "setup: installing the Khronos glTF validator (npm)"
   (cd "$validator" && npm ci --silent --no-audit --no-fund)
+fi
+
+# The web viewer's three.js (npm package three), pinned by its package-lock.
+viewer=real2code_export/viewer/web
+if [ ! -f "$viewer/node_modules/three/build/three.module.js" ]; then
+  echo "setup: installing the web viewer's three.js (npm)"
+  (cd "$viewer" && npm ci --silent --no-audit --no-fund)
 fi
 
 # The engines that need their own venv (PhysX via ovphysx, Newton): see setup_engines.sh.

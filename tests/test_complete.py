@@ -15,7 +15,7 @@ from pipeline.complete import CompletionError, complete_part
 from pipeline.complete.baseline import segment_only_mesh
 from pipeline.complete.data import CONTEXT_POINTS, INPUT_POINTS, network_input, object_samples
 from pipeline.complete.frame import MARGIN, MIN_HALF, MIN_HALF_RATIO, part_frame
-from pipeline.complete.infer import mesh_from_grid
+from pipeline.complete.learned import mesh_from_grid
 from pipeline.complete.network import PLANES, build_network, sample_planes
 from pipeline.complete.occupancy import inside, piece_planes, query_points
 from pipeline.complete.views import DEFAULT_VIEWS, cast_views, partial_clouds

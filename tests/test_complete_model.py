@@ -13,7 +13,7 @@ from pipeline.chamfer import chamfer_distance
 from pipeline.complete import complete_part, load_model
 from pipeline.complete.baseline import segment_only_mesh
 from pipeline.complete.evaluate import evaluate_object, markdown, seen_parts, summary
-from pipeline.complete.infer import WEIGHTS
+from pipeline.complete.learned import WEIGHTS
 from pipeline.evaluate_articulation import procedural_cases
 
 

@@ -162,6 +162,7 @@ def _bad_commands(tmp_path: Path) -> dict[str, list[str]]:
         "evaluate reconstruction": ["evaluate", "reconstruction", "--objects", "1",
                                     "--partnet", str(empty)],
         "simulate": ["simulate", str(tmp_path / "missing.urdf")],
+        "view": ["view", str(tmp_path / "missing.urdf"), "--no-browser", "--port", "0"],
         "batch": ["batch", "export", str(tmp_path / "nothing" / "*.urdf"), "--out",
                   str(tmp_path / "o")],
     }

@@ -288,7 +288,13 @@ def test_file_structure(documents):
     # the massless handle on a fixed joint belongs to the door's body; the root is static
     assert not nodes["handle"].extensions and not nodes["body"].extensions
     assert "motion" in nodes["shelf"].extensions["KHR_physics_rigid_bodies"]
-    assert {a.name for a in doc.animations} == {j.name for j in obj.movable_joints}
+    # first every joint together (the animation importers make active), then one per joint
+    assert [a.name for a in doc.animations] == [f"{obj.name} all joints",
+                                                *(j.name for j in obj.movable_joints)]
+    together = doc.animations[0]
+    assert together.extras["real2code"]["joints"] == [j.name for j in obj.movable_joints]
+    assert len({(c.target.node, c.target.path) for c in together.channels}) == \
+        len(obj.movable_joints)
 
 
 def test_save_writes_shared_meshes_and_registry_export(tmp_path):
@@ -331,8 +337,13 @@ def test_animations_pose_parts_as_forward_kinematics(documents, name):
     obj = OBJECTS[name]
     doc = documents[name]
     state = obj.observed_configuration()
-    for anim in doc.animations:
+    together, *per_joint = doc.animations
+    assert len(per_joint) == len(obj.movable_joints)
+    for anim in per_joint:
         joint = obj.joint(anim.name)
+        # the animation of every joint plays this joint's keys on the same node
+        (same,) = [c for c in together.channels if c.target.node == anim.channels[0].target.node]
+        assert together.samplers[same.sampler] == anim.samplers[anim.channels[0].sampler]
         (channel,) = anim.channels
         sampler = anim.samplers[channel.sampler]
         assert sampler.interpolation == "LINEAR"

@@ -33,7 +33,7 @@ def test_learned_beats_the_geometric_baseline_on_lids():
 
 
 def test_training_script_runs_and_its_weights_load(tmp_path):
-    from pipeline.train_joint_predictor import train
+    from pipeline.predictors.train import train
 
     out = tmp_path / "tiny.pt"
     record = train(n_objects=24, epochs=2, seed=3, out=out, batch_size=8, workers=1,

@@ -24,7 +24,7 @@ MEAN_IOU_DEMO = 0.85
 
 
 def _has_completion_weights() -> bool:
-    from pipeline.complete.infer import load_model
+    from pipeline.complete.learned import load_model
 
     try:
         load_model()

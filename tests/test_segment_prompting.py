@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pipeline.predictors.data import ajar_configuration
 from pipeline.procedural import generate
 from pipeline.render import render_object
 from pipeline.segment import segment
@@ -19,7 +20,6 @@ from pipeline.segment.features import (
 )
 from pipeline.segment.metrics import matched_part_iou
 from pipeline.segment.prompting import segment_capture
-from pipeline.train_joint_predictor import ajar_configuration
 
 
 class MaskOracle:
@@ -73,6 +73,13 @@ def test_oracle_masks_give_one_label_per_part(cabinet_capture):
     assert min(per_part.values()) > 0.95, per_part
     for lab, frame in zip(seg.labels, cabinet_capture.frames, strict=True):
         assert np.array_equal(lab > 0, frame.depth > 0)  # every measured pixel labelled
+    # the next stage, compartments behind open doors back to the carcass, keeps exact parts
+    from pipeline.compartments import return_to_carcass
+
+    after = return_to_carcass(cabinet_capture, seg)
+    assert after.n_parts == seg.n_parts and after.details["returned_to_carcass"] == []
+    assert np.array_equal(after.point_labels, seg.point_labels)
+    assert all(np.array_equal(a, b) for a, b in zip(after.labels, seg.labels, strict=True))
 
 
 def test_doubtful_wrong_masks_are_outvoted(cabinet_capture):
@@ -84,6 +91,9 @@ def test_doubtful_wrong_masks_are_outvoted(cabinet_capture):
 def test_ground_truth_mode_uses_the_masks(cabinet_capture):
     seg = segment(cabinet_capture, "gt")
     assert seg.method == "gt" and seg.n_parts == len(cabinet_capture.parts)
+    from pipeline.compartments import return_to_carcass
+
+    assert return_to_carcass(cabinet_capture, seg) is seg  # the capture's masks: nothing to do
     assert matched_part_iou(seg.labels, _truth(cabinet_capture))[0] == 1.0
 
 
@@ -181,7 +191,7 @@ def test_compartment_behind_a_swung_door_goes_back_to_the_carcass():
     label also took half the carcass's back wall (the compartment seen past it), and a
     drawer pulled out square to the carcass with its bottom inside: the back wall goes
     back to the carcass; the door's panel, the drawer and the rest stay as they were."""
-    from pipeline.segment.prompting import return_compartments
+    from pipeline.compartments import return_compartments
 
     x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
     back = _grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z)

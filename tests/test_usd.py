@@ -283,7 +283,11 @@ def test_usdc_and_registry(tmp_path):
     written = export(obj, tmp_path / "out", ["usd"])
     usda = written["usd"]
     assert usda.name == "small_cabinet.usda"
-    assert (tmp_path / "out" / "meshes" / "door.obj").is_file()  # the shared mesh files
+    # USD embeds its meshes: an export to USD alone writes no shared OBJ files
+    assert not (tmp_path / "out" / "meshes").exists()
+    both = export(obj, tmp_path / "both", ["usd", "urdf"])
+    assert (tmp_path / "both" / "meshes" / "door.obj").is_file()  # the URDF's mesh files
+    assert both["usd"].read_bytes() == usda.read_bytes()
     crate = tmp_path / "small_cabinet.usdc"
     assert Sdf.Layer.FindOrOpen(str(usda)).Export(str(crate))
     assert differences(obj, load_any(crate), TOL) == []

@@ -3,7 +3,7 @@ part in, watertight mesh out.
 
 - :func:`complete_part` — the learned occupancy network (:mod:`.network`, weights shipped in
   ``weights/occupancy.pt``, trained by ``python -m pipeline.complete.train``) and marching
-  cubes (:mod:`.infer`).
+  cubes (:mod:`.learned`).
 - :func:`pipeline.complete.baseline.segment_only_mesh` — the "segment only" baseline:
   surface reconstruction of the raw points, no learning.
 - Training data: :mod:`.views` (partial views by ray casting), :mod:`.frame` (the partial
@@ -12,6 +12,6 @@ part in, watertight mesh out.
 Torch, open3d and scikit-image are imported only when a function needs them.
 """
 
-from .infer import CompletionError, OccupancyModel, complete_part, load_model
+from .learned import CompletionError, OccupancyModel, complete_part, load_model
 
 __all__ = ["CompletionError", "OccupancyModel", "complete_part", "load_model"]

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .infer import CompletionError
+from .learned import CompletionError
 
 VOXEL = 0.005  # m: the cloud is thinned to this spacing first (fused views overlap a lot)
 VOXELS_PER_DIAGONAL = 250  # ...or coarser for big parts, so a fridge body takes seconds

@@ -1,7 +1,7 @@
 """Training samples for shape completion: procedural parts seen partially, with occupancy.
 
 Each object is generated, opened to a random ajar state and placed as the joint predictor's
-training objects are (``pipeline.train_joint_predictor``), seen by :mod:`.views` (12 noisy
+training objects are (``pipeline.predictors.data``), seen by :mod:`.views` (12 noisy
 views on a full ring or, as often, on the renderer's 120-degree front arc; borders
 mislabelled at a random rate), and every part seen by enough points
 becomes one sample: its points and its neighbours' points (the context) in the part's unit

@@ -27,7 +27,7 @@ from ..chamfer import REPORT_SCALE, chamfer_distance, object_chamfer
 from ..evaluate_joints import BUCKETS, bucket_of
 from .baseline import segment_only_mesh
 from .data import MIN_POINTS
-from .infer import complete_part, load_model
+from .learned import complete_part, load_model
 from .views import DEFAULT_VIEWS, partial_clouds
 
 METHODS = ("completion", "segment_only")

@@ -3,7 +3,7 @@
     python -m pipeline.complete.train [--objects 1200] [--steps 1500] [--out PATH]
 
 Data: procedural objects of every category (the joint predictor's mix,
-``pipeline.train_joint_predictor.object_specs``; seeds below the held-out test offset),
+``pipeline.predictors.data.object_specs``; seeds below the held-out test offset),
 each ajar and randomly placed, every part seen partially from 12 ring views
 (:mod:`pipeline.complete.data`). Loss: binary cross-entropy on the query occupancies.
 The weights, the configuration and the training record (time, validation IoU) are saved
@@ -21,14 +21,14 @@ import numpy as np
 
 from ..weights import save_weights
 from .data import Sample, object_samples
-from .infer import WEIGHTS
+from .learned import WEIGHTS
 
 QUERIES_PER_STEP = 2048
 
 
 def _object(spec) -> list[Sample]:
+    from ..predictors.data import ajar_configuration, random_placement
     from ..procedural import generate
-    from ..train_joint_predictor import ajar_configuration, random_placement
 
     category, n_parts, seed = spec
     rng = np.random.default_rng(seed + 2_000_003)
@@ -41,7 +41,7 @@ def make_dataset(n_objects: int, seed: int, workers: int = 2,
     """Samples of ``n_objects`` procedural objects; ``cache`` keeps them between runs."""
     import pickle
 
-    from ..train_joint_predictor import object_specs
+    from ..predictors.data import object_specs
 
     if cache is not None and cache.is_file():
         return pickle.loads(cache.read_bytes())

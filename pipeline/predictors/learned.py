@@ -1,9 +1,10 @@
-"""The learned joint predictor: a small set transformer over box tokens.
+"""The learned joint predictor: inference with the shipped weights (the network is
+:mod:`.network`, its training :mod:`.train`, its metrics :mod:`.evaluate`).
 
 Per box it predicts whether it is the root, and for the others the joint type, the box axis
 (``idx``), the edge, the sign and the parent box (a pointer over the other boxes) — the
 classification Real2Code asks of its fine-tuned CodeLlama, from a model of ~0.2 M
-parameters that trains on these CPUs (``python -m pipeline.train_joint_predictor``) and
+parameters that trains on these CPUs (``python -m pipeline.predictors.train``) and
 ships its weights with the package.
 """
 
@@ -16,49 +17,10 @@ import numpy as np
 
 from ..joint_code import ArticulationProgram, ChildJoint, _check_tree
 from ..obb import OBB
-from .features import EDGES, N_FEATURES, box_features
+from .features import EDGES, box_features
+from .network import JOINT_TYPES, build_network
 
 WEIGHTS = Path(__file__).resolve().parent / "weights" / "joint_predictor.pt"
-JOINT_TYPES = ("hinge", "slide")
-
-
-def build_network(d_model: int = 96, layers: int = 3, heads: int = 4):
-    import torch
-    from torch import nn
-
-    class BoxSetNet(nn.Module):
-        def __init__(self):
-            super().__init__()
-            self.embed = nn.Sequential(nn.Linear(N_FEATURES, d_model), nn.GELU(),
-                                       nn.Linear(d_model, d_model))
-            layer = nn.TransformerEncoderLayer(d_model, heads, 2 * d_model, dropout=0.0,
-                                               batch_first=True, norm_first=True)
-            self.encoder = nn.TransformerEncoder(layer, layers, enable_nested_tensor=False)
-            self.root = nn.Linear(d_model, 1)
-            self.joint_type = nn.Linear(d_model, len(JOINT_TYPES))  # not .type: nn.Module has one
-            self.idx = nn.Linear(d_model, 3)
-            self.edge = nn.Linear(d_model, 3 * len(EDGES))  # the edge given each axis
-            self.sign = nn.Linear(d_model, 3 * 2)  # the sign given each axis
-            self.query = nn.Linear(d_model, d_model)
-            self.key = nn.Linear(d_model, d_model)
-
-        def forward(self, x: torch.Tensor, pad: torch.Tensor) -> dict[str, torch.Tensor]:
-            h = self.encoder(self.embed(x), src_key_padding_mask=pad)
-            b, n, _ = h.shape
-            parent = (self.query(h) @ self.key(h).transpose(1, 2)) / d_model**0.5
-            parent = parent.masked_fill(pad[:, None, :], -1e9)
-            eye = torch.eye(n, dtype=torch.bool, device=h.device)[None]
-            parent = parent.masked_fill(eye, -1e9)  # a box is not its own parent
-            return {
-                "root": self.root(h).squeeze(-1).masked_fill(pad, -1e9),
-                "type": self.joint_type(h),
-                "idx": self.idx(h),
-                "edge": self.edge(h).view(b, n, 3, len(EDGES)),
-                "sign": self.sign(h).view(b, n, 3, 2),
-                "parent": parent,
-            }
-
-    return BoxSetNet()
 
 
 @dataclass
@@ -73,7 +35,7 @@ class LearnedPredictor:
 
         net, config = load_network(path or WEIGHTS, "joint-predictor",
                                    lambda c: build_network(**c),
-                                   "python -m pipeline.train_joint_predictor")
+                                   "python -m pipeline.predictors.train")
         return cls(net, config)
 
     def predict(self, boxes: list[OBB]) -> ArticulationProgram:

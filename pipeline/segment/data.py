@@ -66,8 +66,8 @@ def _colours(names: list[str], original: dict[str, tuple], rng: np.random.Genera
 
 def object_views(obj, rng: np.random.Generator, views: int) -> list[View]:
     """``views`` training views of ``obj`` at a random, mostly partly-open configuration."""
+    from ..predictors.data import ajar_configuration
     from ..render import Lighting, render_object
-    from ..train_joint_predictor import ajar_configuration
 
     q = ajar_configuration(obj, rng)
     for j in obj.movable_joints:
@@ -108,7 +108,7 @@ def make_views(n_objects: int, seed: int, views_per_object: int = 4,
                workers: int = 2) -> list[View]:
     """Views of ``n_objects`` procedural objects (the joint predictor's mix of categories
     and part counts; seeds below the evaluation's held-out offset)."""
-    from ..train_joint_predictor import object_specs
+    from ..predictors.data import object_specs
 
     specs = [(c, n, s, views_per_object) for c, n, s in object_specs(n_objects, seed)]
     if workers > 1:

@@ -8,8 +8,7 @@ consistent 3D part segmentation from per-view masks.
    stability), on the cloud points that view sees: each prompt gets a 3D segment.
 4. Suppress duplicates by merging: prompts whose masks hold each other's points are one
    part (average-linkage clustering); drop groups the model does not trust; give every
-   point the part that claims it most; dissolve specks; smooth the labels over the cloud;
-   give the compartment seen past a swung-open door back to the carcass.
+   point the part that claims it most; dissolve specks; smooth the labels over the cloud.
 5. Every view's label image: each pixel takes the label of its nearest labelled point.
 """
 
@@ -22,8 +21,6 @@ import numpy as np
 
 from ..capture import Capture
 from ..fuse import (
-    axis_mean,
-    normal_map,
     object_diagonal,
     point_map,
     project,
@@ -54,6 +51,7 @@ class Segmentation:
     point_labels: np.ndarray  # (N,) in 1..n_parts
     method: str
     details: dict = field(default_factory=dict)
+    spacing: float | None = None  # the fused cloud's voxel size (m), where it was fused
 
 
 @dataclass(frozen=True)
@@ -68,13 +66,6 @@ class PromptingOptions:
     min_fraction: float = 0.003  # parts with fewer points (of the cloud) are specks
     smoothing_neighbours: int = 16  # each point weighs its score against its neighbours' ...
     smoothing_rounds: int = 3  # ... labels this many times (clears speckle at part borders)
-    panel_min_angle: float = 10.0  # deg: a part whose main plane is turned this far from
-    panel_fraction: float = 0.3  # the carcass's axes (and holds this share of its points,
-    panel_voxels: float = 1.5  # within this many spacings) is a door swung open; its points
-    behind_voxels: float = 3.0  # farther than this from that plane, inside the carcass's box,
-    # are the compartment seen through the opening and go back to the carcass
-    panel_normal_deg: float = 20.0  # a plane counts as a panel by its points whose measured
-    # normals lie within this of its own (RANSAC also fits planes across a box's edges)
 
 
 def _farthest_points(points: np.ndarray, n: int) -> np.ndarray:
@@ -204,7 +195,7 @@ def assign(score: np.ndarray, cloud: np.ndarray, min_points: int, neighbours: in
         labels[labels < 0] = labels[labels >= 0][nn]
     labels = np.maximum(labels, 0)
     labels = _smooth(cloud, labels, np.clip(s, 0.0, 1.0), active, neighbours, rounds)
-    return _numbered_by_size(labels)
+    return numbered_by_size(labels)
 
 
 def _smooth(cloud: np.ndarray, labels: np.ndarray, score: np.ndarray, active: np.ndarray,
@@ -228,64 +219,7 @@ def _smooth(cloud: np.ndarray, labels: np.ndarray, score: np.ndarray, active: np
     return labels
 
 
-def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
-                        options: PromptingOptions = PromptingOptions(),
-                        normals: np.ndarray | None = None,
-                        ) -> tuple[np.ndarray, list[dict]]:
-    """Points of a swung-open door's part that are the compartment behind it go back to the
-    carcass (label 1, the largest part).
-
-    The mask network's commonest error: prompted on an open door it also takes the inside of
-    the compartment the door reveals, which the carcass's own masks leave out, so no vote
-    gives those points back, and the door becomes a carcass-deep box that reads as a drawer.
-    Geometry tells them apart where the masks cannot: a door swung open is a panel turned
-    away from the carcass's axes, while the compartment's walls and a drawer's front and
-    box are square to them. So for each part whose main plane (RANSAC, open3d) holds enough
-    of its points and is turned at least ``panel_min_angle`` from every axis of the
-    carcass's box, the points well off that plane and inside the carcass's box are handed to
-    the carcass. Drawers and closed doors are left alone (no turned panel); a door opened
-    past ~80 degrees is too (its panel is square to the carcass again). With the points'
-    measured ``normals`` (:func:`pipeline.fuse.axis_mean`), only the plane's points that
-    face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
-    capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
-    Returns the labels, renumbered by size, and what was moved, per part."""
-    import open3d as o3d
-
-    from ..obb import part_obb
-
-    out = labels.copy()
-    moved = []
-    if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
-        return out, moved
-    body = part_obb(cloud[labels == 1])
-    o3d.utility.random.seed(0)  # RANSAC, deterministic
-    for k in range(2, int(labels.max()) + 1):
-        index = np.nonzero(labels == k)[0]
-        if len(index) < 30:
-            continue
-        pts = cloud[index]
-        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
-        (a, b, c, d), inliers = pcd.segment_plane(options.panel_voxels * voxel, 3, 300)
-        normal = np.array([a, b, c]) / np.linalg.norm([a, b, c])
-        if normals is not None:  # the plane's points that face along it
-            inliers = np.asarray(inliers, dtype=int)
-            facing = np.abs(normals[index[inliers]] @ normal)
-            inliers = inliers[facing >= np.cos(np.radians(options.panel_normal_deg))]
-        if len(inliers) < options.panel_fraction * len(pts):
-            continue
-        turn = np.degrees(np.arccos(min(1.0, float(np.max(np.abs(body.R.T @ normal))))))
-        if turn < options.panel_min_angle:
-            continue
-        behind = np.abs(pts @ normal + d / np.linalg.norm([a, b, c])) > (
-            options.behind_voxels * voxel)
-        back = behind & body.contains(pts, tol=voxel)
-        if back.any():
-            out[index[back]] = 1
-            moved.append({"part": k, "points": int(back.sum()), "panel_turn_deg": round(turn, 1)})
-    return _numbered_by_size(out), moved
-
-
-def _numbered_by_size(labels: np.ndarray) -> np.ndarray:
+def numbered_by_size(labels: np.ndarray) -> np.ndarray:
     """The same partition numbered 1..n, the largest part 1 (ties keep their order)."""
     sizes = np.bincount(labels)
     order = [k for k in np.argsort(-sizes, kind="stable") if sizes[k] > 0]
@@ -316,9 +250,7 @@ def segment_capture(capture: Capture, segmenter: PromptSegmenter,
     """One consistent part segmentation of every view of ``capture``."""
     diagonal = object_diagonal(capture)
     voxel = diagonal * options.voxel_fraction
-    measured = [(point_map(f)[0][f.depth > 0], normal_map(f)[f.depth > 0])
-                for f in capture.frames]
-    pixels = np.concatenate([p for p, _ in measured])
+    pixels = np.concatenate([point_map(f)[0][f.depth > 0] for f in capture.frames])
     cloud = voxel_downsample(pixels, voxel)
     prompt_index = _farthest_points(cloud, options.prompts)
     score, quality = vote(capture, segmenter, cloud, prompt_index, tolerance=1.5 * voxel)
@@ -326,15 +258,12 @@ def segment_capture(capture: Capture, segmenter: PromptSegmenter,
     min_points = max(5, int(options.min_fraction * len(cloud)))
     point_labels = assign(group_scores(score, groups), cloud, min_points,
                           options.smoothing_neighbours, options.smoothing_rounds)
-    normals = axis_mean(cloud, pixels, np.concatenate([n for _, n in measured]))
-    point_labels, returned = return_compartments(cloud, point_labels, voxel, options, normals)
     n_parts = int(point_labels.max())
     details = {"cloud_points": len(cloud), "prompts": len(prompt_index),
                "prompt_groups": len(groups), "parts": n_parts,
-               "prompts_per_group": [len(g) for g in groups],
-               "returned_to_carcass": returned}
+               "prompts_per_group": [len(g) for g in groups]}
     return Segmentation(label_views(capture, cloud, point_labels), n_parts, cloud,
-                        point_labels, segmenter.name, details)
+                        point_labels, segmenter.name, details, spacing=voxel)
 
 
 def ground_truth_segmentation(capture: Capture) -> Segmentation:

@@ -1,7 +1,8 @@
 """The ``real2code`` command line (contracts in docs/design.md).
 
 One module per command group (``models``: export, check, generate; ``articulate``;
-``reconstruct``: demo, render, reconstruct and their evaluations; ``calibrate``; ``batch``).
+``reconstruct``: demo, render, reconstruct and their evaluations; ``calibrate``;
+``simulate``; ``view``; ``batch``).
 Building the parser imports none of the stages: each command imports its stage when it runs,
 so ``real2code --help`` is quick. Every command runs inside :mod:`.boundary`.
 
@@ -16,7 +17,7 @@ import argparse
 import sys
 
 from .. import __version__
-from . import articulate, batch, calibrate, models, reconstruct, simulate
+from . import articulate, batch, calibrate, models, reconstruct, simulate, view
 from .boundary import call
 from .options import EXIT_DISAGREE, EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
 
@@ -38,6 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     reconstruct.add_parsers(sub)  # render, reconstruct
     calibrate.add_parsers(sub)
     simulate.add_parsers(sub)
+    view.add_parsers(sub)
     s = sub.add_parser("evaluate", help="accuracy tables (the paper's metrics)")
     evaluate_sub = s.add_subparsers(dest="what", required=True, metavar="WHAT")
     articulate.add_evaluate_parsers(evaluate_sub)  # joints

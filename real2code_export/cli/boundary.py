@@ -5,8 +5,6 @@ written to; never a bare traceback. Repair warnings are printed once each."""
 from __future__ import annotations
 
 import sys
-import tempfile
-import traceback
 import warnings
 
 from ..errors import Real2CodeError, Real2CodeWarning
@@ -43,6 +41,9 @@ def _fail(caught, message: str, status: int) -> int:
 
 
 def _write_traceback() -> str:
+    import tempfile  # only on a bug: not on every command's start
+    import traceback
+
     with tempfile.NamedTemporaryFile("w", prefix="real2code-traceback-", suffix=".txt",
                                      delete=False) as f:
         f.write(f"real2code {' '.join(sys.argv[1:])}\n\n")

@@ -85,6 +85,8 @@ def _reconstruct_options(s) -> None:
     s.add_argument("--predictor", default="learned", choices=["learned", "geometric"],
                    help="joint predictor (default: learned)")
     s.add_argument("--configurations", type=int, default=100, help="for the final check")
+    s.add_argument("--no-texture", dest="texture", action="store_false",
+                   help="leave each part its flat colour instead of baking the views onto it")
 
 
 def _run_reconstruct(capture, out, args) -> int:
@@ -95,7 +97,7 @@ def _run_reconstruct(capture, out, args) -> int:
     result = reconstruct(capture, out, segmentation=args.segmentation,
                          completion=args.completion, predictor=args.predictor,
                          sam_checkpoint=args.sam_checkpoint, sam_model_type=args.sam_model_type,
-                         check_configurations=args.configurations,
+                         check_configurations=args.configurations, texture=args.texture,
                          progress=lambda msg: print(msg, flush=True))
     out = Path(out)
     for stage in ("segmentation", "clouds", "part_meshes", "articulation"):

@@ -14,10 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..formats import format_for_path
 from . import Experiment, Recorder, Trajectory
 from .venv import run_in_venv, serve
-
-FORMATS = {".usda": "usd", ".usd": "usd", ".usdc": "usd", ".xml": "mjcf", ".urdf": "urdf"}
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
@@ -30,7 +29,7 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
 
     wp.config.quiet = True
     builder = newton.ModelBuilder(up_axis=newton.Axis.Z, gravity=tuple(experiment.gravity))
-    kind = FORMATS[path.suffix.lower()]
+    kind = format_for_path(path).name  # the registry knows the suffixes
     if kind == "usd":
         builder.add_usd(str(path))
     elif kind == "mjcf":

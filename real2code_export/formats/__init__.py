@@ -39,6 +39,7 @@ class Format:
     probes: tuple[str, ...] = ()  # modules whose open_probes(path) load it in its own tools
     validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
     exported: bool = True  # written by default (``export`` without --to)
+    mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it embeds them)
 
     @property
     def output_suffix(self) -> str:
@@ -76,10 +77,11 @@ for _fmt in (
            (".urdf",), requires=("lxml.etree",), probes=(_P + "mujoco", _P + "pinocchio")),
     Format("usd", "USD", "USD with UsdPhysics joints", "real2code_export.formats.usd",
            (".usda", ".usd", ".usdc"), requires=("pxr.Usd", "pxr.UsdPhysics"),
-           probes=(_P + "usd",), validator="real2code_export.validators:validate_usd"),
+           probes=(_P + "usd",), validator="real2code_export.validators:validate_usd",
+           mesh_files=False),
     Format("gltf", "glTF", "Binary glTF with KHR physics joints", "real2code_export.formats.gltf",
            (".glb", ".gltf"), requires=("pygltflib",), probes=(_P + "gltf",),
-           validator="real2code_export.validators:validate_gltf"),
+           validator="real2code_export.validators:validate_gltf", mesh_files=False),
 ):
     register(_fmt)
 
@@ -169,7 +171,8 @@ def load(path: str | Path) -> ArticulatedObject:
 def export(obj: ArticulatedObject, out_dir: str | Path,
            formats: tuple[str, ...] | list[str] | None = None) -> dict[str, Path]:
     """Write ``obj`` in each format (default: :func:`export_formats`) into ``out_dir``
-    atomically: all files or none. Meshes are written once and shared by every format's file.
+    atomically: all files or none. Meshes are written once and shared by every format's file
+    that refers to mesh files (:attr:`Format.mesh_files`; none when every format embeds them).
     """
     from .. import atomic
 
@@ -197,6 +200,7 @@ def write_formats(obj: ArticulatedObject, folder: str | Path,
         raise FormatError(None, "--to", f"format(s) {unwritable} cannot be written")
     folder = Path(folder)
     # object.json wants exact mesh text; the other formats share the same files.
-    write_object_meshes(obj, folder, exact="json" in formats)
+    if any(FORMATS[name].mesh_files for name in formats):
+        write_object_meshes(obj, folder, exact="json" in formats)
     return {name: Path(module.save(obj, folder, write_meshes=False))
             for name, module in modules.items()}

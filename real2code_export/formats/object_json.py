@@ -17,7 +17,14 @@ import numpy as np
 
 from .. import atomic
 from ..errors import FormatError, ModelError
-from ..meshfiles import collision_relpath, read_mesh, visual_relpath, write_object_meshes
+from ..meshfiles import (
+    collision_relpath,
+    read_mesh,
+    texture_from_file,
+    texture_relpath,
+    visual_relpath,
+    write_object_meshes,
+)
 from ..model import (
     ArticulatedObject,
     Dynamics,
@@ -43,6 +50,7 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                 "name": p.name,
                 "color": list(p.color),
                 "visual": visual_relpath(p.name) if p.visual is not None else None,
+                "texture": texture_relpath(p) if p.texture is not None else None,
                 "collision": [collision_relpath(p.name, k) for k in range(len(p.collision))],
                 "inertial": None
                 if p.inertial is None
@@ -163,8 +171,17 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
                 inertia=_vec(_get(ind, "inertia", path, el), 9, path, el, "inertia").reshape(3, 3),
             )
         color = tuple(_vec(pd.get("color", [0.7, 0.7, 0.7, 1.0]), 4, path, el, "color"))
+        texture = None
+        if pd.get("texture") is not None:
+            image = base / pd["texture"]
+            if not image.is_file():
+                raise FormatError(path, el + " texture", f"image file not found: {image}")
+            if visual is None or visual.uv is None:
+                raise FormatError(path, el + " texture", "needs a visual mesh with texture "
+                                  "coordinates (vt in its OBJ)")
+            texture = texture_from_file(image)
         parts.append(Part(name=name, visual=visual, collision=collision, inertial=inertial,
-                          color=color))
+                          color=color, texture=texture))
     joints = []
     for i, jd in enumerate(_get(data, "joints", path, "object")):
         el = f"joints[{i}]"

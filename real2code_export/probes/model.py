@@ -70,7 +70,8 @@ def open_probes(path: str | Path) -> list[ModelProbe]:
         data = json.loads(path.read_text(encoding="utf-8"))
         if isinstance(data, dict) and isinstance(data.get("parts"), list):
             data["parts"] = [
-                {**part, "visual": None, "collision": []} if isinstance(part, dict) else part
+                {**part, "visual": None, "texture": None, "collision": []}
+                if isinstance(part, dict) else part
                 for part in data["parts"]
             ]
         obj = object_json.from_dict(data, path)

@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import transforms as tf
 from ..errors import CheckError
-from ..formats.usd.stage import load_physics
+from ..formats.usd.conventions import load_physics
 from . import JointInfo
 
 WORLD = ""

@@ -40,6 +40,8 @@ COMPONENT_DTYPES = {
 TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
 TRIANGLES = 4
+# sampler filters and wrap mode (glTF 2.0 spec, 5.26)
+LINEAR, LINEAR_MIPMAP_LINEAR, REPEAT = 9729, 9987, 10497
 
 
 def ours(extras: Any) -> dict[str, Any]:

@@ -12,8 +12,15 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, warn
-from ...model import Mesh
-from .conventions import TRIANGLES, Z_UP_FROM_Y_UP, AccessorReader, node_matrix, ours
+from ...model import Mesh, Texture, sanitize_name
+from .conventions import (
+    TRIANGLES,
+    Z_UP_FROM_Y_UP,
+    AccessorReader,
+    buffer_bytes,
+    node_matrix,
+    ours,
+)
 from .mesh import decode
 
 GLB_MAGIC = b"glTF"
@@ -199,13 +206,66 @@ class Document:
                 raise FormatError(self.path, el, "indices out of range")
             if source is not None and (len(source) != len(positions) or source.min() < 0):
                 raise FormatError(self.path, el, "source_vertex does not match POSITION")
-            pieces.append(decode(positions, indices, source))
+            texcoords = getattr(prim.attributes, "TEXCOORD_0", None)
+            if texcoords is not None:
+                texcoords = self.accessors.read(texcoords)
+                if texcoords.shape != (len(positions), 2):
+                    raise FormatError(self.path, el, "TEXCOORD_0 does not match POSITION")
+            pieces.append(decode(positions, indices, source, texcoords))
         mesh = Mesh.concatenate(pieces)
         if transform is not None:
             mesh = mesh.transformed(transform)
             if np.linalg.det(transform[:3, :3]) < 0:
                 mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1])
         return mesh
+
+    def texture(self, mesh_index: int | None) -> Texture | None:
+        """The base colour image of the first primitive's material (PNG or JPEG, from the
+        binary buffer, a data URI or a file beside the document), if any."""
+        if mesh_index is None:
+            return None
+        prims = self.gltf.meshes[mesh_index].primitives or []
+        if not prims or prims[0].material is None:
+            return None
+        pbr = self.gltf.materials[prims[0].material].pbrMetallicRoughness
+        info = getattr(pbr, "baseColorTexture", None) if pbr is not None else None
+        if info is None:
+            return None
+        el = f"materials[{prims[0].material}].pbrMetallicRoughness.baseColorTexture"
+        textures, images = self.gltf.textures or [], self.gltf.images or []
+        index = info.index
+        if not isinstance(index, int) or not 0 <= index < len(textures) \
+                or not isinstance(textures[index].source, int) \
+                or not 0 <= textures[index].source < len(images):
+            raise FormatError(self.path, el, "refers to a texture or image that does not exist")
+        image = images[textures[index].source]
+        el = f"images[{textures[index].source}]"
+        if image.bufferView is not None:
+            view = self.gltf.bufferViews[image.bufferView]
+            start = view.byteOffset or 0
+            data = buffer_bytes(self.gltf, self.path, view.buffer)[start:start + view.byteLength]
+        elif image.uri and image.uri.startswith("data:"):
+            import base64
+
+            try:
+                data = base64.b64decode(image.uri.split(",", 1)[1])
+            except (IndexError, ValueError) as e:
+                raise FormatError(self.path, el, f"bad data URI: {e}") from e
+        elif image.uri:
+            from urllib.parse import unquote
+
+            file = self.path.parent / unquote(image.uri)
+            if not file.is_file():
+                warn(f"{self.path}: {el}: image file {file} not found; the texture is not kept")
+                return None
+            data = file.read_bytes()
+        else:
+            raise FormatError(self.path, el, "has neither a bufferView nor a uri")
+        mime = Texture.sniff(data)
+        if mime is None:
+            warn(f"{self.path}: {el}: not PNG or JPEG; the texture is not kept")
+            return None
+        return Texture(data, mime, sanitize_name(image.name or "texture"))
 
     def color(self, mesh_index: int | None) -> tuple[float, float, float, float] | None:
         """Base colour of the first primitive's material, if any."""

@@ -25,6 +25,7 @@ class VertexData:
     normals: np.ndarray | None  # (V', 3) float32 unit vectors
     indices: np.ndarray  # (F, 3) uint16 or uint32
     source: np.ndarray | None  # (V',) uint32 model vertex of each output vertex; None: identity
+    texcoords: np.ndarray | None = None  # (V', 2) float32, glTF's (u, 1 - v)
 
 
 def _index_dtype(count: int):
@@ -43,6 +44,7 @@ def encode_visual(mesh: Mesh) -> VertexData:
 
     # normals from the float32 positions the file stores: re-exporting what was read back
     # then gives the same bytes
+    uv = mesh.uv
     mesh = Mesh(mesh.vertices.astype(np.float32), mesh.faces)
     tm = mesh.to_trimesh()
     faces = mesh.faces
@@ -78,15 +80,28 @@ def encode_visual(mesh: Mesh) -> VertexData:
         normals=normals,
         indices=indices.astype(_index_dtype(len(keys))),
         source=None if identity else source.astype(np.uint32),
+        texcoords=None if uv is None else flip_v(uv[source]).astype(np.float32),
     )
 
 
-def decode(positions: np.ndarray, indices: np.ndarray, source: np.ndarray | None) -> Mesh:
+def flip_v(uv: np.ndarray) -> np.ndarray:
+    """glTF's texture coordinates put v = 0 at the image's top; the model's (OBJ's, USD's)
+    at its bottom. The same map both ways."""
+    return np.stack([uv[:, 0], 1.0 - uv[:, 1]], axis=1)
+
+
+def decode(positions: np.ndarray, indices: np.ndarray, source: np.ndarray | None,
+           texcoords: np.ndarray | None = None) -> Mesh:
     """The model mesh from glTF vertex data (inverse of :func:`encode_visual`)."""
     faces = np.asarray(indices, dtype=np.int64).reshape(-1, 3)
+    uv = None if texcoords is None else flip_v(np.asarray(texcoords, dtype=np.float64))
     if source is None:
-        return Mesh(positions, faces)
+        return Mesh(positions, faces, uv)
     source = np.asarray(source, dtype=np.int64)
     vertices = np.zeros((int(source.max()) + 1 if len(source) else 0, 3))
     vertices[source] = positions
-    return Mesh(vertices, source[faces])
+    model_uv = None
+    if uv is not None:  # split copies of a vertex share its coordinates
+        model_uv = np.zeros((len(vertices), 2))
+        model_uv[source] = uv
+    return Mesh(vertices, source[faces], model_uv)

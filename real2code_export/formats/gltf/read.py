@@ -125,7 +125,18 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
                             com=_vector(ind.get("com", [0, 0, 0]), 3, doc, el, "centre of mass"),
                             inertia=_vector(ind.get("inertia"), 9, doc, el, "inertia").reshape(3, 3))
     color = tuple(_vector(data.get("color", [0.7, 0.7, 0.7, 1.0]), 4, doc, el, "colour"))
-    return Part(name=name, visual=visual, collision=collision, inertial=inertial, color=color)
+    return Part(name=name, visual=visual, collision=collision, inertial=inertial, color=color,
+                texture=_texture(doc, node.mesh, visual, el))
+
+
+def _texture(doc: Document, mesh_index: int | None, visual, el: str):
+    """The mesh's base colour image, where its vertices have the coordinates to place it."""
+    texture = doc.texture(mesh_index)
+    if texture is not None and (visual is None or visual.uv is None):
+        warn(f"{doc.path}: {el}: a base colour texture without TEXCOORD_0 on every primitive; "
+             "the texture is not kept")
+        return None
+    return texture
 
 
 def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
@@ -195,8 +206,10 @@ def _load_plain(doc: Document) -> ArticulatedObject:
         world = doc.world(i)
         frames[i] = np.eye(4) if i == root else rigid(world)
         mesh = doc.mesh(node.mesh, doc.element(i), tf.inverse(frames[i]) @ world)
-        parts.append(Part(name=names[i], visual=mesh if len(mesh.faces) else None,
-                          color=doc.color(node.mesh) or (0.7, 0.7, 0.7, 1.0)))
+        visual = mesh if len(mesh.faces) else None
+        parts.append(Part(name=names[i], visual=visual,
+                          color=doc.color(node.mesh) or (0.7, 0.7, 0.7, 1.0),
+                          texture=_texture(doc, node.mesh, visual, doc.element(i))))
         if i != root:
             parent = parent_mesh_node(i)
             joints.append(Joint(name=sanitize_name(f"{names[i]}_fixed", taken), type=JointType.FIXED,

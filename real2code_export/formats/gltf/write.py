@@ -12,8 +12,9 @@ Node tree (names are the model's; the scene holds one root node):
             ...
 
 The joint motion is the child part node's own rotation (revolute, continuous) or
-translation (prismatic), so a viewer plays a joint by animating one node. One animation per
-movable joint sweeps lower -> upper -> lower (continuous: one full turn from the state).
+translation (prismatic), so a viewer plays a joint by animating one node. Each movable
+joint's sweep goes lower -> upper -> lower (continuous: one full turn from the state); the
+first animation plays every sweep together, and one animation per joint follows.
 Node transforms are float64 JSON numbers, so poses survive to ~1e-15; vertex data is
 float32. Our extras hold every model value exactly, so our reader is lossless (up to the
 float32 vertices) and re-exporting what it read gives the same bytes.
@@ -31,7 +32,16 @@ import numpy as np
 
 from ... import atomic
 from ...meshfiles import write_object_meshes
-from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from ...model import (
+    ArticulatedObject,
+    Joint,
+    JointType,
+    Mesh,
+    Part,
+    Texture,
+    metadata_json,
+    validate,
+)
 from ..object_json import mimic_json
 from . import physics
 from .conventions import (
@@ -40,6 +50,9 @@ from .conventions import (
     EXTRAS_KEY,
     FLOAT,
     KHR_PHYSICS,
+    LINEAR,
+    LINEAR_MIPMAP_LINEAR,
+    REPEAT,
     ROOT_ROTATION_XYZW,
     SCHEMA,
     SCHEMA_VERSION,
@@ -89,6 +102,9 @@ class _Builder:
                                                          target=ARRAY_BUFFER, bounds=True))
         if data.normals is not None:
             attributes.NORMAL = self.accessor(data.normals, FLOAT, "VEC3", target=ARRAY_BUFFER)
+        if data.texcoords is not None:
+            attributes.TEXCOORD_0 = self.accessor(data.texcoords, FLOAT, "VEC2",
+                                                  target=ARRAY_BUFFER)
         component = UNSIGNED_SHORT if data.indices.dtype == np.uint16 else UNSIGNED_INT
         indices = self.accessor(data.indices.reshape(-1), component, "SCALAR",
                                 target=ELEMENT_ARRAY_BUFFER)
@@ -99,6 +115,21 @@ class _Builder:
                                                                             "SCALAR")}}
         self.gltf.meshes.append(g.Mesh(name=name, primitives=[primitive]))
         return len(self.gltf.meshes) - 1
+
+    def texture(self, texture: Texture) -> int:
+        """The image in the binary buffer (its bytes as read: never re-encoded), one shared
+        sampler (linear, repeat), and the texture that joins them."""
+        g = self.g
+        self.gltf.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(self.blob),
+                                                  byteLength=len(texture.image)))
+        self.blob += texture.image + b"\0" * (-len(texture.image) % 4)
+        self.gltf.images.append(g.Image(name=texture.name, mimeType=texture.mime,
+                                        bufferView=len(self.gltf.bufferViews) - 1))
+        if not self.gltf.samplers:
+            self.gltf.samplers.append(g.Sampler(magFilter=LINEAR, minFilter=LINEAR_MIPMAP_LINEAR,
+                                                wrapS=REPEAT, wrapT=REPEAT))
+        self.gltf.textures.append(g.Texture(sampler=0, source=len(self.gltf.images) - 1))
+        return len(self.gltf.textures) - 1
 
     def node(self, name: str, **fields) -> int:
         self.gltf.nodes.append(self.g.Node(name=name, **fields))
@@ -203,36 +234,56 @@ def sweep(joint: Joint) -> tuple[np.ndarray, np.ndarray]:
     return np.linspace(0.0, 2 * SWEEP_SECONDS, 2 * n + 1), values
 
 
-def _animation(b: _Builder, joint: Joint, node: int) -> None:
+def _animations(b: _Builder, obj: ArticulatedObject, animated: list[tuple[Joint, int]]) -> None:
+    """First one animation that plays every joint together (importers such as Blender's
+    make the first animation the active one, so pressing play moves the whole object), then
+    one per joint; both share each joint's key accessors."""
     g = b.g
-    times, values = sweep(joint)
-    if joint.type.angular:
-        keys = np.array([axis_angle_xyzw(joint.axis, q) for q in values], dtype=np.float32)
-        path, type_ = "rotation", "VEC4"
-    else:
-        keys = (values[:, None] * joint.axis[None, :]).astype(np.float32)
-        path, type_ = "translation", "VEC3"
-    sampler = g.AnimationSampler(
-        input=b.accessor(times.astype(np.float32), FLOAT, "SCALAR", bounds=True),
-        output=b.accessor(keys, FLOAT, type_), interpolation="LINEAR")
+    order = {joint.name: k for k, joint in enumerate(obj.joints)}
+    animated = sorted(animated, key=lambda pair: order[pair[0].name])  # the model's order
+    samplers, channels = [], []
+    for joint, node in animated:
+        times, values = sweep(joint)
+        if joint.type.angular:
+            keys = np.array([axis_angle_xyzw(joint.axis, q) for q in values], dtype=np.float32)
+            path, type_ = "rotation", "VEC4"
+        else:
+            keys = (values[:, None] * joint.axis[None, :]).astype(np.float32)
+            path, type_ = "translation", "VEC3"
+        samplers.append(g.AnimationSampler(
+            input=b.accessor(times.astype(np.float32), FLOAT, "SCALAR", bounds=True),
+            output=b.accessor(keys, FLOAT, type_), interpolation="LINEAR"))
+        channels.append((g.AnimationChannelTarget(node=node, path=path), _floats(values)))
+    if not animated:
+        return
     b.gltf.animations.append(g.Animation(
-        name=joint.name, samplers=[sampler],
-        channels=[g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=node, path=path))],
-        extras={EXTRAS_KEY: {"joint": joint.name, "values": _floats(values)}}))
+        name=f"{obj.name} all joints", samplers=samplers,
+        channels=[g.AnimationChannel(sampler=k, target=target)
+                  for k, (target, _) in enumerate(channels)],
+        extras={EXTRAS_KEY: {"joints": [joint.name for joint, _ in animated]}}))
+    for (joint, _), sampler, (target, values) in zip(animated, samplers, channels, strict=True):
+        b.gltf.animations.append(g.Animation(
+            name=joint.name, samplers=[sampler],
+            channels=[g.AnimationChannel(sampler=0, target=target)],
+            extras={EXTRAS_KEY: {"joint": joint.name, "values": values}}))
 
 
 def build(obj: ArticulatedObject) -> bytes:
     b = _Builder()
     g = b.g
     physics_joints: list[dict] = []
+    animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
 
     def material(part: Part) -> int:
         color = _floats(part.color)
+        pbr = g.PbrMetallicRoughness(baseColorFactor=color, metallicFactor=0.0,
+                                     roughnessFactor=0.8)
+        if part.texture is not None:  # the factor multiplies the image: ours is its tint
+            pbr.baseColorTexture = g.TextureInfo(index=b.texture(part.texture))
         b.gltf.materials.append(g.Material(
             name=part.name, doubleSided=True,  # scans may have inconsistent winding
             alphaMode="BLEND" if color[3] < 1.0 else "OPAQUE", alphaCutoff=None,
-            pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=color, metallicFactor=0.0,
-                                                        roughnessFactor=0.8)))
+            pbrMetallicRoughness=pbr))
         return len(b.gltf.materials) - 1
 
     def add_part(part: Part, joint: Joint | None) -> tuple[int, int | None]:
@@ -283,7 +334,7 @@ def build(obj: ArticulatedObject) -> bytes:
             b.gltf.nodes[attach].extensions = {KHR_PHYSICS: {"joint": {
                 "connectedNode": connected, "joint": joint_index}}}
         if joint.type.movable:
-            _animation(b, joint, child_node)
+            animated.append((joint, child_node))
         return node
 
     root = b.node(obj.name, rotation=list(ROOT_ROTATION_XYZW), extras={EXTRAS_KEY: {
@@ -291,6 +342,7 @@ def build(obj: ArticulatedObject) -> bytes:
         # metadata as JSON text: pygltflib drops empty values from extras, which would lose them
         "metadata_json": metadata_json(obj)}})
     b.gltf.nodes[root].children.append(add_part(obj.root, None)[0])
+    _animations(b, obj, animated)
     b.gltf.scenes.append(g.Scene(name=obj.name, nodes=[root]))
     b.gltf.scene = 0
     uses_physics = physics_joints or any(n.extensions for n in b.gltf.nodes)

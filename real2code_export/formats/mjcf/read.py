@@ -378,13 +378,49 @@ class _Reader:
         if colour is not None and (not isinstance(colour, list | tuple) or len(colour) != 4):
             self.note("malformed real2code custom data ignored", f"{m.body(b).name}:color")
             colour = None
+        visual_mesh = Mesh.concatenate([mesh for _, mesh in visual]) if visual else None
         return Part(
             name,
-            visual=Mesh.concatenate([mesh for _, mesh in visual]) if visual else None,
+            visual=visual_mesh,
             collision=[mesh for _, mesh in colliding],
             inertial=self._inertial(b, frame, moved),
             color=tuple(float(c) for c in colour) if colour is not None else DEFAULT_COLOR,
+            texture=self._texture(name, [g for g, _ in visual], visual_mesh),
         )
+
+    def _texture(self, name: str, geoms: list[int], visual: Mesh | None):
+        """The image of the visual geom's material (its RGB texture role), read from the file
+        MuJoCo loaded, where the mesh has the texture coordinates to place it."""
+        import mujoco
+
+        from ...meshfiles import texture_from_file
+
+        m = self.model
+        found = []
+        for g in geoms:
+            mat = int(m.geom_matid[g])
+            tex = int(m.mat_texid[mat, mujoco.mjtTextureRole.mjTEXROLE_RGB]) if mat >= 0 else -1
+            if tex >= 0 and int(m.tex_pathadr[tex]) >= 0:
+                raw = bytes(m.paths[int(m.tex_pathadr[tex]):]).split(b"\0", 1)[0].decode()
+                found.append(self._texture_file(raw))
+        if not found:
+            return None
+        if len(found) > 1 or visual is None or visual.uv is None or not found[0].is_file():
+            self.note("textures not kept (a part holds one image, on one mesh with texture "
+                      "coordinates, from a file)", name)
+            return None
+        return texture_from_file(found[0])
+
+    def _texture_file(self, raw: str) -> Path:
+        """A texture's file as MuJoCo finds it: absolute, or under texturedir, which is
+        relative to the model file's folder."""
+        file = Path(raw)
+        if file.is_absolute():
+            return file
+        texturedir = Path(self.spec.texturedir or "")
+        if texturedir.is_absolute():
+            return texturedir / file
+        return Path(self.spec.modelfiledir or self.path.parent) / texturedir / file
 
     def _rgba(self, g: int) -> tuple[float, ...]:
         m = self.model

@@ -22,7 +22,13 @@ from ... import atomic
 from ... import transforms as tf
 from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import ExportError
-from ...meshfiles import MESH_DIR, collision_relpath, visual_relpath, write_object_meshes
+from ...meshfiles import (
+    MESH_DIR,
+    collision_relpath,
+    texture_relpath,
+    visual_relpath,
+    write_object_meshes,
+)
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
 from .conventions import (
     COLLISION_GROUP,
@@ -127,6 +133,8 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     compiler.savecompiled = False
     compiler.savecanonical = False
     spec.meshdir = meshdir
+    if any(part.texture is not None for part in obj.parts):
+        spec.texturedir = meshdir  # images lie beside the meshes (meshfiles.texture_relpath)
     # Limits and dry friction as the other engines have them (engine_settings.py).
     spec.default.joint.solref_limit = list(LIMIT_SOLREF)
     spec.default.joint.solimp_limit = list(LIMIT_SOLIMP)
@@ -145,6 +153,9 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
                 asset = spec.add_mesh(name=_stem(rel), file=rel.removeprefix(MESH_DIR + "/"))
             if visual:  # scans are often open or flat: no volume, but an area
                 asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+        # (in memory, for kinematics and dynamics only, no image is needed: none is added)
+        if part.texture is not None and not in_memory:
+            _add_texture(spec, part)
 
     joints = list(obj.joints_in_tree_order())
     root = obj.root
@@ -155,6 +166,9 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
     for joint in joints:
         bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
+    for part in parts:
+        if part.texture is not None and not in_memory:
+            spec.geom(f"{part.name}_visual").material = texture_name(part)
     for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
         spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
     for joint in joints:  # our joints have no ref: qpos0 = 0, polycoef = offset, multiplier
@@ -184,6 +198,24 @@ def _qpos(joint: Joint) -> list[float]:
         quat = snap_unit(tf.matrix_to_quat(joint.origin[:3, :3]), sign_free=True)
         return [x + 0.0 for x in joint.origin[:3, 3]] + quat
     return [joint.state] if joint.type.movable else []
+
+
+def _add_texture(spec, part: Part) -> None:
+    """A 2D texture asset of the part's image and a material that shows it (its colour the
+    part's, a tint as glTF's factor is); MuJoCo reads the texture coordinates from the OBJ."""
+    import mujoco
+
+    spec.add_texture(name=texture_name(part), type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     file=texture_relpath(part).removeprefix(MESH_DIR + "/"))
+    material = spec.add_material(name=texture_name(part), rgba=float32(part.color))
+    textures = list(material.textures)
+    textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = texture_name(part)
+    material.textures = textures
+
+
+def texture_name(part: Part) -> str:
+    """The texture asset's and its material's name."""
+    return f"{part.name}_texture"
 
 
 def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:

@@ -5,7 +5,8 @@ Mesh filenames are relative to the URDF, ``file://`` paths, or ``package://name/
 ``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``: there is no ROS
 package index here). Primitives become meshes with
 trimesh.creation. A visual's colour is its URDF material, else the area-weighted diffuse
-colour of the OBJ's own MTL materials (PartNet ships MTLs), else none.
+colour of the OBJ's own MTL materials (PartNet ships MTLs; read with the geometry), else
+none.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 from lxml import etree
 
 from ... import transforms as tf
-from ...meshfiles import read_mesh
+from ...meshfiles import read_mesh_file
 from ...model import Mesh
 from .context import Context, label
 
@@ -138,10 +139,11 @@ def _file_mesh(ctx: Context, shape: etree._Element, owner: str) -> tuple[Mesh, P
         raise ctx.error(owner, f"<mesh> scale {shape.get('scale')!r} has a zero", shape.sourceline)
     key = (path, tuple(scale.tolist()))
     if key not in ctx.meshes:
-        mesh = read_mesh(path, source=ctx.path, element=owner, line=shape.sourceline,
-                         scale=None if np.all(scale == 1.0) else scale)
+        mesh, ctx.colors[path], ctx.textures[path] = read_mesh_file(
+            path, source=ctx.path, element=owner, line=shape.sourceline,
+            scale=None if np.all(scale == 1.0) else scale)
         if np.prod(scale) < 0:  # a mirroring scale turns the faces inside out: turn them back
-            mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1])
+            mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1], mesh.uv)
         ctx.meshes[key] = mesh
     return ctx.meshes[key], path
 
@@ -185,39 +187,9 @@ def material_color(ctx: Context, visual: etree._Element, materials: dict[str, RG
 
 
 def mtl_color(ctx: Context, path: Path) -> RGBA | None:
-    """Area-weighted diffuse colour of an OBJ's MTL materials (None when it has none)."""
-    if path.suffix.lower() != ".obj":
-        return None
-    if path not in ctx.colors:
-        ctx.colors[path] = _mtl_color(path)
-    return ctx.colors[path]
-
-
-def _mtl_color(path: Path) -> RGBA | None:
-    import trimesh
-
-    try:  # textures PartNet's MTLs name are often missing: trimesh only logs that
-        scene = trimesh.load_scene(str(path), process=False)
-    except Exception:  # the geometry was read already; a colour is not worth an error
-        return None
-    total, weight = np.zeros(4), 0.0
-    for geom in scene.geometry.values():
-        material = getattr(getattr(geom, "visual", None), "material", None)
-        raw = getattr(material, "diffuse", None)
-        if raw is None:
-            raw = getattr(material, "baseColorFactor", None)
-        if raw is None:
-            continue
-        arr = np.asarray(raw).reshape(-1)
-        diffuse = arr.astype(float) / 255.0 if arr.dtype.kind in "ui" else arr.astype(float)
-        if len(diffuse) == 3:
-            diffuse = np.append(diffuse, 1.0)
-        area = float(getattr(geom, "area", 0.0))
-        total += area * diffuse[:4]
-        weight += area
-    if weight <= 0:
-        return None
-    return tuple(float(v) for v in np.clip(total / weight, 0.0, 1.0))
+    """Area-weighted diffuse colour of an OBJ's MTL materials (None when it has none), as
+    read with the file's geometry (:func:`_file_mesh`: each file is read once)."""
+    return ctx.colors.get(path)
 
 
 def average_color(colored: list[tuple[RGBA, float]]) -> RGBA | None:

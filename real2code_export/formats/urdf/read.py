@@ -193,6 +193,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict) -> Part:
     owner = label(el)
     visuals: list[Mesh] = []
     colored = []
+    textures = []
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
         mesh = _placed(mesh, origin_matrix(ctx, v, owner))
@@ -202,11 +203,19 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict) -> Part:
             color = mtl_color(ctx, file)
         if color is not None:
             colored.append((color, mesh_area(mesh)))
+        if file is not None and ctx.textures.get(file) is not None:
+            textures.append(ctx.textures[file])
     collision = _collision(ctx, el, name, visuals)
     inertial = _link_inertial(ctx, el, name, visuals)
-    return Part(name=name, visual=Mesh.concatenate(visuals) if visuals else None,
-                collision=collision, inertial=inertial,
-                color=average_color(colored) or DEFAULT_COLOR)
+    visual = Mesh.concatenate(visuals) if visuals else None
+    texture = textures[0] if textures else None
+    if texture is not None and (len(textures) > 1 or visual.uv is None):
+        ctx.warn(owner, f"{len(textures)} textured visuals among {len(visuals)}: a part holds "
+                 "one image on one textured mesh; the textures are not kept, the colour is")
+        texture = None
+        visual = Mesh(visual.vertices, visual.faces)
+    return Part(name=name, visual=visual, collision=collision, inertial=inertial,
+                color=average_color(colored) or DEFAULT_COLOR, texture=texture)
 
 
 def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh]) -> list[Mesh]:

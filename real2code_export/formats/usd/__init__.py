@@ -4,11 +4,13 @@
 body per part with inline meshes, a UsdPreviewSurface colour and convex collision pieces;
 UsdPhysics joints (revolute limits in degrees) with NewtonJointAPI and MjcJointAPI dynamics;
 the object fixed to the world and posed at its observed state. ``load(path)`` reads any
-.usda/.usd/.usdc through UsdPhysics' own parser. Module map: stage (layout, metadata,
-value conversions), geometry (meshes, materials), body (rigid bodies, mass), joint (joints,
-units), articulation (the parsed tree), convert (save/load).
+.usda/.usd/.usdc through UsdPhysics' own parser. Module map, as in every format package:
+read (load, with a ``Context``), write (save), conventions (layout, stage metadata and units,
+value conversions); and the concepts both directions share: geometry (meshes, materials),
+body (rigid bodies, mass), joint (joints, units), articulation (the parsed tree).
 """
 
-from .convert import load, save, to_usda
+from .read import load
+from .write import save, to_usda
 
 __all__ = ["load", "save", "to_usda"]

@@ -19,7 +19,7 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import JointType
-from .stage import load_physics
+from .conventions import load_physics
 
 WORLD = ""  # the parser's body path for the world side of a joint
 KINDS = {"RevoluteJoint": None, "PrismaticJoint": JointType.PRISMATIC,
@@ -123,7 +123,7 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
 
 def joint_frame(desc, side: int, mpu: float) -> np.ndarray:
     """The parsed joint frame in body0 (side 0) or body1 (side 1), positions in metres."""
-    from .stage import pose
+    from .conventions import pose
 
     if side == 0:
         return pose(desc.localPose0Position, desc.localPose0Orientation, mpu)

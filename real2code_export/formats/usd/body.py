@@ -14,7 +14,7 @@ from ... import transforms as tf
 from ...engine_settings import LINK_DAMPING
 from ...errors import warn
 from ...model import Inertial, Mesh, Part
-from .stage import as_float32, quatd, quatf
+from .conventions import as_float32, quatd, quatf
 
 PHYSX_RIGID_BODY = "PhysxRigidBodyAPI"
 PHYSX_LINK_DAMPING = ("physxRigidBody:linearDamping", "physxRigidBody:angularDamping")

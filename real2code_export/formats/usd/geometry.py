@@ -2,20 +2,31 @@
 with the part's linear colour) and its convex collision pieces (UsdGeom.Mesh with
 PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
 renderers skip them). Geometry is inline, in the part frame, so the file is self-contained.
+
+Mesh prims are named after their part (``<part>/<part>``, ``<part>/<part>_collision_<k>``),
+never a generic ``visual``: importers that fold a single-mesh Xform into one object (Blender's
+does) name it after the mesh prim, and should show the part's name. The reader tells visual
+from collision by the PhysicsCollisionAPI, not by name.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ...errors import FormatError, warn
-from ...model import DEFAULT_COLOR, Mesh, Part
+from ...model import DEFAULT_COLOR, Mesh, Part, Texture
 
-VISUAL = "visual"
+ST = "st"  # the texture-coordinate primvar's name, as UsdPreviewSurface's examples use
 
 
-def collision_name(k: int) -> str:
-    return f"collision_{k}"
+def visual_name(part: Part) -> str:
+    return part.name
+
+
+def collision_name(part: Part, k: int) -> str:
+    return f"{part.name}_collision_{k}"
 
 
 def _define_mesh(stage, path: str, mesh: Mesh):
@@ -41,7 +52,10 @@ def write_part_geometry(stage, part: Part, body_path: str, material_path: str) -
     material = UsdShade.Material.Define(stage, material_path)
     shader = UsdShade.Shader.Define(stage, f"{material_path}/PreviewSurface")
     shader.CreateIdAttr("UsdPreviewSurface")
-    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(r, g, b))
+    diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+    diffuse.Set(Gf.Vec3f(r, g, b))
+    if part.texture is not None:
+        _texture_network(stage, material, material_path, diffuse, part)
     shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(a)
     shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.6)
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
@@ -49,16 +63,51 @@ def write_part_geometry(stage, part: Part, body_path: str, material_path: str) -
     UsdShade.MaterialBindingAPI.Apply(body).Bind(material)
 
     if part.visual is not None:
-        visual = _define_mesh(stage, f"{body_path}/{VISUAL}", part.visual)
+        visual = _define_mesh(stage, f"{body_path}/{visual_name(part)}", part.visual)
+        if part.visual.uv is not None:
+            _texture_coordinates(visual, part.visual.uv)
         # displayColor too, for viewers and importers (MuJoCo's) that read no materials
         visual.CreateDisplayColorAttr([Gf.Vec3f(r, g, b)])
         visual.CreateDisplayOpacityAttr([a])
     for k, piece in enumerate(part.collision):
-        geom = _define_mesh(stage, f"{body_path}/{collision_name(k)}", piece)
+        geom = _define_mesh(stage, f"{body_path}/{collision_name(part, k)}", piece)
         geom.CreatePurposeAttr("guide")
         UsdPhysics.CollisionAPI.Apply(geom.GetPrim())
         UsdPhysics.MeshCollisionAPI.Apply(geom.GetPrim()).CreateApproximationAttr(
             UsdPhysics.Tokens.convexHull)
+
+
+def _texture_coordinates(geom, uv: np.ndarray) -> None:
+    from pxr import Sdf, UsdGeom, Vt
+
+    st = UsdGeom.PrimvarsAPI(geom.GetPrim()).CreatePrimvar(
+        ST, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+    st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv, dtype=np.float32)))
+
+
+def _texture_network(stage, material, material_path: str, diffuse, part: Part) -> None:
+    """UsdPreviewSurface's diffuse colour from a UsdUVTexture of the part's image (a file
+    beside the meshes, relative to the layer) through the ``st`` primvar."""
+    from pxr import Sdf, UsdShade
+
+    from ...meshfiles import texture_relpath
+
+    reader = UsdShade.Shader.Define(stage, f"{material_path}/TexCoords")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    # (varname is a string since UsdPreviewSurface 2.3; a token before, which UsdValidation
+    # now calls an error)
+    varname = material.CreateInput("frame:stPrimvarName", Sdf.ValueTypeNames.String)
+    varname.Set(ST)
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).ConnectToSource(varname)
+    image = UsdShade.Shader.Define(stage, f"{material_path}/Image")
+    image.CreateIdAttr("UsdUVTexture")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(
+        Sdf.AssetPath(f"./{texture_relpath(part)}"))
+    image.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("sRGB")
+    image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+        reader.ConnectableAPI(), "result")
+    rgb = image.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    diffuse.ConnectToSource(rgb)
 
 
 # -- reading ---------------------------------------------------------------------------------
@@ -81,17 +130,84 @@ def read_mesh(prim, to_part: np.ndarray, path, element: str) -> Mesh:
     if indices.min() < 0 or indices.max() >= len(v):
         raise FormatError(path, element, "face vertex index out of range")
     if np.all(counts == 3):
-        faces = indices.reshape(-1, 3)
-    else:
+        corners = np.arange(len(indices)).reshape(-1, 3)
+    else:  # each polygon fanned; a corner is a position in faceVertexIndices
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        faces = np.array([[indices[s], indices[s + k], indices[s + k + 1]]
-                          for s, n in zip(starts, counts, strict=True) for k in range(1, n - 1)])
+        corners = np.array([[s, s + k, s + k + 1]
+                            for s, n in zip(starts, counts, strict=True) for k in range(1, n - 1)])
     mirrored = np.linalg.det(to_part[:3, :3]) < 0
     if (geom.GetOrientationAttr().Get() == UsdGeom.Tokens.leftHanded) != mirrored:
-        faces = faces[:, [0, 2, 1]]  # keep outward normals
+        corners = corners[:, [0, 2, 1]]  # keep outward normals
     if not np.array_equal(to_part, np.eye(4)):
         v = v @ to_part[:3, :3].T + to_part[:3, 3]
-    return Mesh(v, faces)
+    faces = indices[corners]
+    uv = _read_texture_coordinates(prim, len(v), len(indices), path, element)
+    if uv is None:
+        return Mesh(v, faces)
+    if len(uv) == len(v):  # one per point
+        return Mesh(v, faces, uv)
+    # one per face corner: a point seen with two coordinates becomes two vertices
+    keys = np.concatenate([faces.reshape(-1, 1).astype(np.float64), uv[corners.reshape(-1)]],
+                          axis=1)
+    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+    return Mesh(v[unique[:, 0].astype(np.int64)], inverse.reshape(-1, 3), unique[:, 1:])
+
+
+def _read_texture_coordinates(prim, n_points: int, n_corners: int, path,
+                              element: str) -> np.ndarray | None:
+    """The ``st`` primvar (or the first texture-coordinate primvar), flattened: one per point
+    (vertex, varying) or one per face corner (faceVarying); None where there is none."""
+    from pxr import Sdf, UsdGeom
+
+    api = UsdGeom.PrimvarsAPI(prim)
+    primvar = api.GetPrimvar(ST)
+    if not primvar or not primvar.HasValue():
+        primvar = next((pv for pv in api.GetPrimvarsWithValues()
+                        if pv.GetTypeName().role == Sdf.ValueTypeNames.TexCoord2f.role), None)
+    if primvar is None:
+        return None
+    values = primvar.ComputeFlattened()
+    if values is None:
+        return None
+    uv = np.asarray(values, dtype=np.float64).reshape(-1, 2)
+    interpolation = primvar.GetInterpolation()
+    if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying) and len(uv) == n_points:
+        return uv
+    if interpolation == UsdGeom.Tokens.faceVarying and len(uv) == n_corners:
+        return uv
+    warn(f"{path}: {element}: texture coordinates {primvar.GetPrimvarName()!r} "
+         f"({interpolation}, {len(uv)} values) do not match the mesh; not kept")
+    return None
+
+
+def read_texture(prim, mesh_prims, path) -> Texture | None:
+    """The image a UsdUVTexture feeds into the bound UsdPreviewSurface's diffuseColor (the
+    part prim's material or its first visual mesh's), read from its file; None without one."""
+    from pxr import UsdShade
+
+    for p in [prim, *mesh_prims]:
+        material, _ = UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()
+        shader = material.ComputeSurfaceSource()[0] if material else None
+        diffuse = shader.GetInput("diffuseColor") if shader else None
+        if not diffuse:
+            continue
+        for source in diffuse.GetConnectedSources()[0]:
+            texture = UsdShade.Shader(source.source.GetPrim())
+            if texture.GetIdAttr().Get() != "UsdUVTexture":
+                continue
+            file = texture.GetInput("file")
+            asset = file.Get() if file else None
+            if asset is None or not asset.path:
+                continue
+            image = Path(asset.resolvedPath or "")
+            if not asset.resolvedPath or not image.is_file():
+                warn(f"{path}: <{texture.GetPath()}>: image {asset.path!r} not found; the "
+                     "texture is not kept")
+                return None
+            from ...meshfiles import texture_from_file
+
+            return texture_from_file(image)
+    return None
 
 
 def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:

@@ -45,7 +45,7 @@ from ... import transforms as tf
 from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
 from ...model import Dynamics, Joint, JointType, Limits, Mimic
-from .stage import NAMESPACE, as_float32, float_outward, snapped_quat
+from .conventions import NAMESPACE, as_float32, float_outward, snapped_quat
 
 TOKENS = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
           "Z": np.array([0.0, 0.0, 1.0])}

@@ -1,5 +1,6 @@
-"""Stage-level USD helpers: the layout, stage metadata, opening files, and the conversions
-between the model's float64 transforms and USD's value types.
+"""What the USD writer and reader agree on: the layout, stage metadata and units, making and
+opening stages, and the conversions between the model's float64 transforms and USD's value
+types.
 
 Layout of a file we write (after Newton's urdf-usd-converter asset structure):
 
@@ -35,6 +36,8 @@ GEOMETRY, PHYSICS, LOOKS = "Geometry", "Physics", "Looks"
 SCENE = "PhysicsScene"
 NAMESPACE = "real2code"  # our custom attributes: real2code:state, real2code:effort, ...
 WORLD_JOINT = "world_fixed"
+METADATA = f"{NAMESPACE}:metadata"  # the object's metadata (JSON) on the object prim
+FLOATING_JOINT = f"{NAMESPACE}:floatingJoint"  # on a free body: its floating joint's name
 
 
 def new_stage(name: str):

@@ -1,0 +1,84 @@
+"""USD save: the object at q = state (bodies where the capture saw them), UsdPhysics joints,
+mass, collision and looks, through the concept modules (body, geometry, joint) in the layout
+of ``conventions``; deterministic text (.usda), written atomically."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ... import atomic
+from ...meshfiles import write_object_meshes, write_texture_images
+from ...model import (
+    ArticulatedObject,
+    Joint,
+    JointType,
+    forward_kinematics,
+    metadata_json,
+    sanitize_name,
+    validate,
+)
+from .body import write_body
+from .conventions import (
+    FLOATING_JOINT,
+    GEOMETRY,
+    LOOKS,
+    METADATA,
+    PHYSICS,
+    WORLD_JOINT,
+    stage_text,
+)
+from .geometry import write_part_geometry
+from .joint import as_written, write_joint, write_mimic
+
+
+def to_usda(obj: ArticulatedObject) -> str:
+    import newton_usd_schemas  # noqa: F401  (registers NewtonJointAPI / NewtonMassAPI)
+    from pxr import Sdf, UsdPhysics
+
+    from .conventions import new_stage
+
+    stage, root = new_stage(obj.name)
+    # Fixed base: "this API can be on a direct or indirect parent of the root joint which is
+    # connected to the world, or on the joint itself" (UsdPhysicsArticulationRootAPI docs).
+    # The object Xform is an indirect parent of the world joint below.
+    UsdPhysics.ArticulationRootAPI.Apply(root)
+    root.SetAssetInfoByKey("name", obj.name)
+    root.CreateAttribute(METADATA, Sdf.ValueTypeNames.String, custom=True).Set(
+        metadata_json(obj, sort_keys=True))
+
+    base = f"/{obj.name}"
+    written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
+    world = forward_kinematics(written, obj.observed_configuration())
+    for part in obj.parts:
+        body = f"{base}/{GEOMETRY}/{part.name}"
+        write_body(stage, body, part, world[part.name])
+        write_part_geometry(stage, part, body, f"{base}/{LOOKS}/{part.name}")
+
+    world_joint = sanitize_name(WORLD_JOINT, {j.name for j in obj.joints})
+    root_part = obj.root.name
+    write_joint(stage, f"{base}/{PHYSICS}/{world_joint}",
+                Joint(world_joint, JointType.FIXED, "", root_part), None,
+                f"{base}/{GEOMETRY}/{root_part}")
+    for j in obj.joints:
+        if j.type is JointType.FLOATING:  # a free body: no joint holds it; its name kept
+            stage.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}").CreateAttribute(
+                FLOATING_JOINT, Sdf.ValueTypeNames.String, custom=True).Set(j.name)
+            continue
+        write_joint(stage, f"{base}/{PHYSICS}/{j.name}", j, f"{base}/{GEOMETRY}/{j.parent}",
+                    f"{base}/{GEOMETRY}/{j.child}")
+        if j.mimic is not None:
+            write_mimic(stage.GetPrimAtPath(f"{base}/{PHYSICS}/{j.name}"), j.mimic,
+                        f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
+    return stage_text(stage)
+
+
+def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
+    """Write ``out_dir/<name>.usda`` (geometry inline; texture images as files beside it,
+    which USD refers to) and, if asked, the shared mesh files."""
+    validate(obj)
+    out_dir = Path(out_dir)
+    if write_meshes:
+        write_object_meshes(obj, out_dir)
+    else:
+        write_texture_images(obj, out_dir)
+    return atomic.write_text(out_dir / f"{obj.name}.usda", to_usda(obj))
