@@ -35,10 +35,20 @@ class JointType(StrEnum):
     PRISMATIC = "prismatic"
     CONTINUOUS = "continuous"
     FIXED = "fixed"
+    BALL = "ball"  # three rotations about the joint origin (MJCF ball, USD spherical)
+    FLOATING = "floating"  # six degrees of freedom: a free body (MJCF free, URDF floating)
 
     @property
     def movable(self) -> bool:
-        return self is not JointType.FIXED
+        """Posed by one joint value (``q`` by joint name, a state, an axis, limits)."""
+        return self in (JointType.REVOLUTE, JointType.PRISMATIC, JointType.CONTINUOUS)
+
+    @property
+    def multi_dof(self) -> bool:
+        """Moves with several degrees of freedom the model gives no value: the child is held
+        at the joint origin (its reference pose) in kinematics, as MuJoCo's ``qpos0`` and
+        Pinocchio's neutral configuration hold it; no axis, limits or state."""
+        return self in (JointType.BALL, JointType.FLOATING)
 
     @property
     def angular(self) -> bool:
@@ -186,6 +196,17 @@ class Dynamics:
         return not any((self.damping, self.friction, self.stiffness, self.armature))
 
 
+@dataclass
+class Mimic:
+    """A joint coupled to another (URDF ``<mimic>``, MJCF joint equality, NewtonMimicAPI):
+    q = multiplier * q[joint] + offset (offset in rad or m). The coupling is physics, not
+    kinematics: poses are still given for every joint value."""
+
+    joint: str  # the leader
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
 @dataclass(eq=False)
 class Joint:
     name: str
@@ -197,6 +218,7 @@ class Joint:
     limits: Limits | None = None
     dynamics: Dynamics = field(default_factory=Dynamics)
     state: float = 0.0  # the joint value observed at capture time
+    mimic: Mimic | None = None
 
     def __post_init__(self) -> None:
         self.type = JointType(self.type)
@@ -235,7 +257,8 @@ class Part:
 
 @dataclass(eq=False)
 class ArticulatedObject:
-    """Parts connected by joints in one tree with a single, fixed root.
+    """Parts connected by joints in one tree with a single, fixed root. A floating base is
+    a root part for the world (often massless, named ``world``) and a floating joint to it.
 
     ``metadata`` holds JSON-serialisable facts about the object (category, source file, ...);
     exporters that have a place for free data keep it namespaced.
@@ -278,6 +301,7 @@ class ArticulatedObject:
 
     @property
     def movable_joints(self) -> list[Joint]:
+        """The joints posed by one value (ball and floating joints are not among them)."""
         return [j for j in self.joints if j.type.movable]
 
     def joints_in_tree_order(self) -> Iterator[Joint]:
@@ -443,8 +467,13 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                 )
         elif j.limits is not None:
             raise ModelError(el, f"a {j.type.value} joint takes no limits")
-        if j.type is JointType.FIXED and j.state != 0.0:
-            raise ModelError(el, "a fixed joint has no state")
+        if not j.type.movable and j.state != 0.0:
+            raise ModelError(el, f"a {j.type.value} joint has no state")
+
+    by_name = {j.name: j for j in obj.joints}
+    for j in obj.joints:
+        if j.mimic is not None:
+            _validate_mimic(j, by_name)
 
     roots = [p.name for p in obj.parts if p.name not in child_of]
     if len(roots) != 1:
@@ -462,14 +491,34 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
         cyc = sorted(seen - reached)
         raise ModelError(f"object {obj.name!r}", f"joints form a cycle through parts {cyc}")
 
-    # A movable joint must move something with mass (MuJoCo and Pinocchio both need it).
-    for j in obj.movable_joints:
-        if _rigid_group_mass(obj, j.child) <= 0:
+    # A floating body hangs from the world: MuJoCo allows free joints on top-level bodies only.
+    for j in obj.joints:
+        if j.type is JointType.FLOATING and j.parent != roots[0]:
+            raise ModelError(f"joint {j.name!r}", f"a floating joint must hang from the root "
+                             f"part {roots[0]!r} (the world), not from {j.parent!r}")
+    # A joint that moves must move something with mass (MuJoCo and Pinocchio both need it).
+    for j in obj.joints:
+        if j.type is not JointType.FIXED and _rigid_group_mass(obj, j.child) <= 0:
             raise ModelError(
                 f"joint {j.name!r}",
                 f"child part {j.child!r} (with the parts fixed to it) has no mass",
             )
     return obj
+
+
+def _validate_mimic(j: Joint, by_name: dict[str, Joint]) -> None:
+    el, m = f"joint {j.name!r}", j.mimic
+    _finite([m.multiplier, m.offset], el, "mimic multiplier/offset")
+    leader = by_name.get(m.joint)
+    if leader is None:
+        raise ModelError(el, f"mimics joint {m.joint!r}, which does not exist")
+    if leader is j:
+        raise ModelError(el, "mimics itself")
+    if not (j.type.movable and leader.type.movable):
+        raise ModelError(el, f"a mimic couples two one-value joints ({j.type.value} mimics "
+                         f"{leader.type.value})")
+    if leader.mimic is not None:
+        raise ModelError(el, f"mimics {m.joint!r}, which mimics another joint itself")
 
 
 def _rigid_group_mass(obj: ArticulatedObject, part_name: str) -> float:
@@ -573,6 +622,10 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
             u, v = getattr(x.dynamics, attr), getattr(y.dynamics, attr)
             if not close(u, v):
                 out.append(f"{el}: {attr} {u} != {v}")
+        if (x.mimic is None) != (y.mimic is None) or (
+                x.mimic is not None and (x.mimic.joint != y.mimic.joint or not close(
+                    [x.mimic.multiplier, x.mimic.offset], [y.mimic.multiplier, y.mimic.offset]))):
+            out.append(f"{el}: mimic {x.mimic} != {y.mimic}")
     return out
 
 

@@ -87,8 +87,8 @@ def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
     1 mm sphere's inertia at its frame origin). Changes ``obj`` in place; returns (joint name,
     message) for each part changed."""
     changed = []
-    for joint in obj.movable_joints:
-        if _rigid_mass(obj, joint.child) > 0:
+    for joint in obj.joints:
+        if joint.type is JointType.FIXED or _rigid_mass(obj, joint.child) > 0:
             continue
         part = obj.part(joint.child)
         part.inertial = Inertial(NEGLIGIBLE_MASS, np.zeros(3), _sphere(NEGLIGIBLE_MASS))
@@ -97,6 +97,31 @@ def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
                         f"{2 * POINT_MASS_RADIUS * 1e3:g} mm sphere) as MuJoCo's boundmass "
                         "would"))
     return changed
+
+
+def unusable_mimics(obj: ArticulatedObject) -> list[tuple[str, str]]:
+    """Drop the mimics no simulator can apply: a leader that does not exist, is not a
+    one-value joint or mimics another itself, or a follower that is not one (urdfdom loads
+    such files; the followers then move on their own). Changes ``obj`` in place; returns
+    (joint name, message) for each mimic dropped."""
+    joints = {j.name: j for j in obj.joints}
+    dropped = []
+    for joint in obj.joints:
+        m = joint.mimic
+        if m is None:
+            continue
+        leader = joints.get(m.joint)
+        why = ("it does not exist" if leader is None else "it is the joint itself"
+               if leader is joint else f"it is {leader.type.value}"
+               if not leader.type.movable else "it mimics another joint itself"
+               if leader.mimic is not None else None)
+        if why is None and not joint.type.movable:
+            why = f"the follower is {joint.type.value}"
+        if why is not None:
+            joint.mimic = None
+            dropped.append((joint.name, f"<mimic> of joint {m.joint!r} dropped ({why}): the "
+                            "joint moves on its own"))
+    return dropped
 
 
 def _rigid_mass(obj: ArticulatedObject, part_name: str) -> float:

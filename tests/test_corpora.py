@@ -33,13 +33,9 @@ SOURCES = dict(corpus_sources())
 REFUSED = {
     "erd/romeo_description/urdf/romeo_laas_small.urdf": "mesh file not found: /usr/Romeo",
     "erd/ur_description/urdf/ur3.urdf": "has no <link>",
-    "menagerie/agility_cassie/cassie.xml": "has a ball joint",
 }
 # id -> why an export disagrees with its source (the model drops what makes them agree).
-DISAGREES = {
-    "menagerie/robotiq_2f85/2f85.xml": "both followers 19 mm from the source at every "
-                                       "configuration: not yet explained (its equality "
-                                       "constraints, not imported, do not act in kinematics)",
+DISAGREES: dict[str, str] = {
 }
 
 # What "dynamics carried" compares: mass properties, joint kinds, limits and dynamics.

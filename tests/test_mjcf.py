@@ -339,29 +339,73 @@ def test_compile_error_names_file_element_and_line(tmp_path):
         mjcf.load(path)
 
 
-def test_ball_joint_is_refused_naming_the_body(tmp_path):
-    path = write(tmp_path / "ball.xml", """<mujoco>
+BALL_AND_FREE = """<mujoco model="rod">
+  <worldbody>
+    <body name="base" pos="0.1 0.2 0.9" quat="0.9 0 0.3 0.1">
+      <freejoint name="base_free"/>
+      <geom size="0.1" mass="2"/>
+      <body name="arm" pos="0 0 -0.2">
+        <joint name="shoulder" type="ball" pos="0 0 0.05" damping="0.01" armature="0.002"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.02"/>
+        <body name="hand" pos="0 0 -0.3">
+          <joint name="wrist_bend" axis="0 1 0" range="-1 1"/>
+          <joint name="wrist_ball" type="ball"/>
+          <geom size="0.03"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_ball_and_free_joints_through_every_format(tmp_path):
+    """A free body and ball joints (one alone, one after a hinge in the same body) read as
+    floating and ball joints, held at their reference pose; every export reads back equal and
+    agrees with the source in its own tools; URDF, which has no ball joint, says so."""
+    source = write(tmp_path / "rod.xml", BALL_AND_FREE)
+    obj, _ = load_with_warnings(source)
+    kinds = {j.name: j.type.value for j in obj.joints}
+    assert kinds == {"base_free": "floating", "shoulder": "ball", "wrist_bend": "revolute",
+                     "wrist_ball": "ball"}
+    assert obj.root.name == "world" and obj.joint("base_free").parent == "world"
+    assert obj.joint("shoulder").dynamics.damping == pytest.approx(0.01)
+    assert obj.joint("shoulder").dynamics.armature == pytest.approx(0.002)
+    poses = forward_kinematics(obj)
+    np.testing.assert_allclose(poses["base"][:3, 3], [0.1, 0.2, 0.9], atol=1e-12)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        written = export(obj, tmp_path / "out")
+    said = "\n".join(str(w.message) for w in caught)
+    assert "'shoulder': URDF has no ball joint" in said
+    for fmt, path in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            back = load_any(path)
+        diffs = [d for d in differences(obj, back) if "mesh" not in d and "collision" not in d
+                 and "colour" not in d]
+        assert not diffs, f"{fmt}: {diffs}"
+    from real2code_export.check import check_files
+
+    report = check_files(list(written.values()), source=source, n_configurations=5,
+                         validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    kinds = {model.joint(i).name: int(model.jnt_type[i]) for i in range(model.njnt)}
+    assert kinds["base_free"] == mujoco.mjtJoint.mjJNT_FREE
+    assert kinds["shoulder"] == kinds["wrist_ball"] == mujoco.mjtJoint.mjJNT_BALL
+
+
+def test_free_joint_below_the_top_level_is_refused(tmp_path):
+    path = write(tmp_path / "free.xml", """<mujoco>
   <worldbody>
     <body name="base"><geom size="0.1"/>
-      <body name="arm"><joint name="shoulder" type="ball"/><geom size="0.1"/></body>
+      <body name="arm"><freejoint/><geom size="0.1"/></body>
     </body>
   </worldbody>
 </mujoco>
 """)
-    with pytest.raises(FormatError, match=r"ball\.xml:4: <body name='arm'>: has a ball joint"):
-        mjcf.load(path)
-
-
-def test_a_ball_among_several_joints_is_refused(tmp_path):
-    path = write(tmp_path / "two.xml", """<mujoco>
-  <worldbody>
-    <body name="base"><geom size="0.1"/>
-      <body name="arm"><joint axis="0 1 0"/><joint type="ball"/><geom size="0.1"/></body>
-    </body>
-  </worldbody>
-</mujoco>
-""")
-    with pytest.raises(FormatError, match=r"two\.xml:4: <body name='arm'>: has 2 joints, a ball"):
+    with pytest.raises(FormatError, match=r"free\.xml.*free"):
         mjcf.load(path)
 
 
@@ -460,13 +504,16 @@ def test_third_party_structure_names_and_repairs(third_party):
     assert {p.name for p in obj.parts} == {"world", "base_frame", "lid", "knob", "slider"}
     assert obj.root.name == "world"
     assert {j.name: j.type.value for j in obj.joints} == {
-        "world_to_base_frame": "fixed", "lid_hinge": "revolute", "knob_joint": "continuous",
+        "base_frame_joint": "floating", "lid_hinge": "revolute", "knob_joint": "continuous",
         "slide": "prismatic"}
     base_pose = forward_kinematics(obj)["base_frame"]
     np.testing.assert_allclose(base_pose[:3, 3], [0, 0, 0.5])
     np.testing.assert_allclose(base_pose[:3, :3], tf.axis_angle_matrix([0, 0, 1], np.radians(30)),
                                atol=1e-12)
-    for expected in ("free joints ignored", "'base frame' -> 'base_frame'",
+    # The actuator has no place in the model: kept as MuJoCo writes it, in the metadata.
+    assert 'joint="slide"' in obj.metadata["mjcf_elements"]["actuator"]
+    assert "kept as metadata 'mjcf_elements'" in said
+    for expected in ("'base frame' -> 'base_frame'",
                      "'lid hinge' -> 'lid_hinge'", "1 actuator"):
         assert expected in said, said
     lid = obj.joint("lid_hinge")

@@ -186,3 +186,54 @@ def test_box_inertial_helper_is_valid():
     from real2code_export.model import validate_inertial
 
     validate_inertial(box_inertial([1, 2, 3], 4.0), "test")
+
+
+def _arm(*joints):
+    """A base (massless: the world) and one 1 kg link per joint, chained in order."""
+    from real2code_export.model import ArticulatedObject, Part
+
+    parts = [Part("base")] + [Part(j.child, inertial=box_inertial([0.1, 0.1, 0.1], 1.0))
+                              for j in joints]
+    return ArticulatedObject("arm", parts, list(joints))
+
+
+def test_ball_and_floating_joints_are_held_at_their_origin_and_validated():
+    from real2code_export.model import Joint, Limits
+
+    free = Joint("free", "floating", "base", "torso", origin=tf.make(translation=[0, 0, 1]))
+    ball = Joint("shoulder", "ball", "torso", "arm", origin=tf.make(translation=[0.2, 0, 0]))
+    obj = validate(_arm(free, ball))
+    assert obj.movable_joints == [] and obj.joint("shoulder").type.multi_dof
+    np.testing.assert_allclose(forward_kinematics(obj)["arm"][:3, 3], [0.2, 0, 1])
+    ball.limits = Limits(-1, 1)
+    with pytest.raises(ModelError, match="'shoulder'.*ball joint takes no limits"):
+        validate(obj)
+    ball.limits, ball.state = None, 0.3
+    with pytest.raises(ModelError, match="'shoulder'.*ball joint has no state"):
+        validate(obj)
+    ball.state, ball.type = 0.0, JointType.FLOATING
+    with pytest.raises(ModelError, match="floating joint must hang from the root part 'base'"):
+        validate(obj)
+
+
+def test_mimics_are_validated_and_unusable_ones_dropped_with_a_reason():
+    from real2code_export.model import Joint, Limits, Mimic
+    from real2code_export.repairs import unusable_mimics
+
+    lead = Joint("lead", "revolute", "base", "a", limits=Limits(-1, 1))
+    follow = Joint("follow", "revolute", "a", "b", limits=Limits(-1, 1),
+                   mimic=Mimic("lead", -2.0, 0.1))
+    obj = validate(_arm(lead, follow))
+    follow.mimic = Mimic("nothing")
+    with pytest.raises(ModelError, match="'follow'.*mimics joint 'nothing', which does not"):
+        validate(obj)
+    lead.mimic, follow.mimic = Mimic("follow"), Mimic("lead")
+    with pytest.raises(ModelError, match="mimics another joint itself"):
+        validate(obj)
+    assert [name for name, _ in unusable_mimics(obj)] == ["lead"]  # follow's leader then free
+    assert lead.mimic is None and follow.mimic is not None
+    validate(obj)
+    other = _arm(Joint("lead", "revolute", "base", "a", limits=Limits(-1, 1)),
+                 Joint("follow", "revolute", "a", "b", limits=Limits(-1, 1), mimic=Mimic("x")))
+    (name, message), = unusable_mimics(other)
+    assert name == "follow" and "'x' dropped (it does not exist)" in message

@@ -235,7 +235,7 @@ def line_of(path: Path, needle: str) -> int:
     ("zero_axis.urdf", "<joint name='hinge'>", "<axis", "zero length"),
     ("lower_above_upper.urdf", "<joint name='slide'>", "<limit", "lower"),
     ("unknown_joint_type.urdf", "<joint name='hinge'>", 'type="hinge"', "unknown joint type"),
-    ("floating_joint.urdf", "<joint name='free'>", 'type="floating"', "not supported"),
+    ("planar_joint.urdf", "<joint name='free'>", 'type="planar"', "not supported"),
     ("unknown_parent.urdf", "<joint name='hinge'>", '<parent link="frame"', "not a link"),
     ("duplicate_link.urdf", "<link name='door'>", '<link name="door"/>', "duplicate"),
     ("not_collada_mesh.urdf", "<link name='base'>", "not_collada.dae", "not a Collada file"),
@@ -263,7 +263,7 @@ INERTIAL = ('<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy=
             'iyz="0" izz="0.01"/></inertial>')
 
 
-def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
+def test_limit_without_effort_and_axis_are_repaired_mimic_carried(tmp_path):
     path = tmp_path / "repairs.urdf"
     path.write_text(f"""<robot name="repairs">
   <link name="base"/>
@@ -283,7 +283,6 @@ def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
         obj = urdf.load(path)
     messages = "\n".join(str(w.message) for w in record)
     assert "without effort and/or velocity" in messages and "'hinge'" in messages
-    assert "<mimic> is ignored" in messages
     assert "normalised" in messages
     assert "'flap hinge' -> 'flap_hinge'" in messages
     hinge = obj.joint("hinge")
@@ -291,6 +290,7 @@ def test_limit_without_effort_mimic_and_axis_are_repaired(tmp_path):
     assert hinge.limits.effort is None and hinge.limits.velocity is None
     assert hinge.state == 0.2  # URDF has no observed state: q = 0, or the nearest limit
     assert obj.joint("flap_hinge").limits.effort == 3.0
+    assert obj.joint("flap_hinge").mimic.joint == "hinge"  # carried, no longer ignored
     assert_round_trip(obj, tmp_path)  # the unknowns stay unknown through our own file
 
 
@@ -488,3 +488,84 @@ def test_a_default_xml_namespace_on_robot_is_read_as_urdfdom_reads_it(tmp_path):
     (tmp_path / "other.urdf").write_text('<model xmlns="https://example.org"/>')
     with pytest.raises(FormatError, match="root element must be <robot>"):
         urdf.load(tmp_path / "other.urdf")
+
+
+def test_floating_base_through_every_format(tmp_path):
+    """A URDF floating joint (from the ``world`` link, the one MuJoCo's URDF import takes) is
+    a floating joint: every export reads back equal and agrees with the source; a floating
+    base hanging from a root named otherwise keeps that name through MJCF's world body."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export, load, mjcf
+
+    source = FIXTURES / "floating_base.urdf"
+    obj = urdf.load(source)
+    assert obj.joint("free").type.value == "floating" and obj.root.name == "world"
+    np.testing.assert_allclose(forward_kinematics(obj)["body"][:3, 3], [0.1, 0.2, 0.5])
+    written = export(obj, tmp_path / "out")
+    for fmt, path in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            back = load(path)
+        assert not [d for d in differences(obj, back) if "object name" not in d], fmt
+    report = check_files(list(written.values()), source=source, n_configurations=5,
+                         validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+
+    odom = tmp_path / "odom.urdf"
+    odom.write_text(source.read_text().replace('"world"', '"odom"'))
+    obj = urdf.load(odom)
+    back = mjcf.load(mjcf.save(obj, tmp_path / "odom_mjcf"))
+    assert back.root.name == "odom" and not differences(obj, back)
+
+
+def test_mimic_joints_through_every_format(tmp_path):
+    """<mimic> is carried: MJCF as a joint equality (MuJoCo applies it), URDF as <mimic>, USD
+    as NewtonMimicAPI, glTF and object.json in our metadata; a mimic of a joint that does not
+    exist is dropped with a warning naming both."""
+    import mujoco
+
+    from real2code_export.formats import export, load
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = urdf.load(FIXTURES / "mimic_gripper.urdf")
+    said = "\n".join(str(w.message) for w in caught)
+    assert "<joint name='tip_bend'>" in said and "'no_such_joint' dropped" in said
+    mimic = obj.joint("right_finger").mimic
+    assert (mimic.joint, mimic.multiplier, mimic.offset) == ("left_finger", -1.0, 0.001)
+    assert obj.joint("tip_bend").mimic is None
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf", "json"])
+    for fmt, path in written.items():
+        back = load(path)
+        assert not [d for d in differences(obj, back) if "object name" not in d], fmt
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert int(model.eq_type[0]) == mujoco.mjtEq.mjEQ_JOINT
+    assert model.joint(int(model.eq_obj1id[0])).name == "right_finger"
+    np.testing.assert_allclose(model.eq_data[0][:5], [0.001, -1.0, 0, 0, 0])
+    assert 'newton:mimicJoint = </mimic_gripper/Physics/left_finger>' in written["usd"].read_text()
+
+
+def test_unread_elements_are_kept_and_written_back(tmp_path):
+    """<transmission> and <gazebo> have no place in the model: kept (warned) in the metadata,
+    carried by every format, and written back as they were by the URDF writer."""
+    from real2code_export.formats import export, load
+
+    text = (FIXTURES / "floating_base.urdf").read_text().replace("</robot>", """
+  <transmission name="elbow_tx"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="elbow"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+  </transmission>
+  <gazebo reference="arm"><material>Gazebo/Grey</material></gazebo>
+</robot>""")
+    source = tmp_path / "tx.urdf"
+    source.write_text(text)
+    with pytest.warns(Real2CodeWarning, match=r"kept as metadata 'urdf_elements'.*<transmission>"):
+        obj = urdf.load(source)
+    kept = obj.metadata["urdf_elements"]
+    assert [k.split(" ", 1)[0] for k in kept] == ["<transmission", "<gazebo"]
+    written = export(obj, tmp_path / "out", formats=["mjcf", "usd", "gltf"])
+    for path in written.values():
+        again = urdf.load(urdf.save(load(path), tmp_path / path.suffix[1:]))
+        assert again.metadata == obj.metadata
+    out = (tmp_path / "xml" / "floating_base.urdf").read_text()
+    assert "<hardwareInterface>EffortJointInterface</hardwareInterface>" in out
+    assert "urdf_elements" not in out  # the elements themselves, not their text twice

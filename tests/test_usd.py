@@ -447,6 +447,18 @@ def test_joint_whose_body1_does_not_exist(tmp_path):
 def test_unsupported_joint_type_is_refused(tmp_path):
     path = usd.save(small_cabinet(), tmp_path, write_meshes=False)
     path.write_text(path.read_text().replace('def PhysicsRevoluteJoint "knob_turn"',
-                                             'def PhysicsSphericalJoint "knob_turn"'))
-    with pytest.raises(FormatError, match="knob_turn.*SphericalJoint cannot be represented"):
+                                             'def PhysicsDistanceJoint "knob_turn"'))
+    with pytest.raises(FormatError, match="knob_turn.*DistanceJoint cannot be represented"):
         usd.load(path)
+
+
+def test_spherical_joint_is_a_ball_joint_its_cone_limit_warned(tmp_path):
+    path = usd.save(small_cabinet(), tmp_path, write_meshes=False)
+    text = path.read_text().replace('def PhysicsRevoluteJoint "knob_turn"',
+                                    'def PhysicsSphericalJoint "knob_turn"')
+    body = text.index("{", text.index('"knob_turn"')) + 1
+    path.write_text(text[:body] + "\n float physics:coneAngle0Limit = 30\n"
+                    " float physics:coneAngle1Limit = 30\n" + text[body:])
+    with pytest.warns(Real2CodeWarning, match="knob_turn.*cone limit is dropped"):
+        obj = usd.load(path)
+    assert obj.joint("knob_turn").type.value == "ball"

@@ -25,7 +25,17 @@ from ..meshfiles import (
     visual_relpath,
     write_object_meshes,
 )
-from ..model import ArticulatedObject, Dynamics, Inertial, Joint, JointType, Limits, Part, validate
+from ..model import (
+    ArticulatedObject,
+    Dynamics,
+    Inertial,
+    Joint,
+    JointType,
+    Limits,
+    Mimic,
+    Part,
+    validate,
+)
 
 SCHEMA = "real2code_export/object"
 SCHEMA_VERSION = 1
@@ -80,6 +90,7 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                     "armature": j.dynamics.armature,
                 },
                 "state": j.state,
+                **({} if j.mimic is None else {"mimic": mimic_json(j.mimic)}),
             }
         )
     return {
@@ -205,6 +216,7 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
             child=_get(jd, "child", path, el), origin=origin,
             axis=_vec(jd.get("axis", [0, 0, 1]), 3, path, el, "axis"), limits=limits,
             dynamics=dynamics, state=_num(jd.get("state", 0.0), path, el, "state"),
+            mimic=None if jd.get("mimic") is None else mimic_from_json(jd["mimic"], path, el),
         ))
     obj = ArticulatedObject(name=_get(data, "name", path, "object"), parts=parts, joints=joints,
                             metadata=dict(data.get("metadata") or {}))
@@ -224,3 +236,16 @@ def load(path: str | Path) -> ArticulatedObject:
         line = getattr(e, "lineno", None)
         raise FormatError(path, None, f"malformed JSON: {getattr(e, 'msg', e)}", line) from e
     return from_dict(data, path)
+
+
+def mimic_json(mimic: Mimic) -> dict:
+    """A joint's mimic as JSON (object.json and glTF extras)."""
+    return {"joint": mimic.joint, "multiplier": mimic.multiplier, "offset": mimic.offset}
+
+
+def mimic_from_json(d, path, el: str) -> Mimic:
+    leader = _get(d, "joint", path, el)
+    if not isinstance(leader, str):
+        raise FormatError(path, el, f"mimic joint must be a name, got {leader!r}")
+    return Mimic(leader, _num(d.get("multiplier", 1.0), path, el, "mimic multiplier"),
+                 _num(d.get("offset", 0.0), path, el, "mimic offset"))

@@ -1,4 +1,5 @@
-"""glTF probe: the file read with pygltflib and posed from its own node tree.
+"""glTF probe: the file's JSON read as the glTF 2.0 specification frames it (a .gltf is
+JSON; a .glb a 12-byte header, then a JSON chunk) and posed from its own node tree.
 
 Node transforms (TRS or matrix, float64 JSON) are composed from the scene roots down; for
 each joint in the ``real2code`` node extras, the child part node's local transform (which
@@ -13,7 +14,10 @@ instead (KHR_physics_rigid_bodies joints, or fixed parts), and labelled so.
 
 from __future__ import annotations
 
+import json
+import struct
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -23,6 +27,7 @@ from . import JointInfo
 
 LABEL = "glTF (nodes + joint metadata)"
 EXTRAS_KEY = "real2code"
+_ONE_VALUE = ("revolute", "continuous", "prismatic")  # joint kinds posed by a value
 # glTF world (Y up) -> model world (Z up): +90 degrees about X
 Z_UP_FROM_Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
 
@@ -41,6 +46,27 @@ def _local(node) -> np.ndarray:
     return t
 
 
+_NODE_FIELDS = ("name", "children", "matrix", "translation", "rotation", "scale", "extras")
+
+
+def _document(path: Path) -> dict:
+    """The glTF JSON. Only the node tree is read: pygltflib's typed load decodes every
+    accessor and mesh into dataclasses, most of a check's time for a robot's glTF."""
+    data = path.read_bytes()
+    if data[:4] == b"glTF":  # GLB: magic, version, length; chunk length, type "JSON", data
+        if len(data) < 20 or data[16:20] != b"JSON":
+            raise CheckError(f"{path}: not a GLB with a JSON first chunk")
+        size = struct.unpack_from("<I", data, 12)[0]
+        data = data[20:20 + size]
+    try:
+        doc = json.loads(data)
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise CheckError(f"{path}: its glTF JSON cannot be read: {e}") from e
+    if not isinstance(doc, dict):
+        raise CheckError(f"{path}: its glTF JSON is not an object")
+    return doc
+
+
 def _extras(node) -> dict:
     extras = node.extras if isinstance(node.extras, dict) else {}
     data = extras.get(EXTRAS_KEY)
@@ -51,20 +77,17 @@ class GltfProbe:
     label = LABEL
 
     def __init__(self, path: str | Path):
-        import pygltflib
-
         self.path = Path(path)
-        try:
-            gltf = pygltflib.GLTF2.load(str(self.path))
-        except Exception as e:  # pygltflib raises many types for broken files
-            raise CheckError(f"{self.path}: pygltflib cannot read it: {e}") from e
-        if gltf is None or not gltf.nodes:
+        doc = _document(self.path)
+        nodes, scenes = doc.get("nodes"), doc.get("scenes")
+        if not isinstance(nodes, list) or not nodes or not all(isinstance(n, dict)
+                                                               for n in nodes):
             raise CheckError(f"{self.path}: no nodes")
-        self.nodes = gltf.nodes
-        scene = gltf.scenes[gltf.scene or 0] if gltf.scenes else None
+        self.nodes = [SimpleNamespace(**{k: n.get(k) for k in _NODE_FIELDS}) for n in nodes]
+        scene = scenes[doc.get("scene") or 0] if isinstance(scenes, list) and scenes else None
         children = {c for n in self.nodes for c in (n.children or [])}
-        self.roots = list(scene.nodes) if scene else [i for i in range(len(self.nodes))
-                                                      if i not in children]
+        self.roots = list(scene.get("nodes") or []) if isinstance(scene, dict) else \
+            [i for i in range(len(self.nodes)) if i not in children]
         part_nodes = {_extras(n)["part"]: i for i, n in enumerate(self.nodes) if "part" in _extras(n)}
         self.parts = list(part_nodes)
         self.joints: list[JointInfo] = []
@@ -79,7 +102,7 @@ class GltfProbe:
                                  f"part node {d.get('child')!r} below it")
             axis = np.asarray(d.get("axis", [0, 0, 1]), dtype=float)
             self._motion[child] = (d["joint"], d["type"], axis)
-            if d["type"] != "fixed":
+            if d["type"] in _ONE_VALUE:  # ball / floating: held at the written pose
                 lim = d.get("limits") or {}
                 self.joints.append(JointInfo(d["joint"], d["type"], lim.get("lower"),
                                              lim.get("upper")))

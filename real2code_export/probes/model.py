@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import CheckError, FormatError
 from ..formats import object_json
-from ..model import ArticulatedObject, JointType, forward_kinematics
+from ..model import ArticulatedObject, forward_kinematics
 from . import JointInfo
 
 LABEL = "model (object.json)"
@@ -48,7 +48,7 @@ class ModelProbe:
         world = {self.obj.root.name: np.broadcast_to(np.eye(4), (n, 4, 4))}
         for j in self.obj.joints_in_tree_order():
             local = np.broadcast_to(j.origin, (n, 4, 4)).copy()
-            if j.type is not JointType.FIXED:
+            if j.type.movable:  # ball / floating: held at the origin, as fixed
                 q = values[:, column[j.name]]
                 if j.type.angular:
                     x, y, z = j.axis

@@ -1,7 +1,9 @@
 """MJCF and URDF loaded in MuJoCo (MjSpec), posed with ``mj_kinematics``.
 
 Joints are addressed by name (``qposadr``), bodies by name; a free or ball joint is not a
-part joint and is held at its reference pose.
+part joint and is held at its reference pose. A body's reported pose is its frame moved to its
+(last) joint's anchor, the model's "part frame = joint frame" (as the MJCF reader and the USD
+probe have it); a joint at the body origin, as in every file we write, moves nothing.
 """
 
 from __future__ import annotations
@@ -43,6 +45,13 @@ class MujocoProbe:
             adr.append(int(model.jnt_qposadr[i]))
         self._qpos_adr = np.array(adr, dtype=np.int64)
         self._column = {info.name: k for k, info in enumerate(self.joints)}
+        free = int(mujoco.mjtJoint.mjJNT_FREE)
+        self._anchor = np.zeros((len(body_ids), 3))  # joint anchor in the body frame
+        for k, b in enumerate(body_ids):
+            count = int(model.body_jntnum[b])
+            last = int(model.body_jntadr[b]) + count - 1
+            if count and int(model.jnt_type[last]) != free:
+                self._anchor[k] = model.jnt_pos[last]
 
     def pose_array(self, values: np.ndarray) -> np.ndarray:
         """(N, len(joints)) joint values in the order of ``joints`` -> (N, len(parts), 4, 4)."""
@@ -60,7 +69,7 @@ class MujocoProbe:
             xmat[i] = d.xmat[ids]
         out = np.zeros((n, len(ids), 4, 4))
         out[..., :3, :3] = xmat.reshape(n, len(ids), 3, 3)
-        out[..., :3, 3] = xpos
+        out[..., :3, 3] = xpos + np.einsum("npij,pj->npi", out[..., :3, :3], self._anchor)
         out[..., 3, 3] = 1.0
         return out
 
@@ -84,13 +93,20 @@ def _urdf_has_world_link(path: Path) -> bool:
     return root.find("link[@name='world']") is not None
 
 
-def _mjcf_world_is_part(model) -> bool:
-    """Our MJCF marks a root part that is MuJoCo's world body (a text element)."""
+def _mjcf_world_part(model) -> str | None:
+    """The name of the root part our MJCF marks as MuJoCo's world body (text elements), or
+    None when there is none."""
     import mujoco
 
     from ..formats.mjcf.conventions import WORLD, custom_name
 
-    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, custom_name(WORLD, "part")) >= 0
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, custom_name(WORLD, "part")) < 0:
+        return None
+    named = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, custom_name(WORLD, "name"))
+    if named < 0:
+        return WORLD
+    adr, size = int(model.text_adr[named]), int(model.text_size[named])
+    return bytes(model.text_data[adr:adr + size]).split(b"\0", 1)[0].decode("utf-8")
 
 
 def _urdf_kinematics(path: Path) -> str:
@@ -139,7 +155,10 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
             message += f" (and {len(lines) - 2} more lines of MuJoCo warnings)"
         raise CheckError(f"{path}: MuJoCo refused it: {message}") from e
 
-    first = 0 if (_urdf_has_world_link(path) if is_urdf else _mjcf_world_is_part(model)) else 1
+    world = None if is_urdf else _mjcf_world_part(model)
+    first = 0 if (_urdf_has_world_link(path) if is_urdf else world is not None) else 1
     body_ids = list(range(first, model.nbody))
     names = [model.body(i).name or f"body_{i}" for i in body_ids]  # as the MJCF reader names it
+    if world is not None:
+        names[0] = world
     return [MujocoProbe(path, label, model, body_ids, names)]

@@ -32,7 +32,7 @@ AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
 @dataclass(frozen=True)
 class _Link:
     name: str  # joint prim name
-    kind: str  # revolute, continuous, prismatic, fixed
+    kind: str  # revolute, continuous, prismatic, fixed, ball (held at its rest pose)
     parent: str  # body path (WORLD for the world)
     child: str
     to_joint: np.ndarray  # joint frame in the parent body (metres)
@@ -73,7 +73,8 @@ class UsdProbe:
                 if kind.name == "RigidBody":
                     bodies.append(str(p))
                 elif kind.name.endswith("Joint"):
-                    if kind.name not in ("RevoluteJoint", "PrismaticJoint", "FixedJoint"):
+                    if kind.name not in ("RevoluteJoint", "PrismaticJoint", "FixedJoint",
+                                         "SphericalJoint"):
                         raise CheckError(f"{path}: joint <{p}>: {kind.name} is not supported")
                     joints.append((str(p), kind.name, d))
         if not bodies:
@@ -111,7 +112,7 @@ class UsdProbe:
             frontier.append(floating[0])
 
         self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links
-                       if k.kind != "fixed"]
+                       if k.kind not in ("fixed", "ball")]
 
     def _link(self, item, parent: str, mpu: float) -> _Link:
         prim_path, kind_name, d = item
@@ -121,7 +122,9 @@ class UsdProbe:
         to_joint, child_frame = (t0, t1) if forward else (t1, t0)
         child = str(d.body1) if forward else str(d.body0)
         kind, lower, upper = "fixed", None, None
-        if kind_name != "FixedJoint":
+        if kind_name == "SphericalJoint":
+            kind = "ball"
+        elif kind_name != "FixedJoint":
             lim = d.limit
             limited = bool(lim.enabled) and math.isfinite(lim.lower) and math.isfinite(lim.upper)
             if kind_name == "RevoluteJoint":
@@ -131,7 +134,7 @@ class UsdProbe:
             else:
                 kind = "prismatic"
                 lower, upper = lim.lower * mpu, lim.upper * mpu
-        axis = AXES[str(d.axis)] if kind != "fixed" else AXES["X"]
+        axis = AXES[str(d.axis)] if kind not in ("fixed", "ball") else AXES["X"]
         return _Link(prim_path.rsplit("/", 1)[-1], kind, parent, child, to_joint,
                      tf.inverse(child_frame), axis if forward else -axis,
                      tf.make(translation=child_frame[:3, 3]), lower, upper)

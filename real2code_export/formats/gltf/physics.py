@@ -38,7 +38,7 @@ def has_body(obj: ArticulatedObject, part: Part) -> bool:
     joint = obj.parent_joint(part.name)
     if joint is None:
         return False
-    return joint.type.movable or part.inertial is not None
+    return joint.type is not JointType.FIXED or part.inertial is not None
 
 
 def motion(part: Part) -> dict:
@@ -68,6 +68,8 @@ def joint_description(joint: Joint) -> dict:
     t = joint.type
     if t is JointType.FIXED:
         limits = [{"linearAxes": [0, 1, 2], **lock}, {"angularAxes": [0, 1, 2], **lock}]
+    elif t is JointType.BALL:  # every rotation free
+        limits = [{"linearAxes": [0, 1, 2], **lock}]
     elif t.angular:
         limits = [{"linearAxes": [0, 1, 2], **lock}, {"angularAxes": [1, 2], **lock}]
     else:

@@ -29,6 +29,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
+from ..object_json import mimic_from_json
 from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
 from .document import Document, rigid
 from .khr_physics import load_khr
@@ -164,9 +165,11 @@ def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
         dd = d.get("dynamics", {})
         dynamics = Dynamics(**{k: float(dd.get(k, 0.0))
                                for k in ("damping", "friction", "stiffness", "spring_ref", "armature")})
+        mimic = None if d.get("mimic") is None else mimic_from_json(d["mimic"], doc.path, el)
         return Joint(name=name, type=JointType(d["type"]), parent=d["parent"], child=d["child"],
                      origin=origin, axis=_vector(d.get("axis", [0, 0, 1]), 3, doc, el, "axis"),
-                     limits=limits, dynamics=dynamics, state=float(d.get("state", 0.0)))
+                     limits=limits, dynamics=dynamics, state=float(d.get("state", 0.0)),
+                     mimic=mimic)
     except (KeyError, TypeError, ValueError, AttributeError) as e:
         raise FormatError(doc.path, el, f"bad joint metadata ({type(e).__name__}: {e})") from e
 

@@ -42,6 +42,7 @@ from ...model import (
     metadata_json,
     validate,
 )
+from ..object_json import mimic_json
 from . import physics
 from .conventions import (
     ARRAY_BUFFER,
@@ -195,6 +196,8 @@ def _joint_extras(joint: Joint) -> dict:
                      for k in ("damping", "friction", "stiffness", "spring_ref", "armature")},
         "state": joint.state,
     }
+    if joint.mimic is not None:
+        out["mimic"] = mimic_json(joint.mimic)
     if joint.limits is not None:  # pygltflib drops None values: absent means None
         lim = {"lower": joint.limits.lower, "upper": joint.limits.upper}
         for key in ("effort", "velocity"):
@@ -317,7 +320,8 @@ def build(obj: ArticulatedObject) -> bytes:
                       rotation=quat_xyzw(joint.origin[:3, :3]), extras=_joint_extras(joint))
         child = obj.part(joint.child)
         attach = joint_index = None
-        if physics.has_body(obj, child):
+        # A floating part is a free body: a rigid body no physics joint holds.
+        if physics.has_body(obj, child) and joint.type is not JointType.FLOATING:
             attach = b.node(f"{joint.name}_attach_parent",
                             rotation=quat_xyzw(physics.attachment_rotation(joint)),
                             extras={EXTRAS_KEY: {"attachment": joint.name}})

@@ -1,10 +1,10 @@
 """MJCF -> ArticulatedObject. MuJoCo parses and compiles the file (defaults, classes, frames,
 orientation notations, ``fromto`` are resolved by MuJoCo itself); the compiled mjModel is read.
 
-One part per body: hinge -> revolute (limited) or continuous, slide -> prismatic, no joint ->
-fixed; a body with several hinges/slides becomes a chain of massless intermediate parts
-``<body>_<joint>`` (given a negligible mass, warned). A free joint on a top-level body is
-ignored (a fixed base, at the body's pose), a ball joint is refused. A joint away from its
+One part per body: hinge -> revolute (limited) or continuous, slide -> prismatic, ball ->
+ball, no joint -> fixed; a body with several hinges/slides/balls becomes a chain of massless
+intermediate parts ``<body>_<joint>`` (given a negligible mass, warned). A free joint on a
+top-level body is a floating joint from the root part ``world``. A joint away from its
 body origin moves the part frame to the joint (meshes and inertial follow); a joint ``ref``
 moves it to the pose at qpos = 0, so joint values mean the same here and in MuJoCo. When the
 world itself holds geoms or joints, several top-level bodies, or one placed away from the
@@ -35,6 +35,7 @@ from ...model import (
     JointType,
     Limits,
     Mesh,
+    Mimic,
     Part,
     sanitize_name,
     validate,
@@ -49,6 +50,7 @@ from .conventions import (
     parse_custom_name,
 )
 from .geometry import geom_mesh, pose
+from .kept import ELEMENTS_KEY, unread_sections
 
 _DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's: the material's colour shows instead
 _MUJOCO_DEFAULT_NAME = "MuJoCo Model"
@@ -138,10 +140,10 @@ class _Reader:
     mesh_assets: dict[int, tuple[Mesh, np.ndarray]] = field(default_factory=dict)  # read once
     notes: dict[str, list[str]] = field(default_factory=dict)
     taken_parts: set[str] = field(default_factory=set)
+    joint_of: dict[int, Joint] = field(default_factory=dict)  # MuJoCo joint id -> model joint
+    mimics: set[tuple[str, str]] = field(default_factory=set)  # (joint1, joint2) in the file
 
     def read(self) -> ArticulatedObject:
-        import mujoco
-
         m = self.model
         self.spec_bodies = {int(b.id): b for b in self.spec.bodies}
         self.spec_joints = {int(j.id): j for j in self.spec.joints}
@@ -150,13 +152,12 @@ class _Reader:
         for b in range(1, m.nbody):
             self.part_names[b] = self._name(m.body(b).name or f"body_{b}", taken, "body")
         top = [b for b in range(1, m.nbody) if int(m.body_parentid[b]) == 0]
-        free = int(mujoco.mjtJoint.mjJNT_FREE)
         for b in range(1, m.nbody):
             self._check_joints(b, top_level=b in top)
         # The world is a part when it holds geoms, several bodies or a joint, or when the one
         # top-level body is placed away from it: the root part's frame must stay that body's.
         world_used = (m.body_geomnum[0] > 0 or len(top) != 1
-                      or any(self._movable_joint(b) is not None for b in top)
+                      or any(m.body_jntnum[b] for b in top)
                       or not np.array_equal(pose(m.body_pos[top[0]], m.body_quat[top[0]]),
                                             np.eye(4))
                       or (WORLD, "part") in self.custom)
@@ -164,14 +165,12 @@ class _Reader:
         joints: list[Joint] = []
         joint_names: set[str] = set()
         if world_used:
-            self.part_names[0] = sanitize_name(WORLD, taken)
+            self.part_names[0] = sanitize_name(world_part_name(self.custom), taken)
             self.frames[0] = np.eye(4)
             parts.append(self._part(0))
         for b in range(1, m.nbody):
             parent = int(m.body_parentid[b])
             body_pose = pose(m.body_pos[b], m.body_quat[b])
-            if m.body_jntnum[b] and int(m.jnt_type[m.body_jntadr[b]]) == free:
-                self.note("free joints ignored (fixed to the world)", self.part_names[b])
             if parent == 0 and not world_used:  # the root: its part frame is the world
                 self.frames[b] = body_pose
                 parts.append(self._part(b))
@@ -179,10 +178,14 @@ class _Reader:
             joints += self._joints(b, parent, body_pose, joint_names, parts)
             parts.append(self._part(b))
         name = self._object_name()
+        self._read_mimics()
         self._report_ignored()
         for kind, names in self.notes.items():
             warn(f"{self.path}: {kind}: {', '.join(names)}")
         obj = ArticulatedObject(name, parts, joints, self._metadata())
+        kept = unread_sections(self.path, self.mimics) if self._has_unread() else {}
+        if kept:
+            obj.metadata[ELEMENTS_KEY] = kept
         for joint_name, message in massless_moving_parts(obj):
             warn(f"{self.path}: joint {joint_name!r}: {message}")
         try:
@@ -211,41 +214,18 @@ class _Reader:
 
     # -- joints ----------------------------------------------------------------------------
     def _check_joints(self, b: int, *, top_level: bool) -> None:
+        # MuJoCo itself refuses a free joint below the top level or beside another joint.
+        if self._free_joint(b) is not None and not top_level:
+            raise FormatError(self.path, self._body_label(b), "has a free joint below the top "
+                              "level", _info_line(self.spec_bodies[b]))
+
+    def _free_joint(self, b: int) -> int | None:
         import mujoco
 
         m = self.model
-        count = int(m.body_jntnum[b])
-        line = _info_line(self.spec_bodies[b])
-        if count > 1 and len(self._movable_joints(b)) != count:
-            raise FormatError(self.path, self._body_label(b), f"has {count} joints, a ball or "
-                              "free one among them; the model splits only hinges and slides",
-                              line)
-        if count == 1:
-            kind = int(m.jnt_type[m.body_jntadr[b]])
-            if kind == mujoco.mjtJoint.mjJNT_BALL:
-                raise FormatError(self.path, self._body_label(b),
-                                  "has a ball joint, which the model cannot represent", line)
-            if kind == mujoco.mjtJoint.mjJNT_FREE and not top_level:
-                raise FormatError(self.path, self._body_label(b), "has a free joint", line)
-
-    def _movable_joints(self, b: int) -> list[int]:
-        import mujoco
-
-        m = self.model
-        kinds = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
         first = int(m.body_jntadr[b])
-        return [j for j in range(first, first + int(m.body_jntnum[b]))
-                if int(m.jnt_type[j]) in kinds]
-
-    def _movable_joint(self, b: int) -> int | None:
-        import mujoco
-
-        m = self.model
-        if not m.body_jntnum[b]:
-            return None
-        j = int(m.body_jntadr[b])
-        kinds = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
-        return j if int(m.jnt_type[j]) in kinds else None
+        return next((j for j in range(first, first + int(m.body_jntnum[b]))
+                     if int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_FREE), None)
 
     def _joints(self, b: int, parent: int, body_pose: np.ndarray, taken: set[str],
                 parts: list[Part]) -> list[Joint]:
@@ -256,7 +236,12 @@ class _Reader:
         child = self.part_names[b]
         parent_name = self.part_names[parent]
         base = self.frames[parent] @ body_pose
-        movable = self._movable_joints(b)
+        free = self._free_joint(b)
+        if free is not None:  # a top-level body: its pose in the world is its qpos0
+            self.frames[b] = np.eye(4)
+            return [self._joint(free, parent_name, child, base, taken)]
+        first = int(m.body_jntadr[b])
+        movable = list(range(first, first + int(m.body_jntnum[b])))
         if not movable:
             self.frames[b] = np.eye(4)
             raw = self.custom.get((m.body(b).name, "parent_joint"))
@@ -286,12 +271,25 @@ class _Reader:
         m = self.model
         raw = m.joint(j).name
         name = self._name(raw, taken, "joint") if raw else sanitize_name(f"{child}_joint", taken)
-        hinge = int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE
+        jtype = int(m.jnt_type[j])
+        hinge = jtype == mujoco.mjtJoint.mjJNT_HINGE
         qadr, dof = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
-        ref = float(m.qpos0[qadr])
         anchor = np.asarray(m.jnt_pos[j], dtype=np.float64)
         axis = np.asarray(m.jnt_axis[j], dtype=np.float64)
         limited = bool(m.jnt_limited[j])
+        dynamics = Dynamics(
+            damping=float(m.dof_damping[dof]), friction=float(m.dof_frictionloss[dof]),
+            stiffness=float(m.jnt_stiffness[j]), armature=float(m.dof_armature[dof]))
+        if jtype == mujoco.mjtJoint.mjJNT_FREE:  # qpos0 is the body's pose: the origin
+            return Joint(name, JointType.FLOATING, parent_name, child, origin=base,
+                         dynamics=dynamics)
+        if jtype == mujoco.mjtJoint.mjJNT_BALL:  # qpos0 is the identity rotation
+            if limited:
+                self.note("ball joint cone limits dropped (the model's ball joints are free)",
+                          name)
+            return Joint(name, JointType.BALL, parent_name, child,
+                         origin=base @ tf.make(translation=anchor), dynamics=dynamics)
+        ref = float(m.qpos0[qadr])
         if hinge:
             kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
         elif limited:
@@ -301,13 +299,12 @@ class _Reader:
                               "range: the model needs limits for prismatic joints",
                               _info_line(self.spec_joints[j]))
         joint = Joint(name, kind, parent_name, child, axis=axis)
+        self.joint_of[j] = joint
         # Part frame = joint frame at qpos = 0: at the anchor, turned back by the reference.
         joint.origin = base @ tf.make(translation=anchor) @ joint.motion(-ref)
         joint.limits = self._limits(j, kind, name)
-        joint.dynamics = Dynamics(
-            damping=float(m.dof_damping[dof]), friction=float(m.dof_frictionloss[dof]),
-            stiffness=float(m.jnt_stiffness[j]), spring_ref=float(m.qpos_spring[qadr]),
-            armature=float(m.dof_armature[dof]))
+        dynamics.spring_ref = float(m.qpos_spring[qadr])
+        joint.dynamics = dynamics
         if np.any(m.dof_dampingpoly[dof]) or np.any(m.jnt_stiffnesspoly[j]):
             self.note("polynomial damping/stiffness terms dropped", name)
         joint.state = self._state(qadr, joint)
@@ -511,18 +508,60 @@ class _Reader:
             return {}
         return data
 
+    def _read_mimics(self) -> None:
+        """Joint equality constraints that couple one hinge/slide to another linearly (MuJoCo:
+        y - y0 = a0 + a1 (x - x0), y0 and x0 the joints' qpos0) as the follower's mimic:
+        q_y = a1 q_x + (y0 + a0 - a1 x0). Others stay unread (warned with the rest)."""
+        import mujoco
+
+        m = self.model
+        for e in range(m.neq):
+            follower = self.joint_of.get(int(m.eq_obj1id[e]))
+            leader = self.joint_of.get(int(m.eq_obj2id[e]))
+            a0, a1, *higher = (float(v) for v in m.eq_data[e][:5])
+            if (int(m.eq_type[e]) != mujoco.mjtEq.mjEQ_JOINT or not m.eq_active0[e]
+                    or follower is None or leader is None or any(higher)
+                    or follower.mimic is not None):
+                continue
+            y0 = float(m.qpos0[m.jnt_qposadr[int(m.eq_obj1id[e])]])
+            x0 = float(m.qpos0[m.jnt_qposadr[int(m.eq_obj2id[e])]])
+            follower.mimic = Mimic(leader.name, a1, y0 + a0 - a1 * x0)
+            self.mimics.add((m.joint(int(m.eq_obj1id[e])).name, m.joint(int(m.eq_obj2id[e])).name))
+
     def _report_ignored(self) -> None:
         import mujoco
 
         m = self.model
         observed = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, KEYFRAME) >= 0
-        counts = {"actuator": m.nu, "tendon": m.ntendon, "equality constraint": m.neq,
-                  "sensor": m.nsensor, "keyframe": m.nkey - int(observed),
-                  "flex": m.nflex, "skin": m.nskin, "custom tuple": m.ntuple}
-        left = [f"{n} {what}{'s' if n > 1 else ''}" for what, n in counts.items() if n]
+
+        def listed(counts: dict[str, int]) -> str:
+            return ", ".join(f"{n} {what}{'s' if n > 1 else ''}" for what, n in counts.items()
+                             if n)
+
+        kept = listed(self._unread_counts())
+        if kept:
+            warn(f"{self.path}: MJCF elements with no place in the model kept as metadata "
+                 f"{ELEMENTS_KEY!r} (no writer writes them back): {kept}")
+        left = listed({"keyframe": m.nkey - int(observed), "flex": m.nflex, "skin": m.nskin,
+                       "custom tuple": m.ntuple})
         if left:
             warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
-                 f"{', '.join(left)}")
+                 f"{left}")
+
+    def _unread_counts(self) -> dict[str, int]:
+        m = self.model
+        return {"actuator": m.nu, "tendon": m.ntendon,
+                "equality constraint": m.neq - len(self.mimics), "sensor": m.nsensor}
+
+    def _has_unread(self) -> bool:
+        return any(self._unread_counts().values())
+
+
+def world_part_name(custom: dict) -> str:
+    """The root part's name when it is the world body: ``world``, or the name our writer
+    kept in <custom> (a floating base's root named otherwise)."""
+    name = custom.get((WORLD, "name"))
+    return name if isinstance(name, str) and name else WORLD
 
 
 def _world_inertial(values) -> Inertial | None:

@@ -1,12 +1,14 @@
 """ArticulatedObject -> MjSpec -> MJCF text, compiled by MuJoCo before anything is kept.
 
-One body per part, named as the part, posed at its joint origin; the joint (hinge or slide)
-at the body origin; the root a jointless child of the world (fixed base); a fixed joint a
-jointless nested body. Each body has its explicit inertial (``fullinertia``), a non-colliding
-visual mesh geom (group 2, the part colour) and one colliding mesh geom per convex piece
-(group 3). Every parent/child pair is excluded from contact. What MJCF has no place for is
-kept in the keyframe "observed" (joint states) and in ``<custom>`` data named
-``real2code:<element>:<field>`` (velocity limits, fixed-joint names, metadata, ...).
+One body per part, named as the part, posed at its joint origin; the joint (hinge, slide or
+ball) at the body origin; the root a jointless child of the world (fixed base), or the world
+body itself when it is named ``world`` or a floating joint (a free joint) hangs from it; a
+fixed joint a jointless nested body; a mimic a joint equality. Each body has its explicit
+inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
+one colliding mesh geom per convex piece (group 3). Every parent/child pair is excluded from
+contact. What MJCF has no place for is kept in the keyframe "observed" (joint states) and in
+``<custom>`` data named ``real2code:<element>:<field>`` (velocity limits, fixed-joint names,
+metadata, ...).
 """
 
 from __future__ import annotations
@@ -157,8 +159,8 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
 
     joints = list(obj.joints_in_tree_order())
     root = obj.root
-    if root.name == WORLD:  # MuJoCo's own world body is that part (its mass goes to <custom>)
-        bodies = {WORLD: spec.worldbody}
+    if root_is_world(obj):  # MuJoCo's own world body is that part (its mass in <custom>)
+        bodies = {root.name: spec.worldbody}
         _add_geoms(spec.worldbody, root)
     else:
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
@@ -168,12 +170,34 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         if part.texture is not None and not in_memory:
             spec.geom(f"{part.name}_visual").material = texture_name(part)
     for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
-        spec.add_exclude(bodyname1=joint.parent, bodyname2=joint.child)
+        spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
+    for joint in joints:  # our joints have no ref: qpos0 = 0, polycoef = offset, multiplier
+        if joint.mimic is not None:
+            spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                              name1=joint.name, name2=joint.mimic.joint,
+                              data=[joint.mimic.offset, joint.mimic.multiplier] + [0.0] * 10)
     _add_custom(spec, obj, parts, joints)
-    movable = [j for j in joints if j.type.movable]
-    if movable:  # bodies, hence qpos, are in this same depth-first order
-        spec.add_key(name=KEYFRAME, qpos=[j.state for j in movable])
+    qpos = [x for j in joints for x in _qpos(j)]
+    if qpos:  # bodies, hence qpos, are in this same depth-first order
+        spec.add_key(name=KEYFRAME, qpos=qpos)
     return spec
+
+
+def root_is_world(obj: ArticulatedObject) -> bool:
+    """The root part is written as MuJoCo's world body when it is named so, or when a floating
+    joint hangs from it (MuJoCo's free joints hang from the world body only)."""
+    return obj.root.name == WORLD or any(j.type is JointType.FLOATING for j in obj.joints)
+
+
+def _qpos(joint: Joint) -> list[float]:
+    """The joint's coordinates in the keyframe: its state, or the reference pose of a ball
+    (the identity) or free joint (the body's pose in the world, as qpos0 holds it)."""
+    if joint.type is JointType.BALL:
+        return [1.0, 0.0, 0.0, 0.0]
+    if joint.type is JointType.FLOATING:
+        quat = snap_unit(tf.matrix_to_quat(joint.origin[:3, :3]), sign_free=True)
+        return [x + 0.0 for x in joint.origin[:3, 3]] + quat
+    return [joint.state] if joint.type.movable else []
 
 
 def _add_texture(spec, part: Part) -> None:
@@ -212,7 +236,7 @@ def _add_body(parent, part: Part, joint: Joint | None):
         rotation = tf.matrix_to_quat(joint.origin[:3, :3])
         body = parent.add_body(name=part.name, pos=[x + 0.0 for x in joint.origin[:3, 3]],
                                quat=snap_unit(rotation, sign_free=True))
-        if joint.type.movable:
+        if joint.type is not JointType.FIXED:
             _add_joint(body, joint)
     if part.inertial is not None:
         body.explicitinertial = True
@@ -248,10 +272,15 @@ def _add_joint(body, joint: Joint) -> None:
     import mujoco
 
     d = joint.dynamics
+    options = dict(name=joint.name, damping=d.damping, frictionloss=d.friction,
+                   stiffness=d.stiffness, armature=d.armature)
+    if joint.type.multi_dof:
+        kind = mujoco.mjtJoint.mjJNT_BALL if joint.type is JointType.BALL else \
+            mujoco.mjtJoint.mjJNT_FREE
+        body.add_joint(type=kind, **options)
+        return
     kind = mujoco.mjtJoint.mjJNT_HINGE if joint.type.angular else mujoco.mjtJoint.mjJNT_SLIDE
-    options = dict(name=joint.name, type=kind, axis=snap_unit(joint.axis), damping=d.damping,
-                   frictionloss=d.friction, stiffness=d.stiffness, springref=d.spring_ref,
-                   armature=d.armature)
+    options.update(type=kind, axis=snap_unit(joint.axis), springref=d.spring_ref)
     limits = joint.limits
     if limits is None:
         options["limited"] = mujoco.mjtLimited.mjLIMITED_FALSE
@@ -277,8 +306,10 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
         if part.visual is None and not part.collision:  # no geom to carry its colour
             spec.add_numeric(name=custom_name(part.name, "color"), data=list(part.color))
     root = parts[0]
-    if root.name == WORLD:
+    if root_is_world(obj):
         spec.add_text(name=custom_name(WORLD, "part"), data="root")
+        if root.name != WORLD:
+            spec.add_text(name=custom_name(WORLD, "name"), data=root.name)
         if root.inertial is not None:
             i = root.inertial
             spec.add_numeric(name=custom_name(WORLD, "inertial"),

@@ -21,6 +21,7 @@ URDF has no observed joint state: it is q = 0, or the nearest limit when the ran
 
 from __future__ import annotations
 
+import copy
 import json
 import re
 from pathlib import Path
@@ -41,12 +42,13 @@ from ...model import (
     JointType,
     Limits,
     Mesh,
+    Mimic,
     Part,
     sanitize_name,
     validate,
     validate_inertial,
 )
-from ...repairs import balanced_inertia, massless_moving_parts
+from ...repairs import balanced_inertia, massless_moving_parts, unusable_mimics
 from .context import Context, label
 from .geometry import (
     average_color,
@@ -57,8 +59,16 @@ from .geometry import (
     robot_materials,
     shape_mesh,
 )
-from .spec import UNKNOWN, ns
-from .structure import check_tree, identifiers, joint_elements, joint_ends, link_elements, parse
+from .spec import ELEMENTS_KEY, UNKNOWN, ns
+from .structure import (
+    check_tree,
+    identifiers,
+    joint_elements,
+    joint_ends,
+    link_elements,
+    parse,
+    unread_children,
+)
 
 # An axis this close to unit length is kept as written, so that what we write reads back
 # bit for bit; beyond it we normalise (and warn beyond the model's tolerance).
@@ -80,12 +90,13 @@ def load(path: str | Path) -> ArticulatedObject:
     joint_names = identifiers(ctx, joints)
     materials = robot_materials(ctx, robot)
     parts = [_part(ctx, el, part_names[raw], materials) for raw, el in links.items()]
-    joint_list = [_joint(ctx, el, joint_names[raw], part_names) for raw, el in joints.items()]
+    joint_list = [_joint(ctx, el, joint_names[raw], part_names, joint_names)
+                  for raw, el in joints.items()]
     _report_notes(ctx)
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
-                            metadata=_metadata(ctx, robot))
+                            metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
     joint_el = {joint_names[raw]: el for raw, el in joints.items()}
-    for joint_name, message in massless_moving_parts(obj):
+    for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
         el = joint_el[joint_name]
         ctx.warn(label(el), message, el.sourceline)
     lines = {f"part {part_names[r]!r}": el for r, el in links.items()}
@@ -131,6 +142,30 @@ def _metadata(ctx: Context, robot: etree._Element) -> dict:
     if not isinstance(data, dict):
         raise ctx.error(label(robot), "real2code:metadata must be a JSON object", robot.sourceline)
     return data
+
+
+def _with_unread_elements(ctx: Context, robot: etree._Element, metadata: dict) -> dict:
+    """The metadata with the children of <robot> the model has no place for, as XML text."""
+    unread = unread_children(robot)
+    if not unread:
+        return metadata
+    ctx.warn(None, f"kept as metadata {ELEMENTS_KEY!r} (the URDF writer writes them back; no "
+             "other format acts on them): " + ", ".join(
+                 f"<{etree.QName(el).localname}> (line {el.sourceline})" for el in unread))
+    return {**metadata, ELEMENTS_KEY: [_element_text(el) for el in unread]}
+
+
+def _element_text(el: etree._Element) -> str:
+    """An element as XML text, without the layout whitespace between elements (a writer
+    indents it again) or namespace declarations it does not use."""
+    el = copy.deepcopy(el)
+    for sub in el.iter():
+        if sub.text is not None and not sub.text.strip() and len(sub):
+            sub.text = None
+        if sub.tail is not None and not sub.tail.strip():
+            sub.tail = None
+    etree.cleanup_namespaces(el)
+    return etree.tostring(el, encoding="unicode", with_tail=False)
 
 
 def _report_notes(ctx: Context) -> None:
@@ -256,15 +291,18 @@ def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
 
 
 # -- joints ---------------------------------------------------------------------------------------
-def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str]) -> Joint:
+def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str],
+           joint_names: dict[str, str]) -> Joint:
     owner = label(el)
     jtype = JointType(el.get("type"))
+    if jtype is JointType.FIXED and el.get(ns("type")) == JointType.BALL.value:
+        jtype = JointType.BALL  # our writer's ball joint (URDF has none)
     parent, child = joint_ends(el)
-    if el.find("mimic") is not None:
-        ctx.warn(owner, "<mimic> is ignored: the joint is imported as an independent joint",
-                 el.find("mimic").sourceline)
     joint = Joint(name=name, type=jtype, parent=part_names[parent], child=part_names[child],
-                  origin=origin_matrix(ctx, el, owner))
+                  origin=origin_matrix(ctx, el, owner),
+                  mimic=_mimic(ctx, el, owner, joint_names))
+    if jtype.multi_dof:
+        joint.dynamics = _dynamics(ctx, el, owner)
     if jtype.movable:
         joint.axis = _axis(ctx, el, owner)
         joint.dynamics = _dynamics(ctx, el, owner)
@@ -288,6 +326,21 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
     elif limit is not None:
         ctx.note("limit_dropped", repr(name))
     return joint
+
+
+def _mimic(ctx: Context, el: etree._Element, owner: str,
+           joint_names: dict[str, str]) -> Mimic | None:
+    """``<mimic joint= multiplier= offset=>`` (urdfdom's defaults 1 and 0), the leader named
+    as this reader names joints (identifiers)."""
+    mimic = el.find("mimic")
+    if mimic is None:
+        return None
+    leader = mimic.get("joint")
+    if not leader:
+        raise ctx.error(owner, "<mimic> names no joint", mimic.sourceline)
+    return Mimic(joint_names.get(leader, leader),
+                 ctx.number(mimic, "multiplier", owner, default=1.0),
+                 ctx.number(mimic, "offset", owner, default=0.0))
 
 
 def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:

@@ -16,6 +16,11 @@ DEFAULT_EFFORT = 1000.0  # N m (revolute) or N (prismatic)
 DEFAULT_VELOCITY = 100.0  # rad/s or m/s
 UNKNOWN = "none"
 
+# The children of <robot> the model has no place for (<transmission>, <gazebo>, Drake's
+# <frame>, ...) are kept, as XML text in document order, under this key of the object's
+# metadata: every format carries the metadata, and the URDF writer writes them back.
+ELEMENTS_KEY = "urdf_elements"
+
 
 def ns(name: str) -> str:
     """Clark notation of an attribute in our namespace (for lxml)."""

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 from lxml import etree
 
-from ...model import NAME_PATTERN, JointType, sanitize_name
+from ...model import NAME_PATTERN, sanitize_name
 from .context import Context, label
 
-JOINT_TYPES = tuple(t.value for t in JointType)
+# URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
+# real2code:type="ball"); planar is not held.
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating")
 # The children of <robot> the reader uses, and <mujoco>: MuJoCo's compiler hints for loading
 # the file (our writer emits one), which describe no part of the object.
 READ_TAGS = ("link", "joint", "material", "mujoco")
@@ -38,12 +40,13 @@ def parse(ctx: Context) -> etree._Element:
         etree.cleanup_namespaces(robot)
     if robot.tag != "robot":
         raise ctx.error(label(robot), "the root element must be <robot>", robot.sourceline)
-    unread = [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
-    if unread:  # transmissions, Gazebo tags, Drake frames...: said, never dropped in silence
-        ctx.warn(None, "not carried into the model (no kinematics or dynamics of its parts): "
-                 + ", ".join(f"<{etree.QName(el).localname}> (line {el.sourceline})"
-                             for el in unread))
     return robot
+
+
+def unread_children(robot: etree._Element) -> list[etree._Element]:
+    """The children of <robot> the model has no place for: transmissions, Gazebo tags,
+    Drake frames... (kept in the metadata by the reader, never dropped in silence)."""
+    return [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
 
 
 def _named(ctx: Context, robot: etree._Element, tag: str) -> dict[str, etree._Element]:
@@ -72,7 +75,7 @@ def joint_elements(ctx: Context, robot: etree._Element,
     for el in joints.values():
         owner = label(el)
         jtype = el.get("type")
-        if jtype in ("floating", "planar"):
+        if jtype == "planar":
             raise ctx.error(owner, f"{jtype} joints are not supported (the model holds "
                             f"{', '.join(JOINT_TYPES)} joints)", el.sourceline)
         if jtype not in JOINT_TYPES:

@@ -10,6 +10,7 @@ load every link as its own body, with its visual.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -17,9 +18,21 @@ from lxml import etree
 
 from ... import atomic
 from ... import transforms as tf
+from ...errors import ModelError, warn
 from ...meshfiles import collision_relpath, visual_relpath, write_object_meshes
 from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
-from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE, PREFIX, UNKNOWN, ns, number, numbers
+from .spec import (
+    DEFAULT_EFFORT,
+    DEFAULT_VELOCITY,
+    ELEMENTS_KEY,
+    NAMESPACE,
+    PREFIX,
+    UNKNOWN,
+    ns,
+    number,
+    numbers,
+)
+from .structure import READ_TAGS
 
 SUFFIX = ".urdf"
 
@@ -44,8 +57,10 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
 def to_bytes(obj: ArticulatedObject) -> bytes:
     robot = etree.Element("robot", nsmap={PREFIX: NAMESPACE})
     robot.set("name", obj.name)
-    if obj.metadata:
-        robot.set(ns("metadata"), metadata_json(obj, sort_keys=True))
+    elements = _kept_elements(obj)
+    metadata = {k: v for k, v in obj.metadata.items() if k != ELEMENTS_KEY}
+    if metadata:
+        robot.set(ns("metadata"), json.dumps(metadata, sort_keys=True, allow_nan=False))
     compiler = etree.SubElement(etree.SubElement(robot, "mujoco"), "compiler")
     for key, value in MUJOCO_COMPILER:
         compiler.set(key, value)
@@ -53,7 +68,27 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
         robot.append(_link(part))
     for joint in obj.joints:
         robot.append(_joint(joint))
+    robot.extend(elements)
     return etree.tostring(robot, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+
+
+def _kept_elements(obj: ArticulatedObject) -> list[etree._Element]:
+    """The URDF elements a reader kept in the metadata (spec.ELEMENTS_KEY), parsed again."""
+    metadata_json(obj)  # the same error as every format for metadata that is not JSON
+    texts = obj.metadata.get(ELEMENTS_KEY, [])
+    where = f"object {obj.name!r} metadata {ELEMENTS_KEY!r}"
+    if not isinstance(texts, list) or not all(isinstance(t, str) for t in texts):
+        raise ModelError(where, "must be a list of XML texts")
+    out = []
+    for k, text in enumerate(texts):
+        try:
+            el = etree.fromstring(text)
+        except etree.XMLSyntaxError as e:
+            raise ModelError(f"{where}[{k}]", f"not XML: {e}") from e
+        if el.tag in READ_TAGS:  # those are the model's own: never written twice
+            raise ModelError(f"{where}[{k}]", f"<{el.tag}> is the model's to write")
+        out.append(el)
+    return out
 
 
 def _sub(parent: etree._Element, tag: str, *attrs: tuple[str, str]) -> etree._Element:
@@ -99,12 +134,21 @@ def _joint(joint: Joint) -> etree._Element:
     el = etree.Element("joint")
     el.set("name", joint.name)
     el.set("type", joint.type.value)
+    if joint.type is JointType.BALL:
+        warn(f"URDF: joint {joint.name!r}: URDF has no ball joint; written as fixed at its "
+             f"reference pose, marked {PREFIX}:type=\"ball\" for our reader")
+        el.set("type", JointType.FIXED.value)
+        el.set(ns("type"), joint.type.value)
     if joint.type.movable and joint.state != 0.0:
         el.set(ns("state"), number(joint.state))
     _sub(el, "origin", ("xyz", numbers(joint.origin[:3, 3])),
          ("rpy", numbers(stable_rpy(joint.origin[:3, :3]))))
     _sub(el, "parent", ("link", joint.parent))
     _sub(el, "child", ("link", joint.child))
+    if joint.type.multi_dof:
+        if not joint.dynamics.is_zero():
+            _dynamics(el, joint)
+        return el
     if not joint.type.movable:
         return el
     axis = joint.axis
@@ -121,6 +165,15 @@ def _joint(joint: Joint) -> etree._Element:
         for attr in ("effort", "velocity"):
             if getattr(lim, attr) is None:
                 limit.set(ns(attr), UNKNOWN)
+    _dynamics(el, joint)
+    if joint.mimic is not None:
+        m = joint.mimic
+        _sub(el, "mimic", ("joint", m.joint), ("multiplier", number(m.multiplier)),
+             ("offset", number(m.offset)))
+    return el
+
+
+def _dynamics(el: etree._Element, joint: Joint) -> None:
     d = joint.dynamics
     dynamics = _sub(el, "dynamics", ("damping", number(d.damping)),
                     ("friction", number(d.friction)))
@@ -128,7 +181,6 @@ def _joint(joint: Joint) -> etree._Element:
                         ("armature", d.armature)):
         if value != 0.0:
             dynamics.set(ns(attr), number(value))
-    return el
 
 
 RPY_DECIMALS = 13  # rotation error <= ~1e-13 (URDF tools read these as doubles)

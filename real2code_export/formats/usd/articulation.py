@@ -6,7 +6,8 @@ from the part fixed to the world. No prim names or paths are assumed.
 The world: one fixed joint to the world -> its body is the root, placed by that joint; no
 joint to the world -> the single body without a parent is the root, fixed where it stands
 (warned); several joints to the world, or a moving one -> a massless part "world" becomes
-the root (warned).
+the root (warned). A body no joint connects to the root is free (UsdPhysics' free body): a
+floating joint from the root part holds it.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from .conventions import load_physics
 
 WORLD = ""  # the parser's body path for the world side of a joint
 KINDS = {"RevoluteJoint": None, "PrismaticJoint": JointType.PRISMATIC,
-         "FixedJoint": JointType.FIXED}
+         "FixedJoint": JointType.FIXED, "SphericalJoint": JointType.BALL}
 
 
 @dataclass
@@ -30,7 +31,7 @@ class Edge:
     """One parsed joint, oriented parent -> child once the tree is known."""
 
     path: str
-    desc: object
+    desc: object  # None for a free body's floating joint (no prim)
     kind: JointType
     body0: str
     body1: str
@@ -93,7 +94,7 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
     element = f"joint prim <{prim_path}>"
     if kind_name not in KINDS:
         raise FormatError(path, element, f"{kind_name} cannot be represented (only revolute, "
-                          "prismatic and fixed joints)")
+                          "prismatic, spherical and fixed joints)")
     sides = []
     for k, body, rel in ((0, desc.body0, desc.rel0), (1, desc.body1, desc.rel1)):
         body, rel = str(body), str(rel)
@@ -109,6 +110,9 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
         lim = desc.limit
         limited = lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)
         kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
+    elif kind is JointType.BALL and desc.limit.enabled:
+        warn(f"{path}: {element}: the spherical joint's cone limit is dropped (the model's ball "
+             "joints are free)")
     elif kind is JointType.PRISMATIC:
         lim = desc.limit
         if not (lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)):
@@ -147,18 +151,24 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
     # breadth first from the root: orient every joint parent -> child
     reached, frontier, tree = {root}, [root], []
     pending = list(edges)
-    while frontier:
-        body = frontier.pop(0)
-        for e in [x for x in pending if body in (x.body0, x.body1)]:
-            pending.remove(e)
-            e.reversed = e.body1 == body
-            if e.child in reached:
-                raise FormatError(path, f"joint prim <{e.path}>", "closes a kinematic loop")
-            reached.add(e.child)
-            frontier.append(e.child)
-            tree.append(e)
-    unreached = [b for b in bodies if b not in reached]
-    if unreached:
-        raise FormatError(path, None, f"bodies not connected to the root <{root or 'world'}>: "
-                          f"{unreached}")
+    while True:
+        while frontier:
+            body = frontier.pop(0)
+            for e in [x for x in pending if body in (x.body0, x.body1)]:
+                pending.remove(e)
+                e.reversed = e.body1 == body
+                if e.child in reached:
+                    raise FormatError(path, f"joint prim <{e.path}>", "closes a kinematic loop")
+                reached.add(e.child)
+                frontier.append(e.child)
+                tree.append(e)
+        # A body no joint reaches is free; of its group, the one that is no joint's body1.
+        unreached = [b for b in bodies if b not in reached]
+        if not unreached:
+            break
+        held = {e.body1 for e in pending}
+        free = next((b for b in unreached if b not in held), unreached[0])
+        tree.append(Edge(free, None, JointType.FLOATING, root, free))
+        reached.add(free)
+        frontier.append(free)
     return Articulation(bodies, {}, tree, root, root_placement)

@@ -37,6 +37,7 @@ SCENE = "PhysicsScene"
 NAMESPACE = "real2code"  # our custom attributes: real2code:state, real2code:effort, ...
 WORLD_JOINT = "world_fixed"
 METADATA = f"{NAMESPACE}:metadata"  # the object's metadata (JSON) on the object prim
+FLOATING_JOINT = f"{NAMESPACE}:floatingJoint"  # on a free body: its floating joint's name
 
 
 def new_stage(name: str):

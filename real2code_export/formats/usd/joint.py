@@ -1,5 +1,7 @@
-"""Joints: PhysicsRevoluteJoint (continuous = revolute without limits), PhysicsPrismaticJoint
-and PhysicsFixedJoint with body0 = parent, body1 = child.
+"""Joints: PhysicsRevoluteJoint (continuous = revolute without limits), PhysicsPrismaticJoint,
+PhysicsSphericalJoint (ball, no cone limit) and PhysicsFixedJoint with body0 = parent, body1 =
+child. A floating joint is no joint prim: UsdPhysics' free body is a rigid body no joint
+holds (convert.py).
 
 Frames. The model's child frame is the joint frame, so localPos1 = 0; localPos0/localRot0
 place the joint frame in the parent. UsdPhysics axes are tokens (X, Y, Z): for any other
@@ -42,7 +44,7 @@ import numpy as np
 from ... import transforms as tf
 from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
-from ...model import Dynamics, Joint, JointType, Limits
+from ...model import Dynamics, Joint, JointType, Limits, Mimic
 from .conventions import NAMESPACE, as_float32, float_outward, snapped_quat
 
 TOKENS = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
@@ -101,6 +103,8 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
     kind = joint.type
     if kind is JointType.FIXED:
         usd = UsdPhysics.FixedJoint.Define(stage, path)
+    elif kind is JointType.BALL:
+        usd = UsdPhysics.SphericalJoint.Define(stage, path)
     elif kind is JointType.PRISMATIC:
         usd = UsdPhysics.PrismaticJoint.Define(stage, path)
     else:
@@ -113,6 +117,8 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
     usd.CreateLocalRot0Attr(Gf.Quatf(*f.rot0.tolist()))
     usd.CreateLocalPos1Attr(Gf.Vec3f(0.0, 0.0, 0.0))
     usd.CreateLocalRot1Attr(Gf.Quatf(*f.rot1.tolist()))
+    if kind is JointType.BALL:
+        _write_dynamics(usd.GetPrim(), joint.dynamics, angular=True)
     if not kind.movable:
         return
     angular = kind.angular
@@ -139,20 +145,29 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
     if joint.limits is not None and joint.limits.velocity is not None:
         custom(VELOCITY, joint.limits.velocity)
 
-    d = joint.dynamics
+    _write_dynamics(prim, joint.dynamics, angular, ref=to_file(joint.state))
+    if joint.limits is not None and joint.limits.velocity is not None:
+        prim.GetAttribute("newton:velocityLimit").Set(
+            as_float32(to_file(joint.limits.velocity)))
+
+
+def _write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) -> None:
+    """NewtonJointAPI's and MjcJointAPI's damping, friction, armature (and stiffness, spring
+    reference, ``mjc:ref`` for a joint with one value)."""
+    from pxr import Sdf
+
     prim.ApplyAPI("NewtonJointAPI")
     per_degree = math.pi / 180.0 if angular else 1.0
     prim.GetAttribute("newton:damping").Set(as_float32(d.damping * per_degree))
     prim.GetAttribute("newton:friction").Set(as_float32(d.friction))
     prim.GetAttribute("newton:armature").Set(as_float32(d.armature))
-    if joint.limits is not None and joint.limits.velocity is not None:
-        prim.GetAttribute("newton:velocityLimit").Set(
-            as_float32(to_file(joint.limits.velocity)))
 
     prim.AddAppliedSchema("MjcJointAPI")  # not registered here: see the module docstring
-    values = (d.damping, d.friction, d.armature, d.stiffness, to_file(d.spring_ref),
-              to_file(joint.state))
+    to_file = math.degrees if angular else float
+    values = (d.damping, d.friction, d.armature, d.stiffness, to_file(d.spring_ref), ref)
     for name, value in zip(MJC_ATTRS, values, strict=True):
+        if value is None:
+            continue
         prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=False,
                              variability=Sdf.VariabilityUniform).Set(float(value))
     # The constraint softness our MJCF authors (MjcJointAPI: solreflimit, solimplimit,
@@ -163,7 +178,35 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
                              variability=Sdf.VariabilityUniform).Set(list(value))
 
 
+def write_mimic(prim, mimic: Mimic, leader_path: str, angular: bool) -> None:
+    """NewtonMimicAPI (newton-usd-schemas): q = coef0 + coef1 * q_leader on the follower,
+    coef0 in degrees for an angular joint."""
+    from pxr import Sdf
+
+    prim.ApplyAPI("NewtonMimicAPI")
+    prim.GetRelationship("newton:mimicJoint").SetTargets([Sdf.Path(leader_path)])
+    prim.GetAttribute("newton:mimicCoef0").Set(
+        as_float32(math.degrees(mimic.offset) if angular else mimic.offset))
+    prim.GetAttribute("newton:mimicCoef1").Set(as_float32(mimic.multiplier))
+    prim.GetAttribute("newton:mimicEnabled").Set(True)
+
+
 # -- reading ---------------------------------------------------------------------------------
+def read_mimic(prim, angular: bool, mpu: float) -> Mimic | None:
+    """The mimic of an enabled NewtonMimicAPI, naming the leader by its prim path (the
+    reader renames it to the leader's joint)."""
+    if "NewtonMimicAPI" not in prim.GetAppliedSchemas():
+        return None
+    enabled = prim.GetAttribute("newton:mimicEnabled")
+    targets = prim.GetRelationship("newton:mimicJoint").GetTargets()
+    if (enabled and enabled.Get() is False) or len(targets) != 1:
+        return None
+    coef0 = authored_value(prim, "newton:mimicCoef0") or 0.0
+    coef1 = authored_value(prim, "newton:mimicCoef1")
+    offset = math.radians(coef0) if angular else coef0 * mpu
+    return Mimic(str(targets[0]), 1.0 if coef1 is None else coef1, offset)
+
+
 def authored_value(prim, name: str) -> float | None:
     attr = prim.GetAttribute(name)
     if not attr or not attr.HasAuthoredValue():

@@ -14,10 +14,21 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, ModelError, warn
-from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, sanitize_name, validate
+from ...model import (
+    ArticulatedObject,
+    Dynamics,
+    Joint,
+    JointType,
+    Mesh,
+    Part,
+    sanitize_name,
+    validate,
+)
+from ...repairs import unusable_mimics
 from . import articulation as art_
 from .body import read_inertial
 from .conventions import (
+    FLOATING_JOINT,
     METADATA,
     open_stage,
     relative_transform,
@@ -31,6 +42,7 @@ from .joint import (
     axis_in_body1,
     read_dynamics,
     read_limits,
+    read_mimic,
     rest_origin,
     state_from_motion,
 )
@@ -73,6 +85,9 @@ def load(path: str | Path) -> ArticulatedObject:
         placement = art.root_placement if art.root_placement is not None else ctx.world[art.root]
         ctx.to_part[art.root] = up @ placement
     for e in art.edges:
+        if e.desc is None:  # a free body: its part frame is its body frame
+            ctx.to_part[e.child] = np.eye(4)
+            continue
         child_frame = art_.joint_frame(e.desc, 0 if e.reversed else 1, mpu)
         ctx.to_part[e.child] = tf.make(translation=-child_frame[:3, 3])
 
@@ -87,6 +102,10 @@ def load(path: str | Path) -> ArticulatedObject:
 
     joint_names: set[str] = set()
     joints = [_joint(ctx, e, joint_names) for e in art.edges]
+    joint_at = {e.path: j.name for e, j in zip(art.edges, joints, strict=True)}
+    for j in joints:  # a mimic's leader: from its prim path to its joint's name
+        if j.mimic is not None:
+            j.mimic.joint = joint_at.get(j.mimic.joint, j.mimic.joint)
 
     root_prim = stage.GetDefaultPrim() or next(iter(stage.GetPseudoRoot().GetChildren()), None)
     name = sanitize_name(root_prim.GetName() if root_prim else path.stem)
@@ -98,6 +117,8 @@ def load(path: str | Path) -> ArticulatedObject:
             raise FormatError(path, f"prim <{root_prim.GetPath()}>",
                               f"{METADATA} is not JSON: {e}") from e
     obj = ArticulatedObject(name, parts, joints, metadata)
+    for joint_name, message in unusable_mimics(obj):
+        warn(f"{path}: joint {joint_name!r}: {message}")
     try:
         return validate(obj)
     except ModelError as e:
@@ -167,9 +188,16 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     """A model joint from a parsed one: origin = (parent body -> part) T_parent R_child^-1,
     axis = R_child * token (negated for a joint that runs child -> parent), state from the
     bodies' poses. ``taken``: the joint names given so far."""
+    mpu, kpu, names, world = ctx.mpu, ctx.kpu, ctx.names, ctx.world
+    if e.kind is JointType.FLOATING:  # a free body, where it stands in the root part
+        named = ctx.stage.GetPrimAtPath(e.child).GetAttribute(FLOATING_JOINT)
+        raw = named.Get() if named and named.HasAuthoredValue() else None
+        return Joint(sanitize_name(raw or f"{names[e.child]}_floating", taken), e.kind,
+                     names[e.parent], names[e.child],
+                     origin=_rigid(ctx.to_part[e.parent] @ tf.inverse(world[e.parent])
+                                   @ world[e.child], ctx.path, e.child))
     prim = ctx.stage.GetPrimAtPath(e.path)
     where = f"{ctx.path}: joint prim <{e.path}>"
-    mpu, kpu, names, world = ctx.mpu, ctx.kpu, ctx.names, ctx.world
     kind = e.kind
     t0, t1 = art_.joint_frame(e.desc, 0, mpu), art_.joint_frame(e.desc, 1, mpu)
     parent_frame = t1 if e.reversed else t0
@@ -177,8 +205,9 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
         else (_quat(e.desc, 0), _quat(e.desc, 1))
     origin = ctx.to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
     if not kind.movable:
+        dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.multi_dof else None
         return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent],
-                     names[e.child], origin=origin)
+                     names[e.child], origin=origin, dynamics=dynamics or Dynamics())
     token = str(e.desc.axis)
     axis = axis_in_body1(child_quat, token) * (-1.0 if e.reversed else 1.0)
     motion = tf.inverse(world[e.body0] @ t0) @ (world[e.body1] @ t1)
@@ -189,7 +218,8 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
         state = _into_limits(state, limits, kind, where)
     return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent], names[e.child],
                  origin=origin, axis=axis, limits=limits, state=state,
-                 dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where))
+                 dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where),
+                 mimic=read_mimic(prim, kind.angular, mpu))
 
 
 def _quat(desc, side: int) -> np.ndarray:

@@ -18,9 +18,17 @@ from ...model import (
     validate,
 )
 from .body import write_body
-from .conventions import GEOMETRY, LOOKS, METADATA, PHYSICS, WORLD_JOINT, stage_text
+from .conventions import (
+    FLOATING_JOINT,
+    GEOMETRY,
+    LOOKS,
+    METADATA,
+    PHYSICS,
+    WORLD_JOINT,
+    stage_text,
+)
 from .geometry import write_part_geometry
-from .joint import as_written, write_joint
+from .joint import as_written, write_joint, write_mimic
 
 
 def to_usda(obj: ArticulatedObject) -> str:
@@ -52,8 +60,15 @@ def to_usda(obj: ArticulatedObject) -> str:
                 Joint(world_joint, JointType.FIXED, "", root_part), None,
                 f"{base}/{GEOMETRY}/{root_part}")
     for j in obj.joints:
+        if j.type is JointType.FLOATING:  # a free body: no joint holds it; its name kept
+            stage.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}").CreateAttribute(
+                FLOATING_JOINT, Sdf.ValueTypeNames.String, custom=True).Set(j.name)
+            continue
         write_joint(stage, f"{base}/{PHYSICS}/{j.name}", j, f"{base}/{GEOMETRY}/{j.parent}",
                     f"{base}/{GEOMETRY}/{j.child}")
+        if j.mimic is not None:
+            write_mimic(stage.GetPrimAtPath(f"{base}/{PHYSICS}/{j.name}"), j.mimic,
+                        f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
     return stage_text(stage)
 
 
