@@ -29,6 +29,7 @@ import numpy as np
 from lxml import etree
 
 from ...collision import collision_pieces
+from ...collision_separation import separate
 from ...errors import FormatError, ModelError
 from ...inertia import DEFAULT_DENSITY, inertial_from_meshes
 from ...model import (
@@ -91,11 +92,38 @@ def load(path: str | Path) -> ArticulatedObject:
     lines = {f"part {part_names[r]!r}": el for r, el in links.items()}
     lines.update({f"joint {joint_names[r]!r}": el for r, el in joints.items()})
     try:
-        return validate(obj)
+        validate(obj)
     except ModelError as e:
         el, rest = _element_of(e.element, lines)
         owner = label(el) + rest if el is not None else e.element
         raise FormatError(path, owner, e.message, el.sourceline if el is not None else None) from e
+    built = {part_names[raw] for raw, el in links.items() if _pieces_made(el)}
+    return _separated(ctx, obj, built) if built else obj
+
+
+def _pieces_made(link: etree._Element) -> bool:
+    """Whether the reader made the link's collision pieces (as ``_collision`` decides),
+    rather than keeping our own convex pieces or none."""
+    elements = list(link.iterchildren("collision"))
+    if elements:
+        return not all(c.get(ns("convex")) == "true" for c in elements)
+    return link.find("visual") is not None and link.get(ns("collision")) != UNKNOWN
+
+
+def _separated(ctx: Context, obj: ArticulatedObject, parts: set[str]) -> ArticulatedObject:
+    """The pieces we made cut apart where two parts' pieces overlap (source meshes often
+    interpenetrate): a URDF has no contact exclusions, so overlapping pieces would collide."""
+    out, cuts = separate(obj, parts=parts)
+    for outcome, what in (("cut", "cut back"), ("dropped", "removed"),
+                          ("left", "left overlapping (too much would go)")):
+        found = [c for c in cuts if c.outcome == outcome]
+        if found:
+            pairs = sorted({(c.part, c.other_part) for c in found})
+            deepest = max(c.depth for c in found) * 1000
+            ctx.warn(None, f"collision pieces {what} where they overlapped another part's "
+                           f"({len(found)} times, deepest {deepest:.1f} mm): "
+                           + ", ".join(f"{a} against {b}" for a, b in pairs))
+    return out
 
 
 def _element_of(element: str,
