@@ -6,10 +6,11 @@ few voxels inside its carcass), and a hull or a coarse box fills a little more t
 surface. An engine that collides such pieces pushes the parts apart from the first step,
 and a format without contact exclusions (URDF) has no way to say "ignore this pair". So
 every pair of pieces of two different parts is tested with the separating-axis theorem over
-both pieces' face normals: when no face normal separates them, the deepest-overlapping axis
+both pieces' face normals: when no face normal separates them, the least-overlapping axis
 is the cut, and the piece that loses the smaller fraction of its volume is cut back to a
-``gap`` behind the other. Pieces only shrink, so a pair once separated stays separated and
-one pass over the pairs suffices. (Edge-edge axes are not tried: pieces that only they
+``gap`` behind the other; when either would lose most of itself (one sunk deep into the
+other), the larger is carved around the smaller's oriented box instead. Pieces only shrink (or split), so a pair once separated stays
+separated; a carved piece's new pieces are checked in another pass. (Edge-edge axes are not tried: pieces that only they
 would separate are cut a little although they do not touch, never left overlapping.)
 
 Beyond q = 0, each movable joint is swept alone over ``sweep`` values of its range and its
@@ -33,15 +34,17 @@ DEFAULT_SWEEP = 9  # joint values tried across each range, the ends included
 # when it is small next to its part (a handle's stem sunk into its door).
 MAX_CUT_FRACTION = 0.5
 SMALL_PIECE_FRACTION = 0.02
+_MAX_PASSES = 3
 
 
 @dataclass(frozen=True)
 class Cut:
     """What separation did where two parts' pieces overlapped: ``outcome`` is "cut" (a piece
-    of ``part`` cut back), "dropped" (a small piece of ``part`` removed: nothing of it was
-    left outside the other) or "left" (both would lose too much: the overlap is kept and
-    needs the engine's contact exclusions, as a shaft in its bearing does); ``depth`` the
-    overlap (m) at ``configuration``."""
+    of ``part`` cut back by a plane), "dropped" (a small piece of ``part`` removed: nothing
+    of it was left outside the other), "carved" (a piece of ``part`` split around the
+    other's oriented box: a drawer front sunk into a board, a shaft through a block) or
+    "left" (even that would take most of it: the overlap is kept and needs the engine's
+    contact exclusions); ``depth`` the overlap (m) at ``configuration``."""
 
     part: str
     other_part: str
@@ -91,13 +94,19 @@ def separate(obj: ArticulatedObject, *, parts: set[str] | None = None, gap: floa
         poses = forward_kinematics(obj, q)
         for piece in pieces:
             piece.place(poses[piece.part])
-        for a, b in _candidate_pairs(pieces, pair, mutable, gap):
-            if a.volume == 0 or b.volume == 0:
-                continue
-            cut = _separate_pair(a, b, poses, mutable, small, gap, min_thickness)
-            if cut is not None:
-                cuts.append(Cut(*cut[:3], dict(q), cut[3]))
-        pieces = [p for p in pieces if p.volume > 0]
+        for _ in range(_MAX_PASSES):  # a carved piece's new pieces are checked on the next pass
+            found = []
+            for a, b in _candidate_pairs(pieces, pair, mutable, gap):
+                if a.volume == 0 or b.volume == 0:
+                    continue
+                cut = _separate_pair(a, b, poses, mutable, small, gap, min_thickness)
+                if cut is not None:
+                    found.append(Cut(*cut[:3], dict(q), cut[3]))
+                    pieces += cut[4]
+            cuts += found
+            pieces = [p for p in pieces if p.volume > 0]
+            if not any(c.outcome == "carved" for c in found):
+                break
     for part in out.parts:
         part.collision = [p.mesh for p in pieces if p.part == part.name]
     return out, cuts
@@ -138,17 +147,16 @@ def _configurations(obj: ArticulatedObject, sweep: int):
 
 
 def _separate_pair(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: set[str],
-                   small: dict[str, float], gap: float, min_thickness: float
-                   ) -> tuple[str, str, float, str] | None:
+                   small: dict[str, float], gap: float, min_thickness: float):
     """Cut ``a`` or ``b`` (whichever loses the smaller fraction) back to ``gap`` from the
-    other along the axis they overlap least on; None when a face normal separates them (or
-    they only touch)."""
+    other along the axis they overlap least on; None when a face normal separates them by
+    ``gap`` already."""
     normals = np.concatenate([a.planes[:, :3], -b.planes[:, :3]])
     # along n, a's top minus b's bottom: how far a reaches into b from below
     overlap = (a.world @ normals.T).max(axis=0) - (b.world @ normals.T).min(axis=0)
     best = int(np.argmin(overlap))
     depth = float(overlap[best])
-    if depth <= 0.0:
+    if depth <= -gap:  # pieces that only touch are parted too: engines see them overlap
         return None
     n = normals[best]
     a_top, b_bottom = float((a.world @ n).max()), float((b.world @ n).min())
@@ -165,17 +173,73 @@ def _separate_pair(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: 
         if loss <= MAX_CUT_FRACTION or piece.volume <= small[piece.part]:
             allowed.append((loss, piece, kept))
     if not allowed:
-        return a.part, b.part, depth, "left"
+        return _carve(a, b, poses, mutable, gap, min_thickness, depth)
     _, piece, kept = min(allowed, key=lambda r: r[0])
     other = b if piece is a else a
     if kept is None:
         piece.volume = 0.0
-        return piece.part, other.part, depth, "dropped"
-    pose = poses[piece.part]
-    fresh = _Piece.of(piece.part, kept.transformed(np.linalg.inv(pose)))
+        return piece.part, other.part, depth, "dropped", []
+    _set_mesh(piece, kept, poses[piece.part])
+    return piece.part, other.part, depth, "cut", []
+
+
+def _carve(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: set[str],
+           gap: float, min_thickness: float, depth: float):
+    """A piece sunk deep into a larger one (a drawer front into a desk's front board): the
+    larger is split into the convex pieces of it outside the smaller's oriented box, one per
+    face of the box (each cut by that face's plane and the earlier faces' opposites)."""
+    import trimesh
+
+    big, intruder = (a, b) if a.volume >= b.volume else (b, a)
+    if big.part not in mutable:
+        return a.part, b.part, depth, "left", []
+    to_box, extents = trimesh.bounds.oriented_bounds(intruder.world)
+    from_box = np.linalg.inv(to_box)
+    carved = []
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            normal = sign * from_box[:3, axis]
+            center = from_box[:3, 3]
+            offset = float(normal @ center) + extents[axis] / 2 + gap
+            region = _clipped_all(big.world, big.mesh.faces, [(-normal, -offset)] + [
+                (n, o) for n, o in _done(carved)], min_thickness)
+            carved.append((normal, offset, region))
+    pieces = [region for _, _, region in carved if region is not None]
+    kept = sum(abs(float(m.to_trimesh().volume)) for m in pieces)
+    if kept < (1.0 - MAX_CUT_FRACTION) * big.volume:
+        return a.part, b.part, depth, "left", []
+    pose = poses[big.part]
+    new = []
+    for k, mesh in enumerate(pieces):
+        target = big if k == 0 else _Piece.of(big.part, mesh.transformed(np.linalg.inv(pose)))
+        _set_mesh(target, mesh, pose)
+        if k:
+            new.append(target)
+    if not pieces:
+        big.volume = 0.0
+    return big.part, intruder.part, depth, "carved", new
+
+
+def _done(carved):
+    """The half-spaces already given to earlier pieces, as (normal, offset) to stay below."""
+    return [(normal, offset) for normal, offset, _ in carved]
+
+
+def _clipped_all(vertices: np.ndarray, faces: np.ndarray, halfspaces, min_thickness: float
+                 ) -> Mesh | None:
+    mesh = Mesh(vertices, faces)
+    for normal, offset in halfspaces:
+        clipped = _clipped(mesh.vertices, mesh.faces, normal, offset, min_thickness)
+        if clipped is None:
+            return None
+        mesh = clipped
+    return mesh
+
+
+def _set_mesh(piece: _Piece, world_mesh: Mesh, pose: np.ndarray) -> None:
+    fresh = _Piece.of(piece.part, world_mesh.transformed(np.linalg.inv(pose)))
     piece.mesh, piece.local_planes, piece.volume = fresh.mesh, fresh.local_planes, fresh.volume
     piece.place(pose)
-    return piece.part, other.part, depth, "cut"
 
 
 def _clipped(vertices: np.ndarray, faces: np.ndarray, normal: np.ndarray, offset: float,

@@ -115,6 +115,7 @@ def _separated(ctx: Context, obj: ArticulatedObject, parts: set[str]) -> Articul
     interpenetrate): a URDF has no contact exclusions, so overlapping pieces would collide."""
     out, cuts = separate(obj, parts=parts)
     for outcome, what in (("cut", "cut back"), ("dropped", "removed"),
+                          ("carved", "split around another"),
                           ("left", "left overlapping (too much would go)")):
         found = [c for c in cuts if c.outcome == outcome]
         if found:
