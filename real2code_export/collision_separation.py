@@ -34,7 +34,7 @@ DEFAULT_SWEEP = 9  # joint values tried across each range, the ends included
 # when it is small next to its part (a handle's stem sunk into its door).
 MAX_CUT_FRACTION = 0.5
 SMALL_PIECE_FRACTION = 0.02
-_MAX_PASSES = 3
+_MAX_PASSES = 8
 
 
 @dataclass(frozen=True)
