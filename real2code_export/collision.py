@@ -75,7 +75,10 @@ def convex_hull(mesh: Mesh, *, min_thickness: float = DEFAULT_MIN_THICKNESS) -> 
     if not (hull.is_volume and hull.volume > 0):
         # trimesh merges vertices closer than its tolerance, which tears hulls of small
         # pieces (a few mm); qhull's own triangulation is closed by construction.
-        hull = _qhull_mesh(points)
+        try:
+            hull = _qhull_mesh(points)
+        except Exception as e:  # QhullError (precision) on nearly degenerate point sets
+            raise InputError(f"convex hull failed on {len(points)} points: {e}") from e
     if not (hull.is_volume and hull.volume > 0):
         raise InputError(f"convex hull of {len(points)} points has no volume")
     return Mesh.from_trimesh(hull)
@@ -145,6 +148,7 @@ def collision_pieces(
     max_pieces: int = 32,
     min_thickness: float = DEFAULT_MIN_THICKNESS,
     resolution: int = DEFAULT_RESOLUTION,
+    split_hollow: bool = True,
 ) -> list[Mesh]:
     """Convex collision pieces for one part (``mesh`` in the part frame).
 
@@ -157,7 +161,8 @@ def collision_pieces(
     ``~/.cache/real2code_export/coacd``; falls back to one hull with a warning if CoACD
     fails) or ``"auto"`` ("pieces" when ``source_pieces`` is given, else "hull" when the mesh
     is a closed convex mesh, else "boxes", which keeps the hull of a solid). ``resolution``: voxels along the part's longest side
-    when splitting hollow pieces.
+    when splitting hollow pieces; ``split_hollow=False`` hulls every piece as it is (for
+    collision shapes an author modelled on purpose).
 
     Every piece is convex with positive volume; pieces are sorted by centroid."""
     if method not in METHODS:
@@ -178,7 +183,8 @@ def collision_pieces(
                  "(pass source_pieces, or use method='coacd')")
             return [convex_hull(mesh, min_thickness=min_thickness)]
         pitch = max(_extent(pieces) / resolution, min_thickness)
-        points = _split_hollow(pieces, pitch, min_thickness, max_pieces)
+        points = _split_hollow(pieces, pitch, min_thickness, max_pieces) if split_hollow \
+            else [_used_vertices(p) for p in pieces]
         return _sorted(_piece_hulls(points, max_pieces, min_thickness))
     return _coacd_cached(mesh, threshold, max_pieces, min_thickness, cache_dir)
 

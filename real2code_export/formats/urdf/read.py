@@ -97,23 +97,40 @@ def load(path: str | Path) -> ArticulatedObject:
         el, rest = _element_of(e.element, lines)
         owner = label(el) + rest if el is not None else e.element
         raise FormatError(path, owner, e.message, el.sourceline if el is not None else None) from e
-    built = {part_names[raw] for raw, el in links.items() if _pieces_made(el)}
+    built = {part_names[raw] for raw, el in links.items() if _from_visual(el)}
     return _separated(ctx, obj, built) if built else obj
 
 
-def _pieces_made(link: etree._Element) -> bool:
-    """Whether the reader made the link's collision pieces (as ``_collision`` decides),
-    rather than keeping our own convex pieces or none."""
-    elements = list(link.iterchildren("collision"))
-    if elements:
-        return not all(c.get(ns("convex")) == "true" for c in elements)
-    return link.find("visual") is not None and link.get(ns("collision")) != UNKNOWN
+def _from_visual(link: etree._Element) -> bool:
+    """Whether the link's collision is its visual geometry: no <collision> (made from the
+    visuals) or the same shapes as its <visual>s, as PartNet-Mobility writes them. Those
+    pieces are ours to make faithful (hollow pieces split, parts kept apart); collision a
+    robot's author modelled on purpose is only made convex, piece by piece."""
+    collisions = list(link.iterchildren("collision"))
+    visuals = list(link.iterchildren("visual"))
+    if not collisions:
+        return bool(visuals) and link.get(ns("collision")) != UNKNOWN
+    if all(c.get(ns("convex")) == "true" for c in collisions):
+        return False  # our own convex pieces, kept exactly
+    return _shapes(collisions) <= _shapes(visuals)
+
+
+def _shapes(elements: list[etree._Element]) -> set[tuple[str, str]]:
+    """Each element's <origin> and <geometry>, as text (whitespace aside) to compare."""
+    def text(el: etree._Element | None) -> str:
+        return "" if el is None else "".join(etree.tostring(el, encoding="unicode").split())
+    return {(text(e.find("origin")), text(e.find("geometry"))) for e in elements}
+
+
+# Joint values tried along each range (ends and middle): a file's robot may have dozens of
+# joints and detailed meshes, and the reader must stay fast (talos: 75 s with 9).
+READER_SWEEP = 3
 
 
 def _separated(ctx: Context, obj: ArticulatedObject, parts: set[str]) -> ArticulatedObject:
     """The pieces we made cut apart where two parts' pieces overlap (source meshes often
     interpenetrate): a URDF has no contact exclusions, so overlapping pieces would collide."""
-    out, cuts = separate(obj, parts=parts)
+    out, cuts = separate(obj, parts=parts, sweep=READER_SWEEP)
     for outcome, what in (("cut", "cut back"), ("dropped", "removed"),
                           ("carved", "split around another"),
                           ("left", "left overlapping (too much would go)")):
@@ -216,7 +233,8 @@ def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh])
         ctx.note("collision", repr(name))
         source = visuals
     try:
-        return collision_pieces(Mesh.concatenate(source), "pieces", source_pieces=source)
+        return collision_pieces(Mesh.concatenate(source), "pieces", source_pieces=source,
+                                split_hollow=_from_visual(el))
     except ValueError as e:
         raise ctx.error(owner, f"cannot make convex collision pieces: {e}", el.sourceline) from e
 
