@@ -160,9 +160,10 @@ def collision_pieces(
     2 cores, cached in ``cache_dir``, default ``$REAL2CODE_CACHE`` or
     ``~/.cache/real2code_export/coacd``; falls back to one hull with a warning if CoACD
     fails) or ``"auto"`` ("pieces" when ``source_pieces`` is given, else "hull" when the mesh
-    is a closed convex mesh, else "boxes", which keeps the hull of a solid). ``resolution``: voxels along the part's longest side
-    when splitting hollow pieces; ``split_hollow=False`` hulls every piece as it is (for
-    collision shapes an author modelled on purpose).
+    is a closed convex mesh, else "boxes", which keeps the hull of a solid).
+    ``resolution``: voxels along the part's longest side when splitting hollow pieces;
+    ``split_hollow=False`` hulls every piece as it is (for collision shapes an author
+    modelled on purpose).
 
     Every piece is convex with positive volume; pieces are sorted by centroid."""
     if method not in METHODS:

@@ -5,13 +5,16 @@ detection on the exported MJCF, every pair included, as a URDF leaves them)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import trimesh
 
 from real2code_export import transforms as tf
 from real2code_export.collision import collision_pieces
 from real2code_export.collision_separation import separate
 from real2code_export.dynamics.overlap import overlaps
+from real2code_export.errors import Real2CodeWarning
 from real2code_export.formats import write_formats
+from real2code_export.formats.urdf import load
 from real2code_export.inertia import inertial_from_meshes
 from real2code_export.model import ArticulatedObject, Joint, Limits, Mesh, Part, validate
 
@@ -101,3 +104,37 @@ def test_a_shaft_through_a_block_is_carved_around():
     assert 0.6 * 0.008 < kept < 0.008
     shaft_kept = sum(p.to_trimesh().volume for p in separated.part("shaft").collision)
     assert 0.7 * 0.04 * 0.04 * 0.4 < shaft_kept <= 0.04 * 0.04 * 0.4 + 1e-12
+
+
+URDF = """<robot name="shelf">
+  <link name="body">
+    <visual><geometry><box size="0.4 0.4 0.4"/></geometry></visual>
+    {body_collision}
+  </link>
+  <link name="lid">
+    <visual><origin xyz="0 0 0.21"/><geometry><box size="0.4 0.4 0.04"/></geometry></visual>
+    <collision><origin xyz="0 0 0.21"/><geometry><box size="0.4 0.4 0.04"/></geometry></collision>
+  </link>
+  <joint name="hinge" type="revolute">
+    <parent link="body"/><child link="lid"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="1.5" effort="1" velocity="1"/>
+  </joint>
+</robot>"""
+
+
+def test_urdf_collision_that_is_the_visual_is_kept_apart(tmp_path):
+    """PartNet-style links (collision = visual shapes) sunk 1 cm into each other are cut
+    apart, with a warning naming the pair; an author's own collision shape is never cut."""
+    same = tmp_path / "same.urdf"
+    same.write_text(URDF.format(body_collision='<collision><geometry><box size="0.4 0.4 0.4"/>'
+                                              "</geometry></collision>"))
+    with pytest.warns(Real2CodeWarning, match="lid against body|body against lid"):
+        obj = load(same)
+    assert measured(obj, tmp_path / "same") == []
+    authored = tmp_path / "authored.urdf"
+    authored.write_text(URDF.format(body_collision='<collision><geometry><box size="0.41 0.4 '
+                                                   '0.4"/></geometry></collision>'))
+    obj = load(authored)  # the lid's piece (its visual) is cut, the body's left as authored
+    (piece,) = obj.part("body").collision
+    np.testing.assert_allclose(np.ptp(piece.vertices, axis=0), [0.41, 0.4, 0.4])
+    assert measured(obj, tmp_path / "authored") == []
