@@ -3,8 +3,9 @@
     .venv/bin/python bench/collision.py [--demo DIR/object.json] [--split dev|holdout|all]
                                         [--coacd]
 
-For each PartNet-Mobility object (../shared/data; its links' collision OBJs are the source
-pieces; "making pieces" is then the whole URDF load less the separation) and, with --demo, a reconstruction's parts (their visual meshes, split into connected
+For each PartNet-Mobility object (../shared/data, read with ``faithful_collision``; its
+links' collision OBJs are the source pieces; "making pieces" is then the whole URDF load less
+the separation) and, with --demo, a reconstruction's parts (their visual meshes, split into connected
 components as the pipeline does): the seconds spent making convex pieces (hulls, hollow pieces
 split into boxes: ``collision.collision_pieces``) and separating the parts' pieces
 (``collision_separation.separate``, q = 0 and every joint's range), the piece count, and the
@@ -65,7 +66,7 @@ def partnet_row(path: Path) -> tuple[str, ...]:
     urdf_read.separate = wrapper
     try:
         start = time.perf_counter()
-        obj = load(path)
+        obj = load(path, faithful_collision=True)
         total = time.perf_counter() - start
     finally:
         urdf_read.separate = collision_separation.separate

@@ -123,18 +123,19 @@ URDF = """<robot name="shelf">
 
 
 def test_urdf_collision_that_is_the_visual_is_kept_apart(tmp_path):
-    """PartNet-style links (collision = visual shapes) sunk 1 cm into each other are cut
-    apart, with a warning naming the pair; an author's own collision shape is never cut."""
+    """Asked for, PartNet-style links (collision = visual shapes) sunk 1 cm into each other
+    are cut apart, with a warning naming the pair; an author's own collision shape is never cut."""
     same = tmp_path / "same.urdf"
     same.write_text(URDF.format(body_collision='<collision><geometry><box size="0.4 0.4 0.4"/>'
                                               "</geometry></collision>"))
+    assert measured(load(same), tmp_path / "default")  # as before unless asked
     with pytest.warns(Real2CodeWarning, match="lid against body|body against lid"):
-        obj = load(same)
+        obj = load(same, faithful_collision=True)
     assert measured(obj, tmp_path / "same") == []
     authored = tmp_path / "authored.urdf"
     authored.write_text(URDF.format(body_collision='<collision><geometry><box size="0.41 0.4 '
                                                    '0.4"/></geometry></collision>'))
-    obj = load(authored)  # the lid's piece (its visual) is cut, the body's left as authored
+    obj = load(authored, faithful_collision=True)  # the lid's piece is cut, not the body's
     (piece,) = obj.part("body").collision
     np.testing.assert_allclose(np.ptp(piece.vertices, axis=0), [0.41, 0.4, 0.4])
     assert measured(obj, tmp_path / "authored") == []

@@ -119,8 +119,9 @@ def compare(experiment: Experiment, reference: Trajectory, other: Trajectory
 
 def simulate_file(source: str | Path, engines: list[str] | None = None,
                   experiments: list[str] | None = None, tol_angle: float = TOL_ANGLE,
-                  tol_distance: float = TOL_DISTANCE) -> DynamicsReport:
-    obj = load(source)
+                  tol_distance: float = TOL_DISTANCE, faithful_collision: bool = False
+                  ) -> DynamicsReport:
+    obj = load(source, faithful_collision=faithful_collision)
     chosen = [ENGINES[n] for n in (engines or list(ENGINES)) if n != REFERENCE.name]
     formats = sorted({REFERENCE.format, *(e.format for e in chosen)})
     report = DynamicsReport(str(source), [], [], tol_angle, tol_distance)

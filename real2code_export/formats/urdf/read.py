@@ -66,8 +66,14 @@ from .structure import check_tree, identifiers, joint_elements, joint_ends, link
 _AXIS_EXACT = 1e-12
 
 
-def load(path: str | Path) -> ArticulatedObject:
-    """Read a URDF file (meshes relative to it, or ``package://``) into the model."""
+def load(path: str | Path, *, faithful_collision: bool = False) -> ArticulatedObject:
+    """Read a URDF file (meshes relative to it, or ``package://``) into the model.
+
+    ``faithful_collision``: for links whose collision is their visual geometry (see
+    ``_from_visual``; PartNet-Mobility's), split hollow pieces so that they keep their
+    insides and cut the parts' pieces apart (``collision_separation``). Off by default:
+    on a robot's detailed meshes it takes minutes (g1: 120 s instead of 3 s), and a robot's
+    links are meant to overlap at their joints."""
     path = Path(path)
     if not path.is_file():
         raise FormatError(path, None, "file not found")
@@ -80,7 +86,8 @@ def load(path: str | Path) -> ArticulatedObject:
     part_names = identifiers(ctx, links)
     joint_names = identifiers(ctx, joints)
     materials = robot_materials(ctx, robot)
-    parts = [_part(ctx, el, part_names[raw], materials) for raw, el in links.items()]
+    parts = [_part(ctx, el, part_names[raw], materials, faithful_collision)
+             for raw, el in links.items()]
     joint_list = [_joint(ctx, el, joint_names[raw], part_names) for raw, el in joints.items()]
     _report_notes(ctx)
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
@@ -97,7 +104,8 @@ def load(path: str | Path) -> ArticulatedObject:
         el, rest = _element_of(e.element, lines)
         owner = label(el) + rest if el is not None else e.element
         raise FormatError(path, owner, e.message, el.sourceline if el is not None else None) from e
-    built = {part_names[raw] for raw, el in links.items() if _from_visual(el)}
+    built = {part_names[raw] for raw, el in links.items()
+             if faithful_collision and _from_visual(el)}
     return _separated(ctx, obj, built) if built else obj
 
 
@@ -122,8 +130,7 @@ def _shapes(elements: list[etree._Element]) -> set[tuple[str, str]]:
     return {(text(e.find("origin")), text(e.find("geometry"))) for e in elements}
 
 
-# Joint values tried along each range (ends and middle): a file's robot may have dozens of
-# joints and detailed meshes, and the reader must stay fast (talos: 75 s with 9).
+# Joint values tried along each range (ends and middle): the reader must stay fast.
 READER_SWEEP = 3
 
 
@@ -200,7 +207,8 @@ def _placed(mesh: Mesh, transform: np.ndarray) -> Mesh:
     return mesh if np.array_equal(transform, np.eye(4)) else mesh.transformed(transform)
 
 
-def _part(ctx: Context, el: etree._Element, name: str, materials: dict) -> Part:
+def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
+          faithful_collision: bool) -> Part:
     owner = label(el)
     visuals: list[Mesh] = []
     colored = []
@@ -213,14 +221,15 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict) -> Part:
             color = mtl_color(ctx, file)
         if color is not None:
             colored.append((color, mesh_area(mesh)))
-    collision = _collision(ctx, el, name, visuals)
+    collision = _collision(ctx, el, name, visuals, faithful_collision and _from_visual(el))
     inertial = _link_inertial(ctx, el, name, visuals)
     return Part(name=name, visual=Mesh.concatenate(visuals) if visuals else None,
                 collision=collision, inertial=inertial,
                 color=average_color(colored) or DEFAULT_COLOR)
 
 
-def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh]) -> list[Mesh]:
+def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
+               split_hollow: bool) -> list[Mesh]:
     owner = label(el)
     elements = list(el.iterchildren("collision"))
     source = [_placed(shape_mesh(ctx, c, owner)[0], origin_matrix(ctx, c, owner))
@@ -234,7 +243,7 @@ def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh])
         source = visuals
     try:
         return collision_pieces(Mesh.concatenate(source), "pieces", source_pieces=source,
-                                split_hollow=_from_visual(el))
+                                split_hollow=split_hollow)
     except ValueError as e:
         raise ctx.error(owner, f"cannot make convex collision pieces: {e}", el.sourceline) from e
 
