@@ -9,9 +9,10 @@ every pair of pieces of two different parts is tested with the separating-axis t
 both pieces' face normals: when no face normal separates them, the least-overlapping axis
 is the cut, and the piece that loses the smaller fraction of its volume is cut back to a
 ``gap`` behind the other; when either would lose most of itself (one sunk deep into the
-other), the larger is carved around the smaller's oriented box instead. Pieces only shrink (or split), so a pair once separated stays
-separated; a carved piece's new pieces are checked in another pass. (Edge-edge axes are not tried: pieces that only they
-would separate are cut a little although they do not touch, never left overlapping.)
+other), the larger is carved around the smaller's oriented box instead. Pieces only shrink
+(or split), so a pair once separated stays separated; a carved piece's new pieces are
+checked in another pass. (Edge-edge axes are not tried: pieces that only they would
+separate are cut a little although they do not touch, never left overlapping.)
 
 Beyond q = 0, each movable joint is swept alone over ``sweep`` values of its range and its
 child's pieces are separated from its parent's in the same way, in their own frames.
@@ -103,8 +104,9 @@ def separate(obj: ArticulatedObject, *, parts: set[str] | None = None, gap: floa
                     continue
                 cut = _separate_pair(a, b, poses, mutable, small, gap, min_thickness)
                 if cut is not None:
-                    found.append(Cut(*cut[:3], dict(q), cut[3]))
-                    pieces += cut[4]
+                    part, other, depth, outcome, new_pieces = cut
+                    found.append(Cut(part, other, depth, dict(q), outcome))
+                    pieces += new_pieces
             cuts += found
             pieces = [p for p in pieces if p.volume > 0]
             if not any(c.outcome == "carved" for c in found):
@@ -213,8 +215,8 @@ def _carve(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: set[str]
             normal = sign * from_box[:3, axis]
             center = from_box[:3, 3]
             offset = float(normal @ center) + extents[axis] / 2 + gap
-            region = _clipped_all(big.world, big.mesh.faces, [(-normal, -offset)] + [
-                (n, o) for n, o in _done(carved)], min_thickness)
+            region = _clipped_all(big.world, big.mesh.faces,
+                                  [(-normal, -offset), *_done(carved)], min_thickness)
             carved.append((normal, offset, region))
     pieces = [region for _, _, region in carved if region is not None]
     kept = sum(abs(float(m.to_trimesh().volume)) for m in pieces)
@@ -239,6 +241,7 @@ def _done(carved):
 
 def _clipped_all(vertices: np.ndarray, faces: np.ndarray, halfspaces, min_thickness: float
                  ) -> Mesh | None:
+    """The convex piece cut by every (normal, offset) half-space in turn, or None."""
     mesh = Mesh(vertices, faces)
     for normal, offset in halfspaces:
         clipped = _clipped(mesh.vertices, mesh.faces, normal, offset, min_thickness)
