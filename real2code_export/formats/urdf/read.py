@@ -130,14 +130,10 @@ def _shapes(elements: list[etree._Element]) -> set[tuple[str, str]]:
     return {(text(e.find("origin")), text(e.find("geometry"))) for e in elements}
 
 
-# Joint values tried along each range (ends and middle): the reader must stay fast.
-READER_SWEEP = 3
-
-
 def _separated(ctx: Context, obj: ArticulatedObject, parts: set[str]) -> ArticulatedObject:
     """The pieces we made cut apart where two parts' pieces overlap (source meshes often
     interpenetrate): a URDF has no contact exclusions, so overlapping pieces would collide."""
-    out, cuts = separate(obj, parts=parts, sweep=READER_SWEEP)
+    out, cuts = separate(obj, parts=parts)
     for outcome, what in (("cut", "cut back"), ("dropped", "removed"),
                           ("carved", "split around another"),
                           ("left", "left overlapping (too much would go)")):
