@@ -68,7 +68,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, path in objects(args.objects.split(","), args.demo, Path(tmp)):
-            report = simulate_file(path, engines)
+            report = simulate_file(path, engines, faithful_collision=True)
             worst: dict[str, tuple[float, float, float, str]] = {}
             for r in report.runs:
                 a, m, s, st = worst.get(r.engine, (0.0, 0.0, 0.0, "ok"))

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from real2code_export import transforms as tf
+from real2code_export.collision_separation import separate
 from real2code_export.errors import InputError
 from real2code_export.model import (
     ArticulatedObject,
@@ -143,6 +144,8 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     obj = ArticulatedObject(sanitize_name(name), parts, joints,
                             metadata={"articulated_by": predictor.name, **(metadata or {})})
     validate(obj)
+    # Segmented parts interpenetrate a little; no engine should see them overlap.
+    obj, _ = separate(obj)
     return Articulation(obj, boxes, names, program, format_boxes(boxes), format_program(program))
 
 

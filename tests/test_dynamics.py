@@ -144,6 +144,13 @@ def test_overlapping_collision_pieces_are_reported(tmp_path):
     found = overlaps(export(obj, tmp_path / "box", ["mjcf"])["mjcf"])
     assert any({o.part_a, o.part_b} == {obj.root.name, lid.name} and o.depth > 0.005
                for o in found)
+    # simulate fails on it (exit status 1) and names the joint along whose range they meet
+    object_json.save(obj, tmp_path / "sunk")
+    report = simulate_file(tmp_path / "sunk" / "object.json", ["mujoco"], ["swing"])
+    assert not report.ok and report.overlaps
+    assert [o.joint for o in report.range_overlaps] == [joint.name]
+    data = report.to_json()
+    assert data["ok"] is False and data["overlaps_along_ranges"][0]["joint"] == joint.name
 
 
 def test_an_unknown_engine_is_bad_input(capsys):

@@ -301,7 +301,7 @@ def test_unknown_method_is_refused():
 def coacd_run(tmp_path_factory):
     cache = tmp_path_factory.mktemp("coacd_cache")
     mesh = l_shape()
-    return mesh, cache, collision_pieces(mesh, "auto", cache_dir=cache)
+    return mesh, cache, collision_pieces(mesh, "coacd", cache_dir=cache)
 
 
 def _fail(*args, **kwargs):
@@ -310,7 +310,7 @@ def _fail(*args, **kwargs):
 
 def test_coacd_decomposes_a_non_convex_mesh(coacd_run):
     mesh, cache, pieces = coacd_run
-    assert len(pieces) >= 2  # "auto" picked coacd: one hull could not be right
+    assert len(pieces) >= 2  # one hull could not be right
     for p in pieces:
         assert_convex_solid(p)
     volume = sum(p.to_trimesh().volume for p in pieces)
@@ -394,11 +394,24 @@ def test_coacd_is_deterministic_across_fresh_caches(coacd_run, tmp_path):
     assert [p.digest() for p in again] == [p.digest() for p in pieces]
 
 
-def test_auto_takes_an_open_convex_surface_as_one_hull(monkeypatch):
+def test_auto_keeps_the_inside_of_an_open_box(monkeypatch):
+    """A drawer (a box without its top) must keep its inside: its hull would fill it."""
     monkeypatch.setattr(collision, "_run_coacd", _fail)
     tm = trimesh.creation.box([0.4, 0.3, 0.2])
     open_box = Mesh(tm.vertices, tm.faces[tm.triangles_center[:, 2] < 0.1 - 1e-9])
-    (piece,) = collision_pieces(open_box, "auto")
+    pieces = collision_pieces(open_box, "auto")
+    assert len(pieces) >= 5  # bottom and four walls
+    for p in pieces:
+        assert_convex_solid(p)
+    assert sum(p.to_trimesh().volume for p in pieces) < 0.25 * 0.024
+    inside = np.array([[0.0, 0.0, 0.0], [0.1, 0.05, 0.05], [-0.1, -0.1, 0.09]])
+    for p in pieces:
+        assert not p.to_trimesh().contains(inside).any()
+    compile_in_mujoco(pieces)
+
+
+def test_boxes_keep_a_solid_as_its_hull():
+    (piece,) = collision_pieces(box_mesh([0.4, 0.3, 0.2]), "boxes")
     assert piece.to_trimesh().volume == pytest.approx(0.024)
 
 

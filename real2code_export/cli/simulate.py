@@ -28,6 +28,10 @@ def add_parsers(sub) -> None:
     s.add_argument("--json", help="also write the report as JSON to this file")
     s.add_argument("--tol-angle", type=float, default=None, help="radians (default 0.01)")
     s.add_argument("--tol-distance", type=float, default=None, help="metres (default 0.001)")
+    s.add_argument("--faithful-collision", action="store_true",
+                   help="a URDF's collision made from its visual meshes keeps hollow parts' "
+                   "insides and is cut apart where parts overlap (as exported: "
+                   "docs/engines.md)")
     s.set_defaults(func=cmd_simulate)
 
 
@@ -52,7 +56,8 @@ def cmd_simulate(args) -> int:
     experiments = _checked(_names(args.experiments), list(EXPERIMENTS), "--experiments")
     report = simulate_file(args.input, engines, experiments,
                            TOL_ANGLE if args.tol_angle is None else args.tol_angle,
-                           TOL_DISTANCE if args.tol_distance is None else args.tol_distance)
+                           TOL_DISTANCE if args.tol_distance is None else args.tol_distance,
+                           faithful_collision=args.faithful_collision)
     print(format_table(report))
     if args.json:
         atomic.write_text(args.json, json.dumps(report.to_json(), indent=1) + "\n")

@@ -4,13 +4,20 @@ collision detection sees them (each piece is a convex hull, as in every engine).
 Every pair of parts counts, parent and child included: a format without contact exclusions
 (URDF) leaves those pairs to collide too. The MJCF is loaded with its ``<exclude>`` pairs
 removed and parent filtering off; ``mj_forward`` at the joint values gives the contacts,
-and a negative distance is an overlap.
+and a negative distance is an overlap. Along a joint's range only its child and its parent
+count: a drawer that meets a closed door beside it is a real collision, not an overlap.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
+
+from ..model import ArticulatedObject
+
+TOLERANCE = 1e-4  # m: shallower is touching
 
 
 @dataclass(frozen=True)
@@ -20,10 +27,44 @@ class Overlap:
     depth: float  # m, the deepest penetration between any two of their pieces
 
 
+@dataclass(frozen=True)
+class RangeOverlap:
+    joint: str
+    value: float  # rad or m, where the deepest overlap was found
+    part_a: str
+    part_b: str
+    depth: float  # m
+
+
 def overlaps(mjcf: Path, q: dict[str, float] | None = None,
-             tolerance: float = 1e-4) -> list[Overlap]:
+             tolerance: float = TOLERANCE) -> list[Overlap]:
     """Part pairs whose pieces overlap by more than ``tolerance`` (m) at joint values ``q``
     (by joint name; the others at 0), deepest first."""
+    model, data = _compiled(mjcf)
+    return _overlaps(model, data, q or {}, tolerance)
+
+
+def overlaps_along_ranges(mjcf: Path, obj: ArticulatedObject, sweep: int = 9,
+                          tolerance: float = TOLERANCE) -> list[RangeOverlap]:
+    """For each movable joint moved alone over ``sweep`` values of its range (ends
+    included), the deepest overlap of its child's pieces with its parent's: a door against
+    its frame, a drawer against its carcass. Joints with none are left out."""
+    model, data = _compiled(mjcf)
+    found = []
+    for joint in obj.movable_joints:
+        lower, upper = (joint.limits.lower, joint.limits.upper) if joint.limits else (-np.pi, np.pi)
+        worst = None
+        for value in np.linspace(lower, upper, sweep):
+            for o in _overlaps(model, data, {joint.name: float(value)}, tolerance):
+                if {o.part_a, o.part_b} == {joint.parent, joint.child} and \
+                        (worst is None or o.depth > worst.depth):
+                    worst = RangeOverlap(joint.name, float(value), o.part_a, o.part_b, o.depth)
+        if worst is not None:
+            found.append(worst)
+    return found
+
+
+def _compiled(mjcf: Path):
     import mujoco
 
     spec = mujoco.MjSpec.from_file(str(mjcf))
@@ -32,8 +73,14 @@ def overlaps(mjcf: Path, q: dict[str, float] | None = None,
         spec.delete(exclude)
     model = spec.compile()
     model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
-    data = mujoco.MjData(model)
-    for name, value in (q or {}).items():
+    return model, mujoco.MjData(model)
+
+
+def _overlaps(model, data, q: dict[str, float], tolerance: float) -> list[Overlap]:
+    import mujoco
+
+    data.qpos[:] = 0.0
+    for name, value in q.items():
         data.qpos[model.joint(name).qposadr[0]] = value
     mujoco.mj_forward(model, data)
     deepest: dict[tuple[str, str], float] = {}

@@ -17,7 +17,7 @@ import numpy as np
 from ..formats import load, write_formats
 from . import EngineUnavailable, Experiment, Trajectory
 from .experiments import EXPERIMENTS
-from .overlap import Overlap, overlaps
+from .overlap import Overlap, RangeOverlap, overlaps, overlaps_along_ranges
 
 TOL_ANGLE = 0.01  # rad
 TOL_DISTANCE = 0.001  # m
@@ -71,12 +71,16 @@ class DynamicsReport:
     runs: list[Run]
     tol_angle: float
     tol_distance: float
-    # collision pieces of two parts overlapping at q = 0 (reported; not part of ``ok`` yet)
+    # collision pieces of two parts overlapping at q = 0 (part of ``ok``: every engine would
+    # push them apart, and a URDF cannot exclude the pair)
     overlaps: list[Overlap] = field(default_factory=list)
+    # a joint's child against its parent somewhere along its range (reported)
+    range_overlaps: list[RangeOverlap] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
-        return all(r.status in ("ok", "skipped", "reference") for r in self.runs)
+        return not self.overlaps and \
+            all(r.status in ("ok", "skipped", "reference") for r in self.runs)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -91,6 +95,9 @@ class DynamicsReport:
             } for r in self.runs],
             "overlaps_at_zero": [{"parts": [o.part_a, o.part_b], "depth": o.depth}
                                  for o in self.overlaps],
+            "overlaps_along_ranges": [{"joint": o.joint, "value": o.value,
+                                       "parts": [o.part_a, o.part_b], "depth": o.depth}
+                                      for o in self.range_overlaps],
             "ok": self.ok,
         }
 
@@ -112,14 +119,17 @@ def compare(experiment: Experiment, reference: Trajectory, other: Trajectory
 
 def simulate_file(source: str | Path, engines: list[str] | None = None,
                   experiments: list[str] | None = None, tol_angle: float = TOL_ANGLE,
-                  tol_distance: float = TOL_DISTANCE) -> DynamicsReport:
-    obj = load(source)
+                  tol_distance: float = TOL_DISTANCE, faithful_collision: bool = False
+                  ) -> DynamicsReport:
+    obj = load(source, faithful_collision=faithful_collision)
     chosen = [ENGINES[n] for n in (engines or list(ENGINES)) if n != REFERENCE.name]
     formats = sorted({REFERENCE.format, *(e.format for e in chosen)})
     report = DynamicsReport(str(source), [], [], tol_angle, tol_distance)
     if any(part.collision for part in obj.parts):
         with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
-            report.overlaps = overlaps(write_formats(obj, folder, ["mjcf"])["mjcf"])
+            mjcf = write_formats(obj, folder, ["mjcf"])["mjcf"]
+            report.overlaps = overlaps(mjcf)
+            report.range_overlaps = overlaps_along_ranges(mjcf, obj)
     for name in experiments or list(EXPERIMENTS):
         variant, experiment = EXPERIMENTS[name](obj)
         if not experiment.joints:
@@ -186,4 +196,8 @@ def format_table(report: DynamicsReport) -> str:
     lines += ["", f"collision pieces of two parts overlapping at q = 0: {len(report.overlaps)}"
               + (" pair(s)" if report.overlaps else "")]
     lines += [f"  {o.part_a} / {o.part_b}: {o.depth * 1000:.1f} mm" for o in report.overlaps]
+    lines += [f"joints whose child meets its parent's pieces along the range: "
+              f"{len(report.range_overlaps)}"]
+    lines += [f"  {o.joint} at {o.value:.3g}: {o.part_a} / {o.part_b} {o.depth * 1000:.1f} mm"
+              for o in report.range_overlaps]
     return "\n".join(lines)

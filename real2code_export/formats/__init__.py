@@ -17,6 +17,7 @@ add-on offer it from then on.
 from __future__ import annotations
 
 import importlib
+import inspect
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -150,8 +151,12 @@ def parse_names(text: str) -> list[str]:
 
 
 # -- reading and writing ------------------------------------------------------------------------
-def load(path: str | Path) -> ArticulatedObject:
-    """Load any supported file into the model; the format is chosen by suffix."""
+def load(path: str | Path, *, faithful_collision: bool = False) -> ArticulatedObject:
+    """Load any supported file into the model; the format is chosen by suffix.
+
+    ``faithful_collision``: collision made from the visual geometry keeps hollow parts'
+    insides and no two parts' pieces overlap (readers that make pieces: URDF); files whose
+    pieces are authored as convex pieces (ours, MJCF, USD) are read as they are."""
     path = Path(path)
     if not path.exists():
         raise FormatError(path, None, "no such file")
@@ -165,6 +170,8 @@ def load(path: str | Path) -> ArticulatedObject:
     module = fmt.load_module()
     if not hasattr(module, "load"):
         raise FormatError(path, None, f"format {fmt.name!r} cannot be read")
+    if faithful_collision and "faithful_collision" in inspect.signature(module.load).parameters:
+        return module.load(path, faithful_collision=True)
     return module.load(path)
 
 
