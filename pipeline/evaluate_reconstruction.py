@@ -3,7 +3,8 @@ articulated object, scored the paper's way.
 
 Every test object (the held-out procedural set and the dev PartNet-Mobility objects of
 :mod:`pipeline.evaluate_articulation`, each partly open) is rendered from 12 views
-(``pipeline.render``) and reconstructed with ground-truth masks and with predicted masks
+(``pipeline.render``, on a camera path that knows nothing of the joints: a full ring unless
+asked otherwise) and reconstructed with ground-truth masks and with predicted masks
 (``pipeline.segment``), each with shape completion and with the segment-only baseline.
 Scores, by the paper's buckets of part count:
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from real2code_export.markdown import table as markdown_table
 
+from .camera_paths import DEFAULT_DISTANCE, DEFAULT_PATH
 from .evaluate_articulation import Case
 from .evaluate_joints import BUCKETS, PAPER_FULL, Scores, bucket_of, score_object
 
@@ -85,8 +87,10 @@ def _truth_meshes(case: Case) -> list:
 
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
+             cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
              progress=None) -> dict[tuple[str, str], SettingResult]:
-    """Reconstruct every case under every (segmentation, completion) setting and score it."""
+    """Reconstruct every case under every (segmentation, completion) setting and score it;
+    ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`)."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
     from .reconstruct import reconstruct_capture
     from .render import render_object
@@ -103,7 +107,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     for k, case in enumerate(cases):
         bucket = bucket_of(len(case.obj.parts))
         capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
-                                seed=seed + k)
+                                seed=seed + k, cameras=cameras, distance=distance)
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:

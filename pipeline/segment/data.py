@@ -81,7 +81,8 @@ def object_views(obj, rng: np.random.Generator, views: int) -> list[View]:
     fov = rng.uniform(40.0, 60.0)
     cap = render_object(obj, q=q, views=12, width=RENDER_SIZE, height=RENDER_SIZE,
                         fov_deg=fov, seed=int(rng.integers(2**31)), colors=colours,
-                        lighting=lighting, background=background)
+                        lighting=lighting, background=background,
+                        cameras="front-arc")  # as the shipped weights were trained
     picks = rng.choice(len(cap.frames), size=min(views, len(cap.frames)), replace=False)
     out = []
     for k in sorted(picks):

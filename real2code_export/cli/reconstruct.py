@@ -13,8 +13,20 @@ import time
 from pathlib import Path
 
 # The renderer's defaults, for --help without importing it (a test holds them equal to
-# pipeline.render's DEFAULT_VIEWS and DEFAULT_SIZE).
+# pipeline.render's DEFAULT_VIEWS and DEFAULT_SIZE, and pipeline.camera_paths' names).
 RENDER_VIEWS, RENDER_SIZE = 12, 256
+CAMERA_PATHS, CAMERA_DISTANCES = ("ring", "half-ring", "handheld", "front-arc"), \
+    ("near", "mid", "far")
+
+
+def add_camera_options(s) -> None:
+    """``--cameras`` and ``--distance``: where a rendered capture's cameras stand."""
+    s.add_argument("--cameras", choices=CAMERA_PATHS, default=CAMERA_PATHS[0],
+                   help="camera path: a full ring (default), a half ring, a hand-held path "
+                   "(uneven spacing and height), or front-arc (an arc facing where the "
+                   "ground-truth joints open: for comparison only)")
+    s.add_argument("--distance", choices=CAMERA_DISTANCES, default="mid",
+                   help="how far the cameras stand: near (the object fills the view), mid, far")
 
 
 def add_demo_parser(sub) -> None:
@@ -45,6 +57,7 @@ def add_render_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--state", choices=["observed", "random"], default="observed",
                    help="the model's observed state, or every joint partly open (random)")
     s.add_argument("--seed", type=int, default=0, help="cameras and the random state")
+    add_camera_options(s)
     s.set_defaults(func=cmd_render)
     return s
 
@@ -57,7 +70,8 @@ def cmd_render(args) -> int:
     if args.views < 1 or args.width < 8 or args.height < 8:
         raise Real2CodeError("--views must be >= 1 and --width/--height >= 8")
     capture = render_model(args.model, args.out, views=args.views, width=args.width,
-                           height=args.height, state=args.state, seed=args.seed)
+                           height=args.height, state=args.state, seed=args.seed,
+                           cameras=args.cameras, distance=args.distance)
     print(f"{len(capture.frames)} views of {capture.extra['object']} "
           f"({len(capture.parts)} parts) -> {Path(args.out) / 'transforms.json'}")
     print(f"ground truth -> {capture.ground_truth_path()}")
@@ -149,6 +163,7 @@ def add_evaluate_reconstruction_parser(evaluate_sub) -> argparse.ArgumentParser:
     e.add_argument("--size", type=int, default=256, help="render width and height")
     e.add_argument("--partnet", help="PartNet-Mobility folder (with index.json): add its dev "
                    "and holdout objects")
+    add_camera_options(e)
     e.add_argument("--json", help="write the figures as JSON")
     e.add_argument("--markdown", help="write the tables as markdown")
     e.set_defaults(func=cmd_evaluate_reconstruction)
@@ -175,6 +190,7 @@ def cmd_evaluate_reconstruction(args) -> int:
     figures, text = {}, []
     for set_name, cases in sets.items():
         results = evaluate(cases, views=args.views, size=args.size, seed=args.seed,
+                           cameras=args.cameras, distance=args.distance,
                            progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
         tables = {SETTING_NAMES[k]: r.table() for k, r in results.items()}
         figures[set_name] = {
