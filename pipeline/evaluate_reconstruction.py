@@ -99,14 +99,16 @@ def _truth_meshes(case: Case) -> list:
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
              cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
-             progress=None) -> dict[tuple[str, str], SettingResult]:
+             sensor: str = "clean", progress=None) -> dict[tuple[str, str], SettingResult]:
     """Reconstruct every case under every (segmentation, completion) setting and score it;
-    ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`)."""
+    ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`), ``sensor``
+    (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
     from .reconstruct import reconstruct_capture
     from .render import render_object
     from .segment import get_segmenter
     from .segment.metrics import matched_part_iou
+    from .sensors import degrade, load_sensor
 
     if segmenter is None and any(s == "learned" for s, _ in settings):
         segmenter = get_segmenter("learned")
@@ -119,6 +121,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
         bucket = bucket_of(len(case.obj.parts))
         capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
                                 seed=seed + k, cameras=cameras, distance=distance)
+        capture = degrade(capture, load_sensor(sensor), seed + k)
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:

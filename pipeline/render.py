@@ -169,11 +169,12 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
 def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIEWS,
                  width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, state: str = "observed",
                  seed: int = 0, cameras: str = DEFAULT_PATH,
-                 distance: str = DEFAULT_DISTANCE) -> Capture:
+                 distance: str = DEFAULT_DISTANCE, sensor: str | Path = "clean") -> Capture:
     """``real2code render``: load any importable model, render it at its observed state (or,
     with ``state="random"``, every joint partly open, drawn from ``seed``) and write the
     capture folder with the ground-truth object (parts joined by fixed joints merged, as
-    the masks see them; its states set to the rendered ones)."""
+    the masks see them; its states set to the rendered ones). ``sensor``: a capture preset
+    or sensor JSON (:mod:`pipeline.sensors`) whose faults the frames then get."""
     import copy
 
     from real2code_export.formats import load
@@ -190,8 +191,12 @@ def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIE
         q = ajar_configuration(obj, np.random.default_rng(seed))
         for j in obj.movable_joints:
             j.state = q[j.name]
+    from .sensors import degrade, load_sensor
+
+    model_of_sensor = load_sensor(sensor)  # a bad preset fails before the rendering
     capture = render_object(obj, views=views, width=width, height=height, seed=seed,
                             cameras=cameras, distance=distance)
+    capture = degrade(capture, model_of_sensor, seed)
     capture.extra["source"] = str(model)
     capture.extra["ground_truth"] = f"{GROUND_TRUTH_DIR}/object.json"
     write_capture(capture, out, ground_truth=obj)

@@ -17,6 +17,7 @@ from pathlib import Path
 RENDER_VIEWS, RENDER_SIZE = 12, 256
 CAMERA_PATHS, CAMERA_DISTANCES = ("ring", "half-ring", "handheld", "front-arc"), \
     ("near", "mid", "far")
+CAPTURE_PRESETS = ("clean", "phone-lidar", "structured-light", "time-of-flight")
 
 
 def add_camera_options(s) -> None:
@@ -27,6 +28,9 @@ def add_camera_options(s) -> None:
                    "ground-truth joints open: for comparison only)")
     s.add_argument("--distance", choices=CAMERA_DISTANCES, default="mid",
                    help="how far the cameras stand: near (the object fills the view), mid, far")
+    s.add_argument("--capture", default="clean", metavar="PRESET",
+                   help="the depth camera's faults: " + ", ".join(CAPTURE_PRESETS)
+                   + " (default clean), or a sensor JSON file of pipeline.sensors' fields")
 
 
 def add_demo_parser(sub) -> None:
@@ -71,7 +75,7 @@ def cmd_render(args) -> int:
         raise Real2CodeError("--views must be >= 1 and --width/--height >= 8")
     capture = render_model(args.model, args.out, views=args.views, width=args.width,
                            height=args.height, state=args.state, seed=args.seed,
-                           cameras=args.cameras, distance=args.distance)
+                           cameras=args.cameras, distance=args.distance, sensor=args.capture)
     print(f"{len(capture.frames)} views of {capture.extra['object']} "
           f"({len(capture.parts)} parts) -> {Path(args.out) / 'transforms.json'}")
     print(f"ground truth -> {capture.ground_truth_path()}")
@@ -190,7 +194,7 @@ def cmd_evaluate_reconstruction(args) -> int:
     figures, text = {}, []
     for set_name, cases in sets.items():
         results = evaluate(cases, views=args.views, size=args.size, seed=args.seed,
-                           cameras=args.cameras, distance=args.distance,
+                           cameras=args.cameras, distance=args.distance, sensor=args.capture,
                            progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
         tables = {SETTING_NAMES[k]: r.table() for k, r in results.items()}
         figures[set_name] = {
