@@ -165,3 +165,25 @@ def test_partnet_object_renders_one_mask_per_rigid_part(tmp_path):
     for frame in cap.frames:
         seen |= set(np.unique(frame.mask).tolist())
     assert seen - {0} <= set(range(1, len(cap.parts) + 1)) and len(seen - {0}) >= 2
+
+
+def test_render_command_takes_a_camera_path_and_a_sensor(tmp_path):
+    from real2code_export.errors import FormatError
+    from real2code_export.formats import object_json
+
+    object_json.save(generate("box", 2, 1), tmp_path / "model")
+    model = str(tmp_path / "model" / "object.json")
+    out = tmp_path / "capture"
+    assert _run_render([model, "--out", str(out), "--views", "4", "--width", "48", "--height",
+                        "48", "--cameras", "handheld", "--distance", "far",
+                        "--capture", "phone-lidar"]) == 0
+    doc = json.loads((out / "transforms.json").read_text())["real2code"]
+    assert doc["camera_path"] == "handheld" and doc["camera_distance"] == "far"
+    assert doc["sensor"]["name"] == "phone-lidar"
+    cap = read_capture(out)
+    assert any(((f.mask > 0) & (f.depth == 0)).any() for f in cap.frames)  # depth went missing
+    bad = tmp_path / "sensor.json"
+    bad.write_text('{"noise_a": "high"}')
+    with pytest.raises(FormatError, match="noise_a"):
+        _run_render([model, "--out", str(tmp_path / "c2"), "--capture", str(bad)])
+    assert not (tmp_path / "c2").exists()

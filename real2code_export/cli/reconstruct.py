@@ -18,6 +18,11 @@ RENDER_VIEWS, RENDER_SIZE = 12, 256
 CAMERA_PATHS, CAMERA_DISTANCES = ("ring", "half-ring", "handheld", "front-arc"), \
     ("near", "mid", "far")
 CAPTURE_PRESETS = ("clean", "phone-lidar", "structured-light", "time-of-flight")
+# (segmentation, completion) of evaluate reconstruction, by the names its --settings takes
+EVALUATION_SETTINGS = {"gt+completion": ("gt", "learned"),
+                       "gt+segment-only": ("gt", "segment_only"),
+                       "predicted+completion": ("learned", "learned"),
+                       "predicted+segment-only": ("learned", "segment_only")}
 
 
 def add_camera_options(s) -> None:
@@ -168,6 +173,8 @@ def add_evaluate_reconstruction_parser(evaluate_sub) -> argparse.ArgumentParser:
     e.add_argument("--partnet", help="PartNet-Mobility folder (with index.json): add its dev "
                    "and holdout objects")
     add_camera_options(e)
+    e.add_argument("--settings", default=",".join(EVALUATION_SETTINGS),
+                   help="comma-separated, of " + ", ".join(EVALUATION_SETTINGS) + " (all)")
     e.add_argument("--json", help="write the figures as JSON")
     e.add_argument("--markdown", help="write the tables as markdown")
     e.set_defaults(func=cmd_evaluate_reconstruction)
@@ -183,6 +190,12 @@ def cmd_evaluate_reconstruction(args) -> int:
     from ..errors import Real2CodeError
     from .options import write_evaluation
 
+    names = [n.strip() for n in args.settings.split(",") if n.strip()]
+    unknown = [n for n in names if n not in EVALUATION_SETTINGS]
+    if unknown or not names:
+        raise Real2CodeError(f"--settings: unknown {unknown or names}; choose from "
+                             f"{', '.join(EVALUATION_SETTINGS)}")
+    settings = tuple(EVALUATION_SETTINGS[n] for n in names)
     sets = {"procedural test set": procedural_cases(args.objects, args.seed)}
     if args.partnet:
         root = Path(args.partnet)
@@ -191,17 +204,20 @@ def cmd_evaluate_reconstruction(args) -> int:
         sets["PartNet-Mobility dev"] = partnet_cases(root, "dev", args.seed)
         sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
             root, "holdout", args.seed)
-    figures, text = {}, []
+    conditions = {"cameras": args.cameras, "distance": args.distance, "capture": args.capture}
+    figures, text = {"conditions": conditions}, []
     for set_name, cases in sets.items():
         results = evaluate(cases, views=args.views, size=args.size, seed=args.seed,
                            cameras=args.cameras, distance=args.distance, sensor=args.capture,
+                           settings=settings,
                            progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
         tables = {SETTING_NAMES[k]: r.table() for k, r in results.items()}
         figures[set_name] = {
             SETTING_NAMES[k]: {"buckets": r.table(), "failures": r.failures,
                                "seconds_per_object": float(np.mean(r.seconds or [0.0]))}
             for k, r in results.items()}
-        text.append(markdown(f"{set_name} ({len(cases)} objects)", tables,
+        text.append(markdown(f"{set_name} ({len(cases)} objects; cameras {args.cameras}, "
+                             f"{args.distance}; capture {args.capture})", tables,
                              show_paper=set_name.startswith("procedural")))
     write_evaluation(args, "\n\n".join(text), figures)
     return 0
