@@ -64,11 +64,25 @@ def _azimuths(path: str, n: int, rng: np.random.Generator, front: np.ndarray | N
         sweep = np.radians(rng.uniform(200.0, 360.0))
         steps = rng.dirichlet(np.full(n, 1.5)) * sweep
         return start + np.concatenate([[0.0], np.cumsum(steps[:-1])])
+    raise InputError(f"unknown camera path {path!r}")
+
+
+def _front_arc(center: np.ndarray, fit: float, front: np.ndarray | None, n: int,
+               rng: np.random.Generator, distance: tuple[float, float]) -> list[np.ndarray]:
+    """The old renderer's arc, draw for draw as it was (the shipped mask network's training
+    views were taken on it): evenly over the arc, each jittered, at a random elevation."""
     if front is None:
         raise InputError("the front-arc camera path needs the object's opening direction")
-    step = np.radians(FRONT_ARC_DEG) / max(1, n - 1)
+    base_az = np.arctan2(front[1], front[0])
     offsets = np.linspace(-0.5, 0.5, n) * np.radians(FRONT_ARC_DEG) if n > 1 else np.zeros(1)
-    return np.arctan2(front[1], front[0]) + offsets + rng.uniform(-0.3, 0.3, n) * step
+    step = np.radians(FRONT_ARC_DEG) / max(1, n - 1)
+    poses = []
+    for off in offsets:
+        az = base_az + off + rng.uniform(-0.3, 0.3) * step
+        el = np.radians(rng.uniform(*ELEVATION_DEG))
+        d = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+        poses.append(look_at(center + fit * rng.uniform(*distance) * d, center))
+    return poses
 
 
 def _elevations(path: str, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -94,6 +108,8 @@ def camera_path(path: str, center: np.ndarray, radius: float, camera: Camera, n_
         raise InputError(f"need at least one view, got {n_views}")
     half_fov = np.arctan(0.5 * min(camera.width / camera.fl_x, camera.height / camera.fl_y))
     fit = radius / np.sin(half_fov)
+    if path == "front-arc":
+        return _front_arc(center, fit, front, n_views, rng, DISTANCES[distance])
     azimuth = _azimuths(path, n_views, rng, front)
     elevation = _elevations(path, n_views, rng)
     factor = rng.uniform(*DISTANCES[distance], n_views)

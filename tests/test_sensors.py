@@ -128,3 +128,15 @@ def test_degrade_is_seeded():
     assert all(np.array_equal(x.depth, y.depth) and np.array_equal(x.rgb, y.rgb)
                for x, y in zip(a.frames, b.frames, strict=True))
     assert isinstance(a, Capture)
+
+
+def test_mask_network_training_views_can_come_through_a_sensor():
+    from pipeline.segment.data import object_views
+
+    obj = generate("box", 2, 3)
+    clean = object_views(obj, np.random.default_rng(0), 2)
+    noisy = object_views(obj, np.random.default_rng(0), 2, cameras=("ring",),
+                         sensors=("time-of-flight",))
+    assert len(clean) == len(noisy) == 2
+    assert all(v.depth.shape == w.depth.shape for v, w in zip(clean, noisy, strict=True))
+    assert not any(np.array_equal(v.depth, w.depth) for v, w in zip(clean, noisy, strict=True))
