@@ -110,6 +110,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     from .segment.metrics import matched_part_iou
     from .sensors import degrade, load_sensor
 
+    sensor_model = load_sensor(sensor)  # a bad preset fails before any work
     if segmenter is None and any(s == "learned" for s, _ in settings):
         segmenter = get_segmenter("learned")
     if completion_model is None and any(c == "learned" for _, c in settings):
@@ -121,7 +122,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
         bucket = bucket_of(len(case.obj.parts))
         capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
                                 seed=seed + k, cameras=cameras, distance=distance)
-        capture = degrade(capture, load_sensor(sensor), seed + k)
+        capture = degrade(capture, sensor_model, seed + k)
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:

@@ -175,6 +175,8 @@ def add_evaluate_reconstruction_parser(evaluate_sub) -> argparse.ArgumentParser:
     add_camera_options(e)
     e.add_argument("--settings", default=",".join(EVALUATION_SETTINGS),
                    help="comma-separated, of " + ", ".join(EVALUATION_SETTINGS) + " (all)")
+    e.add_argument("--splits", default="dev,holdout",
+                   help="which PartNet-Mobility splits to add with --partnet (dev,holdout)")
     e.add_argument("--json", help="write the figures as JSON")
     e.add_argument("--markdown", help="write the tables as markdown")
     e.set_defaults(func=cmd_evaluate_reconstruction)
@@ -196,14 +198,20 @@ def cmd_evaluate_reconstruction(args) -> int:
         raise Real2CodeError(f"--settings: unknown {unknown or names}; choose from "
                              f"{', '.join(EVALUATION_SETTINGS)}")
     settings = tuple(EVALUATION_SETTINGS[n] for n in names)
-    sets = {"procedural test set": procedural_cases(args.objects, args.seed)}
+    sets = {"procedural test set": procedural_cases(args.objects, args.seed)} \
+        if args.objects > 0 else {}
     if args.partnet:
         root = Path(args.partnet)
         if not (root / "index.json").is_file():
             raise Real2CodeError(f"{root}: no PartNet-Mobility index.json here")
-        sets["PartNet-Mobility dev"] = partnet_cases(root, "dev", args.seed)
-        sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
-            root, "holdout", args.seed)
+        splits = [x.strip() for x in args.splits.split(",") if x.strip()]
+        if not splits or set(splits) - {"dev", "holdout"}:
+            raise Real2CodeError(f"--splits: expected dev and/or holdout, got {args.splits!r}")
+        if "dev" in splits:
+            sets["PartNet-Mobility dev"] = partnet_cases(root, "dev", args.seed)
+        if "holdout" in splits:
+            sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
+                root, "holdout", args.seed)
     conditions = {"cameras": args.cameras, "distance": args.distance, "capture": args.capture}
     figures, text = {"conditions": conditions}, []
     for set_name, cases in sets.items():
