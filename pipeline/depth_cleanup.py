@@ -195,9 +195,12 @@ def _anchored(refined: list[np.ndarray], recorded: list[np.ndarray]) -> list[np.
 def clean_capture(capture: Capture, options: CleanupOptions = CleanupOptions(),
                   ) -> tuple[Capture, dict]:
     """``capture`` with every frame's depth cleaned and the poses refined across views (a
-    new capture; the frames' images and masks are shared), and a summary of what changed."""
+    new capture; the frames' images and masks are shared), and a summary of what changed.
+    A capture cleaned already (its ``extra`` holds the summary) is returned as it is."""
     from .fuse import object_diagonal
 
+    if "depth_cleanup" in capture.extra:
+        return capture, capture.extra["depth_cleanup"]
     depths, notes = [], []
     for frame in capture.frames:
         depth, note = clean_depth(frame.depth, options)
@@ -216,4 +219,5 @@ def clean_capture(capture: Capture, options: CleanupOptions = CleanupOptions(),
                "dropped": sum(n["dropped"] for n in notes),
                "filled": sum(n["filled"] for n in notes),
                "pose_moves_m": [round(m, 4) for m in moves]}
-    return Capture(cleaned, list(capture.parts), dict(capture.extra), capture.path), summary
+    extra = dict(capture.extra) | {"depth_cleanup": summary}
+    return Capture(cleaned, list(capture.parts), extra, capture.path), summary

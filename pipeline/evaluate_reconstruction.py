@@ -104,6 +104,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`), ``sensor``
     (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
+    from .depth_cleanup import clean_capture
     from .reconstruct import reconstruct_capture
     from .render import render_object
     from .segment import get_segmenter
@@ -123,6 +124,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
         capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
                                 seed=seed + k, cameras=cameras, distance=distance)
         capture = degrade(capture, sensor_model, seed + k)
+        capture, _ = clean_capture(capture)  # once, not once per setting
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:

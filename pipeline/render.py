@@ -20,6 +20,7 @@ from real2code_export.kinematics import world_part_meshes
 from real2code_export.model import ArticulatedObject, Mesh
 
 from .camera_paths import DEFAULT_DISTANCE, DEFAULT_PATH, camera_path
+from .camera_paths import look_at as look_at  # where callers have imported it from
 from .capture import Camera, Capture, Frame
 
 DEFAULT_VIEWS = 12  # as the paper

@@ -91,6 +91,7 @@ def test_cleanup_leaves_an_exact_capture_alone_and_undoes_noise():
     assert noise_level(noisy.frames[0].depth) > 10 * noise_level(cap.frames[0].depth)
     cleaned, summary = clean_capture(noisy)
     assert summary["dropped"] > 0 and summary["filled"] > 0
+    assert clean_capture(cleaned)[0] is cleaned  # cleaned once, whoever asks again
 
     def depth_error(capture):
         errors = [np.abs(a.depth - b.depth)[(a.depth > 0) & (b.depth > 0)]
