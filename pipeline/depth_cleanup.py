@@ -29,7 +29,7 @@ class CleanupOptions:
     outlier_sigmas: float = 4.0  # off the neighbours' median by more: dropped
     min_neighbours: int = 4  # of 8, with depth: fewer is a speck
     fill_rounds: int = 2  # grow fills this many pixels into a hole
-    fill_neighbours: int = 6  # of 8 with depth, agreeing, to fill a missing pixel
+    fill_neighbours: int = 5  # of 8 with depth, agreeing, fill a missing pixel (a 2 x 2 hole)
     smooth_radius: int = 3  # (2r + 1)^2 window of the surface fit
     smooth_sigmas: float = 3.0  # neighbours within this of a pixel are its surface
     min_noise_rel: float = 4e-4  # below this relative noise a frame is taken as exact

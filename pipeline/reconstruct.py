@@ -136,7 +136,13 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     say(f"  {seg.n_parts} parts ({timings['segmentation']:.1f} s)")
 
     t = time.perf_counter()
-    by_label = oriented_part_clouds(capture, seg.labels, clean=segmentation != "gt")
+    # stray points: at predicted masks' borders, and wherever the depth itself was noisy (a
+    # true mask over smeared depth holds points of what lies behind); the boxes of such
+    # points are squared to the largest part's (articulate's align_boxes) for the same reason
+    from .depth_cleanup import CleanupOptions
+
+    noisy = max(cleanup["noise_rel"], default=0.0) >= CleanupOptions().min_noise_rel
+    by_label = oriented_part_clouds(capture, seg.labels, clean=segmentation != "gt" or noisy)
     names = {k: (capture.parts[k - 1] if segmentation == "gt" and k <= len(capture.parts)
                  else f"part_{k}") for k in by_label}
     clouds, normals = {}, {}
@@ -162,7 +168,7 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                      get_predictor(predictor), name=name, colors=colors,
                      metadata={"reconstructed_from": str(capture.path or ""),
                                "segmentation": segmentation, "completion": completion},
-                     collision=collision, align_boxes=segmentation != "gt",
+                     collision=collision, align_boxes=segmentation != "gt" or noisy,
                      observed={n: (clouds[n], normals[n]) for n in clouds})
     timings["articulation"] = time.perf_counter() - t
     for j in art.obj.movable_joints:
