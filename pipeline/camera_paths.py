@@ -52,8 +52,7 @@ def _rolled(pose: np.ndarray, roll: float) -> np.ndarray:
     return out
 
 
-def _azimuths(path: str, n: int, rng: np.random.Generator, front: np.ndarray | None,
-              ) -> np.ndarray:
+def _azimuths(path: str, n: int, rng: np.random.Generator) -> np.ndarray:
     start = rng.uniform(0.0, 2 * np.pi)
     if path == "ring":
         return start + 2 * np.pi * np.arange(n) / n
@@ -110,7 +109,7 @@ def camera_path(path: str, center: np.ndarray, radius: float, camera: Camera, n_
     fit = radius / np.sin(half_fov)
     if path == "front-arc":
         return _front_arc(center, fit, front, n_views, rng, DISTANCES[distance])
-    azimuth = _azimuths(path, n_views, rng, front)
+    azimuth = _azimuths(path, n_views, rng)
     elevation = _elevations(path, n_views, rng)
     factor = rng.uniform(*DISTANCES[distance], n_views)
     poses = []
