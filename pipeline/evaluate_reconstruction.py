@@ -3,14 +3,16 @@ articulated object, scored the paper's way.
 
 Every test object (the held-out procedural set and the dev PartNet-Mobility objects of
 :mod:`pipeline.evaluate_articulation`, each partly open) is rendered from 12 views
-(``pipeline.render``) and reconstructed with ground-truth masks and with predicted masks
+(``pipeline.render``, on a camera path that knows nothing of the joints: a full ring unless
+asked otherwise) and reconstructed with ground-truth masks and with predicted masks
 (``pipeline.segment``), each with shape completion and with the segment-only baseline.
 Scores, by the paper's buckets of part count:
 
 - chamfer distance (``pipeline.chamfer``: 10,000 surface points, squared L2, x 1000 in the
   tables) of the whole object and per part, parts matched optimally;
 - the joint metrics of ``pipeline.evaluate_joints`` (type accuracy, axis error, axis
-  position) on the reconstructed object;
+  position) on the reconstructed object, and the stricter precision and recall of its
+  movable joints (extra parts and joints count against it);
 - for predicted masks, the matched per-part IoU of the segmentation over all views.
 """
 
@@ -23,8 +25,19 @@ import numpy as np
 
 from real2code_export.markdown import table as markdown_table
 
+from .camera_paths import DEFAULT_DISTANCE, DEFAULT_PATH
 from .evaluate_articulation import Case
-from .evaluate_joints import BUCKETS, PAPER_FULL, Scores, bucket_of, score_object
+from .evaluate_joints import (
+    BUCKETS,
+    MATCH_AXIS_DEG,
+    MATCH_POSITION_REL,
+    PAPER_FULL,
+    JointCount,
+    JointScore,
+    Scores,
+    bucket_of,
+    score_object,
+)
 
 SETTINGS = (("gt", "learned"), ("gt", "segment_only"), ("learned", "learned"),
             ("learned", "segment_only"))
@@ -85,14 +98,20 @@ def _truth_meshes(case: Case) -> list:
 
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
-             progress=None) -> dict[tuple[str, str], SettingResult]:
-    """Reconstruct every case under every (segmentation, completion) setting and score it."""
+             cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
+             sensor: str = "clean", progress=None) -> dict[tuple[str, str], SettingResult]:
+    """Reconstruct every case under every (segmentation, completion) setting and score it;
+    ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`), ``sensor``
+    (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
+    from .depth_cleanup import clean_capture
     from .reconstruct import reconstruct_capture
     from .render import render_object
     from .segment import get_segmenter
     from .segment.metrics import matched_part_iou
+    from .sensors import degrade, load_sensor
 
+    sensor_model = load_sensor(sensor)  # a bad preset fails before any work
     if segmenter is None and any(s == "learned" for s, _ in settings):
         segmenter = get_segmenter("learned")
     if completion_model is None and any(c == "learned" for _, c in settings):
@@ -103,7 +122,9 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     for k, case in enumerate(cases):
         bucket = bucket_of(len(case.obj.parts))
         capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
-                                seed=seed + k)
+                                seed=seed + k, cameras=cameras, distance=distance)
+        capture = degrade(capture, sensor_model, seed + k)
+        capture, _ = clean_capture(capture)  # once, not once per setting
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:
@@ -118,9 +139,9 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
             except Exception as e:  # a failed reconstruction is scored as missing, not hidden
                 result.failures.append(f"{bucket}: {case.label}: {type(e).__name__}: {e}")
                 result.joints.objects[bucket] = result.joints.objects.get(bucket, 0) + 1
+                result.joints.counts.append(
+                    JointCount(bucket, len(case.obj.movable_joints), 0, 0))
                 for j in case.obj.movable_joints:
-                    from .evaluate_joints import JointScore
-
                     result.joints.joints.append(JointScore(
                         bucket, j.type.angular, False, 90.0, None, None, None, None))
                 continue
@@ -145,6 +166,12 @@ def _fmt(row: dict | None, key: str, fmt: str, scale: float = 1.0) -> str:
     return "-" if value is None or value != value else fmt.format(scale * value)
 
 
+def _count(row: dict | None) -> str:
+    if row is None or "predicted_joints" not in row:
+        return "-"
+    return f"{int(row['predicted_joints'])} for {int(row['joints'])}"
+
+
 def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool) -> str:
     """Joint and shape tables: a row per setting (and the paper's full-pipeline row)."""
     names = [b for b, *_ in BUCKETS]
@@ -159,6 +186,10 @@ def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool) -
                                              _fmt(table.get(b), "position_error_rel",
                                                   "{:.1f} %", 100)])
                                  for b in names)])
+    strict = [[method, *(" / ".join([_fmt(table.get(b), "joint_precision", "{:.2f}"),
+                                     _fmt(table.get(b), "joint_recall", "{:.2f}"),
+                                     _count(table.get(b))])
+                         for b in names)] for method, table in tables.items()]
     shapes = [[method, *(" / ".join([_fmt(table.get(b), "whole_cd", "{:.2f}"),
                                      _fmt(table.get(b), "part_cd", "{:.2f}"),
                                      _fmt(table.get(b), "part_count_exact", "{:.2f}"),
@@ -167,6 +198,10 @@ def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool) -
     lines = [f"### {title}", "", "Joints: type accuracy / axis error (degrees) / axis position "
              "error (% of the object's diagonal, revolute joints):", "",
              *markdown_table(header, joints),
+             "", "Movable joints, extras counted: precision / recall / predicted for true "
+             f"(a joint is right with the right type, axis within {MATCH_AXIS_DEG:g} degrees "
+             f"and, revolute, its line within {100 * MATCH_POSITION_REL:g} % of the diagonal):",
+             "", *markdown_table(header, strict),
              "", "Shapes: chamfer distance x 1000 (whole object / mean per part), the share "
              "of objects whose part count came out right, and the segmentation's matched "
              "per-part IoU over all views:", "", *markdown_table(header, shapes)]

@@ -1,7 +1,8 @@
 """``real2code reconstruct``: a posed RGB-D capture in, an articulated object and every
 export out — the whole Real2Code pipeline.
 
-Stages, each one's output kept in the output folder for inspection::
+Stages, each one's output kept in the output folder for inspection (the first, the depth
+cleanup of :mod:`pipeline.depth_cleanup`, is summarised in report.json)::
 
     segmentation/  per-view part labels (16-bit PNG) and colour overlays, summary.json
     clouds/        the fused foreground and one point cloud per part (PLY)
@@ -53,6 +54,7 @@ class ReconstructResult:
     timings: dict[str, float] = field(default_factory=dict)
     written: dict[str, Path] = field(default_factory=dict)
     check: object | None = None  # real2code_export.check.CheckReport
+    cleanup: dict = field(default_factory=dict)  # what the depth cleanup changed
 
 
 def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -117,11 +119,19 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     from .articulate import articulate
     from .compartments import return_to_carcass
     from .complete.data import MIN_POINTS  # the fewest points completion takes
+    from .depth_cleanup import clean_capture
     from .fuse import oriented_part_clouds
     from .predictors import get_predictor
 
     say = progress or (lambda _msg: None)
     timings: dict[str, float] = {}
+    t = time.perf_counter()
+    capture, cleanup = clean_capture(capture)
+    timings["cleanup"] = time.perf_counter() - t
+    if cleanup["dropped"] or cleanup["filled"]:
+        say(f"depth cleanup: {cleanup['dropped']} pixels dropped, {cleanup['filled']} filled, "
+            f"poses moved up to {max(cleanup['pose_moves_m']):.3f} m "
+            f"({timings['cleanup']:.1f} s)")
     t = time.perf_counter()
     say(f"segmentation ({segmentation}) of {len(capture.frames)} views ...")
     seg = precomputed_segmentation
@@ -133,7 +143,13 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     say(f"  {seg.n_parts} parts ({timings['segmentation']:.1f} s)")
 
     t = time.perf_counter()
-    by_label = oriented_part_clouds(capture, seg.labels, clean=segmentation != "gt")
+    # stray points: at predicted masks' borders, and wherever the depth itself was noisy (a
+    # true mask over smeared depth holds points of what lies behind); the boxes of such
+    # points are squared to the largest part's (articulate's align_boxes) for the same reason
+    from .depth_cleanup import CleanupOptions
+
+    noisy = max(cleanup["noise_rel"], default=0.0) >= CleanupOptions().min_noise_rel
+    by_label = oriented_part_clouds(capture, seg.labels, clean=segmentation != "gt" or noisy)
     names = {k: (capture.parts[k - 1] if segmentation == "gt" and k <= len(capture.parts)
                  else f"part_{k}") for k in by_label}
     clouds, normals = {}, {}
@@ -159,7 +175,7 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                      get_predictor(predictor), name=name, colors=colors,
                      metadata={"reconstructed_from": str(capture.path or ""),
                                "segmentation": segmentation, "completion": completion},
-                     collision=collision, align_boxes=segmentation != "gt",
+                     collision=collision, align_boxes=segmentation != "gt" or noisy,
                      observed={n: (clouds[n], normals[n]) for n in clouds})
     timings["articulation"] = time.perf_counter() - t
     if texture:
@@ -173,7 +189,7 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     for j in art.obj.movable_joints:
         say(f"  {j.name:20s} {j.type.value:9s} state {j.state:+.3f}  "
             f"range [{j.limits.lower:.3f}, {j.limits.upper:.3f}]")
-    return ReconstructResult(capture, seg, clouds, meshes, colors, art, timings)
+    return ReconstructResult(capture, seg, clouds, meshes, colors, art, timings, cleanup=cleanup)
 
 
 def _label_png(labels: np.ndarray) -> bytes:
@@ -268,6 +284,7 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
                 {"name": j.name, "type": j.type.value, "parent": j.parent, "child": j.child,
                  "state": j.state, "lower": j.limits.lower, "upper": j.limits.upper}
                 for j in result.articulation.obj.movable_joints],
+            "depth_cleanup": result.cleanup,
             "segmentation_details": result.segmentation.details,
             "seconds": {k: round(v, 2) for k, v in result.timings.items()},
             "check_ok": report.ok}, indent=1) + "\n")

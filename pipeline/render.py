@@ -3,9 +3,9 @@
 open3d's ``RaycastingScene`` casts one ray per pixel through the part meshes (placed at a
 configuration), which gives the z-depth, the hit part (the ground-truth mask) and the face
 normal. RGB is plain Lambert shading of the part colours under a head light and a fixed
-key light, in sRGB. Cameras stand on a front arc around the object (the paper renders
-partly open objects from the side where doors and drawers can be seen into), look at its
-centre and keep the whole object in view.
+key light, in sRGB. Cameras follow a path that knows nothing of the joints
+(:mod:`pipeline.camera_paths`: a full ring by default, half rings, hand-held paths, near or
+far), look at the object's centre and keep the whole object in view.
 """
 
 from __future__ import annotations
@@ -19,6 +19,8 @@ from real2code_export.errors import InputError
 from real2code_export.kinematics import world_part_meshes
 from real2code_export.model import ArticulatedObject, Mesh
 
+from .camera_paths import DEFAULT_DISTANCE, DEFAULT_PATH, camera_path
+from .camera_paths import look_at as look_at  # where callers have imported it from
 from .capture import Camera, Capture, Frame
 
 DEFAULT_VIEWS = 12  # as the paper
@@ -33,19 +35,6 @@ class Lighting:
     ambient: float = 0.3
     head: float = 0.45  # light at the camera
     key: float = 0.35  # fixed light from above
-
-
-def look_at(eye: np.ndarray, target: np.ndarray, up=(0.0, 0.0, 1.0)) -> np.ndarray:
-    """Camera-to-world transform (OpenGL axes: looking down -z, y up) at ``eye``."""
-    z = np.asarray(eye, float) - np.asarray(target, float)
-    z /= np.linalg.norm(z)
-    x = np.cross(up, z)
-    if np.linalg.norm(x) < 1e-9:  # looking straight down: any horizontal x
-        x = np.cross([0.0, 1.0, 0.0], z)
-    x /= np.linalg.norm(x)
-    out = np.eye(4)
-    out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = x, np.cross(z, x), z, eye
-    return out
 
 
 def default_camera(width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
@@ -68,26 +57,6 @@ def front_direction(obj: ArticulatedObject, base: np.ndarray | None = None) -> n
         shift = base[:3, 0].copy()
         shift[2] = 0.0
     return shift / np.linalg.norm(shift)
-
-
-def camera_poses(center: np.ndarray, radius: float, front: np.ndarray, camera: Camera,
-                 n_views: int, rng: np.random.Generator, arc_deg: float = 120.0,
-                 elevation_deg: tuple[float, float] = (10.0, 50.0)) -> list[np.ndarray]:
-    """``n_views`` cameras spread over a horizontal arc of ``arc_deg`` centred on ``front``,
-    at random elevations, each far enough to see a sphere of ``radius`` whole."""
-    half_fov = np.arctan(0.5 * min(camera.width / camera.fl_x, camera.height / camera.fl_y))
-    base_az = np.arctan2(front[1], front[0])
-    offsets = np.linspace(-0.5, 0.5, n_views) * np.radians(arc_deg) if n_views > 1 \
-        else np.zeros(1)
-    step = np.radians(arc_deg) / max(1, n_views - 1)
-    poses = []
-    for off in offsets:
-        az = base_az + off + rng.uniform(-0.3, 0.3) * step
-        el = np.radians(rng.uniform(*elevation_deg))
-        distance = radius / np.sin(half_fov) * rng.uniform(1.02, 1.2)
-        d = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-        poses.append(look_at(center + distance * d, center))
-    return poses
 
 
 def _srgb(linear: np.ndarray) -> np.ndarray:
@@ -149,10 +118,13 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
                   base: np.ndarray | None = None, views: int = DEFAULT_VIEWS,
                   width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
                   fov_deg: float = DEFAULT_FOV_DEG, seed: int = 0,
-                  arc_deg: float = 120.0, colors: dict[str, tuple] | None = None,
+                  cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
+                  colors: dict[str, tuple] | None = None,
                   lighting: Lighting = Lighting(), background=BACKGROUND) -> Capture:
     """A capture of ``obj`` at ``q`` (default: its observed state) placed at ``base``.
 
+    ``cameras`` names the camera path and ``distance`` how far it stands
+    (:mod:`pipeline.camera_paths`); only ``front-arc`` reads the ground-truth joints.
     ``colors`` overrides part colours (linear RGB(A)) by part name. The capture's parts are
     the parts with a visual mesh, in the object's order; its ``extra`` records the state
     and pose the object was rendered at.
@@ -173,31 +145,37 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
     center = 0.5 * (lo + hi)
     radius = float(np.linalg.norm(points - center, axis=1).max())
     camera = default_camera(width, height, fov_deg)
-    probe = obj
-    if q is not None:  # the front is where the parts open at the rendered configuration
-        import copy
+    front = None
+    if cameras == "front-arc":  # the only path that reads the joints: where parts open
+        probe = obj
+        if q is not None:  # the front is where the parts open at the rendered configuration
+            import copy
 
-        probe = copy.deepcopy(obj)
-        for j in probe.movable_joints:
-            j.state = config.get(j.name, 0.0)
-    front = front_direction(probe, base)
+            probe = copy.deepcopy(obj)
+            for j in probe.movable_joints:
+                j.state = config.get(j.name, 0.0)
+        front = front_direction(probe, base)
     frames = []
-    for k, pose in enumerate(camera_poses(center, radius, front, camera, views, rng, arc_deg)):
+    poses = camera_path(cameras, center, radius, camera, views, rng, distance=distance,
+                        front=front)
+    for k, pose in enumerate(poses):
         rgb, depth, mask = caster.render(camera, pose, lighting, background)
         frames.append(Frame(camera, pose, rgb, depth, mask, f"frame_{k:05d}"))
     extra = {"object": obj.name, "state": {j: float(v) for j, v in config.items()},
              "object_pose": np.round(base, 12).tolist(), "renderer": "open3d raycasting",
-             "seed": int(seed)}
+             "seed": int(seed), "camera_path": cameras, "camera_distance": distance}
     return Capture(frames, names, extra)
 
 
 def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIEWS,
                  width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, state: str = "observed",
-                 seed: int = 0) -> Capture:
+                 seed: int = 0, cameras: str = DEFAULT_PATH,
+                 distance: str = DEFAULT_DISTANCE, sensor: str | Path = "clean") -> Capture:
     """``real2code render``: load any importable model, render it at its observed state (or,
     with ``state="random"``, every joint partly open, drawn from ``seed``) and write the
     capture folder with the ground-truth object (parts joined by fixed joints merged, as
-    the masks see them; its states set to the rendered ones)."""
+    the masks see them; its states set to the rendered ones). ``sensor``: a capture preset
+    or sensor JSON (:mod:`pipeline.sensors`) whose faults the frames then get."""
     import copy
 
     from real2code_export.formats import load
@@ -214,7 +192,12 @@ def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIE
         q = ajar_configuration(obj, np.random.default_rng(seed))
         for j in obj.movable_joints:
             j.state = q[j.name]
-    capture = render_object(obj, views=views, width=width, height=height, seed=seed)
+    from .sensors import degrade, load_sensor
+
+    model_of_sensor = load_sensor(sensor)  # a bad preset fails before the rendering
+    capture = render_object(obj, views=views, width=width, height=height, seed=seed,
+                            cameras=cameras, distance=distance)
+    capture = degrade(capture, model_of_sensor, seed)
     capture.extra["source"] = str(model)
     capture.extra["ground_truth"] = f"{GROUND_TRUTH_DIR}/object.json"
     write_capture(capture, out, ground_truth=obj)

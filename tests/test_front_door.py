@@ -251,4 +251,12 @@ def test_the_parser_restates_no_stage_fact_wrongly():
     from real2code_export.cli import batch, reconstruct
 
     assert (reconstruct.RENDER_VIEWS, reconstruct.RENDER_SIZE) == (DEFAULT_VIEWS, DEFAULT_SIZE)
+    from pipeline import camera_paths
+
+    assert reconstruct.CAMERA_PATHS == camera_paths.PATHS
+    assert reconstruct.CAMERA_PATHS[0] == camera_paths.DEFAULT_PATH
+    assert tuple(camera_paths.DISTANCES) == reconstruct.CAMERA_DISTANCES
+    from pipeline import sensors
+
+    assert tuple(sensors.PRESETS) == reconstruct.CAPTURE_PRESETS
     assert batch.KINDS == KINDS == tuple(TASKS)

@@ -16,6 +16,7 @@ from pipeline.fuse import part_clouds, point_map
 from pipeline.procedural import generate
 from pipeline.render import front_direction, render_object
 from real2code_export.cli.reconstruct import add_render_parser
+from real2code_export.errors import InputError
 from real2code_export.formats import load
 from real2code_export.kinematics import world_part_meshes
 from real2code_export.model import forward_kinematics
@@ -55,16 +56,55 @@ def test_every_part_is_seen_and_the_object_fits(cabinet):
         assert not border.any()
 
 
-def test_cameras_face_the_front():
+def test_front_arc_cameras_face_the_front():
     obj = generate("storage_furniture", 4, 2)
     assert front_direction(obj) @ [1, 0, 0] > 0.9  # its doors open towards +x
     base = np.eye(4)
     base[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]  # turned 90 degrees: front is +y
-    cap = render_object(obj, base=base, views=4, width=32, height=32)
+    cap = render_object(obj, base=base, views=4, width=32, height=32, cameras="front-arc")
+    front = front_direction(obj, base)
+    assert front[1] > 0.9
     for frame in cap.frames:
         view_dir = -frame.camera_to_world[:3, 2]  # cameras look down -z
-        assert view_dir[1] < -0.2  # looking at the +y side, from there
+        horizontal = view_dir[:2] / np.linalg.norm(view_dir[:2])
+        assert horizontal @ -front[:2] > np.cos(np.radians(75))  # within the arc (+ jitter)
     assert cap.object_pose().tolist() == base.tolist()
+
+
+def _azimuths(cap):
+    """Each camera's azimuth seen from the point it looks at."""
+    back = np.array([f.camera_to_world[:3, 2] for f in cap.frames])  # cameras look down -z
+    return np.degrees(np.arctan2(back[:, 1], back[:, 0]))
+
+
+def test_camera_paths_know_nothing_of_the_joints():
+    """The default path is a full ring; the same seed gives the same ring whichever way the
+    object opens, and half rings, hand-held and far paths keep the object whole in view."""
+    obj = generate("storage_furniture", 4, 2)
+    turned = np.eye(4)
+    turned[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    a = render_object(obj, views=8, width=48, height=48, seed=4)
+    b = render_object(obj, base=turned, views=8, width=48, height=48, seed=4)
+    assert a.extra["camera_path"] == "ring"
+    assert np.allclose(_azimuths(a), _azimuths(b), atol=1e-6)  # not steered by the front
+    gaps = np.diff(np.sort(_azimuths(a)))
+    assert np.allclose(gaps, 45.0, atol=1e-6)  # eight views, evenly round
+    for path, distance in (("half-ring", "mid"), ("handheld", "near"), ("ring", "far")):
+        cap = render_object(obj, views=8, width=64, height=64, seed=1, cameras=path,
+                            distance=distance)
+        for frame in cap.frames:
+            assert frame.mask.any()
+            edge = np.concatenate([frame.mask[0], frame.mask[-1], frame.mask[:, 0],
+                                   frame.mask[:, -1]])
+            assert edge.mean() < 0.05, (path, distance)  # (nearly) whole in view
+        if path == "half-ring":
+            span = np.ptp(np.unwrap(np.radians(_azimuths(cap))))
+            assert np.isclose(np.degrees(span), 180.0, atol=1e-6)
+        if path == "handheld":
+            steps = np.diff(np.unwrap(np.radians(_azimuths(cap))))
+            assert steps.std() > 0.1 * abs(steps.mean())  # uneven spacing
+    with pytest.raises(InputError, match="unknown camera path"):
+        render_object(obj, views=2, width=16, height=16, cameras="spiral")
 
 
 def test_deterministic():
@@ -125,3 +165,25 @@ def test_partnet_object_renders_one_mask_per_rigid_part(tmp_path):
     for frame in cap.frames:
         seen |= set(np.unique(frame.mask).tolist())
     assert seen - {0} <= set(range(1, len(cap.parts) + 1)) and len(seen - {0}) >= 2
+
+
+def test_render_command_takes_a_camera_path_and_a_sensor(tmp_path):
+    from real2code_export.errors import FormatError
+    from real2code_export.formats import object_json
+
+    object_json.save(generate("box", 2, 1), tmp_path / "model")
+    model = str(tmp_path / "model" / "object.json")
+    out = tmp_path / "capture"
+    assert _run_render([model, "--out", str(out), "--views", "4", "--width", "48", "--height",
+                        "48", "--cameras", "handheld", "--distance", "far",
+                        "--capture", "phone-lidar"]) == 0
+    doc = json.loads((out / "transforms.json").read_text())["real2code"]
+    assert doc["camera_path"] == "handheld" and doc["camera_distance"] == "far"
+    assert doc["sensor"]["name"] == "phone-lidar"
+    cap = read_capture(out)
+    assert any(((f.mask > 0) & (f.depth == 0)).any() for f in cap.frames)  # depth went missing
+    bad = tmp_path / "sensor.json"
+    bad.write_text('{"noise_a": "high"}')
+    with pytest.raises(FormatError, match="noise_a"):
+        _run_render([model, "--out", str(tmp_path / "c2"), "--capture", str(bad)])
+    assert not (tmp_path / "c2").exists()

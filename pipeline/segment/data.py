@@ -64,10 +64,28 @@ def _colours(names: list[str], original: dict[str, tuple], rng: np.random.Genera
     return {n: tuple(rng.uniform(0.05, 0.9, 3)) for n in names}
 
 
-def object_views(obj, rng: np.random.Generator, views: int) -> list[View]:
-    """``views`` training views of ``obj`` at a random, mostly partly-open configuration."""
-    from ..predictors.data import ajar_configuration
+# How the shipped weights' views were taken: the front arc, exact depth. ``--cameras`` and
+# ``--sensors`` of the training command draw each object's path and sensor from lists.
+SHIPPED_CAMERAS = ("front-arc",)
+SHIPPED_SENSORS = ("clean",)
+
+
+def _pick(options: tuple[str, ...], rng: np.random.Generator) -> str:
+    """One of ``options``; a single option draws nothing (the shipped data stay as made)."""
+    return options[0] if len(options) == 1 else options[int(rng.integers(len(options)))]
+
+
+def object_views(obj, rng: np.random.Generator, views: int,
+                 cameras: tuple[str, ...] = SHIPPED_CAMERAS,
+                 sensors: tuple[str, ...] = SHIPPED_SENSORS) -> list[View]:
+    """``views`` training views of ``obj`` at a random, mostly partly-open configuration,
+    from a camera path and through a sensor (preset) drawn from ``cameras`` and ``sensors``;
+    a degraded frame's depth is cleaned as reconstruction cleans it
+    (:func:`pipeline.depth_cleanup.clean_depth`), so the network learns what it will see."""
+    from ..depth_cleanup import clean_depth
     from ..render import Lighting, render_object
+    from ..sensors import degrade, load_sensor
+    from ..predictors.data import ajar_configuration
 
     q = ajar_configuration(obj, rng)
     for j in obj.movable_joints:
@@ -81,16 +99,21 @@ def object_views(obj, rng: np.random.Generator, views: int) -> list[View]:
     fov = rng.uniform(40.0, 60.0)
     cap = render_object(obj, q=q, views=12, width=RENDER_SIZE, height=RENDER_SIZE,
                         fov_deg=fov, seed=int(rng.integers(2**31)), colors=colours,
-                        lighting=lighting, background=background)
+                        lighting=lighting, background=background,
+                        cameras=_pick(cameras, rng))
+    sensor = load_sensor(_pick(sensors, rng))
+    if sensor.name != "clean":
+        cap = degrade(cap, sensor, int(rng.integers(2**31)))
     picks = rng.choice(len(cap.frames), size=min(views, len(cap.frames)), replace=False)
     out = []
     for k in sorted(picks):
         f = cap.frames[k]
         if not f.mask.any():
             continue
-        window = jittered_window(f.depth, rng)
+        depth = clean_depth(f.depth)[0] if sensor.name != "clean" else f.depth
+        window = jittered_window(depth, rng)
         c = f.camera
-        out.append(View(sample_rgb(f.rgb, window), sample_nearest(f.depth, window),
+        out.append(View(sample_rgb(f.rgb, window), sample_nearest(depth, window),
                         sample_nearest(f.mask.astype(np.uint8), window),
                         (c.fl_x, c.fl_y, c.cx, c.cy, c.height, c.width), window))
     return out
@@ -99,18 +122,20 @@ def object_views(obj, rng: np.random.Generator, views: int) -> list[View]:
 def _one(spec) -> list[View]:
     from ..procedural import generate
 
-    category, n_parts, seed, views = spec
+    category, n_parts, seed, views, cameras, sensors = spec
     return object_views(generate(category, n_parts, seed), np.random.default_rng(seed + 77),
-                        views)
+                        views, cameras, sensors)
 
 
 def make_views(n_objects: int, seed: int, views_per_object: int = 4,
-               workers: int = 2) -> list[View]:
+               workers: int = 2, cameras: tuple[str, ...] = SHIPPED_CAMERAS,
+               sensors: tuple[str, ...] = SHIPPED_SENSORS) -> list[View]:
     """Views of ``n_objects`` procedural objects (the joint predictor's mix of categories
     and part counts; seeds below the evaluation's held-out offset)."""
     from ..predictors.data import object_specs
 
-    specs = [(c, n, s, views_per_object) for c, n, s in object_specs(n_objects, seed)]
+    specs = [(c, n, s, views_per_object, tuple(cameras), tuple(sensors))
+             for c, n, s in object_specs(n_objects, seed)]
     if workers > 1:
         from multiprocessing import get_context
 

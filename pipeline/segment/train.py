@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..weights import save_weights
-from .data import View, make_views
+from .data import SHIPPED_CAMERAS, SHIPPED_SENSORS, View, make_views
 from .features import SIZE, grid_features
 from .learned import WEIGHTS
 
@@ -226,7 +226,9 @@ def _cached(cache_dir: Path | None, tag: str, make):
 def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch: int = 8,
           prompts_per_image: int = 24, workers: int = 2, views_per_object: int = 4,
           network_config: dict | None = None, lr: float = 3e-3,
-          cache_dir: Path | None = None, init: Path | None = None) -> dict:
+          cache_dir: Path | None = None, init: Path | None = None,
+          cameras: tuple[str, ...] = SHIPPED_CAMERAS,
+          sensors: tuple[str, ...] = SHIPPED_SENSORS) -> dict:
     import torch
 
     from .network import build_network
@@ -234,11 +236,14 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
     torch.manual_seed(seed)
     torch.set_num_threads(max(1, workers))
     t0 = time.perf_counter()
-    views = _cached(cache_dir, f"train_{n_objects}_{seed}_{views_per_object}",
-                    lambda: make_views(n_objects, seed, views_per_object, workers))
+    mix = "" if (tuple(cameras), tuple(sensors)) == (SHIPPED_CAMERAS, SHIPPED_SENSORS) else \
+        "_" + "-".join((*cameras, *sensors)).replace(".", "_").replace("/", "_")
+    views = _cached(cache_dir, f"train_{n_objects}_{seed}_{views_per_object}{mix}",
+                    lambda: make_views(n_objects, seed, views_per_object, workers, cameras,
+                                       sensors))
     n_val = max(40, n_objects // 20)
-    val = _cached(cache_dir, f"val_{n_val}_{seed + 7919}",
-                  lambda: make_views(n_val, seed + 7919, 2, workers))
+    val = _cached(cache_dir, f"val_{n_val}_{seed + 7919}{mix}",
+                  lambda: make_views(n_val, seed + 7919, 2, workers, cameras, sensors))
     t_data = time.perf_counter() - t0
     print(f"{len(views)} training views, {len(val)} validation views in {t_data:.0f} s",
           flush=True)
@@ -254,7 +259,8 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
         config = {"network": network_config or DEFAULT_NETWORK}
         net = build_network(**{**config["network"],
                                "widths": tuple(config["network"]["widths"])})
-    config["input"] = {"window": "object"}  # what make_views cuts (data.py)
+    config["input"] = {"window": "object", "cameras": list(cameras),  # what make_views
+                       "sensors": list(sensors)}  # cuts and how its views were taken
     opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=1e-4)
     per_epoch = (len(views) + images_per_batch - 1) // images_per_batch
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=lr, total_steps=epochs * per_epoch,
@@ -319,9 +325,15 @@ def main(argv=None) -> None:
     p.add_argument("--out", type=Path, default=WEIGHTS)
     p.add_argument("--cache-dir", type=Path, default=None,
                    help="keep rendered views here between runs")
+    p.add_argument("--cameras", default=",".join(SHIPPED_CAMERAS),
+                   help="camera paths to draw each object's from (pipeline.camera_paths)")
+    p.add_argument("--sensors", default=",".join(SHIPPED_SENSORS),
+                   help="capture presets or sensor JSON files to draw each object's from")
     args = p.parse_args(argv)
     record = train(args.objects, args.epochs, args.seed, args.out, workers=args.workers,
                    cache_dir=args.cache_dir, lr=args.lr, init=args.init,
+                   cameras=tuple(args.cameras.split(",")),
+                   sensors=tuple(args.sensors.split(",")),
                    network_config={"dim": args.dim,
                                    "widths": [int(w) for w in args.widths.split(",")],
                                    "fine": args.fine})

@@ -13,8 +13,29 @@ import time
 from pathlib import Path
 
 # The renderer's defaults, for --help without importing it (a test holds them equal to
-# pipeline.render's DEFAULT_VIEWS and DEFAULT_SIZE).
+# pipeline.render's DEFAULT_VIEWS and DEFAULT_SIZE, and pipeline.camera_paths' names).
 RENDER_VIEWS, RENDER_SIZE = 12, 256
+CAMERA_PATHS, CAMERA_DISTANCES = ("ring", "half-ring", "handheld", "front-arc"), \
+    ("near", "mid", "far")
+CAPTURE_PRESETS = ("clean", "phone-lidar", "structured-light", "time-of-flight")
+# (segmentation, completion) of evaluate reconstruction, by the names its --settings takes
+EVALUATION_SETTINGS = {"gt+completion": ("gt", "learned"),
+                       "gt+segment-only": ("gt", "segment_only"),
+                       "predicted+completion": ("learned", "learned"),
+                       "predicted+segment-only": ("learned", "segment_only")}
+
+
+def add_camera_options(s) -> None:
+    """``--cameras`` and ``--distance``: where a rendered capture's cameras stand."""
+    s.add_argument("--cameras", choices=CAMERA_PATHS, default=CAMERA_PATHS[0],
+                   help="camera path: a full ring (default), a half ring, a hand-held path "
+                   "(uneven spacing and height), or front-arc (an arc facing where the "
+                   "ground-truth joints open: for comparison only)")
+    s.add_argument("--distance", choices=CAMERA_DISTANCES, default="mid",
+                   help="how far the cameras stand: near (the object fills the view), mid, far")
+    s.add_argument("--capture", default="clean", metavar="PRESET",
+                   help="the depth camera's faults: " + ", ".join(CAPTURE_PRESETS)
+                   + " (default clean), or a sensor JSON file of pipeline.sensors' fields")
 
 
 def add_demo_parser(sub) -> None:
@@ -45,6 +66,7 @@ def add_render_parser(sub) -> argparse.ArgumentParser:
     s.add_argument("--state", choices=["observed", "random"], default="observed",
                    help="the model's observed state, or every joint partly open (random)")
     s.add_argument("--seed", type=int, default=0, help="cameras and the random state")
+    add_camera_options(s)
     s.set_defaults(func=cmd_render)
     return s
 
@@ -57,7 +79,8 @@ def cmd_render(args) -> int:
     if args.views < 1 or args.width < 8 or args.height < 8:
         raise Real2CodeError("--views must be >= 1 and --width/--height >= 8")
     capture = render_model(args.model, args.out, views=args.views, width=args.width,
-                           height=args.height, state=args.state, seed=args.seed)
+                           height=args.height, state=args.state, seed=args.seed,
+                           cameras=args.cameras, distance=args.distance, sensor=args.capture)
     print(f"{len(capture.frames)} views of {capture.extra['object']} "
           f"({len(capture.parts)} parts) -> {Path(args.out) / 'transforms.json'}")
     print(f"ground truth -> {capture.ground_truth_path()}")
@@ -151,6 +174,11 @@ def add_evaluate_reconstruction_parser(evaluate_sub) -> argparse.ArgumentParser:
     e.add_argument("--size", type=int, default=256, help="render width and height")
     e.add_argument("--partnet", help="PartNet-Mobility folder (with index.json): add its dev "
                    "and holdout objects")
+    add_camera_options(e)
+    e.add_argument("--settings", default=",".join(EVALUATION_SETTINGS),
+                   help="comma-separated, of " + ", ".join(EVALUATION_SETTINGS) + " (all)")
+    e.add_argument("--splits", default="dev,holdout",
+                   help="which PartNet-Mobility splits to add with --partnet (dev,holdout)")
     e.add_argument("--json", help="write the figures as JSON")
     e.add_argument("--markdown", help="write the tables as markdown")
     e.set_defaults(func=cmd_evaluate_reconstruction)
@@ -166,24 +194,40 @@ def cmd_evaluate_reconstruction(args) -> int:
     from ..errors import Real2CodeError
     from .options import write_evaluation
 
-    sets = {"procedural test set": procedural_cases(args.objects, args.seed)}
+    names = [n.strip() for n in args.settings.split(",") if n.strip()]
+    unknown = [n for n in names if n not in EVALUATION_SETTINGS]
+    if unknown or not names:
+        raise Real2CodeError(f"--settings: unknown {unknown or names}; choose from "
+                             f"{', '.join(EVALUATION_SETTINGS)}")
+    settings = tuple(EVALUATION_SETTINGS[n] for n in names)
+    sets = {"procedural test set": procedural_cases(args.objects, args.seed)} \
+        if args.objects > 0 else {}
     if args.partnet:
         root = Path(args.partnet)
         if not (root / "index.json").is_file():
             raise Real2CodeError(f"{root}: no PartNet-Mobility index.json here")
-        sets["PartNet-Mobility dev"] = partnet_cases(root, "dev", args.seed)
-        sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
-            root, "holdout", args.seed)
-    figures, text = {}, []
+        splits = [x.strip() for x in args.splits.split(",") if x.strip()]
+        if not splits or set(splits) - {"dev", "holdout"}:
+            raise Real2CodeError(f"--splits: expected dev and/or holdout, got {args.splits!r}")
+        if "dev" in splits:
+            sets["PartNet-Mobility dev"] = partnet_cases(root, "dev", args.seed)
+        if "holdout" in splits:
+            sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
+                root, "holdout", args.seed)
+    conditions = {"cameras": args.cameras, "distance": args.distance, "capture": args.capture}
+    figures, text = {"conditions": conditions}, []
     for set_name, cases in sets.items():
         results = evaluate(cases, views=args.views, size=args.size, seed=args.seed,
+                           cameras=args.cameras, distance=args.distance, sensor=args.capture,
+                           settings=settings,
                            progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
         tables = {SETTING_NAMES[k]: r.table() for k, r in results.items()}
         figures[set_name] = {
             SETTING_NAMES[k]: {"buckets": r.table(), "failures": r.failures,
                                "seconds_per_object": float(np.mean(r.seconds or [0.0]))}
             for k, r in results.items()}
-        text.append(markdown(f"{set_name} ({len(cases)} objects)", tables,
+        text.append(markdown(f"{set_name} ({len(cases)} objects; cameras {args.cameras}, "
+                             f"{args.distance}; capture {args.capture})", tables,
                              show_paper=set_name.startswith("procedural")))
     write_evaluation(args, "\n\n".join(text), figures)
     return 0
