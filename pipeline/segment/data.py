@@ -83,9 +83,9 @@ def object_views(obj, rng: np.random.Generator, views: int,
     a degraded frame's depth is cleaned as reconstruction cleans it
     (:func:`pipeline.depth_cleanup.clean_depth`), so the network learns what it will see."""
     from ..depth_cleanup import clean_depth
+    from ..predictors.data import ajar_configuration
     from ..render import Lighting, render_object
     from ..sensors import degrade, load_sensor
-    from ..predictors.data import ajar_configuration
 
     q = ajar_configuration(obj, rng)
     for j in obj.movable_joints:
