@@ -285,8 +285,10 @@ def test_reconstruct_a_rendered_capture(tmp_path):
 
     object_json.save(generate("laptop", 2, 7), tmp_path / "model")
     capture = tmp_path / "captures" / "laptop"
+    # the front arc: the views the shipped mask network was trained on (on a ring it
+    # over-segments until it is retrained: issue 20, docs/evaluation.md)
     render_model(tmp_path / "model" / "object.json", capture, views=6, width=128, height=128,
-                 state="random", seed=1)
+                 state="random", seed=1, cameras="front-arc")
     summary = run_batch("reconstruct", [tmp_path / "captures"], tmp_path / "out", options=FAST,
                         workers=1, progress=False)
     assert summary.counts["ok"] == 1, summary.failed
