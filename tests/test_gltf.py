@@ -22,6 +22,7 @@ from real2code_export.formats import export as export_formats
 from real2code_export.formats import gltf
 from real2code_export.formats import load as load_any
 from real2code_export.formats.gltf import validator as gltf_validator
+from real2code_export.formats.gltf.physics import BOX_CORNERS, BOX_FACES, box_mesh
 from real2code_export.model import (
     ArticulatedObject,
     Dynamics,
@@ -251,7 +252,8 @@ def test_validator_missing_gives_install_hint(monkeypatch, tmp_path, exported):
 def test_file_structure(documents):
     doc = documents["cabinet"]
     obj = OBJECTS["cabinet"]
-    assert doc.extensionsUsed == ["KHR_physics_rigid_bodies"] and not doc.extensionsRequired
+    assert doc.extensionsUsed == ["KHR_physics_rigid_bodies", "KHR_implicit_shapes"]
+    assert not doc.extensionsRequired
     root = doc.nodes[doc.scenes[doc.scene].nodes[0]]
     assert root.rotation == pytest.approx([-math.sqrt(0.5), 0, 0, math.sqrt(0.5)])
     nodes = {n.name: n for n in doc.nodes}
@@ -263,13 +265,11 @@ def test_file_structure(documents):
     material = doc.materials[door.material]
     assert material.pbrMetallicRoughness.baseColorFactor == list(obj.part("door").color)
     assert material.alphaMode == "BLEND"
-    # collision pieces: colliders under the part, their meshes on nodes outside the scene
+    # collision pieces: colliders under the part; a box is an implicit shape the collider
+    # node places, any other piece's mesh is on a node outside the scene
     physics = doc.extensions["KHR_physics_rigid_bodies"]
-    collider = nodes["door_collision_0"].extensions["KHR_physics_rigid_bodies"]["collider"]
-    geometry = doc.nodes[collider["geometry"]["node"]]
-    assert geometry.mesh is not None and collider["geometry"]["convexHull"] is True
-    in_scene = {c for n in doc.nodes for c in n.children} | set(doc.scenes[0].nodes)
-    assert collider["geometry"]["node"] not in in_scene
+    kinds = [_collider_kinds(documents[o.name], o) for o in OBJECTS.values()]
+    assert set().union(*kinds) == {"box", "mesh"} and kinds[list(OBJECTS).index("cabinet")]
     # the hinge: attachment frames with X along the axis, limits about X, the passive drive
     joint = nodes["door_hinge_attach_parent"].extensions["KHR_physics_rigid_bodies"]["joint"]
     assert doc.nodes[joint["connectedNode"]].name == "door_hinge_attach_child"
@@ -614,3 +614,32 @@ def test_a_range_wider_than_a_turn_is_swept_once_and_kept(tmp_path):
     back = gltf.load(path)
     assert back.joint(joint.name).limits.lower == -1e16
     assert back.joint(joint.name).limits.upper == 1e16
+
+
+def _collider_kinds(doc, obj) -> set[str]:
+    """Check each collision piece's collider; the kinds seen ("box", "mesh")."""
+    nodes = {n.name: n for n in doc.nodes}
+    shapes = (doc.extensions or {}).get("KHR_implicit_shapes", {}).get("shapes", [])
+    in_scene = {c for n in doc.nodes for c in n.children} | set(doc.scenes[0].nodes)
+    kinds = set()
+    for part in obj.parts:
+        for k, piece in enumerate(part.collision):
+            node = nodes[f"{part.name}_collision_{k}"]
+            geometry = node.extensions["KHR_physics_rigid_bodies"]["collider"]["geometry"]
+            if "shape" in geometry:
+                shape = shapes[geometry["shape"]]
+                assert shape["type"] == "box" and node.mesh is None
+                placed = box_mesh(shape["box"]["size"], local_matrix(node)).vertices
+                assert np.allclose(placed, piece.vertices, atol=1e-6, rtol=0)
+                kinds.add("box")
+            else:
+                assert geometry["convexHull"] is True and geometry["node"] not in in_scene
+                assert doc.nodes[geometry["node"]].mesh is not None
+                kinds.add("mesh")
+    return kinds
+
+
+def test_box_layout_is_trimesh_s():
+    """Box pieces are recognised by trimesh.creation.box's layout, written out in physics.py."""
+    unit = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    assert np.array_equal(unit.vertices, BOX_CORNERS) and np.array_equal(unit.faces, BOX_FACES)

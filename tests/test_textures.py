@@ -139,3 +139,28 @@ def test_obj_corners_with_two_coordinates_become_two_vertices(tmp_path):
     assert len(mesh.vertices) == 5 and len(mesh.faces) == 2
     corner_uv = {tuple(mesh.vertices[i][:2]) + tuple(mesh.uv[i]) for i in mesh.faces.ravel()}
     assert (0.0, 0.0, 0.0, 0.0) in corner_uv and (0.0, 0.0, 0.5, 0.5) in corner_uv
+
+
+def test_a_khr_physics_file_without_our_extras_keeps_its_texture(tmp_path):
+    """Other tools' glTF (no real2code extras) is read through KHR_physics_rigid_bodies: the
+    textured door keeps its image and coordinates."""
+    import pygltflib
+    from PIL import Image
+
+    from real2code_export.errors import Real2CodeWarning
+
+    obj = textured_cabinet()
+    written = export(obj, tmp_path, ["gltf"])
+    doc = pygltflib.GLTF2.load(str(written["gltf"]))
+    for item in [*doc.nodes, *doc.animations, *(p for m in doc.meshes for p in m.primitives)]:
+        item.extras = {}
+    foreign = tmp_path / "foreign.glb"
+    doc.save(str(foreign))
+    with pytest.warns(Real2CodeWarning, match="KHR_physics_rigid_bodies"):
+        back = load(foreign)
+    door = next(p for p in back.parts if p.texture is not None)
+    same = [np.asarray(Image.open(io.BytesIO(t.image)).convert("RGBA"))
+            for t in (obj.part("door").texture, door.texture)]
+    assert np.array_equal(*same)
+    assert np.abs(door.visual.uv - obj.part("door").visual.uv).max() <= UV_TOL
+    assert [p.name for p in back.parts if p.texture is not None] == [door.name]

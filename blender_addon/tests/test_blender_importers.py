@@ -26,6 +26,10 @@ def test_gltf_importer_plays_every_joint(blender, generated):
     files = generated["storage_furniture"]
     model = load(files["json"])
     assert blender.ops.import_scene.gltf(filepath=str(files["gltf"])) == {"FINISHED"}
+    # box collision pieces are implicit shapes: no collider mesh for the importer to show
+    assert "Orphan Nodes" not in blender.data.collections
+    assert {ob.name for ob in blender.data.objects if ob.type == "MESH"} == \
+        {p.name for p in model.parts if p.visual is not None}
     objects = blender.data.objects
     scene = blender.context.scene
     movable = model.movable_joints

@@ -33,7 +33,7 @@ from ...model import (
 )
 from .conventions import KHR_PHYSICS, KHR_SHAPES, khr, node_matrix, rotation_from_xyzw
 from .document import Document, rigid
-from .physics import FreeAxis, drive_dynamics, free_axis
+from .physics import FreeAxis, box_mesh, drive_dynamics, free_axis
 
 WORLD = -1  # the static world body
 
@@ -49,7 +49,7 @@ def _implicit_shape(doc: Document, index, el: str) -> Mesh:
     kind = shape.get("type")
     params = shape.get(kind, {}) if isinstance(kind, str) else {}
     if kind == "box":
-        mesh = trimesh.creation.box(extents=params.get("size", [1.0, 1.0, 1.0]))
+        return box_mesh(params.get("size", [1.0, 1.0, 1.0]), np.eye(4))
     elif kind == "sphere":
         mesh = trimesh.creation.icosphere(subdivisions=2, radius=params.get("radius", 0.5))
     elif kind in ("cylinder", "capsule"):
@@ -202,7 +202,7 @@ def _joint(doc: Document, desc: dict, parent: int, child: int, a_node: int, b_no
 def _body_part(doc: Document, body: int, name: str, frame: np.ndarray,
                members: list[int]) -> Part:
     to_part = tf.inverse(frame)
-    visuals, collision, color = [], [], None
+    visuals, collision, color, textures = [], [], None, []
     for i in members:
         node = doc.nodes[i]
         if node.mesh is not None:
@@ -210,6 +210,7 @@ def _body_part(doc: Document, body: int, name: str, frame: np.ndarray,
             if len(mesh.faces):
                 visuals.append(mesh)
                 color = color or doc.color(node.mesh)
+                textures.append(doc.texture(node.mesh))
         if "collider" in khr(node.extensions):
             found = _collider(doc, i)
             if found is not None:
@@ -227,5 +228,21 @@ def _body_part(doc: Document, body: int, name: str, frame: np.ndarray,
         com = r @ np.asarray(motion.get("centerOfMass", [0, 0, 0]), float) \
             + body_to_part[:3, 3]
         inertial = Inertial(mass=float(motion.get("mass", 1.0)), com=com, inertia=r @ inertia @ r.T)
-    return Part(name=name, visual=Mesh.concatenate(visuals) if visuals else None,
-                collision=collision, inertial=inertial, color=color or (0.7, 0.7, 0.7, 1.0))
+    visual = Mesh.concatenate(visuals) if visuals else None
+    return Part(name=name, visual=visual, collision=collision, inertial=inertial,
+                color=color or (0.7, 0.7, 0.7, 1.0),
+                texture=_body_texture(doc, textures, visual, doc.element(body) if body != WORLD
+                                      else "the static world"))
+
+
+def _body_texture(doc: Document, textures: list, visual: Mesh | None, el: str):
+    """The one image a body's meshes share. A part holds one texture, so a body whose meshes
+    carry different images, or some none, keeps none, and says so."""
+    images = {t.image for t in textures if t is not None}
+    if not images:
+        return None
+    if len(images) > 1 or None in textures or visual is None or visual.uv is None:
+        warn(f"{doc.path}: {el}: its meshes do not share one base colour texture with "
+             "TEXCOORD_0 on every primitive; a part holds one, so the textures are not kept")
+        return None
+    return next(t for t in textures if t is not None)

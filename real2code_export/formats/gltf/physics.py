@@ -4,9 +4,11 @@ and back.
 Written (following the extension's current draft and its reference Blender exporter):
 - every non-root part that is its own rigid body carries ``motion`` (mass, centre of mass,
   principal inertia and its orientation); the root part is static (fixed to the world);
-- each collision piece is a ``collider`` node under its part whose ``geometry`` names a
-  mesh-only node outside the scene (``convexHull``: the pieces are convex), so nothing
-  renders it;
+- each collision piece is a ``collider`` node under its part. A piece that is a box is a
+  ``KHR_implicit_shapes`` box, the collider node's transform placing it; any other piece's
+  ``geometry`` names a mesh-only node outside the scene (``convexHull``: the pieces are
+  convex), so no viewer renders it (Blender's importer shows such nodes in an "Orphan
+  Nodes" collection: boxes keep that empty for box-built objects such as reconstructions);
 - each joint is a ``joint`` on an attachment node in the parent body whose ``connectedNode``
   is an attachment node in the child body. Both attachment frames have their X axis along
   the joint axis, so the joint is a 1-D angular or linear limit about/along X with every
@@ -26,10 +28,48 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import transforms as tf
-from ...model import ArticulatedObject, Dynamics, Joint, JointType, Part
+from ...model import ArticulatedObject, Dynamics, Joint, JointType, Mesh, Part
 from .conventions import quat_xyzw
 
 LOCK = 1e-9  # a limit with |min|, |max| below this locks its axes
+
+# A unit box as trimesh.creation.box lays it out (the corners in this order, these
+# triangles): the project's box pieces are made by it, so a piece with this layout is a box
+# written as an implicit shape and read back vertex for vertex. Written out rather than
+# imported: the glTF writer does not import trimesh (its import costs more than an export).
+BOX_CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+BOX_FACES = np.array([[1, 3, 0], [4, 1, 0], [0, 3, 2], [2, 4, 0], [1, 7, 3], [5, 1, 4],
+                      [5, 7, 1], [3, 7, 2], [6, 4, 2], [2, 7, 6], [6, 5, 4], [7, 5, 6]])
+BOX_TOLERANCE = 1e-6  # m per metre of the box's place: float32 vertices are this close
+
+
+def box_mesh(size, pose: np.ndarray) -> Mesh:
+    """The box of edge lengths ``size`` at ``pose`` (4x4), in the layout above."""
+    corners = BOX_CORNERS * np.asarray(size, dtype=float)
+    return Mesh(corners @ pose[:3, :3].T + pose[:3, 3], BOX_FACES.copy())
+
+
+def as_box(piece: Mesh) -> tuple[list[float], np.ndarray] | None:
+    """(size, pose) when ``piece`` is a box in the layout above, within float32 rounding;
+    None otherwise. Computed from the float32 vertices a file stores, so the piece read back
+    gives the same numbers again."""
+    if piece.vertices.shape != (8, 3) or not np.array_equal(piece.faces, BOX_FACES):
+        return None
+    v = piece.vertices.astype(np.float32).astype(np.float64)
+    edges = np.stack([v[4] - v[0], v[2] - v[0], v[1] - v[0]], axis=1)
+    size = np.linalg.norm(edges, axis=0)
+    if (size <= 0).any():
+        return None
+    pose = np.eye(4)
+    pose[:3, :3] = edges / size
+    pose[:3, 3] = v.mean(axis=0)
+    r = pose[:3, :3]
+    tol = BOX_TOLERANCE * (1.0 + float(np.abs(v).max()))
+    if not np.allclose(r.T @ r, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0 \
+            or not np.allclose(box_mesh(size, pose).vertices, v, atol=tol, rtol=0):
+        return None
+    pose[:3, :3] = tf.orthonormalize(r)
+    return [float(x) for x in size], pose
 
 
 def has_body(obj: ArticulatedObject, part: Part) -> bool:

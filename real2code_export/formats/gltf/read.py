@@ -100,22 +100,18 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     data = doc.ours(i)
     node = doc.nodes[i]
     visual = doc.mesh(node.mesh, el) if node.mesh is not None else None
-    pieces: dict[int, int] = {}
+    pieces: dict[int, tuple[int, str]] = {}  # k -> (glTF mesh, its element)
     for c in node.children or []:
         k = doc.ours(c).get("collision")
         if k is None:
             continue
-        geometry = khr(doc.nodes[c].extensions).get("collider", {}).get("geometry", {})
-        g = geometry.get("node")
-        if not isinstance(k, int) or k in pieces or not isinstance(g, int) \
-                or not 0 <= g < len(doc.nodes) or doc.nodes[g].mesh is None:
-            raise FormatError(doc.path, doc.element(c), f"collision piece of part {name!r} has no "
-                              f"{KHR_PHYSICS} collider geometry node with a mesh")
-        pieces[k] = g
+        if not isinstance(k, int) or k in pieces:
+            raise FormatError(doc.path, doc.element(c), f"collision piece {k!r} of part "
+                              f"{name!r} is not a new piece number")
+        pieces[k] = _collision_mesh(doc, c, name)
     if sorted(pieces) != list(range(len(pieces))):
         raise FormatError(doc.path, el, f"collision pieces {sorted(pieces)} are not numbered 0..n-1")
-    collision = [doc.mesh(doc.nodes[pieces[k]].mesh, doc.element(pieces[k]))
-                 for k in range(len(pieces))]
+    collision = [doc.mesh(*pieces[k]) for k in range(len(pieces))]
     inertial = None
     if "inertial" in data:
         ind = data["inertial"]
@@ -127,6 +123,23 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     color = tuple(_vector(data.get("color", [0.7, 0.7, 0.7, 1.0]), 4, doc, el, "colour"))
     return Part(name=name, visual=visual, collision=collision, inertial=inertial, color=color,
                 texture=_texture(doc, node.mesh, visual, el))
+
+
+def _collision_mesh(doc: Document, c: int, name: str) -> tuple[int, str]:
+    """The glTF mesh holding collider node ``c``'s piece: our extras name it for a box (an
+    implicit shape in the file), the collider's geometry node holds it otherwise."""
+    mesh = doc.ours(c).get("mesh")
+    if mesh is not None:
+        if not isinstance(mesh, int) or not 0 <= mesh < len(doc.gltf.meshes or []):
+            raise FormatError(doc.path, doc.element(c), f"collision piece of part {name!r} "
+                              f"names mesh {mesh!r}, which does not exist")
+        return mesh, f"meshes[{mesh}]"
+    geometry = khr(doc.nodes[c].extensions).get("collider", {}).get("geometry", {})
+    g = geometry.get("node")
+    if not isinstance(g, int) or not 0 <= g < len(doc.nodes) or doc.nodes[g].mesh is None:
+        raise FormatError(doc.path, doc.element(c), f"collision piece of part {name!r} has no "
+                          f"{KHR_PHYSICS} collider geometry node with a mesh")
+    return doc.nodes[g].mesh, doc.element(g)
 
 
 def _texture(doc: Document, mesh_index: int | None, visual, el: str):

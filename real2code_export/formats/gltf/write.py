@@ -4,7 +4,8 @@ Node tree (names are the model's; the scene holds one root node):
 
     <object>                      rotation: Z up -> Y up; extras: object name, metadata
       <root part>                 mesh: visual; extras: part (colour, inertial)
-        <part>_collision_<k>      KHR collider -> geometry node <part>_collision_<k>_geometry
+        <part>_collision_<k>      KHR collider -> an implicit box (TRS places it), or the
+                                  geometry node <part>_collision_<k>_geometry (outside the scene)
         <joint>                   TRS = joint origin; extras: the joint (type, axis, limits, ...)
           <joint>_attach_parent   KHR joint -> connectedNode <joint>_attach_child
           <child part>            TRS = the joint motion at the observed state (animated)
@@ -50,6 +51,7 @@ from .conventions import (
     EXTRAS_KEY,
     FLOAT,
     KHR_PHYSICS,
+    KHR_SHAPES,
     LINEAR,
     LINEAR_MIPMAP_LINEAR,
     REPEAT,
@@ -272,6 +274,7 @@ def build(obj: ArticulatedObject) -> bytes:
     b = _Builder()
     g = b.g
     physics_joints: list[dict] = []
+    shapes: list[dict] = []  # KHR_implicit_shapes, for box collision pieces
     animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
 
     def material(part: Part) -> int:
@@ -311,9 +314,20 @@ def build(obj: ArticulatedObject) -> bytes:
 
     def add_collider(part: Part, k: int, piece: Mesh) -> int:
         name = f"{part.name}_collision_{k}"
-        geometry = b.node(f"{name}_geometry", mesh=b.mesh(name, encode_collision(piece), None))
-        return b.node(name, extras={EXTRAS_KEY: {"collision": k}}, extensions={KHR_PHYSICS: {
-            "collider": {"geometry": {"node": geometry, "convexHull": True}}}})
+        mesh = b.mesh(name, encode_collision(piece), None)
+        box = physics.as_box(piece)
+        if box is None:
+            geometry = b.node(f"{name}_geometry", mesh=mesh)
+            return b.node(name, extras={EXTRAS_KEY: {"collision": k}}, extensions={KHR_PHYSICS: {
+                "collider": {"geometry": {"node": geometry, "convexHull": True}}}})
+        # a box: an implicit shape, so no mesh node for viewers to show; our extras keep the
+        # piece's own vertices (a mesh no node uses) for a lossless read
+        size, pose = box
+        shapes.append({"type": "box", "box": {"size": size}})
+        return b.node(name, translation=_floats(pose[:3, 3]), rotation=quat_xyzw(pose[:3, :3]),
+                      extras={EXTRAS_KEY: {"collision": k, "mesh": mesh}},
+                      extensions={KHR_PHYSICS: {"collider": {"geometry": {
+                          "shape": len(shapes) - 1}}}})
 
     def add_joint(joint: Joint) -> int:
         node = b.node(joint.name, translation=_floats(joint.origin[:3, 3]),
@@ -348,8 +362,10 @@ def build(obj: ArticulatedObject) -> bytes:
     uses_physics = physics_joints or any(n.extensions for n in b.gltf.nodes)
     if physics_joints:
         b.gltf.extensions = {KHR_PHYSICS: {"physicsJoints": physics_joints}}
-    if uses_physics:
-        b.gltf.extensionsUsed = [KHR_PHYSICS]  # used, not required: viewers may ignore it
+    if shapes:
+        b.gltf.extensions = {**(b.gltf.extensions or {}), KHR_SHAPES: {"shapes": shapes}}
+    if uses_physics:  # used, not required: viewers may ignore them
+        b.gltf.extensionsUsed = [KHR_PHYSICS] + ([KHR_SHAPES] if shapes else [])
     return b.glb()
 
 
