@@ -300,37 +300,50 @@ def shot_gltf_importer(work: Path, samples: int) -> None:
 
 
 def shot_usd_importer(work: Path, samples: int) -> None:
+    """The render, each mesh object's name at its projected centre, and beside it the object
+    tree the importer made (as the Outliner lists it)."""
     import bpy
+    from bpy_extras.object_utils import world_to_camera_view
     from mathutils import Vector
+    from PIL import Image, ImageDraw, ImageFont
 
     usd = next(_export(SAMPLE, "usd", work / "usd").glob("*.usda"))
     scene = _empty_scene()
     assert bpy.ops.wm.usd_import(filepath=str(usd)) == {"FINISHED"}
     bpy.context.view_layer.update()
-    frame = _frame(scene)
-    _stage(scene, frame)
-    ink = bpy.data.materials.new("label")
-    ink.diffuse_color = (0.0, 0.0, 0.0, 1.0)
-    for ob in list(_visible_meshes(scene)):
-        if ob.name == "floor":
+    imported = list(scene.objects)
+    _stage(scene, _frame(scene))
+    size = (960, 720)
+    picture = _open(_render(scene, work / "usd.png", samples, size))
+    draw, font = ImageDraw.Draw(picture), ImageFont.load_default(size=18)
+    for ob in imported:
+        if ob.type != "MESH":
             continue
-        corners = [ob.matrix_world @ Vector(c) for c in ob.bound_box]
-        front = max(corners, key=lambda p: p.x + p.z)
-        text = bpy.data.curves.new(f"label {ob.name}", "FONT")
-        text.body = ob.name
-        text.size = 0.035 * frame[1]
-        text.align_x = "CENTER"
-        label = bpy.data.objects.new(f"label {ob.name}", text)
-        label.location = (front.x + 0.02 * frame[1],
-                          sum(c.y for c in corners) / 8, sum(c.z for c in corners) / 8)
-        track = label.constraints.new("TRACK_TO")
-        track.target, track.track_axis, track.up_axis = scene.camera, "TRACK_Z", "UP_Y"
-        text.materials.append(ink)
-        scene.collection.objects.link(label)
-    _publish(_open(_render(scene, work / "usd.png", samples, (960, 720))),
-             DOCS / "blender_usd_importer.png")
+        centre = sum((ob.matrix_world @ Vector(c) for c in ob.bound_box), Vector()) / 8
+        u, v, _ = world_to_camera_view(scene, scene.camera, centre)
+        x, y = u * size[0], (1.0 - v) * size[1]
+        box = draw.textbbox((x, y), ob.name, font=font, anchor="mm")
+        draw.rectangle((box[0] - 4, box[1] - 3, box[2] + 4, box[3] + 3), fill=(255, 255, 255))
+        draw.text((x, y), ob.name, fill=(0, 0, 0), font=font, anchor="mm")
+
+    lines = ["Outliner, as Blender's USD importer made it:", ""]
+
+    def tree(ob, depth: int) -> None:
+        lines.append(f"{'    ' * depth}{ob.name}  ({ob.type.lower()})")
+        for child in sorted(ob.children, key=lambda o: o.name):
+            tree(child, depth + 1)
+
+    for ob in sorted((o for o in imported if o.parent is None), key=lambda o: o.name):
+        tree(ob, 0)
+    panel = Image.new("RGB", (440, size[1]), (250, 250, 250))
+    ImageDraw.Draw(panel).multiline_text((16, 16), "\n".join(lines), fill=(0, 0, 0),
+                                          font=ImageFont.load_default(size=16), spacing=6)
+    sheet = Image.new("RGB", (size[0] + panel.width, size[1]), (255, 255, 255))
+    sheet.paste(picture, (0, 0))
+    sheet.paste(panel, (size[0], 0))
+    _publish(sheet, DOCS / "blender_usd_importer.png")
     print("blender_usd_importer: " + ", ".join(
-        sorted(o.name for o in scene.objects if o.type == "MESH" and o.name != "floor")))
+        sorted(o.name for o in imported if o.type == "MESH")))
 
 
 SHOTS = {"blender_cabinet": shot_cabinet, "blender_artist": shot_artist,

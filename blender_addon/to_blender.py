@@ -145,6 +145,11 @@ def _part_object(object_name: str, part: Part, index: int, parent, parent_invers
         data.set_sharp_from_angle(angle=SHARP_ANGLE)
         data.materials.append(_material(f"{object_name}.{part.name}", part.color, made,
                                         part.texture))
+        if part.maps:
+            from real2code_export.errors import warn
+
+            warn(f"part {part.name!r}: its {', '.join(sorted(part.maps))} map(s) are not "
+                 "brought into Blender (the add-on carries the base colour image only)")
     ob = made.add(bpy.data.objects.new(part.name, data))
     if data is None:
         ob.empty_display_type, ob.empty_display_size = "CUBE", 0.02

@@ -51,6 +51,17 @@ def texture_relpath(part: Part) -> str:
     return f"{MESH_DIR}/{part.name}_texture{part.texture.suffix}"
 
 
+def map_relpath(part: Part, role: str) -> str:
+    """Where a part's material map (``PBR_MAPS``) goes, beside its meshes."""
+    return f"{MESH_DIR}/{part.name}_{role}{part.maps[role].suffix}"
+
+
+def image_files(part: Part) -> dict[str, bytes]:
+    """relpath -> encoded image, for every image on the part (base colour and maps)."""
+    out = {texture_relpath(part): part.texture.image} if part.texture is not None else {}
+    return out | {map_relpath(part, role): t.image for role, t in part.maps.items()}
+
+
 def obj_bytes(mesh: Mesh, exact: bool = False, material: str | None = None) -> bytes:
     """OBJ text: 9 decimals (nanometres) for exports, or the shortest exact float64 text
     (``exact=True``, for the lossless object.json); texture coordinates as ``vt`` (one per
@@ -107,16 +118,26 @@ def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = Fal
     return written
 
 
+def warn_maps_not_referenced(obj: ArticulatedObject, format_name: str) -> None:
+    """A format whose materials hold the base colour image only: each part's other maps are
+    written beside the meshes but the file does not use them; say so."""
+    for part in obj.parts:
+        if part.maps:
+            warn(f"{format_name}: part {part.name!r}: its {', '.join(sorted(part.maps))} "
+                 f"map(s) are not used by the {format_name} file (it keeps the base colour "
+                 "image only); the images are written beside the meshes")
+
+
 def write_texture_images(obj: ArticulatedObject, out_dir: Path) -> dict[str, Path]:
     """Only the textured parts' images (formats that hold geometry inline, as USD does, still
     refer to them as files); returns relpath -> absolute path."""
     written = {}
     for part in obj.parts:
-        if part.texture is not None:
-            path = out_dir / texture_relpath(part)
+        for relpath, image in image_files(part).items():
+            path = out_dir / relpath
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_bytes(part.texture.image)
-            written[texture_relpath(part)] = path
+            path.write_bytes(image)
+            written[relpath] = path
     return written
 
 
@@ -202,11 +223,19 @@ def _read_obj(path: Path, source, element, line) -> MeshFile:
     return MeshFile(mesh, _area_weighted_color(mesh, material, materials), texture)
 
 
+_MTL_MAPS = ("normal_texname", "bump_texname", "roughness_texname", "metallic_texname",
+             "emissive_texname")  # tinyobjloader's fields for the maps beside map_Kd
+
+
 def _obj_texture(path: Path, mesh: Mesh, material: np.ndarray, materials) -> Texture | None:
     """The colour image (``map_Kd``) the OBJ's faces use: one per mesh, as a part has one;
     more, a missing image, or one without texture coordinates to place it are warned about
     (the part keeps its colour, as viewers show it)."""
     used = sorted({int(k) for k in np.unique(material) if 0 <= k < len(materials)})
+    others = sorted({f"{field.removesuffix('_texname')} ({getattr(materials[k], field)})"
+                     for k in used for field in _MTL_MAPS if getattr(materials[k], field)})
+    if others:  # MTL's PBR extension spreads glTF's maps over channels: not read yet
+        warn(f"{path}: material maps {', '.join(others)} are not kept; the colour image is")
     names = list(dict.fromkeys(materials[k].diffuse_texname for k in used
                                if materials[k].diffuse_texname))
     if not names:

@@ -239,6 +239,12 @@ class Joint:
         return self.origin @ self.motion(q)
 
 
+# The material maps beside the base colour, as glTF 2.0 defines them (the formats map them
+# to theirs): metallic_roughness (G roughness, B metallic, linear), normal (tangent space,
+# +Y up as OpenGL), occlusion (R, linear), emissive (sRGB colour).
+PBR_MAPS = ("metallic_roughness", "normal", "occlusion", "emissive")
+
+
 @dataclass(eq=False)
 class Part:
     name: str
@@ -247,10 +253,16 @@ class Part:
     inertial: Inertial | None = None
     color: tuple[float, float, float, float] = DEFAULT_COLOR
     texture: Texture | None = None  # the colour image on the visual mesh (needs its UVs)
+    maps: dict[str, Texture] = field(default_factory=dict)  # PBR_MAPS role -> image
 
     def __post_init__(self) -> None:
         self.color = tuple(float(c) for c in self.color)
-        if self.texture is not None and (self.visual is None or self.visual.uv is None):
+        unknown = sorted(set(self.maps) - set(PBR_MAPS))
+        if unknown:
+            raise ModelError(f"part {self.name!r}", f"unknown material maps {unknown}: "
+                             f"one of {', '.join(PBR_MAPS)}")
+        if (self.texture is not None or self.maps) and (self.visual is None
+                                                        or self.visual.uv is None):
             raise ModelError(f"part {self.name!r}", "a texture needs a visual mesh with "
                              "texture coordinates")
 
@@ -590,6 +602,9 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
                 out.append(f"{el}: inertia differs")
         out.extend(_mesh_differences(el + " visual", x.visual, y.visual, tol))
         out.extend(_texture_differences(el, x.texture, y.texture))
+        for role in PBR_MAPS:
+            out.extend(_texture_differences(f"{el} {role} map", x.maps.get(role),
+                                            y.maps.get(role)))
         if len(x.collision) != len(y.collision):
             out.append(f"{el}: {len(x.collision)} vs {len(y.collision)} collision pieces")
         else:

@@ -43,13 +43,14 @@ def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
             visual = visuals[0]
         elif visuals:
             visual = Mesh.concatenate(visuals)
-        textures = [p.texture for p in members if p.texture is not None]
-        texture = textures[0] if len(textures) == 1 else None
-        if textures and (texture is None or visual is None or visual.uv is None):
+        textured = [p for p in members if p.texture is not None or p.maps]
+        texture, maps = (textured[0].texture, textured[0].maps) if len(textured) == 1 \
+            else (None, {})
+        if textured and (len(textured) > 1 or visual is None or visual.uv is None):
             warn(f"part {kept.name!r}: merged with the parts fixed to it, whose meshes do not all "
-                 "carry texture coordinates for one image: the texture is not kept")
-            texture = None
-        parts.append(Part(kept.name, visual, collision, inertial, kept.color, texture))
+                 "carry texture coordinates for one material: its images are not kept")
+            texture, maps = None, {}
+        parts.append(Part(kept.name, visual, collision, inertial, kept.color, texture, dict(maps)))
 
     joints = []
     for j in obj.joints:

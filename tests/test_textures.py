@@ -12,6 +12,7 @@ import pytest
 
 from real2code_export.formats import export, load
 from real2code_export.model import (
+    PBR_MAPS,
     ArticulatedObject,
     Inertial,
     Joint,
@@ -164,3 +165,70 @@ def test_a_khr_physics_file_without_our_extras_keeps_its_texture(tmp_path):
     assert np.array_equal(*same)
     assert np.abs(door.visual.uv - obj.part("door").visual.uv).max() <= UV_TOL
     assert [p.name for p in back.parts if p.texture is not None] == [door.name]
+
+
+def pbr_cabinet() -> ArticulatedObject:
+    """The textured cabinet's door with every glTF material map beside its colour image."""
+    obj = textured_cabinet()
+    door = obj.part("door")
+    maps = {role: Texture(png(8, 8, seed=k + 1), "image/png", role)
+            for k, role in enumerate(PBR_MAPS)}
+    obj.parts[obj.parts.index(door)] = Part(door.name, door.visual, door.collision,
+                                            door.inertial, door.color, door.texture, maps)
+    return obj
+
+
+@pytest.mark.parametrize("fmt", ["json", "gltf", "usd"])
+def test_material_maps_round_trip(tmp_path, fmt):
+    """Metallic-roughness, normal, occlusion and emissive maps come back pixel-equal in the
+    formats whose materials hold them."""
+    obj = pbr_cabinet()
+    back = load(export(obj, tmp_path, [fmt])[fmt])
+    assert sorted(back.part("door").maps) == sorted(PBR_MAPS), fmt
+    assert not differences(obj, back, 1e-6) or _only_mesh_precision(obj, back, fmt)
+    assert back.part("body").maps == {}
+
+
+def test_material_maps_pass_the_validators_and_are_wired_as_their_format_says(tmp_path):
+    import pygltflib
+    from pxr import Usd, UsdShade
+
+    from real2code_export.validators import validate_files
+
+    written = export(pbr_cabinet(), tmp_path, ["gltf", "usd"])
+    for result in validate_files([written["gltf"], written["usd"]]):
+        assert result.errors == 0, result.messages
+    doc = pygltflib.GLTF2.load(str(written["gltf"]))
+    door = next(m for m in doc.materials if m.name == "door")
+    pbr = door.pbrMetallicRoughness
+    assert (pbr.metallicFactor, pbr.roughnessFactor) == (1.0, 1.0)  # the map gives the values
+    assert None not in (pbr.metallicRoughnessTexture, door.normalTexture,
+                        door.occlusionTexture, door.emissiveTexture)
+    stage = Usd.Stage.Open(str(written["usd"]))
+    surface = UsdShade.Shader(next(p for p in stage.Traverse() if p.GetName() == "PreviewSurface"
+                                   and "door" in str(p.GetPath())))
+    wired = {name: surface.GetInput(name).GetConnectedSources()[0][0].sourceName
+             for name in ("diffuseColor", "roughness", "metallic", "normal", "occlusion",
+                          "emissiveColor")}
+    assert wired == {"diffuseColor": "rgb", "roughness": "g", "metallic": "b",
+                     "normal": "rgb", "occlusion": "r", "emissiveColor": "rgb"}
+
+
+@pytest.mark.parametrize("fmt", ["urdf", "mjcf"])
+def test_maps_a_format_cannot_use_are_warned_about(tmp_path, fmt):
+    from real2code_export.errors import Real2CodeWarning
+
+    with pytest.warns(Real2CodeWarning, match="metallic_roughness, normal, occlusion"):
+        back = load(export(pbr_cabinet(), tmp_path, [fmt])[fmt])
+    assert back.part("door").texture is not None and back.part("door").maps == {}
+
+
+def test_an_obj_s_other_material_maps_are_warned_about(tmp_path):
+    from real2code_export.errors import Real2CodeWarning
+    from real2code_export.meshfiles import obj_bytes, read_mesh_file
+
+    (tmp_path / "a.obj").write_bytes(obj_bytes(uv_box(), material="a"))
+    (tmp_path / "wood.png").write_bytes(png())
+    (tmp_path / "a.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd wood.png\nnorm bumps.png\n")
+    with pytest.warns(Real2CodeWarning, match=r"normal \(bumps.png\) are not kept"):
+        assert read_mesh_file(tmp_path / "a.obj").texture is not None

@@ -19,6 +19,7 @@ from .. import atomic
 from ..errors import FormatError, ModelError
 from ..meshfiles import (
     collision_relpath,
+    map_relpath,
     read_mesh,
     texture_from_file,
     texture_relpath,
@@ -26,6 +27,7 @@ from ..meshfiles import (
     write_object_meshes,
 )
 from ..model import (
+    PBR_MAPS,
     ArticulatedObject,
     Dynamics,
     Inertial,
@@ -51,6 +53,7 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                 "color": list(p.color),
                 "visual": visual_relpath(p.name) if p.visual is not None else None,
                 "texture": texture_relpath(p) if p.texture is not None else None,
+                **({"maps": {role: map_relpath(p, role) for role in p.maps}} if p.maps else {}),
                 "collision": [collision_relpath(p.name, k) for k in range(len(p.collision))],
                 "inertial": None
                 if p.inertial is None
@@ -171,17 +174,26 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
                 inertia=_vec(_get(ind, "inertia", path, el), 9, path, el, "inertia").reshape(3, 3),
             )
         color = tuple(_vec(pd.get("color", [0.7, 0.7, 0.7, 1.0]), 4, path, el, "color"))
-        texture = None
-        if pd.get("texture") is not None:
-            image = base / pd["texture"]
+        images = {"texture": pd.get("texture")}
+        maps = pd.get("maps") or {}
+        if not isinstance(maps, dict) or not set(maps) <= set(PBR_MAPS):
+            raise FormatError(path, el + " maps", f"must map some of {', '.join(PBR_MAPS)} "
+                              "to image files")
+        images |= maps
+        read = {}
+        for role, relpath in images.items():
+            if relpath is None:
+                continue
+            image = base / relpath
             if not image.is_file():
-                raise FormatError(path, el + " texture", f"image file not found: {image}")
+                raise FormatError(path, f"{el} {role}", f"image file not found: {image}")
             if visual is None or visual.uv is None:
-                raise FormatError(path, el + " texture", "needs a visual mesh with texture "
+                raise FormatError(path, f"{el} {role}", "needs a visual mesh with texture "
                                   "coordinates (vt in its OBJ)")
-            texture = texture_from_file(image)
+            read[role] = texture_from_file(image)
+        texture = read.pop("texture", None)
         parts.append(Part(name=name, visual=visual, collision=collision, inertial=inertial,
-                          color=color, texture=texture))
+                          color=color, texture=texture, maps=read))
     joints = []
     for i, jd in enumerate(_get(data, "joints", path, "object")):
         el = f"joints[{i}]"

@@ -222,16 +222,49 @@ class Document:
     def texture(self, mesh_index: int | None) -> Texture | None:
         """The base colour image of the first primitive's material (PNG or JPEG, from the
         binary buffer, a data URI or a file beside the document), if any."""
+        return self.images(mesh_index).get("texture")
+
+    def maps(self, mesh_index: int | None) -> dict[str, Texture]:
+        """The first primitive's material maps beside the base colour (``PBR_MAPS``)."""
+        return {role: t for role, t in self.images(mesh_index).items() if role != "texture"}
+
+    def images(self, mesh_index: int | None) -> dict[str, Texture]:
+        """role ("texture" for the base colour, or a ``PBR_MAPS`` role) -> image, for the
+        first primitive's material. A map on a second set of texture coordinates is not
+        kept (the model holds one), with a warning."""
         if mesh_index is None:
-            return None
+            return {}
         prims = self.gltf.meshes[mesh_index].primitives or []
         if not prims or prims[0].material is None:
-            return None
-        pbr = self.gltf.materials[prims[0].material].pbrMetallicRoughness
-        info = getattr(pbr, "baseColorTexture", None) if pbr is not None else None
-        if info is None:
-            return None
-        el = f"materials[{prims[0].material}].pbrMetallicRoughness.baseColorTexture"
+            return {}
+        k = prims[0].material
+        material = self.gltf.materials[k]
+        pbr = material.pbrMetallicRoughness
+        infos = {
+            "texture": ("pbrMetallicRoughness.baseColorTexture",
+                        getattr(pbr, "baseColorTexture", None) if pbr is not None else None),
+            "metallic_roughness": (
+                "pbrMetallicRoughness.metallicRoughnessTexture",
+                getattr(pbr, "metallicRoughnessTexture", None) if pbr is not None else None),
+            "normal": ("normalTexture", material.normalTexture),
+            "occlusion": ("occlusionTexture", material.occlusionTexture),
+            "emissive": ("emissiveTexture", material.emissiveTexture),
+        }
+        out = {}
+        for role, (field, info) in infos.items():
+            if info is None:
+                continue
+            el = f"materials[{k}].{field}"
+            if (info.texCoord or 0) != 0:
+                warn(f"{self.path}: {el}: on TEXCOORD_{info.texCoord}; only TEXCOORD_0 is "
+                     "kept, so this image is not")
+                continue
+            texture = self._image(info, el)
+            if texture is not None:
+                out[role] = texture
+        return out
+
+    def _image(self, info, el: str) -> Texture | None:
         textures, images = self.gltf.textures or [], self.gltf.images or []
         index = info.index
         if not isinstance(index, int) or not 0 <= index < len(textures) \

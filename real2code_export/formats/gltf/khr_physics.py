@@ -210,7 +210,7 @@ def _body_part(doc: Document, body: int, name: str, frame: np.ndarray,
             if len(mesh.faces):
                 visuals.append(mesh)
                 color = color or doc.color(node.mesh)
-                textures.append(doc.texture(node.mesh))
+                textures.append(doc.images(node.mesh))
         if "collider" in khr(node.extensions):
             found = _collider(doc, i)
             if found is not None:
@@ -229,20 +229,21 @@ def _body_part(doc: Document, body: int, name: str, frame: np.ndarray,
             + body_to_part[:3, 3]
         inertial = Inertial(mass=float(motion.get("mass", 1.0)), com=com, inertia=r @ inertia @ r.T)
     visual = Mesh.concatenate(visuals) if visuals else None
+    images = _body_images(doc, textures, visual,
+                          doc.element(body) if body != WORLD else "the static world")
     return Part(name=name, visual=visual, collision=collision, inertial=inertial,
-                color=color or (0.7, 0.7, 0.7, 1.0),
-                texture=_body_texture(doc, textures, visual, doc.element(body) if body != WORLD
-                                      else "the static world"))
+                color=color or (0.7, 0.7, 0.7, 1.0), texture=images.pop("texture", None),
+                maps=images)
 
 
-def _body_texture(doc: Document, textures: list, visual: Mesh | None, el: str):
-    """The one image a body's meshes share. A part holds one texture, so a body whose meshes
-    carry different images, or some none, keeps none, and says so."""
-    images = {t.image for t in textures if t is not None}
-    if not images:
-        return None
-    if len(images) > 1 or None in textures or visual is None or visual.uv is None:
-        warn(f"{doc.path}: {el}: its meshes do not share one base colour texture with "
-             "TEXCOORD_0 on every primitive; a part holds one, so the textures are not kept")
-        return None
-    return next(t for t in textures if t is not None)
+def _body_images(doc: Document, per_mesh: list[dict], visual: Mesh | None, el: str) -> dict:
+    """The images (base colour and maps) a body's meshes share. A part holds one material, so
+    a body whose meshes carry different images, or some none, keeps none, and says so."""
+    if not any(per_mesh):
+        return {}
+    keys = [{role: t.image for role, t in images.items()} for images in per_mesh]
+    if any(k != keys[0] for k in keys) or visual is None or visual.uv is None:
+        warn(f"{doc.path}: {el}: its meshes do not share one material's images with "
+             "TEXCOORD_0 on every primitive; a part holds one, so the images are not kept")
+        return {}
+    return dict(per_mesh[0])

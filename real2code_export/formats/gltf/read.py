@@ -122,7 +122,7 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
                             inertia=_vector(ind.get("inertia"), 9, doc, el, "inertia").reshape(3, 3))
     color = tuple(_vector(data.get("color", [0.7, 0.7, 0.7, 1.0]), 4, doc, el, "colour"))
     return Part(name=name, visual=visual, collision=collision, inertial=inertial, color=color,
-                texture=_texture(doc, node.mesh, visual, el))
+                **_part_images(_images(doc, node.mesh, visual, el)))
 
 
 def _collision_mesh(doc: Document, c: int, name: str) -> tuple[int, str]:
@@ -142,14 +142,20 @@ def _collision_mesh(doc: Document, c: int, name: str) -> tuple[int, str]:
     return doc.nodes[g].mesh, doc.element(g)
 
 
-def _texture(doc: Document, mesh_index: int | None, visual, el: str):
-    """The mesh's base colour image, where its vertices have the coordinates to place it."""
-    texture = doc.texture(mesh_index)
-    if texture is not None and (visual is None or visual.uv is None):
-        warn(f"{doc.path}: {el}: a base colour texture without TEXCOORD_0 on every primitive; "
-             "the texture is not kept")
-        return None
-    return texture
+def _part_images(images: dict) -> dict:
+    """Part's ``texture`` and ``maps`` fields from :func:`_images`."""
+    return {"texture": images.pop("texture", None), "maps": images}
+
+
+def _images(doc: Document, mesh_index: int | None, visual, el: str) -> dict:
+    """The mesh's base colour image ("texture") and material maps, where its vertices have
+    the coordinates to place them."""
+    images = doc.images(mesh_index)
+    if images and (visual is None or visual.uv is None):
+        warn(f"{doc.path}: {el}: textures ({', '.join(images)}) without TEXCOORD_0 on every "
+             "primitive; they are not kept")
+        return {}
+    return images
 
 
 def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
@@ -222,7 +228,7 @@ def _load_plain(doc: Document) -> ArticulatedObject:
         visual = mesh if len(mesh.faces) else None
         parts.append(Part(name=names[i], visual=visual,
                           color=doc.color(node.mesh) or (0.7, 0.7, 0.7, 1.0),
-                          texture=_texture(doc, node.mesh, visual, doc.element(i))))
+                          **_part_images(_images(doc, node.mesh, visual, doc.element(i)))))
         if i != root:
             parent = parent_mesh_node(i)
             joints.append(Joint(name=sanitize_name(f"{names[i]}_fixed", taken), type=JointType.FIXED,

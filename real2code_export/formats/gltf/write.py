@@ -279,14 +279,29 @@ def build(obj: ArticulatedObject) -> bytes:
 
     def material(part: Part) -> int:
         color = _floats(part.color)
-        pbr = g.PbrMetallicRoughness(baseColorFactor=color, metallicFactor=0.0,
-                                     roughnessFactor=0.8)
+        maps = part.maps
+        # the factors multiply the maps: 1 where a map gives the values
+        pbr = g.PbrMetallicRoughness(baseColorFactor=color,
+                                     metallicFactor=1.0 if "metallic_roughness" in maps else 0.0,
+                                     roughnessFactor=1.0 if "metallic_roughness" in maps else 0.8)
         if part.texture is not None:  # the factor multiplies the image: ours is its tint
             pbr.baseColorTexture = g.TextureInfo(index=b.texture(part.texture))
-        b.gltf.materials.append(g.Material(
+        if "metallic_roughness" in maps:
+            pbr.metallicRoughnessTexture = g.TextureInfo(
+                index=b.texture(maps["metallic_roughness"]))
+        material = g.Material(
             name=part.name, doubleSided=True,  # scans may have inconsistent winding
             alphaMode="BLEND" if color[3] < 1.0 else "OPAQUE", alphaCutoff=None,
-            pbrMetallicRoughness=pbr))
+            pbrMetallicRoughness=pbr)
+        if "normal" in maps:
+            material.normalTexture = g.NormalMaterialTexture(index=b.texture(maps["normal"]))
+        if "occlusion" in maps:
+            material.occlusionTexture = g.OcclusionTextureInfo(
+                index=b.texture(maps["occlusion"]))
+        if "emissive" in maps:
+            material.emissiveTexture = g.TextureInfo(index=b.texture(maps["emissive"]))
+            material.emissiveFactor = [1.0, 1.0, 1.0]
+        b.gltf.materials.append(material)
         return len(b.gltf.materials) - 1
 
     def add_part(part: Part, joint: Joint | None) -> tuple[int, int | None]:

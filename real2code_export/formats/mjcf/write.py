@@ -27,6 +27,7 @@ from ...meshfiles import (
     collision_relpath,
     texture_relpath,
     visual_relpath,
+    warn_maps_not_referenced,
     write_object_meshes,
 )
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
@@ -58,6 +59,7 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     :func:`real2code_export.formats.export` writes them).
     """
     validate(obj)
+    warn_maps_not_referenced(obj, "MJCF")
     out_dir = Path(out_dir)
     if not write_meshes:
         return _write_xml(obj, out_dir)

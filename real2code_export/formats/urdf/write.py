@@ -19,7 +19,12 @@ from lxml import etree
 from ... import atomic
 from ... import transforms as tf
 from ...errors import ModelError, warn
-from ...meshfiles import collision_relpath, visual_relpath, write_object_meshes
+from ...meshfiles import (
+    collision_relpath,
+    visual_relpath,
+    warn_maps_not_referenced,
+    write_object_meshes,
+)
 from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
 from .spec import (
     DEFAULT_EFFORT,
@@ -47,6 +52,7 @@ MUJOCO_COMPILER = (("angle", "radian"), ("discardvisual", "false"), ("fusestatic
 def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
     """Write ``out_dir/<obj.name>.urdf`` (and, if ``write_meshes``, the mesh files)."""
     validate(obj)
+    warn_maps_not_referenced(obj, "URDF")
     out_dir = Path(out_dir)
     text = to_bytes(obj)
     if write_meshes:

@@ -52,12 +52,11 @@ def write_part_geometry(stage, part: Part, body_path: str, material_path: str) -
     material = UsdShade.Material.Define(stage, material_path)
     shader = UsdShade.Shader.Define(stage, f"{material_path}/PreviewSurface")
     shader.CreateIdAttr("UsdPreviewSurface")
-    diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
-    diffuse.Set(Gf.Vec3f(r, g, b))
-    if part.texture is not None:
-        _texture_network(stage, material, material_path, diffuse, part)
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(r, g, b))
     shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(a)
     shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.6)
+    if part.texture is not None or part.maps:
+        _texture_network(stage, material, material_path, shader, part)
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
     body = stage.GetPrimAtPath(body_path)
     UsdShade.MaterialBindingAPI.Apply(body).Bind(material)
@@ -85,12 +84,26 @@ def _texture_coordinates(geom, uv: np.ndarray) -> None:
     st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv, dtype=np.float32)))
 
 
-def _texture_network(stage, material, material_path: str, diffuse, part: Part) -> None:
-    """UsdPreviewSurface's diffuse colour from a UsdUVTexture of the part's image (a file
-    beside the meshes, relative to the layer) through the ``st`` primvar."""
-    from pxr import Sdf, UsdShade
+# role -> (UsdPreviewSurface input and its type, the image's colour space, the outputs read)
+_MAP_INPUTS = {
+    "texture": ("diffuseColor", "Color3f", "sRGB", ("rgb",)),
+    "metallic_roughness": (("roughness", "metallic"), "Float", "raw", ("g", "b")),
+    "normal": ("normal", "Normal3f", "raw", ("rgb",)),
+    "occlusion": ("occlusion", "Float", "raw", ("r",)),
+    "emissive": ("emissiveColor", "Color3f", "sRGB", ("rgb",)),
+}
+_SHADER_NAMES = {"texture": "Image", "metallic_roughness": "MetallicRoughness",
+                 "normal": "Normal", "occlusion": "Occlusion", "emissive": "Emissive"}
 
-    from ...meshfiles import texture_relpath
+
+def _texture_network(stage, material, material_path: str, surface, part: Part) -> None:
+    """UsdPreviewSurface's inputs from UsdUVTextures of the part's images (files beside the
+    meshes, relative to the layer) through the ``st`` primvar: the base colour into
+    diffuseColor, glTF's metallic-roughness map's G and B into roughness and metallic, the
+    normal map (scaled and biased to -1..1) into normal, occlusion's R, emissive's RGB."""
+    from pxr import Gf, Sdf, UsdShade
+
+    from ...meshfiles import map_relpath, texture_relpath
 
     reader = UsdShade.Shader.Define(stage, f"{material_path}/TexCoords")
     reader.CreateIdAttr("UsdPrimvarReader_float2")
@@ -99,15 +112,24 @@ def _texture_network(stage, material, material_path: str, diffuse, part: Part) -
     varname = material.CreateInput("frame:stPrimvarName", Sdf.ValueTypeNames.String)
     varname.Set(ST)
     reader.CreateInput("varname", Sdf.ValueTypeNames.String).ConnectToSource(varname)
-    image = UsdShade.Shader.Define(stage, f"{material_path}/Image")
-    image.CreateIdAttr("UsdUVTexture")
-    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(
-        Sdf.AssetPath(f"./{texture_relpath(part)}"))
-    image.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("sRGB")
-    image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
-        reader.ConnectableAPI(), "result")
-    rgb = image.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
-    diffuse.ConnectToSource(rgb)
+    images = {"texture": texture_relpath(part)} if part.texture is not None else {}
+    images |= {role: map_relpath(part, role) for role in part.maps}
+    for role, relpath in images.items():
+        inputs, kind, colorspace, outputs = _MAP_INPUTS[role]
+        image = UsdShade.Shader.Define(stage, f"{material_path}/{_SHADER_NAMES[role]}")
+        image.CreateIdAttr("UsdUVTexture")
+        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(f"./{relpath}"))
+        image.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(colorspace)
+        image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+            reader.ConnectableAPI(), "result")
+        if role == "normal":  # stored 0..1, a normal is -1..1
+            image.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
+            image.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
+        names = (inputs,) if isinstance(inputs, str) else inputs
+        for name, channel in zip(names, outputs, strict=True):
+            output = image.CreateOutput(channel, getattr(
+                Sdf.ValueTypeNames, "Float3" if channel == "rgb" else "Float"))
+            surface.CreateInput(name, getattr(Sdf.ValueTypeNames, kind)).ConnectToSource(output)
 
 
 # -- reading ---------------------------------------------------------------------------------
@@ -180,19 +202,32 @@ def _read_texture_coordinates(prim, n_points: int, n_corners: int, path,
     return None
 
 
-def read_texture(prim, mesh_prims, path) -> Texture | None:
-    """The image a UsdUVTexture feeds into the bound UsdPreviewSurface's diffuseColor (the
-    part prim's material or its first visual mesh's), read from its file; None without one."""
+def read_images(prim, mesh_prims, path) -> dict[str, Texture]:
+    """role ("texture" for the base colour, or a ``PBR_MAPS`` role) -> image, from the
+    UsdUVTextures that feed the bound UsdPreviewSurface (the part prim's material or its first
+    visual mesh's), read from their files. Roughness and metallic are kept as glTF's one
+    map when they are the G and B of one image; otherwise they are not (packing them would
+    re-encode), with a warning."""
     from pxr import UsdShade
 
     for p in [prim, *mesh_prims]:
         material, _ = UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()
         shader = material.ComputeSurfaceSource()[0] if material else None
-        diffuse = shader.GetInput("diffuseColor") if shader else None
-        if not diffuse:
-            continue
-        for source in diffuse.GetConnectedSources()[0]:
-            texture = UsdShade.Shader(source.source.GetPrim())
+        if shader:
+            return _surface_images(shader, path)
+    return {}
+
+
+def _surface_images(shader, path) -> dict[str, Texture]:
+    from pxr import UsdShade
+
+    from ...meshfiles import texture_from_file
+
+    def source(name: str):
+        """(UsdUVTexture, output name, image file) feeding input ``name``, or None."""
+        put = shader.GetInput(name)
+        for src in (put.GetConnectedSources()[0] if put else []):
+            texture = UsdShade.Shader(src.source.GetPrim())
             if texture.GetIdAttr().Get() != "UsdUVTexture":
                 continue
             file = texture.GetInput("file")
@@ -202,12 +237,29 @@ def read_texture(prim, mesh_prims, path) -> Texture | None:
             image = Path(asset.resolvedPath or "")
             if not asset.resolvedPath or not image.is_file():
                 warn(f"{path}: <{texture.GetPath()}>: image {asset.path!r} not found; the "
-                     "texture is not kept")
+                     f"{name} image is not kept")
                 return None
-            from ...meshfiles import texture_from_file
+            return texture, src.sourceName, image
+        return None
 
-            return texture_from_file(image)
-    return None
+    out = {}
+    for role, (inputs, _, _, outputs) in _MAP_INPUTS.items():
+        if role == "metallic_roughness":
+            rough, metal = source("roughness"), source("metallic")
+            if rough is None and metal is None:
+                continue
+            if rough is None or metal is None or rough[2] != metal[2] \
+                    or (rough[1], metal[1]) != outputs:
+                warn(f"{path}: <{shader.GetPath()}>: roughness and metallic are not the G "
+                     "and B of one image (glTF's metallic-roughness map); not kept")
+                continue
+            found = rough
+        else:
+            found = source(inputs)
+            if found is None:
+                continue
+        out[role] = texture_from_file(found[2])
+    return out
 
 
 def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:

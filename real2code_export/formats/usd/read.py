@@ -35,7 +35,7 @@ from .conventions import (
     stage_units,
     world_transforms,
 )
-from .geometry import read_color, read_mesh, read_texture, shape_mesh
+from .geometry import read_color, read_images, read_mesh, shape_mesh
 from .joint import (
     STATE,
     authored_value,
@@ -164,13 +164,14 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
     visual = (visuals[0] if len(visuals) == 1 else Mesh.concatenate(visuals)) if visuals else None
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
                              f"{path}: {where}")
-    texture = read_texture(prim, visual_prims, path)
-    if texture is not None and (visual is None or visual.uv is None or len(visuals) > 1):
-        warn(f"{path}: {where}: a texture needs one visual mesh with texture coordinates; "
-             "the texture is not kept, the colour is")
-        texture = None
+    images = read_images(prim, visual_prims, path)
+    if images and (visual is None or visual.uv is None or len(visuals) > 1):
+        warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
+             "texture coordinates; they are not kept, the colour is")
+        images = {}
+    texture = images.pop("texture", None)
     return Part(ctx.names[body], visual=visual, collision=collision, inertial=inertial,
-                color=read_color(prim, visual_prims, path), texture=texture)
+                color=read_color(prim, visual_prims, path), texture=texture, maps=images)
 
 
 def _own_descendants(prim):
