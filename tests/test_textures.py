@@ -167,22 +167,25 @@ def test_a_khr_physics_file_without_our_extras_keeps_its_texture(tmp_path):
     assert [p.name for p in back.parts if p.texture is not None] == [door.name]
 
 
-def pbr_cabinet() -> ArticulatedObject:
-    """The textured cabinet's door with every glTF material map beside its colour image."""
+def pbr_cabinet(packed: bool = False) -> ArticulatedObject:
+    """The textured cabinet's door with every glTF material map beside its colour image;
+    ``packed``: occlusion in the metallic-roughness image's R (glTF's ORM packing)."""
     obj = textured_cabinet()
     door = obj.part("door")
     maps = {role: Texture(png(8, 8, seed=k + 1), "image/png", role)
             for k, role in enumerate(PBR_MAPS)}
+    if packed:
+        maps["occlusion"] = maps["metallic_roughness"]
     obj.parts[obj.parts.index(door)] = Part(door.name, door.visual, door.collision,
                                             door.inertial, door.color, door.texture, maps)
     return obj
 
 
-@pytest.mark.parametrize("fmt", ["json", "gltf", "usd"])
+@pytest.mark.parametrize("fmt", ["json", "gltf", "usd", "mjcf"])
 def test_material_maps_round_trip(tmp_path, fmt):
     """Metallic-roughness, normal, occlusion and emissive maps come back pixel-equal in the
-    formats whose materials hold them."""
-    obj = pbr_cabinet()
+    formats whose materials hold them (MJCF: MuJoCo's ORM packs occlusion with them)."""
+    obj = pbr_cabinet(packed=fmt == "mjcf")
     back = load(export(obj, tmp_path, [fmt])[fmt])
     assert sorted(back.part("door").maps) == sorted(PBR_MAPS), fmt
     assert not differences(obj, back, 1e-6) or _only_mesh_precision(obj, back, fmt)
@@ -214,13 +217,15 @@ def test_material_maps_pass_the_validators_and_are_wired_as_their_format_says(tm
                      "normal": "rgb", "occlusion": "r", "emissiveColor": "rgb"}
 
 
-@pytest.mark.parametrize("fmt", ["urdf", "mjcf"])
-def test_maps_a_format_cannot_use_are_warned_about(tmp_path, fmt):
+def test_maps_a_format_cannot_use_are_warned_about(tmp_path):
     from real2code_export.errors import Real2CodeWarning
 
     with pytest.warns(Real2CodeWarning, match="metallic_roughness, normal, occlusion"):
-        back = load(export(pbr_cabinet(), tmp_path, [fmt])[fmt])
+        back = load(export(pbr_cabinet(), tmp_path / "urdf", ["urdf"])["urdf"])
     assert back.part("door").texture is not None and back.part("door").maps == {}
+    with pytest.warns(Real2CodeWarning, match="metallic_roughness map is not used"):
+        back = load(export(pbr_cabinet(), tmp_path / "mjcf", ["mjcf"])["mjcf"])
+    assert sorted(back.part("door").maps) == ["emissive", "normal", "occlusion"]
 
 
 def test_an_obj_s_other_material_maps_are_warned_about(tmp_path):

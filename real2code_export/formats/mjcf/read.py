@@ -385,31 +385,45 @@ class _Reader:
             collision=[mesh for _, mesh in colliding],
             inertial=self._inertial(b, frame, moved),
             color=tuple(float(c) for c in colour) if colour is not None else DEFAULT_COLOR,
-            texture=self._texture(name, [g for g, _ in visual], visual_mesh),
+            **_part_images(self._images(name, [g for g, _ in visual], visual_mesh)),
         )
 
-    def _texture(self, name: str, geoms: list[int], visual: Mesh | None):
-        """The image of the visual geom's material (its RGB texture role), read from the file
-        MuJoCo loaded, where the mesh has the texture coordinates to place it."""
+    def _images(self, name: str, geoms: list[int], visual: Mesh | None) -> dict:
+        """The visual geom's material images by the model's roles ("texture" for MuJoCo's RGB
+        layer; normal, occlusion, emissive; ORM as glTF's metallic-roughness map, its R the
+        occlusion), read from the files MuJoCo loaded, where the mesh has the texture
+        coordinates to place them. Separate roughness or metallic layers are not kept."""
         import mujoco
 
         from ...meshfiles import texture_from_file
 
+        role = mujoco.mjtTextureRole
+        roles = {"texture": role.mjTEXROLE_RGB, "normal": role.mjTEXROLE_NORMAL,
+                 "occlusion": role.mjTEXROLE_OCCLUSION, "emissive": role.mjTEXROLE_EMISSIVE,
+                 "metallic_roughness": role.mjTEXROLE_ORM}
         m = self.model
-        found = []
+        found: dict[str, list[Path]] = {}
         for g in geoms:
             mat = int(m.geom_matid[g])
-            tex = int(m.mat_texid[mat, mujoco.mjtTextureRole.mjTEXROLE_RGB]) if mat >= 0 else -1
-            if tex >= 0 and int(m.tex_pathadr[tex]) >= 0:
-                raw = bytes(m.paths[int(m.tex_pathadr[tex]):]).split(b"\0", 1)[0].decode()
-                found.append(self._texture_file(raw))
+            if mat < 0:
+                continue
+            for ours, theirs in roles.items():
+                tex = int(m.mat_texid[mat, theirs])
+                if tex >= 0 and int(m.tex_pathadr[tex]) >= 0:
+                    raw = bytes(m.paths[int(m.tex_pathadr[tex]):]).split(b"\0", 1)[0].decode()
+                    found.setdefault(ours, []).append(self._texture_file(raw))
+            if any(int(m.mat_texid[mat, r]) >= 0
+                   for r in (role.mjTEXROLE_ROUGHNESS, role.mjTEXROLE_METALLIC)):
+                self.note("roughness and metallic layers not kept (the model holds them as "
+                          "one packed image, MuJoCo's ORM)", name)
         if not found:
-            return None
-        if len(found) > 1 or visual is None or visual.uv is None or not found[0].is_file():
-            self.note("textures not kept (a part holds one image, on one mesh with texture "
-                      "coordinates, from a file)", name)
-            return None
-        return texture_from_file(found[0])
+            return {}
+        if any(len(files) > 1 or not files[0].is_file() for files in found.values()) \
+                or visual is None or visual.uv is None:
+            self.note("textures not kept (a part holds one material, on one mesh with texture "
+                      "coordinates, from files)", name)
+            return {}
+        return {ours: texture_from_file(files[0]) for ours, files in found.items()}
 
     def _texture_file(self, raw: str) -> Path:
         """A texture's file as MuJoCo finds it: absolute, or under texturedir, which is
@@ -571,3 +585,8 @@ def _world_inertial(values) -> Inertial | None:
     mass, cx, cy, cz, ixx, iyy, izz, ixy, ixz, iyz = values
     inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     return Inertial(mass, np.array([cx, cy, cz]), inertia)
+
+
+def _part_images(images: dict) -> dict:
+    """A part's ``texture`` and ``maps`` fields from the images by role."""
+    return {"texture": images.pop("texture", None), "maps": images}

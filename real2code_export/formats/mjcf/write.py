@@ -21,13 +21,13 @@ import numpy as np
 from ... import atomic
 from ... import transforms as tf
 from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
-from ...errors import ExportError
+from ...errors import ExportError, warn
 from ...meshfiles import (
     MESH_DIR,
     collision_relpath,
+    map_relpath,
     texture_relpath,
     visual_relpath,
-    warn_maps_not_referenced,
     write_object_meshes,
 )
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
@@ -59,7 +59,11 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     :func:`real2code_export.formats.export` writes them).
     """
     validate(obj)
-    warn_maps_not_referenced(obj, "MJCF")
+    for part in obj.parts:
+        if "metallic_roughness" in part.maps and not _orm(part):
+            warn(f"MJCF: part {part.name!r}: its metallic_roughness map is not used by the MJCF "
+                 "file (MuJoCo packs it with occlusion, in R, as one ORM image); the image is "
+                 "written beside the meshes")
     out_dir = Path(out_dir)
     if not write_meshes:
         return _write_xml(obj, out_dir)
@@ -135,7 +139,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     compiler.savecompiled = False
     compiler.savecanonical = False
     spec.meshdir = meshdir
-    if any(part.texture is not None for part in obj.parts):
+    if any(part.texture is not None or part.maps for part in obj.parts):
         spec.texturedir = meshdir  # images lie beside the meshes (meshfiles.texture_relpath)
     # Limits and dry friction as the other engines have them (engine_settings.py).
     spec.default.joint.solref_limit = list(LIMIT_SOLREF)
@@ -156,8 +160,8 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
             if visual:  # scans are often open or flat: no volume, but an area
                 asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         # (in memory, for kinematics and dynamics only, no image is needed: none is added)
-        if part.texture is not None and not in_memory:
-            _add_texture(spec, part)
+        if (part.texture is not None or part.maps) and not in_memory:
+            _add_material(spec, part)
 
     joints = list(obj.joints_in_tree_order())
     root = obj.root
@@ -169,7 +173,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     for joint in joints:
         bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
     for part in parts:
-        if part.texture is not None and not in_memory:
+        if (part.texture is not None or part.maps) and not in_memory:
             spec.geom(f"{part.name}_visual").material = texture_name(part)
     for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
         spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
@@ -202,17 +206,44 @@ def _qpos(joint: Joint) -> list[float]:
     return [joint.state] if joint.type.movable else []
 
 
-def _add_texture(spec, part: Part) -> None:
-    """A 2D texture asset of the part's image and a material that shows it (its colour the
-    part's, a tint as glTF's factor is); MuJoCo reads the texture coordinates from the OBJ."""
+def _add_material(spec, part: Part) -> None:
+    """A material on the part's images: the colour image in the RGB role (the part's colour a
+    tint, as glTF's factor is), and the maps in MuJoCo's layer roles: normal, occlusion,
+    emissive, and glTF's metallic-roughness map as ORM where the occlusion map is that same
+    image (glTF's packing: occlusion R, roughness G, metallic B). MuJoCo reads the texture
+    coordinates from the OBJ."""
     import mujoco
 
-    spec.add_texture(name=texture_name(part), type=mujoco.mjtTexture.mjTEXTURE_2D,
-                     file=texture_relpath(part).removeprefix(MESH_DIR + "/"))
+    role = mujoco.mjtTextureRole
+    linear, srgb = mujoco.mjtColorSpace.mjCOLORSPACE_LINEAR, mujoco.mjtColorSpace.mjCOLORSPACE_SRGB
+    layers = []  # (MuJoCo role, texture name, file, colour space)
+    if part.texture is not None:
+        layers.append((role.mjTEXROLE_RGB, texture_name(part), texture_relpath(part), srgb))
+    for ours, theirs, space in (("normal", role.mjTEXROLE_NORMAL, linear),
+                                ("occlusion", role.mjTEXROLE_OCCLUSION, linear),
+                                ("emissive", role.mjTEXROLE_EMISSIVE, srgb)):
+        if ours in part.maps:
+            layers.append((theirs, f"{part.name}_{ours}", map_relpath(part, ours), space))
+    if _orm(part):
+        layers.append((role.mjTEXROLE_ORM, f"{part.name}_occlusion",
+                       map_relpath(part, "occlusion"), linear))
     material = spec.add_material(name=texture_name(part), rgba=float32(part.color))
     textures = list(material.textures)
-    textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = texture_name(part)
+    added = set()
+    for theirs, name, relpath, space in layers:
+        if name not in added:
+            spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, colorspace=space,
+                             file=relpath.removeprefix(MESH_DIR + "/"))
+            added.add(name)
+        textures[theirs] = name
     material.textures = textures
+
+
+def _orm(part: Part) -> bool:
+    """Whether glTF's metallic-roughness map is the occlusion map too (MuJoCo's ORM)."""
+    maps = part.maps
+    return "metallic_roughness" in maps and "occlusion" in maps \
+        and maps["metallic_roughness"].image == maps["occlusion"].image
 
 
 def texture_name(part: Part) -> str:
