@@ -25,11 +25,12 @@ from ...model import (
     Joint,
     JointType,
     Limits,
+    Mesh,
     Part,
     sanitize_name,
     validate,
 )
-from ..object_json import mimic_from_json
+from ..object_json import mimic_from_json, shape_from_json
 from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
 from .document import Document, rigid
 from .khr_physics import load_khr
@@ -100,7 +101,12 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     data = doc.ours(i)
     node = doc.nodes[i]
     visual = doc.mesh(node.mesh, el) if node.mesh is not None else None
+    shapes = data.get("visual_shapes", [])
+    if visual is not None and isinstance(shapes, list) and shapes:
+        visual = _with_shapes(doc, visual, [shape_from_json(d, doc.path, f"{el} visual_shapes"
+                                                             f"[{k}]") for k, d in enumerate(shapes)])
     pieces: dict[int, int] = {}
+    shapes_of: dict[int, object] = {}  # collision piece -> its shape (extras)
     for c in node.children or []:
         k = doc.ours(c).get("collision")
         if k is None:
@@ -112,10 +118,16 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
             raise FormatError(doc.path, doc.element(c), f"collision piece of part {name!r} has no "
                               f"{KHR_PHYSICS} collider geometry node with a mesh")
         pieces[k] = g
+        if doc.ours(c).get("shape") is not None:
+            shapes_of[k] = doc.ours(c)["shape"]
     if sorted(pieces) != list(range(len(pieces))):
         raise FormatError(doc.path, el, f"collision pieces {sorted(pieces)} are not numbered 0..n-1")
     collision = [doc.mesh(doc.nodes[pieces[k]].mesh, doc.element(pieces[k]))
                  for k in range(len(pieces))]
+    for k, c in enumerate(collision):
+        shape = shapes_of.get(k)
+        if shape is not None:
+            collision[k] = _with_shapes(doc, c, [shape_from_json(shape, doc.path, el)])
     inertial = None
     if "inertial" in data:
         ind = data["inertial"]
@@ -127,6 +139,15 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     color = tuple(_vector(data.get("color", [0.7, 0.7, 0.7, 1.0]), 4, doc, el, "colour"))
     return Part(name=name, visual=visual, collision=collision, inertial=inertial, color=color,
                 texture=_texture(doc, node.mesh, visual, el))
+
+
+def _with_shapes(doc: Document, mesh: Mesh, shapes: list) -> Mesh:
+    """The mesh read (float32) with its shapes restored: its own triangles as read, the
+    shapes' tessellations exactly (our writer puts them at the end)."""
+    own = Mesh(mesh.vertices, mesh.faces, mesh.uv, tuple(shapes)).remainder() \
+        if len(mesh.vertices) >= sum(s.counts()[0] for s in shapes) else None
+    return Mesh.concatenate(([own] if own is not None else []) +
+                            [Mesh.of_primitive(s) for s in shapes])
 
 
 def _texture(doc: Document, mesh_index: int | None, visual, el: str):

@@ -24,8 +24,10 @@ from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import ExportError
 from ...meshfiles import (
     MESH_DIR,
+    collision_file_meshes,
     collision_relpath,
     texture_relpath,
+    visual_file_mesh,
     visual_relpath,
     write_object_meshes,
 )
@@ -41,6 +43,7 @@ from .conventions import (
     float32,
     snap_unit,
 )
+from .geometry import mjcf_geom
 
 SUFFIX = ".xml"
 
@@ -219,8 +222,10 @@ def texture_name(part: Part) -> str:
 
 
 def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:
-    items = [(visual_relpath(part.name), part.visual, True)] if part.visual is not None else []
-    items += [(collision_relpath(part.name, k), m, False) for k, m in enumerate(part.collision)]
+    """The mesh assets: the visual's own mesh and the collision pieces that are not shapes."""
+    visual = visual_file_mesh(part)
+    items = [(visual_relpath(part.name), visual, True)] if visual is not None else []
+    items += [(collision_relpath(part.name, k), m, False) for k, m in collision_file_meshes(part)]
     return items
 
 
@@ -258,14 +263,27 @@ def _add_geoms(body, part: Part) -> None:
 
     mesh_geom = mujoco.mjtGeom.mjGEOM_MESH
     rgba = float32(part.color)
-    if part.visual is not None:
+    visual_only = dict(contype=0, conaffinity=0, group=VISUAL_GROUP, rgba=rgba)
+    if visual_file_mesh(part) is not None:
         body.add_geom(name=f"{part.name}_visual", type=mesh_geom,
-                      meshname=_stem(visual_relpath(part.name)), contype=0, conaffinity=0,
-                      group=VISUAL_GROUP, rgba=rgba)
-    for k in range(len(part.collision)):
-        body.add_geom(name=f"{part.name}_collision_{k}", type=mesh_geom,
-                      meshname=_stem(collision_relpath(part.name, k)), group=COLLISION_GROUP,
-                      rgba=rgba)
+                      meshname=_stem(visual_relpath(part.name)), **visual_only)
+    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
+        body.add_geom(name=f"{part.name}_visual_{k}", **_shape_geom(shape), **visual_only)
+    for k, piece in enumerate(part.collision):
+        name = f"{part.name}_collision_{k}"
+        if piece.primitive is not None:
+            body.add_geom(name=name, **_shape_geom(piece.primitive), group=COLLISION_GROUP,
+                          rgba=rgba)
+        else:
+            body.add_geom(name=name, type=mesh_geom, meshname=_stem(collision_relpath(part.name, k)),
+                          group=COLLISION_GROUP, rgba=rgba)
+
+
+def _shape_geom(shape) -> dict:
+    """A primitive geom's type, size and pose (in its body, the part frame)."""
+    kind, size = mjcf_geom(shape)
+    return dict(type=kind, size=size, pos=[x + 0.0 for x in shape.pose[:3, 3]],
+                quat=snap_unit(tf.matrix_to_quat(shape.pose[:3, :3]), sign_free=True))
 
 
 def _add_joint(body, joint: Joint) -> None:
@@ -325,8 +343,10 @@ def _element_owner(obj: ArticulatedObject, name: str) -> str:
     """Which part or joint a MuJoCo element name belongs to (body, joint, geom, mesh)."""
     owners = []
     for part in obj.parts:
+        shapes = len(part.visual.primitives) if part.visual is not None else 0
         names = {part.name, f"{part.name}_visual"} | {
-            f"{part.name}_collision_{k}" for k in range(len(part.collision))}
+            f"{part.name}_collision_{k}" for k in range(len(part.collision))} | {
+            f"{part.name}_visual_{k}" for k in range(shapes)}
         if name in names:
             owners.append(f"part {part.name!r}" + ("" if name == part.name else f" ({name!r})"))
     owners += [f"joint {j.name!r}" for j in obj.joints if j.name == name]
