@@ -3,7 +3,8 @@
 One body per part, named as the part, posed at its joint origin; the joint (hinge, slide or
 ball) at the body origin; the root a jointless child of the world (fixed base), or the world
 body itself when it is named ``world`` or a floating joint (a free joint) hangs from it; a
-fixed joint a jointless nested body; a mimic a joint equality. Each body has its explicit
+fixed joint a jointless nested body (a frame, with no mass, geometry or children, a site); a
+mimic a joint equality. Each body has its explicit
 inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
 one colliding mesh geom per convex piece (group 3). Every parent/child pair is excluded from
 contact. What MJCF has no place for is kept in the keyframe "observed" (joint states) and in
@@ -167,12 +168,16 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         _add_geoms(spec.worldbody, root)
     else:
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
+    sites = site_parts(obj)
     for joint in joints:
+        if joint.child in sites:  # a frame: a site of its parent's body
+            _add_site(bodies[joint.parent], joint)
+            continue
         bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
     for part in parts:
         if part.texture is not None and not in_memory:
             spec.geom(f"{part.name}_visual").material = texture_name(part)
-    for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
+    for joint in (j for j in joints if j.child not in sites):  # explicit, not only MuJoCo's
         spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
     for joint in joints:  # our joints have no ref: qpos0 = 0, polycoef = offset, multiplier
         if joint.mimic is not None:
@@ -184,6 +189,23 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     if qpos:  # bodies, hence qpos, are in this same depth-first order
         spec.add_key(name=KEYFRAME, qpos=qpos)
     return spec
+
+
+def site_parts(obj: ArticulatedObject) -> set[str]:
+    """The parts written as sites: frames (no mass, no geometry) fixed to their parent, with
+    no part of their own hanging from them (an MJCF site, a URDF frame-only link)."""
+    return {j.child for j in obj.joints
+            if j.type is JointType.FIXED and is_frame(obj.part(j.child))
+            and not obj.child_joints(j.child)}
+
+
+def is_frame(part: Part) -> bool:
+    return part.inertial is None and part.visual is None and not part.collision
+
+
+def _add_site(body, joint: Joint) -> None:
+    body.add_site(name=joint.child, pos=[x + 0.0 for x in joint.origin[:3, 3]],
+                  quat=snap_unit(tf.matrix_to_quat(joint.origin[:3, :3]), sign_free=True))
 
 
 def root_is_world(obj: ArticulatedObject) -> bool:
