@@ -3,8 +3,9 @@
 One body per part, named as the part, posed at its joint origin; the joint (hinge, slide or
 ball) at the body origin; the root a jointless child of the world (fixed base), or the world
 body itself when it is named ``world`` or a floating joint (a free joint) hangs from it; a
-fixed joint a jointless nested body (a frame, with no mass, geometry or children, a site); a
-mimic a joint equality. Each body has its explicit
+fixed joint a jointless nested body (a frame, with no mass, geometry or children, a site); the
+intermediate parts the reader makes for a body with several joints merged back into it
+(:mod:`.structure`); a mimic a joint equality. Each body has its explicit
 inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
 one colliding mesh geom per convex piece (group 3). Every parent/child pair is excluded from
 contact. What MJCF has no place for is kept in the keyframe "observed" (joint states) and in
@@ -45,6 +46,7 @@ from .conventions import (
     snap_unit,
 )
 from .geometry import mjcf_geom
+from .structure import anchors, body_chains, site_parts
 
 SUFFIX = ".xml"
 
@@ -168,39 +170,32 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         _add_geoms(spec.worldbody, root)
     else:
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
-    sites = site_parts(obj)
+    sites, chains = site_parts(obj), body_chains(obj)
+    merged = {j.child for chain in chains.values() for j in chain[:-1]}
     for joint in joints:
         if joint.child in sites:  # a frame: a site of its parent's body
             _add_site(bodies[joint.parent], joint)
-            continue
-        bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
+        elif joint.parent not in merged:  # (the rest of a chain is its first joint's body)
+            chain = chains.get(joint.name, [joint])
+            body = _add_body(bodies[joint.parent], obj.part(chain[-1].child), chain)
+            bodies.update((j.child, body) for j in chain)
     for part in parts:
         if part.texture is not None and not in_memory:
             spec.geom(f"{part.name}_visual").material = texture_name(part)
-    for joint in (j for j in joints if j.child not in sites):  # explicit, not only MuJoCo's
-        spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
+    for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
+        if joint.child not in sites and bodies[joint.parent] is not bodies[joint.child]:
+            spec.add_exclude(bodyname1=bodies[joint.parent].name,
+                             bodyname2=bodies[joint.child].name)
     for joint in joints:  # our joints have no ref: qpos0 = 0, polycoef = offset, multiplier
         if joint.mimic is not None:
             spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, objtype=mujoco.mjtObj.mjOBJ_JOINT,
                               name1=joint.name, name2=joint.mimic.joint,
                               data=[joint.mimic.offset, joint.mimic.multiplier] + [0.0] * 10)
-    _add_custom(spec, obj, parts, joints)
+    _add_custom(spec, obj, [p for p in parts if p.name not in merged], joints)
     qpos = [x for j in joints for x in _qpos(j)]
     if qpos:  # bodies, hence qpos, are in this same depth-first order
         spec.add_key(name=KEYFRAME, qpos=qpos)
     return spec
-
-
-def site_parts(obj: ArticulatedObject) -> set[str]:
-    """The parts written as sites: frames (no mass, no geometry) fixed to their parent, with
-    no part of their own hanging from them (an MJCF site, a URDF frame-only link)."""
-    return {j.child for j in obj.joints
-            if j.type is JointType.FIXED and is_frame(obj.part(j.child))
-            and not obj.child_joints(j.child)}
-
-
-def is_frame(part: Part) -> bool:
-    return part.inertial is None and part.visual is None and not part.collision
 
 
 def _add_site(body, joint: Joint) -> None:
@@ -256,15 +251,19 @@ def _stem(relpath: str) -> str:
     return relpath.rpartition("/")[2].rpartition(".")[0]
 
 
-def _add_body(parent, part: Part, joint: Joint | None):
-    if joint is None:
+def _add_body(parent, part: Part, chain: list[Joint] | None):
+    """The part's body, placed by the joint into it, or by a chain of joints that MJCF holds
+    in one body (each at its anchor; :func:`.structure.anchors`)."""
+    if chain is None:
         body = parent.add_body(name=part.name)
     else:
-        rotation = tf.matrix_to_quat(joint.origin[:3, :3])
-        body = parent.add_body(name=part.name, pos=[x + 0.0 for x in joint.origin[:3, 3]],
+        base, points = anchors(chain)
+        rotation = tf.matrix_to_quat(base[:3, :3])
+        body = parent.add_body(name=part.name, pos=[x + 0.0 for x in base[:3, 3]],
                                quat=snap_unit(rotation, sign_free=True))
-        if joint.type is not JointType.FIXED:
-            _add_joint(body, joint)
+        for joint, anchor in zip(chain, points, strict=True):
+            if joint.type is not JointType.FIXED:
+                _add_joint(body, joint, anchor)
     if part.inertial is not None:
         body.explicitinertial = True
         body.mass = part.inertial.mass
@@ -308,12 +307,14 @@ def _shape_geom(shape) -> dict:
                 quat=snap_unit(tf.matrix_to_quat(shape.pose[:3, :3]), sign_free=True))
 
 
-def _add_joint(body, joint: Joint) -> None:
+def _add_joint(body, joint: Joint, anchor: np.ndarray) -> None:
     import mujoco
 
     d = joint.dynamics
     options = dict(name=joint.name, damping=d.damping, frictionloss=d.friction,
                    stiffness=d.stiffness, armature=d.armature)
+    if np.any(anchor):
+        options["pos"] = [x + 0.0 for x in anchor]
     if joint.type.multi_dof:
         kind = mujoco.mjtJoint.mjJNT_BALL if joint.type is JointType.BALL else \
             mujoco.mjtJoint.mjJNT_FREE
