@@ -51,7 +51,7 @@ from .conventions import (
     parse_custom_name,
 )
 from .geometry import geom_mesh, pose
-from .kept import ELEMENTS_KEY, unread_sections
+from .kept import ELEMENTS_KEY, merge_sections, unread_sections
 
 _DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's: the material's colour shows instead
 _MUJOCO_DEFAULT_NAME = "MuJoCo Model"
@@ -186,6 +186,9 @@ class _Reader:
             warn(f"{self.path}: {kind}: {', '.join(names)}")
         obj = ArticulatedObject(name, parts, joints, self._metadata())
         kept = unread_sections(self.path, self.mimics) if self._has_unread() else {}
+        left = obj.metadata.get(ELEMENTS_KEY)  # what a writer of ours could not write back
+        if isinstance(left, dict) and all(isinstance(v, str) for v in left.values()):
+            kept = merge_sections(kept, left)
         if kept:
             obj.metadata[ELEMENTS_KEY] = kept
         for joint_name, message in massless_moving_parts(obj):
@@ -572,7 +575,8 @@ class _Reader:
         kept = listed(self._unread_counts())
         if kept:
             warn(f"{self.path}: MJCF elements with no place in the model kept as metadata "
-                 f"{ELEMENTS_KEY!r} (no writer writes them back): {kept}")
+                 f"{ELEMENTS_KEY!r} (the MJCF writer writes them back; no other format acts "
+                 f"on them): {kept}")
         left = listed({"keyframe": m.nkey - int(observed), "flex": m.nflex, "skin": m.nskin,
                        "custom tuple": m.ntuple})
         if left:

@@ -23,7 +23,7 @@ import numpy as np
 from ... import atomic
 from ... import transforms as tf
 from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
-from ...errors import ExportError
+from ...errors import ExportError, warn
 from ...meshfiles import (
     MESH_DIR,
     collision_file_meshes,
@@ -46,6 +46,7 @@ from .conventions import (
     snap_unit,
 )
 from .geometry import mjcf_geom
+from .kept import ELEMENTS_KEY, restore
 from .structure import anchors, body_chains, site_parts
 
 SUFFIX = ".xml"
@@ -118,7 +119,52 @@ def _text_as_attribute(text: str) -> str:
 
 def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
     spec = _build(obj, meshdir=MESH_DIR, model_dir=out_dir)
-    return atomic.write_text(out_dir / f"{obj.name}{SUFFIX}", to_xml(spec, obj))
+    text = to_xml(spec, obj)
+    sections = obj.metadata.get(ELEMENTS_KEY)
+    if isinstance(sections, dict) and sections:
+        text = _with_kept(obj, text, sections, out_dir)
+    return atomic.write_text(out_dir / f"{obj.name}{SUFFIX}", text)
+
+
+def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path) -> str:
+    """The file with the MJCF sections a reader kept (actuators, tendons, sensors,
+    equalities, their default classes) written back where MuJoCo compiles them; what it
+    refuses stays in the metadata, warned about."""
+    import mujoco
+
+    def compiles(candidate: str) -> None:
+        spec = mujoco.MjSpec.from_string(candidate)
+        spec.modelfiledir = str(out_dir) + "/"
+        spec.compile()
+
+    bad = [tag for tag, v in sections.items() if not isinstance(v, str)]
+    if bad:
+        raise ExportError(f"MJCF: object {obj.name!r} metadata {ELEMENTS_KEY!r}: sections "
+                          f"{bad} are not XML text")
+    text, left, why = restore(text, sections, compiles)
+    for reason in why:
+        warn(f"MJCF: object {obj.name!r}: kept MJCF element not written back (it stays in "
+             f"the metadata {ELEMENTS_KEY!r}): {reason}")
+    metadata = {k: v for k, v in obj.metadata.items() if k != ELEMENTS_KEY}
+    if left:
+        metadata[ELEMENTS_KEY] = left
+    return _replace_metadata(text, metadata)
+
+
+def _replace_metadata(text: str, metadata: dict) -> str:
+    """The file with its metadata text (or none, for empty metadata) replaced."""
+    import json
+
+    from lxml import etree
+
+    root = etree.fromstring(text.encode("utf-8"))
+    element = root.find(f"custom/text[@name='{METADATA}']")
+    if element is not None and not metadata:
+        element.getparent().remove(element)
+    elif element is not None:
+        element.set("data", json.dumps(metadata, sort_keys=True, separators=(",", ":"),
+                                       allow_nan=False))
+    return etree.tostring(root, encoding="unicode") + "\n"
 
 
 # -- the spec ---------------------------------------------------------------------------------
