@@ -7,7 +7,9 @@ fixed joint a jointless nested body (a frame, with no mass, geometry or children
 intermediate parts the reader makes for a body with several joints merged back into it
 (:mod:`.structure`); a mimic a joint equality. Each body has its explicit
 inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
-one colliding mesh geom per convex piece (group 3). Every parent/child pair is excluded from
+one colliding mesh geom per convex piece (group 3); shapes (box, cylinder, ...) are geoms of
+their type. The actuators, tendons, sensors and equalities an MJCF reader kept in the metadata
+are written back where MuJoCo compiles them (:mod:`.kept`). Every parent/child pair is excluded from
 contact. What MJCF has no place for is kept in the keyframe "observed" (joint states) and in
 ``<custom>`` data named ``real2code:<element>:<field>`` (velocity limits, fixed-joint names,
 metadata, ...).

@@ -3,7 +3,8 @@
 Each link has its <inertial> (origin at the centre of mass, tensor in link axes), one
 <visual> (meshes/<part>.obj with a named material) and one <collision> per convex piece
 (meshes/<part>_collision_<k>.obj, marked ``real2code:convex="true"`` so our reader keeps them
-as they are). Numbers are Python's shortest exact text. What URDF cannot hold goes into
+as they are); a shape is a <visual>/<collision> of its own (<box>, <cylinder>, <sphere>; a
+capsule or ellipsoid, which URDF lacks, its tessellation's mesh marked ``real2code:shape``). Numbers are Python's shortest exact text. What URDF cannot hold goes into
 attributes of the ``real2code`` namespace (see :mod:`.spec`); a <mujoco> block makes MuJoCo
 load every link as its own body, with its visual.
 """
