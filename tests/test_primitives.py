@@ -192,3 +192,19 @@ def test_concatenation_is_canonical_and_invalid_shapes_refused():
     bad.parts[0].visual.primitives[0].size[1] = -1.0
     with pytest.raises(ModelError, match="sizes must be finite and > 0"):
         validate(bad)
+
+
+def test_bad_shapes_are_refused_with_file_and_element(tmp_path):
+    from real2code_export.errors import FormatError
+
+    bad_size = URDF.replace('<sphere radius="0.05"/>', '<sphere radius="-0.05"/>')
+    (tmp_path / "size.urdf").write_text(bad_size)
+    with pytest.raises(FormatError, match=r"size\.urdf:\d+: <link name='base'>.*radius"):
+        _quiet_load(tmp_path / "size.urdf")
+    marked = URDF.replace(
+        '<capsule radius="0.02" length="0.1"/>',
+        '<mesh filename="x.obj" xmlns:real2code="urn:real2code-export:urdf:1" '
+        'real2code:shape="cone" real2code:size="1 2"/>')
+    (tmp_path / "cone.urdf").write_text(marked)
+    with pytest.raises(FormatError, match=r"cone\.urdf:\d+: <link name='lid'>.*unknown shape"):
+        _quiet_load(tmp_path / "cone.urdf")
