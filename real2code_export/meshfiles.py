@@ -42,6 +42,17 @@ def collision_relpath(part_name: str, k: int) -> str:
     return f"{MESH_DIR}/{part_name}_collision_{k}.obj"
 
 
+def visual_file_mesh(part: Part) -> Mesh | None:
+    """What of the part's visual goes into its mesh file: the visual without its shapes
+    (box, cylinder, ...: formats write those as shapes), or None when nothing is left."""
+    return None if part.visual is None else part.visual.remainder()
+
+
+def collision_file_meshes(part: Part) -> list[tuple[int, Mesh]]:
+    """The collision pieces (index, mesh) that are mesh files: every piece but the shapes."""
+    return [(k, m) for k, m in enumerate(part.collision) if m.primitive is None]
+
+
 def material_relpath(part_name: str) -> str:
     return f"{MESH_DIR}/{part_name}.mtl"
 
@@ -107,12 +118,13 @@ def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = Fal
         written[rel] = path
 
     for part in obj.parts:
-        if part.visual is not None:
+        visual = visual_file_mesh(part)
+        if visual is not None:
             material = part.name if part.texture is not None else None
-            put(visual_relpath(part.name), obj_bytes(part.visual, exact, material))
+            put(visual_relpath(part.name), obj_bytes(visual, exact, material))
             if material is not None:
                 put(material_relpath(part.name), mtl_bytes(part))
-        for k, mesh in enumerate(part.collision):
+        for k, mesh in collision_file_meshes(part):
             put(collision_relpath(part.name, k), obj_bytes(mesh, exact))
     written.update(write_texture_images(obj, out_dir))
     return written

@@ -24,6 +24,7 @@ import numpy as np
 
 from . import transforms as tf
 from .errors import ModelError, NameNotFoundError
+from .primitives import Primitive
 
 NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 AXIS_UNIT_TOLERANCE = 1e-6
@@ -59,20 +60,55 @@ class JointType(StrEnum):
 class Mesh:
     """A triangle mesh: float64 vertices (N, 3), int64 faces (M, 3) and, for a textured
     mesh, one texture coordinate per vertex (N, 2; u right, v up, as OBJ, glTF after its
-    flip, and USD's st have it). A vertex seen with two UVs is two vertices."""
+    flip, and USD's st have it). A vertex seen with two UVs is two vertices.
+
+    ``primitives``: the shapes (box, cylinder, ...) whose fixed tessellations end the mesh,
+    in order (:mod:`.primitives`); the vertices and faces before them are the mesh's own
+    (:meth:`remainder`). Writers whose format has the shape write the shape."""
 
     vertices: np.ndarray
     faces: np.ndarray
     uv: np.ndarray | None = None
+    primitives: tuple[Primitive, ...] = ()
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
         self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
+        self.primitives = tuple(self.primitives)
         if self.uv is not None:
             self.uv = np.ascontiguousarray(self.uv, dtype=np.float64).reshape(-1, 2)
             if len(self.uv) != len(self.vertices):
                 raise ModelError("mesh", f"{len(self.uv)} texture coordinates for "
                                  f"{len(self.vertices)} vertices")
+
+    @classmethod
+    def of_primitive(cls, primitive: Primitive) -> Mesh:
+        """The shape's fixed tessellation, the shape kept."""
+        vertices, faces = primitive.tessellation()
+        return cls(vertices, faces, primitives=(primitive,))
+
+    @property
+    def primitive(self) -> Primitive | None:
+        """The one shape this mesh is, or None (a mesh of its own, or several shapes)."""
+        if len(self.primitives) != 1:
+            return None
+        return self.primitives[0] if self._primitive_counts() == (
+            len(self.vertices), len(self.faces)) else None
+
+    def _primitive_counts(self) -> tuple[int, int]:
+        counts = [p.counts() for p in self.primitives]
+        return sum(c[0] for c in counts), sum(c[1] for c in counts)
+
+    def remainder(self) -> Mesh | None:
+        """The mesh without its primitives' tessellations (None when nothing is left)."""
+        if not self.primitives:
+            return self
+        nv, nf = self._primitive_counts()
+        kept_v, kept_f = len(self.vertices) - nv, len(self.faces) - nf
+        if kept_f <= 0:
+            return None
+        uv = None if self.uv is None else self.uv[:kept_v]
+        return Mesh(self.vertices[:kept_v], self.faces[:kept_f], uv)
 
     def digest(self) -> str:
         """A content hash (used for caching collision decompositions and naming files)."""
@@ -82,8 +118,13 @@ class Mesh:
         return h.hexdigest()
 
     def transformed(self, transform: np.ndarray) -> Mesh:
+        """The mesh moved by a rigid ``transform`` (its shapes with it; a mirroring transform
+        keeps the triangles only)."""
+        transform = np.asarray(transform, dtype=np.float64)
         v = self.vertices @ transform[:3, :3].T + transform[:3, 3]
-        return Mesh(v, self.faces.copy(), None if self.uv is None else self.uv.copy())
+        rigid = np.linalg.det(transform[:3, :3]) > 0
+        shapes = tuple(p.transformed(transform) for p in self.primitives) if rigid else ()
+        return Mesh(v, self.faces.copy(), None if self.uv is None else self.uv.copy(), shapes)
 
     def bounds(self) -> np.ndarray:
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
@@ -99,18 +140,24 @@ class Mesh:
 
     @staticmethod
     def concatenate(meshes: list[Mesh]) -> Mesh:
-        """One mesh of all; texture coordinates kept only when every mesh has them."""
+        """One mesh of all; texture coordinates kept only when every mesh has them. The
+        meshes' own triangles come first, then every shape's tessellation in order, so the
+        same meshes and shapes give the same mesh whatever order a file lists them in."""
+        own = [m.remainder() for m in meshes]
+        own = [m for m in own if m is not None]
+        shapes = tuple(p for m in meshes for p in m.primitives)
+        pieces = own + [Mesh(*p.tessellation()) for p in shapes]
         verts, faces, offset = [], [], 0
-        for m in meshes:
+        for m in pieces:
             verts.append(m.vertices)
             faces.append(m.faces + offset)
             offset += len(m.vertices)
         if not verts:
             return Mesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
         uv = None
-        if all(m.uv is not None for m in meshes):
-            uv = np.concatenate([m.uv for m in meshes])
-        return Mesh(np.concatenate(verts), np.concatenate(faces), uv)
+        if all(m.uv is not None for m in pieces):
+            uv = np.concatenate([m.uv for m in pieces])
+        return Mesh(np.concatenate(verts), np.concatenate(faces), uv, shapes)
 
 
 IMAGE_SUFFIXES = {"image/png": ".png", "image/jpeg": ".jpg"}
@@ -388,6 +435,15 @@ def validate_mesh(mesh: Mesh, element: str) -> None:
     _finite(mesh.vertices, element, "mesh vertices")
     if mesh.faces.min() < 0 or mesh.faces.max() >= len(mesh.vertices):
         raise ModelError(element, "mesh face indices out of range")
+    for k, shape in enumerate(mesh.primitives):
+        problem = shape.problem()
+        if problem is not None:
+            raise ModelError(f"{element} shape {k}", problem)
+    if mesh.primitives:
+        nv, nf = mesh._primitive_counts()
+        own_v, own_f = len(mesh.vertices) - nv, len(mesh.faces) - nf
+        if own_v < 0 or own_f < 0 or (own_f and mesh.faces[:own_f].max() >= own_v):
+            raise ModelError(element, "the mesh does not end with its shapes' tessellations")
 
 
 def metadata_json(obj: ArticulatedObject, **dumps_options: Any) -> str:
@@ -647,6 +703,13 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
 def _mesh_differences(el: str, x: Mesh | None, y: Mesh | None, tol: float) -> list[str]:
     if x is None or y is None:
         return [] if x is y else [f"{el}: mesh present in only one"]
+    if len(x.primitives) != len(y.primitives):
+        return [f"{el}: {len(x.primitives)} vs {len(y.primitives)} shapes (box, cylinder, ...)"]
+    shapes = [f"{el} shape {k}: {d}" for k, (p, q) in enumerate(zip(x.primitives, y.primitives,
+                                                                      strict=True))
+              for d in p.differences(q, tol)]
+    if shapes:
+        return shapes
     if x.faces.shape != y.faces.shape or x.vertices.shape != y.vertices.shape:
         return [f"{el}: mesh sizes differ ({len(x.vertices)}/{len(x.faces)} vs "
                 f"{len(y.vertices)}/{len(y.faces)} vertices/faces)"]

@@ -114,8 +114,11 @@ def qpos_for(model, q: dict[str, float]) -> np.ndarray:
 def world_poses(model, data, qpos) -> dict[str, np.ndarray]:
     data.qpos[:] = qpos
     mujoco.mj_kinematics(model, data)
-    return {model.body(b).name: tf.make(data.xmat[b].reshape(3, 3), data.xpos[b])
-            for b in range(1, model.nbody)}
+    poses = {model.body(b).name: tf.make(data.xmat[b].reshape(3, 3), data.xpos[b])
+             for b in range(1, model.nbody)}
+    poses.update({model.site(s).name: tf.make(data.site_xmat[s].reshape(3, 3),
+                                              data.site_xpos[s]) for s in range(model.nsite)})
+    return poses
 
 
 # -- export ----------------------------------------------------------------------------------
@@ -124,8 +127,10 @@ def test_file_compiles_from_disk_and_kinematics_match(exported):
     assert path.name == "cabinet.xml"
     model = mujoco.MjModel.from_xml_path(str(path))
     data = mujoco.MjData(model)
-    assert sorted(model.body(b).name for b in range(1, model.nbody)) == sorted(
-        p.name for p in obj.parts)
+    # every part a body, but frames (no mass, no geometry, no children), which are sites
+    assert sorted([model.body(b).name for b in range(1, model.nbody)] + [
+        model.site(s).name for s in range(model.nsite)]) == sorted(p.name for p in obj.parts)
+    assert [model.site(s).name for s in range(model.nsite)] == ["marker"]
     rng = np.random.default_rng(7)
     configurations = [sample_configuration(obj, rng) for _ in range(100)]
     configurations += [{}, obj.observed_configuration()]
@@ -143,9 +148,9 @@ def test_structure_dynamics_and_limits_land_in_the_compiled_model(exported):
     model = mujoco.MjModel.from_xml_path(str(path))
     # Root: a jointless child of the world; fixed joints: jointless nested bodies.
     assert model.body("body").parentid[0] == 0 and model.body("body").jntnum[0] == 0
-    for fixed in ("handle", "shelf", "marker"):
+    for fixed in ("handle", "shelf"):
         assert model.body(fixed).jntnum[0] == 0
-    assert model.body("marker").parentid[0] == model.body("shelf").id
+    assert model.site("marker").bodyid[0] == model.body("shelf").id
     assert model.njnt == len(obj.movable_joints)
     for joint in obj.movable_joints:
         mj = model.joint(joint.name)
@@ -170,8 +175,8 @@ def test_structure_dynamics_and_limits_land_in_the_compiled_model(exported):
             assert tuple(model.jnt_actfrcrange[mj.id]) == (-joint.limits.effort,
                                                            joint.limits.effort)
         assert model.key("observed").qpos[qadr] == joint.state
-    # Explicit inertials; the massless shelf has none.
-    for part in obj.parts:
+    # Explicit inertials; the massless shelf has none (the marker is a site).
+    for part in (p for p in obj.parts if p.name != "marker"):
         b = model.body(part.name)
         if part.inertial is None:
             assert b.mass[0] == 0.0
@@ -182,7 +187,7 @@ def test_structure_dynamics_and_limits_land_in_the_compiled_model(exported):
         np.testing.assert_allclose(rot @ np.diag(b.inertia) @ rot.T, part.inertial.inertia,
                                    atol=1e-12)
     # Geoms: one non-colliding visual (group 2, the colour) and colliding pieces (group 3).
-    for part in obj.parts:
+    for part in (p for p in obj.parts if p.name != "marker"):
         b = model.body(part.name)
         geoms = range(b.geomadr[0], b.geomadr[0] + b.geomnum[0])
         visual = [g for g in geoms if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0]
@@ -197,7 +202,7 @@ def test_structure_dynamics_and_limits_land_in_the_compiled_model(exported):
     # No contact between a child and its parent, fixed joints included.
     excluded = {frozenset((model.body(int(s >> 16)).name, model.body(int(s & 0xFFFF)).name))
                 for s in model.exclude_signature}
-    assert excluded == {frozenset((j.parent, j.child)) for j in obj.joints}
+    assert excluded == {frozenset((j.parent, j.child)) for j in obj.joints if j.child != "marker"}
 
 
 def test_compiler_settings_and_mesh_references(exported):
@@ -216,7 +221,7 @@ def test_build_spec_compiles_with_nothing_on_disk(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     obj = cabinet()
     model = mjcf.build_spec(obj).compile()
-    assert model.nbody == len(obj.parts) + 1 and model.nmesh == mesh_count(obj)
+    assert model.nbody + model.nsite == len(obj.parts) + 1 and model.nmesh == mesh_count(obj)
     assert list(tmp_path.iterdir()) == []
 
 

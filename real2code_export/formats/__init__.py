@@ -41,6 +41,10 @@ class Format:
     validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
     exported: bool = True  # written by default (``export`` without --to)
     mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it embeds them)
+    # the metadata key under which its reader keeps what the model has no place for, and its
+    # writer writes back (actuators, <transmission>, ...); other writers carry it as metadata
+    kept_elements: str | None = None
+    lossless: bool = False  # holds the model itself, metadata and all (object.json)
 
     @property
     def output_suffix(self) -> str:
@@ -71,11 +75,12 @@ _P = "real2code_export.probes."
 for _fmt in (
     Format("json", "object.json", "The project's own lossless format",
            "real2code_export.formats.object_json", (".json",), probes=(_P + "model",),
-           exported=False),
+           exported=False, lossless=True),
     Format("mjcf", "MJCF", "MuJoCo", "real2code_export.formats.mjcf", (".xml", ".mjcf"),
-           requires=("mujoco",), probes=(_P + "mujoco",)),
+           requires=("mujoco",), probes=(_P + "mujoco",), kept_elements="mjcf_elements"),
     Format("urdf", "URDF", "URDF (ROS, Pinocchio, Isaac, ...)", "real2code_export.formats.urdf",
-           (".urdf",), requires=("lxml.etree",), probes=(_P + "mujoco", _P + "pinocchio")),
+           (".urdf",), requires=("lxml.etree",), probes=(_P + "mujoco", _P + "pinocchio"),
+           kept_elements="urdf_elements"),
     Format("usd", "USD", "USD with UsdPhysics joints", "real2code_export.formats.usd",
            (".usda", ".usd", ".usdc"), requires=("pxr.Usd", "pxr.UsdPhysics"),
            probes=(_P + "usd",), validator="real2code_export.validators:validate_usd",
@@ -189,6 +194,25 @@ def export(obj: ArticulatedObject, out_dir: str | Path,
     return {name: out_dir / path.relative_to(staging) for name, path in staged.items()}
 
 
+def warn_kept_elements(obj: ArticulatedObject, formats: list[str]) -> None:
+    """Say, for each format written, which elements another format's reader kept (in the
+    metadata) it has no place for: they travel as metadata only."""
+    from ..errors import warn
+
+    for source in FORMATS.values():
+        kept = obj.metadata.get(source.kept_elements) if source.kept_elements else None
+        if not kept:
+            continue
+        what = ", ".join(f"<{t}>" for t in kept) if isinstance(kept, dict) else \
+            f"{len(kept)} element(s)"
+        for name in formats:
+            fmt = FORMATS[name]
+            if not fmt.lossless and fmt.kept_elements != source.kept_elements:
+                warn(f"{fmt.label}: {obj.name!r}: the {source.label} elements kept in the "
+                     f"metadata {source.kept_elements!r} ({what}) are carried as metadata "
+                     f"only: {fmt.label} has no place for them")
+
+
 def write_formats(obj: ArticulatedObject, folder: str | Path,
                   formats: tuple[str, ...] | list[str] | None = None) -> dict[str, Path]:
     """Write ``obj`` in each format (default: :func:`export_formats`) into ``folder`` (a
@@ -206,6 +230,7 @@ def write_formats(obj: ArticulatedObject, folder: str | Path,
     if unwritable:
         raise FormatError(None, "--to", f"format(s) {unwritable} cannot be written")
     folder = Path(folder)
+    warn_kept_elements(obj, formats)
     # object.json wants exact mesh text; the other formats share the same files.
     if any(FORMATS[name].mesh_files for name in formats):
         write_object_meshes(obj, folder, exact="json" in formats)

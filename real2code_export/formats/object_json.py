@@ -23,6 +23,7 @@ from ..meshfiles import (
     read_mesh,
     texture_from_file,
     texture_relpath,
+    visual_file_mesh,
     visual_relpath,
     write_object_meshes,
 )
@@ -34,10 +35,12 @@ from ..model import (
     Joint,
     JointType,
     Limits,
+    Mesh,
     Mimic,
     Part,
     validate,
 )
+from ..primitives import Primitive, ShapeKind
 
 SCHEMA = "real2code_export/object"
 SCHEMA_VERSION = 1
@@ -51,10 +54,14 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
             {
                 "name": p.name,
                 "color": list(p.color),
-                "visual": visual_relpath(p.name) if p.visual is not None else None,
+                "visual": visual_relpath(p.name) if visual_file_mesh(p) is not None else None,
+                **({"visual_shapes": [shape_json(s) for s in p.visual.primitives]}
+                   if p.visual is not None and p.visual.primitives else {}),
                 "texture": texture_relpath(p) if p.texture is not None else None,
                 **({"maps": {role: map_relpath(p, role) for role in p.maps}} if p.maps else {}),
-                "collision": [collision_relpath(p.name, k) for k in range(len(p.collision))],
+                "collision": [collision_relpath(p.name, k) if m.primitive is None
+                              else {"shape": shape_json(m.primitive)}
+                              for k, m in enumerate(p.collision)],
                 "inertial": None
                 if p.inertial is None
                 else {
@@ -104,6 +111,30 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
         "parts": parts,
         "joints": joints,
     }
+
+
+def shape_json(shape: Primitive) -> dict[str, Any]:
+    return {"kind": shape.kind.value, "size": shape.size.tolist(),
+            "translation": shape.pose[:3, 3].tolist(), "rotation": shape.pose[:3, :3].tolist()}
+
+
+def shape_from_json(d: Any, path: Path, el: str) -> Primitive:
+    if not isinstance(d, dict):
+        raise FormatError(path, el, f"a shape must be an object, got {d!r}")
+    kind = _get(d, "kind", path, el)
+    if kind not in {k.value for k in ShapeKind}:
+        raise FormatError(path, el, f"unknown shape kind {kind!r} (expected one of "
+                          f"{[k.value for k in ShapeKind]})")
+    size = _get(d, "size", path, el)
+    pose = np.eye(4)
+    pose[:3, 3] = _vec(_get(d, "translation", path, el), 3, path, el, "translation")
+    pose[:3, :3] = _vec(_get(d, "rotation", path, el), 9, path, el, "rotation").reshape(3, 3)
+    shape = Primitive(kind, _vec(size, len(size) if isinstance(size, list) else 1, path, el,
+                                 "size"), pose)
+    problem = shape.problem()
+    if problem is not None:
+        raise FormatError(path, el, problem)
+    return shape
 
 
 def dumps(obj: ArticulatedObject) -> str:
@@ -158,12 +189,18 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         el = f"parts[{i}]"
         name = _get(pd, "name", path, el)
         el = f"part {name!r}"
-        visual = None
+        visuals = []
         if pd.get("visual") is not None:
-            visual = read_mesh(base / pd["visual"], source=path, element=el + " visual")
+            visuals.append(read_mesh(base / pd["visual"], source=path, element=el + " visual"))
+        visuals += [Mesh.of_primitive(shape_from_json(d, path, f"{el} visual_shapes[{k}]"))
+                    for k, d in enumerate(pd.get("visual_shapes", []))]
+        visual = (visuals[0] if len(visuals) == 1 else Mesh.concatenate(visuals)) if visuals \
+            else None
         collision = [
-            read_mesh(base / rel, source=path, element=f"{el} collision")
-            for rel in pd.get("collision", [])
+            Mesh.of_primitive(shape_from_json(rel["shape"], path, f"{el} collision[{k}]"))
+            if isinstance(rel, dict) and "shape" in rel
+            else read_mesh(base / rel, source=path, element=f"{el} collision")
+            for k, rel in enumerate(pd.get("collision", []))
         ]
         inertial = None
         if pd.get("inertial") is not None:

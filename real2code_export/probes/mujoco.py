@@ -1,7 +1,7 @@
 """MJCF and URDF loaded in MuJoCo (MjSpec), posed with ``mj_kinematics``.
 
-Joints are addressed by name (``qposadr``), bodies by name; a free or ball joint is not a
-part joint and is held at its reference pose. A body's reported pose is its frame moved to its
+Joints are addressed by name (``qposadr``), bodies and named sites (frames) by name; a free
+or ball joint is not a part joint and is held at its reference pose. A body's reported pose is its frame moved to its
 (last) joint's anchor, the model's "part frame = joint frame" (as the MJCF reader and the USD
 probe have it); a joint at the body origin, as in every file we write, moves nothing.
 """
@@ -18,7 +18,8 @@ from ._stdio import captured_c_output
 
 
 class MujocoProbe:
-    def __init__(self, path: Path, label: str, model, body_ids: list[int], part_names: list[str]):
+    def __init__(self, path: Path, label: str, model, body_ids: list[int], part_names: list[str],
+                 site_ids: list[int] | None = None):
         import mujoco
 
         self._mujoco = mujoco
@@ -28,6 +29,7 @@ class MujocoProbe:
         self._data = mujoco.MjData(model)
         self.parts = part_names
         self._body_ids = np.array(body_ids, dtype=np.int64)
+        self._site_ids = np.array(site_ids or [], dtype=np.int64)  # frames, after the bodies
 
         hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
         self.joints: list[JointInfo] = []
@@ -56,20 +58,24 @@ class MujocoProbe:
     def pose_array(self, values: np.ndarray) -> np.ndarray:
         """(N, len(joints)) joint values in the order of ``joints`` -> (N, len(parts), 4, 4)."""
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))
-        n, ids = len(values), self._body_ids
+        n, ids, sites = len(values), self._body_ids, self._site_ids
         m, d = self.model, self._data
         kinematics = self._mujoco.mj_kinematics
-        xpos = np.empty((n, len(ids), 3))
-        xmat = np.empty((n, len(ids), 9))
+        count = len(ids) + len(sites)
+        xpos = np.empty((n, count, 3))
+        xmat = np.empty((n, count, 9))
         for i in range(n):
             d.qpos[:] = self._base_qpos
             d.qpos[self._qpos_adr] = values[i]
             kinematics(m, d)
-            xpos[i] = d.xpos[ids]
-            xmat[i] = d.xmat[ids]
-        out = np.zeros((n, len(ids), 4, 4))
-        out[..., :3, :3] = xmat.reshape(n, len(ids), 3, 3)
-        out[..., :3, 3] = xpos + np.einsum("npij,pj->npi", out[..., :3, :3], self._anchor)
+            xpos[i, :len(ids)] = d.xpos[ids]
+            xmat[i, :len(ids)] = d.xmat[ids]
+            xpos[i, len(ids):] = d.site_xpos[sites]
+            xmat[i, len(ids):] = d.site_xmat[sites]
+        out = np.zeros((n, count, 4, 4))
+        out[..., :3, :3] = xmat.reshape(n, count, 3, 3)
+        anchor = np.concatenate([self._anchor, np.zeros((len(sites), 3))])
+        out[..., :3, 3] = xpos + np.einsum("npij,pj->npi", out[..., :3, :3], anchor)
         out[..., 3, 3] = 1.0
         return out
 
@@ -161,4 +167,8 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
     names = [model.body(i).name or f"body_{i}" for i in body_ids]  # as the MJCF reader names it
     if world is not None:
         names[0] = world
-    return [MujocoProbe(path, label, model, body_ids, names)]
+    # Named sites are frames (the MJCF reader's parts), unless a body has the name.
+    site_ids = [s for s in range(model.nsite)
+                if model.site(s).name and model.site(s).name not in names]
+    names += [model.site(s).name for s in site_ids]
+    return [MujocoProbe(path, label, model, body_ids, names, site_ids)]

@@ -25,11 +25,12 @@ from ...model import (
     Joint,
     JointType,
     Limits,
+    Mesh,
     Part,
     sanitize_name,
     validate,
 )
-from ..object_json import mimic_from_json
+from ..object_json import mimic_from_json, shape_from_json
 from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
 from .document import Document, rigid
 from .khr_physics import load_khr
@@ -100,7 +101,12 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     data = doc.ours(i)
     node = doc.nodes[i]
     visual = doc.mesh(node.mesh, el) if node.mesh is not None else None
+    shapes = data.get("visual_shapes", [])
+    if visual is not None and isinstance(shapes, list) and shapes:
+        visual = _with_shapes(doc, visual, [shape_from_json(d, doc.path, f"{el} visual_shapes"
+                                                             f"[{k}]") for k, d in enumerate(shapes)])
     pieces: dict[int, tuple[int, str]] = {}  # k -> (glTF mesh, its element)
+    shapes_of: dict[int, object] = {}  # collision piece -> its shape (extras)
     for c in node.children or []:
         k = doc.ours(c).get("collision")
         if k is None:
@@ -109,9 +115,15 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
             raise FormatError(doc.path, doc.element(c), f"collision piece {k!r} of part "
                               f"{name!r} is not a new piece number")
         pieces[k] = _collision_mesh(doc, c, name)
+        if doc.ours(c).get("shape") is not None:
+            shapes_of[k] = doc.ours(c)["shape"]
     if sorted(pieces) != list(range(len(pieces))):
         raise FormatError(doc.path, el, f"collision pieces {sorted(pieces)} are not numbered 0..n-1")
     collision = [doc.mesh(*pieces[k]) for k in range(len(pieces))]
+    for k, c in enumerate(collision):
+        shape = shapes_of.get(k)
+        if shape is not None:
+            collision[k] = _with_shapes(doc, c, [shape_from_json(shape, doc.path, el)])
     inertial = None
     if "inertial" in data:
         ind = data["inertial"]
@@ -156,6 +168,15 @@ def _images(doc: Document, mesh_index: int | None, visual, el: str) -> dict:
              "primitive; they are not kept")
         return {}
     return images
+
+
+def _with_shapes(doc: Document, mesh: Mesh, shapes: list) -> Mesh:
+    """The mesh read (float32) with its shapes restored: its own triangles as read, the
+    shapes' tessellations exactly (our writer puts them at the end)."""
+    own = Mesh(mesh.vertices, mesh.faces, mesh.uv, tuple(shapes)).remainder() \
+        if len(mesh.vertices) >= sum(s.counts()[0] for s in shapes) else None
+    return Mesh.concatenate(([own] if own is not None else []) +
+                            [Mesh.of_primitive(s) for s in shapes])
 
 
 def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:

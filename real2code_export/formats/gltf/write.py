@@ -43,7 +43,7 @@ from ...model import (
     metadata_json,
     validate,
 )
-from ..object_json import mimic_json
+from ..object_json import mimic_json, shape_json
 from . import physics
 from .conventions import (
     ARRAY_BUFFER,
@@ -182,6 +182,8 @@ def _floats(values) -> list[float]:
 
 def _part_extras(part: Part) -> dict:
     out: dict = {"part": part.name, "color": _floats(part.color)}
+    if part.visual is not None and part.visual.primitives:
+        out["visual_shapes"] = [shape_json(s) for s in part.visual.primitives]
     if part.inertial is not None:
         out["inertial"] = {"mass": part.inertial.mass, "com": _floats(part.inertial.com),
                            "inertia": part.inertial.inertia.tolist()}
@@ -307,7 +309,7 @@ def build(obj: ArticulatedObject) -> bytes:
     def add_part(part: Part, joint: Joint | None) -> tuple[int, int | None]:
         """The part's node and, if it is its own rigid body, its joint attachment node."""
         mesh = None
-        if part.visual is not None:
+        if part.visual is not None:  # shapes tessellated (glTF has none), kept in extras
             mesh = b.mesh(part.name, encode_visual(part.visual), material(part))
         fields = motion_trs(joint, joint.state) if joint is not None else {}
         node = b.node(part.name, mesh=mesh, extras=_part_extras(part), **fields)
@@ -330,17 +332,21 @@ def build(obj: ArticulatedObject) -> bytes:
     def add_collider(part: Part, k: int, piece: Mesh) -> int:
         name = f"{part.name}_collision_{k}"
         mesh = b.mesh(name, encode_collision(piece), None)
+        extras = {"collision": k}
+        if piece.primitive is not None:
+            extras["shape"] = shape_json(piece.primitive)
         box = physics.as_box(piece)
         if box is None:
             geometry = b.node(f"{name}_geometry", mesh=mesh)
-            return b.node(name, extras={EXTRAS_KEY: {"collision": k}}, extensions={KHR_PHYSICS: {
+            return b.node(name, extras={EXTRAS_KEY: extras}, extensions={KHR_PHYSICS: {
                 "collider": {"geometry": {"node": geometry, "convexHull": True}}}})
         # a box: an implicit shape, so no mesh node for viewers to show; our extras keep the
         # piece's own vertices (a mesh no node uses) for a lossless read
         size, pose = box
         shapes.append({"type": "box", "box": {"size": size}})
+        extras["mesh"] = mesh
         return b.node(name, translation=_floats(pose[:3, 3]), rotation=quat_xyzw(pose[:3, :3]),
-                      extras={EXTRAS_KEY: {"collision": k, "mesh": mesh}},
+                      extras={EXTRAS_KEY: extras},
                       extensions={KHR_PHYSICS: {"collider": {"geometry": {
                           "shape": len(shapes) - 1}}}})
 

@@ -1,8 +1,8 @@
 """Geoms of a compiled MuJoCo model as triangle meshes in their body's frame.
 
 Mesh geoms are read from their files (float64, faces as written) where trimesh reads the
-format, else taken from the compiled model (float32); primitives become meshes through
-trimesh.creation. MuJoCo moves a mesh to its own inertial frame when it compiles and folds
+format, else taken from the compiled model (float32); primitives are kept as the model's
+shapes (box, sphere, ellipsoid, capsule, cylinder), with their fixed tessellation. MuJoCo moves a mesh to its own inertial frame when it compiles and folds
 that move into the geom pose; it is undone here, so a file mesh keeps its own coordinates.
 """
 
@@ -16,11 +16,10 @@ from ... import transforms as tf
 from ...errors import FormatError
 from ...meshfiles import read_mesh
 from ...model import Mesh
+from ...primitives import Primitive, ShapeKind
 
 # Formats trimesh reads as MuJoCo does; others (e.g. MuJoCo's own .msh) come from the model.
 _FILE_FORMATS = (".obj", ".stl", ".ply", ".off")
-_SPHERE_SUBDIVISIONS = 2
-_ROUND_SECTIONS = 24
 
 
 def pose(pos, quat) -> np.ndarray:
@@ -37,7 +36,6 @@ def geom_mesh(model, g: int, source: Path, element: str,
     """Geom ``g`` as a mesh in its body's frame; None for what has no finite surface
     (planes, height fields, SDFs), which the caller reports."""
     import mujoco
-    import trimesh
 
     kind = int(model.geom_type[g])
     size = np.asarray(model.geom_size[g], dtype=np.float64)
@@ -52,22 +50,43 @@ def geom_mesh(model, g: int, source: Path, element: str,
         if np.allclose(transform, np.eye(4), rtol=0.0, atol=1e-12):
             return mesh  # the usual case (our own files): keep the numbers exactly
         return mesh.transformed(transform)
+    shape = geom_primitive(kind, size, placed)
+    return None if shape is None else Mesh.of_primitive(shape)
+
+
+def geom_primitive(kind: int, size: np.ndarray, placed: np.ndarray) -> Primitive | None:
+    """A primitive geom (MuJoCo's sizes: half extents, half lengths) as the model's shape."""
+    import mujoco
+
+    G = mujoco.mjtGeom
     if kind == G.mjGEOM_BOX:
-        shape = trimesh.creation.box(extents=2.0 * size)
-    elif kind == G.mjGEOM_SPHERE:
-        shape = trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS, radius=size[0])
-    elif kind == G.mjGEOM_ELLIPSOID:
-        shape = trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS, radius=1.0)
-        shape.apply_scale(size)
-    elif kind == G.mjGEOM_CAPSULE:  # MuJoCo: radius, half-length of the cylinder part
-        shape = trimesh.creation.capsule(height=2.0 * size[1], radius=size[0],
-                                         count=[_ROUND_SECTIONS, _ROUND_SECTIONS // 2])
-    elif kind == G.mjGEOM_CYLINDER:  # radius, half-height
-        shape = trimesh.creation.cylinder(radius=size[0], height=2.0 * size[1],
-                                          sections=_ROUND_SECTIONS)
-    else:
-        return None
-    return Mesh.from_trimesh(shape).transformed(placed)
+        return Primitive(ShapeKind.BOX, 2.0 * size, placed)
+    if kind == G.mjGEOM_SPHERE:
+        return Primitive(ShapeKind.SPHERE, size[:1], placed)
+    if kind == G.mjGEOM_ELLIPSOID:
+        return Primitive(ShapeKind.ELLIPSOID, size, placed)
+    if kind == G.mjGEOM_CAPSULE:  # radius, half-length of the cylinder part
+        return Primitive(ShapeKind.CAPSULE, [size[0], 2.0 * size[1]], placed)
+    if kind == G.mjGEOM_CYLINDER:  # radius, half-height
+        return Primitive(ShapeKind.CYLINDER, [size[0], 2.0 * size[1]], placed)
+    return None
+
+
+def mjcf_geom(shape: Primitive) -> tuple[int, list[float]]:
+    """The MuJoCo geom type and size of a model shape (the inverse of :func:`geom_primitive`)."""
+    import mujoco
+
+    G = mujoco.mjtGeom
+    s = np.concatenate([shape.size, [0.0, 0.0]])  # MuJoCo's size has 3 slots
+    kind = shape.kind
+    if kind is ShapeKind.BOX:
+        return G.mjGEOM_BOX, list(0.5 * s[:3])
+    if kind is ShapeKind.SPHERE:
+        return G.mjGEOM_SPHERE, [s[0], 0.0, 0.0]
+    if kind is ShapeKind.ELLIPSOID:
+        return G.mjGEOM_ELLIPSOID, list(s[:3])
+    return (G.mjGEOM_CAPSULE if kind is ShapeKind.CAPSULE else G.mjGEOM_CYLINDER,
+            [s[0], 0.5 * s[1], 0.0])
 
 
 def _mesh_asset(model, mesh_id: int, source: Path, element: str) -> tuple[Mesh, np.ndarray]:

@@ -1,25 +1,37 @@
 """What an MJCF file holds that the model has no place for (actuators, tendons, sensors,
-equality constraints other than the mimics the reader takes), kept as the file writes it.
+equality constraints other than the mimics the reader takes, and the default classes those
+use), kept as the file writes it, and written back by the MJCF writer.
 
 The sections are read from the file itself (its ``<include>`` files inlined, as MuJoCo
 inlines them) and stored in the object's metadata under :data:`ELEMENTS_KEY` (tag -> XML
-text), which every format carries. No writer writes them back: they name the file's own
-bodies, sites and default classes, which an export does not keep. (MuJoCo's ``MjSpec.to_xml``
-would give them too, but it writes the whole model, seconds for a robot with large meshes.)
+text), which every format carries. Of ``<default>`` only what these sections use is kept
+(the actuator and tendon defaults, every class by name): the model's own bodies, joints and
+geoms are written with every value explicit. The writer puts them back and MuJoCo compiles
+the result; an element MuJoCo refuses (it names a geom or class an export does not keep, a
+name the reader changed) is left out of the file, stays in the metadata, and is warned about.
+(MuJoCo's ``MjSpec.to_xml`` would give the sections too, but it writes the whole model,
+seconds for a robot with large meshes.)
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
-ELEMENTS_KEY = "mjcf_elements"
+from .. import FORMATS
+
+ELEMENTS_KEY = FORMATS["mjcf"].kept_elements
 KEPT_TAGS = ("actuator", "tendon", "sensor", "equality")
+# what <default> keeps: the defaults of the actuator shortcuts and of tendons
+DEFAULT_TAGS = frozenset({"general", "motor", "position", "velocity", "intvelocity", "damper",
+                          "cylinder", "muscle", "adhesion", "tendon"})
+WRITE_ORDER = ("default", "tendon", "equality", "actuator", "sensor")
 
 
 def unread_sections(path: Path, mimics: set[tuple[str, str]]) -> dict[str, str]:
     """Tag -> XML text of each kept section (the file's sections of that tag merged) that has
     something left once the joint equalities read as mimics, ``(joint1, joint2)`` as named
-    in the file, are taken out."""
+    in the file, are taken out; with them, the file's default classes (``default``)."""
     from lxml import etree
 
     try:
@@ -40,9 +52,140 @@ def unread_sections(path: Path, mimics: set[tuple[str, str]]) -> dict[str, str]:
                     continue
                 merged.append(el)
         if len(merged):
-            etree.indent(merged, space="  ")
-            out[tag] = etree.tostring(merged, encoding="unicode")
+            out[tag] = _text(merged, etree)
+    if out:
+        defaults = etree.Element("default")
+        for section in root.iterchildren("default"):
+            for el in section:
+                kept = _kept_default(el)
+                if kept is not None:
+                    defaults.append(kept)
+        if len(defaults):
+            out["default"] = _text(defaults, etree)
     return out
+
+
+def _kept_default(el):
+    """A copy of a default-section child with only the defaults :data:`DEFAULT_TAGS` (every
+    nested class kept, empty or not: elements refer to it by name); None for the rest."""
+    if not isinstance(el.tag, str):
+        return None
+    if el.tag in DEFAULT_TAGS:
+        return _copy(el)
+    if el.tag != "default":
+        return None
+    out = _copy(el, children=False)
+    for child in el:
+        kept = _kept_default(child)
+        if kept is not None:
+            out.append(kept)
+    return out
+
+
+def _copy(el, children: bool = True):
+    from copy import deepcopy
+
+    from lxml import etree
+
+    return deepcopy(el) if children else etree.Element(el.tag, dict(el.attrib))
+
+
+def _text(section, etree) -> str:
+    etree.indent(section, space="  ")
+    return etree.tostring(section, encoding="unicode")
+
+
+def merge_sections(first: dict[str, str], second: dict[str, str]) -> dict[str, str]:
+    """Both sets of sections, a tag's elements from ``first`` then from ``second``."""
+    from lxml import etree
+
+    out = dict(first)
+    for tag, text in second.items():
+        if tag not in out:
+            out[tag] = text
+            continue
+        merged = etree.fromstring(out[tag])
+        merged.extend(list(etree.fromstring(text)))
+        out[tag] = _text(merged, etree)
+    return out
+
+
+def restore(text: str, sections: dict[str, str],
+            compiles: Callable[[str], None]) -> tuple[str, dict[str, str], list[str]]:
+    """``text`` (an MJCF file) with the kept sections written back, the elements MuJoCo
+    refuses left out one by one (``compiles`` raises MuJoCo's ValueError): (the file, the
+    sections left out, what was left out and why)."""
+    from lxml import etree
+
+    from .conventions import describe_mujoco_error
+
+    root = etree.fromstring(text.encode("utf-8"))
+    inserted = []  # (tag, the element) in the file, each a kept element
+    for tag in WRITE_ORDER:
+        if tag not in sections:
+            continue
+        source = etree.fromstring(sections[tag])
+        if tag == "default":
+            target = root.find("default")
+            if target is None:
+                target = etree.Element("default")
+                root.insert(1, target)
+        else:
+            target = etree.SubElement(root, tag)
+        for el in list(source):
+            target.append(el)
+            inserted.append((tag, el))
+    left: dict[str, list] = {}
+    why = []
+    for _ in range(len(inserted) + 1):
+        etree.indent(root, space="  ")  # the same text whatever the sections' own layout
+        candidate = etree.tostring(root, encoding="unicode") + "\n"
+        try:
+            compiles(candidate)
+            break
+        except ValueError as e:
+            message, _name, _tag, line = describe_mujoco_error(str(e))
+            culprit = _element_at(root, candidate, line, [el for _, el in inserted], etree)
+            if culprit is None:  # not one of ours to leave out: leave them all out
+                why.append(f"all of them ({message})")
+                for tag, el in inserted:
+                    left.setdefault(tag, []).append(el)
+                    el.getparent().remove(el)
+                inserted.clear()
+                continue
+            tag = next(t for t, el in inserted if el is culprit)
+            inserted = [(t, el) for t, el in inserted if el is not culprit]
+            why.append(f"<{tag}> <{culprit.tag}{_named(culprit)}> ({message})")
+            left.setdefault(tag, []).append(culprit)
+            culprit.getparent().remove(culprit)
+    leftover = {}
+    for tag, elements in left.items():
+        section = etree.Element(tag)
+        section.extend(elements)
+        leftover[tag] = _text(section, etree)
+    return candidate, leftover, why
+
+
+def _named(el) -> str:
+    name = el.get("name") or el.get("class")
+    return f" name='{name}'" if el.get("name") else (f" class='{name}'" if name else "")
+
+
+def _element_at(root, text: str, line: int | None, candidates: list, etree):
+    """The kept element (one of ``candidates``) whose subtree holds line ``line`` of ``text``
+    (the serialisation of ``root``)."""
+    if line is None:
+        return None
+    reparsed = etree.fromstring(text.encode("utf-8"))
+    originals = list(root.iter())
+    at = next((k for k, el in enumerate(reparsed.iter()) if el.sourceline == line), None)
+    if at is None:
+        return None
+    element = originals[at]
+    ids = {id(c) for c in candidates}
+    while element is not None and id(element) not in ids:
+        element = element.getparent()
+    return element
 
 
 def _inlined(path: Path, etree):

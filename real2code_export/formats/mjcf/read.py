@@ -4,7 +4,8 @@ orientation notations, ``fromto`` are resolved by MuJoCo itself); the compiled m
 One part per body: hinge -> revolute (limited) or continuous, slide -> prismatic, ball ->
 ball, no joint -> fixed; a body with several hinges/slides/balls becomes a chain of massless
 intermediate parts ``<body>_<joint>`` (given a negligible mass, warned). A free joint on a
-top-level body is a floating joint from the root part ``world``. A joint away from its
+top-level body is a floating joint from the root part ``world``. A site is a frame: a part
+without mass or geometry, fixed to its body's part. A joint away from its
 body origin moves the part frame to the joint (meshes and inertial follow); a joint ``ref``
 moves it to the pose at qpos = 0, so joint values mean the same here and in MuJoCo. When the
 world itself holds geoms or joints, several top-level bodies, or one placed away from the
@@ -50,7 +51,7 @@ from .conventions import (
     parse_custom_name,
 )
 from .geometry import geom_mesh, pose
-from .kept import ELEMENTS_KEY, unread_sections
+from .kept import ELEMENTS_KEY, merge_sections, unread_sections
 
 _DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's: the material's colour shows instead
 _MUJOCO_DEFAULT_NAME = "MuJoCo Model"
@@ -177,6 +178,7 @@ class _Reader:
                 continue
             joints += self._joints(b, parent, body_pose, joint_names, parts)
             parts.append(self._part(b))
+        joints += self._sites(parts, joint_names, world_used, top[0] if top else 0)
         name = self._object_name()
         self._read_mimics()
         self._report_ignored()
@@ -184,6 +186,9 @@ class _Reader:
             warn(f"{self.path}: {kind}: {', '.join(names)}")
         obj = ArticulatedObject(name, parts, joints, self._metadata())
         kept = unread_sections(self.path, self.mimics) if self._has_unread() else {}
+        left = obj.metadata.get(ELEMENTS_KEY)  # what a writer of ours could not write back
+        if isinstance(left, dict) and all(isinstance(v, str) for v in left.values()):
+            kept = merge_sections(kept, left)
         if kept:
             obj.metadata[ELEMENTS_KEY] = kept
         for joint_name, message in massless_moving_parts(obj):
@@ -346,6 +351,35 @@ class _Reader:
             self.note("joint states outside the range moved to the nearest limit", joint.name)
             state = min(max(state, lim.lower), lim.upper)
         return state
+
+    def _sites(self, parts: list[Part], taken: set[str], world_used: bool,
+               root: int) -> list[Joint]:
+        """Each site as a frame: a part with neither mass nor geometry, fixed to its body's
+        part at the site's pose (an unnamed site named ``<body>_site_<k>``). A site of the
+        world body, when the world is no part, hangs from the root part (the world frame)."""
+        m = self.model
+        joints = []
+        for s in range(m.nsite):
+            body = int(m.site_bodyid[s])
+            raw = m.site(s).name or f"{m.body(body).name or f'body_{body}'}_site_{s}"
+            name = self._name(raw, self.taken_parts, "site")
+            at = pose(m.site_pos[s], m.site_quat[s])
+            if body == 0 and not world_used:
+                parent = self.part_names[root] if root else None
+                if parent is None:
+                    continue
+            else:
+                parent, at = self.part_names[body], self.frames[body] @ at
+            colour = self.custom.get((raw, "color"))
+            part = Part(name)
+            if isinstance(colour, list) and len(colour) == 4:
+                part.color = tuple(float(c) for c in colour)
+            parts.append(part)
+            kept = self.custom.get((raw, "parent_joint"))
+            joint_name = self._name(kept, taken, "joint") if isinstance(kept, str) else \
+                sanitize_name(f"{parent}_to_{name}", taken)
+            joints.append(Joint(joint_name, JointType.FIXED, parent, name, origin=at))
+        return joints
 
     # -- parts -----------------------------------------------------------------------------
     def _part(self, b: int) -> Part:
@@ -555,7 +589,8 @@ class _Reader:
         kept = listed(self._unread_counts())
         if kept:
             warn(f"{self.path}: MJCF elements with no place in the model kept as metadata "
-                 f"{ELEMENTS_KEY!r} (no writer writes them back): {kept}")
+                 f"{ELEMENTS_KEY!r} (the MJCF writer writes them back; no other format acts "
+                 f"on them): {kept}")
         left = listed({"keyframe": m.nkey - int(observed), "flex": m.nflex, "skin": m.nskin,
                        "custom tuple": m.ntuple})
         if left:

@@ -3,9 +3,13 @@
 One body per part, named as the part, posed at its joint origin; the joint (hinge, slide or
 ball) at the body origin; the root a jointless child of the world (fixed base), or the world
 body itself when it is named ``world`` or a floating joint (a free joint) hangs from it; a
-fixed joint a jointless nested body; a mimic a joint equality. Each body has its explicit
+fixed joint a jointless nested body (a frame, with no mass, geometry or children, a site); the
+intermediate parts the reader makes for a body with several joints merged back into it
+(:mod:`.structure`); a mimic a joint equality. Each body has its explicit
 inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
-one colliding mesh geom per convex piece (group 3). Every parent/child pair is excluded from
+one colliding mesh geom per convex piece (group 3); shapes (box, cylinder, ...) are geoms of
+their type. The actuators, tendons, sensors and equalities an MJCF reader kept in the metadata
+are written back where MuJoCo compiles them (:mod:`.kept`). Every parent/child pair is excluded from
 contact. What MJCF has no place for is kept in the keyframe "observed" (joint states) and in
 ``<custom>`` data named ``real2code:<element>:<field>`` (velocity limits, fixed-joint names,
 metadata, ...).
@@ -24,9 +28,11 @@ from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import ExportError, warn
 from ...meshfiles import (
     MESH_DIR,
+    collision_file_meshes,
     collision_relpath,
     map_relpath,
     texture_relpath,
+    visual_file_mesh,
     visual_relpath,
     write_object_meshes,
 )
@@ -42,6 +48,9 @@ from .conventions import (
     float32,
     snap_unit,
 )
+from .geometry import mjcf_geom
+from .kept import ELEMENTS_KEY, restore
+from .structure import anchors, body_chains, site_parts
 
 SUFFIX = ".xml"
 
@@ -118,7 +127,52 @@ def _text_as_attribute(text: str) -> str:
 
 def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
     spec = _build(obj, meshdir=MESH_DIR, model_dir=out_dir)
-    return atomic.write_text(out_dir / f"{obj.name}{SUFFIX}", to_xml(spec, obj))
+    text = to_xml(spec, obj)
+    sections = obj.metadata.get(ELEMENTS_KEY)
+    if isinstance(sections, dict) and sections:
+        text = _with_kept(obj, text, sections, out_dir)
+    return atomic.write_text(out_dir / f"{obj.name}{SUFFIX}", text)
+
+
+def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path) -> str:
+    """The file with the MJCF sections a reader kept (actuators, tendons, sensors,
+    equalities, their default classes) written back where MuJoCo compiles them; what it
+    refuses stays in the metadata, warned about."""
+    import mujoco
+
+    def compiles(candidate: str) -> None:
+        spec = mujoco.MjSpec.from_string(candidate)
+        spec.modelfiledir = str(out_dir) + "/"
+        spec.compile()
+
+    bad = [tag for tag, v in sections.items() if not isinstance(v, str)]
+    if bad:
+        raise ExportError(f"MJCF: object {obj.name!r} metadata {ELEMENTS_KEY!r}: sections "
+                          f"{bad} are not XML text")
+    text, left, why = restore(text, sections, compiles)
+    for reason in why:
+        warn(f"MJCF: object {obj.name!r}: kept MJCF element not written back (it stays in "
+             f"the metadata {ELEMENTS_KEY!r}): {reason}")
+    metadata = {k: v for k, v in obj.metadata.items() if k != ELEMENTS_KEY}
+    if left:
+        metadata[ELEMENTS_KEY] = left
+    return _replace_metadata(text, metadata)
+
+
+def _replace_metadata(text: str, metadata: dict) -> str:
+    """The file with its metadata text (or none, for empty metadata) replaced."""
+    import json
+
+    from lxml import etree
+
+    root = etree.fromstring(text.encode("utf-8"))
+    element = root.find(f"custom/text[@name='{METADATA}']")
+    if element is not None and not metadata:
+        element.getparent().remove(element)
+    elif element is not None:
+        element.set("data", json.dumps(metadata, sort_keys=True, separators=(",", ":"),
+                                       allow_nan=False))
+    return etree.tostring(root, encoding="unicode") + "\n"
 
 
 # -- the spec ---------------------------------------------------------------------------------
@@ -170,23 +224,37 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         _add_geoms(spec.worldbody, root)
     else:
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
+    sites, chains = site_parts(obj), body_chains(obj)
+    merged = {j.child for chain in chains.values() for j in chain[:-1]}
     for joint in joints:
-        bodies[joint.child] = _add_body(bodies[joint.parent], obj.part(joint.child), joint)
+        if joint.child in sites:  # a frame: a site of its parent's body
+            _add_site(bodies[joint.parent], joint)
+        elif joint.parent not in merged:  # (the rest of a chain is its first joint's body)
+            chain = chains.get(joint.name, [joint])
+            body = _add_body(bodies[joint.parent], obj.part(chain[-1].child), chain)
+            bodies.update((j.child, body) for j in chain)
     for part in parts:
         if (part.texture is not None or part.maps) and not in_memory:
             spec.geom(f"{part.name}_visual").material = texture_name(part)
     for joint in joints:  # explicit, not only MuJoCo's parent filter (fixed joints included)
-        spec.add_exclude(bodyname1=bodies[joint.parent].name, bodyname2=joint.child)
+        if joint.child not in sites and bodies[joint.parent] is not bodies[joint.child]:
+            spec.add_exclude(bodyname1=bodies[joint.parent].name,
+                             bodyname2=bodies[joint.child].name)
     for joint in joints:  # our joints have no ref: qpos0 = 0, polycoef = offset, multiplier
         if joint.mimic is not None:
             spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, objtype=mujoco.mjtObj.mjOBJ_JOINT,
                               name1=joint.name, name2=joint.mimic.joint,
                               data=[joint.mimic.offset, joint.mimic.multiplier] + [0.0] * 10)
-    _add_custom(spec, obj, parts, joints)
+    _add_custom(spec, obj, [p for p in parts if p.name not in merged], joints)
     qpos = [x for j in joints for x in _qpos(j)]
     if qpos:  # bodies, hence qpos, are in this same depth-first order
         spec.add_key(name=KEYFRAME, qpos=qpos)
     return spec
+
+
+def _add_site(body, joint: Joint) -> None:
+    body.add_site(name=joint.child, pos=[x + 0.0 for x in joint.origin[:3, 3]],
+                  quat=snap_unit(tf.matrix_to_quat(joint.origin[:3, :3]), sign_free=True))
 
 
 def root_is_world(obj: ArticulatedObject) -> bool:
@@ -252,8 +320,10 @@ def texture_name(part: Part) -> str:
 
 
 def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:
-    items = [(visual_relpath(part.name), part.visual, True)] if part.visual is not None else []
-    items += [(collision_relpath(part.name, k), m, False) for k, m in enumerate(part.collision)]
+    """The mesh assets: the visual's own mesh and the collision pieces that are not shapes."""
+    visual = visual_file_mesh(part)
+    items = [(visual_relpath(part.name), visual, True)] if visual is not None else []
+    items += [(collision_relpath(part.name, k), m, False) for k, m in collision_file_meshes(part)]
     return items
 
 
@@ -262,15 +332,19 @@ def _stem(relpath: str) -> str:
     return relpath.rpartition("/")[2].rpartition(".")[0]
 
 
-def _add_body(parent, part: Part, joint: Joint | None):
-    if joint is None:
+def _add_body(parent, part: Part, chain: list[Joint] | None):
+    """The part's body, placed by the joint into it, or by a chain of joints that MJCF holds
+    in one body (each at its anchor; :func:`.structure.anchors`)."""
+    if chain is None:
         body = parent.add_body(name=part.name)
     else:
-        rotation = tf.matrix_to_quat(joint.origin[:3, :3])
-        body = parent.add_body(name=part.name, pos=[x + 0.0 for x in joint.origin[:3, 3]],
+        base, points = anchors(chain)
+        rotation = tf.matrix_to_quat(base[:3, :3])
+        body = parent.add_body(name=part.name, pos=[x + 0.0 for x in base[:3, 3]],
                                quat=snap_unit(rotation, sign_free=True))
-        if joint.type is not JointType.FIXED:
-            _add_joint(body, joint)
+        for joint, anchor in zip(chain, points, strict=True):
+            if joint.type is not JointType.FIXED:
+                _add_joint(body, joint, anchor)
     if part.inertial is not None:
         body.explicitinertial = True
         body.mass = part.inertial.mass
@@ -291,22 +365,37 @@ def _add_geoms(body, part: Part) -> None:
 
     mesh_geom = mujoco.mjtGeom.mjGEOM_MESH
     rgba = float32(part.color)
-    if part.visual is not None:
+    visual_only = dict(contype=0, conaffinity=0, group=VISUAL_GROUP, rgba=rgba)
+    if visual_file_mesh(part) is not None:
         body.add_geom(name=f"{part.name}_visual", type=mesh_geom,
-                      meshname=_stem(visual_relpath(part.name)), contype=0, conaffinity=0,
-                      group=VISUAL_GROUP, rgba=rgba)
-    for k in range(len(part.collision)):
-        body.add_geom(name=f"{part.name}_collision_{k}", type=mesh_geom,
-                      meshname=_stem(collision_relpath(part.name, k)), group=COLLISION_GROUP,
-                      rgba=rgba)
+                      meshname=_stem(visual_relpath(part.name)), **visual_only)
+    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
+        body.add_geom(name=f"{part.name}_visual_{k}", **_shape_geom(shape), **visual_only)
+    for k, piece in enumerate(part.collision):
+        name = f"{part.name}_collision_{k}"
+        if piece.primitive is not None:
+            body.add_geom(name=name, **_shape_geom(piece.primitive), group=COLLISION_GROUP,
+                          rgba=rgba)
+        else:
+            body.add_geom(name=name, type=mesh_geom, meshname=_stem(collision_relpath(part.name, k)),
+                          group=COLLISION_GROUP, rgba=rgba)
 
 
-def _add_joint(body, joint: Joint) -> None:
+def _shape_geom(shape) -> dict:
+    """A primitive geom's type, size and pose (in its body, the part frame)."""
+    kind, size = mjcf_geom(shape)
+    return dict(type=kind, size=size, pos=[x + 0.0 for x in shape.pose[:3, 3]],
+                quat=snap_unit(tf.matrix_to_quat(shape.pose[:3, :3]), sign_free=True))
+
+
+def _add_joint(body, joint: Joint, anchor: np.ndarray) -> None:
     import mujoco
 
     d = joint.dynamics
     options = dict(name=joint.name, damping=d.damping, frictionloss=d.friction,
                    stiffness=d.stiffness, armature=d.armature)
+    if np.any(anchor):
+        options["pos"] = [x + 0.0 for x in anchor]
     if joint.type.multi_dof:
         kind = mujoco.mjtJoint.mjJNT_BALL if joint.type is JointType.BALL else \
             mujoco.mjtJoint.mjJNT_FREE
@@ -358,8 +447,10 @@ def _element_owner(obj: ArticulatedObject, name: str) -> str:
     """Which part or joint a MuJoCo element name belongs to (body, joint, geom, mesh)."""
     owners = []
     for part in obj.parts:
+        shapes = len(part.visual.primitives) if part.visual is not None else 0
         names = {part.name, f"{part.name}_visual"} | {
-            f"{part.name}_collision_{k}" for k in range(len(part.collision))}
+            f"{part.name}_collision_{k}" for k in range(len(part.collision))} | {
+            f"{part.name}_visual_{k}" for k in range(shapes)}
         if name in names:
             owners.append(f"part {part.name!r}" + ("" if name == part.name else f" ({name!r})"))
     owners += [f"joint {j.name!r}" for j in obj.joints if j.name == name]

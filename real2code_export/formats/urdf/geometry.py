@@ -3,8 +3,8 @@
 Mesh filenames are relative to the URDF, ``file://`` paths, or ``package://name/rest`` /
 ``model://name/rest`` (resolved by searching the URDF's parent folders, then
 ``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``: there is no ROS
-package index here). Primitives become meshes with
-trimesh.creation. A visual's colour is its URDF material, else the area-weighted diffuse
+package index here). Primitives are kept as the model's shapes (with their fixed
+tessellation, :mod:`real2code_export.primitives`). A visual's colour is its URDF material, else the area-weighted diffuse
 colour of the OBJ's own MTL materials (PartNet ships MTLs; read with the geometry), else
 none.
 """
@@ -21,11 +21,9 @@ from lxml import etree
 from ... import transforms as tf
 from ...meshfiles import read_mesh_file
 from ...model import Mesh
+from ...primitives import SIZE_COUNT, Primitive, ShapeKind
 from .context import Context, label
-
-# Tessellation of primitives: fixed, so the same file always gives the same mesh.
-CYLINDER_SECTIONS = 32
-SPHERE_SUBDIVISIONS = 3
+from .spec import PREFIX, ns
 
 RGBA = tuple[float, float, float, float]
 
@@ -58,7 +56,8 @@ def shape_mesh(ctx: Context, el: etree._Element, owner: str) -> tuple[Mesh, Path
                         geometry.sourceline)
     shape = shapes[0]
     if shape.tag == "mesh":
-        return _file_mesh(ctx, shape, owner)
+        marked = _marked_shape(ctx, shape, owner)
+        return (marked, None) if marked is not None else _file_mesh(ctx, shape, owner)
     return _primitive(ctx, shape, owner), None
 
 
@@ -71,25 +70,32 @@ def _positive(ctx: Context, el: etree._Element, attr: str, owner: str, count: in
 
 
 def _primitive(ctx: Context, shape: etree._Element, owner: str) -> Mesh:
-    import trimesh
-
+    """A URDF shape (and ``<capsule>``, which MuJoCo's and other readers take) kept as the
+    model's shape; URDF cylinders and capsules are centred, along z, as the model's are."""
     if shape.tag == "box":
-        tm = trimesh.creation.box(extents=_positive(ctx, shape, "size", owner, 3))
-    elif shape.tag == "cylinder":  # URDF cylinders are centred, along z, like trimesh's
-        tm = trimesh.creation.cylinder(radius=_positive(ctx, shape, "radius", owner),
-                                       height=_positive(ctx, shape, "length", owner),
-                                       sections=CYLINDER_SECTIONS)
+        primitive = Primitive(ShapeKind.BOX, _positive(ctx, shape, "size", owner, 3))
     elif shape.tag == "sphere":
-        tm = trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS,
-                                        radius=_positive(ctx, shape, "radius", owner))
-    elif shape.tag == "capsule":  # not URDF 1.0, but MuJoCo and others read it
-        tm = trimesh.creation.capsule(height=_positive(ctx, shape, "length", owner),
-                                      radius=_positive(ctx, shape, "radius", owner),
-                                      count=[CYLINDER_SECTIONS, CYLINDER_SECTIONS])
+        primitive = Primitive(ShapeKind.SPHERE, [_positive(ctx, shape, "radius", owner)])
+    elif shape.tag in ("cylinder", "capsule"):
+        primitive = Primitive(ShapeKind(shape.tag), [_positive(ctx, shape, "radius", owner),
+                                                     _positive(ctx, shape, "length", owner)])
     else:
         raise ctx.error(owner, f"unknown geometry <{shape.tag}> (expected mesh, box, cylinder, "
                         "sphere)", shape.sourceline)
-    return Mesh.from_trimesh(tm)
+    return Mesh.of_primitive(primitive)
+
+
+def _marked_shape(ctx: Context, shape: etree._Element, owner: str) -> Mesh | None:
+    """A <mesh> our writer marked as a shape URDF has no element for (capsule, ellipsoid:
+    ``real2code:shape`` and ``real2code:size``): the shape, not the file's triangles."""
+    kind = shape.get(ns("shape"))
+    if kind is None:
+        return None
+    if kind not in {k.value for k in ShapeKind}:
+        raise ctx.error(owner, f"<mesh {PREFIX}:shape={kind!r}>: unknown shape",
+                        shape.sourceline)
+    size = _positive(ctx, shape, ns("size"), owner, SIZE_COUNT[ShapeKind(kind)])
+    return Mesh.of_primitive(Primitive(kind, np.atleast_1d(size)))
 
 
 def package_search_path() -> list[Path]:

@@ -281,9 +281,14 @@ def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
             return []
         ctx.note("collision", repr(name))
         source = visuals
+    # Shapes (box, cylinder, ...) are convex: each is a piece as it is. Only meshes are cut.
+    shapes = [Mesh.of_primitive(p) for m in source for p in m.primitives]
+    meshes = [r for r in (m.remainder() for m in source) if r is not None]
+    if not meshes:
+        return shapes
     try:
-        return collision_pieces(Mesh.concatenate(source), "pieces", source_pieces=source,
-                                split_hollow=split_hollow)
+        return collision_pieces(Mesh.concatenate(meshes), "pieces", source_pieces=meshes,
+                                split_hollow=split_hollow) + shapes
     except ValueError as e:
         raise ctx.error(owner, f"cannot make convex collision pieces: {e}", el.sourceline) from e
 

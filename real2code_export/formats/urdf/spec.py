@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from .. import FORMATS
+
 # Data URDF has no place for (joint state, stiffness, spring reference, armature, unknown
 # effort/velocity, object metadata, deliberately absent collision/inertial) is kept in
 # attributes of this namespace: URDF tools ignore them, our reader restores them.
@@ -19,7 +21,7 @@ UNKNOWN = "none"
 # The children of <robot> the model has no place for (<transmission>, <gazebo>, Drake's
 # <frame>, ...) are kept, as XML text in document order, under this key of the object's
 # metadata: every format carries the metadata, and the URDF writer writes them back.
-ELEMENTS_KEY = "urdf_elements"
+ELEMENTS_KEY = FORMATS["urdf"].kept_elements
 
 
 def ns(name: str) -> str:

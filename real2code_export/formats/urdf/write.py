@@ -3,7 +3,8 @@
 Each link has its <inertial> (origin at the centre of mass, tensor in link axes), one
 <visual> (meshes/<part>.obj with a named material) and one <collision> per convex piece
 (meshes/<part>_collision_<k>.obj, marked ``real2code:convex="true"`` so our reader keeps them
-as they are). Numbers are Python's shortest exact text. What URDF cannot hold goes into
+as they are); a shape is a <visual>/<collision> of its own (<box>, <cylinder>, <sphere>; a
+capsule or ellipsoid, which URDF lacks, its tessellation's mesh marked ``real2code:shape``). Numbers are Python's shortest exact text. What URDF cannot hold goes into
 attributes of the ``real2code`` namespace (see :mod:`.spec`); a <mujoco> block makes MuJoCo
 load every link as its own body, with its visual.
 """
@@ -20,12 +21,16 @@ from ... import atomic
 from ... import transforms as tf
 from ...errors import ModelError, warn
 from ...meshfiles import (
+    MESH_DIR,
     collision_relpath,
+    obj_bytes,
+    visual_file_mesh,
     visual_relpath,
     warn_maps_not_referenced,
     write_object_meshes,
 )
-from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
+from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from ...primitives import Primitive, ShapeKind
 from .spec import (
     DEFAULT_EFFORT,
     DEFAULT_VELOCITY,
@@ -40,6 +45,7 @@ from .spec import (
 from .structure import READ_TAGS
 
 SUFFIX = ".urdf"
+URDF_SHAPES = (ShapeKind.BOX, ShapeKind.CYLINDER, ShapeKind.SPHERE)  # URDF 1.0's elements
 
 # MuJoCo's URDF defaults differ from MJCF's (docs: "URDF extensions"): it fuses links joined
 # by fixed joints into their parent (we want one body per part, as in the other formats) and
@@ -57,6 +63,9 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     text = to_bytes(obj)
     if write_meshes:
         write_object_meshes(obj, out_dir)
+    for relpath, mesh in shape_mesh_files(obj).items():
+        (out_dir / relpath).parent.mkdir(parents=True, exist_ok=True)
+        atomic.write_bytes(out_dir / relpath, obj_bytes(mesh))
     return atomic.write_bytes(out_dir / f"{obj.name}{SUFFIX}", text)
 
 
@@ -104,8 +113,55 @@ def _sub(parent: etree._Element, tag: str, *attrs: tuple[str, str]) -> etree._El
     return el
 
 
-def _mesh_geometry(parent: etree._Element, filename: str) -> None:
-    _sub(_sub(parent, "geometry"), "mesh", ("filename", filename))
+def _mesh_geometry(parent: etree._Element, filename: str) -> etree._Element:
+    return _sub(_sub(parent, "geometry"), "mesh", ("filename", filename))
+
+
+def _origin(parent: etree._Element, transform: np.ndarray) -> None:
+    _sub(parent, "origin", ("xyz", numbers(transform[:3, 3])),
+         ("rpy", numbers(stable_rpy(transform[:3, :3]))))
+
+
+def _shape_geometry(parent: etree._Element, part: Part, shape: Primitive, relpath: str) -> None:
+    """URDF's own element for a box, cylinder or sphere; a shape URDF has no element for
+    (capsule, ellipsoid) is its tessellation's mesh file, marked for our reader (warned)."""
+    _origin(parent, shape.pose)
+    s = shape.size
+    if shape.kind is ShapeKind.BOX:
+        _sub(_sub(parent, "geometry"), "box", ("size", numbers(s)))
+    elif shape.kind is ShapeKind.SPHERE:
+        _sub(_sub(parent, "geometry"), "sphere", ("radius", number(s[0])))
+    elif shape.kind is ShapeKind.CYLINDER:
+        _sub(_sub(parent, "geometry"), "cylinder", ("radius", number(s[0])),
+             ("length", number(s[1])))
+    else:
+        warn(f"URDF: part {part.name!r}: URDF has no {shape.kind.value}; written as a mesh "
+             f"({relpath}), marked {PREFIX}:shape for our reader")
+        mesh = _mesh_geometry(parent, relpath)
+        mesh.set(ns("shape"), shape.kind.value)
+        mesh.set(ns("size"), numbers(s))
+
+
+def shape_mesh_files(obj: ArticulatedObject) -> dict[str, Mesh]:
+    """The mesh files of the shapes URDF has no element for (relpath -> tessellation in the
+    shape's own frame): the URDF writes them itself, no other format needs them."""
+    out = {}
+    for part in obj.parts:
+        for relpath, shape in _mesh_shapes(part):
+            out[relpath] = Mesh(*Primitive(shape.kind, shape.size).tessellation())
+    return out
+
+
+def _mesh_shapes(part: Part) -> list[tuple[str, Primitive]]:
+    visual = part.visual.primitives if part.visual is not None else ()
+    items = [(shape_relpath(part.name, "visual", k), s) for k, s in enumerate(visual)]
+    items += [(shape_relpath(part.name, "collision", k), m.primitive)
+              for k, m in enumerate(part.collision) if m.primitive is not None]
+    return [(rel, s) for rel, s in items if s.kind not in URDF_SHAPES]
+
+
+def shape_relpath(part_name: str, role: str, k: int) -> str:
+    return f"{MESH_DIR}/{part_name}_{role}_{k}_shape.obj"
 
 
 def _link(part: Part) -> etree._Element:
@@ -125,14 +181,22 @@ def _link(part: Part) -> etree._Element:
         _sub(el, "inertia", *((k, number(v)) for k, v in (
             ("ixx", i[0, 0]), ("ixy", i[0, 1]), ("ixz", i[0, 2]),
             ("iyy", i[1, 1]), ("iyz", i[1, 2]), ("izz", i[2, 2]))))
-    if part.visual is not None:
-        el = _sub(link, "visual", ("name", f"{part.name}_visual"))
+    visuals = []
+    if visual_file_mesh(part) is not None:
+        visuals.append(el := _sub(link, "visual", ("name", f"{part.name}_visual")))
         _mesh_geometry(el, visual_relpath(part.name))
+    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
+        visuals.append(el := _sub(link, "visual", ("name", f"{part.name}_visual_{k}")))
+        _shape_geometry(el, part, shape, shape_relpath(part.name, "visual", k))
+    for el in visuals:
         material = _sub(el, "material", ("name", f"{part.name}_material"))
         _sub(material, "color", ("rgba", numbers(part.color)))
-    for k in range(len(part.collision)):
+    for k, piece in enumerate(part.collision):
         el = _sub(link, "collision", ("name", f"{part.name}_collision_{k}"), (ns("convex"), "true"))
-        _mesh_geometry(el, collision_relpath(part.name, k))
+        if piece.primitive is not None:
+            _shape_geometry(el, part, piece.primitive, shape_relpath(part.name, "collision", k))
+        else:
+            _mesh_geometry(el, collision_relpath(part.name, k))
     return link
 
 

@@ -2,6 +2,9 @@
 with the part's linear colour) and its convex collision pieces (UsdGeom.Mesh with
 PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
 renderers skip them). Geometry is inline, in the part frame, so the file is self-contained.
+Shapes (box, sphere, ellipsoid, cylinder, capsule) are UsdGeom Cube / Sphere / Cylinder /
+Capsule prims, placed by double-precision xformOps (a box is a unit cube scaled, an ellipsoid
+a unit sphere scaled); as colliders they have the CollisionAPI alone (analytic shapes).
 
 Mesh prims are named after their part (``<part>/<part>``, ``<part>/<part>_collision_<k>``),
 never a generic ``visual``: importers that fold a single-mesh Xform into one object (Blender's
@@ -15,8 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import DEFAULT_COLOR, Mesh, Part, Texture
+from ...primitives import Primitive, ShapeKind
 
 ST = "st"  # the texture-coordinate primvar's name, as UsdPreviewSurface's examples use
 
@@ -61,19 +66,29 @@ def write_part_geometry(stage, part: Part, body_path: str, material_path: str) -
     body = stage.GetPrimAtPath(body_path)
     UsdShade.MaterialBindingAPI.Apply(body).Bind(material)
 
-    if part.visual is not None:
-        visual = _define_mesh(stage, f"{body_path}/{visual_name(part)}", part.visual)
-        if part.visual.uv is not None:
-            _texture_coordinates(visual, part.visual.uv)
-        # displayColor too, for viewers and importers (MuJoCo's) that read no materials
-        visual.CreateDisplayColorAttr([Gf.Vec3f(r, g, b)])
+    visuals = []
+    own = part.visual.remainder() if part.visual is not None else None
+    if own is not None:
+        visual = _define_mesh(stage, f"{body_path}/{visual_name(part)}", own)
+        if own.uv is not None:
+            _texture_coordinates(visual, own.uv)
+        visuals.append(visual)
+    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
+        visuals.append(define_shape(stage, f"{body_path}/{part.name}_visual_{k}", shape))
+    for visual in visuals:  # displayColor too, for viewers and importers (MuJoCo's) that
+        visual.CreateDisplayColorAttr([Gf.Vec3f(r, g, b)])  # read no materials
         visual.CreateDisplayOpacityAttr([a])
     for k, piece in enumerate(part.collision):
-        geom = _define_mesh(stage, f"{body_path}/{collision_name(part, k)}", piece)
+        where = f"{body_path}/{collision_name(part, k)}"
+        if piece.primitive is not None:  # an analytic collider
+            geom = define_shape(stage, where, piece.primitive)
+        else:
+            geom = _define_mesh(stage, where, piece)
         geom.CreatePurposeAttr("guide")
         UsdPhysics.CollisionAPI.Apply(geom.GetPrim())
-        UsdPhysics.MeshCollisionAPI.Apply(geom.GetPrim()).CreateApproximationAttr(
-            UsdPhysics.Tokens.convexHull)
+        if piece.primitive is None:
+            UsdPhysics.MeshCollisionAPI.Apply(geom.GetPrim()).CreateApproximationAttr(
+                UsdPhysics.Tokens.convexHull)
 
 
 def _texture_coordinates(geom, uv: np.ndarray) -> None:
@@ -262,33 +277,84 @@ def _surface_images(shader, path) -> dict[str, Texture]:
     return out
 
 
+def _axis_rotation(axis: str) -> np.ndarray:
+    """The rotation taking z to a USD shape's ``axis`` (the model's round shapes are along z)."""
+    if axis == "X":
+        return tf.make(rotation=tf.axis_angle_matrix([0.0, 1.0, 0.0], np.pi / 2))
+    if axis == "Y":
+        return tf.make(rotation=tf.axis_angle_matrix([1.0, 0.0, 0.0], -np.pi / 2))
+    return np.eye(4)
+
+
 def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:
-    """A collision primitive (cube, sphere, capsule, cylinder) tessellated, in the part frame;
-    None for other kinds."""
-    import trimesh
+    """A UsdGeom Cube, Sphere, Cylinder or Capsule as the model's shape in the part frame
+    (``to_part``: the prim's own frame -> part, its scale included: a scaled cube is a box, a
+    sphere scaled unevenly an ellipsoid); a scale no shape holds (a cylinder squashed across
+    its axis, a mirror) gives the tessellation alone. None for other prim types."""
     from pxr import UsdGeom
 
-    axis_rot = {"X": trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]),
-                "Y": trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]),
-                "Z": np.eye(4)}
+    matrix = np.asarray(to_part, dtype=np.float64)
+    scale = np.linalg.norm(matrix[:3, :3], axis=0)
+    rotation = matrix[:3, :3] / np.where(scale > 0, scale, 1.0)
+    rigid = tf.make(rotation, matrix[:3, 3])
     if prim.IsA(UsdGeom.Cube):
-        m = trimesh.creation.box(extents=[float(UsdGeom.Cube(prim).GetSizeAttr().Get())] * 3)
+        shape = Primitive(ShapeKind.BOX, float(UsdGeom.Cube(prim).GetSizeAttr().Get()) * scale,
+                          rigid)
     elif prim.IsA(UsdGeom.Sphere):
-        m = trimesh.creation.icosphere(2, float(UsdGeom.Sphere(prim).GetRadiusAttr().Get()))
-    elif prim.IsA(UsdGeom.Capsule):  # USD and trimesh both measure height without the caps
-        g = UsdGeom.Capsule(prim)
-        m = trimesh.creation.capsule(height=float(g.GetHeightAttr().Get()),
-                                     radius=float(g.GetRadiusAttr().Get()))
-        m.apply_transform(axis_rot[str(g.GetAxisAttr().Get())])
-    elif prim.IsA(UsdGeom.Cylinder):
-        g = UsdGeom.Cylinder(prim)
-        m = trimesh.creation.cylinder(radius=float(g.GetRadiusAttr().Get()),
-                                      height=float(g.GetHeightAttr().Get()), sections=24)
-        m.apply_transform(axis_rot[str(g.GetAxisAttr().Get())])
+        radii = float(UsdGeom.Sphere(prim).GetRadiusAttr().Get()) * scale
+        even = np.allclose(radii, radii[0], rtol=1e-9, atol=0.0)
+        shape = Primitive(ShapeKind.SPHERE if even else ShapeKind.ELLIPSOID,
+                          radii[:1] if even else radii, rigid)
+    elif prim.IsA(UsdGeom.Capsule) or prim.IsA(UsdGeom.Cylinder):
+        g = UsdGeom.Capsule(prim) if prim.IsA(UsdGeom.Capsule) else UsdGeom.Cylinder(prim)
+        kind = ShapeKind.CAPSULE if prim.IsA(UsdGeom.Capsule) else ShapeKind.CYLINDER
+        to_axis = _axis_rotation(str(g.GetAxisAttr().Get()))
+        along = np.abs(to_axis[:3, :3].T @ scale)  # the scale in the shape's own x, y, z
+        size = [float(g.GetRadiusAttr().Get()) * along[0],
+                float(g.GetHeightAttr().Get()) * along[2]]
+        shape = Primitive(kind, size, rigid @ to_axis)
+        if not np.isclose(along[0], along[1], rtol=1e-9, atol=0.0):
+            unscaled = Primitive(kind, [float(g.GetRadiusAttr().Get()),
+                                        float(g.GetHeightAttr().Get())], to_axis)
+            return Mesh(*unscaled.tessellation()).transformed(matrix)
     else:
         return None
-    m.apply_transform(to_part)
-    return Mesh.from_trimesh(m)
+    if np.linalg.det(matrix[:3, :3]) < 0:
+        return Mesh(*shape.tessellation())  # mirrored: the same surface, not a rigid pose
+    return Mesh.of_primitive(shape)
+
+
+def define_shape(stage, path: str, shape: Primitive):
+    """A UsdGeom Cube (scaled to the box), Sphere (scaled for an ellipsoid), Cylinder or
+    Capsule (axis Z) at the shape's pose, in double precision."""
+    from pxr import Gf, UsdGeom
+
+    s = shape.size
+    scale = None
+    if shape.kind is ShapeKind.BOX:
+        geom = UsdGeom.Cube.Define(stage, path)
+        geom.CreateSizeAttr(1.0)
+        scale = s
+    elif shape.kind in (ShapeKind.SPHERE, ShapeKind.ELLIPSOID):
+        geom = UsdGeom.Sphere.Define(stage, path)
+        geom.CreateRadiusAttr(float(s[0]) if shape.kind is ShapeKind.SPHERE else 1.0)
+        scale = s if shape.kind is ShapeKind.ELLIPSOID else None
+    else:
+        geom = (UsdGeom.Capsule if shape.kind is ShapeKind.CAPSULE else UsdGeom.Cylinder).Define(
+            stage, path)
+        geom.CreateRadiusAttr(float(s[0]))
+        geom.CreateHeightAttr(float(s[1]))
+        geom.CreateAxisAttr(UsdGeom.Tokens.z)
+    double = UsdGeom.XformOp.PrecisionDouble
+    geom.AddTranslateOp(double).Set(Gf.Vec3d(*(float(x) for x in shape.pose[:3, 3])))
+    w, x, y, z = (float(c) for c in tf.matrix_to_quat(shape.pose[:3, :3]))
+    geom.AddOrientOp(double).Set(Gf.Quatd(w, Gf.Vec3d(x, y, z)))
+    if scale is not None:
+        geom.AddScaleOp(double).Set(Gf.Vec3d(*(float(v) for v in scale)))
+    extent = UsdGeom.Boundable.ComputeExtentFromPlugins(geom, 0.0)
+    if extent is not None:
+        geom.CreateExtentAttr(extent)
+    return geom
 
 
 def read_color(prim, mesh_prims, path) -> tuple[float, float, float, float]:

@@ -157,10 +157,19 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
                 collision.append(mesh)
     shown = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
     visual_prims = [p for p in _own_descendants(prim)
-                    if p.IsA(UsdGeom.Mesh) and not p.HasAPI(UsdPhysics.CollisionAPI)
+                    if p.IsA(UsdGeom.Gprim) and not p.HasAPI(UsdPhysics.CollisionAPI)
                     and UsdGeom.Imageable(p).ComputePurpose() in shown
                     and UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible]
-    visuals = [read_mesh(p, placed(p), path, f"prim <{p.GetPath()}>") for p in visual_prims]
+    visuals = []
+    for p in visual_prims:
+        where_p = f"prim <{p.GetPath()}>"
+        mesh = read_mesh(p, placed(p), path, where_p) if p.IsA(UsdGeom.Mesh) else \
+            shape_mesh(p, placed(p))
+        if mesh is None:
+            warn(f"{path}: {where_p} ({p.GetTypeName()}): a shape the model has no place for "
+                 "(box, sphere, cylinder, capsule and meshes are read); not shown")
+            continue
+        visuals.append(mesh)
     visual = (visuals[0] if len(visuals) == 1 else Mesh.concatenate(visuals)) if visuals else None
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
                              f"{path}: {where}")
