@@ -130,9 +130,11 @@ def _closed_components(faces: np.ndarray) -> list[np.ndarray]:
     # components of fewer than four faces can never close; skip them cheaply
     sizes = np.bincount(labels)
     closed = np.flatnonzero(~open_component & (sizes >= 4))
+    if len(closed) == 0:  # (a soup has thousands of components: split none of them)
+        return []
     order = np.argsort(labels, kind="stable")
-    groups = np.split(order, np.cumsum(sizes)[:-1])
-    return [groups[c] for c in closed]
+    starts = np.cumsum(sizes) - sizes
+    return [order[starts[c]:starts[c] + sizes[c]] for c in closed]
 
 
 def _physical_inertia(inertia: np.ndarray, mass: float, min_size: float) -> np.ndarray:
