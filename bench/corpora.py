@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _machine import describe  # noqa: E402
+from _machine import byte_compile, describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CONVERTERS = REPO / ".venv-converters" / "bin"
@@ -83,9 +83,10 @@ def main() -> None:
     args = p.parse_args()
     if not (CONVERTERS / "urdf_usd_converter").exists():
         sys.exit("run bench/setup_converters.sh first")
+    byte_compile(REPO / "real2code_export")
     corpora = {"urdf": ("example-robot-data (URDF)", urdf_files, "urdf_usd_converter"),
                "mjcf": ("MuJoCo Menagerie (MJCF)", mjcf_files, "mujoco_usd_converter")}
-    lines = [f"machine: {describe()}", "",
+    lines = [f"machine: {describe()}; load average at start {load_average()}", "",
              "| file | ours: export (s) | ours: check (s) | converter (s) | converter / ours |"
              " exit ours / converter |", "|---|---|---|---|---|---|"]
     totals = ["| corpus | files | we export | converter exits clean | median export (s) | "
@@ -103,6 +104,7 @@ def main() -> None:
             print(line, flush=True)
             lines.append(line)
         totals.append(summary(name, rows))
+    lines[0] += f"; at end {load_average()}"
     text = "\n".join(lines + [""] + totals) + "\n"
     print("\n".join(totals))
     if args.markdown:
