@@ -196,9 +196,10 @@ def _read_obj(path: Path, source, element, line) -> MeshFile:
             and uv_faces.max() < len(texcoords):
         # a vertex seen with two texture coordinates becomes two (the model keeps one UV
         # per vertex, as glTF and USD's vertex primvars do)
-        pairs, corners = np.unique(np.stack([faces, uv_faces], axis=1), axis=0,
-                                   return_inverse=True)
-        mesh = Mesh(vertices[pairs[:, 0]], corners.reshape(-1, 3), texcoords[pairs[:, 1]])
+        # (pairs as one integer each: unique rows sort in the same order, 10x quicker)
+        n_uv = np.int64(len(texcoords))
+        pairs, corners = np.unique(faces * n_uv + uv_faces, return_inverse=True)
+        mesh = Mesh(vertices[pairs // n_uv], corners.reshape(-1, 3), texcoords[pairs % n_uv])
     else:
         used = np.zeros(len(vertices), dtype=bool)
         used[faces] = True
