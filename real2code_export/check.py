@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,7 +22,7 @@ from .jsonsafe import finite_or_null
 from .probes import JointInfo, Probe, open_probes
 from .probes.model import LABEL as MODEL_LABEL
 from .probes.source import SOURCE_LABEL, open_source_probes
-from .validators import Validation, validate_files
+from .validators import Validation, start_validation
 
 UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
 WORLD = "world"  # the world frame, as a part where a tool names it (URDF link, MuJoCo body 0)
@@ -159,13 +158,11 @@ def check_files(
         raise CheckError("no files to check")
     if n_configurations < 1:
         raise CheckError(f"n_configurations must be >= 1, got {n_configurations}")
-    # The validators (the glTF one is a Node.js process) run beside the probes: a thread
-    # that mostly waits on that process, so the check takes the longer of the two, not both.
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        pending = pool.submit(validate_files, list(paths)) if validate else None
-        report = _compare(paths, n_configurations, seed, tol_position, tol_rotation,
-                          reference, source)
-        validations = pending.result() if pending is not None else []
+    # The glTF validator (a Node.js process) runs while the probes load and pose.
+    finish = start_validation(list(paths)) if validate else list
+    report = _compare(paths, n_configurations, seed, tol_position, tol_rotation, reference,
+                      source)
+    validations = finish()
     for v in validations:
         if v.errors:
             report.mismatches.append(Mismatch("validation", v.tool, Path(v.path).name,

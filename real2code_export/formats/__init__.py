@@ -39,6 +39,7 @@ class Format:
     requires: tuple[str, ...] = ()  # modules the format's reader/writer cannot work without
     probes: tuple[str, ...] = ()  # modules whose open_probes(path) load it in its own tools
     validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
+    # (and start_<function>, where the module has one: validators.start_validation)
     exported: bool = True  # written by default (``export`` without --to)
     mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it embeds them)
     # its consumers take the convex hull of each collision mesh themselves (USD's
