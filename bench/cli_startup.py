@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _machine import describe, load_average  # noqa: E402
+from _machine import byte_compile, describe, load_average  # noqa: E402
 
 TARGET_S = 0.15
 
@@ -50,6 +50,8 @@ def main() -> None:
     args = p.parse_args()
     script = shutil.which("real2code", path=str(Path(sys.executable).parent)) or "real2code"
     repo = str(Path(__file__).resolve().parents[1])
+    byte_compile(Path(repo) / "real2code_export", *([Path(args.baseline) / "real2code_export"]
+                                                   if args.baseline else []))
     print(f"machine: {describe()}; load average {load_average()}")
     cases = [("python -c pass", [sys.executable, "-c", "pass"], repo),
              ("real2code --help", [script, "--help"], repo),

@@ -4,10 +4,11 @@ a user would pick instead, one run, same machine, same load.
     bench/setup_converters.sh            # urdf-usd-converter, mujoco-usd-converter (own venv)
     .venv/bin/python bench/corpora.py [--corpus urdf|mjcf|both] [--limit N] [--markdown F]
 
-Per file: ``real2code export FILE --to mjcf,urdf,usd,gltf --out D`` (one process, as a user
-runs it), then ``real2code check D/*`` (four exports, 100 configurations), and the converter
-(``urdf_usd_converter FILE D`` / ``mujoco_usd_converter FILE D``, USD only). Prints the
-per-file seconds, the medians and totals per corpus and the ratio converter / ours.
+Per file: ``real2code export FILE --out D`` (all four formats, one process, as a user runs
+it), then ``real2code check D/*`` (four exports, 100 configurations), ``real2code export
+FILE --to usd`` (what the converter writes) and the converter (``urdf_usd_converter FILE D``
+/ ``mujoco_usd_converter FILE D``, USD only). Prints the per-file seconds (wall, and the
+CPU the command used), the medians and totals per corpus and the ratios converter / ours.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -24,7 +26,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _machine import describe  # noqa: E402
+from _machine import byte_compile, describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CONVERTERS = REPO / ".venv-converters" / "bin"
@@ -42,37 +44,58 @@ def mjcf_files() -> list[Path]:
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
 
 
-def timed(cmd: list[str]) -> tuple[float, int, str]:
+def timed(cmd: list[str]) -> tuple[float, float, int, str]:
+    """Wall seconds, CPU seconds (user + system: what the command itself used, which a busy
+    machine inflates less than the wall time), exit status and last line said."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ,
                           "MUJOCO_GL": os.environ.get("MUJOCO_GL", "osmesa")})
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
     last = (done.stderr.strip() or done.stdout.strip()).splitlines()[-1:] or [""]
-    return time.perf_counter() - start, done.returncode, last[0][:160]
+    return wall, cpu, done.returncode, last[0][:160]
 
 
 def run_file(path: Path, converter: str) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        ours, rc, said = timed([*REAL2CODE, "export", str(path), "--out", f"{tmp}/ours"])
-        row = {"file": path.name, "export_s": ours, "export_rc": rc, "said": said}
+        ours, ours_cpu, rc, said = timed([*REAL2CODE, "export", str(path), "--out",
+                                          f"{tmp}/ours"])
+        row = {"file": path.name, "export_s": ours, "export_cpu": ours_cpu, "export_rc": rc,
+               "said": said}
         if rc == 0:
             files = sorted(str(p) for p in Path(tmp, "ours").iterdir() if p.is_file())
-            check, rc_check, _ = timed([*REAL2CODE, "check", *files])
-            row.update(check_s=check, check_rc=rc_check)
-        conv, rc_conv, said_conv = timed([str(CONVERTERS / converter), str(path), f"{tmp}/conv"])
-        row.update(converter_s=conv, converter_rc=rc_conv, converter_said=said_conv)
+            check, check_cpu, rc_check, _ = timed([*REAL2CODE, "check", *files])
+            row.update(check_s=check, check_cpu=check_cpu, check_rc=rc_check)
+        # the converter's output alone (USD), as a user after a USD file runs it
+        usd, usd_cpu, rc_usd, _ = timed([*REAL2CODE, "export", str(path), "--to", "usd",
+                                         "--out", f"{tmp}/usd"])
+        row.update(usd_s=usd, usd_cpu=usd_cpu, usd_rc=rc_usd)
+        conv, conv_cpu, rc_conv, said_conv = timed([str(CONVERTERS / converter), str(path),
+                                                    f"{tmp}/conv"])
+        row.update(converter_s=conv, converter_cpu=conv_cpu, converter_rc=rc_conv,
+                   converter_said=said_conv)
     return row
+
+
+def _median(rows: list[dict], key: str) -> float:
+    values = [r[key] for r in rows if key in r]
+    return statistics.median(values) if values else float("nan")
 
 
 def summary(name: str, rows: list[dict]) -> str:
     ok = [r for r in rows if r["export_rc"] == 0]
     conv_ok = [r for r in rows if r["converter_rc"] == 0]
-    med_ours = statistics.median(r["export_s"] for r in rows)
-    med_conv = statistics.median(r["converter_s"] for r in rows)
-    checks = [r["check_s"] for r in ok if "check_s" in r]
-    return (f"| {name} | {len(rows)} | {len(ok)} | {len(conv_ok)} | {med_ours:.2f} | "
-            f"{med_conv:.2f} | {med_conv / med_ours:.2f} | "
+    conv, conv_cpu = _median(rows, "converter_s"), _median(rows, "converter_cpu")
+    ours, ours_cpu = _median(rows, "export_s"), _median(rows, "export_cpu")
+    usd, usd_cpu = _median(rows, "usd_s"), _median(rows, "usd_cpu")
+    return (f"| {name} | {len(rows)} | {len(ok)} | {len(conv_ok)} | {ours:.2f} ({ours_cpu:.2f})"
+            f" | {usd:.2f} ({usd_cpu:.2f}) | {conv:.2f} ({conv_cpu:.2f}) | "
+            f"{conv / ours:.2f} ({conv_cpu / ours_cpu:.2f}) | "
+            f"{conv / usd:.2f} ({conv_cpu / usd_cpu:.2f}) | "
             f"{sum(r['export_s'] for r in rows):.0f} / {sum(r['converter_s'] for r in rows):.0f}"
-            f" | {statistics.median(checks) if checks else float('nan'):.2f} |")
+            f" | {_median(ok, 'check_s'):.2f} ({_median(ok, 'check_cpu'):.2f}) |")
 
 
 def main() -> None:
@@ -83,26 +106,35 @@ def main() -> None:
     args = p.parse_args()
     if not (CONVERTERS / "urdf_usd_converter").exists():
         sys.exit("run bench/setup_converters.sh first")
+    byte_compile(REPO / "real2code_export")
     corpora = {"urdf": ("example-robot-data (URDF)", urdf_files, "urdf_usd_converter"),
                "mjcf": ("MuJoCo Menagerie (MJCF)", mjcf_files, "mujoco_usd_converter")}
-    lines = [f"machine: {describe()}", "",
-             "| file | ours: export (s) | ours: check (s) | converter (s) | converter / ours |"
-             " exit ours / converter |", "|---|---|---|---|---|---|"]
-    totals = ["| corpus | files | we export | converter exits clean | median export (s) | "
-              "median converter (s) | converter / ours (medians) | total ours / converter (s) "
-              "| median check (s) |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = [f"machine: {describe()}; load average at start {load_average()}", "",
+             "seconds: wall (CPU, user + system)", "",
+             "| file | ours: export, 4 formats | ours: check | ours: export --to usd | "
+             "converter (USD) | converter / ours (4 formats) | converter / ours (USD) | "
+             "exit ours / converter |", "|---|---|---|---|---|---|---|---|"]
+    print(lines[0], flush=True)
+    totals = ["| corpus | files | we export | converter exits clean | median export, 4 formats |"
+              " median export --to usd | median converter | converter / ours (4 formats, "
+              "medians) | converter / ours (USD, medians) | total ours / converter (s) | "
+              "median check |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for key in (["urdf", "mjcf"] if args.corpus == "both" else [args.corpus]):
         name, files, converter = corpora[key]
         rows = []
         for path in files()[: args.limit]:
             r = run_file(path, converter)
             rows.append(r)
-            line = (f"| {r['file']} | {r['export_s']:.2f} | {r.get('check_s', float('nan')):.2f}"
-                    f" | {r['converter_s']:.2f} | {r['converter_s'] / r['export_s']:.2f} | "
-                    f"{r['export_rc']} / {r['converter_rc']} |")
+            line = (f"| {r['file']} | {r['export_s']:.2f} ({r['export_cpu']:.2f}) | "
+                    f"{r.get('check_s', float('nan')):.2f} ({r.get('check_cpu', float('nan')):.2f})"
+                    f" | {r['usd_s']:.2f} ({r['usd_cpu']:.2f}) | {r['converter_s']:.2f} "
+                    f"({r['converter_cpu']:.2f}) | {r['converter_s'] / r['export_s']:.2f} | "
+                    f"{r['converter_s'] / r['usd_s']:.2f} | {r['export_rc']} / "
+                    f"{r['converter_rc']} |")
             print(line, flush=True)
             lines.append(line)
         totals.append(summary(name, rows))
+    lines[0] += f"; at end {load_average()}"
     text = "\n".join(lines + [""] + totals) + "\n"
     print("\n".join(totals))
     if args.markdown:

@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _machine import describe, load_average  # noqa: E402
+from _machine import byte_compile, describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
@@ -62,6 +62,7 @@ def main() -> None:
         sys.exit(f"{CONVERTER} not found: run bench/setup_converters.sh first")
     ours = shutil.which("real2code", path=str(Path(sys.executable).parent)) or "real2code"
     os.environ["PYTHONPATH"] = str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")
+    byte_compile(REPO / "real2code_export")
     index = json.loads((root / "index.json").read_text())
     ids = [e["id"] for e in index if e["split"] == "dev"][:args.objects]
     print(f"machine: {describe()}; load average at start {load_average()}")

@@ -22,7 +22,7 @@ from .jsonsafe import finite_or_null
 from .probes import JointInfo, Probe, open_probes
 from .probes.model import LABEL as MODEL_LABEL
 from .probes.source import SOURCE_LABEL, open_source_probes
-from .validators import Validation, validate_files
+from .validators import Validation, start_validation
 
 UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
 WORLD = "world"  # the world frame, as a part where a tool names it (URDF link, MuJoCo body 0)
@@ -158,6 +158,23 @@ def check_files(
         raise CheckError("no files to check")
     if n_configurations < 1:
         raise CheckError(f"n_configurations must be >= 1, got {n_configurations}")
+    # The glTF validator (a Node.js process) runs while the probes load and pose.
+    finish = start_validation(list(paths)) if validate else list
+    report = _compare(paths, n_configurations, seed, tol_position, tol_rotation, reference,
+                      source)
+    validations = finish()
+    for v in validations:
+        if v.errors:
+            report.mismatches.append(Mismatch("validation", v.tool, Path(v.path).name,
+                                              f"{v.tool}: {v.errors} error(s) in {v.path}: "
+                                              + "; ".join(v.messages[:3])))
+    report.validations = validations
+    return report
+
+
+def _compare(paths, n_configurations, seed, tol_position, tol_rotation, reference,
+             source) -> CheckReport:
+    """The kinematic comparison of :func:`check_files` (without the validators)."""
     probes: list[Probe] = list(open_source_probes(source)) if source is not None else []
     for path in paths:
         probes.extend(open_probes(path))
@@ -180,12 +197,6 @@ def check_files(
     parts = _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotation,
                            mismatches)
     bad = {m.probe for m in mismatches}
-    validations = validate_files(list(paths)) if validate else []
-    for v in validations:
-        if v.errors:
-            mismatches.append(Mismatch("validation", v.tool, Path(v.path).name,
-                                       f"{v.tool}: {v.errors} error(s) in {v.path}: "
-                                       + "; ".join(v.messages[:3])))
     for r in results:
         r.ok = r.name not in bad
     configurations = [
@@ -194,7 +205,7 @@ def check_files(
     return CheckReport(
         files=[str(p) for p in paths], reference=names[ref], probes=results, joints=joints,
         configurations=configurations, tol_position=tol_position, tol_rotation=tol_rotation,
-        parts=parts, mismatches=mismatches, validations=validations,
+        parts=parts, mismatches=mismatches,
     )
 
 

@@ -126,6 +126,22 @@ def _thickened(points: np.ndarray, min_thickness: float) -> np.ndarray:
     return points
 
 
+def thickened(mesh: Mesh, *, min_thickness: float = DEFAULT_MIN_THICKNESS) -> Mesh:
+    """``mesh`` as a collision mesh left for its consumer to hull (USD's convexHull
+    approximation): its used vertices and faces, and where they span less than
+    ``min_thickness`` in some direction (a flat panel, a rod), copies shifted +-half the
+    missing thickness along it, so that the hull taken has the volume :func:`convex_hull`
+    would give it (no qhull: nothing is hulled here)."""
+    if len(mesh.faces) == 0:
+        return Mesh(mesh.vertices, mesh.faces)
+    used, faces = np.unique(mesh.faces, return_inverse=True)
+    faces = faces.reshape(-1, 3)
+    points = mesh.vertices[used]
+    thick = _thickened(points, min_thickness)
+    copies = len(thick) // len(points)
+    return Mesh(thick, np.concatenate([faces + k * len(points) for k in range(copies)]))
+
+
 def _complete_basis(rows: np.ndarray) -> np.ndarray:
     """Extend 1 or 2 orthonormal rows to an orthonormal basis of R^3."""
     basis = list(rows)

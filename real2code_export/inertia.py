@@ -1,14 +1,16 @@
 """Mass properties of parts from their meshes.
 
-A closed, consistently wound mesh is a solid of uniform ``density`` (trimesh integrates it).
+A closed, consistently wound mesh is a solid of uniform ``density`` (integrated exactly over
+its faces).
 Anything else (open PartNet pieces, single-sided panels, scans with holes) is a thin shell of
 surface density ``density * shell_thickness``, integrated exactly over its triangles.
 A part made of several pieces sums them (solid where closed, shell where open) about the
 total centre of mass.
 
-Results are cached on disk by the meshes' content (``meshcache``): the integrals need trimesh
-(and scipy), which cost more to import than a whole URDF -> USD export of a PartNet object
-otherwise takes.
+The integrals and the topology they need (``meshtopology``: merged vertices, closed
+components, outward winding) are numpy, not trimesh: importing trimesh imports scipy, which
+costs more than a whole URDF -> USD export of a PartNet object otherwise takes. Results are
+also cached on disk by the meshes' content (``meshcache``).
 
 Every result passes :func:`model.validate_inertial`: principal moments that come out tiny or
 zero (a flat panel has one moment equal to the sum of the other two; a stick has a zero
@@ -22,7 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from . import meshcache
+from . import meshcache, meshtopology
 from .errors import InputError, warn
 from .model import Inertial, Mesh
 
@@ -64,74 +66,75 @@ def _shell_moments(vertices: np.ndarray, faces: np.ndarray, surface_density: flo
     return mass, first, second
 
 
-def _solid_moments(tm, density: float) -> _Moments:
-    """Moments of a closed volume (trimesh's exact polyhedral integration)."""
-    props = tm.mass_properties  # density 1: volume, centre of mass, inertia about the COM
-    volume = float(props["volume"])
-    com = np.asarray(props["center_mass"], dtype=float)
-    inertia_c = np.asarray(props["inertia"], dtype=float)
-    second_c = 0.5 * np.trace(inertia_c) * np.eye(3) - inertia_c
-    mass = density * volume
-    return mass, mass * com, density * second_c + mass * np.outer(com, com)
+def _solid_moments(vertices: np.ndarray, faces: np.ndarray, density: float) -> _Moments:
+    """Exact moments of a closed, outward-wound volume: the sum over its faces of the signed
+    tetrahedra (face, apex c), each with volume V = det(v0, v1, v2) / 6, integral x dV =
+    V s / 4 and integral x x^T dV = V/20 (sum v_i v_i^T + s s^T), s = v0 + v1 + v2, the
+    vertices taken relative to c (the polyhedral integration trimesh does; c the vertices'
+    mean, which keeps round-off small far from the origin), then moved back to the origin."""
+    c = vertices[faces].reshape(-1, 3).mean(axis=0)
+    tri = vertices[faces] - c  # (M, 3, 3)
+    volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])) / 6.0
+    s = tri.sum(axis=1)
+    outer = np.einsum("mij,mik->mjk", tri, tri) + np.einsum("mj,mk->mjk", s, s)
+    mass = density * float(volume.sum())
+    first = density * (volume[:, None] * s).sum(axis=0) / 4.0
+    second = density * np.einsum("m,mjk->jk", volume, outer) / 20.0
+    shifted = second + np.outer(first, c) + np.outer(c, first) + mass * np.outer(c, c)
+    return mass, first + mass * c, shifted
 
 
-def _as_volume(tm):
-    """``tm`` as a closed volume with outward winding, or None when it is not one."""
-    import trimesh
-
-    if not tm.is_watertight:
+def _as_volume(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """``faces`` as a closed volume wound outward, or None when they do not close one."""
+    edges = meshtopology.Edges(faces)
+    if not edges.watertight():
         return None
-    if not (tm.is_winding_consistent and tm.volume > 0):
-        tm = tm.copy()
-        trimesh.repair.fix_winding(tm)
-        trimesh.repair.fix_inversion(tm, multibody=True)
-    return tm if tm.is_volume else None
+    if edges.winding_consistent() and meshtopology.encloses_volume(vertices, faces):
+        return faces
+    faces = meshtopology.wound_outward(vertices, faces)
+    if meshtopology.Edges(faces).winding_consistent() \
+            and meshtopology.encloses_volume(vertices, faces):
+        return faces
+    return None
 
 
 def _mesh_moments(mesh: Mesh, density: float, shell_thickness: float) -> _Moments:
     """Solid when the whole mesh is a closed volume (this handles hollows and nesting right);
     otherwise each closed connected component is a solid and every other face a shell."""
-    import trimesh
-
     if len(mesh.faces) == 0:
         return _zero_moments()
-    # Degenerate triangles (common in PartNet) make trimesh divide by zero in normals; they
-    # carry no area or volume, so the warnings are noise.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # process=True merges duplicated vertices (OBJ files split them at seams), without
-        # which no PartNet piece would ever count as closed.
-        tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
-        solid = _as_volume(tm)
+    # Coincident vertices merged: OBJ files split them at seams, and no PartNet piece would
+    # ever count as closed otherwise.
+    vertices, faces = meshtopology.merged(mesh.vertices, mesh.faces)
+    solid = _as_volume(vertices, faces)
+    if solid is not None:
+        return _solid_moments(vertices, solid, density)
+    total = _zero_moments()
+    open_faces = np.ones(len(faces), dtype=bool)
+    for component in _closed_components(faces):
+        solid = _as_volume(vertices, faces[component])
         if solid is not None:
-            return _solid_moments(solid, density)
-        total = _zero_moments()
-        open_faces = np.ones(len(tm.faces), dtype=bool)
-        for faces in _closed_components(tm):
-            solid = _as_volume(tm.submesh([faces], append=True, repair=False))
-            if solid is not None:
-                total = _add(total, _solid_moments(solid, density))
-                open_faces[faces] = False
-    vertices = np.asarray(tm.vertices)
-    shell = _shell_moments(vertices, np.asarray(tm.faces)[open_faces], density * shell_thickness)
+            total = _add(total, _solid_moments(vertices, solid, density))
+            open_faces[component] = False
+    shell = _shell_moments(vertices, faces[open_faces], density * shell_thickness)
     return _add(total, shell)
 
 
-def _closed_components(tm) -> list[np.ndarray]:
+def _closed_components(faces: np.ndarray) -> list[np.ndarray]:
     """Face indices of each connected component whose every edge has exactly two faces.
-    (Vectorised: PartNet pieces are often soups of thousands of loose triangles, and a
-    trimesh object per component would take seconds.)"""
-    import trimesh
-
-    labels = trimesh.graph.connected_component_labels(tm.face_adjacency, node_count=len(tm.faces))
-    edge_count = np.bincount(tm.edges_unique_inverse, minlength=len(tm.edges_unique))
-    face_open = (edge_count[tm.edges_unique_inverse.reshape(-1, 3)] != 2).any(axis=1)
+    (Vectorised: PartNet pieces are often soups of thousands of loose triangles.)"""
+    edges = meshtopology.Edges(faces)
+    labels = meshtopology.component_labels(len(faces), edges.face_adjacency())
+    face_open = (edges.counts().reshape(-1, 3) != 2).any(axis=1)
     open_component = np.bincount(labels, weights=face_open, minlength=labels.max() + 1) > 0
-    # components of a single face can never close; skip them cheaply
+    # components of fewer than four faces can never close; skip them cheaply
     sizes = np.bincount(labels)
     closed = np.flatnonzero(~open_component & (sizes >= 4))
+    if len(closed) == 0:  # (a soup has thousands of components: split none of them)
+        return []
     order = np.argsort(labels, kind="stable")
-    groups = np.split(order, np.cumsum(sizes)[:-1])
-    return [groups[c] for c in closed]
+    starts = np.cumsum(sizes) - sizes
+    return [order[starts[c]:starts[c] + sizes[c]] for c in closed]
 
 
 def _physical_inertia(inertia: np.ndarray, mass: float, min_size: float) -> np.ndarray:

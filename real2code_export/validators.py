@@ -5,6 +5,7 @@ Pinocchio's urdfdom parser, which the probes run, are theirs."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,22 +43,42 @@ def _validate_usd(path: Path) -> Validation:
 
 
 def validate_gltf(paths: list[Path]) -> list[Validation]:
-    from .formats.gltf import validate_gltf_files
+    return start_validate_gltf(paths)()
 
-    out = []
-    for path, result in zip(paths, validate_gltf_files(paths), strict=True):
-        ordered = sorted(result["messages"], key=lambda m: m["severity"] != "error")
-        messages = [f"{m['code']}: {m['message']} ({m['pointer']})" for m in ordered
-                    if m["severity"] in ("error", "warning")]
-        out.append(Validation(str(path), "Khronos glTF validator", result["errors"],
-                              result["warnings"], messages))
-    return out
+
+def start_validate_gltf(paths: list[Path]) -> Callable[[], list[Validation]]:
+    """:func:`validate_gltf` started (the validator is a Node.js process): the function
+    returned waits for it."""
+    from .formats.gltf.validator import start_gltf_validation
+
+    results = start_gltf_validation(paths)
+
+    def finish() -> list[Validation]:
+        out = []
+        for path, result in zip(paths, results(), strict=True):
+            ordered = sorted(result["messages"], key=lambda m: m["severity"] != "error")
+            messages = [f"{m['code']}: {m['message']} ({m['pointer']})" for m in ordered
+                        if m["severity"] in ("error", "warning")]
+            out.append(Validation(str(path), "Khronos glTF validator", result["errors"],
+                                  result["warnings"], messages))
+        return out
+
+    return finish
 
 
 def validate_files(paths: list[str | Path]) -> list[Validation]:
     """Run every validator the registry names for ``paths`` (files of formats without one,
     or of no known format, are skipped), one call per validator with all of its files."""
+    return start_validation(paths)()
+
+
+def start_validation(paths: list[str | Path]) -> Callable[[], list[Validation]]:
+    """:func:`validate_files` in two steps: a validator that runs in another process (its
+    module has ``start_<function>``, as the glTF one) starts now; the function returned runs
+    the others and collects every result. ``real2code check`` loads its probes in between,
+    in this one thread (native libraries' imports deadlock when two threads run them)."""
     import importlib
+    from functools import partial
 
     from .errors import Real2CodeError
     from .formats import format_for_path
@@ -70,8 +91,11 @@ def validate_files(paths: list[str | Path]) -> list[Validation]:
             continue
         if validator:
             groups.setdefault(validator, []).append(p)
-    out = []
+    steps = []
     for validator, files in groups.items():
-        module, function = validator.split(":")
-        out += getattr(importlib.import_module(module), function)(files)
-    return out
+        module_name, function = validator.split(":")
+        module = importlib.import_module(module_name)
+        start = getattr(module, f"start_{function}", None)
+        steps.append(start(files) if start is not None else partial(getattr(module, function),
+                                                                     files))
+    return lambda: [v for step in steps for v in step()]

@@ -192,7 +192,7 @@ def test_render_without_visual_meshes_names_the_object(tmp_path, capsys):
 
 def test_an_internal_error_is_exit_3_with_the_traceback_in_a_file(tmp_path, capsys,
                                                                   monkeypatch, cabinet_json):
-    def broken(path):
+    def broken(path, **options):
         raise ZeroDivisionError("a bug")
 
     monkeypatch.setattr(formats, "load", broken)

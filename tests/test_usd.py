@@ -278,6 +278,66 @@ def test_partnet_objects_round_trip(tmp_path, object_id):
     assert usd.save(first, tmp_path / "again", write_meshes=False).read_bytes() == path.read_bytes()
 
 
+@pytest.mark.partnet
+def test_an_export_to_usd_alone_leaves_the_hulls_to_physx(tmp_path):
+    """``real2code export mobility.urdf --to usd`` computes no hulls: each collision mesh is
+    written as the URDF gives it, with approximation convexHull (PhysX hulls it), flat ones
+    thickened so that hull has the volume the computed piece would; kinematics and masses are
+    those of the default read. No trimesh or scipy is imported (issue 17: their import cost
+    more than the export)."""
+    import subprocess
+    import sys
+
+    from real2code_export.collision import convex_hull
+
+    urdf = partnet_dir() / "41083" / "mobility.urdf"
+    code = ("import sys, warnings; warnings.simplefilter('ignore'); "
+            "from real2code_export.cli import run; "
+            f"rc = run(['export', {str(urdf)!r}, '--to', 'usd', '--out', {str(tmp_path)!r}]); "
+            "print(rc, ' '.join(sorted({m.split('.')[0] for m in sys.modules} "
+            "& {'trimesh', 'scipy'})))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, env={**__import__("os").environ, "REAL2CODE_CACHE": "off"})
+    assert done.stdout.split("\n")[-2].strip() == "0", done.stdout[-2000:]
+    written = next(tmp_path.glob("*.usda"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        computed = load_any(urdf)
+        raw = load_any(urdf, hull_collision=False)
+    stage = Usd.Stage.Open(str(written))
+    shapes = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.CollisionAPI)]
+    assert shapes and all(UsdPhysics.MeshCollisionAPI(p).GetApproximationAttr().Get()
+                          == UsdPhysics.Tokens.convexHull for p in shapes)
+    assert differences(raw, usd.load(written), TOL) == []
+    for a, b in zip(computed.parts, raw.parts, strict=True):
+        assert differences(ArticulatedObject("a", [Part("p", inertial=a.inertial)], []),
+                           ArticulatedObject("a", [Part("p", inertial=b.inertial)], []),
+                           0.0) == []
+        if not a.collision:
+            continue
+        # the computed pieces hull the same points (tiny ones merged into neighbours)
+        hull_of_raw = convex_hull(type(a.collision[0]).concatenate(b.collision))
+        hull_of_computed = convex_hull(type(a.collision[0]).concatenate(a.collision))
+        assert hull_of_raw.to_trimesh().volume == pytest.approx(
+            hull_of_computed.to_trimesh().volume, rel=1e-6)
+        for piece in b.collision:  # every piece a solid once hulled, none flat
+            assert convex_hull(piece).to_trimesh().volume > 0
+
+
+def test_thickened_flat_piece_hulls_like_a_computed_piece():
+    from real2code_export.collision import convex_hull, thickened
+    from real2code_export.model import Mesh
+
+    square = Mesh([[0, 0, 0], [0.3, 0, 0], [0.3, 0.2, 0], [0, 0.2, 0], [9, 9, 9]],
+                  [[0, 1, 2], [0, 2, 3]])  # and a vertex no face uses
+    thick = thickened(square)
+    assert len(thick.vertices) == 8 and np.ptp(thick.vertices[:, 2]) == pytest.approx(1e-3)
+    assert convex_hull(thick).to_trimesh().volume == pytest.approx(
+        convex_hull(square).to_trimesh().volume)
+    box = box_mesh([0.1, 0.2, 0.3])
+    assert np.array_equal(thickened(box).vertices, box.vertices)
+
+
 def test_usdc_and_registry(tmp_path):
     obj = small_cabinet()
     written = export(obj, tmp_path / "out", ["usd"])

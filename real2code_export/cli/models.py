@@ -60,11 +60,13 @@ def _use_package_path(args) -> None:
 
 
 def cmd_export(args) -> int:
-    from ..formats import export, format_for_path, load
+    from ..formats import export, format_for_path, hulls_collision, load
 
     formats = chosen_formats(args)
     _use_package_path(args)
-    obj = load(args.input)
+    # USD (and glTF) consumers hull each collision mesh themselves: an export to those alone
+    # computes no hulls (docs/formats.md, "Collision").
+    obj = load(args.input, hull_collision=not hulls_collision(formats))
     written = export(obj, args.out, formats)
     for name, path in written.items():
         print(f"{name:5s} {path}")

@@ -39,12 +39,17 @@ class Format:
     requires: tuple[str, ...] = ()  # modules the format's reader/writer cannot work without
     probes: tuple[str, ...] = ()  # modules whose open_probes(path) load it in its own tools
     validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
+    # (and start_<function>, where the module has one: validators.start_validation)
     exported: bool = True  # written by default (``export`` without --to)
     mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it embeds them)
     # the metadata key under which its reader keeps what the model has no place for, and its
     # writer writes back (actuators, <transmission>, ...); other writers carry it as metadata
     kept_elements: str | None = None
     lossless: bool = False  # holds the model itself, metadata and all (object.json)
+    # its consumers take the convex hull of each collision mesh themselves (USD's
+    # physics:approximation = convexHull, glTF's convexHull collider): an export to such
+    # formats alone reads the source with hull_collision=False and computes no hulls
+    hulls_collision: bool = False
 
     @property
     def output_suffix(self) -> str:
@@ -84,10 +89,11 @@ for _fmt in (
     Format("usd", "USD", "USD with UsdPhysics joints", "real2code_export.formats.usd",
            (".usda", ".usd", ".usdc"), requires=("pxr.Usd", "pxr.UsdPhysics"),
            probes=(_P + "usd",), validator="real2code_export.validators:validate_usd",
-           mesh_files=False),
+           mesh_files=False, hulls_collision=True),
     Format("gltf", "glTF", "Binary glTF with KHR physics joints", "real2code_export.formats.gltf",
            (".glb", ".gltf"), requires=("pygltflib",), probes=(_P + "gltf",),
-           validator="real2code_export.validators:validate_gltf", mesh_files=False),
+           validator="real2code_export.validators:validate_gltf", mesh_files=False,
+           hulls_collision=True),
 ):
     register(_fmt)
 
@@ -130,6 +136,12 @@ def export_formats() -> list[str]:
     return [f.name for f in FORMATS.values() if f.exported and available(f.name)]
 
 
+def hulls_collision(formats: list[str] | tuple[str, ...]) -> bool:
+    """Whether every one of ``formats`` leaves the collision meshes' convex hulls to its
+    consumers (:attr:`Format.hulls_collision`), so that no reader need compute them."""
+    return bool(formats) and all(FORMATS[name].hulls_collision for name in formats)
+
+
 def suffixes(exported_only: bool = False) -> tuple[str, ...]:
     """Every file suffix the registry knows (model files), in registration order."""
     return tuple(s for f in FORMATS.values() if f.exported or not exported_only
@@ -156,12 +168,17 @@ def parse_names(text: str) -> list[str]:
 
 
 # -- reading and writing ------------------------------------------------------------------------
-def load(path: str | Path, *, faithful_collision: bool = False) -> ArticulatedObject:
+def load(path: str | Path, *, faithful_collision: bool = False,
+         hull_collision: bool = True) -> ArticulatedObject:
     """Load any supported file into the model; the format is chosen by suffix.
 
     ``faithful_collision``: collision made from the visual geometry keeps hollow parts'
     insides and no two parts' pieces overlap (readers that make pieces: URDF); files whose
-    pieces are authored as convex pieces (ours, MJCF, USD) are read as they are."""
+    pieces are authored as convex pieces (ours, MJCF, USD) are read as they are.
+    ``hull_collision=False``: readers that make pieces keep the collision meshes as the file
+    gives them instead, each standing for its convex hull (as a piece read from MJCF or USD
+    does), for a caller that writes only formats whose consumers take those hulls
+    themselves (:func:`hulls_collision`)."""
     path = Path(path)
     if not path.exists():
         raise FormatError(path, None, "no such file")
@@ -175,9 +192,10 @@ def load(path: str | Path, *, faithful_collision: bool = False) -> ArticulatedOb
     module = fmt.load_module()
     if not hasattr(module, "load"):
         raise FormatError(path, None, f"format {fmt.name!r} cannot be read")
-    if faithful_collision and "faithful_collision" in inspect.signature(module.load).parameters:
-        return module.load(path, faithful_collision=True)
-    return module.load(path)
+    options = {"faithful_collision": faithful_collision, "hull_collision": hull_collision}
+    accepted = inspect.signature(module.load).parameters
+    return module.load(path, **{k: v for k, v in options.items()
+                                if k in accepted and v != accepted[k].default})
 
 
 def export(obj: ArticulatedObject, out_dir: str | Path,

@@ -90,6 +90,8 @@ class GltfProbe:
             [i for i in range(len(self.nodes)) if i not in children]
         part_nodes = {_extras(n)["part"]: i for i, n in enumerate(self.nodes) if "part" in _extras(n)}
         self.parts = list(part_nodes)
+        self._part_nodes = set(part_nodes.values())
+        self._locals = [_local(n) for n in self.nodes]  # once: poses() runs per configuration
         self.joints: list[JointInfo] = []
         self._motion: dict[int, tuple[str, str, np.ndarray]] = {}  # child node -> joint
         for i, node in enumerate(self.nodes):
@@ -117,7 +119,7 @@ class GltfProbe:
         while stack:
             i, parent = stack.pop()
             node = self.nodes[i]
-            local = _local(node)
+            local = self._locals[i]
             if i in self._motion:
                 name, kind, axis = self._motion[i]
                 value = float(q.get(name, 0.0))
@@ -129,7 +131,7 @@ class GltfProbe:
                     local = np.eye(4)
             world[i] = parent @ local
             stack.extend((c, world[i]) for c in reversed(node.children or []))
-        return {self.nodes[i].name: world[i] for i in world if "part" in _extras(self.nodes[i])}
+        return {self.nodes[i].name: world[i] for i in world if i in self._part_nodes}
 
 
 class ImportedGltfProbe:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...meshtopology import Edges, component_labels
 from ...model import Mesh
 
 CREASE_ANGLE = np.radians(30.0)
@@ -39,25 +40,15 @@ def encode_collision(mesh: Mesh) -> VertexData:
 
 
 def encode_visual(mesh: Mesh) -> VertexData:
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     # normals from the float32 positions the file stores: re-exporting what was read back
     # then gives the same bytes
     uv = mesh.uv
     mesh = Mesh(mesh.vertices.astype(np.float32), mesh.faces)
-    tm = mesh.to_trimesh()
     faces = mesh.faces
     n_faces = len(faces)
     face_normals = np.cross(mesh.vertices[faces[:, 1]] - mesh.vertices[faces[:, 0]],
                             mesh.vertices[faces[:, 2]] - mesh.vertices[faces[:, 0]])  # area-weighted
-    # smoothing groups: faces connected through edges whose dihedral angle is small
-    adjacency = tm.face_adjacency
-    smooth = adjacency[tm.face_adjacency_angles < CREASE_ANGLE] if len(adjacency) else adjacency
-    graph = coo_matrix((np.ones(len(smooth)), (smooth[:, 0], smooth[:, 1])) if len(smooth)
-                       else (np.zeros(0), (np.zeros(0, int), np.zeros(0, int))),
-                       shape=(n_faces, n_faces))
-    _, group = connected_components(graph, directed=False)
+    group = smoothing_groups(mesh)
     # one output vertex per (model vertex, smoothing group); unreferenced vertices kept too
     n_groups = int(group.max()) + 2 if n_faces else 1
     corner_key = faces * n_groups + group[:, None]
@@ -82,6 +73,24 @@ def encode_visual(mesh: Mesh) -> VertexData:
         source=None if identity else source.astype(np.uint32),
         texcoords=None if uv is None else flip_v(uv[source]).astype(np.float32),
     )
+
+
+def smoothing_groups(mesh: Mesh) -> np.ndarray:
+    """Per face, its smoothing group: the connected components of the faces over the edges
+    that exactly two faces share at a dihedral angle under CREASE_ANGLE (as trimesh's
+    ``face_adjacency`` and ``face_adjacency_angles`` give them, with numpy alone: trimesh
+    and scipy cost more to import than the export)."""
+    pairs = Edges(mesh.faces).face_adjacency()
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]  # a degenerate face touching itself
+    tri = mesh.vertices.astype(np.float64)[mesh.faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    norm = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
+    valid = norm > 1e-13  # trimesh's zero: a degenerate face's normal is 0, never smooth
+    unit = np.zeros_like(cross)
+    unit[valid] = cross[valid] / norm[valid, None]
+    dots = np.dot(unit[pairs[:, 0]] * unit[pairs[:, 1]], [1.0, 1.0, 1.0])
+    smooth = pairs[np.abs(np.arccos(np.clip(dots, -1.0, 1.0))) < CREASE_ANGLE]
+    return component_labels(len(mesh.faces), smooth)
 
 
 def flip_v(uv: np.ndarray) -> np.ndarray:

@@ -10,6 +10,8 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -47,9 +49,17 @@ def validate_gltf_files(paths: list[str | Path], timeout: float = 300.0) -> list
     Each result: ``errors``, ``warnings``, ``infos``, ``hints`` (counts), ``messages``
     (severity, code, message, pointer) and the validator's full ``report``.
     """
+    return start_gltf_validation(paths, timeout)()
+
+
+def start_gltf_validation(paths: list[str | Path], timeout: float = 300.0
+                          ) -> Callable[[], list[dict[str, Any]]]:
+    """Start the validator on ``paths`` (one Node.js process) and return the function that
+    waits for it and gives :func:`validate_gltf_files`' results: the caller works meanwhile
+    (``real2code check`` loads its probes)."""
     paths = [Path(p) for p in paths]
     if not paths:
-        return []
+        return list
     for p in paths:
         if not p.is_file():
             raise CheckError(f"{p}: no such file")
@@ -59,15 +69,31 @@ def validate_gltf_files(paths: list[str | Path], timeout: float = 300.0) -> list
                                    f"{INSTALL_HINT}")
     if not (VALIDATOR_DIR / "node_modules" / "gltf-validator").is_dir():
         raise ValidatorUnavailable(f"npm package gltf-validator is not installed; {INSTALL_HINT}")
-    run = subprocess.run([node, str(SCRIPT), *map(str, paths)], capture_output=True, text=True,
-                         timeout=timeout, check=False)
-    if run.returncode != 0:
-        raise CheckError(f"glTF validator failed (exit {run.returncode}): {run.stderr.strip()}")
-    try:
-        reports = json.loads(run.stdout)
-    except json.JSONDecodeError as e:
-        raise CheckError(f"glTF validator printed no JSON report: {run.stdout[:200]!r}") from e
-    return [_summary(r) for r in reports]
+    # the report goes to a file, not a pipe: a pipe nobody reads yet would stall the validator
+    out = tempfile.TemporaryFile()  # noqa: SIM115 - finish() closes both
+    err = tempfile.TemporaryFile()  # noqa: SIM115
+    process = subprocess.Popen([node, str(SCRIPT), *map(str, paths)], stdout=out, stderr=err)
+
+    def finish() -> list[dict[str, Any]]:
+        with out, err:
+            try:
+                code = process.wait(timeout=timeout)
+            except subprocess.TimeoutExpired as e:
+                process.kill()
+                process.wait()
+                raise CheckError(f"glTF validator ran past {timeout} s") from e
+            out.seek(0)
+            err.seek(0)
+            stdout, stderr = out.read().decode(errors="replace"), err.read().decode(errors="replace")
+        if code != 0:
+            raise CheckError(f"glTF validator failed (exit {code}): {stderr.strip()}")
+        try:
+            reports = json.loads(stdout)
+        except json.JSONDecodeError as e:
+            raise CheckError(f"glTF validator printed no JSON report: {stdout[:200]!r}") from e
+        return [_summary(r) for r in reports]
+
+    return finish
 
 
 def validate_gltf(path: str | Path) -> dict[str, Any]:

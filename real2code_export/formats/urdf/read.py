@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from ...collision import collision_pieces
+from ...collision import collision_pieces, thickened
 from ...collision_separation import separate
 from ...errors import FormatError, ModelError
 from ...inertia import DEFAULT_DENSITY, inertial_from_meshes
@@ -76,14 +76,20 @@ from .structure import (
 _AXIS_EXACT = 1e-12
 
 
-def load(path: str | Path, *, faithful_collision: bool = False) -> ArticulatedObject:
+def load(path: str | Path, *, faithful_collision: bool = False,
+         hull_collision: bool = True) -> ArticulatedObject:
     """Read a URDF file (meshes relative to it, or ``package://``) into the model.
 
     ``faithful_collision``: for links whose collision is their visual geometry (see
     ``_from_visual``; PartNet-Mobility's), split hollow pieces so that they keep their
     insides and cut the parts' pieces apart (``collision_separation``). Off by default:
     on a robot's detailed meshes it takes minutes (g1: 120 s instead of 3 s), and a robot's
-    links are meant to overlap at their joints."""
+    links are meant to overlap at their joints.
+
+    ``hull_collision=False`` (and not ``faithful_collision``): no hulls are computed; each
+    ``<collision>`` mesh (or visual mesh, for a link without collision) is kept as it is,
+    standing for its convex hull, for writers whose consumers take that hull themselves
+    (``formats.hulls_collision``)."""
     path = Path(path)
     if not path.is_file():
         raise FormatError(path, None, "file not found")
@@ -96,8 +102,8 @@ def load(path: str | Path, *, faithful_collision: bool = False) -> ArticulatedOb
     part_names = identifiers(ctx, links)
     joint_names = identifiers(ctx, joints)
     materials = robot_materials(ctx, robot)
-    parts = [_part(ctx, el, part_names[raw], materials, faithful_collision)
-             for raw, el in links.items()]
+    parts = [_part(ctx, el, part_names[raw], materials, faithful_collision,
+                   hull_collision or faithful_collision) for raw, el in links.items()]
     joint_list = [_joint(ctx, el, joint_names[raw], part_names, joint_names)
                   for raw, el in joints.items()]
     _report_notes(ctx)
@@ -239,7 +245,7 @@ def _placed(mesh: Mesh, transform: np.ndarray) -> Mesh:
 
 
 def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
-          faithful_collision: bool) -> Part:
+          faithful_collision: bool, hull_collision: bool) -> Part:
     owner = label(el)
     visuals: list[Mesh] = []
     colored = []
@@ -255,7 +261,8 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
             colored.append((color, mesh_area(mesh)))
         if file is not None and ctx.textures.get(file) is not None:
             textures.append(ctx.textures[file])
-    collision = _collision(ctx, el, name, visuals, faithful_collision and _from_visual(el))
+    collision = _collision(ctx, el, name, visuals, faithful_collision and _from_visual(el),
+                           hull_collision)
     inertial = _link_inertial(ctx, el, name, visuals)
     visual = Mesh.concatenate(visuals) if visuals else None
     texture = textures[0] if textures else None
@@ -269,7 +276,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
 
 
 def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
-               split_hollow: bool) -> list[Mesh]:
+               split_hollow: bool, hull: bool) -> list[Mesh]:
     owner = label(el)
     elements = list(el.iterchildren("collision"))
     source = [_placed(shape_mesh(ctx, c, owner)[0], origin_matrix(ctx, c, owner))
@@ -286,6 +293,8 @@ def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
     meshes = [r for r in (m.remainder() for m in source) if r is not None]
     if not meshes:
         return shapes
+    if not hull:
+        return [thickened(piece) for piece in meshes if len(piece.faces)] + shapes
     try:
         return collision_pieces(Mesh.concatenate(meshes), "pieces", source_pieces=meshes,
                                 split_hollow=split_hollow) + shapes

@@ -1,0 +1,169 @@
+"""The topology of a triangle mesh that mass properties need: coincident vertices merged,
+edges counted, faces grouped into connected components, closed components wound outward.
+
+The same operations as trimesh's ``process=True``, ``is_watertight``,
+``is_winding_consistent``, ``face_adjacency``, ``repair.fix_winding`` and
+``repair.fix_inversion(multibody=True)``, on which these are modelled and against which
+``tests/test_inertia_collision.py`` holds them. Not trimesh itself: importing it imports
+scipy, about 0.5 s of CPU, which is more than a whole URDF -> USD export of a PartNet object
+takes without it (issue 17), and these are a few numpy lines each.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+# Vertices are merged on a grid of 10**-8 (trimesh's tol.merge): OBJ files split vertices at
+# seams, and no PartNet piece would be closed otherwise.
+MERGE_DIGITS = 8
+
+
+def merged(vertices: np.ndarray, faces: np.ndarray, digits: int = MERGE_DIGITS
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices the faces use, those equal after rounding to ``digits`` decimals made
+    one (in first-use order), and the faces renumbered."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces] = True
+    index = np.flatnonzero(used)
+    grid = np.round(vertices[index] * 10.0**digits).astype(np.int64)
+    _, first, inverse = np.unique(_row_keys(grid), return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")  # first-use order, as trimesh keeps it
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    renumber = np.zeros(len(vertices), dtype=np.int64)
+    renumber[index] = rank[inverse.reshape(-1)]
+    return vertices[index[first[order]]], renumber[faces]
+
+
+def _row_keys(grid: np.ndarray) -> np.ndarray:
+    """One sortable key per row of an (N, 3) integer array, equal exactly when the rows are:
+    the three columns packed into an int64 where they fit in 21 bits each (as trimesh's
+    ``hashable_rows``), else the rows as opaque bytes (slower to sort)."""
+    low = grid.min(axis=0) if len(grid) else np.zeros(3, dtype=np.int64)
+    shifted = grid - low
+    if len(grid) == 0 or shifted.max() < 2**21:
+        return (shifted[:, 0] << 42) | (shifted[:, 1] << 21) | shifted[:, 2]
+    return np.ascontiguousarray(grid).view(np.dtype((np.void, 24))).reshape(-1)
+
+
+class Edges:
+    """A mesh's edges, each face corner's in turn ((a, b), (b, c), (c, a)), grouped by the
+    undirected edge they are (one sort, shared by every question below)."""
+
+    def __init__(self, faces: np.ndarray):
+        self.faces = faces
+        self.directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        n = np.int64(int(faces.max()) + 1 if len(faces) else 1)
+        lo, hi = self.directed.min(axis=1), self.directed.max(axis=1)
+        keys = lo * n + hi
+        self.order = np.argsort(keys)
+        sorted_keys = keys[self.order]
+        self.starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
+        self.sizes = np.diff(np.r_[self.starts, len(keys)])
+
+    def counts(self) -> np.ndarray:
+        """(3F,): how many faces share each corner's edge (2 on a closed surface)."""
+        out = np.empty(len(self.directed), dtype=np.int64)
+        out[self.order] = np.repeat(self.sizes, self.sizes)
+        return out
+
+    def watertight(self) -> bool:
+        """Every edge shared by exactly two faces."""
+        return len(self.faces) > 0 and bool(np.all(self.sizes == 2))
+
+    def winding_consistent(self) -> bool:
+        """On a watertight mesh: each edge walked once each way by its two faces."""
+        if not self.watertight():
+            return False
+        first = self.directed[self.order[self.starts], 0]
+        second = self.directed[self.order[self.starts + 1], 0]
+        return bool(np.all(first != second))
+
+    def face_adjacency(self) -> np.ndarray:
+        """(A, 2) pairs of faces sharing an edge that exactly these two faces share."""
+        pairs = self.starts[self.sizes == 2]
+        return np.column_stack([self.order[pairs], self.order[pairs + 1]]) // 3
+
+
+def component_labels(count: int, pairs: np.ndarray) -> np.ndarray:
+    """Connected-component label of each of ``count`` nodes joined by ``pairs``, numbered
+    in the order of each component's smallest node (as scipy's ``connected_components``)."""
+    parent = np.arange(count)
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    while True:
+        while True:  # point every node at its root
+            grand = parent[parent]
+            if np.array_equal(grand, parent):
+                break
+            parent = grand
+        a, b = parent[pairs[:, 0]], parent[pairs[:, 1]]
+        apart = a != b
+        if not apart.any():
+            break
+        # hook each root under the smallest root it touches
+        np.minimum.at(parent, np.maximum(a, b)[apart], np.minimum(a, b)[apart])
+    return np.unique(parent, return_inverse=True)[1].reshape(-1)
+
+
+def _tetra_volumes(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Signed volume of each tetrahedron (face, the vertices' mean): a closed mesh's volume
+    does not depend on the apex, and the mean keeps round-off small."""
+    tri = vertices[faces] - vertices[faces].reshape(-1, 3).mean(axis=0)
+    return np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])) / 6.0
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    return float(_tetra_volumes(vertices, faces).sum()) if len(faces) else 0.0
+
+
+def encloses_volume(vertices: np.ndarray, faces: np.ndarray) -> bool:
+    """A positive volume beyond round-off (a two-sided sheet closes on itself with none)."""
+    if len(faces) == 0:
+        return False
+    tetra = _tetra_volumes(vertices, faces)
+    return bool(tetra.sum() > 1e-9 * np.abs(tetra).sum())
+
+
+def wound_outward(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``faces`` of a watertight mesh with each connected component wound consistently
+    (breadth first from its first face, as trimesh's ``fix_winding``) and turned outward
+    where its volume came out negative (``fix_inversion(multibody=True)``)."""
+    faces = faces.copy()
+    pairs = Edges(faces).face_adjacency()
+    neighbours: list[list[int]] = [[] for _ in range(len(faces))]
+    for f, g in pairs.tolist():
+        neighbours[f].append(g)
+        neighbours[g].append(f)
+    seen = np.zeros(len(faces), dtype=bool)
+    for start in range(len(faces)):
+        if seen[start]:
+            continue
+        seen[start] = True
+        queue = deque([start])
+        while queue:
+            f = queue.popleft()
+            for g in neighbours[f]:
+                if seen[g]:
+                    continue
+                seen[g] = True
+                queue.append(g)
+                if _same_direction(faces[f], faces[g]):
+                    faces[g] = faces[g][::-1]
+    labels = component_labels(len(faces), pairs)
+    for label in range(int(labels.max()) + 1 if len(labels) else 0):
+        body = np.flatnonzero(labels == label)
+        sub = faces[body]
+        if len(body) >= 4 and Edges(sub).winding_consistent() \
+                and signed_volume(vertices, sub) < 0:
+            faces[body] = sub[:, ::-1]
+    return faces
+
+
+def _same_direction(f: np.ndarray, g: np.ndarray) -> bool:
+    """Whether faces ``f`` and ``g`` walk their shared edge the same way (one is flipped)."""
+    f_edges = {(int(f[i]), int(f[(i + 1) % 3])) for i in range(3)}
+    return any((int(g[i]), int(g[(i + 1) % 3])) in f_edges for i in range(3))
