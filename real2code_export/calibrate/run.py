@@ -23,7 +23,7 @@ from .problem import Problem, build_problem, calibration_spec
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
 from .trajectory import MIN_SAMPLES, Trajectory, read_all
-from .validate import cross_validate
+from .validate import cross_validate, cross_validate_effort
 from .windows import Excluded, cut, find_pushes, segments, window
 
 # Multiple shooting for a plant that integrates its input (no restoring force, a measured
@@ -218,11 +218,13 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     problem = build_problem(model, trajectories)
     selection = select(problem)
     rejected = None
-    cv = cross_validate(model, trajectories, selection.chosen)
+    cv = cross_validate_effort(problem, selection.chosen) \
+        if selection.by == "effort equation" else \
+        cross_validate(model, trajectories, selection.chosen)
     if not cv.improves:
         rejected = (f"{'+'.join(selection.chosen.names)} predicts left-out data worse than "
-                    f"the nominal model (cross-validation by {cv.kind}: squared error "
-                    f"{cv.sse_calibrated:.4g} vs {cv.sse_nominal:.4g} noise units)")
+                    f"the nominal model (cross-validation by {cv.kind}, {cv.error}: squared "
+                    f"error {cv.sse_calibrated:.4g} vs {cv.sse_nominal:.4g} noise units)")
     calibrated = calibrated_object(model, selection.chosen)
     holdouts = []
     if held and rejected is None:

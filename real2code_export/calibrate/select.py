@@ -16,13 +16,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .effects import Effect, extensions
-from .fit import MATERIAL, Fit, fit_candidate, refine_fit
+from . import features
+from .effects import Effect, extensions, valid
+from .fit import DEGENERATE, MATERIAL, Fit, fit_candidate, refine_fit
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
 
 SCREEN_TOP = 2  # structures per step fitted by simulation (after the inverse-dynamics screen)
 MAX_EFFECTS = 4
+EFFORT_CLEAN = 0.01  # smoothed effort noise / effort scale below which the effort decides
 
 
 @dataclass
@@ -34,6 +36,9 @@ class Selection:
     screened: list[tuple[tuple[str, ...], EquationFit]] = field(default_factory=list)
     screen_n_ref: float = 0.0
     log: list[str] = field(default_factory=list)
+    # "simulation": structures compared by their replays; "effort equation": by the
+    # inverse dynamics on the measured effort (a closed loop), the chosen one then replayed
+    by: str = "simulation"
 
 
 def _key(effects: tuple[Effect, ...]) -> tuple[str, ...]:
@@ -133,6 +138,68 @@ def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit
     return best
 
 
+def _pruned(problem: Problem, current: Fit, f: Fit, fits: dict, log: list[str]
+            ) -> Fit | None:
+    """A structure that beat the current one with an effect not significant, without
+    that effect (a backward step: a refinement can make an effect named earlier
+    redundant, as direction-dependent friction holds the constant force an encoder's
+    zero error stood in for); kept if it beats the current model and all its effects
+    are there."""
+    kept = tuple(e for e in f.effects if f.present(e))
+    if not kept or len(kept) == len(f.effects) or _key(kept) in fits or \
+            not all(valid({e.variant for e in kept if e.joint == j}) for j in problem.joints):
+        return None
+    g = refine_fit(fit_candidate(problem, kept, refine=False, warm=dict(f.values)))
+    fits[_key(kept)] = g
+    n_ref = _n_ref(fits.values())
+    good = g.bic(n_ref) < current.bic(n_ref) and not g.degenerate() and \
+        all(g.present(e) for e in g.effects)
+    log.append(f"tried {'+'.join(g.names)} (without what was not significant): BIC "
+               f"{g.bic(n_ref):.1f}" + ("" if good else ", no better"))
+    return g if good else None
+
+
+def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
+              screened: dict, log: list[str]) -> Fit | None:
+    """Two effects at once, from extensions that lowered the BIC with an effect not
+    significant: the union of the two best, and the best-screened extension of the best;
+    kept if its BIC beats the current model's and both effects are there."""
+    if not near:
+        return None
+    pairs = []
+    richer = _proposals(problem, near[0].effects)
+    if len(near) > 1:
+        union = set(_key(near[0].effects)) | set(_key(near[1].effects))
+        pairs += [p for p in richer if set(_key(p)) == union]
+    for p in richer:
+        if _key(p) not in screened:
+            screened[_key(p)] = equation_fit(problem, p)
+    screen_ref = _n_ref(screened.values())
+    pairs += sorted((p for p in richer if p not in pairs),
+                    key=lambda p: screened[_key(p)].bic(screen_ref))[:1]
+    warm = _warm_start(near[0])
+    best = None
+    for p in pairs:
+        if _key(p) in fits:
+            continue
+        f = fit_candidate(problem, p, refine=False, warm=warm)
+        fits[_key(p)] = f
+        n_ref = _n_ref(fits.values())
+        if f.bic(n_ref) >= current.bic(n_ref):
+            log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}, no better")
+            continue
+        f = refine_fit(f)
+        fits[_key(p)] = f
+        if f.degenerate() or not all(f.present(e) for e in f.effects):
+            log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}, "
+                       "an effect not significant")
+            continue
+        log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}")
+        if best is None or f.bic(n_ref) < best.bic(n_ref):
+            best = f
+    return best
+
+
 def _warm_start(current: Fit) -> dict[str, float]:
     """Start values from the current model: its parameters, and direction-dependent
     friction started from the symmetric friction it refines. (Initial states start from
@@ -156,8 +223,107 @@ def _n_ref(fits) -> float:
     return best.n_eff
 
 
+def effort_decides(problem: Problem) -> bool:
+    """Whether the measured effort, not the replay, tells the structures apart: every run
+    is a declared closed loop with its effort recorded and clean (its noise, smoothed as
+    the equation smooths it, below EFFORT_CLEAN of the effort the joint needs), and every
+    candidate is linear in its parameters (no end stop). A stiff loop holds the position
+    to its reference whatever the plant, so the replayed motion barely depends on the
+    causes, while the recorded effort is what the loop had to spend on them (the
+    inverse-dynamics identification of the robotics literature and of the EMPS
+    benchmark); each closed-loop replay also steps the law sample by sample, at a cost the
+    search cannot afford. A noisy effort (a loop that differentiates a coarse encoder
+    feeds its noise into the force) biases the equation error: the replay decides."""
+    for t, tr in enumerate(problem.trajectories):
+        if tr.law() is None or not all(j in tr.efforts for j in problem.joints):
+            return False
+        gain = features.smoothing_gain(tr.sample_period)
+        for k, j in enumerate(problem.joints):
+            noise = float(problem.effort_noise[t][k]) * gain
+            if not noise < EFFORT_CLEAN * problem.contexts[j].effort_scale:
+                return False
+    return all(e.coefficient_names for lib in problem.effects.values() for e in lib.values())
+
+
+def select_by_effort(problem: Problem, max_effects: int = MAX_EFFECTS) -> Selection:
+    """Forward stepwise search on the effort equation: each step the structure one effect
+    richer with the best BIC (effective samples of the best-fitting residual) is kept if
+    it beats the current one and each of its effects is there (its 95 % interval excludes
+    absence; it changes the effort by at least MATERIAL noise deviations); the chosen
+    structure alone is then fitted by simulation (the values reported, the replays)."""
+    log = ["closed loop with its effort measured: structures compared on the effort "
+           "equation (equation error); the chosen one fitted by simulation"]
+    path, screened = effort_search(problem, log, max_effects)
+    nominal = fit_candidate(problem, ())
+    fits = [nominal]
+    chosen = nominal
+    if path:
+        # the last step must pay in the replay too (the effort equation is biased by the
+        # smoothing and may buy a small term with it): the chosen structure and the one
+        # before it are fitted by simulation, and the last effect kept only if the BIC of
+        # the replay prefers it
+        chosen = fit_candidate(problem, path[-1])
+        fits.append(chosen)
+        before = nominal if len(path) == 1 else fit_candidate(
+            problem, path[-2], refine=False, warm=dict(chosen.values))
+        if before is not nominal:
+            fits.append(before)
+        n_ref = _n_ref(fits)
+        if before.bic(n_ref) <= chosen.bic(n_ref):
+            log.append(f"replayed, {'+'.join(chosen.names)} (BIC {chosen.bic(n_ref):.1f}) "
+                       f"is no better than {'+'.join(before.names) or 'the nominal model'} "
+                       f"(BIC {before.bic(n_ref):.1f}): the last effect is not kept")
+            chosen = refine_fit(before)
+            fits[-1 if before is not nominal else 0] = chosen
+    screen_ref = _n_ref(screened.values())
+    return Selection(nominal, chosen, fits, _n_ref(fits),
+                     sorted(screened.items(), key=lambda kv: kv[1].bic(screen_ref)),
+                     screen_ref, log, by="effort equation")
+
+
+def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFECTS
+                  ) -> tuple[list[tuple[Effect, ...]], dict[tuple[str, ...], EquationFit]]:
+    """The stepwise search of :func:`select_by_effort`: the structure kept at each step
+    (the last is the chosen one), and every structure scored."""
+    screened: dict[tuple[str, ...], EquationFit] = {(): equation_fit(problem, ())}
+    current: tuple[Effect, ...] = ()
+    path: list[tuple[Effect, ...]] = []
+    while len(current) < max_effects:
+        proposals = [p for p in _proposals(problem, current) if _key(p) not in screened]
+        for p in proposals:
+            screened[_key(p)] = equation_fit(problem, p)
+        n_ref = _n_ref(screened.values())
+        here = screened[_key(current)]
+        kept = None
+        for p in sorted(proposals, key=lambda p: screened[_key(p)].bic(n_ref)):
+            ef = screened[_key(p)]
+            label = "+".join(ef.names)
+            if ef.bic(n_ref) >= here.bic(n_ref):
+                break
+            if ef.degenerate(DEGENERATE):
+                log.append(f"tried {label}: BIC {ef.bic(n_ref):.1f}, two effects explain "
+                           "the same thing")
+            elif all(ef.present(e, MATERIAL) for e in ef.effects):
+                log.append(f"tried {label}: BIC {ef.bic(n_ref):.1f}")
+                kept = p
+                break
+            else:
+                log.append(f"tried {label}: BIC {ef.bic(n_ref):.1f}, an effect not "
+                           "significant")
+        if kept is None:
+            label = "+".join(screened[_key(current)].names) or "the nominal model"
+            log.append(f"no extension of {label} earns its parameters")
+            break
+        current = kept
+        path.append(kept)
+        log.append(f"kept {'+'.join(screened[_key(current)].names)}")
+    return path, screened
+
+
 def select(problem: Problem, screen_top: int = SCREEN_TOP,
            max_effects: int = MAX_EFFECTS) -> Selection:
+    if effort_decides(problem):
+        return select_by_effort(problem, max_effects)
     nominal = fit_candidate(problem, ())
     fits: dict[tuple[str, ...], Fit] = {(): nominal}
     screened: dict[tuple[str, ...], EquationFit] = {}
@@ -211,8 +377,16 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             else:
                 log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
                            "an effect not significant")
+                kept = _pruned(problem, current, f, fits, log)
             if kept is not None:
                 break
+        if kept is None:
+            # effects that each lower the BIC but are not significant alone may be two
+            # that stand in for each other (friction and inertia both slow a push): their
+            # union, and the best-screened extension of the best of them, are tried
+            near = sorted((f for f in new if f.bic(n_ref) < current.bic(n_ref)),
+                          key=lambda f: f.bic(n_ref))
+            kept = _together(problem, current, near, fits, screened, log)
         if kept is None:
             log.append(f"no extension of {'+'.join(current.names) or 'the nominal model'} "
                        "earns its parameters")
