@@ -275,10 +275,27 @@ def select_by_effort(problem: Problem, max_effects: int = MAX_EFFECTS) -> Select
                        f"(BIC {before.bic(n_ref):.1f}): the last effect is not kept")
             chosen = refine_fit(before)
             fits[-1 if before is not nominal else 0] = chosen
+        # an effect the replay's estimate puts within its interval of absence is left out
+        # (the effort equation's smoothing bias can make a small term look real)
+        held = tuple(e for e in chosen.effects if _departs(chosen, e))
+        if len(held) < len(chosen.effects):
+            log.append(f"replayed, {'+'.join(sorted(e.name for e in chosen.effects))} has "
+                       "effects within their 95 % interval of absence: kept "
+                       f"{'+'.join(sorted(e.name for e in held)) or 'the nominal model'}")
+            chosen = fit_candidate(problem, held, warm=dict(chosen.values)) if held \
+                else nominal
+            if held:
+                fits.append(chosen)
     screen_ref = _n_ref(screened.values())
     return Selection(nominal, chosen, fits, _n_ref(fits),
                      sorted(screened.items(), key=lambda kv: kv[1].bic(screen_ref)),
                      screen_ref, log, by="effort equation")
+
+
+def _departs(f: Fit, e: Effect) -> bool:
+    """The effect's departure from absence exceeds its 95 % interval in fit ``f``."""
+    strength, se = e.strength(f.effect_values(e), f.effect_cov(e))
+    return bool(strength > 1.96 * se)
 
 
 def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFECTS
