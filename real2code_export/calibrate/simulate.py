@@ -144,9 +144,14 @@ def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarra
     return per.reshape(-1, samples.shape[1])
 
 
+# Sampling counts as uniform within this share of the period: time stamps stored in single
+# precision jitter by ~1e-5 of a millisecond period, far below a step
+UNIFORM = 1e-3
+
+
 def _uniform(traj: Trajectory) -> bool:
     dt = np.diff(traj.time)
-    return bool(np.all(np.abs(dt - traj.sample_period) <= 1e-6 * traj.sample_period))
+    return bool(np.all(np.abs(dt - traj.sample_period) <= UNIFORM * traj.sample_period))
 
 
 Initial = Mapping[str, tuple[float, float]]  # joint -> (position, velocity) at the first sample
