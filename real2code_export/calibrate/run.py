@@ -22,6 +22,7 @@ from .inverse import _nominal_effort
 from .problem import Problem, build_problem, calibration_spec
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
+from .select_effort import effort_decides, select_by_effort
 from .trajectory import MIN_SAMPLES, Trajectory, read_all
 from .validate import cross_validate, cross_validate_effort
 from .windows import Excluded, cut, find_pushes, segments, window
@@ -216,7 +217,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     if segment is not None:
         trajectories = [p for tr in trajectories for p in segments(tr, segment)]
     problem = build_problem(model, trajectories)
-    selection = select(problem)
+    selection = select_by_effort(problem) if effort_decides(problem) else select(problem)
     rejected = None
     cv = cross_validate_effort(problem, selection.chosen) \
         if selection.by == "effort equation" else \
