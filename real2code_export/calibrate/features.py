@@ -19,6 +19,13 @@ def smoothing_window(period: float, seconds: float = 0.15, minimum: int = 7) -> 
     return w + 1 if w % 2 == 0 else w
 
 
+def smoothing_gain(period: float) -> float:
+    """The factor by which :func:`derivatives`' smoothing scales white noise (its
+    standard deviation)."""
+    w = smoothing_window(period)
+    return float(np.sqrt(np.sum(savgol_coeffs(w, min(4, w - 1)) ** 2)))
+
+
 def derivatives(x: np.ndarray, period: float, window: int | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Savitzky-Golay smoothed value, first and second derivative."""

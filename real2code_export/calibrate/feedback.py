@@ -28,13 +28,18 @@ class Feedback:
                 period: float) -> float:
         """The command ``u`` at sample ``k`` from positions ``q[0..k]`` (simulated); the
         effort is ``gain * u``."""
+        return float(self.commands(k, q[None, :], columns, period)[0])
+
+    def commands(self, k: int, q: np.ndarray, columns: dict[str, np.ndarray],
+                 period: float) -> np.ndarray:
+        """:meth:`command` for several replays at once: ``q`` is (replays, samples)."""
         taps = min(self.velocity_taps, k)
-        v = (q[k] - q[k - taps]) / (taps * period) if taps > 0 else 0.0
-        u = self.kp * (columns[self.reference][k] - q[k]) - self.kd * v
+        v = (q[:, k] - q[:, k - taps]) / (taps * period) if taps > 0 else 0.0
+        u = self.kp * (columns[self.reference][k] - q[:, k]) - self.kd * v
         if self.added is not None:
-            u += columns[self.added][k]
+            u = u + columns[self.added][k]
         if self.saturation is not None:
-            u = min(max(u, self.saturation[0]), self.saturation[1])
+            u = np.clip(u, self.saturation[0], self.saturation[1])
         return u
 
 

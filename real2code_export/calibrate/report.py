@@ -99,7 +99,8 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
         candidates.append({
             "causes": sorted(names, key=order.get), "n_params": ef.k,
             "score": "BIC (inverse-dynamics screen)", "bic": ef.bic(selection.screen_n_ref),
-            "fitted_by": "inverse dynamics (screened out before simulation)",
+            "fitted_by": "inverse dynamics (screened out before simulation)"
+            if selection.by == "simulation" else "inverse dynamics (effort equation)",
             "selected": False,
         })
     report = {
@@ -127,6 +128,7 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
         "trajectories": [{"file": r.source, "use": r.label, "rmse_before": r.rmse("nominal"),
                           "rmse_after": r.rmse("calibrated")} for r in fits + holdouts],
         "selection_log": selection.log,
+        "selected_by": selection.by,
     }
     return report
 

@@ -22,8 +22,9 @@ from .inverse import _nominal_effort
 from .problem import Problem, build_problem, calibration_spec
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
+from .select_effort import effort_decides, select_by_effort
 from .trajectory import MIN_SAMPLES, Trajectory, read_all
-from .validate import cross_validate
+from .validate import cross_validate, cross_validate_effort
 from .windows import Excluded, cut, find_pushes, segments, window
 
 # Multiple shooting for a plant that integrates its input (no restoring force, a measured
@@ -216,13 +217,15 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     if segment is not None:
         trajectories = [p for tr in trajectories for p in segments(tr, segment)]
     problem = build_problem(model, trajectories)
-    selection = select(problem)
+    selection = select_by_effort(problem) if effort_decides(problem) else select(problem)
     rejected = None
-    cv = cross_validate(model, trajectories, selection.chosen)
+    cv = cross_validate_effort(problem, selection.chosen) \
+        if selection.by == "effort equation" else \
+        cross_validate(model, trajectories, selection.chosen)
     if not cv.improves:
         rejected = (f"{'+'.join(selection.chosen.names)} predicts left-out data worse than "
-                    f"the nominal model (cross-validation by {cv.kind}: squared error "
-                    f"{cv.sse_calibrated:.4g} vs {cv.sse_nominal:.4g} noise units)")
+                    f"the nominal model (cross-validation by {cv.kind}, {cv.error}: squared "
+                    f"error {cv.sse_calibrated:.4g} vs {cv.sse_nominal:.4g} noise units)")
     calibrated = calibrated_object(model, selection.chosen)
     holdouts = []
     if held and rejected is None:

@@ -7,8 +7,10 @@ its BIC beats the current model's and every one of its effects is really there (
 interval, widened for residual correlation, excludes absence). BIC counts the effective
 samples of the best-fitting residual so far (a correlated residual carries less evidence
 than its length), the same count for every candidate compared, so extra parameters must
-pay for themselves. The search stops when no extension earns its parameters: nothing is
-forced onto the data.
+pay for themselves. A structure that beats the current one with an effect not
+significant is tried without it (a backward step), and extensions that each lower the BIC
+without being significant alone are tried together. The search stops when no extension
+earns its parameters: nothing is forced onto the data.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .effects import Effect, extensions
+from .effects import Effect, extensions, valid
 from .fit import MATERIAL, Fit, fit_candidate, refine_fit
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
@@ -34,6 +36,9 @@ class Selection:
     screened: list[tuple[tuple[str, ...], EquationFit]] = field(default_factory=list)
     screen_n_ref: float = 0.0
     log: list[str] = field(default_factory=list)
+    # "simulation": structures compared by their replays; "effort equation": by the
+    # inverse dynamics on the measured effort (select_effort.py), the chosen one replayed
+    by: str = "simulation"
 
 
 def _key(effects: tuple[Effect, ...]) -> tuple[str, ...]:
@@ -133,6 +138,68 @@ def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit
     return best
 
 
+def _pruned(problem: Problem, current: Fit, f: Fit, fits: dict, log: list[str]
+            ) -> Fit | None:
+    """A structure that beat the current one with an effect not significant, without
+    that effect (a backward step: a refinement can make an effect named earlier
+    redundant, as direction-dependent friction holds the constant force an encoder's
+    zero error stood in for); kept if it beats the current model and all its effects
+    are there."""
+    kept = tuple(e for e in f.effects if f.present(e))
+    if not kept or len(kept) == len(f.effects) or _key(kept) in fits or \
+            not all(valid({e.variant for e in kept if e.joint == j}) for j in problem.joints):
+        return None
+    g = refine_fit(fit_candidate(problem, kept, refine=False, warm=dict(f.values)))
+    fits[_key(kept)] = g
+    n_ref = _n_ref(fits.values())
+    good = g.bic(n_ref) < current.bic(n_ref) and not g.degenerate() and \
+        all(g.present(e) for e in g.effects)
+    log.append(f"tried {'+'.join(g.names)} (without what was not significant): BIC "
+               f"{g.bic(n_ref):.1f}" + ("" if good else ", no better"))
+    return g if good else None
+
+
+def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
+              screened: dict, log: list[str]) -> Fit | None:
+    """Two effects at once, from extensions that lowered the BIC with an effect not
+    significant: the union of the two best, and the best-screened extension of the best;
+    kept if its BIC beats the current model's and both effects are there."""
+    if not near:
+        return None
+    pairs = []
+    richer = _proposals(problem, near[0].effects)
+    if len(near) > 1:
+        union = set(_key(near[0].effects)) | set(_key(near[1].effects))
+        pairs += [p for p in richer if set(_key(p)) == union]
+    for p in richer:
+        if _key(p) not in screened:
+            screened[_key(p)] = equation_fit(problem, p)
+    screen_ref = _n_ref(screened.values())
+    pairs += sorted((p for p in richer if p not in pairs),
+                    key=lambda p: screened[_key(p)].bic(screen_ref))[:1]
+    warm = _warm_start(near[0])
+    best = None
+    for p in pairs:
+        if _key(p) in fits:
+            continue
+        f = fit_candidate(problem, p, refine=False, warm=warm)
+        fits[_key(p)] = f
+        n_ref = _n_ref(fits.values())
+        if f.bic(n_ref) >= current.bic(n_ref):
+            log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}, no better")
+            continue
+        f = refine_fit(f)
+        fits[_key(p)] = f
+        if f.degenerate() or not all(f.present(e) for e in f.effects):
+            log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}, "
+                       "an effect not significant")
+            continue
+        log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}")
+        if best is None or f.bic(n_ref) < best.bic(n_ref):
+            best = f
+    return best
+
+
 def _warm_start(current: Fit) -> dict[str, float]:
     """Start values from the current model: its parameters, and direction-dependent
     friction started from the symmetric friction it refines. (Initial states start from
@@ -211,8 +278,16 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             else:
                 log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
                            "an effect not significant")
+                kept = _pruned(problem, current, f, fits, log)
             if kept is not None:
                 break
+        if kept is None:
+            # effects that each lower the BIC but are not significant alone may be two
+            # that stand in for each other (friction and inertia both slow a push): their
+            # union, and the best-screened extension of the best of them, are tried
+            near = sorted((f for f in new if f.bic(n_ref) < current.bic(n_ref)),
+                          key=lambda f: f.bic(n_ref))
+            kept = _together(problem, current, near, fits, screened, log)
         if kept is None:
             log.append(f"no extension of {'+'.join(current.names) or 'the nominal model'} "
                        "earns its parameters")

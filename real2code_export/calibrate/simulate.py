@@ -144,9 +144,14 @@ def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarra
     return per.reshape(-1, samples.shape[1])
 
 
+# Sampling counts as uniform within this share of the period: time stamps stored in single
+# precision jitter by ~1e-5 of a millisecond period, far below a step
+UNIFORM = 1e-3
+
+
 def _uniform(traj: Trajectory) -> bool:
     dt = np.diff(traj.time)
-    return bool(np.all(np.abs(dt - traj.sample_period) <= 1e-6 * traj.sample_period))
+    return bool(np.all(np.abs(dt - traj.sample_period) <= UNIFORM * traj.sample_period))
 
 
 Initial = Mapping[str, tuple[float, float]]  # joint -> (position, velocity) at the first sample
@@ -217,6 +222,48 @@ def rollout(model, traj: Trajectory, initial: Initial,
     return Rollout(q_out, u_out)
 
 
+def lockstep(models: Sequence, traj: Trajectory, initials: Sequence[Initial],
+             laws: Sequence[Mapping[str, AppliedLaw]], fine: bool = True,
+             refine: int = 1) -> list[Rollout]:
+    """Replays of a declared closed loop (``traj.feedback``, uniform samples) for several
+    models stepped together: the law is computed for all of them at once each sample
+    (the Python cost of a step is paid once per sample, not once per model), each model
+    stepped by MuJoCo. Same replay as :func:`rollout`."""
+    import mujoco
+
+    joints = traj.joints
+    qadr, dadr = joint_addresses(models[0], joints)
+    n, nj, nb = traj.n, len(joints), len(models)
+    period = traj.sample_period
+    nsub = substeps_for(period, fine) * refine
+    datas = []
+    for m, x0 in zip(models, initials, strict=True):
+        m.opt.timestep = period / nsub
+        d = mujoco.MjData(m)
+        _start(m, d, traj, x0, qadr, dadr)
+        datas.append(d)
+    const = np.array([[lw.get(j, AppliedLaw()).constant for j in joints] for lw in laws])
+    q = np.empty((nb, n, nj))
+    u = np.zeros((nb, n, nj))
+    loops = [(k, traj.feedback[j]) for k, j in enumerate(joints) if j in traj.feedback]
+    columns = traj.columns
+    step = mujoco.mj_step
+    pairs = list(zip(models, datas, strict=True))
+    for i in range(n):
+        for b, (_, d) in enumerate(pairs):
+            q[b, i] = d.qpos[qadr]
+        for k, f in loops:  # the law's output is held over the interval
+            u[:, i, k] = f.gain * f.commands(i, q[:, :, k], columns, period)
+        if i == n - 1:
+            break
+        force = u[:, i] + const
+        for b, (m, d) in enumerate(pairs):
+            d.qfrc_applied[dadr] = force[b]
+            for _ in range(nsub):
+                step(m, d)
+    return [Rollout(q[b], u[b]) for b in range(nb)]
+
+
 class BatchRunner:
     """Open-loop replays of one trajectory for several models at once (``mujoco.rollout``
     on all cores); falls back to Python stepping for a feedback law or irregular samples."""
@@ -234,6 +281,8 @@ class BatchRunner:
         from mujoco import rollout as mj_rollout
 
         traj = self.traj
+        if traj.feedback and traj.controller is None and _uniform(traj):
+            return lockstep(models, traj, initials, laws, fine, refine)
         needs_state = traj.law() is not None or not _uniform(traj)
         if needs_state:
             data = mujoco.MjData(models[0])

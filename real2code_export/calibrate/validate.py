@@ -14,8 +14,11 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
+
 from .fit import Fit, fit_candidate
-from .problem import build_problem
+from .inverse import design, fold_errors
+from .problem import Problem, build_problem
 from .trajectory import MIN_SAMPLES, Trajectory
 from .windows import window
 
@@ -29,6 +32,7 @@ class CrossValidation:
     sse_nominal: float  # squared errors (noise units) of the left-out pieces, nominal model
     sse_calibrated: float  # the same, the chosen structure refitted without them
     kind: str  # "runs" | "halves" | "none"
+    error: str = "position"  # what the left-out part is predicted in: position | effort
 
     @property
     def improves(self) -> bool:
@@ -36,7 +40,8 @@ class CrossValidation:
 
     def as_json(self) -> dict:
         return {"folds": self.folds, "by": self.kind, "sse_nominal": self.sse_nominal,
-                "sse_calibrated": self.sse_calibrated, "improves": self.improves}
+                "sse_calibrated": self.sse_calibrated, "improves": self.improves,
+                "error": self.error}
 
 
 def _folds(trajectories: list[Trajectory]) -> tuple[str, list[tuple[list, Trajectory]]]:
@@ -80,3 +85,33 @@ def cross_validate(obj, trajectories: list[Trajectory], chosen: Fit) -> CrossVal
         predicted = build_problem(calibrated_object(obj, fold), [left])
         sse_cal += _sse(fit_candidate(predicted, (), refine=False))
     return CrossValidation(len(folds), sse_nom, sse_cal, kind)
+
+
+def cross_validate_effort(problem: Problem, chosen: Fit) -> CrossValidation:
+    """The same test on the effort equation, where it chose the structure (a closed loop
+    with its effort measured): refitted without each run (one run: without each half),
+    the structure predicts the left-out effort better than the nominal model or is not
+    kept."""
+    if not chosen.effects:
+        return CrossValidation(0, 0.0, 0.0, "none", "effort")
+    rows = design(problem, chosen.effects).rows
+    sizes = [len(idx) for _, _, idx in rows]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    n = int(starts[-1])
+    folds = []
+    if len(problem.trajectories) >= 2:
+        kind = "runs"
+        for t in range(len(problem.trajectories)):
+            left = np.zeros(n, bool)
+            for b, (tb, _, _) in enumerate(rows):
+                if tb == t:
+                    left[starts[b]:starts[b + 1]] = True
+            folds.append((~left, left))
+    else:
+        kind = "halves"
+        first = np.zeros(n, bool)
+        for b, (_, _, idx) in enumerate(rows):
+            first[starts[b]:starts[b + 1]] = idx < np.median(idx)
+        folds = [(~first, first), (first, ~first)]
+    sse_nom, sse_cal = fold_errors(problem, chosen.effects, folds)
+    return CrossValidation(len(folds), sse_nom, sse_cal, kind, "effort")

@@ -38,6 +38,8 @@ MIN_PUSH = 0.02  # s: shorter outlier runs are impacts or spikes
 MERGE_GAP = 0.1  # s: outlier runs this close are one push
 GUARD = 0.05  # s: left out on each side of a push (the smoothing spreads it)
 MIN_PIECE = 0.25  # s: a piece shorter than this is dropped with the push
+INERTIA_RANGE = (0.25, 4.0)  # the inertia's scale the push search allows, x nominal
+ACTING = 0.2  # the measured effort acts where above this share of its 95th percentile
 
 
 @dataclass(frozen=True)
@@ -135,6 +137,14 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         ys = max(float(np.std(y[use])), 1e-12)
         # damping and friction only take energy out: a push cannot hide in them
         lower = np.array([0.0, 0.0] + [-np.inf] * (x.shape[1] - 2))
+        upper = np.full(x.shape[1], np.inf)
+        if j in tr.efforts:
+            # nor in a vanishing mass: with the inertia scaled to nothing, every sample the
+            # measured effort is zero at (free motion, and the push itself) fits exactly,
+            # and only the measured pushes are left as outliers. The scale stays within
+            # INERTIA_RANGE of the nominal inertia.
+            nominal = float(np.median(mass[:, k])) + d.armature
+            lower[3], upper[3] = ((s - 1.0) * nominal * scale[3] / ys for s in INERTIA_RANGE)
         a_use, y_use = x[use] / scale, y[use] / ys
 
         def resid(b, a=a_use, yy=y_use):
@@ -145,8 +155,23 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # whose scale follows the residual's own spread leaves it out of the fit
         coef = np.array([1e-6, 1e-6] + [0.0] * (x.shape[1] - 2))
         f_scale = 0.1
+        if j in tr.efforts:
+            # the inertia is what the measured effort says: fitted (least squares) where
+            # the effort acts, then held. A robust loss left free would find a minimum for
+            # every inertia that the zero-effort samples allow, the push among them, and
+            # could as well call the measured pushes the outliers.
+            acting = use & (np.abs(measured) > ACTING * np.percentile(np.abs(measured[use]),
+                                                                       95))
+            if acting.sum() >= MIN_SAMPLES:
+                a_act = x[acting] / scale
+                b = np.linalg.lstsq(a_act - a_act.mean(axis=0), y[acting] / ys
+                                    - np.mean(y[acting] / ys), rcond=None)[0]
+                held = float(np.clip(b[3], lower[3], upper[3]))
+                coef[3] = held
+                lower[3], upper[3] = held - 1e-9 * max(abs(held), 1.0), \
+                    held + 1e-9 * max(abs(held), 1.0)
         for _ in range(4):
-            coef = least_squares(resid, coef, bounds=(lower, np.inf), loss="cauchy",
+            coef = least_squares(resid, coef, bounds=(lower, upper), loss="cauchy",
                                  f_scale=f_scale).x
             rr = resid(coef)
             f_scale = max(2.0 * 1.4826 * float(np.median(np.abs(rr))), 1e-9)

@@ -1,0 +1,123 @@
+"""How sure a fitted candidate is: 95 % intervals from ``mujoco.sysid``'s Jacobian
+intervals (widened for the residual's correlation, plus the replay's numerical error and
+what the noise on a measured input does to the estimate), the covariance, which
+parameters the data cannot identify or cannot tell apart, and how much each effect moves
+the simulated motion.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .simulate import BatchRunner
+
+if TYPE_CHECKING:
+    from .fit import Solution
+    from .residuals import Evaluator
+
+CORRELATED = 0.995  # parameters this correlated are reported as correlated_with
+
+INPUT_NOISE_DRAWS = 4
+
+
+def input_noise_spread(sol: Solution) -> np.ndarray:
+    """What the noise on the measured effort does to the estimate (the fit treats the
+    input as exact): replays with the input perturbed by its own noise level (seeded
+    draws), mapped to parameters through the Jacobian; 1.96 standard deviations."""
+    problem, ev = sol.problem, sol.ev
+    shifts = []
+    rng = np.random.default_rng(0)
+    for _ in range(INPUT_NOISE_DRAWS):
+        dr = np.zeros_like(sol.r)
+        for t, tr in enumerate(problem.trajectories):
+            if tr.law() is not None or not tr.efforts:
+                continue
+            sigma = problem.effort_noise[t]
+            efforts = {j: e + rng.normal(0.0, sigma[problem.joints.index(j)], len(e))
+                       for j, e in tr.efforts.items()}
+            noisy = dataclasses.replace(tr, efforts=efforts)
+            (r1, _), = ev.run(t, [sol.x], BatchRunner(noisy, problem.joints))
+            a, b = ev.offsets[t], ev.offsets[t + 1]
+            dr[a:b] = r1 - sol.r[a:b]
+        if np.any(dr):
+            shifts.append(np.linalg.lstsq(sol.jac, dr, rcond=None)[0])
+    if not shifts:
+        return np.zeros(len(sol.x))
+    return 1.96 * np.sqrt(np.mean(np.square(shifts), axis=0))
+
+
+def uncertainty(ev: Evaluator, r, jmat, scales, n_eff, values, problem, x_star, numerical,
+                rollouts):
+    """95 % half-widths (sysid's Jacobian intervals, widened for residual correlation),
+    the covariance, which parameters the data cannot identify, strong correlations, and
+    how much each effect moves the simulated motion (RMS, in noise standard deviations:
+    the Jacobian times the step back to the effect's absence)."""
+    from mujoco import sysid
+
+    p = len(ev.params)
+    halfwidth: dict[str, float] = {}
+    cov: dict[tuple[str, str], float] = {}
+    ident: dict[str, bool] = {}
+    corr: dict[str, list[str]] = {}
+    material: dict[str, float] = {}
+    if p == 0:
+        return halfwidth, cov, ident, corr, material
+    inflate = math.sqrt(max(len(r) / max(n_eff, 1.0), 1.0))
+    sigma_x, hw = sysid.calculate_intervals([r], jmat)
+    sigma_x = np.asarray(sigma_x)[:p, :p] * inflate**2
+    hw = np.asarray(hw)[:p] * inflate
+    for i, a in enumerate(ev.params):
+        # statistical half-width plus the replay's numerical error, added linearly
+        num = float(numerical[i] * scales[i])
+        halfwidth[a.key] = float(hw[i] * scales[i]) + num
+        for k, b in enumerate(ev.params):
+            cov[(a.key, b.key)] = float(sigma_x[i, k] * scales[i] * scales[k])
+        cov[(a.key, a.key)] = (math.sqrt(max(cov[(a.key, a.key)], 0.0)) + num / 1.96) ** 2
+    for i, a in enumerate(ev.params):
+        h = halfwidth[a.key]
+        v = values[a.key]
+        if a.unit in ("rad", "m"):
+            ctx = problem.contexts[a.joint]
+            ref = max(ctx.q_high - ctx.q_low, 1e-9)
+        else:
+            ref = max(abs(v), 1e-12)
+        ident[a.key] = bool(math.isfinite(h) and h < 0.5 * ref)
+        others = []
+        for k, b in enumerate(ev.params):
+            if k == i:
+                continue
+            denom = math.sqrt(abs(sigma_x[i, i] * sigma_x[k, k]))
+            if denom > 0 and abs(sigma_x[i, k]) / denom > CORRELATED:
+                others.append(b.key)
+        if others:
+            corr[a.key] = others
+    for e in ev.effects:
+        if e.name != "limit":
+            continue
+        # The stop's contact law is MuJoCo's soft constraint; a stop of another law would
+        # put the same motion's stop elsewhere by up to how deep the joint goes into it.
+        k = problem.joints.index(e.joint)
+        for prm in e.params:
+            side = {"limit_upper": 1.0, "limit_lower": -1.0}.get(prm.name)
+            if side is None:
+                continue
+            depth = max(float(np.max(side * (ro.positions[:, k] - values[prm.key])))
+                        for ro in rollouts)
+            halfwidth[prm.key] += max(depth, 0.0)
+    index = {prm.key: i for i, prm in enumerate(ev.params)}
+    for e in ev.effects:
+        own = {prm.name: values[prm.key] for prm in e.params}
+        null = e.null_values(own)
+        if null is None:
+            material[e.name] = math.inf
+            continue
+        dx = np.zeros(len(x_star))
+        for name, v in null.items():
+            i = index[f"{e.joint}.{name}"]
+            dx[i] = (v - own[name]) / scales[i]
+        material[e.name] = float(np.sqrt(np.mean((jmat @ dx) ** 2)))
+    return halfwidth, cov, ident, corr, material
