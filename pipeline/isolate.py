@@ -12,9 +12,10 @@ the object's pixels alone (a capture of the object alone passes through unchange
    blur them): open3d's RANSAC plane segmentation, again and again; a plane a good share
    of whose points lie outside the object's region is the floor or a wall, and its points
    go; a plane within it is a face of the object, kept (and set aside for the next search);
-3. what is left, fused over the views, falls into clusters (open3d's DBSCAN): the object is
-   the cluster with most points in its region, with any other cluster mostly inside the
-   object's box (a part cut off by a gap); clutter and the rest go.
+3. what is left, fused over the views, falls into clusters (points in touching grid cells
+   a few voxels wide, :func:`grid_clusters`): the object is the cluster with most points in
+   its region, with any small cluster mostly inside the object's box (a piece cut off by a
+   gap); clutter and the rest go.
 """
 
 from __future__ import annotations
@@ -35,12 +36,16 @@ class IsolationOptions:
     scenery_share: float = 0.25  # of a plane's points outside the region: floor or wall
     plane_rel: float = 0.004  # plane inlier distance, relative to depth (clean depth) ...
     plane_sigmas: float = 4.0  # ... or this many times the frame's relative noise
-    ransac_points: int = 5000  # a frame's points the RANSAC draws from
-    ransac_iterations: int = 300
-    voxel_rel: float = 0.012  # fusion voxel, of the region's radius
-    cluster_voxels: float = 3.0  # DBSCAN's neighbourhood, in voxels, and at least ...
+    ransac_points: int = 3000  # a frame's points the RANSAC draws from
+    ransac_iterations: int = 200
+    voxel_rel: float = 0.012  # a voxel, of the region's radius
+    cluster_voxels: float = 3.0  # the clusters' grid cell, in voxels, and at least ...
     cluster_pixels: float = 2.5  # ... this many pixels' width at the object's depth
+    piece_share: float = 0.05  # a cluster in the object's box this small is a piece of it
     far_tolerance: float = 3.0  # a room plane's inlier distance outside the region, x
+    agree_share: float = 0.25  # a room plane found in this share of the frames ...
+    agree_deg: float = 3.0  # ... (the same within this angle and the inlier distance) is
+    # taken in every frame
     region_margin: float = 1.1  # the sphere every view holds, grown (an aim a little off)
     box_margin: float = 0.05  # a given box grows by this share of its diagonal
     broad_rel: float = 0.1  # a room plane's points outside the region spread this much (of
@@ -124,21 +129,28 @@ def _frame_points(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return rows, cols, world
 
 
-def scenery_planes(points: np.ndarray, depth: np.ndarray, region: Region, noise_rel: float,
-                   rng: np.random.Generator, options: IsolationOptions = IsolationOptions(),
-                   ) -> np.ndarray:
-    """Which of one frame's world ``points`` (at camera ``depth``) lie on the room's planes."""
+def plane_tolerance(depth: np.ndarray, inside: np.ndarray, noise_rel: float,
+                    options: IsolationOptions = IsolationOptions(),
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, how far off a plane its points may lie: for finding it, and for taking
+    the room's: more outside the region, where a sensor's noise grows faster than the
+    object's noise says (what is left of a floor must not pair up with a face of the
+    object into a plane)."""
+    tolerance = max(options.plane_rel, options.plane_sigmas * noise_rel) * depth
+    return tolerance, np.where(inside, 1.0, options.far_tolerance) * tolerance
+
+
+def scenery_planes(points: np.ndarray, tolerance: np.ndarray, wide: np.ndarray,
+                   inside: np.ndarray, region: Region, rng: np.random.Generator,
+                   options: IsolationOptions = IsolationOptions(),
+                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
+    """Which of one frame's world ``points`` lie on the room's planes, and those planes
+    (unit normal, offset)."""
     import open3d as o3d
 
     scenery = np.zeros(len(points), bool)
     searched = np.ones(len(points), bool)  # not yet a plane's
-    rel = max(options.plane_rel, options.plane_sigmas * noise_rel)
-    tolerance = rel * depth
-    inside = region.contains(points)
-    # a room plane takes more about it outside the region: far off, a sensor's noise grows
-    # faster than the object's noise says (what is left of a floor must not pair up with a
-    # face of the object into a plane)
-    wide = np.where(inside, 1.0, options.far_tolerance) * tolerance
+    planes = []
     for _ in range(options.max_planes):
         pool = np.nonzero(searched)[0]
         if len(pool) < max(50, options.min_plane_share * len(points)):
@@ -152,19 +164,39 @@ def scenery_planes(points: np.ndarray, depth: np.ndarray, region: Region, noise_
         normal_len = np.linalg.norm(normal)
         if normal_len == 0:
             break
-        distance = np.abs(points @ normal + offset) / normal_len
+        normal, offset = normal / normal_len, offset / normal_len
+        distance = np.abs(points @ normal + offset)
         on_plane = searched & (distance <= tolerance)
         if on_plane.sum() < options.min_plane_share * len(points):
             break
         outside = on_plane & ~inside
         if outside.sum() >= options.scenery_share * on_plane.sum() and \
                 _broad(points[outside], region, options):
-            room = searched & (distance <= wide)
+            room = distance <= wide  # with what was set aside as a face: coplanar
             scenery |= room
             searched &= ~room
+            planes.append((normal, offset))
         else:  # a face of the object: set aside; what of it lies outside, searched on
             searched &= ~(on_plane & ~outside)
-    return scenery
+    return scenery, planes
+
+
+def agreed_planes(per_frame: list[list[tuple[np.ndarray, float]]], tolerance: float,
+                  options: IsolationOptions = IsolationOptions(),
+                  ) -> list[tuple[np.ndarray, float]]:
+    """The room planes found in at least ``agree_share`` of the frames (and two): the same
+    normal within ``agree_deg`` and offset within ``tolerance``; one per group."""
+    flat = [(k, n, d) for k, planes in enumerate(per_frame) for n, d in planes]
+    need = max(2, int(np.ceil(options.agree_share * len(per_frame))))
+    cos = np.cos(np.radians(options.agree_deg))
+    out: list[tuple[np.ndarray, float]] = []
+    for _, n, d in flat:
+        if any(n @ m >= cos and abs(d - e) <= tolerance for m, e in out):
+            continue
+        frames = {k for k, m, e in flat if n @ m >= cos and abs(d - e) <= tolerance}
+        if len(frames) >= need:
+            out.append((n, d))
+    return out
 
 
 def _broad(points: np.ndarray, region: Region, options: IsolationOptions) -> bool:
@@ -176,46 +208,58 @@ def _broad(points: np.ndarray, region: Region, options: IsolationOptions) -> boo
     return bool(spread[1] >= options.broad_rel * region.size())
 
 
-def _object_points(points: np.ndarray, region: Region, boxed: bool, footprint: float,
-                   options: IsolationOptions) -> tuple[np.ndarray, np.ndarray, float]:
-    """The fused points (voxel down-sampled) that are the object, those that are other
-    things (other clusters), and the distance within which a pixel's point belongs to them.
-    ``footprint``: a pixel's width on the object (in a small image, its points lie further
-    apart than the voxel)."""
-    import open3d as o3d
+def grid_clusters(points: np.ndarray, cell: float) -> np.ndarray:
+    """A cluster label per point: points in grid cells of side ``cell`` that touch (26
+    neighbours) are one cluster. Single linkage at about ``cell``, as DBSCAN with a minimum
+    of one point, in O(N log N) (open3d's DBSCAN took seconds on a capture's points)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    voxel = options.voxel_rel * region.size()
-    eps = max(options.cluster_voxels * voxel, options.cluster_pixels * footprint)
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points)).voxel_down_sample(voxel)
-    fused = np.asarray(cloud.points)
+    ijk = np.floor(points / cell).astype(np.int64)
+    ijk -= ijk.min(0) - 1  # a free cell on every side: neighbours never wrap
+    dims = ijk.max(0) + 2
+    keys = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
+    cells, inverse = np.unique(keys, return_inverse=True)
+    rows, cols = [], []
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            for dk in (-1, 0, 1):
+                step = (di * dims[1] + dj) * dims[2] + dk
+                if step <= 0:
+                    continue  # each pair once
+                at = np.searchsorted(cells, cells + step)
+                found = (at < len(cells)) & (cells[np.minimum(at, len(cells) - 1)] ==
+                                             cells + step)
+                rows.append(np.nonzero(found)[0])
+                cols.append(at[found])
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(cells), len(cells)))
+    return connected_components(graph, directed=False)[1][inverse]
+
+
+def object_points(points: np.ndarray, region: Region, boxed: bool, footprint: float,
+                  options: IsolationOptions = IsolationOptions()) -> np.ndarray:
+    """Which of the fused ``points`` (off the room's planes) are the object: those in the
+    given box, or the cluster with most points in the region and the small clusters mostly
+    inside its box (a piece cut off by a gap, a speck seen through a slit). ``footprint``: a pixel's width on the object (in a
+    small image its points lie further apart than the voxel)."""
+    inside = region.contains(points)
     if boxed:
-        inside = region.contains(fused)
-        return fused[inside], fused[~inside], eps
-    labels = np.asarray(cloud.cluster_dbscan(eps=eps, min_points=4))
-    inside = region.contains(fused)
-    found = [k for k in np.unique(labels) if k >= 0]
-    if not found:
-        raise InputError("found no object in the capture: no cluster of points near where "
-                         "the cameras look (give its extent with --box)")
-    main = max(found, key=lambda k: int(np.sum(inside & (labels == k))))
-    keep = labels == main
-    lo, hi = fused[keep].min(0) - eps, fused[keep].max(0) + eps
-    for k in found:
-        if k != main:
-            member = labels == k
-            within = np.all((fused[member] >= lo) & (fused[member] <= hi), axis=1)
-            if within.mean() >= 0.5:
-                keep |= member
-    return fused[keep], fused[~keep & (labels >= 0)], eps
-
-
-def _belongs(points: np.ndarray, obj, others, eps: float) -> np.ndarray:
-    """Which ``points`` are the object's: near its fused points, or a little further off
-    (a speck DBSCAN left alone) and nearer them than anything else."""
-    to_obj = obj.query(points, distance_upper_bound=4 * eps)[0]
-    to_other = np.full(len(points), np.inf) if others is None else \
-        others.query(points, distance_upper_bound=4 * eps)[0]
-    return (to_obj <= 1.5 * eps) | (np.isfinite(to_obj) & (to_obj < to_other))
+        return inside
+    voxel = options.voxel_rel * region.size()
+    labels = grid_clusters(points, max(options.cluster_voxels * voxel,
+                                       options.cluster_pixels * footprint))
+    counts = np.bincount(labels, weights=inside, minlength=labels.max() + 1)
+    if counts.max() == 0:
+        raise InputError("found no object in the capture: no points near where the cameras "
+                         "look (give its extent with --box)")
+    keep = labels == int(np.argmax(counts))
+    lo, hi = points[keep].min(0), points[keep].max(0)
+    within = np.all((points >= lo) & (points <= hi), axis=1)
+    sizes = np.bincount(labels)
+    piece = (np.bincount(labels, weights=within) >= 0.5 * sizes) & \
+        (sizes <= options.piece_share * keep.sum())
+    return keep | piece[labels]
 
 
 def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None = None,
@@ -223,8 +267,6 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
     """``capture`` with depth left only on the object's pixels (a new capture unless nothing
     was dropped) and a summary: pixels dropped as room planes and as other things, and the
     object's box. ``box``: the object's world extent (lo, hi) when the user knows it."""
-    from scipy.spatial import cKDTree
-
     from .depth_cleanup import noise_level
 
     if "object_isolation" in capture.extra:
@@ -235,31 +277,42 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
     rng = np.random.default_rng(0)
     o3d.utility.random.seed(0)  # its RANSAC draws: the same capture, the same result
     per_frame, kept_points = [], []
+    room_planes = []
     for frame in capture.frames:
         rows, cols, world = _frame_points(frame)
         near = np.zeros_like(frame.depth)  # the noise on the object, not on a far floor
         inside = region.contains(world)
         near[rows[inside], cols[inside]] = frame.depth[rows[inside], cols[inside]]
-        plane = scenery_planes(world, frame.depth[rows, cols], region, noise_level(near),
-                               rng, options)
-        per_frame.append((rows, cols, world, plane))
+        tolerance, wide = plane_tolerance(frame.depth[rows, cols], inside, noise_level(near),
+                                          options)
+        plane, found = scenery_planes(world, tolerance, wide, inside, region, rng, options)
+        room_planes.append(found)
+        per_frame.append((rows, cols, world, plane, wide))
+    # a room plane that many views saw is the room's in every view (where a view sees
+    # little of it outside the region, that view alone would take it for a face)
+    shared = agreed_planes(room_planes, float(np.median(np.concatenate(
+        [w for *_, w in per_frame]))), options)
+    for _, _, world, plane, wide in per_frame:
+        for normal, offset in shared:
+            plane |= np.abs(world @ normal + offset) <= wide
         kept_points.append(world[~plane])
     everything = np.concatenate(kept_points)
     if len(everything) == 0:
         raise InputError("the capture has no depth off the room's planes: no object in it")
     footprint = float(np.median([np.median(f.depth[f.depth > 0]) / f.camera.fl_x
                                  for f in capture.frames if (f.depth > 0).any()]))
-    obj, others, eps = _object_points(everything, region, box is not None, footprint, options)
-    if len(obj) == 0:
+    is_object = object_points(everything, region, box is not None, footprint, options)
+    if not is_object.any():
         raise InputError("found no object in the capture: nothing off the room's planes "
                          "inside the given --box")
-    tree = cKDTree(obj)
-    other_tree = cKDTree(others) if len(others) else None
+    obj = everything[is_object]
     frames, planes_dropped, other_dropped = [], 0, 0
-    for frame, (rows, cols, world, plane) in zip(capture.frames, per_frame, strict=True):
-        near = np.zeros(len(world), bool)
-        near[~plane] = _belongs(world[~plane], tree, other_tree, eps)
-        drop = ~near
+    start = 0
+    for frame, (rows, cols, _, plane, _) in zip(capture.frames, per_frame, strict=True):
+        drop = plane.copy()
+        n = int((~plane).sum())
+        drop[~plane] = ~is_object[start:start + n]
+        start += n
         planes_dropped += int(plane.sum())
         other_dropped += int((drop & ~plane).sum())
         if drop.any():
