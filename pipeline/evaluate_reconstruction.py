@@ -99,12 +99,15 @@ def _truth_meshes(case: Case) -> list:
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
              cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
-             sensor: str = "clean", progress=None) -> dict[tuple[str, str], SettingResult]:
+             sensor: str = "clean", room: bool = False,
+             progress=None) -> dict[tuple[str, str], SettingResult]:
     """Reconstruct every case under every (segmentation, completion) setting and score it;
     ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`), ``sensor``
-    (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them."""
+    (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them, ``room`` puts the
+    object in a room (:mod:`pipeline.room`) that the pipeline must find it in."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
     from .depth_cleanup import clean_capture
+    from .isolate import isolate_object
     from .reconstruct import reconstruct_capture
     from .render import render_object
     from .segment import get_segmenter
@@ -122,9 +125,9 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     for k, case in enumerate(cases):
         bucket = bucket_of(len(case.obj.parts))
         capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
-                                seed=seed + k, cameras=cameras, distance=distance)
+                                seed=seed + k, cameras=cameras, distance=distance, room=room)
         capture = degrade(capture, sensor_model, seed + k)
-        capture, _ = clean_capture(capture)  # once, not once per setting
+        capture, _ = clean_capture(isolate_object(capture)[0])  # once, not once per setting
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:

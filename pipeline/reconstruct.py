@@ -1,8 +1,9 @@
 """``real2code reconstruct``: a posed RGB-D capture in, an articulated object and every
 export out — the whole Real2Code pipeline.
 
-Stages, each one's output kept in the output folder for inspection (the first, the depth
-cleanup of :mod:`pipeline.depth_cleanup`, is summarised in report.json)::
+Stages, each one's output kept in the output folder for inspection (the first two, finding
+the object in the room (:mod:`pipeline.isolate`) and the depth cleanup
+(:mod:`pipeline.depth_cleanup`), are summarised in report.json)::
 
     segmentation/  per-view part labels (16-bit PNG) and colour overlays, summary.json
     clouds/        the fused foreground and one point cloud per part (PLY)
@@ -55,6 +56,7 @@ class ReconstructResult:
     written: dict[str, Path] = field(default_factory=dict)
     check: object | None = None  # real2code_export.check.CheckReport
     cleanup: dict = field(default_factory=dict)  # what the depth cleanup changed
+    isolation: dict = field(default_factory=dict)  # what of the room was left out
 
 
 def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -106,9 +108,11 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                         sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                         name: str = "reconstruction", collision: str = "auto",
                         precomputed_segmentation: Segmentation | None = None,
-                        texture: bool = True,
+                        texture: bool = True, box=None,
                         progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Every stage in memory (the evaluation calls this; :func:`reconstruct` also writes).
+    ``box``: the object's world extent (lo, hi) where the user knows it; found otherwise
+    (:mod:`.isolate`: the room around the object is left out first).
     ``texture``: bake the views' colours onto the parts (:mod:`.texture`; the evaluation,
     which scores geometry and joints, leaves it out).
     ``precomputed_segmentation`` skips the segmentation stages (segmentation, then the
@@ -121,10 +125,18 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     from .complete.data import MIN_POINTS  # the fewest points completion takes
     from .depth_cleanup import clean_capture
     from .fuse import oriented_part_clouds
+    from .isolate import isolate_object
     from .predictors import get_predictor
 
     say = progress or (lambda _msg: None)
     timings: dict[str, float] = {}
+    t = time.perf_counter()
+    capture, isolation = isolate_object(capture, box)
+    timings["isolation"] = time.perf_counter() - t
+    if isolation["plane_pixels_dropped"] or isolation["other_pixels_dropped"]:
+        say(f"the object found: {isolation['plane_pixels_dropped']} pixels of the room's "
+            f"planes and {isolation['other_pixels_dropped']} of other things left out "
+            f"({timings['isolation']:.1f} s)")
     t = time.perf_counter()
     capture, cleanup = clean_capture(capture)
     timings["cleanup"] = time.perf_counter() - t
@@ -189,7 +201,8 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     for j in art.obj.movable_joints:
         say(f"  {j.name:20s} {j.type.value:9s} state {j.state:+.3f}  "
             f"range [{j.limits.lower:.3f}, {j.limits.upper:.3f}]")
-    return ReconstructResult(capture, seg, clouds, meshes, colors, art, timings, cleanup=cleanup)
+    return ReconstructResult(capture, seg, clouds, meshes, colors, art, timings, cleanup=cleanup,
+                             isolation=isolation)
 
 
 def _label_png(labels: np.ndarray) -> bytes:
@@ -255,7 +268,7 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
                 completion: str = "learned", predictor: str = "learned",
                 sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                 formats: list[str] | None = None, check_configurations: int = 100,
-                name: str | None = None, texture: bool = True,
+                name: str | None = None, texture: bool = True, box=None,
                 progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Read the capture folder, run every stage, write everything into ``out`` (atomically:
     all of it or nothing) and check the exports against each other in their own tools."""
@@ -268,7 +281,7 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
         capture, segmentation=segmentation, completion=completion, predictor=predictor,
         sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type,
         name=name or capture.extra.get("object") or capture.path.name, texture=texture,
-        progress=progress)
+        box=box, progress=progress)
     out = Path(out)
     t = time.perf_counter()
     with atomic.staged_output(out) as staging:
@@ -284,7 +297,7 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
                 {"name": j.name, "type": j.type.value, "parent": j.parent, "child": j.child,
                  "state": j.state, "lower": j.limits.lower, "upper": j.limits.upper}
                 for j in result.articulation.obj.movable_joints],
-            "depth_cleanup": result.cleanup,
+            "object_isolation": result.isolation, "depth_cleanup": result.cleanup,
             "segmentation_details": result.segmentation.details,
             "seconds": {k: round(v, 2) for k, v in result.timings.items()},
             "check_ok": report.ok}, indent=1) + "\n")

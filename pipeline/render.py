@@ -68,11 +68,16 @@ def _srgb(linear: np.ndarray) -> np.ndarray:
 class Raycaster:
     """Part meshes in one open3d scene; ``render`` gives RGB, z-depth and part ids."""
 
-    def __init__(self, meshes: list[Mesh], colors: list[tuple]):
+    def __init__(self, meshes: list[Mesh], colors: list[tuple], scenery: list | None = None):
+        """``meshes`` are the parts (mask k for the k-th); ``scenery``
+        (:class:`pipeline.room.Scenery`) is seen, never a part (mask 0)."""
         import open3d as o3d
 
         self.scene = o3d.t.geometry.RaycastingScene()
         self.ids = []
+        self.n_parts = len(meshes)
+        meshes = [*meshes, *(s.mesh for s in scenery or [])]
+        colors = [*colors, *(s.color for s in scenery or [])]
         for mesh in meshes:
             gid = self.scene.add_triangles(
                 o3d.core.Tensor(mesh.vertices.astype(np.float32)),
@@ -110,7 +115,7 @@ class Raycaster:
         linear = albedo * shade[..., None]
         linear[~valid] = background
         rgb = np.round(_srgb(linear) * 255).astype(np.uint8)
-        mask = np.where(part >= 0, part + 1, 0).astype(np.uint16)
+        mask = np.where((part >= 0) & (part < self.n_parts), part + 1, 0).astype(np.uint16)
         return rgb, depth, mask
 
 
@@ -120,12 +125,15 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
                   fov_deg: float = DEFAULT_FOV_DEG, seed: int = 0,
                   cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
                   colors: dict[str, tuple] | None = None,
-                  lighting: Lighting = Lighting(), background=BACKGROUND) -> Capture:
+                  lighting: Lighting = Lighting(), background=BACKGROUND,
+                  room: bool = False) -> Capture:
     """A capture of ``obj`` at ``q`` (default: its observed state) placed at ``base``.
 
     ``cameras`` names the camera path and ``distance`` how far it stands
     (:mod:`pipeline.camera_paths`); only ``front-arc`` reads the ground-truth joints.
-    ``colors`` overrides part colours (linear RGB(A)) by part name. The capture's parts are
+    ``colors`` overrides part colours (linear RGB(A)) by part name. ``room`` stands the
+    object on a floor before a wall, with clutter around (:mod:`pipeline.room`; the same
+    cameras as without). The capture's parts are
     the parts with a visual mesh, in the object's order; its ``extra`` records the state
     and pose the object was rendered at.
     """
@@ -139,7 +147,6 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
     if not names:
         raise InputError(f"object {obj.name!r} has no visual meshes to render")
     palette = {p.name: p.color for p in obj.parts} | (colors or {})
-    caster = Raycaster([meshes[n] for n in names], [palette[n] for n in names])
     points = np.concatenate([meshes[n].vertices for n in names])
     lo, hi = points.min(0), points.max(0)
     center = 0.5 * (lo + hi)
@@ -158,24 +165,33 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
     frames = []
     poses = camera_path(cameras, center, radius, camera, views, rng, distance=distance,
                         front=front)
+    scenery = []
+    if room:
+        from .room import room_scenery
+
+        scenery = room_scenery(lo, hi, np.array([p[:3, 3] for p in poses]), rng)
+    caster = Raycaster([meshes[n] for n in names], [palette[n] for n in names], scenery)
     for k, pose in enumerate(poses):
         rgb, depth, mask = caster.render(camera, pose, lighting, background)
         frames.append(Frame(camera, pose, rgb, depth, mask, f"frame_{k:05d}"))
     extra = {"object": obj.name, "state": {j: float(v) for j, v in config.items()},
              "object_pose": np.round(base, 12).tolist(), "renderer": "open3d raycasting",
-             "seed": int(seed), "camera_path": cameras, "camera_distance": distance}
+             "seed": int(seed), "camera_path": cameras, "camera_distance": distance,
+             "room": [s.name for s in scenery]}
     return Capture(frames, names, extra)
 
 
 def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIEWS,
                  width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, state: str = "observed",
                  seed: int = 0, cameras: str = DEFAULT_PATH,
-                 distance: str = DEFAULT_DISTANCE, sensor: str | Path = "clean") -> Capture:
+                 distance: str = DEFAULT_DISTANCE, sensor: str | Path = "clean",
+                 room: bool = False) -> Capture:
     """``real2code render``: load any importable model, render it at its observed state (or,
     with ``state="random"``, every joint partly open, drawn from ``seed``) and write the
     capture folder with the ground-truth object (parts joined by fixed joints merged, as
     the masks see them; its states set to the rendered ones). ``sensor``: a capture preset
-    or sensor JSON (:mod:`pipeline.sensors`) whose faults the frames then get."""
+    or sensor JSON (:mod:`pipeline.sensors`) whose faults the frames then get; ``room``:
+    the object in a room (:mod:`pipeline.room`)."""
     import copy
 
     from real2code_export.formats import load
@@ -196,7 +212,7 @@ def render_model(model: str | Path, out: str | Path, *, views: int = DEFAULT_VIE
 
     model_of_sensor = load_sensor(sensor)  # a bad preset fails before the rendering
     capture = render_object(obj, views=views, width=width, height=height, seed=seed,
-                            cameras=cameras, distance=distance)
+                            cameras=cameras, distance=distance, room=room)
     capture = degrade(capture, model_of_sensor, seed)
     capture.extra["source"] = str(model)
     capture.extra["ground_truth"] = f"{GROUND_TRUTH_DIR}/object.json"

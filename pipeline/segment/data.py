@@ -82,6 +82,7 @@ def object_views(obj, rng: np.random.Generator, views: int,
     from a camera path and through a sensor (preset) drawn from ``cameras`` and ``sensors``;
     a degraded frame's depth is cleaned as reconstruction cleans it
     (:func:`pipeline.depth_cleanup.clean_depth`), so the network learns what it will see."""
+    from ..capture import Capture
     from ..depth_cleanup import clean_depth
     from ..predictors.data import ajar_configuration
     from ..render import Lighting, render_object
@@ -102,12 +103,13 @@ def object_views(obj, rng: np.random.Generator, views: int,
                         lighting=lighting, background=background,
                         cameras=_pick(cameras, rng))
     sensor = load_sensor(_pick(sensors, rng))
-    if sensor.name != "clean":
+    picks = sorted(rng.choice(len(cap.frames), size=min(views, len(cap.frames)),
+                              replace=False))
+    cap = Capture([cap.frames[k] for k in picks], cap.parts, cap.extra)
+    if sensor.name != "clean":  # only the views kept (a third of the degrading's cost)
         cap = degrade(cap, sensor, int(rng.integers(2**31)))
-    picks = rng.choice(len(cap.frames), size=min(views, len(cap.frames)), replace=False)
     out = []
-    for k in sorted(picks):
-        f = cap.frames[k]
+    for f in cap.frames:
         if not f.mask.any():
             continue
         depth = clean_depth(f.depth)[0] if sensor.name != "clean" else f.depth

@@ -36,6 +36,9 @@ def add_camera_options(s) -> None:
     s.add_argument("--capture", default="clean", metavar="PRESET",
                    help="the depth camera's faults: " + ", ".join(CAPTURE_PRESETS)
                    + " (default clean), or a sensor JSON file of pipeline.sensors' fields")
+    s.add_argument("--room", action="store_true",
+                   help="stand the object on a floor before a wall, with clutter around it "
+                   "(seeded by --seed; the pipeline must find the object)")
 
 
 def add_demo_parser(sub) -> None:
@@ -80,7 +83,8 @@ def cmd_render(args) -> int:
         raise Real2CodeError("--views must be >= 1 and --width/--height >= 8")
     capture = render_model(args.model, args.out, views=args.views, width=args.width,
                            height=args.height, state=args.state, seed=args.seed,
-                           cameras=args.cameras, distance=args.distance, sensor=args.capture)
+                           cameras=args.cameras, distance=args.distance, sensor=args.capture,
+                           room=args.room)
     print(f"{len(capture.frames)} views of {capture.extra['object']} "
           f"({len(capture.parts)} parts) -> {Path(args.out) / 'transforms.json'}")
     print(f"ground truth -> {capture.ground_truth_path()}")
@@ -110,14 +114,19 @@ def _reconstruct_options(s) -> None:
     s.add_argument("--configurations", type=int, default=100, help="for the final check")
     s.add_argument("--no-texture", dest="texture", action="store_false",
                    help="leave each part its flat colour instead of baking the views onto it")
+    s.add_argument("--box", metavar="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX",
+                   help="the object's extent in the capture's world frame (metres); without "
+                   "it the object is found: what the cameras look at, off the room's planes")
 
 
 def _run_reconstruct(capture, out, args) -> int:
+    from pipeline.isolate import parse_box
     from pipeline.reconstruct import reconstruct
 
     from ..check import format_table
 
     result = reconstruct(capture, out, segmentation=args.segmentation,
+                         box=parse_box(args.box) if args.box else None,
                          completion=args.completion, predictor=args.predictor,
                          sam_checkpoint=args.sam_checkpoint, sam_model_type=args.sam_model_type,
                          check_configurations=args.configurations, texture=args.texture,
@@ -214,20 +223,22 @@ def cmd_evaluate_reconstruction(args) -> int:
         if "holdout" in splits:
             sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
                 root, "holdout", args.seed)
-    conditions = {"cameras": args.cameras, "distance": args.distance, "capture": args.capture}
+    conditions = {"cameras": args.cameras, "distance": args.distance, "capture": args.capture,
+                  "room": args.room}
     figures, text = {"conditions": conditions}, []
     for set_name, cases in sets.items():
         results = evaluate(cases, views=args.views, size=args.size, seed=args.seed,
                            cameras=args.cameras, distance=args.distance, sensor=args.capture,
-                           settings=settings,
+                           room=args.room, settings=settings,
                            progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
         tables = {SETTING_NAMES[k]: r.table() for k, r in results.items()}
         figures[set_name] = {
             SETTING_NAMES[k]: {"buckets": r.table(), "failures": r.failures,
                                "seconds_per_object": float(np.mean(r.seconds or [0.0]))}
             for k, r in results.items()}
+        room = "; in a room" if args.room else ""
         text.append(markdown(f"{set_name} ({len(cases)} objects; cameras {args.cameras}, "
-                             f"{args.distance}; capture {args.capture})", tables,
+                             f"{args.distance}; capture {args.capture}{room})", tables,
                              show_paper=set_name.startswith("procedural")))
     write_evaluation(args, "\n\n".join(text), figures)
     return 0

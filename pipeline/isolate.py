@@ -1,0 +1,329 @@
+"""Find the object in a capture of a room: the first reconstruction stage.
+
+A real capture holds the floor the object stands on, a wall behind it and things nearby;
+every later stage takes the pixels with depth for the object, so this stage leaves depth on
+the object's pixels alone (a capture of the object alone passes through unchanged):
+
+1. where the object is: the point the cameras look at (the least-squares meeting point of
+   their viewing axes: a person aims at what they scan) and the largest sphere about it
+   that every view holds whole — the object lies inside it — or the box the user gives
+   (``--box``);
+2. the room's planes, frame by frame (each frame's own points, so pose error does not
+   blur them): open3d's RANSAC plane segmentation, again and again; a plane a good share
+   of whose points lie outside the object's region is the floor or a wall, and its points
+   go; a plane within it is a face of the object, kept (and set aside for the next search);
+3. what is left, fused over the views, falls into clusters (points in touching grid cells
+   a few voxels wide, :func:`grid_clusters`): the object is the cluster with most points in
+   its region, with any small cluster mostly inside the object's box (a piece cut off by a
+   gap); clutter and the rest go.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from real2code_export.errors import InputError
+
+from .capture import Capture, Frame
+
+
+@dataclass(frozen=True)
+class IsolationOptions:
+    max_planes: int = 8  # planes looked for per frame
+    min_plane_share: float = 0.03  # of a frame's points: a smaller plane ends the search
+    scenery_share: float = 0.25  # of a plane's points outside the region: floor or wall
+    plane_rel: float = 0.004  # plane inlier distance, relative to depth (clean depth) ...
+    plane_sigmas: float = 4.0  # ... or this many times the frame's relative noise
+    ransac_points: int = 3000  # a frame's points the RANSAC draws from
+    ransac_iterations: int = 200
+    voxel_rel: float = 0.012  # a voxel, of the region's radius
+    cluster_voxels: float = 3.0  # the clusters' grid cell, in voxels, and at least ...
+    cluster_pixels: float = 2.5  # ... this many pixels' width at the object's depth
+    piece_share: float = 0.05  # a cluster in the object's box this small is a piece of it
+    far_tolerance: float = 3.0  # a room plane's inlier distance outside the region, x
+    agree_share: float = 0.25  # a room plane found in this share of the frames ...
+    agree_deg: float = 3.0  # ... (the same within this angle and the inlier distance) is
+    # taken in every frame
+    region_margin: float = 1.1  # the sphere every view holds, grown (an aim a little off)
+    box_margin: float = 0.05  # a given box grows by this share of its diagonal
+    broad_rel: float = 0.1  # a room plane's points outside the region spread this much (of
+    # the region's size, standard deviation across its narrower direction)
+
+
+@dataclass(frozen=True)
+class Region:
+    """Where the object is: a sphere (``radius`` > 0) or a box ``lo`` .. ``hi``."""
+
+    centre: np.ndarray
+    radius: float = 0.0
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
+
+    def size(self) -> float:
+        """The region's radius (a box's: half its diagonal)."""
+        return self.radius if self.lo is None else 0.5 * float(np.linalg.norm(self.hi - self.lo))
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        if self.lo is not None:
+            return np.all((points >= self.lo) & (points <= self.hi), axis=1)
+        return np.linalg.norm(points - self.centre, axis=1) <= self.radius
+
+
+def parse_box(text: str) -> tuple[np.ndarray, np.ndarray]:
+    """``xmin,ymin,zmin,xmax,ymax,zmax`` (world frame, metres) -> (lo, hi)."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 6 or not all(np.isfinite(values)):
+        raise InputError(f"--box: expected six numbers xmin,ymin,zmin,xmax,ymax,zmax, "
+                         f"got {text!r}")
+    lo, hi = np.array(values[:3]), np.array(values[3:])
+    if np.any(hi <= lo):
+        raise InputError(f"--box: every max must exceed its min, got {text!r}")
+    return lo, hi
+
+
+def look_at_point(frames: list[Frame]) -> np.ndarray | None:
+    """The point nearest every camera's viewing axis (least squares), or None when the axes
+    are (nearly) parallel."""
+    a, b = np.zeros((3, 3)), np.zeros(3)
+    for f in frames:
+        d = -f.camera_to_world[:3, 2]  # OpenGL: the camera looks down -z
+        p = np.eye(3) - np.outer(d, d)
+        a += p
+        b += p @ f.camera_to_world[:3, 3]
+    if len(frames) < 2 or np.linalg.cond(a) > 1e6:
+        return None
+    return np.linalg.solve(a, b)
+
+
+def object_region(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None = None,
+                  options: IsolationOptions = IsolationOptions()) -> Region:
+    """The user's box (grown a little), or the sphere about the cameras' meeting point that
+    every view holds whole."""
+    if box is not None:
+        lo, hi = (np.asarray(v, float) for v in box)
+        grow = options.box_margin * float(np.linalg.norm(hi - lo))
+        return Region((lo + hi) / 2, 0.0, lo - grow, hi + grow)
+    centre = look_at_point(capture.frames)
+    if centre is None:
+        raise InputError("cannot tell where the object is: the cameras' viewing axes do not "
+                         "meet (give the object's extent with --box)")
+    radius = np.inf
+    for f in capture.frames:
+        c = f.camera
+        half = np.arctan(0.5 * min(c.width / c.fl_x, c.height / c.fl_y))
+        radius = min(radius, np.linalg.norm(f.camera_to_world[:3, 3] - centre) * np.sin(half))
+    return Region(centre, float(radius) * options.region_margin)
+
+
+def _frame_points(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The frame's pixels with depth: (rows, cols) and world points."""
+    rows, cols = np.nonzero(frame.depth > 0)
+    dirs = frame.camera.pixel_directions()[rows, cols]
+    cam = dirs * frame.depth[rows, cols, None]
+    world = cam @ frame.camera_to_world[:3, :3].T + frame.camera_to_world[:3, 3]
+    return rows, cols, world
+
+
+def plane_tolerance(depth: np.ndarray, inside: np.ndarray, noise_rel: float,
+                    options: IsolationOptions = IsolationOptions(),
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, how far off a plane its points may lie: for finding it, and for taking
+    the room's: more outside the region, where a sensor's noise grows faster than the
+    object's noise says (what is left of a floor must not pair up with a face of the
+    object into a plane)."""
+    tolerance = max(options.plane_rel, options.plane_sigmas * noise_rel) * depth
+    return tolerance, np.where(inside, 1.0, options.far_tolerance) * tolerance
+
+
+def scenery_planes(points: np.ndarray, tolerance: np.ndarray, wide: np.ndarray,
+                   inside: np.ndarray, region: Region, rng: np.random.Generator,
+                   options: IsolationOptions = IsolationOptions(),
+                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
+    """Which of one frame's world ``points`` lie on the room's planes, and those planes
+    (unit normal, offset)."""
+    import open3d as o3d
+
+    scenery = np.zeros(len(points), bool)
+    searched = np.ones(len(points), bool)  # not yet a plane's
+    planes = []
+    for _ in range(options.max_planes):
+        pool = np.nonzero(searched)[0]
+        if len(pool) < max(50, options.min_plane_share * len(points)):
+            break
+        sample = pool if len(pool) <= options.ransac_points else \
+            rng.choice(pool, options.ransac_points, replace=False)
+        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points[sample]))
+        model, _ = cloud.segment_plane(float(np.median(tolerance[sample])), 3,
+                                       options.ransac_iterations)
+        normal, offset = np.asarray(model[:3]), float(model[3])
+        normal_len = np.linalg.norm(normal)
+        if normal_len == 0:
+            break
+        normal, offset = normal / normal_len, offset / normal_len
+        distance = np.abs(points @ normal + offset)
+        on_plane = searched & (distance <= tolerance)
+        if on_plane.sum() < options.min_plane_share * len(points):
+            break
+        outside = on_plane & ~inside
+        if outside.sum() >= options.scenery_share * on_plane.sum() and \
+                _broad(points[outside], region, options):
+            room = distance <= wide  # with what was set aside as a face: coplanar
+            scenery |= room
+            searched &= ~room
+            planes.append((normal, offset))
+        else:  # a face of the object: set aside; what of it lies outside, searched on
+            searched &= ~(on_plane & ~outside)
+    return scenery, planes
+
+
+def agreed_planes(per_frame: list[list[tuple[np.ndarray, float]]], tolerance: float,
+                  options: IsolationOptions = IsolationOptions(),
+                  ) -> list[tuple[np.ndarray, float]]:
+    """The room planes found in at least ``agree_share`` of the frames (and two): the same
+    normal within ``agree_deg`` and offset within ``tolerance``; one per group."""
+    flat = [(k, n, d) for k, planes in enumerate(per_frame) for n, d in planes]
+    need = max(2, int(np.ceil(options.agree_share * len(per_frame))))
+    cos = np.cos(np.radians(options.agree_deg))
+    out: list[tuple[np.ndarray, float]] = []
+    for _, n, d in flat:
+        if any(n @ m >= cos and abs(d - e) <= tolerance for m, e in out):
+            continue
+        frames = {k for k, m, e in flat if n @ m >= cos and abs(d - e) <= tolerance}
+        if len(frames) >= need:
+            out.append((n, d))
+    return out
+
+
+def _broad(points: np.ndarray, region: Region, options: IsolationOptions) -> bool:
+    """Whether ``points`` (of one plane) spread in both of its directions: a floor or a wall
+    does, where the band in which an object's face's plane cuts them is narrow."""
+    if len(points) < 10:
+        return False
+    spread = np.linalg.svd(points - points.mean(0), compute_uv=False) / np.sqrt(len(points))
+    return bool(spread[1] >= options.broad_rel * region.size())
+
+
+def grid_clusters(points: np.ndarray, cell: float) -> np.ndarray:
+    """A cluster label per point: points in grid cells of side ``cell`` that touch (26
+    neighbours) are one cluster. Single linkage at about ``cell``, as DBSCAN with a minimum
+    of one point, in O(N log N) (open3d's DBSCAN took seconds on a capture's points)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    ijk = np.floor(points / cell).astype(np.int64)
+    ijk -= ijk.min(0) - 1  # a free cell on every side: neighbours never wrap
+    dims = ijk.max(0) + 2
+    keys = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
+    cells, inverse = np.unique(keys, return_inverse=True)
+    rows, cols = [], []
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            for dk in (-1, 0, 1):
+                step = (di * dims[1] + dj) * dims[2] + dk
+                if step <= 0:
+                    continue  # each pair once
+                at = np.searchsorted(cells, cells + step)
+                found = (at < len(cells)) & (cells[np.minimum(at, len(cells) - 1)] ==
+                                             cells + step)
+                rows.append(np.nonzero(found)[0])
+                cols.append(at[found])
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(cells), len(cells)))
+    return connected_components(graph, directed=False)[1][inverse]
+
+
+def object_points(points: np.ndarray, region: Region, boxed: bool, footprint: float,
+                  options: IsolationOptions = IsolationOptions()) -> np.ndarray:
+    """Which of the fused ``points`` (off the room's planes) are the object: those in the
+    given box, or the cluster with most points in the region and the small clusters mostly
+    inside its box (a piece cut off by a gap, a speck seen through a slit). ``footprint``: a pixel's width on the object (in a
+    small image its points lie further apart than the voxel)."""
+    inside = region.contains(points)
+    if boxed:
+        return inside
+    voxel = options.voxel_rel * region.size()
+    labels = grid_clusters(points, max(options.cluster_voxels * voxel,
+                                       options.cluster_pixels * footprint))
+    counts = np.bincount(labels, weights=inside, minlength=labels.max() + 1)
+    if counts.max() == 0:
+        raise InputError("found no object in the capture: no points near where the cameras "
+                         "look (give its extent with --box)")
+    keep = labels == int(np.argmax(counts))
+    lo, hi = points[keep].min(0), points[keep].max(0)
+    within = np.all((points >= lo) & (points <= hi), axis=1)
+    sizes = np.bincount(labels)
+    piece = (np.bincount(labels, weights=within) >= 0.5 * sizes) & \
+        (sizes <= options.piece_share * keep.sum())
+    return keep | piece[labels]
+
+
+def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None = None,
+                   options: IsolationOptions = IsolationOptions()) -> tuple[Capture, dict]:
+    """``capture`` with depth left only on the object's pixels (a new capture unless nothing
+    was dropped) and a summary: pixels dropped as room planes and as other things, and the
+    object's box. ``box``: the object's world extent (lo, hi) when the user knows it."""
+    from .depth_cleanup import noise_level
+
+    if "object_isolation" in capture.extra:
+        return capture, capture.extra["object_isolation"]
+    import open3d as o3d
+
+    region = object_region(capture, box, options)
+    rng = np.random.default_rng(0)
+    o3d.utility.random.seed(0)  # its RANSAC draws: the same capture, the same result
+    per_frame, kept_points = [], []
+    room_planes = []
+    for frame in capture.frames:
+        rows, cols, world = _frame_points(frame)
+        near = np.zeros_like(frame.depth)  # the noise on the object, not on a far floor
+        inside = region.contains(world)
+        near[rows[inside], cols[inside]] = frame.depth[rows[inside], cols[inside]]
+        tolerance, wide = plane_tolerance(frame.depth[rows, cols], inside, noise_level(near),
+                                          options)
+        plane, found = scenery_planes(world, tolerance, wide, inside, region, rng, options)
+        room_planes.append(found)
+        per_frame.append((rows, cols, world, plane, wide))
+    # a room plane that many views saw is the room's in every view (where a view sees
+    # little of it outside the region, that view alone would take it for a face)
+    shared = agreed_planes(room_planes, float(np.median(np.concatenate(
+        [w for *_, w in per_frame]))), options)
+    for _, _, world, plane, wide in per_frame:
+        for normal, offset in shared:
+            plane |= np.abs(world @ normal + offset) <= wide
+        kept_points.append(world[~plane])
+    everything = np.concatenate(kept_points)
+    if len(everything) == 0:
+        raise InputError("the capture has no depth off the room's planes: no object in it")
+    footprint = float(np.median([np.median(f.depth[f.depth > 0]) / f.camera.fl_x
+                                 for f in capture.frames if (f.depth > 0).any()]))
+    is_object = object_points(everything, region, box is not None, footprint, options)
+    if not is_object.any():
+        raise InputError("found no object in the capture: nothing off the room's planes "
+                         "inside the given --box")
+    obj = everything[is_object]
+    frames, planes_dropped, other_dropped = [], 0, 0
+    start = 0
+    for frame, (rows, cols, _, plane, _) in zip(capture.frames, per_frame, strict=True):
+        drop = plane.copy()
+        n = int((~plane).sum())
+        drop[~plane] = ~is_object[start:start + n]
+        start += n
+        planes_dropped += int(plane.sum())
+        other_dropped += int((drop & ~plane).sum())
+        if drop.any():
+            depth = frame.depth.copy()
+            depth[rows[drop], cols[drop]] = 0.0
+            frame = Frame(frame.camera, frame.camera_to_world, frame.rgb, depth, frame.mask,
+                          frame.name)
+        frames.append(frame)
+    summary = {"region": {"centre": np.round(region.centre, 4).tolist(),
+                          "radius": round(region.radius, 4), "box_given": box is not None},
+               "object_box": [np.round(obj.min(0), 4).tolist(), np.round(obj.max(0), 4).tolist()],
+               "plane_pixels_dropped": planes_dropped, "other_pixels_dropped": other_dropped}
+    extra = dict(capture.extra) | {"object_isolation": summary}
+    return Capture(frames, list(capture.parts), extra, capture.path), summary

@@ -1,0 +1,114 @@
+"""The room around the object: ``render --room`` stands it on a floor before a wall with
+clutter around (seen, never a part), and the pipeline finds the object in it — the room's
+planes and the clutter left out, the object whole — or keeps what lies in the user's box."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.capture import read_capture
+from pipeline.fuse import point_map
+from pipeline.isolate import isolate_object, look_at_point, parse_box
+from pipeline.procedural import generate
+from pipeline.render import render_object
+from pipeline.sensors import degrade, load_sensor
+from real2code_export.cli import EXIT_ERROR, EXIT_OK, run
+from real2code_export.errors import InputError
+
+SIZE = dict(width=112, height=96)
+
+
+@pytest.fixture(scope="module")
+def cabinet():
+    return generate("storage_furniture", 4, 3)
+
+
+def _kept(original, isolated) -> tuple[float, float]:
+    """Share of the object's pixels with depth kept, and kept pixels not the object's (per
+    object pixel)."""
+    obj = sum(int(((f.depth > 0) & (f.mask > 0)).sum()) for f in original.frames)
+    kept = sum(int(((g.depth > 0) & (f.mask > 0)).sum())
+               for f, g in zip(original.frames, isolated.frames, strict=True))
+    other = sum(int(((g.depth > 0) & (f.mask == 0)).sum())
+                for f, g in zip(original.frames, isolated.frames, strict=True))
+    return kept / obj, other / obj
+
+
+def test_the_room_is_seen_but_is_no_part(cabinet):
+    alone = render_object(cabinet, views=6, seed=4, cameras="half-ring", **SIZE)
+    room = render_object(cabinet, views=6, seed=4, cameras="half-ring", room=True, **SIZE)
+    assert room.extra["room"][:2] == ["floor", "wall"] and len(room.extra["room"]) >= 4
+    for a, b in zip(alone.frames, room.frames, strict=True):
+        assert np.array_equal(a.camera_to_world, b.camera_to_world)  # the same cameras
+        assert (b.depth > 0).mean() > 0.9  # the room fills the views
+        assert np.array_equal(b.mask > 0, (a.mask > 0) & (b.mask > 0))  # masks: parts only
+    # the object stands on the floor: the floor's top is the object's lowest point
+    low = min(point_map(f)[0][f.mask > 0][:, 2].min() for f in alone.frames)
+    heights = np.concatenate([point_map(f)[0][(f.mask == 0) & (f.depth > 0)][:, 2]
+                              for f in room.frames])
+    assert heights.min() > low - 1e-3 and np.mean(np.abs(heights - low) < 2e-3) > 0.3
+
+
+@pytest.mark.parametrize("cameras, sensor", [("ring", "clean"), ("handheld", "phone-lidar")])
+def test_the_object_is_found_in_the_room(cabinet, cameras, sensor):
+    room = degrade(render_object(cabinet, views=6, seed=5, cameras=cameras, room=True, **SIZE),
+                   load_sensor(sensor), 5)
+    isolated, summary = isolate_object(room)
+    kept, other = _kept(room, isolated)
+    # noise takes the object's pixels within it of the floor (a leg's foot) and its flying
+    # edge pixels; the room keeps no more than the edge pixels the cleanup drops next
+    assert kept > (0.99 if sensor == "clean" else 0.9), summary
+    assert other < (0.002 if sensor == "clean" else 0.03), summary
+    assert summary["plane_pixels_dropped"] > summary["other_pixels_dropped"] > 0
+    assert isolate_object(isolated)[0] is isolated  # found once, whoever asks again
+
+
+def test_an_object_alone_passes_through(cabinet):
+    alone = render_object(cabinet, views=6, seed=6, **SIZE)
+    isolated, summary = isolate_object(alone)
+    assert summary["plane_pixels_dropped"] == summary["other_pixels_dropped"] == 0
+    for a, b in zip(alone.frames, isolated.frames, strict=True):
+        assert b is a
+
+
+def test_a_given_box_keeps_what_lies_in_it(cabinet):
+    room = render_object(cabinet, views=6, seed=7, cameras="ring", room=True, **SIZE)
+    points = np.concatenate([point_map(f)[0][f.mask > 0] for f in room.frames])
+    lo, hi = points.min(0), points.max(0)
+    isolated, summary = isolate_object(room, box=(lo, hi))
+    kept, other = _kept(room, isolated)
+    assert kept > 0.99 and other < 0.002 and summary["region"]["box_given"]
+    with pytest.raises(InputError, match="nothing off the room's planes"):
+        isolate_object(room, box=(lo + 50, hi + 50))
+
+
+def test_the_box_option_is_checked():
+    lo, hi = parse_box("0,0,0,1,2,3")
+    assert lo.tolist() == [0, 0, 0] and hi.tolist() == [1, 2, 3]
+    for bad in ("1,2,3", "0,0,0,1,1,x", "0,0,0,1,-1,1"):
+        with pytest.raises(InputError, match="--box"):
+            parse_box(bad)
+
+
+def test_cameras_that_do_not_meet_need_a_box(cabinet):
+    cap = render_object(cabinet, views=1, seed=1, **SIZE)
+    assert look_at_point(cap.frames) is None
+    with pytest.raises(InputError, match="--box"):
+        isolate_object(cap)
+
+
+def test_render_room_and_reconstruct_with_a_bad_box(tmp_path, capsys):
+    model = tmp_path / "cabinet.json"
+    assert run(["generate", "--category", "storage_furniture", "--parts", "3", "--seed", "2",
+                "--out", str(model)]) == EXIT_OK
+    cap_dir = tmp_path / "capture"
+    assert run(["render", str(model), "--out", str(cap_dir), "--views", "4", "--width", "64",
+                "--height", "64", "--room", "--cameras", "handheld"]) == EXIT_OK
+    cap = read_capture(cap_dir)
+    assert cap.extra["room"][:2] == ["floor", "wall"]
+    assert all((f.depth > 0).sum() > (f.mask > 0).sum() for f in cap.frames)
+    out = tmp_path / "out"
+    status = run(["reconstruct", str(cap_dir), "--out", str(out), "--box", "0,0,0,1,1"])
+    assert status == EXIT_ERROR and "--box" in capsys.readouterr().err
+    assert not out.exists()
