@@ -168,8 +168,10 @@ def find_floor(obj: ArticulatedObject, joint: Joint, q: dict[str, float], scene,
                   height + DROP_CLEARANCE + box_size / 2))
 
 
-def drop(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment, Judge, list[str]]:
-    """Every joint open; a box over every drawer's floor. Notes name drawers without one."""
+def drop(obj: ArticulatedObject
+         ) -> tuple[ArticulatedObject, Experiment | None, Judge, list[str]]:
+    """Every joint open; a box over every drawer's floor (no experiment without one). Notes
+    name drawers without one."""
     variant = _without_velocity_limits(obj)
     q = {j.name: _opened(j) for j in variant.movable_joints}
     for joint in variant.movable_joints:  # the doors held open: only drawers move
@@ -194,15 +196,13 @@ def drop(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment, Judge, 
             floors.append(floor)
     experiment = _experiment("drop", variant, q, {},
                              boxes=tuple(f.centre for f in floors), box_size=BOX_SIZE,
-                             box_mass=BOX_MASS)
-    return variant, experiment, _drop_judge(experiment, floors), notes
+                             box_mass=BOX_MASS) if floors else None
+    return variant, experiment, _drop_judge(floors, BOX_SIZE / 2), notes
 
 
-def _drop_judge(experiment: Experiment, floors: list[Floor]) -> Judge:
-    column = {n: i for i, n in enumerate(experiment.joints)}
-    half = experiment.box_size / 2
-
+def _drop_judge(floors: list[Floor], half: float) -> Judge:
     def judge(trajectory: Trajectory) -> Verdict:
+        column = {n: i for i, n in enumerate(trajectory.joints)}
         worst, said = 0.0, []
         for b, floor in enumerate(floors):
             i = column[floor.joint]
@@ -217,8 +217,6 @@ def _drop_judge(experiment: Experiment, floors: list[Floor]) -> Judge:
             worst = max(worst, miss)
             if miss > 0:
                 said.append(f"the box in {floor.joint} ended {miss * 1000:.0f} mm off its floor")
-        if not floors:
-            return Verdict(True, "no drawer to drop a box into")
         message = "; ".join(said) or f"{len(floors)} box(es) at rest in their drawers"
         return Verdict(not said, message, distance=worst)
 
@@ -227,7 +225,10 @@ def _drop_judge(experiment: Experiment, floors: list[Floor]) -> Judge:
 
 # -- shut: every door against its frame -------------------------------------------------------
 
-def shut(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment, Judge, list[str]]:
+def shut(obj: ArticulatedObject
+         ) -> tuple[ArticulatedObject, Experiment | None, Judge, list[str]]:
+    """Every door thrown shut (no experiment without a door); notes name hinges without a
+    closed end."""
     variant = _without_velocity_limits(obj)
     q, v, doors, notes = {}, {}, {}, []
     for joint in variant.movable_joints:
@@ -245,14 +246,13 @@ def shut(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment, Judge, 
         q[joint.name] = closed - sign * min(SHUT_OPEN, OPEN_FRACTION * (upper - lower))
         v[joint.name] = sign * SHUT_SPEED
         doors[joint.name] = (closed, sign)
-    experiment = _experiment("shut", variant, q, v, gravity=(0.0, 0.0, 0.0))
-    return variant, experiment, _shut_judge(experiment, doors), notes
+    experiment = _experiment("shut", variant, q, v, gravity=(0.0, 0.0, 0.0)) if doors else None
+    return variant, experiment, _shut_judge(doors), notes
 
 
-def _shut_judge(experiment: Experiment, doors: dict[str, tuple[float, float]]) -> Judge:
-    column = {n: i for i, n in enumerate(experiment.joints)}
-
+def _shut_judge(doors: dict[str, tuple[float, float]]) -> Judge:
     def judge(trajectory: Trajectory) -> Verdict:
+        column = {n: i for i, n in enumerate(trajectory.joints)}
         worst, said = 0.0, []
         for name, (closed, sign) in doors.items():
             travel = sign * (trajectory.q[:, column[name]] - closed)  # > 0: past closed
@@ -262,8 +262,6 @@ def _shut_judge(experiment: Experiment, doors: dict[str, tuple[float, float]]) -
                 said.append(f"{name} went {past:.3f} rad past its closed value")
             elif past < -STOP_TOLERANCE:
                 said.append(f"{name} stopped {-past:.3f} rad before its closed value")
-        if not doors:
-            return Verdict(True, "no door to shut")
         message = "; ".join(said) or f"{len(doors)} door(s) stopped at their frames"
         return Verdict(not said, message, angle=max(worst, 0.0))
 

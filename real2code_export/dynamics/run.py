@@ -165,7 +165,7 @@ def _contact_runs(report: DynamicsReport, obj, name: str, chosen: list[Engine],
         return
     variant, experiment, judge, notes = CONTACT_EXPERIMENTS[name](obj)
     report.notes += [f"{name}: {n}" for n in notes]
-    if not experiment.joints:
+    if experiment is None:
         return
     report.experiments.append(experiment)
     with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
