@@ -44,6 +44,39 @@ def overlaps(mjcf: Path, q: dict[str, float] | None = None,
     return _overlaps(model, data, q or {}, tolerance)
 
 
+@dataclass
+class FileOverlaps:
+    """What ``check`` reports: the file measured and its overlapping part pairs at q = 0, or
+    why none could be measured."""
+
+    file: str | None
+    overlaps: list[Overlap]
+    message: str = ""
+
+    def to_json(self) -> dict:
+        return {"file": self.file, "tolerance": TOLERANCE, "message": self.message,
+                "pairs": [{"parts": [o.part_a, o.part_b], "depth": o.depth}
+                          for o in self.overlaps]}
+
+
+def file_overlaps(paths, tolerance: float = TOLERANCE) -> FileOverlaps:
+    """Overlapping collision pieces at q = 0 in the first MJCF among ``paths``, else the
+    first URDF (both compiled by MuJoCo; the other formats hold the same pieces when they
+    are exports of one object)."""
+    chosen = [Path(p) for p in paths if Path(p).suffix.lower() == ".xml"] or \
+        [Path(p) for p in paths if Path(p).suffix.lower() == ".urdf"]
+    if not chosen:
+        return FileOverlaps(None, [], "no MJCF or URDF to measure")
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        return FileOverlaps(None, [], "MuJoCo is not installed")
+    try:
+        return FileOverlaps(str(chosen[0]), overlaps(chosen[0], tolerance=tolerance))
+    except ValueError as e:  # MuJoCo refused the file: the probes report it
+        return FileOverlaps(str(chosen[0]), [], f"not measured: {e}")
+
+
 def overlaps_along_ranges(mjcf: Path, obj: ArticulatedObject, sweep: int = 9,
                           tolerance: float = TOLERANCE) -> list[RangeOverlap]:
     """For each movable joint moved alone over ``sweep`` values of its range (ends
