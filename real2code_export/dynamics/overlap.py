@@ -77,17 +77,22 @@ def file_overlaps(paths, tolerance: float = TOLERANCE) -> FileOverlaps:
         return FileOverlaps(str(chosen[0]), [], f"not measured: {e}")
 
 
-def overlaps_along_ranges(mjcf: Path, obj: ArticulatedObject, sweep: int = 9,
+def overlaps_along_ranges(mjcf: Path, obj: ArticulatedObject,
                           tolerance: float = TOLERANCE) -> list[RangeOverlap]:
-    """For each movable joint moved alone over ``sweep`` values of its range (ends
-    included), the deepest overlap of its child's pieces with its parent's: a door against
-    its frame, a drawer against its carcass. Joints with none are left out."""
+    """For each movable joint moved alone along its range, the deepest overlap of its
+    child's pieces with its parent's: a door against its frame, a drawer against its
+    carcass. Measured at the values separation sweeps (``sweep_values``) and halfway
+    between each two, where a coarse separation would leave them overlapping. Joints with
+    none are left out."""
+    from ..collision_separation import sweep_values
+
     model, data = _compiled(mjcf)
     found = []
     for joint in obj.movable_joints:
-        lower, upper = (joint.limits.lower, joint.limits.upper) if joint.limits else (-np.pi, np.pi)
+        swept = sweep_values(obj, joint)
+        values = np.sort(np.concatenate([swept, (swept[1:] + swept[:-1]) / 2]))
         worst = None
-        for value in np.linspace(lower, upper, sweep):
+        for value in values:
             for o in _overlaps(model, data, {joint.name: float(value)}, tolerance):
                 if {o.part_a, o.part_b} == {joint.parent, joint.child} and \
                         (worst is None or o.depth > worst.depth):
