@@ -32,11 +32,11 @@ def laptop(tmp_path_factory):
 
 # The engines that agree with MuJoCo in every experiment (docs/engines.md); PhysX and Newton
 # run in .venv-engines (scripts/setup_engines.sh) and are skipped with a message without it.
-AGREEING = ["mujoco-urdf", "pinocchio", "bullet", "physx"]
+AGREEING = ["mujoco-urdf", "pinocchio", "bullet", "physx", "sapien"]
 
 
 def test_every_engine_agrees_with_mujoco(laptop):
-    report = simulate_file(laptop, AGREEING)
+    report = simulate_file(laptop, AGREEING, list(EXPERIMENTS))
     assert {r.experiment for r in report.runs} == set(EXPERIMENTS)
     by = {(r.experiment, r.engine): r for r in report.runs}
     for r in report.runs:

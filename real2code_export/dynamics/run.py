@@ -45,6 +45,8 @@ ENGINES: dict[str, Engine] = {e.name: e for e in (
            contacts=False),
     Engine("bullet", "Bullet (URDF)", "urdf", "real2code_export.dynamics.bullet",
            contacts=False),
+    Engine("sapien", "SAPIEN (URDF)", "urdf", "real2code_export.dynamics.sapien",
+           contacts=False),
     Engine("physx", "PhysX (USD)", "usd", "real2code_export.dynamics.physx"),
     Engine("newton-usd", "Newton (USD)", "usd", "real2code_export.dynamics.newton"),
     Engine("newton-mjcf", "Newton (MJCF)", "mjcf", "real2code_export.dynamics.newton"),
