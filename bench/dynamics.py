@@ -1,12 +1,15 @@
 """Benchmark and agreement table: `real2code simulate` per object and per engine.
 
     .venv/bin/python bench/dynamics.py [--engines a,b] [--objects cabinet,generated,partnet]
+        [--experiments swing,laws,limit | drop,shut]
 
 Objects: the shipped cabinet (pipeline/samples/cabinet, the demo's ground truth), a demo output if
 given (--demo DIR/object.json), one generated object of each of 5 categories, and the first
 5 dev PartNet-Mobility objects (../shared/data; skipped when absent). For every object and
 engine: the worst joint error against MuJoCo's MJCF over the three experiments (swing, laws,
 limit; 2 s at 1 ms) and the engine's wall time beside MuJoCo's (a ratio from one run).
+With the contact experiments (drop, shut) each engine is judged alone, MuJoCo included: a
+cell says whether every box stayed in its drawer and every door stopped at its frame.
 Prints a markdown table (docs/engines.md holds the one measured here).
 """
 
@@ -25,6 +28,7 @@ sys.path.insert(0, str(REPO / "bench"))
 from _machine import describe  # noqa: E402
 
 from pipeline.procedural import generate  # noqa: E402
+from real2code_export.dynamics.contacts import CONTACT_EXPERIMENTS  # noqa: E402
 from real2code_export.dynamics.run import ENGINES, REFERENCE, simulate_file  # noqa: E402
 from real2code_export.formats import object_json  # noqa: E402
 
@@ -58,8 +62,13 @@ def main() -> None:
     p.add_argument("--engines", default=",".join(ENGINES))
     p.add_argument("--objects", default="cabinet,generated,partnet")
     p.add_argument("--demo", help="a demo output's object.json, added to the objects")
+    p.add_argument("--experiments", default="swing,laws,limit")
     args = p.parse_args()
     engines = [e for e in args.engines.split(",") if e]
+    experiments = [e for e in args.experiments.split(",") if e]
+    if set(experiments) <= set(CONTACT_EXPERIMENTS):
+        contacts(args, engines, experiments)
+        return
     print(f"machine: {describe()}")
     labels = [REFERENCE.label] + [ENGINES[e].label for e in engines if e != REFERENCE.name]
     rows = []
@@ -68,7 +77,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, path in objects(args.objects.split(","), args.demo, Path(tmp)):
-            report = simulate_file(path, engines, faithful_collision=True)
+            report = simulate_file(path, engines, experiments, faithful_collision=True)
             worst: dict[str, tuple[float, float, float, str]] = {}
             for r in report.runs:
                 a, m, s, st = worst.get(r.engine, (0.0, 0.0, 0.0, "ok"))
@@ -105,6 +114,50 @@ def main() -> None:
     print("total seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in totals.items()))
     for line in failed:
         print("beyond tolerance:", line)
+
+
+def contacts(args, engines: list[str], experiments: list[str]) -> None:
+    """One row per object: per engine, each contact experiment's verdict and its worst
+    figure (a door's travel past its closed value, a box's distance from its floor)."""
+    print(f"machine: {describe()}")
+    chosen = [REFERENCE] + [ENGINES[e] for e in engines if e != REFERENCE.name]
+    labels = [e.label for e in chosen if e.contacts]
+    rows, failed = [], []
+    totals: dict[str, float] = defaultdict(float)
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, path in objects(args.objects.split(","), args.demo, Path(tmp)):
+            report = simulate_file(path, engines, experiments, faithful_collision=True)
+            cells = {label: [] for label in labels}
+            seconds: dict[str, float] = defaultdict(float)
+            for r in report.runs:
+                if r.engine not in cells:
+                    continue
+                what = f"{r.experiment} {r.status}"
+                if r.status in ("ok", "disagree"):
+                    what += (f" ({r.max_distance * 1000:.0f} mm)" if r.experiment == "drop"
+                             else f" ({r.max_angle:.3f} rad)")
+                cells[r.engine].append(what)
+                seconds[r.engine] += r.seconds
+                totals[r.engine] += r.seconds
+                if r.status not in ("ok", "skipped"):
+                    failed.append(f"{name}: {r.experiment} {r.engine}: {r.status} {r.message}")
+            tested = {e.name: e for e in report.experiments}
+            what = ", ".join(f"{len(e.boxes)} box(es)" if n == "drop" else
+                             f"{sum(1 for v in e.v0 if v)} door(s)" for n, e in tested.items())
+            rows.append((name, what or "nothing to test", *(
+                "; ".join(cells[label]) + f", {seconds[label]:.1f} s" if cells[label] else "-"
+                for label in labels)))
+            print(f"{name}: {'ok' if report.ok else 'FAILS'}", flush=True)
+    print()
+    print("| object | tested | " + " | ".join(labels) + " |")
+    print("|---|---|" + "---|" * len(labels))
+    for row in rows:
+        print("| " + " | ".join(row) + " |")
+    print()
+    print("total seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in totals.items()))
+    for line in failed:
+        print("fails:", line)
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from .dynamics.overlap import TOLERANCE, FileOverlaps, file_overlaps
 from .errors import CheckError
 from .jsonsafe import finite_or_null
 from .probes import JointInfo, Probe, open_probes
@@ -76,6 +77,9 @@ class CheckReport:
     parts: list[PartResult]
     mismatches: list[Mismatch]
     validations: list[Validation] = field(default_factory=list)
+    # parts' collision pieces overlapping at q = 0 (reported, not part of ``ok``: a robot's
+    # links overlap at their joints by design; docs/engines.md)
+    overlaps: FileOverlaps | None = None
 
     @property
     def ok(self) -> bool:
@@ -125,6 +129,7 @@ class CheckReport:
                 for m in self.mismatches
             ],
             "validations": [v.to_json() for v in self.validations],
+            "overlaps_at_zero": self.overlaps.to_json() if self.overlaps else None,
             "ok": self.ok,
         }
 
@@ -205,7 +210,7 @@ def _compare(paths, n_configurations, seed, tol_position, tol_rotation, referenc
     return CheckReport(
         files=[str(p) for p in paths], reference=names[ref], probes=results, joints=joints,
         configurations=configurations, tol_position=tol_position, tol_rotation=tol_rotation,
-        parts=parts, mismatches=mismatches,
+        parts=parts, mismatches=mismatches, overlaps=file_overlaps(paths),
     )
 
 
@@ -436,6 +441,12 @@ def format_table(report: CheckReport, worst: int = 5) -> str:
         lines += _columns(rows)
         for v in report.validations:
             lines += [f"  {Path(v.path).name}: {m}" for m in v.messages[:5]]
+    if report.overlaps is not None:
+        o = report.overlaps
+        lines += ["", f"collision pieces of two parts overlapping at q = 0 (deeper than "
+                  f"{TOLERANCE * 1000:g} mm, {Path(o.file).name if o.file else '-'}): "
+                  + (o.message or str(len(o.overlaps)))]
+        lines += [f"  {x.part_a} / {x.part_b}: {x.depth * 1000:.1f} mm" for x in o.overlaps]
     if report.mismatches:
         lines += ["", f"mismatches ({len(report.mismatches)}):"]
         lines += [f"  {m.probe}: {m.message}" for m in report.mismatches]

@@ -14,8 +14,11 @@ other), the larger is carved around the smaller's oriented box instead. Pieces o
 checked in another pass. (Edge-edge axes are not tried: pieces that only they would
 separate are cut a little although they do not touch, never left overlapping.)
 
-Beyond q = 0, each movable joint is swept alone over ``sweep`` values of its range and its
-child's pieces are separated from its parent's in the same way, in their own frames.
+Beyond q = 0, each movable joint is swept alone over its range and its child's pieces are
+separated from its parent's in the same way, in their own frames: at least ``sweep``
+values, and as many more as keep the child's farthest piece point within ``SWEEP_STEP`` of
+its place at the next value (a long flap swinging through a shelf between two coarse
+samples would otherwise stay deep in it), at most ``MAX_SWEEP``.
 """
 
 from __future__ import annotations
@@ -30,7 +33,9 @@ from .errors import InputError
 from .model import ArticulatedObject, Mesh, forward_kinematics
 
 DEFAULT_GAP = 2e-4  # m left between cut pieces (engines measure 1e-4 as touching)
-DEFAULT_SWEEP = 9  # joint values tried across each range, the ends included
+DEFAULT_SWEEP = 9  # joint values tried across each range at least, the ends included
+SWEEP_STEP = 0.01  # m the child's farthest piece point moves between two values, at most
+MAX_SWEEP = 64
 # A cut may take at most this fraction of a piece's volume; beyond it a piece may only go
 # when it is small next to its part (a handle's stem sunk into its door).
 MAX_CUT_FRACTION = 0.5
@@ -141,13 +146,31 @@ def _configurations(obj: ArticulatedObject, sweep: int):
     its carcass; a drawer that meets a closed door beside it is a real collision)."""
     yield {}, None
     for joint in obj.movable_joints:
-        if joint.limits is None:
-            values = np.linspace(-np.pi, np.pi, sweep, endpoint=False)
-        else:
-            values = np.linspace(joint.limits.lower, joint.limits.upper, sweep)
-        for v in values:
+        for v in sweep_values(obj, joint, sweep):
             if v != 0.0:
                 yield {joint.name: float(v)}, (joint.child, joint.parent)
+
+
+def sweep_values(obj: ArticulatedObject, joint, sweep: int = DEFAULT_SWEEP,
+                 step: float = SWEEP_STEP) -> np.ndarray:
+    """The joint values a range is swept at: ``sweep`` or more, evenly, the ends included
+    (a continuous joint: one turn), so that the child's pieces move at most ``step`` (m)
+    from one to the next (``MAX_SWEEP`` at most)."""
+    lower, upper = (-np.pi, np.pi) if joint.limits is None else \
+        (joint.limits.lower, joint.limits.upper)
+    travel = upper - lower
+    if joint.type.angular:  # the farthest piece point from the axis, in the child frame
+        points = [m.vertices for p in obj.parts if p.name == joint.child for m in p.collision]
+        if points:
+            v = np.concatenate(points)
+            radius = np.linalg.norm(v - np.outer(v @ joint.axis, joint.axis), axis=1).max()
+            travel *= float(radius)
+        else:
+            travel = 0.0
+    count = int(min(MAX_SWEEP, max(sweep, np.ceil(travel / step) + 1)))
+    if joint.limits is None:
+        return np.linspace(lower, upper, count, endpoint=False)
+    return np.linspace(lower, upper, count)
 
 
 def _separate_pair(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: set[str],

@@ -139,3 +139,31 @@ def test_urdf_collision_that_is_the_visual_is_kept_apart(tmp_path):
     (piece,) = obj.part("body").collision
     np.testing.assert_allclose(np.ptp(piece.vertices, axis=0), [0.41, 0.4, 0.4])
     assert measured(obj, tmp_path / "authored") == []
+
+
+def test_check_reports_overlapping_pieces(tmp_path):
+    """`check` measures the parts' pieces at q = 0 (MuJoCo's collision detection on the MJCF,
+    exclusions lifted) and names the pairs deeper than the tolerance, in its table and JSON;
+    a robot's links overlap at their joints by design, so they do not fail the check."""
+    import json
+
+    from pipeline.procedural import generate
+    from real2code_export.cli import run
+    from real2code_export.formats import export
+
+    obj = generate("box", seed=1)
+    clean = export(obj, tmp_path / "clean", ["mjcf", "urdf"])
+    assert run(["check", *map(str, clean.values()), "--json", str(tmp_path / "c.json")]) == 0
+    assert json.loads((tmp_path / "c.json").read_text())["overlaps_at_zero"]["pairs"] == []
+    lid = next(p for p in obj.parts if p is not obj.root)
+    joint = next(j for j in obj.joints if j.child == lid.name)
+    down = np.linalg.inv(joint.origin[:3, :3]) @ np.array([0.0, 0.0, -0.02])
+    lid.collision = [m.transformed(np.block([[np.eye(3), down[:, None]], [0, 0, 0, 1]]))
+                     for m in lid.collision]
+    sunk = export(obj, tmp_path / "sunk", ["mjcf", "urdf"])
+    out = tmp_path / "s.json"
+    assert run(["check", *map(str, sunk.values()), "--json", str(out)]) == 0
+    found = json.loads(out.read_text())["overlaps_at_zero"]
+    assert found["file"].endswith(".xml")
+    assert [sorted(p["parts"]) for p in found["pairs"]] == [sorted([obj.root.name, lid.name])]
+    assert found["pairs"][0]["depth"] > 0.005

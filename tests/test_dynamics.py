@@ -32,11 +32,11 @@ def laptop(tmp_path_factory):
 
 # The engines that agree with MuJoCo in every experiment (docs/engines.md); PhysX and Newton
 # run in .venv-engines (scripts/setup_engines.sh) and are skipped with a message without it.
-AGREEING = ["mujoco-urdf", "pinocchio", "bullet", "physx"]
+AGREEING = ["mujoco-urdf", "pinocchio", "bullet", "physx", "sapien"]
 
 
 def test_every_engine_agrees_with_mujoco(laptop):
-    report = simulate_file(laptop, AGREEING)
+    report = simulate_file(laptop, AGREEING, list(EXPERIMENTS))
     assert {r.experiment for r in report.runs} == set(EXPERIMENTS)
     by = {(r.experiment, r.engine): r for r in report.runs}
     for r in report.runs:
@@ -48,11 +48,14 @@ def test_every_engine_agrees_with_mujoco(laptop):
     assert report.ok
 
 
-def test_newton_from_the_mjcf_agrees_at_a_limit(laptop):
-    """Newton (its MuJoCo solver) reads our MJCF's limit softness: a joint thrown into its
-    limit stops as in MuJoCo. One experiment: each Newton run costs ~15 s of start-up."""
-    report = simulate_file(laptop, ["newton-mjcf"], ["limit"])
-    run = next(r for r in report.runs if r.engine == "Newton (MJCF)")
+@pytest.mark.parametrize("engine", ["newton-mjcf", "newton-usd", "newton-urdf"])
+def test_newton_agrees_at_a_limit(laptop, engine):
+    """Newton (its MuJoCo solver) reads our MJCF's and USD's limit softness (the URDF's is
+    set as MuJoCo's is), and its USD limits are not shifted by mjc:ref: a joint thrown into
+    its limit stops as in MuJoCo, not on Newton's default spring. One experiment each: a
+    Newton run costs ~15 s of start-up."""
+    report = simulate_file(laptop, [engine], ["limit"])
+    run = next(r for r in report.runs if r.engine.startswith("Newton"))
     if run.status == "skipped":
         pytest.skip(run.message)
     assert run.status == "ok", run.message

@@ -24,7 +24,8 @@ def add_parsers(sub) -> None:
     s.add_argument("input", help="the object: object.json, .urdf, MJCF .xml, .usd, ...")
     s.add_argument("--engines", help="comma-separated engines (default: all; those not "
                    "installed are skipped; the list: docs/engines.md)")
-    s.add_argument("--experiments", help="comma-separated (default: swing,laws,limit)")
+    s.add_argument("--experiments", help="comma-separated (default: swing,laws,limit,drop,"
+                   "shut; drop and shut collide the parts, in MuJoCo, PhysX and Newton)")
     s.add_argument("--json", help="also write the report as JSON to this file")
     s.add_argument("--tol-angle", type=float, default=None, help="radians (default 0.01)")
     s.add_argument("--tol-distance", type=float, default=None, help="metres (default 0.001)")
@@ -49,11 +50,13 @@ def _checked(names: list[str] | None, choices, option: str) -> list[str] | None:
 
 def cmd_simulate(args) -> int:
     from .. import atomic
+    from ..dynamics.contacts import CONTACT_EXPERIMENTS
     from ..dynamics.experiments import EXPERIMENTS
     from ..dynamics.run import ENGINES, TOL_ANGLE, TOL_DISTANCE, format_table, simulate_file
 
     engines = _checked(_names(args.engines), list(ENGINES), "--engines")
-    experiments = _checked(_names(args.experiments), list(EXPERIMENTS), "--experiments")
+    experiments = _checked(_names(args.experiments), [*EXPERIMENTS, *CONTACT_EXPERIMENTS],
+                           "--experiments")
     report = simulate_file(args.input, engines, experiments,
                            TOL_ANGLE if args.tol_angle is None else args.tol_angle,
                            TOL_DISTANCE if args.tol_distance is None else args.tol_distance,

@@ -1,7 +1,9 @@
 """MuJoCo: the MJCF (the reference) and the URDF, each compiled by MjSpec and stepped with
 the file's own integrator and joint laws; the experiment sets time step, gravity, contacts
 and the initial state by joint name. For a URDF, MuJoCo's limit and friction softness are
-set as our MJCF authors them (URDF has no place for them)."""
+set as our MJCF authors them (URDF has no place for them). An experiment's boxes are added
+as free bodies; with ``self_contacts`` the file's ``<exclude>`` pairs are removed and
+parent/child filtering is off."""
 
 from __future__ import annotations
 
@@ -11,6 +13,11 @@ from . import EngineUnavailable, Experiment, Recorder, Trajectory
 
 
 def load(path: Path):
+    mujoco, spec = load_spec(path)
+    return mujoco, spec.compile()
+
+
+def load_spec(path: Path):
     try:
         import mujoco
     except ImportError as e:
@@ -27,16 +34,40 @@ def load(path: Path):
             joint.solref_limit = list(LIMIT_SOLREF)
             joint.solimp_limit = list(LIMIT_SOLIMP)
             joint.solref_friction = list(FRICTION_SOLREF)
-    return mujoco, spec.compile()
+    return mujoco, spec
+
+
+def _add_boxes(mujoco, spec, experiment: Experiment) -> list[str]:
+    names = []
+    half = experiment.box_size / 2
+    for i, centre in enumerate(experiment.boxes):
+        # explicit inertia: our MJCF compiles with inertiafromgeom off
+        inertia = experiment.box_mass * experiment.box_size ** 2 / 6
+        body = spec.worldbody.add_body(name=f"real2code_box_{i}", pos=list(centre),
+                                       mass=experiment.box_mass, inertia=[inertia] * 3,
+                                       ipos=[0.0, 0.0, 0.0],
+                                       explicitinertial=True)
+        body.add_freejoint()
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[half] * 3)
+        names.append(body.name)
+    return names
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
-    mujoco, model = load(path)
+    mujoco, spec = load_spec(path)
+    if experiment.self_contacts:
+        for exclude in list(spec.excludes):
+            spec.delete(exclude)
+    boxes = _add_boxes(mujoco, spec, experiment)
+    model = spec.compile()
     model.opt.timestep = experiment.dt
     model.opt.gravity[:] = experiment.gravity
     if not experiment.contacts:
         model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    if experiment.self_contacts:
+        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
     data = mujoco.MjData(model)
+    box_ids = [model.body(n).id for n in boxes]
     qadr, dadr = [], []
     for name in experiment.joints:
         jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
@@ -50,7 +81,7 @@ def simulate(path: Path, experiment: Experiment) -> Trajectory:
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
-            recorder.add(step, data.qpos[qadr])
+            recorder.add(step, data.qpos[qadr], data.xpos[box_ids])
         if step < experiment.steps:
             mujoco.mj_step(model, data)
     return recorder.trajectory()

@@ -2,10 +2,16 @@
 through Newton's own importer, base fixed. Runs in the engines venv (venv.py): its
 importers and solver pin usd-core < 26.9 and mujoco 3.17.
 
-Newton reads joint damping, friction and armature from each file; the constraint softness
-only from the MJCF (solreflimit, solreffriction): from the USD and the URDF it makes a limit
-its default spring (ke 1e4, kd 10), off which a door rebounds (docs/engines.md). The
-experiment sets the initial state by joint name (Newton's USD importer starts at q = 0).
+Newton reads joint damping, friction and armature from each file, and MuJoCo's constraint
+softness (solreflimit, solimplimit, solreffriction) from the MJCF and, once the solver's
+attributes are registered before import, from the USD's MjcJointAPI; a URDF has no place
+for them, so they are set as MuJoCo (URDF) is told. Without them Newton makes a limit its
+default spring (ke 1e4, kd 10), off which a door rebounds. Its USD importer starts at
+q = 0 and counts limits from the written pose when ``mjc:ref`` is authored (see
+``_unshift_limits``); the experiment sets the initial state by joint name and its gravity
+(a USD's PhysicsScene would set its own).
+An experiment's boxes are free bodies; ``self_contacts`` drops the importers' filtered
+shape pairs between bodies and MuJoCo's parent/child filter.
 """
 
 from __future__ import annotations
@@ -29,14 +35,25 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
 
     wp.config.quiet = True
     builder = newton.ModelBuilder(up_axis=newton.Axis.Z, gravity=tuple(experiment.gravity))
+    # its importers read the mjc:* attributes (solreflimit, solreffriction, armature) only
+    # into attributes the solver registered first
+    newton.solvers.SolverMuJoCo.register_custom_attributes(builder)
     kind = format_for_path(path).name  # the registry knows the suffixes
     if kind == "usd":
         builder.add_usd(str(path))
+        _unshift_limits(builder)
     elif kind == "mjcf":
         builder.add_mjcf(str(path), floating=False)
     else:
         builder.add_urdf(str(path), floating=False)
+        _mujoco_softness(builder)
+    if experiment.self_contacts:
+        body = builder.shape_body
+        builder.shape_collision_filter_pairs = [
+            (a, b) for a, b in builder.shape_collision_filter_pairs if body[a] == body[b]]
+    boxes = _add_boxes(newton, wp, builder, experiment)
     model = builder.finalize(device="cpu")
+    model.set_gravity(tuple(experiment.gravity))  # a USD's PhysicsScene sets its own
     names = [label.rsplit("/", 1)[-1] for label in model.joint_label]
     missing = [n for n in experiment.joints if n not in names]
     if missing:
@@ -51,7 +68,12 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     qd[qd_idx] = experiment.v0
     # Its MuJoCo solver (on MuJoCo's CPU library): Featherstone applies no joint friction and
     # makes every limit a spring (docs/engines.md).
-    solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True, disable_contacts=True)
+    solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True,
+                                         disable_contacts=not experiment.contacts)
+    if experiment.self_contacts:
+        import mujoco
+
+        solver.mj_model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
     state_0, state_1, control = model.state(), model.state(), model.control()
     state_0.joint_q.assign(q)
     state_0.joint_qd.assign(qd)
@@ -59,12 +81,60 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
-            recorder.add(step, state_0.joint_q.numpy()[q_idx])
+            recorder.add(step, state_0.joint_q.numpy()[q_idx],
+                         state_0.body_q.numpy()[boxes, :3])
         if step < experiment.steps:
             state_0.clear_forces()
             solver.step(state_0, state_1, control, None, experiment.dt)
             state_0, state_1 = state_1, state_0
     return recorder.trajectory()
+
+
+def _mujoco_softness(builder) -> None:
+    """A URDF has no place for MuJoCo's limit and friction softness: the values our MJCF and
+    USD author, set on every DOF as MuJoCo (URDF) is told (docs/engines.md). Without them
+    Newton makes a limit its spring (ke 1e4, kd 10) and lets dry friction creep."""
+    from newton._src.solvers.mujoco.solver_mujoco import SOLREF_MODE_RAW
+
+    from ..engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+
+    attrs = builder.custom_attributes
+    dtype = attrs["mujoco:solimplimit"].dtype
+    for dof in range(len(builder.joint_limit_lower)):
+        attrs["mujoco:solreflimit"].values[dof] = attrs["mujoco:solreflimit"].dtype(
+            *LIMIT_SOLREF)
+        attrs["mujoco:solreflimit_mode"].values[dof] = SOLREF_MODE_RAW
+        attrs["mujoco:solimplimit"].values[dof] = dtype(*LIMIT_SOLIMP)
+        attrs["mujoco:solreffriction"].values[dof] = attrs["mujoco:solreffriction"].dtype(
+            *FRICTION_SOLREF)
+
+
+def _unshift_limits(builder) -> None:
+    """Undo the USD importer's limit shift by ``mjc:ref``. Our USD writes the bodies at the
+    observed state and ``mjc:ref`` = that state (the joint value MuJoCo's own USD importer
+    gives the written pose). Newton 1.8 counts q from the joint frames (UsdPhysics: our q)
+    and hands MuJoCo qpos = q + ref, but moves the limits to [lower - ref, upper - ref] as
+    if q counted from the written pose: every limit would sit ``state`` too low."""
+    ref = builder.custom_attributes.get("mujoco:dof_ref")
+    if ref is None or not isinstance(ref.values, dict):
+        return
+    for dof, value in ref.values.items():
+        builder.joint_limit_lower[dof] += float(value)
+        builder.joint_limit_upper[dof] += float(value)
+
+
+def _add_boxes(newton, wp, builder, experiment: Experiment) -> list[int]:
+    half, mass = experiment.box_size / 2, experiment.box_mass
+    inertia = mass * experiment.box_size ** 2 / 6
+    bodies = []
+    for i, centre in enumerate(experiment.boxes):
+        body = builder.add_body(xform=wp.transform(wp.vec3(*centre), wp.quat_identity()),
+                                mass=mass, inertia=wp.mat33(np.eye(3) * inertia),
+                                lock_inertia=True, label=f"real2code_box_{i}")
+        builder.add_shape_box(body, hx=half, hy=half, hz=half,
+                              cfg=newton.ModelBuilder.ShapeConfig(density=0.0))
+        bodies.append(body)
+    return bodies
 
 
 if __name__ == "__main__":

@@ -44,17 +44,55 @@ def overlaps(mjcf: Path, q: dict[str, float] | None = None,
     return _overlaps(model, data, q or {}, tolerance)
 
 
-def overlaps_along_ranges(mjcf: Path, obj: ArticulatedObject, sweep: int = 9,
+@dataclass
+class FileOverlaps:
+    """What ``check`` reports: the file measured and its overlapping part pairs at q = 0, or
+    why none could be measured."""
+
+    file: str | None
+    overlaps: list[Overlap]
+    message: str = ""
+
+    def to_json(self) -> dict:
+        return {"file": self.file, "tolerance": TOLERANCE, "message": self.message,
+                "pairs": [{"parts": [o.part_a, o.part_b], "depth": o.depth}
+                          for o in self.overlaps]}
+
+
+def file_overlaps(paths, tolerance: float = TOLERANCE) -> FileOverlaps:
+    """Overlapping collision pieces at q = 0 in the first MJCF among ``paths``, else the
+    first URDF (both compiled by MuJoCo; the other formats hold the same pieces when they
+    are exports of one object)."""
+    chosen = [Path(p) for p in paths if Path(p).suffix.lower() == ".xml"] or \
+        [Path(p) for p in paths if Path(p).suffix.lower() == ".urdf"]
+    if not chosen:
+        return FileOverlaps(None, [], "no MJCF or URDF to measure")
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        return FileOverlaps(None, [], "MuJoCo is not installed")
+    try:
+        return FileOverlaps(str(chosen[0]), overlaps(chosen[0], tolerance=tolerance))
+    except ValueError as e:  # MuJoCo refused the file: the probes report it
+        return FileOverlaps(str(chosen[0]), [], f"not measured: {e}")
+
+
+def overlaps_along_ranges(mjcf: Path, obj: ArticulatedObject,
                           tolerance: float = TOLERANCE) -> list[RangeOverlap]:
-    """For each movable joint moved alone over ``sweep`` values of its range (ends
-    included), the deepest overlap of its child's pieces with its parent's: a door against
-    its frame, a drawer against its carcass. Joints with none are left out."""
+    """For each movable joint moved alone along its range, the deepest overlap of its
+    child's pieces with its parent's: a door against its frame, a drawer against its
+    carcass. Measured at the values separation sweeps (``sweep_values``) and halfway
+    between each two, where a coarse separation would leave them overlapping. Joints with
+    none are left out."""
+    from ..collision_separation import sweep_values
+
     model, data = _compiled(mjcf)
     found = []
     for joint in obj.movable_joints:
-        lower, upper = (joint.limits.lower, joint.limits.upper) if joint.limits else (-np.pi, np.pi)
+        swept = sweep_values(obj, joint)
+        values = np.sort(np.concatenate([swept, (swept[1:] + swept[:-1]) / 2]))
         worst = None
-        for value in np.linspace(lower, upper, sweep):
+        for value in values:
             for o in _overlaps(model, data, {joint.name: float(value)}, tolerance):
                 if {o.part_a, o.part_b} == {joint.parent, joint.child} and \
                         (worst is None or o.depth > worst.depth):

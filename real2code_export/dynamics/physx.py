@@ -4,8 +4,10 @@ USD's attributes are in degrees), joints in its own order (by name here).
 
 The USD carries what PhysX would otherwise default: link damping 0 (``physxRigidBody:``,
 else 0.05), joint damping and friction (``newton:``), the observed state
-(``state:*:physics:position``). Gravity is the file's PhysicsScene (the experiment's must
-match it). Runs in the engines venv when ovphysx is not importable here (venv.py).
+(``state:*:physics:position``). What the experiment sets goes into a layer over the file,
+which is left as written: its gravity (on every PhysicsScene), its boxes, and with
+``self_contacts`` every joint's ``physics:collisionEnabled``.
+Runs in the engines venv when ovphysx is not importable here (venv.py).
 """
 
 from __future__ import annotations
@@ -37,6 +39,41 @@ def _attach(physx, ovphysx, path: Path):
     return stage
 
 
+def _layer_over(path: Path, experiment: Experiment) -> Path:
+    """A layer over ``path`` (beside it): the experiment's gravity, its boxes as rigid cubes
+    and, with ``self_contacts``, every joint's bodies colliding."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
+
+    source = Usd.Stage.Open(str(path))
+    units = UsdGeom.GetStageMetersPerUnit(source)
+    over = path.with_name(f"{path.stem}.contacts.usda")
+    layer = Sdf.Layer.CreateNew(str(over))
+    layer.subLayerPaths.append(path.name)
+    layer.defaultPrim = source.GetRootLayer().defaultPrim
+    stage = Usd.Stage.Open(layer)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.GetStageUpAxis(source))
+    UsdGeom.SetStageMetersPerUnit(stage, units)
+    gravity = np.asarray(experiment.gravity, dtype=float)
+    magnitude = float(np.linalg.norm(gravity))
+    for prim in stage.Traverse():
+        if prim.IsA(UsdPhysics.Scene):
+            scene = UsdPhysics.Scene(prim)
+            scene.CreateGravityMagnitudeAttr(magnitude / units)
+            if magnitude > 0:
+                scene.CreateGravityDirectionAttr(Gf.Vec3f(*(gravity / magnitude)))
+        elif experiment.self_contacts and prim.IsA(UsdPhysics.Joint):
+            UsdPhysics.Joint(prim).CreateCollisionEnabledAttr(True)
+    for i, centre in enumerate(experiment.boxes):
+        cube = UsdGeom.Cube.Define(stage, f"/real2code_box_{i}")
+        cube.CreateSizeAttr(experiment.box_size / units)
+        cube.AddTranslateOp().Set(Gf.Vec3d(*(c / units for c in centre)))
+        UsdPhysics.RigidBodyAPI.Apply(cube.GetPrim())
+        UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+        UsdPhysics.MassAPI.Apply(cube.GetPrim()).CreateMassAttr(experiment.box_mass)
+    layer.Save()
+    return over
+
+
 def _root_path(path: Path) -> str:
     from pxr import Usd, UsdPhysics
 
@@ -53,6 +90,10 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     from ovphysx.types import TensorType
 
     root = _root_path(path)
+    path = _layer_over(path, experiment)
+    from pxr import Usd, UsdGeom
+
+    units = UsdGeom.GetStageMetersPerUnit(Usd.Stage.Open(str(path)))
     PhysX.set_cpu_mode(True)
     physx = PhysX()
     stage = None
@@ -78,11 +119,19 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
         v[0, column] = experiment.v0
         position.write(q)
         velocity.write(v)
+        boxes = [physx.create_tensor_binding(pattern=f"/real2code_box_{i}",
+                                             tensor_type=TensorType.RIGID_BODY_POSE)
+                 for i in range(len(experiment.boxes))]
+        pose = np.zeros((1, 7), dtype=np.float32)
         recorder = Recorder(experiment)
         for step in range(experiment.steps + 1):
             if recorder.due(step):
                 position.read(q)
-                recorder.add(step, q[0, column].astype(np.float64))
+                centres = []
+                for box in boxes:
+                    box.read(pose)
+                    centres.append(pose[0, :3].astype(np.float64) * units)
+                recorder.add(step, q[0, column].astype(np.float64), centres)
             if step < experiment.steps:
                 physx.step_sync(experiment.dt)
         return recorder.trajectory()

@@ -1,6 +1,7 @@
 """``real2code simulate``: every experiment in every engine, each engine from the file it
 reads natively (written by our exporters), every joint's trajectory compared with MuJoCo's
-from the MJCF (the reference)."""
+from the MJCF (the reference); the contact experiments judged on their outcome in every
+engine that simulates contacts, MuJoCo included (contacts.py)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import numpy as np
 
 from ..formats import load, write_formats
 from . import EngineUnavailable, Experiment, Trajectory
+from .contacts import CONTACT_EXPERIMENTS, Judge
 from .experiments import EXPERIMENTS
 from .overlap import Overlap, RangeOverlap, overlaps, overlaps_along_ranges
 
@@ -29,6 +31,7 @@ class Engine:
     label: str
     format: str  # the export format it reads natively
     module: str
+    contacts: bool = True  # simulates the contact experiments
 
     def simulate(self, path: Path, experiment: Experiment) -> Trajectory:
         return importlib.import_module(self.module).simulate(path, experiment)
@@ -38,8 +41,12 @@ REFERENCE = Engine("mujoco", "MuJoCo (MJCF)", "mjcf", "real2code_export.dynamics
 ENGINES: dict[str, Engine] = {e.name: e for e in (
     REFERENCE,
     Engine("mujoco-urdf", "MuJoCo (URDF)", "urdf", "real2code_export.dynamics.mujoco"),
-    Engine("pinocchio", "Pinocchio (URDF)", "urdf", "real2code_export.dynamics.pinocchio"),
-    Engine("bullet", "Bullet (URDF)", "urdf", "real2code_export.dynamics.bullet"),
+    Engine("pinocchio", "Pinocchio (URDF)", "urdf", "real2code_export.dynamics.pinocchio",
+           contacts=False),
+    Engine("bullet", "Bullet (URDF)", "urdf", "real2code_export.dynamics.bullet",
+           contacts=False),
+    Engine("sapien", "SAPIEN (URDF)", "urdf", "real2code_export.dynamics.sapien",
+           contacts=False),
     Engine("physx", "PhysX (USD)", "usd", "real2code_export.dynamics.physx"),
     Engine("newton-usd", "Newton (USD)", "usd", "real2code_export.dynamics.newton"),
     Engine("newton-mjcf", "Newton (MJCF)", "mjcf", "real2code_export.dynamics.newton"),
@@ -76,6 +83,7 @@ class DynamicsReport:
     overlaps: list[Overlap] = field(default_factory=list)
     # a joint's child against its parent somewhere along its range (reported)
     range_overlaps: list[RangeOverlap] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # what an experiment could not include
 
     @property
     def ok(self) -> bool:
@@ -98,6 +106,7 @@ class DynamicsReport:
             "overlaps_along_ranges": [{"joint": o.joint, "value": o.value,
                                        "parts": [o.part_a, o.part_b], "depth": o.depth}
                                       for o in self.range_overlaps],
+            "notes": self.notes,
             "ok": self.ok,
         }
 
@@ -130,7 +139,10 @@ def simulate_file(source: str | Path, engines: list[str] | None = None,
             mjcf = write_formats(obj, folder, ["mjcf"])["mjcf"]
             report.overlaps = overlaps(mjcf)
             report.range_overlaps = overlaps_along_ranges(mjcf, obj)
-    for name in experiments or list(EXPERIMENTS):
+    for name in experiments or [*EXPERIMENTS, *CONTACT_EXPERIMENTS]:
+        if name in CONTACT_EXPERIMENTS:
+            _contact_runs(report, obj, name, chosen, formats)
+            continue
         variant, experiment = EXPERIMENTS[name](obj)
         if not experiment.joints:
             continue
@@ -147,20 +159,61 @@ def simulate_file(source: str | Path, engines: list[str] | None = None,
     return report
 
 
-def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajectory,
-         tol_angle: float, tol_distance: float) -> Run:
+def _contact_runs(report: DynamicsReport, obj, name: str, chosen: list[Engine],
+                  formats: list[str]) -> None:
+    """A contact experiment in the reference and every chosen engine that has contacts."""
+    if not any(part.collision for part in obj.parts):
+        report.notes.append(f"{name}: no collision geometry, nothing to collide")
+        return
+    variant, experiment, judge, notes = CONTACT_EXPERIMENTS[name](obj)
+    report.notes += [f"{name}: {n}" for n in notes]
+    if experiment is None:
+        return
+    report.experiments.append(experiment)
+    with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
+        files = write_formats(variant, folder, formats)
+        for engine in [REFERENCE, *chosen]:
+            path = files[engine.format]
+            if not engine.contacts:
+                report.runs.append(Run(name, engine.label, path.name, "skipped",
+                                       "no contacts simulated here"))
+                continue
+            report.runs.append(_judged_run(engine, path, experiment, judge))
+
+
+def _judged_run(engine: Engine, path: Path, experiment: Experiment, judge: Judge) -> Run:
+    run, trajectory = _simulated(engine, path, experiment)
+    if trajectory is None:
+        return run
+    verdict = judge(trajectory)
+    run.status = "ok" if verdict.ok else "disagree"
+    run.message, run.max_angle, run.max_distance = verdict.message, verdict.angle, \
+        verdict.distance
+    return run
+
+
+def _simulated(engine: Engine, path: Path, experiment: Experiment
+               ) -> tuple[Run, Trajectory | None]:
     run = Run(experiment.name, engine.label, path.name, "ok")
     start = time.perf_counter()
     try:
         trajectory = engine.simulate(path, experiment)
     except EngineUnavailable as e:
         run.status, run.message = "skipped", str(e)
-        return run
+        return run, None
     except (KeyError, ValueError, RuntimeError) as e:  # the engine refused the file
         run.status, run.message = "failed", str(e)
-        return run
+        return run, None
     run.seconds = time.perf_counter() - start
     run.notes = trajectory.notes
+    return run, trajectory
+
+
+def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajectory,
+         tol_angle: float, tol_distance: float) -> Run:
+    run, trajectory = _simulated(engine, path, experiment)
+    if trajectory is None:
+        return run
     try:
         run.per_joint, run.max_angle, run.max_distance = compare(experiment, reference,
                                                                  trajectory)
@@ -177,7 +230,11 @@ def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajecto
 
 def format_table(report: DynamicsReport) -> str:
     lines = [f"{report.source}: {len(report.experiments)} experiment(s), 2 s at 1 ms vs "
-             f"MuJoCo (MJCF); tolerance {report.tol_angle:g} rad / {report.tol_distance:g} m", ""]
+             f"MuJoCo (MJCF); tolerance {report.tol_angle:g} rad / {report.tol_distance:g} m"]
+    if any(e.name in CONTACT_EXPERIMENTS for e in report.experiments):
+        lines.append("contact experiments, each engine judged alone: max rad, a door's travel "
+                     "past its closed value; max m, a box's distance from resting in its drawer")
+    lines.append("")
     rows = [("experiment", "engine", "file", "max rad", "max m", "worst joint", "s", "verdict")]
     for r in report.runs:
         numbers = ("-", "-") if r.status in ("reference", "skipped", "failed") else \
@@ -187,8 +244,9 @@ def format_table(report: DynamicsReport) -> str:
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     lines += ["  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip()
               for row in rows]
-    said = sorted({f"{r.engine}: {r.message}" for r in report.runs if r.message}
-                  | {f"{r.engine}: {n}" for r in report.runs for n in r.notes})
+    said = sorted({f"{r.engine}: {r.message}" if r.status in ("skipped", "failed") else
+                   f"{r.experiment}, {r.engine}: {r.message}" for r in report.runs if r.message}
+                  | {f"{r.engine}: {n}" for r in report.runs for n in r.notes}) + report.notes
     if said:
         lines += [""] + said
     if not report.experiments:
