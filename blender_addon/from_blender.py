@@ -296,11 +296,12 @@ def _read_part(ob, name: str, frame: np.ndarray, world: _Frames, depsgraph) -> t
     exact = rp.exact(ob)
     color = DEFAULT_COLOR
     material = ob.active_material if ob.type == "MESH" else None
-    texture = _material_texture(material, el) if material is not None else None
-    if texture is not None and (visual is None or visual.uv is None):
-        warn(f"{el}: its material has an image but the mesh no UV map; the image is not "
-             "exported")
-        texture = None
+    images = _material_images(material, el) if material is not None else {}
+    if images and (visual is None or visual.uv is None):
+        warn(f"{el}: its material has images ({', '.join(images)}) but the mesh no UV map; "
+             "they are not exported")
+        images = {}
+    texture = images.pop("texture", None)
     if material is not None:
         color = tuple(_snap(list(material.diffuse_color), exact.get("color"), 1e-6))
     elif "color" in exact:
@@ -316,19 +317,63 @@ def _read_part(ob, name: str, frame: np.ndarray, world: _Frames, depsgraph) -> t
         if bake is not None:
             inertial = _moved_inertial(inertial, bake, el)
     return Part(name, visual, collision, inertial, tuple(float(c) for c in color),
-                texture), own
+                texture, images), own
 
 
-def _material_texture(material, el: str) -> Texture | None:
-    """The image an Image Texture node feeds into the Principled BSDF's Base Color: its packed
-    bytes, or its file; PNG and JPEG only (what every format reads)."""
+def _source(socket, kind: str, output: str | None = None):
+    """The node of type ``kind`` linked into ``socket`` (from its ``output``), or None."""
+    link = socket.links[0] if socket is not None and socket.links else None
+    if link is None or link.from_node.type != kind:
+        return None
+    if output is not None and link.from_socket.name != output:
+        return None
+    return link.from_node
+
+
+def _split_image(socket, channel: str):
+    """(image node) behind a Separate Color node's ``channel`` linked into ``socket``."""
+    split = _source(socket, "SEPARATE_COLOR", channel)
+    return _source(split.inputs["Color"], "TEX_IMAGE") if split is not None else None
+
+
+def _material_images(material, el: str) -> dict[str, Texture]:
+    """The images wired into the material as :func:`to_blender._material` (and Blender's
+    glTF importer) wire them: "texture" into Base Color, and the maps. An image wired
+    otherwise is not a map the model holds: Roughness and Metallic from different images are
+    warned about."""
     if material.node_tree is None:
-        return None
-    bsdf = next((n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
-    links = bsdf.inputs["Base Color"].links if bsdf is not None else []
-    node = links[0].from_node if links else None
-    if node is None or node.type != "TEX_IMAGE" or node.image is None:
-        return None
+        return {}
+    nodes = material.node_tree.nodes
+    bsdf = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if bsdf is None:
+        return {}
+    found = {"texture": _source(bsdf.inputs["Base Color"], "TEX_IMAGE"),
+             "emissive": _source(bsdf.inputs["Emission Color"], "TEX_IMAGE")}
+    normal = _source(bsdf.inputs["Normal"], "NORMAL_MAP")
+    found["normal"] = _source(normal.inputs["Color"], "TEX_IMAGE") if normal else None
+    rough = _split_image(bsdf.inputs["Roughness"], "Green")
+    metal = _split_image(bsdf.inputs["Metallic"], "Blue")
+    if rough is not None and metal is not None and rough.image == metal.image:
+        found["metallic_roughness"] = rough
+    elif rough is not None or metal is not None:
+        warn(f"{el}: Roughness and Metallic are not the G and B of one image (glTF's "
+             "metallic-roughness map); not exported")
+    group = next((n for n in nodes if n.type == "GROUP" and n.node_tree is not None
+                  and n.node_tree.name.startswith(("glTF Material Output", "glTF Settings"))),
+                 None)
+    if group is not None and "Occlusion" in group.inputs:
+        found["occlusion"] = _split_image(group.inputs["Occlusion"], "Red")
+    out = {}
+    for role, node in found.items():
+        texture = _node_image(node, el) if node is not None and node.image is not None else None
+        if texture is not None:
+            out[role] = texture
+    return out
+
+
+def _node_image(node, el: str) -> Texture | None:
+    """An Image Texture node's image: its packed bytes, or its file; PNG and JPEG only (what
+    every format reads)."""
     image = node.image
     if image.packed_file is not None:
         data = bytes(image.packed_file.data)

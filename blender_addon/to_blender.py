@@ -144,12 +144,7 @@ def _part_object(object_name: str, part: Part, index: int, parent, parent_invers
         data = made.add(mesh_data.to_blender(part.name, part.visual))
         data.set_sharp_from_angle(angle=SHARP_ANGLE)
         data.materials.append(_material(f"{object_name}.{part.name}", part.color, made,
-                                        part.texture))
-        if part.maps:
-            from real2code_export.errors import warn
-
-            warn(f"part {part.name!r}: its {', '.join(sorted(part.maps))} map(s) are not "
-                 "brought into Blender (the add-on carries the base colour image only)")
+                                        part.texture, part.maps))
     ob = made.add(bpy.data.objects.new(part.name, data))
     if data is None:
         ob.empty_display_type, ob.empty_display_size = "CUBE", 0.02
@@ -173,20 +168,69 @@ def _part_object(object_name: str, part: Part, index: int, parent, parent_invers
     return ob
 
 
-def _material(name: str, color, made: _Made, texture=None) -> bpy.types.Material:
+def _material(name: str, color, made: _Made, texture=None, maps=None) -> bpy.types.Material:
+    """The part's material: its colour, and its images wired into the Principled BSDF as
+    Blender's own glTF importer wires them (so its glTF exporter finds them too): the base
+    colour image into Base Color; the metallic-roughness map's G and B into Roughness and
+    Metallic; the normal map through a Normal Map node; emissive into Emission Color;
+    occlusion's R into the "glTF Material Output" group's Occlusion."""
     mat = made.add(bpy.data.materials.new(name))
     mat.diffuse_color = color  # the viewport (Solid, Workbench) colour
     if mat.node_tree is None:  # Blender < 5.0 makes no node tree by default
         mat.use_nodes = True
     bsdf = next((n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
-    if bsdf is not None:
-        bsdf.inputs["Base Color"].default_value = color
-        bsdf.inputs["Alpha"].default_value = color[3]
-        if texture is not None:
-            node = mat.node_tree.nodes.new("ShaderNodeTexImage")
-            node.image = _image(texture, made)
-            mat.node_tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+    if bsdf is None:
+        return mat
+    bsdf.inputs["Base Color"].default_value = color
+    bsdf.inputs["Alpha"].default_value = color[3]
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+
+    def image_node(t, colour: bool):
+        node = nodes.new("ShaderNodeTexImage")
+        node.image = _image(t, made)
+        if not colour:
+            node.image.colorspace_settings.name = "Non-Color"
+        return node
+
+    def channels(t):
+        split = nodes.new("ShaderNodeSeparateColor")
+        links.new(image_node(t, False).outputs["Color"], split.inputs["Color"])
+        return split
+
+    maps = maps or {}
+    if texture is not None:
+        links.new(image_node(texture, True).outputs["Color"], bsdf.inputs["Base Color"])
+    if "metallic_roughness" in maps:
+        split = channels(maps["metallic_roughness"])
+        links.new(split.outputs["Green"], bsdf.inputs["Roughness"])
+        links.new(split.outputs["Blue"], bsdf.inputs["Metallic"])
+    if "normal" in maps:
+        normal = nodes.new("ShaderNodeNormalMap")
+        links.new(image_node(maps["normal"], False).outputs["Color"], normal.inputs["Color"])
+        links.new(normal.outputs["Normal"], bsdf.inputs["Normal"])
+    if "emissive" in maps:
+        links.new(image_node(maps["emissive"], True).outputs["Color"],
+                  bsdf.inputs["Emission Color"])
+        bsdf.inputs["Emission Strength"].default_value = 1.0
+    if "occlusion" in maps:
+        output = nodes.new("ShaderNodeGroup")
+        output.node_tree = _gltf_output_group()
+        links.new(channels(maps["occlusion"]).outputs["Red"], output.inputs["Occlusion"])
     return mat
+
+
+GLTF_OUTPUT = "glTF Material Output"  # the group Blender's glTF add-on reads occlusion from
+
+
+def _gltf_output_group() -> bpy.types.NodeTree:
+    """Blender's glTF add-on's own group for what the Principled BSDF has no input for
+    (occlusion): found by name, made as it makes it where the file has none yet."""
+    group = bpy.data.node_groups.get(GLTF_OUTPUT)
+    if group is None:
+        group = bpy.data.node_groups.new(GLTF_OUTPUT, "ShaderNodeTree")
+        group.interface.new_socket("Occlusion", in_out="INPUT", socket_type="NodeSocketFloat")
+        group.nodes.new("NodeGroupInput")
+    return group
 
 
 def _image(texture, made: _Made) -> bpy.types.Image:

@@ -38,3 +38,37 @@ def test_texture_through_the_rig(blender, tmp_path):
     assert differences(original, back, tol=1e-6) == []
     assert back.part("door").texture.image == original.part("door").texture.image
     assert np.abs(back.part("door").visual.uv - original.part("door").visual.uv).max() < 1e-6
+
+
+MAKE_PBR = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from test_textures import pbr_cabinet
+from real2code_export.formats import export
+export(pbr_cabinet(), sys.argv[2], ["json"])
+"""
+
+
+def test_material_maps_through_the_rig(blender, tmp_path):
+    """Metallic-roughness, normal, occlusion and emissive maps wired as Blender's glTF importer
+    wires them, and exported back byte for byte from an unedited rig."""
+    from real2code_export.formats import load
+    from real2code_export.model import PBR_MAPS, differences
+
+    python = main_venv() / "python"
+    run_main([str(python), "-c", MAKE_PBR, str(REPO / "tests"), str(tmp_path / "in")])
+    original = load(tmp_path / "in" / "object.json")
+    root = import_rig(blender, tmp_path / "in" / "object.json")
+    rp = addon_module("rig_props")
+    material = rig_objects(root, rp.ROLE_PART)["door"].active_material
+    bsdf = next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    wired = {name: bsdf.inputs[name].links[0].from_node.type
+             for name in ("Base Color", "Roughness", "Metallic", "Normal", "Emission Color")}
+    assert wired == {"Base Color": "TEX_IMAGE", "Roughness": "SEPARATE_COLOR",
+                     "Metallic": "SEPARATE_COLOR", "Normal": "NORMAL_MAP",
+                     "Emission Color": "TEX_IMAGE"}
+    assert any(n.type == "GROUP" and "Occlusion" in n.inputs for n in material.node_tree.nodes)
+    assert export(blender, root, tmp_path / "out", formats={"json"}, check=False) == {"FINISHED"}
+    back = load(tmp_path / "out" / "object.json")
+    assert sorted(back.part("door").maps) == sorted(PBR_MAPS)
+    assert differences(original, back, tol=1e-6) == []
