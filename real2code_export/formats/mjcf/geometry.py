@@ -37,7 +37,8 @@ def geom_mesh(model, g: int, source: Path, element: str,
     """Geom ``g`` as a mesh in its body's frame; None for what has no finite surface
     (planes, height fields, SDFs), which the caller reports."""
     import mujoco
-    import trimesh
+
+    from ... import tessellation  # trimesh.creation's meshes, without importing trimesh
 
     kind = int(model.geom_type[g])
     size = np.asarray(model.geom_size[g], dtype=np.float64)
@@ -53,21 +54,20 @@ def geom_mesh(model, g: int, source: Path, element: str,
             return mesh  # the usual case (our own files): keep the numbers exactly
         return mesh.transformed(transform)
     if kind == G.mjGEOM_BOX:
-        shape = trimesh.creation.box(extents=2.0 * size)
+        shape = tessellation.box(2.0 * size)
     elif kind == G.mjGEOM_SPHERE:
-        shape = trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS, radius=size[0])
+        shape = tessellation.icosphere(_SPHERE_SUBDIVISIONS, size[0])
     elif kind == G.mjGEOM_ELLIPSOID:
-        shape = trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS, radius=1.0)
-        shape.apply_scale(size)
+        vertices, faces = tessellation.icosphere(_SPHERE_SUBDIVISIONS, 1.0)
+        shape = vertices * size, faces
     elif kind == G.mjGEOM_CAPSULE:  # MuJoCo: radius, half-length of the cylinder part
-        shape = trimesh.creation.capsule(height=2.0 * size[1], radius=size[0],
-                                         count=[_ROUND_SECTIONS, _ROUND_SECTIONS // 2])
+        shape = tessellation.capsule(2.0 * size[1], size[0],
+                                     [_ROUND_SECTIONS, _ROUND_SECTIONS // 2])
     elif kind == G.mjGEOM_CYLINDER:  # radius, half-height
-        shape = trimesh.creation.cylinder(radius=size[0], height=2.0 * size[1],
-                                          sections=_ROUND_SECTIONS)
+        shape = tessellation.cylinder(size[0], 2.0 * size[1], _ROUND_SECTIONS)
     else:
         return None
-    return Mesh.from_trimesh(shape).transformed(placed)
+    return Mesh(*shape).transformed(placed)
 
 
 def _mesh_asset(model, mesh_id: int, source: Path, element: str) -> tuple[Mesh, np.ndarray]:

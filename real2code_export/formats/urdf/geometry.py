@@ -71,25 +71,25 @@ def _positive(ctx: Context, el: etree._Element, attr: str, owner: str, count: in
 
 
 def _primitive(ctx: Context, shape: etree._Element, owner: str) -> Mesh:
-    import trimesh
+    from ... import tessellation  # trimesh.creation's meshes, without importing trimesh
 
     if shape.tag == "box":
-        tm = trimesh.creation.box(extents=_positive(ctx, shape, "size", owner, 3))
+        triangles = tessellation.box(_positive(ctx, shape, "size", owner, 3))
     elif shape.tag == "cylinder":  # URDF cylinders are centred, along z, like trimesh's
-        tm = trimesh.creation.cylinder(radius=_positive(ctx, shape, "radius", owner),
-                                       height=_positive(ctx, shape, "length", owner),
-                                       sections=CYLINDER_SECTIONS)
+        triangles = tessellation.cylinder(_positive(ctx, shape, "radius", owner),
+                                          _positive(ctx, shape, "length", owner),
+                                          CYLINDER_SECTIONS)
     elif shape.tag == "sphere":
-        tm = trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS,
-                                        radius=_positive(ctx, shape, "radius", owner))
+        triangles = tessellation.icosphere(SPHERE_SUBDIVISIONS,
+                                           _positive(ctx, shape, "radius", owner))
     elif shape.tag == "capsule":  # not URDF 1.0, but MuJoCo and others read it
-        tm = trimesh.creation.capsule(height=_positive(ctx, shape, "length", owner),
-                                      radius=_positive(ctx, shape, "radius", owner),
-                                      count=[CYLINDER_SECTIONS, CYLINDER_SECTIONS])
+        triangles = tessellation.capsule(_positive(ctx, shape, "length", owner),
+                                         _positive(ctx, shape, "radius", owner),
+                                         [CYLINDER_SECTIONS, CYLINDER_SECTIONS])
     else:
         raise ctx.error(owner, f"unknown geometry <{shape.tag}> (expected mesh, box, cylinder, "
                         "sphere)", shape.sourceline)
-    return Mesh.from_trimesh(tm)
+    return Mesh(*triangles)
 
 
 def package_search_path() -> list[Path]:
