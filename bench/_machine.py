@@ -48,7 +48,7 @@ def load_average() -> str:
 def byte_compile(*folders) -> None:
     """Compile the packages' modules to ``__pycache__`` once, as ``pip install`` does: when
     PYTHONDONTWRITEBYTECODE is set (it is on the shared development machines) a checkout's
-    modules are otherwise compiled from source by every command (~0.15 s for an export),
+    modules are otherwise compiled from source by every command (0.05 to 0.15 s a command),
     which no installed copy does, while the tools we are compared with are installed ones."""
     import compileall
 

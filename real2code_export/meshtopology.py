@@ -1,5 +1,6 @@
-"""The topology of a triangle mesh that mass properties need: coincident vertices merged,
-edges counted, faces grouped into connected components, closed components wound outward.
+"""The topology of a triangle mesh that mass properties and glTF's smoothing groups need:
+coincident vertices merged, edges counted, faces grouped into connected components, closed
+components wound outward.
 
 The same operations as trimesh's ``process=True``, ``is_watertight``,
 ``is_winding_consistent``, ``face_adjacency``, ``repair.fix_winding`` and

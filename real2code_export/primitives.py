@@ -24,6 +24,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from . import tessellation
 from . import transforms as tf
 
 ROUND_SECTIONS = 32  # around a cylinder's or capsule's axis
@@ -98,23 +99,17 @@ class Primitive:
 
 @lru_cache(maxsize=256)
 def _unit(kind: ShapeKind, size: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """The shape's triangles in its own frame (trimesh.creation's, at the fixed counts)."""
-    import trimesh
-
+    """The shape's triangles in its own frame (trimesh.creation's, at the fixed counts, made
+    by ``tessellation`` so that a robot's export does not import trimesh)."""
     if kind is ShapeKind.BOX:
-        mesh = trimesh.creation.box(extents=size)
-    elif kind is ShapeKind.CYLINDER:
-        mesh = trimesh.creation.cylinder(radius=size[0], height=size[1],
-                                         sections=ROUND_SECTIONS)
-    elif kind is ShapeKind.CAPSULE:
-        mesh = trimesh.creation.capsule(height=size[1], radius=size[0],
-                                        count=[ROUND_SECTIONS, CAP_RINGS])
-    else:
-        radii = (size[0],) * 3 if kind is ShapeKind.SPHERE else size
-        mesh = trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=1.0)
-        vertices = np.asarray(mesh.vertices, dtype=np.float64) * np.asarray(radii)
-        return _frozen(vertices, mesh.faces)
-    return _frozen(mesh.vertices, mesh.faces)
+        return _frozen(*tessellation.box(size))
+    if kind is ShapeKind.CYLINDER:
+        return _frozen(*tessellation.cylinder(size[0], size[1], ROUND_SECTIONS))
+    if kind is ShapeKind.CAPSULE:
+        return _frozen(*tessellation.capsule(size[1], size[0], (ROUND_SECTIONS, CAP_RINGS)))
+    radii = (size[0],) * 3 if kind is ShapeKind.SPHERE else size
+    vertices, faces = tessellation.icosphere(SPHERE_SUBDIVISIONS, 1.0)
+    return _frozen(vertices * np.asarray(radii), faces)
 
 
 def _frozen(vertices, faces) -> tuple[np.ndarray, np.ndarray]:

@@ -378,6 +378,34 @@ def test_collada_scene_graph_and_unit(tmp_path):
                                [[0.1, 0.0, 0.0], [0.12, 0.02, 0.0]], atol=1e-12)
 
 
+@pytest.mark.parametrize("kind", ["binary", "ascii", "ascii, two solids"])
+def test_stl_is_read_as_trimesh_reads_it(tmp_path, kind):
+    """STL is read without trimesh (its import costs more than a robot's USD export): the
+    same triangles as trimesh.load(process=False), binary and ASCII, and for one solid the
+    same vertices and faces."""
+    from real2code_export.meshfiles import read_mesh
+
+    box = trimesh.creation.box((0.1, 0.2, 0.3))
+    path = tmp_path / "part.stl"
+    if kind == "binary":
+        box.export(path, file_type="stl")
+    else:
+        text = trimesh.exchange.stl.export_stl_ascii(box)
+        if kind == "ascii, two solids":
+            moved = box.copy().apply_translation((1, 2, 3))
+            text += trimesh.exchange.stl.export_stl_ascii(moved).replace("solid ", "solid b", 1)
+        path.write_text(text)
+    expected = trimesh.load(str(path), force="mesh", process=False)
+    got = read_mesh(path)
+    np.testing.assert_array_equal(got.vertices[got.faces], expected.triangles)  # same triangles
+    if kind != "ascii, two solids":  # (trimesh merges the corners of a scene's solids)
+        np.testing.assert_array_equal(got.vertices, expected.vertices)
+        np.testing.assert_array_equal(got.faces, expected.faces)
+    path.write_bytes(b"solid nothing\nendsolid nothing\n")
+    with pytest.raises(FormatError, match="no triangles"):
+        read_mesh(path, source=tmp_path / "robot.urdf", element="<link name='base'>")
+
+
 COLLADA_MM = """<?xml version="1.0" encoding="utf-8"?>
 <COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
   <asset><unit name="millimeter" meter="0.001"/><up_axis>Y_UP</up_axis></asset>

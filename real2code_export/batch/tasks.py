@@ -82,11 +82,11 @@ class TaskSpec:
 # -- tasks -------------------------------------------------------------------------------------
 def export_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskResult:
     """Load the model, write every requested format, then check them against each other."""
-    from ..formats import load, write_formats
+    from ..formats import hulls_collision, load, write_formats
 
     timings: dict[str, float] = {}
-    with _timed(timings, "load_s"):
-        model = load(obj.files[0])
+    with _timed(timings, "load_s"):  # (no hulls for formats whose consumers take them)
+        model = load(obj.files[0], hull_collision=not hulls_collision(list(options.formats)))
     with _timed(timings, "export_s"):
         written = write_formats(model, out, list(options.formats))
     check, error = _check_outputs(list(written.values()), out, options, timings)

