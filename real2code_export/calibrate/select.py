@@ -7,10 +7,10 @@ its BIC beats the current model's and every one of its effects is really there (
 interval, widened for residual correlation, excludes absence). BIC counts the effective
 samples of the best-fitting residual so far (a correlated residual carries less evidence
 than its length), the same count for every candidate compared, so extra parameters must
-pay for themselves. A structure that beats the current one with an effect not
-significant is tried without it (a backward step), and extensions that each lower the BIC
-without being significant alone are tried together. The search stops when no extension
-earns its parameters: nothing is forced onto the data.
+pay for themselves. Extensions that each lower the BIC without being significant alone
+are tried together, and a refinement into direction-dependent friction that makes an
+effect named earlier redundant is kept without it (a backward step). The search stops when
+no extension earns its parameters: nothing is forced onto the data.
 """
 
 from __future__ import annotations
@@ -81,7 +81,8 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
     """Symmetric friction with an offset (or with damping) may be direction-dependent
     friction seen in part: direction dependence is tried as a refinement even when the
     residual is already near the noise, and kept if BIC prefers it (one effect with its
-    four values in place of two or three)."""
+    four values in place of two or three); an effect it makes redundant is left out (a
+    backward step)."""
     names = {e.name for e in current.effects}
     if not names & {"friction", "damping"} or "asymmetric_friction" in names:
         return current
@@ -95,7 +96,7 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
         # poorer model, may have stopped in another minimum
         f = fit_candidate(problem, p, refine=False, warm=warm)
         if _key(p) in fits and fits[_key(p)].rss <= f.rss:
-            continue
+            f = fits[_key(p)]  # the earlier fit stopped in the better minimum
         fits[_key(p)] = f
         n_ref = _n_ref(fits.values())
         if f.bic(n_ref) < best.bic(n_ref):
@@ -105,6 +106,14 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
                 log.append(f"refined {'+'.join(current.names)} into {'+'.join(f.names)}: "
                            f"BIC {f.bic(n_ref):.1f}")
                 best = f
+            elif not f.degenerate():
+                # the refinement may hold what an effect named earlier stood in for (the
+                # Coulomb asymmetry is a constant force, an encoder's zero error moves the
+                # rest position alike): that effect, now not significant, is left out
+                g = _pruned(problem, best, f, fits, log)
+                if g is not None:
+                    log.append(f"refined {'+'.join(current.names)} into {'+'.join(g.names)}")
+                    best = g
     return best
 
 
@@ -274,13 +283,11 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                            "explain the same thing")
             elif all(f.present(e) for e in f.effects):
                 log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
-                kept = kept or f
+                kept = f
+                break
             else:
                 log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
                            "an effect not significant")
-                kept = _pruned(problem, current, f, fits, log)
-            if kept is not None:
-                break
         if kept is None:
             # effects that each lower the BIC but are not significant alone may be two
             # that stand in for each other (friction and inertia both slow a push): their

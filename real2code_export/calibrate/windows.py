@@ -37,7 +37,10 @@ OUTLIER_SIGMAS = 5.0
 PUSH_ENERGY = 0.1
 MIN_PUSH = 0.02  # s: shorter outlier runs are impacts or spikes
 MERGE_GAP = 0.1  # s: outlier runs this close are one push
-GUARD = 0.05  # s: left out on each side of a push (the smoothing spreads it)
+# s: left out on each side of a push: its force rises and falls over about a smoothing
+# window (features.smoothing_window, 0.15 s) beyond where it stands out of the noise, and
+# its tails left in would bias every estimate
+GUARD = 0.15
 MIN_PIECE = 0.25  # s: a piece shorter than this is dropped with the push
 INERTIA_RANGE = (0.25, 4.0)  # the inertia's scale the push search allows, x nominal
 ACTING = 0.2  # the measured effort acts where above this share of its 95th percentile
