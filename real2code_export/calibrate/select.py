@@ -8,9 +8,8 @@ interval, widened for residual correlation, excludes absence). BIC counts the ef
 samples of the best-fitting residual so far (a correlated residual carries less evidence
 than its length), the same count for every candidate compared, so extra parameters must
 pay for themselves. Extensions that each lower the BIC without being significant alone
-are tried together, and a refinement into direction-dependent friction that makes an
-effect named earlier redundant is kept without it (a backward step). The search stops when
-no extension earns its parameters: nothing is forced onto the data.
+are tried together. The search stops when no extension earns its parameters: nothing is
+forced onto the data.
 """
 
 from __future__ import annotations
@@ -18,7 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .effects import Effect, extensions, valid
+from .effects import Effect, extensions
 from .fit import MATERIAL, Fit, fit_candidate, refine_fit
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
@@ -81,8 +80,7 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
     """Symmetric friction with an offset (or with damping) may be direction-dependent
     friction seen in part: direction dependence is tried as a refinement even when the
     residual is already near the noise, and kept if BIC prefers it (one effect with its
-    four values in place of two or three); an effect it makes redundant is left out (a
-    backward step)."""
+    four values in place of two or three)."""
     names = {e.name for e in current.effects}
     if not names & {"friction", "damping"} or "asymmetric_friction" in names:
         return current
@@ -106,14 +104,6 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
                 log.append(f"refined {'+'.join(current.names)} into {'+'.join(f.names)}: "
                            f"BIC {f.bic(n_ref):.1f}")
                 best = f
-            elif not f.degenerate():
-                # the refinement may hold what an effect named earlier stood in for (the
-                # Coulomb asymmetry is a constant force, an encoder's zero error moves the
-                # rest position alike): that effect, now not significant, is left out
-                g = _pruned(problem, best, f, fits, log)
-                if g is not None:
-                    log.append(f"refined {'+'.join(current.names)} into {'+'.join(g.names)}")
-                    best = g
     return best
 
 
@@ -145,27 +135,6 @@ def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit
             log.append(f"tried {'+'.join(f.names)} in place of {'+'.join(kept.names)}: "
                        f"BIC {f.bic(n_ref):.1f}, no better")
     return best
-
-
-def _pruned(problem: Problem, current: Fit, f: Fit, fits: dict, log: list[str]
-            ) -> Fit | None:
-    """A structure that beat the current one with an effect not significant, without
-    that effect (a backward step: a refinement can make an effect named earlier
-    redundant, as direction-dependent friction holds the constant force an encoder's
-    zero error stood in for); kept if it beats the current model and all its effects
-    are there."""
-    kept = tuple(e for e in f.effects if f.present(e))
-    if not kept or len(kept) == len(f.effects) or _key(kept) in fits or \
-            not all(valid({e.variant for e in kept if e.joint == j}) for j in problem.joints):
-        return None
-    g = refine_fit(fit_candidate(problem, kept, refine=False, warm=dict(f.values)))
-    fits[_key(kept)] = g
-    n_ref = _n_ref(fits.values())
-    good = g.bic(n_ref) < current.bic(n_ref) and not g.degenerate() and \
-        all(g.present(e) for e in g.effects)
-    log.append(f"tried {'+'.join(g.names)} (without what was not significant): BIC "
-               f"{g.bic(n_ref):.1f}" + ("" if good else ", no better"))
-    return g if good else None
 
 
 def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
