@@ -38,8 +38,8 @@ class Feedback:
         u = self.kp * (columns[self.reference][k] - q[:, k]) - self.kd * v
         if self.added is not None:
             u = u + columns[self.added][k]
-        if self.saturation is not None:
-            u = np.clip(u, self.saturation[0], self.saturation[1])
+        if self.saturation is not None:  # (the array's own clip: np.clip's wrapper costs
+            u = u.clip(self.saturation[0], self.saturation[1])  # more than the clipping)
         return u
 
 

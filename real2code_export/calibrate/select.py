@@ -7,10 +7,9 @@ its BIC beats the current model's and every one of its effects is really there (
 interval, widened for residual correlation, excludes absence). BIC counts the effective
 samples of the best-fitting residual so far (a correlated residual carries less evidence
 than its length), the same count for every candidate compared, so extra parameters must
-pay for themselves. A structure that beats the current one with an effect not
-significant is tried without it (a backward step), and extensions that each lower the BIC
-without being significant alone are tried together. The search stops when no extension
-earns its parameters: nothing is forced onto the data.
+pay for themselves. Extensions that each lower the BIC without being significant alone
+are tried together. The search stops when no extension earns its parameters: nothing is
+forced onto the data.
 """
 
 from __future__ import annotations
@@ -18,7 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .effects import Effect, extensions, valid
+from .effects import Effect, extensions
 from .fit import MATERIAL, Fit, fit_candidate, refine_fit
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
@@ -95,7 +94,7 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
         # poorer model, may have stopped in another minimum
         f = fit_candidate(problem, p, refine=False, warm=warm)
         if _key(p) in fits and fits[_key(p)].rss <= f.rss:
-            continue
+            f = fits[_key(p)]  # the earlier fit stopped in the better minimum
         fits[_key(p)] = f
         n_ref = _n_ref(fits.values())
         if f.bic(n_ref) < best.bic(n_ref):
@@ -136,27 +135,6 @@ def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit
             log.append(f"tried {'+'.join(f.names)} in place of {'+'.join(kept.names)}: "
                        f"BIC {f.bic(n_ref):.1f}, no better")
     return best
-
-
-def _pruned(problem: Problem, current: Fit, f: Fit, fits: dict, log: list[str]
-            ) -> Fit | None:
-    """A structure that beat the current one with an effect not significant, without
-    that effect (a backward step: a refinement can make an effect named earlier
-    redundant, as direction-dependent friction holds the constant force an encoder's
-    zero error stood in for); kept if it beats the current model and all its effects
-    are there."""
-    kept = tuple(e for e in f.effects if f.present(e))
-    if not kept or len(kept) == len(f.effects) or _key(kept) in fits or \
-            not all(valid({e.variant for e in kept if e.joint == j}) for j in problem.joints):
-        return None
-    g = refine_fit(fit_candidate(problem, kept, refine=False, warm=dict(f.values)))
-    fits[_key(kept)] = g
-    n_ref = _n_ref(fits.values())
-    good = g.bic(n_ref) < current.bic(n_ref) and not g.degenerate() and \
-        all(g.present(e) for e in g.effects)
-    log.append(f"tried {'+'.join(g.names)} (without what was not significant): BIC "
-               f"{g.bic(n_ref):.1f}" + ("" if good else ", no better"))
-    return g if good else None
 
 
 def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
@@ -274,13 +252,11 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                            "explain the same thing")
             elif all(f.present(e) for e in f.effects):
                 log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
-                kept = kept or f
+                kept = f
+                break
             else:
                 log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
                            "an effect not significant")
-                kept = _pruned(problem, current, f, fits, log)
-            if kept is not None:
-                break
         if kept is None:
             # effects that each lower the BIC but are not significant alone may be two
             # that stand in for each other (friction and inertia both slow a push): their

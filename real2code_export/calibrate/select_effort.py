@@ -17,6 +17,8 @@ from .problem import Problem
 from .select import MAX_EFFECTS, Selection, _key, _n_ref, _proposals
 
 EFFORT_CLEAN = 0.01  # smoothed effort noise / effort scale below which the effort decides
+# the structure before the last step starts from the chosen one's values, a few steps away
+BEFORE_NFEV = 10
 
 
 def effort_decides(problem: Problem) -> bool:
@@ -61,7 +63,7 @@ def select_by_effort(problem: Problem, max_effects: int = MAX_EFFECTS) -> Select
         chosen = fit_candidate(problem, path[-1])
         fits.append(chosen)
         before = nominal if len(path) == 1 else fit_candidate(
-            problem, path[-2], refine=False, warm=dict(chosen.values))
+            problem, path[-2], refine=False, warm=dict(chosen.values), max_nfev=BEFORE_NFEV)
         if before is not nominal:
             fits.append(before)
         n_ref = _n_ref(fits)

@@ -249,16 +249,18 @@ def lockstep(models: Sequence, traj: Trajectory, initials: Sequence[Initial],
     columns = traj.columns
     step = mujoco.mj_step
     pairs = list(zip(models, datas, strict=True))
+    qpos = [d.qpos for d in datas]
+    qfrc = [d.qfrc_applied for d in datas]
     for i in range(n):
-        for b, (_, d) in enumerate(pairs):
-            q[b, i] = d.qpos[qadr]
+        for b in range(nb):
+            q[b, i] = qpos[b][qadr]
         for k, f in loops:  # the law's output is held over the interval
             u[:, i, k] = f.gain * f.commands(i, q[:, :, k], columns, period)
         if i == n - 1:
             break
         force = u[:, i] + const
         for b, (m, d) in enumerate(pairs):
-            d.qfrc_applied[dadr] = force[b]
+            qfrc[b][dadr] = force[b]
             for _ in range(nsub):
                 step(m, d)
     return [Rollout(q[b], u[b]) for b in range(nb)]

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import features
+from .effects import MAX_DELAY
 from .trajectory import MIN_SAMPLES, Trajectory
 
 # outliers: this many robust standard deviations of the equation residual
@@ -36,7 +37,10 @@ OUTLIER_SIGMAS = 5.0
 PUSH_ENERGY = 0.1
 MIN_PUSH = 0.02  # s: shorter outlier runs are impacts or spikes
 MERGE_GAP = 0.1  # s: outlier runs this close are one push
-GUARD = 0.05  # s: left out on each side of a push (the smoothing spreads it)
+# s: left out on each side of a push: its force rises and falls over about a smoothing
+# window (features.smoothing_window, 0.15 s) beyond where it stands out of the noise, and
+# its tails left in would bias every estimate
+GUARD = 0.15
 MIN_PIECE = 0.25  # s: a piece shorter than this is dropped with the push
 INERTIA_RANGE = (0.25, 4.0)  # the inertia's scale the push search allows, x nominal
 ACTING = 0.2  # the measured effort acts where above this share of its 95th percentile
@@ -120,10 +124,11 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # would pass for a push from rest)
         cols = [dq[:, k], sgn, q[:, k] - q[:, k].mean()]
         if j in tr.efforts:  # smoothed as the motion is; the effort fixes the inertia's scale
-            measured = features.derivatives(features.despike(tr.efforts[j])[0], period,
-                                            window)[0]
+            measured, rate, _ = features.derivatives(features.despike(tr.efforts[j])[0],
+                                                     period, window)
             y = measured - required
-            cols.append(ddq[:, k])
+            # and a lag between the effort's clock and the position's (u(t - d) ~ u - d u')
+            cols += [ddq[:, k], rate]
         else:  # without an effort the inertia's scale is not observable: it stays nominal,
             y = -required  # but gravity's load against it (a free swing's frequency) is not
             if np.ptp(weight[:, k]) > 0:
@@ -145,6 +150,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
             # INERTIA_RANGE of the nominal inertia.
             nominal = float(np.median(mass[:, k])) + d.armature
             lower[3], upper[3] = ((s - 1.0) * nominal * scale[3] / ys for s in INERTIA_RANGE)
+            lower[4], upper[4] = (s * MAX_DELAY * scale[4] / ys for s in (-1.0, 1.0))
         a_use, y_use = x[use] / scale, y[use] / ys
 
         def resid(b, a=a_use, yy=y_use):
