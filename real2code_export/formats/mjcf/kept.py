@@ -166,6 +166,28 @@ def restore(text: str, sections: dict[str, str],
     return candidate, leftover, why
 
 
+def without_files(text: str) -> str:
+    """The model with no mesh or image file to read (mesh geoms as small spheres, textures
+    left out): what the kept sections name (joints, bodies, sites, tendons, classes) is all
+    there, and MuJoCo checks them in a fraction of the compile (no hulls, no decoding)."""
+    from lxml import etree
+
+    root = etree.fromstring(text.encode("utf-8"))
+    for asset in root.iter("asset"):
+        for el in [e for e in asset if e.tag in ("mesh", "texture", "hfield")]:
+            asset.remove(el)
+        for material in asset.iter("material"):
+            material.attrib.pop("texture", None)
+            for layer in list(material):
+                material.remove(layer)
+    for geom in root.iter("geom"):
+        if geom.get("mesh") is not None:
+            del geom.attrib["mesh"]
+            geom.set("type", "sphere")
+            geom.set("size", "0.001")
+    return etree.tostring(root, encoding="unicode")
+
+
 def _named(el) -> str:
     name = el.get("name") or el.get("class")
     return f" name='{name}'" if el.get("name") else (f" class='{name}'" if name else "")

@@ -48,7 +48,7 @@ from .conventions import (
     snap_unit,
 )
 from .geometry import mjcf_geom
-from .kept import ELEMENTS_KEY, restore
+from .kept import ELEMENTS_KEY, restore, without_files
 from .structure import anchors, body_chains, site_parts
 
 SUFFIX = ".xml"
@@ -134,8 +134,8 @@ def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path)
     refuses stays in the metadata, warned about."""
     import mujoco
 
-    def compiles(candidate: str) -> None:
-        spec = mujoco.MjSpec.from_string(candidate)
+    def compiles(candidate: str) -> None:  # (the model itself compiled already)
+        spec = mujoco.MjSpec.from_string(without_files(candidate))
         spec.modelfiledir = str(out_dir) + "/"
         spec.compile()
 
