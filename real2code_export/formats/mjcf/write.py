@@ -135,7 +135,7 @@ def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path)
     import mujoco
 
     def compiles(candidate: str) -> None:  # (the model itself compiled already)
-        spec = mujoco.MjSpec.from_string(without_files(candidate))
+        spec = mujoco.MjSpec.from_string(candidate)
         spec.modelfiledir = str(out_dir) + "/"
         spec.compile()
 
@@ -143,7 +143,7 @@ def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path)
     if bad:
         raise ExportError(f"MJCF: object {obj.name!r} metadata {ELEMENTS_KEY!r}: sections "
                           f"{bad} are not XML text")
-    text, left, why = restore(text, sections, compiles)
+    text, left, why = restore(text, sections, compiles, without_files(text))
     for reason in why:
         warn(f"MJCF: object {obj.name!r}: kept MJCF element not written back (it stays in "
              f"the metadata {ELEMENTS_KEY!r}): {reason}")
