@@ -99,7 +99,8 @@ def _follow_moved_bodies(section, moved: dict[str, np.ndarray], notes: list[str]
 # attributes that name a body, joint or site (MJCF's reference attributes; objname and
 # refname only with an objtype / reftype of those kinds)
 _REFERENCES = frozenset({"joint", "joint1", "joint2", "jointinparent", "body", "body1",
-                         "body2", "site", "site1", "site2", "refsite", "slidersite"})
+                         "body2", "site", "site1", "site2", "refsite", "slidersite",
+                         "sidesite"})
 _TYPED = {"objname": "objtype", "refname": "reftype"}
 _RENAMED_KINDS = frozenset({"body", "xbody", "joint", "site"})
 
