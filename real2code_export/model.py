@@ -376,11 +376,22 @@ class ArticulatedObject:
         order = [self.root.name] + [j.child for j in self.joints_in_tree_order()]
         return [self.part(n) for n in order]
 
+    def frame_parts(self) -> set[str]:
+        """Frames: parts with no mass and no geometry, fixed to their parent, with no part
+        hanging from them (an MJCF site, a URDF frame-only link, a USD Xform in a body)."""
+        return {j.child for j in self.joints
+                if j.type is JointType.FIXED and not self.child_joints(j.child)
+                and _is_frame(self.part(j.child))}
+
     def observed_configuration(self) -> dict[str, float]:
         return {j.name: j.state for j in self.movable_joints}
 
     def total_mass(self) -> float:
         return sum(p.inertial.mass for p in self.parts if p.inertial is not None)
+
+
+def _is_frame(part: Part) -> bool:
+    return part.inertial is None and part.visual is None and not part.collision
 
 
 # -- names -----------------------------------------------------------------------------------

@@ -76,6 +76,13 @@ def test_sites_and_multi_joint_bodies_round_trip(tmp_path):
     for fmt, path in written.items():
         back = _quiet(load_any, path)
         assert not differences(obj, back), (fmt, differences(obj, back))
+    # USD: a frame is an Xform in its parent body, no rigid body (PhysX would give it mass)
+    from pxr import Usd, UsdPhysics
+
+    stage = Usd.Stage.Open(str(written["usd"]))
+    eye = next(p for p in stage.Traverse() if p.GetName() == "eye")
+    assert eye.GetTypeName() == "Xform" and eye.GetParent().GetName() == "head"
+    assert not eye.HasAPI(UsdPhysics.RigidBodyAPI)
     # MJCF -> model -> MJCF: the same bodies, joints per body, and sites
     bodies, sites = _tree(written["mjcf"])
     src_bodies, src_sites = _tree(source)

@@ -103,3 +103,54 @@ def test_kept_sections_written_back(tmp_path):
         through, _ = _said(export, other, tmp_path / f"via_{fmt}", ["mjcf"])
         c = mujoco.MjModel.from_xml_path(str(through["mjcf"]))
         assert (c.nu, c.nsensor) == (a.nu, a.nsensor), fmt
+
+
+LOOP = """<mujoco model="loop">
+  <worldbody>
+    <body name="base">
+      <geom type="box" size="0.1 0.1 0.1"/>
+      <body name="crank-arm" pos="0 0 0.2">
+        <joint name="crank-joint" axis="0 1 0" pos="0 0 0.05" range="-1 1"/>
+        <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.01"/>
+      </body>
+      <body name="rocker" pos="0.3 0 0.2">
+        <joint name="rocker-joint" axis="0 1 0" range="-1 1"/>
+        <geom type="capsule" fromto="0 0 0 -0.1 0 0" size="0.01"/>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+    <connect body1="crank-arm" body2="rocker" anchor="0.2 0 0"/>
+  </equality>
+  <actuator>
+    <motor name="drive" joint="crank-joint" gear="3"/>
+  </actuator>
+  <sensor>
+    <framepos objtype="body" objname="crank-arm"/>
+  </sensor>
+</mujoco>
+"""
+
+
+def test_kept_elements_follow_renamed_and_moved_bodies(tmp_path):
+    """References to names the reader changed use the new names; a connect anchor in a body
+    whose part frame moved to its joint moves with it (the same point in the world); a sensor
+    of such a body's frame is said."""
+    source = tmp_path / "loop.xml"
+    source.write_text(LOOP)
+    obj, said = _said(load_any, source)
+    assert "<framepos> of body 'crank-arm'" in said
+    written, said = _said(export, obj, tmp_path / "out", ["mjcf"])
+    assert "not written back" not in said
+    a = mujoco.MjModel.from_xml_path(str(source))
+    b = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert b.nu == 1 and b.joint(int(b.actuator_trnid[0, 0])).name == "crank_joint"
+    eq = next(e for e in range(b.neq) if b.eq_type[e] == mujoco.mjtEq.mjEQ_CONNECT)
+
+    def anchor_in_world(m, e):
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        body = int(m.eq_obj1id[e])
+        return d.xpos[body] + d.xmat[body].reshape(3, 3) @ m.eq_data[e, :3]
+
+    np.testing.assert_allclose(anchor_in_world(b, eq), anchor_in_world(a, 0), atol=1e-12)

@@ -7,7 +7,8 @@ custom attributes or the body poses written in the file (except for a body with 
 path to the world, which stands where the file puts it).
 
 A body's reported pose is its frame moved to its parent joint's frame origin (localPos on
-the body's side; zero in files we write), the model's "part frame = joint frame".
+the body's side; zero in files we write), the model's "part frame = joint frame". An Xform in
+a body with nothing to draw below it is a frame, reported by its prim name.
 """
 
 from __future__ import annotations
@@ -85,6 +86,11 @@ class UsdProbe:
         if len(set(self.parts)) != len(self.parts):
             raise CheckError(f"{path}: rigid body names are not unique: {sorted(self.parts)}")
         self._names = dict(zip(bodies, self.parts, strict=True))
+        # frames: Xforms with nothing to draw below them, in a body, moving with it
+        self._frames = [(name, body, local) for body in bodies
+                        for name, local in _frames(stage.GetPrimAtPath(body), mpu)
+                        if name not in self._names.values()]
+        self.parts += [name for name, _, _ in self._frames]
 
         # breadth first from the world; a body never reached stands where the file puts it
         cache = UsdGeom.XformCache(Usd.TimeCode.Default())
@@ -153,7 +159,32 @@ class UsdProbe:
             body = world[link.parent] @ link.to_joint @ motion @ link.from_joint
             world[link.child] = body
             out[self._names[link.child]] = body @ link.child_offset
+        for name, body, local in self._frames:
+            if body in world:
+                out[name] = world[body] @ local
         return out
+
+
+def _frames(body, mpu: float):
+    """(name, pose in the body in metres) of the empty Xforms in a body prim, not entering
+    nested rigid bodies."""
+    from pxr import Usd, UsdGeom, UsdPhysics
+
+    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+
+    def own(prim):
+        for child in prim.GetChildren():
+            if not child.HasAPI(UsdPhysics.RigidBodyAPI):
+                yield child
+                yield from own(child)
+
+    for p in own(body):
+        if p.GetTypeName() != "Xform" or any(d.IsA(UsdGeom.Gprim) for d in own(p)):
+            continue
+        local = np.array(cache.ComputeRelativeTransform(p, body)[0], dtype=float).T
+        if tf.is_rotation(local[:3, :3], tol=1e-5):
+            local[:3, 3] *= mpu
+            yield p.GetName(), local
 
 
 def open_probes(path: str | Path) -> list[UsdProbe]:

@@ -103,7 +103,7 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     visual = doc.mesh(node.mesh, el) if node.mesh is not None else None
     shapes = data.get("visual_shapes", [])
     if visual is not None and isinstance(shapes, list) and shapes:
-        visual = _with_shapes(doc, visual, [shape_from_json(d, doc.path, f"{el} visual_shapes"
+        visual = _with_shapes(visual, [shape_from_json(d, doc.path, f"{el} visual_shapes"
                                                              f"[{k}]") for k, d in enumerate(shapes)])
     pieces: dict[int, tuple[int, str]] = {}  # k -> (glTF mesh, its element)
     shapes_of: dict[int, object] = {}  # collision piece -> its shape (extras)
@@ -123,7 +123,7 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     for k, c in enumerate(collision):
         shape = shapes_of.get(k)
         if shape is not None:
-            collision[k] = _with_shapes(doc, c, [shape_from_json(shape, doc.path, el)])
+            collision[k] = _with_shapes(c, [shape_from_json(shape, doc.path, el)])
     inertial = None
     if "inertial" in data:
         ind = data["inertial"]
@@ -170,7 +170,7 @@ def _images(doc: Document, mesh_index: int | None, visual, el: str) -> dict:
     return images
 
 
-def _with_shapes(doc: Document, mesh: Mesh, shapes: list) -> Mesh:
+def _with_shapes(mesh: Mesh, shapes: list) -> Mesh:
     """The mesh read (float32) with its shapes restored: its own triangles as read, the
     shapes' tessellations exactly (our writer puts them at the end)."""
     own = Mesh(mesh.vertices, mesh.faces, mesh.uv, tuple(shapes)).remainder() \

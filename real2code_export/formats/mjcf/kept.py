@@ -18,6 +18,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 from .. import FORMATS
 
 ELEMENTS_KEY = FORMATS["mjcf"].kept_elements
@@ -28,10 +30,17 @@ DEFAULT_TAGS = frozenset({"general", "motor", "position", "velocity", "intveloci
 WRITE_ORDER = ("default", "tendon", "equality", "actuator", "sensor")
 
 
-def unread_sections(path: Path, mimics: set[tuple[str, str]]) -> dict[str, str]:
+def unread_sections(path: Path, mimics: set[tuple[str, str]],
+                    renames: dict[str, str] | None = None,
+                    moved: dict[str, np.ndarray] | None = None,
+                    notes: list[str] | None = None) -> dict[str, str]:
     """Tag -> XML text of each kept section (the file's sections of that tag merged) that has
     something left once the joint equalities read as mimics, ``(joint1, joint2)`` as named
-    in the file, are taken out; with them, the file's default classes (``default``)."""
+    in the file, are taken out; with them, the file's default classes (``default``). The
+    bodies, joints and sites they refer to are named as the model names them (``renames``:
+    file name -> model name, for the names the reader changed); points given in the frame of
+    a body whose part frame the reader moved (``moved``: file name -> part-from-body
+    transform) are moved with it, and what cannot be is said in ``notes``."""
     from lxml import etree
 
     try:
@@ -52,6 +61,8 @@ def unread_sections(path: Path, mimics: set[tuple[str, str]]) -> dict[str, str]:
                     continue
                 merged.append(el)
         if len(merged):
+            _follow_moved_bodies(merged, moved or {}, notes if notes is not None else [])
+            _rename_references(merged, renames or {})
             out[tag] = _text(merged, etree)
     if out:
         defaults = etree.Element("default")
@@ -63,6 +74,48 @@ def unread_sections(path: Path, mimics: set[tuple[str, str]]) -> dict[str, str]:
         if len(defaults):
             out["default"] = _text(defaults, etree)
     return out
+
+
+def _follow_moved_bodies(section, moved: dict[str, np.ndarray], notes: list[str]) -> None:
+    """Equality anchors given in a moved body's frame (connect: body1's, weld: body2's) put in
+    its part frame; a weld's relpose and a sensor of a moved body's frame are noted."""
+    if not moved:
+        return
+    for el in section.iter():
+        body = {"connect": el.get("body1"), "weld": el.get("body2")}.get(el.tag)
+        if body in moved and el.get("anchor") is not None:
+            point = np.array([float(v) for v in el.get("anchor").split()] + [1.0])
+            el.set("anchor", " ".join(repr(float(v) + 0.0) for v in (moved[body] @ point)[:3]))
+        if el.tag == "weld" and el.get("relpose") is not None and (
+                el.get("body1") in moved or el.get("body2") in moved):
+            notes.append(f"<weld> of {el.get('body1')!r} and {el.get('body2')!r}: relpose is "
+                         "in the bodies' frames, which the model moves to their joints")
+        if el.get("objtype") in ("body", "xbody") and el.get("objname") in moved:
+            notes.append(f"<{el.tag}> of body {el.get('objname')!r}: the model moves the "
+                         "body's frame to its joint's anchor; the export's sensor measures "
+                         "that frame")
+
+
+# attributes that name a body, joint or site (MJCF's reference attributes; objname and
+# refname only with an objtype / reftype of those kinds)
+_REFERENCES = frozenset({"joint", "joint1", "joint2", "jointinparent", "body", "body1",
+                         "body2", "site", "site1", "site2", "refsite", "slidersite",
+                         "sidesite"})
+_TYPED = {"objname": "objtype", "refname": "reftype"}
+_RENAMED_KINDS = frozenset({"body", "xbody", "joint", "site"})
+
+
+def _rename_references(section, renames: dict[str, str]) -> None:
+    """References to a renamed body, joint or site, given the model's name."""
+    if not renames:
+        return
+    for el in section.iter():
+        for attr, value in el.attrib.items():
+            if value not in renames:
+                continue
+            typed = _TYPED.get(attr)
+            if attr in _REFERENCES or (typed and el.get(typed) in _RENAMED_KINDS):
+                el.set(attr, renames[value])
 
 
 def _kept_default(el):
@@ -110,60 +163,92 @@ def merge_sections(first: dict[str, str], second: dict[str, str]) -> dict[str, s
     return out
 
 
-def restore(text: str, sections: dict[str, str],
-            compiles: Callable[[str], None]) -> tuple[str, dict[str, str], list[str]]:
+def restore(text: str, sections: dict[str, str], compiles: Callable[[str], None],
+            checked_text: str | None = None) -> tuple[str, dict[str, str], list[str]]:
     """``text`` (an MJCF file) with the kept sections written back, the elements MuJoCo
-    refuses left out one by one (``compiles`` raises MuJoCo's ValueError): (the file, the
-    sections left out, what was left out and why)."""
+    refuses left out one by one: (the file, the sections left out, what was left out and
+    why). ``compiles`` raises MuJoCo's ValueError; it is given ``checked_text`` (the same
+    model made cheaper to compile, :func:`without_files`; default ``text``) with the
+    sections in it."""
     from lxml import etree
 
     from .conventions import describe_mujoco_error
 
     root = etree.fromstring(text.encode("utf-8"))
-    inserted = []  # (tag, the element) in the file, each a kept element
+    checked = etree.fromstring((checked_text or text).encode("utf-8"))
+    inserted = []  # (tag, the element in the file, its copy in the checked model)
     for tag in WRITE_ORDER:
         if tag not in sections:
             continue
-        source = etree.fromstring(sections[tag])
-        if tag == "default":
-            target = root.find("default")
-            if target is None:
-                target = etree.Element("default")
-                root.insert(1, target)
-        else:
-            target = etree.SubElement(root, tag)
-        for el in list(source):
+        target, checked_target = _section(root, tag, etree), _section(checked, tag, etree)
+        for el in list(etree.fromstring(sections[tag])):
+            copy = _copy(el)
             target.append(el)
-            inserted.append((tag, el))
+            checked_target.append(copy)
+            inserted.append((tag, el, copy))
     left: dict[str, list] = {}
     why = []
     for _ in range(len(inserted) + 1):
-        etree.indent(root, space="  ")  # the same text whatever the sections' own layout
-        candidate = etree.tostring(root, encoding="unicode") + "\n"
+        etree.indent(checked, space="  ")
+        candidate = etree.tostring(checked, encoding="unicode") + "\n"
         try:
             compiles(candidate)
             break
         except ValueError as e:
             message, _name, _tag, line = describe_mujoco_error(str(e))
-            culprit = _element_at(root, candidate, line, [el for _, el in inserted], etree)
+            culprit = _element_at(checked, candidate, line, [c for *_, c in inserted], etree)
             if culprit is None:  # not one of ours to leave out: leave them all out
                 why.append(f"all of them ({message})")
-                for tag, el in inserted:
-                    left.setdefault(tag, []).append(el)
-                    el.getparent().remove(el)
-                inserted.clear()
-                continue
-            tag = next(t for t, el in inserted if el is culprit)
-            inserted = [(t, el) for t, el in inserted if el is not culprit]
-            why.append(f"<{tag}> <{culprit.tag}{_named(culprit)}> ({message})")
-            left.setdefault(tag, []).append(culprit)
-            culprit.getparent().remove(culprit)
+                dropped = list(inserted)
+            else:
+                dropped = [item for item in inserted if item[2] is culprit]
+                tag, el, _ = dropped[0]
+                why.append(f"<{tag}> <{el.tag}{_named(el)}> ({message})")
+            for tag, el, copy in dropped:
+                left.setdefault(tag, []).append(el)
+                el.getparent().remove(el)
+                copy.getparent().remove(copy)
+            inserted = [item for item in inserted if item not in dropped]
     leftover = {}
     for tag, elements in left.items():
         section = etree.Element(tag)
         section.extend(elements)
         leftover[tag] = _text(section, etree)
-    return candidate, leftover, why
+    etree.indent(root, space="  ")  # the same text whatever the sections' own layout
+    return etree.tostring(root, encoding="unicode") + "\n", leftover, why
+
+
+def _section(root, tag: str, etree):
+    """Where kept elements of ``tag`` go: the file's <default>, or a new section at the end."""
+    if tag == "default":
+        target = root.find("default")
+        if target is None:
+            target = etree.Element("default")
+            root.insert(1, target)
+        return target
+    return etree.SubElement(root, tag)
+
+
+def without_files(text: str) -> str:
+    """The model with no mesh or image file to read (mesh geoms as small spheres, textures
+    left out): what the kept sections name (joints, bodies, sites, tendons, classes) is all
+    there, and MuJoCo checks them in a fraction of the compile (no hulls, no decoding)."""
+    from lxml import etree
+
+    root = etree.fromstring(text.encode("utf-8"))
+    for asset in root.iter("asset"):
+        for el in [e for e in asset if e.tag in ("mesh", "texture", "hfield")]:
+            asset.remove(el)
+        for material in asset.iter("material"):
+            material.attrib.pop("texture", None)
+            for layer in list(material):
+                material.remove(layer)
+    for geom in root.iter("geom"):
+        if geom.get("mesh") is not None:
+            del geom.attrib["mesh"]
+            geom.set("type", "sphere")
+            geom.set("size", "0.001")
+    return etree.tostring(root, encoding="unicode")
 
 
 def _named(el) -> str:

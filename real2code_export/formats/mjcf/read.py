@@ -143,6 +143,7 @@ class _Reader:
     taken_parts: set[str] = field(default_factory=set)
     joint_of: dict[int, Joint] = field(default_factory=dict)  # MuJoCo joint id -> model joint
     mimics: set[tuple[str, str]] = field(default_factory=set)  # (joint1, joint2) in the file
+    renamed: dict[str, set[str]] = field(default_factory=dict)  # file name -> model name(s)
 
     def read(self) -> ArticulatedObject:
         m = self.model
@@ -185,7 +186,15 @@ class _Reader:
         for kind, names in self.notes.items():
             warn(f"{self.path}: {kind}: {', '.join(names)}")
         obj = ArticulatedObject(name, parts, joints, self._metadata())
-        kept = unread_sections(self.path, self.mimics) if self._has_unread() else {}
+        renames = {raw: next(iter(new)) for raw, new in self.renamed.items()
+                   if len(new) == 1 and raw not in new}  # one new name, none kept as it was
+        moved = {m.body(b).name: frame for b, frame in self.frames.items()
+                 if b and m.body(b).name and not np.array_equal(frame, np.eye(4))}
+        moved_notes: list[str] = []
+        kept = unread_sections(self.path, self.mimics, renames, moved, moved_notes) \
+            if self._has_unread() else {}
+        for note in moved_notes:
+            warn(f"{self.path}: kept element {note}")
         left = obj.metadata.get(ELEMENTS_KEY)  # what a writer of ours could not write back
         if isinstance(left, dict) and all(isinstance(v, str) for v in left.values()):
             kept = merge_sections(kept, left)
@@ -205,6 +214,10 @@ class _Reader:
         name = sanitize_name(raw, taken)
         if name != raw:
             self.note(f"{what} names changed to identifiers", f"{raw!r} -> {name!r}")
+            if what in ("body", "joint", "site"):  # what kept elements refer to
+                self.renamed.setdefault(raw, set()).add(name)
+        else:
+            self.renamed.setdefault(raw, set()).add(raw)  # (another kind kept the name)
         return name
 
     def _object_name(self) -> str:

@@ -15,16 +15,9 @@ from ...model import ArticulatedObject, Joint, JointType, Part
 from ...repairs import NEGLIGIBLE_MASS
 
 
-def is_frame(part: Part) -> bool:
-    return part.inertial is None and part.visual is None and not part.collision
-
-
 def site_parts(obj: ArticulatedObject) -> set[str]:
-    """The parts written as sites: frames fixed to their parent, with no part of their own
-    hanging from them."""
-    return {j.child for j in obj.joints
-            if j.type is JointType.FIXED and is_frame(obj.part(j.child))
-            and not obj.child_joints(j.child)}
+    """The parts written as sites: the object's frames (:meth:`ArticulatedObject.frame_parts`)."""
+    return obj.frame_parts()
 
 
 def body_chains(obj: ArticulatedObject) -> dict[str, list[Joint]]:

@@ -49,7 +49,7 @@ from .conventions import (
     snap_unit,
 )
 from .geometry import mjcf_geom
-from .kept import ELEMENTS_KEY, restore
+from .kept import ELEMENTS_KEY, restore, without_files
 from .structure import anchors, body_chains, site_parts
 
 SUFFIX = ".xml"
@@ -140,7 +140,7 @@ def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path)
     refuses stays in the metadata, warned about."""
     import mujoco
 
-    def compiles(candidate: str) -> None:
+    def compiles(candidate: str) -> None:  # (the model itself compiled already)
         spec = mujoco.MjSpec.from_string(candidate)
         spec.modelfiledir = str(out_dir) + "/"
         spec.compile()
@@ -149,7 +149,7 @@ def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path)
     if bad:
         raise ExportError(f"MJCF: object {obj.name!r} metadata {ELEMENTS_KEY!r}: sections "
                           f"{bad} are not XML text")
-    text, left, why = restore(text, sections, compiles)
+    text, left, why = restore(text, sections, compiles, without_files(text))
     for reason in why:
         warn(f"MJCF: object {obj.name!r}: kept MJCF element not written back (it stays in "
              f"the metadata {ELEMENTS_KEY!r}): {reason}")

@@ -81,6 +81,12 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
         compiler.set(key, value)
     for part in obj.parts:
         robot.append(_link(part))
+    as_meshes = shape_mesh_files(obj)
+    if as_meshes:
+        kinds = sorted({m.primitives[0].kind.value for m in as_meshes.values()})
+        warn(f"URDF: {obj.name!r}: URDF has no {' or '.join(kinds)}: {len(as_meshes)} shape(s) "
+             f"written as their tessellation's mesh ({MESH_DIR}/<part>_<visual|collision>_<k>"
+             f"_shape.obj), marked {PREFIX}:shape for our reader")
     for joint in obj.joints:
         robot.append(_joint(joint))
     robot.extend(elements)
@@ -134,9 +140,7 @@ def _shape_geometry(parent: etree._Element, part: Part, shape: Primitive, relpat
     elif shape.kind is ShapeKind.CYLINDER:
         _sub(_sub(parent, "geometry"), "cylinder", ("radius", number(s[0])),
              ("length", number(s[1])))
-    else:
-        warn(f"URDF: part {part.name!r}: URDF has no {shape.kind.value}; written as a mesh "
-             f"({relpath}), marked {PREFIX}:shape for our reader")
+    else:  # (said once per object by to_bytes)
         mesh = _mesh_geometry(parent, relpath)
         mesh.set(ns("shape"), shape.kind.value)
         mesh.set(ns("size"), numbers(s))
@@ -148,8 +152,10 @@ def shape_mesh_files(obj: ArticulatedObject) -> dict[str, Mesh]:
     out = {}
     for part in obj.parts:
         for relpath, shape in _mesh_shapes(part):
-            out[relpath] = Mesh(*Primitive(shape.kind, shape.size).tessellation())
+            out[relpath] = Mesh(*Primitive(shape.kind, shape.size).tessellation(),
+                                primitives=(Primitive(shape.kind, shape.size),))
     return out
+
 
 
 def _mesh_shapes(part: Part) -> list[tuple[str, Primitive]]:

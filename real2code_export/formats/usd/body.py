@@ -50,6 +50,23 @@ def write_body(stage, path: str, part: Part, world: np.ndarray):
     return prim
 
 
+def write_frame(stage, path: str, joint):
+    """A frame: an Xform in its parent's body at the fixed joint's origin (double precision),
+    the joint's name in ``real2code:fixedJoint``."""
+    from pxr import Gf, Sdf, UsdGeom
+
+    from .conventions import FRAME_JOINT
+
+    xform = UsdGeom.Xform.Define(stage, path)
+    origin = joint.origin
+    xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).Set(
+        Gf.Vec3d(*origin[:3, 3].tolist()))
+    xform.AddOrientOp(UsdGeom.XformOp.PrecisionDouble).Set(quatd(origin[:3, :3]))
+    prim = xform.GetPrim()
+    prim.CreateAttribute(FRAME_JOINT, Sdf.ValueTypeNames.String, custom=True).Set(joint.name)
+    return prim
+
+
 def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu: float,
                   where: str) -> Inertial | None:
     """The part's inertial in the part frame, SI units. ``to_part`` maps body -> part frame

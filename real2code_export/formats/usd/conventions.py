@@ -38,6 +38,7 @@ NAMESPACE = "real2code"  # our custom attributes: real2code:state, real2code:eff
 WORLD_JOINT = "world_fixed"
 METADATA = f"{NAMESPACE}:metadata"  # the object's metadata (JSON) on the object prim
 FLOATING_JOINT = f"{NAMESPACE}:floatingJoint"  # on a free body: its floating joint's name
+FRAME_JOINT = f"{NAMESPACE}:fixedJoint"  # on a frame (an Xform in a body): its joint's name
 
 
 def new_stage(name: str):

@@ -29,6 +29,7 @@ from . import articulation as art_
 from .body import read_inertial
 from .conventions import (
     FLOATING_JOINT,
+    FRAME_JOINT,
     METADATA,
     open_stage,
     relative_transform,
@@ -102,10 +103,14 @@ def load(path: str | Path) -> ArticulatedObject:
 
     joint_names: set[str] = set()
     joints = [_joint(ctx, e, joint_names) for e in art.edges]
+    frames = [found for body in art.bodies
+              for found in _frames(ctx, body, prims[body], taken, joint_names)]
     joint_at = {e.path: j.name for e, j in zip(art.edges, joints, strict=True)}
     for j in joints:  # a mimic's leader: from its prim path to its joint's name
         if j.mimic is not None:
             j.mimic.joint = joint_at.get(j.mimic.joint, j.mimic.joint)
+    parts += [part for part, _ in frames]
+    joints += [joint for _, joint in frames]
 
     root_prim = stage.GetDefaultPrim() or next(iter(stage.GetPseudoRoot().GetChildren()), None)
     name = sanitize_name(root_prim.GetName() if root_prim else path.stem)
@@ -181,6 +186,30 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
     texture = images.pop("texture", None)
     return Part(ctx.names[body], visual=visual, collision=collision, inertial=inertial,
                 color=read_color(prim, visual_prims, path), texture=texture, maps=images)
+
+
+def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str]):
+    """The frames in a body: Xforms with nothing to draw below them (no geometry), each a
+    part fixed to the body's part (joint named by ``real2code:fixedJoint``, else
+    ``<body>_to_<frame>``)."""
+    from pxr import UsdGeom
+
+    scale = np.diag([ctx.mpu, ctx.mpu, ctx.mpu, 1.0])
+    for p in _own_descendants(prim):
+        if p.GetTypeName() != "Xform" or any(d.IsA(UsdGeom.Gprim) for d in _own_descendants(p)):
+            continue
+        where = f"prim <{p.GetPath()}>"
+        local = relative_transform(ctx.xforms, p, prim)
+        if not tf.is_rotation(local[:3, :3], tol=1e-5):
+            warn(f"{ctx.path}: {where}: an empty Xform with scale or shear is no frame; ignored")
+            continue
+        name = sanitize_name(p.GetName(), taken)
+        origin = ctx.to_part[body] @ scale @ local @ np.linalg.inv(scale)
+        kept = p.GetAttribute(FRAME_JOINT).Get() if p.HasAttribute(FRAME_JOINT) else None
+        joint = sanitize_name(kept if isinstance(kept, str) and kept else
+                              f"{ctx.names[body]}_to_{name}", joint_names)
+        yield (Part(name, color=read_color(p, [], ctx.path)),
+               Joint(joint, JointType.FIXED, ctx.names[body], name, origin=origin))
 
 
 def _own_descendants(prim):

@@ -1,6 +1,8 @@
 """USD save: the object at q = state (bodies where the capture saw them), UsdPhysics joints,
 mass, collision and looks, through the concept modules (body, geometry, joint) in the layout
-of ``conventions``; deterministic text (.usda), written atomically."""
+of ``conventions``; deterministic text (.usda), written atomically. A frame (a part with no
+mass or geometry, fixed, nothing hanging from it) is an Xform in its parent's body, no rigid
+body of its own (PhysX would give it a default mass)."""
 
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
-from .body import write_body
+from .body import write_body, write_frame
 from .conventions import (
     FLOATING_JOINT,
     GEOMETRY,
@@ -49,10 +51,23 @@ def to_usda(obj: ArticulatedObject) -> str:
     base = f"/{obj.name}"
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
     world = forward_kinematics(written, obj.observed_configuration())
+    frames = obj.frame_parts()
     for part in obj.parts:
+        if part.name in frames:
+            continue
         body = f"{base}/{GEOMETRY}/{part.name}"
         write_body(stage, body, part, world[part.name])
         write_part_geometry(stage, part, body, f"{base}/{LOOKS}/{part.name}")
+    for joint in [j for j in obj.joints if j.child in frames]:  # an Xform in its parent body
+        frame = obj.part(joint.child)
+        path = f"{base}/{GEOMETRY}/{joint.parent}/{frame.name}"
+        if stage.GetPrimAtPath(path):  # the name is one of the parent's own prims': a body
+            frames.discard(frame.name)
+            path = f"{base}/{GEOMETRY}/{frame.name}"
+            write_body(stage, path, frame, world[frame.name])
+        else:
+            write_frame(stage, path, joint)
+        write_part_geometry(stage, frame, path, f"{base}/{LOOKS}/{frame.name}")
 
     world_joint = sanitize_name(WORLD_JOINT, {j.name for j in obj.joints})
     root_part = obj.root.name
@@ -60,6 +75,8 @@ def to_usda(obj: ArticulatedObject) -> str:
                 Joint(world_joint, JointType.FIXED, "", root_part), None,
                 f"{base}/{GEOMETRY}/{root_part}")
     for j in obj.joints:
+        if j.child in frames:
+            continue
         if j.type is JointType.FLOATING:  # a free body: no joint holds it; its name kept
             stage.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}").CreateAttribute(
                 FLOATING_JOINT, Sdf.ValueTypeNames.String, custom=True).Set(j.name)
