@@ -11,7 +11,7 @@ split into boxes: ``collision.collision_pieces``) and separating the parts' piec
 (``collision_separation.separate``, q = 0 and every joint's range), the piece count, and the
 part pairs whose pieces overlap at q = 0 before and after separation (MuJoCo's collision
 detection, every pair, deeper than 0.1 mm), and after it the joints whose child meets its
-parent's pieces at one of 9 values along its range. With --coacd, CoACD (the decomposition a
+parent's pieces along its range (at the values separation sweeps and halfway between). With --coacd, CoACD (the decomposition a
 user would otherwise reach for; threshold 0.1, at most 32 pieces, no cache) on the demo's
 largest part, beside ours on the same part, as a ratio from one run.
 """
@@ -49,7 +49,8 @@ def overlap_summary(obj) -> str:
 
 
 def range_summary(obj) -> str:
-    """Joints whose child meets its parent's pieces at one of 9 values along the range."""
+    """Joints whose child meets its parent's pieces along the range (at the values separation
+    sweeps and halfway between)."""
     with tempfile.TemporaryDirectory() as folder:
         found = overlaps_along_ranges(write_formats(obj, folder, ["mjcf"])["mjcf"], obj)
     if not found:

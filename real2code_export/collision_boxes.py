@@ -46,7 +46,10 @@ def hollow_pieces(mesh: Mesh, hull_volume: float, pitch: float, max_pieces: int
     points = mesh.vertices[np.unique(mesh.faces)]
     if np.ptp(points, axis=0).max() < 3 * pitch:  # a few voxels: no cavity worth keeping
         return None
-    to_box, _ = trimesh.bounds.oriented_bounds(points)
+    try:
+        to_box, _ = trimesh.bounds.oriented_bounds(points)
+    except TypeError:  # trimesh finds no box when every candidate's volume is NaN (PartNet
+        to_box = np.eye(4)  # 12036's thin pieces): the voxels are then axis-aligned
     samples = _surface_samples(mesh, pitch)
     local = trimesh.transform_points(samples, to_box)
     low = local.min(axis=0)

@@ -100,11 +100,13 @@ def separate(obj: ArticulatedObject, *, parts: set[str] | None = None, gap: floa
     cuts: list[Cut] = []
     for q, pair in _configurations(obj, sweep):
         poses = forward_kinematics(obj, q)
-        for piece in pieces:
+        # along a range only the joint's child and parent are compared: only they are placed
+        placed = [p for p in pieces if pair is None or p.part in pair]
+        for piece in placed:
             piece.place(poses[piece.part])
         for _ in range(_MAX_PASSES):  # a carved piece's new pieces are checked on the next pass
             found = []
-            for a, b in _candidate_pairs(pieces, pair, mutable, gap):
+            for a, b in _candidate_pairs(placed, pair, mutable, gap):
                 if a.volume == 0 or b.volume == 0:
                     continue
                 cut = _separate_pair(a, b, poses, mutable, small, gap, min_thickness)
@@ -112,8 +114,10 @@ def separate(obj: ArticulatedObject, *, parts: set[str] | None = None, gap: floa
                     part, other, depth, outcome, new_pieces = cut
                     found.append(Cut(part, other, depth, dict(q), outcome))
                     pieces += new_pieces
+                    placed += new_pieces
             cuts += found
             pieces = [p for p in pieces if p.volume > 0]
+            placed = [p for p in placed if p.volume > 0]
             if not any(c.outcome == "carved" for c in found):
                 break
     for part in out.parts:
@@ -230,7 +234,12 @@ def _carve(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: set[str]
     big, intruder = (a, b) if a.volume >= b.volume else (b, a)
     if big.part not in mutable:
         return a.part, b.part, depth, "left", []
-    to_box, extents = trimesh.bounds.oriented_bounds(intruder.world)
+    try:
+        to_box, extents = trimesh.bounds.oriented_bounds(intruder.world)
+    except TypeError:  # no box found (NaN volumes, as in collision_boxes): axis-aligned
+        low, high = intruder.world.min(axis=0), intruder.world.max(axis=0)
+        to_box, extents = np.eye(4), high - low
+        to_box[:3, 3] = -(low + high) / 2
     from_box = np.linalg.inv(to_box)
     carved = []
     for axis in range(3):

@@ -1,8 +1,10 @@
 """The contact experiments of the dynamic check: what a robot does with the object.
 
 - ``drop``: every joint opened to 90 % of its range from its closed end, the hinges held
-  there (made fixed); a 5 cm box released 2 cm above the floor of every open drawer (a slide's child with a floor a box fits on,
-  reached from above without touching anything else). It must come to rest on that floor.
+  there (made fixed); a 5 cm box released 2 cm above the floor of every open drawer (a
+  slide's child with a floor a box fits on, reached from above without touching anything
+  else). It must come to rest on that floor: inside its extent, neither through it nor on
+  anything above it (within ``REST_TOLERANCE``).
 - ``shut``: every door (a limited hinge with a closed end) started 0.5 rad open and thrown
   shut at 1 rad/s, no gravity, its joint laws off, its frame and its neighbours colliding
   with it: it must come to its closed value and stop there (within ``STOP_TOLERANCE``),
@@ -39,7 +41,8 @@ RAY_SPACING = 0.005  # m between the downward rays that find a drawer's floor
 SHUT_OPEN = 0.5  # rad from the closed end (or 90 % of a shorter range)
 SHUT_SPEED = 1.0  # rad/s
 STOP_TOLERANCE = 0.02  # rad past the closed value: a door further in went through its frame
-REST_TOLERANCE = 0.01  # m: the box's final centre this close to resting on the floor
+REST_TOLERANCE = 0.01  # m: the box's final centre this close to resting on the floor (a
+# floor's levels apart, an engine's contact depth)
 
 
 @dataclass
@@ -97,6 +100,7 @@ class Floor:
     joint: str
     axis: np.ndarray  # the slide's world direction
     height: float  # m, world z of the floor where the box lands
+    low: float  # m, world z of the floor's lowest level (an uneven floor: 1 cm below at most)
     inside: np.ndarray  # (2, 2): the floor's xy extent at the open state
     centre: tuple[float, float, float]  # where the box is released
 
@@ -163,7 +167,7 @@ def find_floor(obj: ArticulatedObject, joint: Joint, q: dict[str, float], scene,
     i, k = min(level, key=lambda ik: np.hypot(gx[ik] - middle[0], gy[ik] - middle[1]))
     height = float(max(z[i - reach:i + reach + 1, k - reach:k + reach + 1].max(), lowest))
     parent_pose = forward_kinematics(obj, q)[joint.parent] @ joint.origin
-    return Floor(joint.name, parent_pose[:3, :3] @ joint.axis, height, inside,
+    return Floor(joint.name, parent_pose[:3, :3] @ joint.axis, height, float(lowest), inside,
                  (float(gx[i, k]), float(gy[i, k]),
                   height + DROP_CLEARANCE + box_size / 2))
 
@@ -210,8 +214,10 @@ def _drop_judge(floors: list[Floor], half: float) -> Judge:
             centre = trajectory.boxes[-1, b] - moved  # in the drawer as it was opened
             outside = np.maximum(np.maximum(floor.inside[0] - centre[:2],
                                             centre[:2] - floor.inside[1]), 0.0)
-            miss = max(float(np.linalg.norm(outside)),
-                       abs(float(centre[2]) - (floor.height + half)) - REST_TOLERANCE, 0.0)
+            # resting on the floor: neither through it nor on anything above it
+            z = float(centre[2])
+            miss = max(float(np.linalg.norm(outside)), floor.low + half - REST_TOLERANCE - z,
+                       z - (floor.height + half + REST_TOLERANCE), 0.0)
             if not np.all(np.isfinite(centre)):
                 miss = float("inf")
             worst = max(worst, miss)

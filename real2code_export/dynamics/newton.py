@@ -6,10 +6,11 @@ Newton reads joint damping, friction and armature from each file, and MuJoCo's c
 softness (solreflimit, solimplimit, solreffriction) from the MJCF and, once the solver's
 attributes are registered before import, from the USD's MjcJointAPI; a URDF has no place
 for them, so they are set as MuJoCo (URDF) is told. Without them Newton makes a limit its
-default spring (ke 1e4, kd 10), off which a door rebounds. Its USD importer starts at
-q = 0 and counts limits from the written pose when ``mjc:ref`` is authored (see
-``_unshift_limits``); the experiment sets the initial state by joint name and its gravity
-(a USD's PhysicsScene would set its own).
+default spring (ke 1e4, kd 10), off which a door rebounds. Its USD importer reads the
+observed state with PhysX's schema resolver (else it starts at q = 0) and counts limits
+from the written pose when ``mjc:ref`` is authored (see ``_unshift_limits``); the
+experiment sets the initial state by joint name and its gravity (a USD's PhysicsScene
+would set its own).
 An experiment's boxes are free bodies; ``self_contacts`` drops the importers' filtered
 shape pairs between bodies and MuJoCo's parent/child filter.
 """
@@ -40,7 +41,12 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     newton.solvers.SolverMuJoCo.register_custom_attributes(builder)
     kind = format_for_path(path).name  # the registry knows the suffixes
     if kind == "usd":
-        builder.add_usd(str(path))
+        # with PhysX's resolver it reads the observed state (state:*:physics:position), as
+        # Isaac Sim does; its default resolvers start every joint at 0
+        from newton.usd import SchemaResolverNewton, SchemaResolverPhysx
+
+        builder.add_usd(str(path),
+                        schema_resolvers=[SchemaResolverNewton(), SchemaResolverPhysx()])
         _unshift_limits(builder)
     elif kind == "mjcf":
         builder.add_mjcf(str(path), floating=False)

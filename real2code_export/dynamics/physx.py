@@ -39,9 +39,10 @@ def _attach(physx, ovphysx, path: Path):
     return stage
 
 
-def _layer_over(path: Path, experiment: Experiment) -> Path:
+def _layer_over(path: Path, experiment: Experiment) -> tuple[Path, float]:
     """A layer over ``path`` (beside it): the experiment's gravity, its boxes as rigid cubes
-    and, with ``self_contacts``, every joint's bodies colliding."""
+    and, with ``self_contacts``, every joint's bodies colliding; and the stage's metres per
+    unit."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
     source = Usd.Stage.Open(str(path))
@@ -71,7 +72,7 @@ def _layer_over(path: Path, experiment: Experiment) -> Path:
         UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
         UsdPhysics.MassAPI.Apply(cube.GetPrim()).CreateMassAttr(experiment.box_mass)
     layer.Save()
-    return over
+    return over, units
 
 
 def _root_path(path: Path) -> str:
@@ -90,10 +91,7 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     from ovphysx.types import TensorType
 
     root = _root_path(path)
-    path = _layer_over(path, experiment)
-    from pxr import Usd, UsdGeom
-
-    units = UsdGeom.GetStageMetersPerUnit(Usd.Stage.Open(str(path)))
+    path, units = _layer_over(path, experiment)
     PhysX.set_cpu_mode(True)
     physx = PhysX()
     stage = None
