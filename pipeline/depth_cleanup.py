@@ -147,6 +147,11 @@ def refine_poses(frames: list[Frame], diagonal: float,
     reg = o3d.pipelines.registration
     voxel = diagonal / 150
     local = [_cloud(f, f.depth, voxel) for f in frames]
+    for pcd in local:  # normals once per view (each seen from its camera, so they agree when
+        # the views' points are merged), not once per merge: the merges' normals took most
+        # of the cleanup's time
+        pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(3 * voxel, 30))
+        pcd.orient_normals_towards_camera_location(np.zeros(3))
     poses = [f.camera_to_world.copy() for f in frames]
     distance = options.icp_distance * diagonal
     moves = [0.0] * len(frames)
@@ -158,10 +163,10 @@ def refine_poses(frames: list[Frame], diagonal: float,
             for i, pcd in enumerate(local):
                 if i != k:
                     others += o3d.geometry.PointCloud(pcd).transform(poses[i])
-            others = others.voxel_down_sample(voxel)
+            others = others.voxel_down_sample(voxel)  # normals averaged per voxel
             if len(others.points) < 50 or len(local[k].points) < 50:
                 continue
-            others.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(3 * voxel, 30))
+            others.normalize_normals()
             before = reg.evaluate_registration(local[k], others, distance, poses[k])
             result = reg.registration_icp(  # Tukey: points of a part seen only here
                 local[k], others, distance, poses[k],  # do not pull the view

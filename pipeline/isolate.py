@@ -35,7 +35,8 @@ class IsolationOptions:
     min_plane_share: float = 0.03  # of a frame's points: a smaller plane ends the search
     scenery_share: float = 0.25  # of a plane's points outside the region: floor or wall
     plane_rel: float = 0.004  # plane inlier distance, relative to depth (clean depth) ...
-    plane_sigmas: float = 4.0  # ... or this many times the frame's relative noise
+    plane_sigmas: float = 3.0  # ... or this many times the frame's relative noise ...
+    max_plane_rel: float = 0.03  # ... but at most this share of the region's radius
     ransac_points: int = 3000  # a frame's points the RANSAC draws from
     ransac_iterations: int = 200
     voxel_rel: float = 0.012  # a voxel, of the region's radius
@@ -129,14 +130,16 @@ def _frame_points(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return rows, cols, world
 
 
-def plane_tolerance(depth: np.ndarray, inside: np.ndarray, noise_rel: float,
+def plane_tolerance(depth: np.ndarray, inside: np.ndarray, noise_rel: float, region: Region,
                     options: IsolationOptions = IsolationOptions(),
                     ) -> tuple[np.ndarray, np.ndarray]:
-    """Per point, how far off a plane its points may lie: for finding it, and for taking
-    the room's: more outside the region, where a sensor's noise grows faster than the
-    object's noise says (what is left of a floor must not pair up with a face of the
-    object into a plane)."""
-    tolerance = max(options.plane_rel, options.plane_sigmas * noise_rel) * depth
+    """Per point, how far off a plane its points may lie: for finding it (at most a small
+    share of the object's size: a thicker slab would take the object's faces with the
+    floor), and for taking the room's: more outside the region, where a sensor's noise
+    grows faster than the object's noise says (what is left of a floor must not pair up
+    with a face of the object into a plane)."""
+    tolerance = np.minimum(max(options.plane_rel, options.plane_sigmas * noise_rel) * depth,
+                           options.max_plane_rel * region.size())
     return tolerance, np.where(inside, 1.0, options.far_tolerance) * tolerance
 
 
@@ -284,7 +287,7 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
         inside = region.contains(world)
         near[rows[inside], cols[inside]] = frame.depth[rows[inside], cols[inside]]
         tolerance, wide = plane_tolerance(frame.depth[rows, cols], inside, noise_level(near),
-                                          options)
+                                          region, options)
         plane, found = scenery_planes(world, tolerance, wide, inside, region, rng, options)
         room_planes.append(found)
         per_frame.append((rows, cols, world, plane, wide))
