@@ -26,7 +26,7 @@ from .inverse import EquationFit, equation_fit
 from .problem import Problem
 from .residuals import Evaluator, initial_slots
 from .simulate import Rollout
-from .uncertainty import input_noise_spread, uncertainty
+from .uncertainty import Solution, input_noise_spread, uncertainty
 
 DEGENERATE = 0.999  # parameters of two effects this correlated explain the same thing
 # An effect is named only if removing it moves the simulated motion by at least this many
@@ -174,22 +174,6 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
                     start)
     fit = _finish(sol, np.zeros(len(x_star)))
     return refine_fit(fit) if refine else fit
-
-
-@dataclass
-class Solution:
-    """What a fit needs to be finished again (after the numerical refinement)."""
-
-    problem: Problem
-    ev: Evaluator
-    x: np.ndarray
-    jac: np.ndarray
-    scales: np.ndarray
-    lb: np.ndarray
-    ub: np.ndarray
-    r: np.ndarray
-    ros: list
-    start: EquationFit | None
 
 
 def _finish(sol: Solution, numerical: np.ndarray) -> Fit:

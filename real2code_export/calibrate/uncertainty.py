@@ -9,19 +9,37 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .problem import Problem
 from .simulate import BatchRunner
 
 if TYPE_CHECKING:
-    from .fit import Solution
+    from .inverse import EquationFit
     from .residuals import Evaluator
 
 CORRELATED = 0.995  # parameters this correlated are reported as correlated_with
 
 INPUT_NOISE_DRAWS = 4
+
+
+@dataclass
+class Solution:
+    """What a fit needs to be finished again (after the numerical refinement)."""
+
+    problem: Problem
+    ev: Evaluator
+    x: np.ndarray
+    jac: np.ndarray
+    scales: np.ndarray
+    lb: np.ndarray
+    ub: np.ndarray
+    r: np.ndarray
+    ros: list
+    start: EquationFit | None
 
 
 def input_noise_spread(sol: Solution) -> np.ndarray:
