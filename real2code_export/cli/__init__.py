@@ -55,7 +55,30 @@ def run(argv: list[str] | None = None) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    sys.exit(run(argv))
+    """The console script: run, then end the process (see :func:`_end_process`)."""
+    _end_process(run(argv))
+
+
+def _end_process(status: int) -> None:
+    """Exit with ``status`` without the interpreter's teardown when nothing else is running:
+    the exit handlers run and the standard streams are flushed as on a normal exit (every
+    output file is closed before it is moved into place, atomic.py), but freeing the modules
+    (USD's, MuJoCo's, numpy's) is skipped: 0.02 to 0.04 s of CPU, 5 to 10 % of an export.
+    With another thread alive the ordinary exit waits for it."""
+    import threading
+
+    if threading.active_count() > 1:
+        sys.exit(status)
+    import atexit
+    import os
+
+    atexit._run_exitfuncs()  # logging's flush, multiprocessing's and Ray's shutdown, ...
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing more can be said
+            pass
+    os._exit(status)
 
 
 if __name__ == "__main__":
