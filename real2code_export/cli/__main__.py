@@ -1,5 +1,8 @@
-"""``python -m real2code_export.cli ...`` (= ``real2code ...``)."""
+"""``python -m real2code_export.cli ...`` (= ``real2code ...``, with the interpreter's ordinary
+exit: ``python -m cProfile -m real2code_export.cli`` writes its profile after it)."""
 
-from . import main
+import sys
 
-main()
+from . import run
+
+sys.exit(run())
