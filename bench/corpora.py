@@ -49,8 +49,8 @@ def timed(cmd: list[str]) -> tuple[float, float, int, str]:
     machine inflates less than the wall time), exit status and last line said."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ,
-                          "MUJOCO_GL": os.environ.get("MUJOCO_GL", "osmesa")})
+    # (the environment as the user's shell has it: no MUJOCO_GL forced on either tool)
+    done = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime

@@ -3,6 +3,7 @@ exit: ``python -m cProfile -m real2code_export.cli`` writes its profile after it
 
 import sys
 
-from . import run
+from . import no_mujoco_graphics, run
 
+no_mujoco_graphics()
 sys.exit(run())
