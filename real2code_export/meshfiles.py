@@ -297,7 +297,9 @@ def texture_from_file(image_path: Path) -> Texture:
     return Texture(data, mime, image_path.stem)
 
 
-_VERTEX_LINE = re.compile(rb"^v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
+# (a line break before the ``v``, not ``^`` in MULTILINE mode: a literal prefix the regular
+# expression engine searches for quickly; the numbers of a line in one group, split once)
+_VERTEX_LINE = re.compile(rb"\nv[ \t]+(\S+[ \t]+\S+[ \t]+\S+)")
 
 
 def _exact_vertices(path: Path, parsed: np.ndarray) -> np.ndarray:
@@ -305,7 +307,8 @@ def _exact_vertices(path: Path, parsed: np.ndarray) -> np.ndarray:
     number parser can be one unit in the last place off, which would break the lossless
     object.json round trip. Its values stand when the ``v`` lines do not read plainly."""
     try:
-        exact = np.array(_VERTEX_LINE.findall(path.read_bytes()), dtype=np.float64)
+        numbers = b" ".join(_VERTEX_LINE.findall(b"\n" + path.read_bytes())).split()
+        exact = np.array(numbers, dtype=np.float64).reshape(-1, 3)
     except ValueError:
         exact = np.zeros((0, 3))
     if exact.shape == (len(parsed) // 3, 3) and np.allclose(exact.ravel(), parsed, rtol=1e-6,
