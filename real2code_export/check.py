@@ -165,9 +165,10 @@ def check_files(
         raise CheckError(f"n_configurations must be >= 1, got {n_configurations}")
     # The glTF validator (a Node.js process) runs while the probes load and pose.
     finish = start_validation(list(paths)) if validate else list
-    report = _compare(paths, n_configurations, seed, tol_position, tol_rotation, reference,
-                      source)
-    validations = finish()
+    report, probes = _compare(paths, n_configurations, seed, tol_position, tol_rotation,
+                              reference, source)
+    validations = finish()  # the probes still open: USD's validator reuses their parsed layers
+    del probes
     for v in validations:
         if v.errors:
             report.mismatches.append(Mismatch("validation", v.tool, Path(v.path).name,
@@ -178,8 +179,9 @@ def check_files(
 
 
 def _compare(paths, n_configurations, seed, tol_position, tol_rotation, reference,
-             source) -> CheckReport:
-    """The kinematic comparison of :func:`check_files` (without the validators)."""
+             source) -> tuple[CheckReport, list[Probe]]:
+    """The kinematic comparison of :func:`check_files` (without the validators), and the
+    probes it opened."""
     probes: list[Probe] = list(open_source_probes(source)) if source is not None else []
     for path in paths:
         probes.extend(open_probes(path))
@@ -211,7 +213,7 @@ def _compare(paths, n_configurations, seed, tol_position, tol_rotation, referenc
         files=[str(p) for p in paths], reference=names[ref], probes=results, joints=joints,
         configurations=configurations, tol_position=tol_position, tol_rotation=tol_rotation,
         parts=parts, mismatches=mismatches, overlaps=file_overlaps(paths),
-    )
+    ), probes
 
 
 def _display_names(probes: list[Probe]) -> list[str]:

@@ -63,6 +63,9 @@ class UsdProbe:
             parsed = load_physics(stage)
         except Tf.ErrorException as e:
             raise CheckError(f"{path}: cannot load with UsdPhysics: {e}") from e
+        # kept while the probe lives: the file's layer stays loaded, and check's USD
+        # validator, opening the same file, composes it without parsing it again
+        self._stage = stage
         mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
         self._world = np.eye(4)
         if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y:
