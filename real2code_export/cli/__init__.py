@@ -75,8 +75,8 @@ def _end_process(status: int) -> None:
     the exit handlers run and the standard streams are flushed as on a normal exit (every
     output file is closed before it is moved into place, atomic.py), but freeing the modules
     (USD's, MuJoCo's, numpy's) is skipped: 0.02 to 0.04 s of CPU, 5 to 10 % of an export.
-    With another thread alive, or a profiler or tracer watching (coverage, cProfile: they
-    write their results after the program), the ordinary exit."""
+    With another thread alive, or a profiler or tracer watching (``python -m cProfile -m
+    real2code_export.cli`` writes its profile after the program), the ordinary exit."""
     import threading
 
     if threading.active_count() > 1 or sys.getprofile() or sys.gettrace():
