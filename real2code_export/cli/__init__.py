@@ -82,14 +82,13 @@ def _end_process(status: int) -> None:
     if threading.active_count() > 1 or sys.getprofile() or sys.gettrace():
         sys.exit(status)
     import atexit
+    import contextlib
     import os
 
     atexit._run_exitfuncs()  # logging's flush, multiprocessing's and Ray's shutdown, ...
     for stream in (sys.stdout, sys.stderr):
-        try:
+        with contextlib.suppress(OSError, ValueError):  # a closed pipe: nothing more to say
             stream.flush()
-        except (OSError, ValueError):  # a closed pipe: nothing more can be said
-            pass
     os._exit(status)
 
 
