@@ -94,7 +94,24 @@ def main() -> None:
         verdict = "met" if b / a >= 2 else "NOT met"
         print(f"all {len(ids)}, {kind}, {run}: real2code {a:.2f} s, converter {b:.2f} s, "
               f"converter/real2code = {b / a:.2f} (target >= 2: {verdict})")
+    _floor(ours, args.repeat)
     print(f"load average at end {load_average()}")
+
+
+# what both commands import before any work: numpy and USD's modules (each venv its own)
+_IMPORTS = "import numpy; from pxr import Usd, UsdGeom, UsdPhysics, UsdShade, Sdf, Gf, Vt"
+
+
+def _floor(ours: str, repeat: int) -> None:
+    """The imports alone, in each tool's interpreter, alternating as above: the CPU no export
+    of either tool can go below, beside what their exports cost."""
+    pythons = {"real2code": Path(ours).parent / "python", "converter": CONVERTER.parent / "python"}
+    cpu: dict[str, list[float]] = {name: [] for name in pythons}
+    for _ in range(max(repeat, 3)):
+        for name, python in pythons.items():
+            cpu[name].append(_run([str(python), "-c", _IMPORTS])[1])
+    print("imports alone (python -c \"" + _IMPORTS + "\"), cpu s, median: " + ", ".join(
+        f"{name} {statistics.median(v):.3f}" for name, v in cpu.items()))
 
 if __name__ == "__main__":
     main()
