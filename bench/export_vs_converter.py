@@ -113,5 +113,6 @@ def _floor(ours: str, repeat: int) -> None:
     print("imports alone (python -c \"" + _IMPORTS + "\"), cpu s, median: " + ", ".join(
         f"{name} {statistics.median(v):.3f}" for name, v in cpu.items()))
 
+
 if __name__ == "__main__":
     main()
