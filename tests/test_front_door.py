@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
+import subprocess
 import sys
 import types
 from pathlib import Path
@@ -260,3 +262,22 @@ def test_the_parser_restates_no_stage_fact_wrongly():
 
     assert tuple(sensors.PRESETS) == reconstruct.CAPTURE_PRESETS
     assert batch.KINDS == KINDS == tuple(TASKS)
+
+
+def test_the_process_ends_after_its_exit_handlers_and_buffered_output():
+    """The console script skips the interpreter's teardown, not the exit handlers, the
+    buffered output or the status; and a library's environment is the user's where set."""
+    code = ("import atexit, sys\n"
+            "atexit.register(lambda: print('handler ran'))\n"
+            "from real2code_export.cli import _end_process, process_defaults\n"
+            "process_defaults()\n"
+            "import os\n"
+            "print(os.environ['MUJOCO_GL'], os.environ['OPENBLAS_NUM_THREADS'], end=' ')\n"
+            "sys.stderr.write('said')\n"
+            "_end_process(3)\n"
+            "print('never')\n")
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "OPENBLAS_NUM_THREADS")}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env | {"OPENBLAS_NUM_THREADS": "2"}, cwd=REPO)
+    assert done.returncode == 3, done.stderr
+    assert done.stdout == "disable 2 handler ran\n" and done.stderr == "said"

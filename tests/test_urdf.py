@@ -406,6 +406,23 @@ def test_stl_is_read_as_trimesh_reads_it(tmp_path, kind):
         read_mesh(path, source=tmp_path / "robot.urdf", element="<link name='base'>")
 
 
+def test_obj_vertices_are_the_numbers_written(tmp_path):
+    """An OBJ's vertices are the nearest float64 to each number in its ``v`` lines (the file's
+    first line a ``v`` line, tabs, a w component, many digits), whatever tinyobjloader's own
+    parser rounds them to."""
+    from real2code_export.meshfiles import read_mesh
+
+    numbers = ["0.1", "-2.718281828459045", "3.0000000000000004", "1e-7", "123456.789012345",
+               "-0.30000000000000004", "7", "8.5", "9.25"]
+    path = tmp_path / "part.obj"
+    path.write_text(f"v {numbers[0]} {numbers[1]}\t{numbers[2]} 1.0\n"
+                    f"# a comment\nv\t{numbers[3]} {numbers[4]} {numbers[5]}\n"
+                    f"vn 0 0 1\nv {' '.join(numbers[6:])}\nf 1 2 3\n")
+    mesh = read_mesh(path)
+    np.testing.assert_array_equal(mesh.vertices.ravel(), [float(x) for x in numbers])
+    np.testing.assert_array_equal(mesh.faces, [[0, 1, 2]])
+
+
 COLLADA_MM = """<?xml version="1.0" encoding="utf-8"?>
 <COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
   <asset><unit name="millimeter" meter="0.001"/><up_axis>Y_UP</up_axis></asset>
