@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -180,6 +181,24 @@ def test_failed_export_leaves_nothing(tmp_path):
         (staging / "half.xml").write_text("<half")
         raise RuntimeError("writer failed")
     assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+
+
+def test_a_file_a_library_writes_itself_replaces_the_old_one_whole_or_not_at_all(tmp_path):
+    target = tmp_path / "object.usda"
+    target.write_text("the good file")
+
+    def half_then_fail(path: Path):
+        assert path.suffix == ".usda" and path.parent == tmp_path  # the library's own suffix
+        path.write_text("half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        atomic.write_with(target, half_then_fail)
+    assert [p.name for p in tmp_path.iterdir()] == ["object.usda"]
+    assert target.read_text() == "the good file"
+    atomic.write_with(target, lambda path: path.write_text("new"))
+    assert [p.name for p in tmp_path.iterdir()] == ["object.usda"] and target.read_text() == "new"
+    assert target.stat().st_mode & 0o777 == 0o666 & ~atomic._UMASK  # as open() makes files
 
 
 def test_box_inertial_helper_is_valid():

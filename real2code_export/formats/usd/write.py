@@ -27,6 +27,7 @@ from .conventions import (
     METADATA,
     PHYSICS,
     WORLD_JOINT,
+    save_stage,
     stage_text,
 )
 from .geometry import write_part_geometry
@@ -34,6 +35,11 @@ from .joint import as_written, write_joint, write_mimic
 
 
 def to_usda(obj: ArticulatedObject) -> str:
+    """The object's .usda text (what :func:`save` writes)."""
+    return stage_text(_stage(obj))
+
+
+def _stage(obj: ArticulatedObject):
     import newton_usd_schemas  # noqa: F401  (registers NewtonJointAPI / NewtonMassAPI)
     from pxr import Sdf, UsdPhysics
 
@@ -86,7 +92,7 @@ def to_usda(obj: ArticulatedObject) -> str:
         if j.mimic is not None:
             write_mimic(stage.GetPrimAtPath(f"{base}/{PHYSICS}/{j.name}"), j.mimic,
                         f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
-    return stage_text(stage)
+    return stage
 
 
 def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
@@ -98,4 +104,5 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
         write_object_meshes(obj, out_dir)
     else:
         write_texture_images(obj, out_dir)
-    return atomic.write_text(out_dir / f"{obj.name}.usda", to_usda(obj))
+    stage = _stage(obj)
+    return atomic.write_with(out_dir / f"{obj.name}.usda", lambda tmp: save_stage(stage, tmp))
