@@ -3,6 +3,7 @@ report (check, calibrate, batch) writes its numbers with."""
 
 from __future__ import annotations
 
+import json
 import math
 import numbers
 from typing import Any
@@ -23,3 +24,9 @@ def finite_or_null(value: Any) -> Any:
         x = float(value)
         return x if math.isfinite(x) else None
     return value
+
+
+def dumps(value: Any) -> str:
+    """``value`` as the JSON every ``--json`` writes: NaN and infinity as null (strict JSON,
+    which Python's own ``json`` would otherwise break with a bare ``NaN``), one space indent."""
+    return json.dumps(finite_or_null(value), indent=1, allow_nan=False)

@@ -167,6 +167,23 @@ def test_fingerprint_follows_references(tmp_path):
     assert inputs_hash(obj) != before  # a texture two references away
 
 
+def test_fingerprint_tells_text_from_binary_by_content(tmp_path):
+    """A text USD layer under `.usd` is followed to its texture; a binary file naming one is
+    not read for names (its bytes are hashed all the same)."""
+    folder = tmp_path / "obj"
+    folder.mkdir()
+    (folder / "wood.png").write_bytes(b"png")
+    (folder / "other.png").write_bytes(b"png")
+    usd = folder / "thing.usd"
+    usd.write_text('#usda 1.0\ndef Shader "t" { asset inputs:file = @wood.png@ }\n')
+    (folder / "blob.bin").write_bytes(b"\0\1 other.png")
+    (obj,) = expand_inputs([usd], "export")
+    assert [p.name for p in input_files(obj)] == ["thing.usd", "wood.png"]
+    usd.write_text('#usda 1.0\ndef Xform "x" { custom asset a = @blob.bin@ }\n')
+    (obj,) = expand_inputs([usd], "export")
+    assert [p.name for p in input_files(obj)] == ["blob.bin", "thing.usd"]
+
+
 # -- manifest ----------------------------------------------------------------------------------
 def test_manifest_last_line_wins_and_cut_lines_are_skipped(tmp_path):
     path = tmp_path / manifest.FILENAME

@@ -158,3 +158,28 @@ def test_articulate_refuses_a_single_part(tmp_path, capsys):
     assert run(["articulate", str(parts), "--out", str(out)]) == EXIT_ERROR
     assert "need at least two" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_json_reports_are_strict_json(tmp_path, capsys):
+    """A figure with no value (an empty bucket's mean) is written as null: Python's json would
+    write a bare NaN, which strict readers (JavaScript, jq) refuse."""
+    import argparse
+
+    from real2code_export.cli.options import write_evaluation
+
+    out = tmp_path / "figures.json"
+    args = argparse.Namespace(json=out, markdown=None)
+    write_evaluation(args, "table", {"bucket": {"axis_error_deg": float("nan"), "n": 0,
+                                                "type_accuracy": np.float64(1.0)}})
+    text = out.read_text()
+    assert "NaN" not in text
+    assert json.loads(text) == {"bucket": {"axis_error_deg": None, "n": 0, "type_accuracy": 1.0}}
+
+
+def test_model_arguments_name_the_registry_s_suffixes(capsys):
+    from real2code_export.formats import suffixes
+
+    with pytest.raises(SystemExit):
+        run(["check", "--help"])
+    text = capsys.readouterr().out
+    assert all(s in text for s in suffixes())

@@ -19,8 +19,10 @@ from pathlib import Path
 
 from .inputs import BatchObject
 
-# Text formats whose tokens may name files; others (binary meshes, images) are leaves.
-_SCANNED = {".urdf", ".xml", ".mjcf", ".json", ".gltf", ".usda", ".obj", ".mtl"}
+# A text file's tokens may name files; binary ones (meshes, images, USD crate files) are
+# leaves. Told by content, not by suffix: a USD layer may be text or crate under the same
+# suffix, and any format a description refers to is covered without a list to keep.
+_SNIFF = 8192
 _TOKEN = re.compile(rb"[^\s\"'<>=@,;()\[\]{}]+")
 _MJCF_DIRS = re.compile(rb"(?:meshdir|texturedir|assetdir)\s*=\s*[\"']([^\"']*)[\"']")
 _NUMBER = re.compile(rb"[-+0-9.eE]+")  # numbers are never file names; skip the stat
@@ -41,7 +43,9 @@ def input_files(obj: BatchObject) -> list[Path]:
         if path in seen or not path.is_file():
             continue
         seen.add(path)
-        if path.suffix.lower() in _SCANNED:
+        with path.open("rb") as f:
+            text = b"\0" not in f.read(_SNIFF)
+        if text:
             todo.extend(_references(path, path.read_bytes()))
     return sorted(seen)
 

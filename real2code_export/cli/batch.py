@@ -9,7 +9,6 @@ to continue).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from .options import EXIT_DISAGREE as EXIT_FAILED
@@ -61,7 +60,7 @@ def add_parsers(subparsers) -> argparse.ArgumentParser:
 
 
 def cmd_batch(args) -> int:
-    from .. import atomic
+    from .. import atomic, jsonsafe
     from ..batch.progress import format_summary
     from ..batch.run import run_batch
     from ..batch.tasks import TaskOptions
@@ -75,11 +74,11 @@ def cmd_batch(args) -> int:
     table = format_summary(summary)
     if args.json == "-":
         print(table, file=sys.stderr)
-        print(json.dumps(summary.to_json(), indent=1))
+        print(jsonsafe.dumps(summary.to_json()))
     else:
         print(table)
         if args.json:
-            atomic.write_text(args.json, json.dumps(summary.to_json(), indent=1) + "\n")
+            atomic.write_text(args.json, jsonsafe.dumps(summary.to_json()) + "\n")
     if summary.interrupted:
         print("interrupted: rerun the same command to continue", file=sys.stderr)
         return EXIT_INTERRUPTED

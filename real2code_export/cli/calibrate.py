@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .options import model_help
+
 
 def add_parsers(sub) -> None:
     s = sub.add_parser("calibrate", help="fit joint dynamics to measured motion, name the cause")
-    s.add_argument("model", help="object.json, .urdf, MJCF .xml, .usd or .glb")
+    s.add_argument("model", help=model_help("the object's model file"))
     s.add_argument("--data", action="append", required=True, metavar="CSV",
                    help="a measured trajectory to fit (repeatable; format in docs/design.md)")
     s.add_argument("--holdout", action="append", metavar="CSV",

@@ -3,16 +3,15 @@ them back in their own tools."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from ..errors import Real2CodeError
-from .options import EXIT_DISAGREE, EXIT_OK, add_formats_option, chosen_formats
+from .options import EXIT_DISAGREE, EXIT_OK, add_formats_option, chosen_formats, model_help
 
 
 def add_parsers(sub) -> None:
     s = sub.add_parser("export", help="convert a model to simulator and content formats")
-    s.add_argument("input", help="object.json, .urdf, MJCF .xml, .usd/.usda/.usdc, .glb/.gltf")
+    s.add_argument("input", help=model_help("the model file"))
     add_formats_option(s, "every available one but json")
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--check", action="store_true",
@@ -23,7 +22,7 @@ def add_parsers(sub) -> None:
     s.set_defaults(func=cmd_export)
 
     s = sub.add_parser("check", help="load files in their own tools and compare kinematics")
-    s.add_argument("files", nargs="+", help="files to compare (object.json, .xml, .urdf, ...)")
+    s.add_argument("files", nargs="+", help=model_help("model files to compare"))
     s.add_argument("--json", help="also write the report as JSON to this file")
     s.add_argument("--configurations", type=int, default=100, help="random configurations")
     s.add_argument("--seed", type=int, default=0)
@@ -101,9 +100,9 @@ def cmd_check(args) -> int:
     )
     print(format_table(report))
     if args.json:
-        from .. import atomic
+        from .. import atomic, jsonsafe
 
-        atomic.write_text(args.json, json.dumps(report.to_json(), indent=1) + "\n")
+        atomic.write_text(args.json, jsonsafe.dumps(report.to_json()) + "\n")
     return EXIT_OK if report.ok else EXIT_DISAGREE
 
 

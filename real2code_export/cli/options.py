@@ -25,6 +25,13 @@ def formats_arg(text: str) -> list[str]:
         raise argparse.ArgumentTypeError(e.message) from e
 
 
+def model_help(what: str) -> str:
+    """A model argument's help: what it is, and the suffixes the format registry reads."""
+    from ..formats import suffixes
+
+    return f"{what} ({', '.join(suffixes())})"
+
+
 def add_formats_option(parser, default_help: str = "every available one") -> None:
     from ..formats import FORMATS
 
@@ -48,12 +55,10 @@ def chosen_formats(args) -> list[str]:
 def write_evaluation(args, table: str, figures: dict) -> None:
     """The tail of every ``evaluate`` command: the tables printed, and written as JSON
     (``--json``) and markdown (``--markdown``) where asked."""
-    import json
-
-    from .. import atomic
+    from .. import atomic, jsonsafe
 
     print(table)
-    if args.json:
-        atomic.write_text(args.json, json.dumps(figures, indent=1) + "\n")
+    if args.json:  # a figure with no value (no joint of a kind, say) is null, never NaN
+        atomic.write_text(args.json, jsonsafe.dumps(figures) + "\n")
     if args.markdown:
         atomic.write_text(args.markdown, table + "\n")

@@ -12,6 +12,8 @@ import argparse
 import time
 from pathlib import Path
 
+from .options import model_help
+
 # The renderer's defaults, for --help without importing it (a test holds them equal to
 # pipeline.render's DEFAULT_VIEWS and DEFAULT_SIZE, and pipeline.camera_paths' names).
 RENDER_VIEWS, RENDER_SIZE = 12, 256
@@ -61,7 +63,7 @@ def add_evaluate_parsers(evaluate_sub) -> None:
 # -- render -----------------------------------------------------------------------------------
 def add_render_parser(sub) -> argparse.ArgumentParser:
     s = sub.add_parser("render", help="a synthetic posed RGB-D capture with part masks")
-    s.add_argument("model", help="any importable model (object.json, .urdf, MJCF .xml, ...)")
+    s.add_argument("model", help=model_help("the model to render"))
     s.add_argument("--out", required=True, help="capture folder to write")
     s.add_argument("--views", type=int, default=RENDER_VIEWS, help="number of views (12)")
     s.add_argument("--width", type=int, default=RENDER_SIZE, help="pixels (256)")

@@ -3,9 +3,7 @@ with MuJoCo (the dynamic check)."""
 
 from __future__ import annotations
 
-import json
-
-from .options import EXIT_DISAGREE, EXIT_OK
+from .options import EXIT_DISAGREE, EXIT_OK, model_help
 
 # The parser names no engine or experiment: listing them would import the dynamics package
 # (numpy, the formats) and slow every `real2code --help`; names are checked when it runs.
@@ -21,7 +19,7 @@ def add_parsers(sub) -> None:
     s = sub.add_parser(
         "simulate", help="the same experiments in every engine, each from its native file, "
         "compared with MuJoCo (exit 1 beyond tolerance)")
-    s.add_argument("input", help="the object: object.json, .urdf, MJCF .xml, .usd, ...")
+    s.add_argument("input", help=model_help("the object's model file"))
     s.add_argument("--engines", help="comma-separated engines (default: all; those not "
                    "installed are skipped; the list: docs/engines.md)")
     s.add_argument("--experiments", help="comma-separated (default: swing,laws,limit,drop,"
@@ -49,7 +47,7 @@ def _checked(names: list[str] | None, choices, option: str) -> list[str] | None:
 
 
 def cmd_simulate(args) -> int:
-    from .. import atomic
+    from .. import atomic, jsonsafe
     from ..dynamics.contacts import CONTACT_EXPERIMENTS
     from ..dynamics.experiments import EXPERIMENTS
     from ..dynamics.run import ENGINES, TOL_ANGLE, TOL_DISTANCE, format_table, simulate_file
@@ -63,5 +61,5 @@ def cmd_simulate(args) -> int:
                            faithful_collision=args.faithful_collision)
     print(format_table(report))
     if args.json:
-        atomic.write_text(args.json, json.dumps(report.to_json(), indent=1) + "\n")
+        atomic.write_text(args.json, jsonsafe.dumps(report.to_json()) + "\n")
     return EXIT_OK if report.ok else EXIT_DISAGREE

@@ -6,13 +6,13 @@ from __future__ import annotations
 import contextlib
 import math
 
-from .options import EXIT_OK
+from .options import EXIT_OK, model_help
 
 
 def add_parsers(sub) -> None:
     s = sub.add_parser(
         "view", help="show an object in a local web page: a slider per joint, the joint axes")
-    s.add_argument("input", help="the object: object.json, .urdf, MJCF .xml, .usd, .glb, ...")
+    s.add_argument("input", help=model_help("the object's model file"))
     s.add_argument("--host", default="127.0.0.1", help="address to serve on (default: this "
                    "machine only)")
     s.add_argument("--port", type=int, default=8000, help="port (default 8000; 0: any free)")

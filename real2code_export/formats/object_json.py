@@ -118,6 +118,15 @@ def shape_json(shape: Primitive) -> dict[str, Any]:
             "translation": shape.pose[:3, 3].tolist(), "rotation": shape.pose[:3, :3].tolist()}
 
 
+def _transform(d: Any, path: Path, el: str, what: str) -> np.ndarray:
+    """A 4x4 transform from its ``translation`` (3) and row-major ``rotation`` (9)."""
+    out = np.eye(4)
+    out[:3, 3] = _vec(_get(d, "translation", path, el), 3, path, el, what + "translation")
+    out[:3, :3] = _vec(_get(d, "rotation", path, el), 9, path, el,
+                       what + "rotation").reshape(3, 3)
+    return out
+
+
 def shape_from_json(d: Any, path: Path, el: str) -> Primitive:
     if not isinstance(d, dict):
         raise FormatError(path, el, f"a shape must be an object, got {d!r}")
@@ -126,9 +135,7 @@ def shape_from_json(d: Any, path: Path, el: str) -> Primitive:
         raise FormatError(path, el, f"unknown shape kind {kind!r} (expected one of "
                           f"{[k.value for k in ShapeKind]})")
     size = _get(d, "size", path, el)
-    pose = np.eye(4)
-    pose[:3, 3] = _vec(_get(d, "translation", path, el), 3, path, el, "translation")
-    pose[:3, :3] = _vec(_get(d, "rotation", path, el), 9, path, el, "rotation").reshape(3, 3)
+    pose = _transform(d, path, el, "")
     shape = Primitive(kind, _vec(size, len(size) if isinstance(size, list) else 1, path, el,
                                  "size"), pose)
     problem = shape.problem()
@@ -241,10 +248,7 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
             raise FormatError(path, el, f"unknown joint type {jtype!r} (expected one of "
                               f"{[t.value for t in JointType]})")
         od = _get(jd, "origin", path, el)
-        origin = np.eye(4)
-        origin[:3, 3] = _vec(_get(od, "translation", path, el), 3, path, el, "origin translation")
-        origin[:3, :3] = _vec(_get(od, "rotation", path, el), 9, path, el,
-                              "origin rotation").reshape(3, 3)
+        origin = _transform(od, path, el, "origin ")
         limits = None
         if jd.get("limits") is not None:
             ld = jd["limits"]
