@@ -2,7 +2,11 @@
 formats, check every export against the SOURCE file in its own tools (100 configurations,
 1e-6), and list the repairs made. The table in docs/corpora.md comes from it.
 
-    .venv/bin/python bench/corpus_survey.py urdf|mjcf [--load-only] [--markdown FILE]
+    .venv/bin/python bench/corpus_survey.py urdf|mjcf|PATH... [--load-only] [--markdown FILE]
+
+``urdf`` is example-robot-data (PyPI), ``mjcf`` the Menagerie snapshot in ../shared/data; any
+other argument is a robot file or a folder searched for them (``*.urdf``, and ``*.xml`` whose
+root is ``<mujoco>``), e.g. the URDF and MJCF files the ``pybullet`` wheel ships.
 """
 
 from __future__ import annotations
@@ -34,6 +38,24 @@ def menagerie_files() -> list[Path]:
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
 
 
+def files_under(paths: list[str]) -> list[Path]:
+    """Robot description files named, or found under the folders named."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        found = [p] if p.is_file() else sorted([*p.rglob("*.urdf"), *p.rglob("*.xml")])
+        out += [f for f in found if f.suffix == ".urdf" or _is_mjcf(f)]
+    return out
+
+
+def _is_mjcf(path: Path) -> bool:
+    import xml.etree.ElementTree as ET
+
+    try:
+        return ET.parse(path).getroot().tag == "mujoco"
+    except ET.ParseError:
+        return False
+
+
 def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
     """(status, detail, number of warnings)."""
     with warnings.catch_warnings(record=True) as caught, tempfile.TemporaryDirectory() as tmp:
@@ -53,15 +75,20 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
 
 
 def main() -> None:
-    which = sys.argv[1]
+    args = sys.argv[1:]
+    if "--markdown" in args:
+        del args[args.index("--markdown"):args.index("--markdown") + 2]
+    args = [a for a in args if a != "--load-only"]
     load_only = "--load-only" in sys.argv
-    files = erd_files() if which == "urdf" else menagerie_files()
+    files = (erd_files() if args == ["urdf"] else menagerie_files() if args == ["mjcf"]
+             else files_under(args))
     rows, counts = [], {}
+    root = Path(os.path.commonpath([f.parent for f in files])) if files else Path()
     for f in files:
         start = time.perf_counter()
         status, detail, n_warn = survey(f, load_only)
         counts[status] = counts.get(status, 0) + 1
-        row = f"| {f.name} | {status} | {n_warn} | {time.perf_counter() - start:.1f} | {detail} |"
+        row = f"| {f.relative_to(root)} | {status} | {n_warn} | {time.perf_counter() - start:.1f} | {detail} |"
         print(row, flush=True)
         rows.append(row)
     print(", ".join(f"{n} {s}" for s, n in counts.items()) + f" (of {len(files)})")

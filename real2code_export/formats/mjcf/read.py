@@ -310,12 +310,8 @@ class _Reader:
         ref = float(m.qpos0[qadr])
         if hinge:
             kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
-        elif limited:
+        else:  # a slide without a range slides freely (limits None)
             kind = JointType.PRISMATIC
-        else:
-            raise FormatError(self.path, f"<joint name='{raw}'>", "a slide joint without a "
-                              "range: the model needs limits for prismatic joints",
-                              _info_line(self.spec_joints[j]))
         joint = Joint(name, kind, parent_name, child, axis=axis)
         self.joint_of[j] = joint
         # Part frame = joint frame at qpos = 0: at the anchor, turned back by the reference.
@@ -337,9 +333,9 @@ class _Reader:
             if low != -high:
                 self.note("asymmetric actuatorfrcrange kept as its larger magnitude", name)
         velocity = self._custom_number(m.joint(j).name, "velocity")
-        if kind is JointType.CONTINUOUS:
+        if kind is JointType.CONTINUOUS or not m.jnt_limited[j]:
             if effort is not None or velocity is not None:
-                self.note("effort/velocity limits of continuous joints dropped", name)
+                self.note("effort/velocity limits of joints without a range dropped", name)
             return None
         low, high = (float(v) for v in m.jnt_range[j])
         return Limits(low, high, effort=None if effort is None else float(effort),

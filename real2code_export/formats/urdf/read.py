@@ -36,6 +36,7 @@ from ...inertia import DEFAULT_DENSITY, inertial_from_meshes
 from ...model import (
     AXIS_UNIT_TOLERANCE,
     DEFAULT_COLOR,
+    UNBOUNDED_LIMIT,
     ArticulatedObject,
     Dynamics,
     Inertial,
@@ -252,6 +253,8 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
     textures = []
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
+        if mesh is None:
+            continue
         mesh = _placed(mesh, origin_matrix(ctx, v, owner))
         visuals.append(mesh)
         color = material_color(ctx, v, materials, owner)
@@ -279,12 +282,13 @@ def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
                split_hollow: bool, hull: bool) -> list[Mesh]:
     owner = label(el)
     elements = list(el.iterchildren("collision"))
-    source = [_placed(shape_mesh(ctx, c, owner)[0], origin_matrix(ctx, c, owner))
-              for c in elements]
+    shaped = [(shape_mesh(ctx, c, owner)[0], c) for c in elements]
+    source = [_placed(mesh, origin_matrix(ctx, c, owner)) for mesh, c in shaped
+              if mesh is not None]
     if elements and all(c.get(ns("convex")) == "true" for c in elements):
         return source  # written by us: already convex pieces, kept exactly
     if not source:
-        if not visuals or el.get(ns("collision")) == UNKNOWN:
+        if elements or not visuals or el.get(ns("collision")) == UNKNOWN:
             return []
         ctx.note("collision", repr(name))
         source = visuals
@@ -383,6 +387,9 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
         if limit is None:
             raise ctx.error(owner, f"a {jtype.value} joint needs a <limit>", el.sourceline)
         joint.limits = _limits(ctx, limit, owner, name)
+        if jtype is JointType.PRISMATIC and -joint.limits.lower >= UNBOUNDED_LIMIT <= \
+                joint.limits.upper:
+            return _unbounded_slide(ctx, joint, owner, limit)
         if joint.limits.lower == joint.limits.upper:
             return _empty_range(ctx, joint, owner, limit)
         if el.get(ns("state")) is None:
@@ -407,6 +414,19 @@ def _mimic(ctx: Context, el: etree._Element, owner: str,
     return Mimic(joint_names.get(leader, leader),
                  ctx.number(mimic, "multiplier", owner, default=1.0),
                  ctx.number(mimic, "offset", owner, default=0.0))
+
+
+def _unbounded_slide(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
+    """A slide limited at +-1e16 or beyond: SDF's "no limit" (our writer's, for a slide without
+    limits, since URDF requires a prismatic <limit>): read without limits."""
+    given = [a for a in ("effort", "velocity")
+             if limit.get(a) is not None and limit.get(ns(a)) != UNKNOWN]
+    if given:
+        ctx.warn(owner, f"<limit> lower={limit.get('lower')} upper={limit.get('upper')} is no "
+                 f"limit: the slide is read without limits, its {' and '.join(given)} dropped",
+                 limit.sourceline)
+    joint.limits = None
+    return joint
 
 
 def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:

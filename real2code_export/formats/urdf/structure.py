@@ -6,6 +6,8 @@ and line, not as a consequence later.
 
 from __future__ import annotations
 
+import re
+
 from lxml import etree
 
 from ...model import NAME_PATTERN, sanitize_name
@@ -25,10 +27,17 @@ def parse(ctx: Context) -> etree._Element:
     lxml keeps every element's source line for our messages."""
     parser = etree.XMLParser(remove_comments=True, remove_pis=True, resolve_entities=False,
                              no_network=True)
+    data = ctx.path.read_bytes()
     try:
-        robot = etree.parse(str(ctx.path), parser).getroot()
+        robot = etree.fromstring(data, parser, base_url=str(ctx.path))
     except etree.XMLSyntaxError as e:
-        raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+        repaired = _tolerated_prologue(ctx, data)
+        if repaired is None:
+            raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+        try:
+            robot = etree.fromstring(repaired, parser, base_url=str(ctx.path))
+        except etree.XMLSyntaxError as e2:
+            raise ctx.error(None, f"malformed XML: {e2.msg}", e2.lineno) from e2
     namespace = etree.QName(robot).namespace
     if namespace is not None and etree.QName(robot).localname == "robot":
         # urdfdom (TinyXML) reads tags without namespaces, so ROS and Pinocchio load a
@@ -41,6 +50,34 @@ def parse(ctx: Context) -> etree._Element:
     if robot.tag != "robot":
         raise ctx.error(label(robot), "the root element must be <robot>", robot.sourceline)
     return robot
+
+
+_DECLARATION = re.compile(rb"<\?xml\s[^?]*\?>")
+
+
+def _tolerated_prologue(ctx: Context, data: bytes) -> bytes | None:
+    """The document with what urdfdom's TinyXML2 (ROS, Pinocchio) and MuJoCo load past and
+    libxml2 refuses blanked out, each warned: an XML declaration whose version is not 1.0
+    (pybullet's files say "0.0") or that is not at the very start (blank lines before it),
+    and NUL bytes after the document (TinyXML2 reads up to the first); None when neither."""
+    what = []
+    declaration = _DECLARATION.search(data)
+    if declaration is not None and (
+            declaration.start() > 0 or b'version="1.' not in declaration.group().replace(
+                b"'", b'"')):
+        where = "not at the start of the file" if declaration.start() > 0 else "not version 1.x"
+        what.append(f"its XML declaration {declaration.group().decode(errors='replace')!r} is "
+                    f"{where}: ignored")
+        # Blanked, not removed, so every element keeps its line number.
+        blank = re.sub(rb"[^\n]", b" ", declaration.group())
+        data = data[:declaration.start()] + blank + data[declaration.end():]
+    if data.rstrip(b"\x00 \t\r\n") != data.rstrip(b" \t\r\n"):
+        what.append("NUL bytes after the document: ignored")
+        data = data.rstrip(b"\x00 \t\r\n") + b"\n"
+    if not what:
+        return None
+    ctx.warn(None, "; ".join(what) + ", as urdfdom (TinyXML2) and MuJoCo ignore it")
+    return data
 
 
 def unread_children(robot: etree._Element) -> list[etree._Element]:

@@ -257,6 +257,9 @@ def read_limits(desc, kind: JointType, prim, mpu: float, kpu: float,
     attributes or NewtonJointAPI's velocityLimit."""
     if kind not in (JointType.REVOLUTE, JointType.PRISMATIC):
         return None
+    lim = desc.limit
+    if not (lim.enabled and math.isfinite(lim.lower) and math.isfinite(lim.upper)):
+        return None  # a slide without limits (a revolute one is continuous)
     angular = kind is JointType.REVOLUTE
     to_model = math.radians if angular else (lambda v: v * mpu)
     effort = authored_value(prim, EFFORT)
