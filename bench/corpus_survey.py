@@ -67,7 +67,10 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
             written = export(obj, Path(tmp) / "out")
         except Real2CodeError as e:
             return "refused", str(e).replace(str(path), path.name), len(caught)
-        report = check_files(list(written.values()), source=path, validate=False)
+        try:
+            report = check_files(list(written.values()), source=path, validate=False)
+        except Real2CodeError as e:
+            return "check error", str(e).replace(str(path), path.name), len(caught)
     if not report.ok:
         worst = "; ".join(m.message for m in report.mismatches[:2])
         return "disagrees", worst.replace("|", "/"), len(caught)
@@ -88,7 +91,8 @@ def main() -> None:
         start = time.perf_counter()
         status, detail, n_warn = survey(f, load_only)
         counts[status] = counts.get(status, 0) + 1
-        row = f"| {f.relative_to(root)} | {status} | {n_warn} | {time.perf_counter() - start:.1f} | {detail} |"
+        seconds = time.perf_counter() - start
+        row = f"| {f.relative_to(root)} | {status} | {n_warn} | {seconds:.1f} | {detail} |"
         print(row, flush=True)
         rows.append(row)
     print(", ".join(f"{n} {s}" for s, n in counts.items()) + f" (of {len(files)})")

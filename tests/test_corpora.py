@@ -62,11 +62,73 @@ def _convert(source: str) -> dict:
         report = check_files(list(written.values()), source=path, n_configurations=100,
                              validate=False)
         out["mismatches"] = [m.message for m in report.mismatches]
+        if "mjcf" in written and path.suffix == ".xml":
+            out["source_dynamics"] = mjcf_dynamics_differences(path, written["mjcf"])
         for fmt, file in written.items():
             back = load(file)
             out["dynamics"][fmt] = [d for d in differences(obj, back)
                                     if not any(k in d for k in _NOT_DYNAMICS)]
     out["seconds"] = time.perf_counter() - start
+    return out
+
+
+def mjcf_dynamics_differences(source: Path, export: Path, tol: float = 1e-6) -> list[str]:
+    """The SOURCE's dynamics against the MJCF export's, both compiled by MuJoCo: per named
+    body its mass, principal moments and centre of mass in the world at q = 0; per named joint
+    its damping, frictionloss, armature, stiffness and range (the model's tolerance)."""
+    import mujoco
+    import numpy as np
+
+    from real2code_export.model import sanitize_name
+
+    models = [mujoco.MjSpec.from_file(str(f)).compile() for f in (source, export)]
+    datas = [mujoco.MjData(m) for m in models]
+    for m, d in zip(models, datas, strict=True):
+        # Hinges and slides at 0 (a joint's ref makes qpos0 differ, not its pose at a value);
+        # balls and free joints at qpos0, their rest pose.
+        d.qpos[:] = m.qpos0
+        for j in range(m.njnt):
+            if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                      int(mujoco.mjtJoint.mjJNT_SLIDE)):
+                d.qpos[m.jnt_qposadr[j]] = 0.0
+        mujoco.mj_kinematics(m, d)
+    src, exp = models
+
+    def close(x, y) -> bool:
+        return bool(np.allclose(x, y, atol=tol, rtol=tol))
+
+    out = []
+    for b in range(1, src.nbody):
+        name = src.body(b).name
+        e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_BODY, sanitize_name(name)) if name else -1
+        if e < 0:
+            continue  # a body the export names otherwise is the kinematic check's business
+        if not close(src.body_mass[b], exp.body_mass[e]):
+            out.append(f"body {name!r}: mass {src.body_mass[b]} != {exp.body_mass[e]}")
+        if not close(np.sort(src.body_inertia[b]), np.sort(exp.body_inertia[e])):
+            out.append(f"body {name!r}: inertia {src.body_inertia[b]} != {exp.body_inertia[e]}")
+        if not close(datas[0].xipos[b], datas[1].xipos[e]):
+            out.append(f"body {name!r}: centre of mass {datas[0].xipos[b]} != "
+                       f"{datas[1].xipos[e]}")
+    for j in range(src.njnt):
+        name = src.joint(j).name
+        if not name:
+            continue
+        e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_JOINT, sanitize_name(name))
+        if e < 0:
+            out.append(f"joint {name!r}: not in the export")
+            continue
+        ds, de = src.jnt_dofadr[j], exp.jnt_dofadr[e]
+        for what, a, b in (("damping", src.dof_damping[ds], exp.dof_damping[de]),
+                           ("frictionloss", src.dof_frictionloss[ds], exp.dof_frictionloss[de]),
+                           ("armature", src.dof_armature[ds], exp.dof_armature[de]),
+                           ("stiffness", src.jnt_stiffness[j], exp.jnt_stiffness[e]),
+                           ("limited", src.jnt_limited[j], exp.jnt_limited[e])):
+            if not close(a, b):
+                out.append(f"joint {name!r}: {what} {a} != {b}")
+        if src.jnt_limited[j] and int(src.jnt_type[j]) != int(mujoco.mjtJoint.mjJNT_BALL) and not close(
+                src.jnt_range[j], exp.jnt_range[e]):
+            out.append(f"joint {name!r}: range {src.jnt_range[j]} != {exp.jnt_range[e]}")
     return out
 
 
@@ -98,3 +160,5 @@ def test_every_corpus_file_converts_and_agrees_with_its_source(source, converted
         assert not result["mismatches"], "\n".join(result["mismatches"][:10])
     for fmt, diffs in result["dynamics"].items():
         assert not diffs, f"{fmt}: " + "\n".join(diffs[:10])
+    source_diffs = result.get("source_dynamics", [])
+    assert not source_diffs, "source -> MJCF: " + "\n".join(source_diffs[:10])

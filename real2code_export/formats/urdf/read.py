@@ -63,6 +63,7 @@ from .geometry import (
 )
 from .spec import ELEMENTS_KEY, UNKNOWN, ns
 from .structure import (
+    BALL_TYPE,
     check_tree,
     identifiers,
     joint_elements,
@@ -364,7 +365,7 @@ def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
 def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str],
            joint_names: dict[str, str]) -> Joint:
     owner = label(el)
-    jtype = JointType(el.get("type"))
+    jtype = JointType.BALL if el.get("type") == BALL_TYPE else JointType(el.get("type"))
     if jtype is JointType.FIXED and el.get(ns("type")) == JointType.BALL.value:
         jtype = JointType.BALL  # our writer's ball joint (URDF has none)
     parent, child = joint_ends(el)

@@ -16,6 +16,8 @@ from .context import Context, label
 # URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
 # real2code:type="ball"); planar is not held.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating")
+# Not URDF, but written by pybullet's files and read as a ball joint by MuJoCo and Bullet.
+BALL_TYPE = "spherical"
 # The children of <robot> the reader uses, and <mujoco>: MuJoCo's compiler hints for loading
 # the file (our writer emits one), which describe no part of the object.
 READ_TAGS = ("link", "joint", "material", "mujoco")
@@ -115,7 +117,10 @@ def joint_elements(ctx: Context, robot: etree._Element,
         if jtype == "planar":
             raise ctx.error(owner, f"{jtype} joints are not supported (the model holds "
                             f"{', '.join(JOINT_TYPES)} joints)", el.sourceline)
-        if jtype not in JOINT_TYPES:
+        if jtype == BALL_TYPE:
+            ctx.warn(owner, f"type {jtype!r} is not URDF (urdfdom refuses it): read as a ball "
+                     "joint, as MuJoCo and Bullet read it", el.sourceline)
+        elif jtype not in JOINT_TYPES:
             raise ctx.error(owner, f"unknown joint type {jtype!r} (expected one of "
                             f"{', '.join(JOINT_TYPES)})", el.sourceline)
         for role in ("parent", "child"):
