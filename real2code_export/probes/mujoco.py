@@ -120,8 +120,10 @@ def _urdf_kinematics(path: Path) -> str:
     all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada)."""
     from lxml import etree
 
-    try:
-        root = etree.parse(str(path)).getroot()
+    from ..formats.urdf.structure import tolerated_prologue
+
+    try:  # what MuJoCo's own XML parser reads past, as the URDF reader does
+        root = etree.fromstring(tolerated_prologue(path.read_bytes())[0])
     except etree.XMLSyntaxError as e:
         raise CheckError(f"{path}: MuJoCo refused it: malformed XML: {e}") from e
     for el in root.findall("link/visual") + root.findall("link/collision"):

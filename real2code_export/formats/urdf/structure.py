@@ -33,9 +33,10 @@ def parse(ctx: Context) -> etree._Element:
     try:
         robot = etree.fromstring(data, parser, base_url=str(ctx.path))
     except etree.XMLSyntaxError as e:
-        repaired = _tolerated_prologue(ctx, data)
-        if repaired is None:
+        repaired, what = tolerated_prologue(data)
+        if not what:
             raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+        ctx.warn(None, "; ".join(what) + ", as urdfdom (TinyXML2) and MuJoCo ignore it")
         try:
             robot = etree.fromstring(repaired, parser, base_url=str(ctx.path))
         except etree.XMLSyntaxError as e2:
@@ -57,11 +58,11 @@ def parse(ctx: Context) -> etree._Element:
 _DECLARATION = re.compile(rb"<\?xml\s[^?]*\?>")
 
 
-def _tolerated_prologue(ctx: Context, data: bytes) -> bytes | None:
+def tolerated_prologue(data: bytes) -> tuple[bytes, list[str]]:
     """The document with what urdfdom's TinyXML2 (ROS, Pinocchio) and MuJoCo load past and
-    libxml2 refuses blanked out, each warned: an XML declaration whose version is not 1.0
-    (pybullet's files say "0.0") or that is not at the very start (blank lines before it),
-    and NUL bytes after the document (TinyXML2 reads up to the first); None when neither."""
+    libxml2 refuses blanked out, and what that was: an XML declaration whose version is not
+    1.0 (pybullet's files say "0.0") or that is not at the very start (blank lines before
+    it), and NUL bytes after the document (TinyXML2 reads up to the first)."""
     what = []
     declaration = _DECLARATION.search(data)
     if declaration is not None and (
@@ -76,10 +77,7 @@ def _tolerated_prologue(ctx: Context, data: bytes) -> bytes | None:
     if data.rstrip(b"\x00 \t\r\n") != data.rstrip(b" \t\r\n"):
         what.append("NUL bytes after the document: ignored")
         data = data.rstrip(b"\x00 \t\r\n") + b"\n"
-    if not what:
-        return None
-    ctx.warn(None, "; ".join(what) + ", as urdfdom (TinyXML2) and MuJoCo ignore it")
-    return data
+    return data, what
 
 
 def unread_children(robot: etree._Element) -> list[etree._Element]:
