@@ -529,6 +529,8 @@ def test_floating_base_through_every_format(tmp_path):
     obj = urdf.load(source)
     assert obj.joint("free").type.value == "floating" and obj.root.name == "world"
     np.testing.assert_allclose(forward_kinematics(obj)["body"][:3, 3], [0.1, 0.2, 0.5])
+    # An MJCF free joint's damping and armature (a USD free body has no joint prim for them).
+    obj.joint("free").dynamics = Dynamics(damping=0.1, armature=0.04)
     written = export(obj, tmp_path / "out")
     for fmt, path in written.items():
         with warnings.catch_warnings():

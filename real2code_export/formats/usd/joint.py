@@ -151,6 +151,25 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
             as_float32(to_file(joint.limits.velocity)))
 
 
+# A free body has no joint prim to hold its floating joint's dynamics (MuJoCo's free joint
+# applies each value to its six DOFs): kept on the body, in SI, where not zero.
+FREE_DYNAMICS = {f: f"real2code:floatingJoint:{f}"
+                 for f in ("damping", "friction", "stiffness", "spring_ref", "armature")}
+
+
+def write_free_dynamics(body_prim, d: Dynamics) -> None:
+    from pxr import Sdf
+
+    for field_name, attr in FREE_DYNAMICS.items():
+        value = getattr(d, field_name)
+        if value != 0.0:
+            body_prim.CreateAttribute(attr, Sdf.ValueTypeNames.Double, custom=True).Set(value)
+
+
+def read_free_dynamics(body_prim) -> Dynamics:
+    return Dynamics(**{f: authored_value(body_prim, a) or 0.0 for f, a in FREE_DYNAMICS.items()})
+
+
 def _write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) -> None:
     """NewtonJointAPI's and MjcJointAPI's damping, friction, armature (and stiffness, spring
     reference, ``mjc:ref`` for a joint with one value)."""
