@@ -388,8 +388,9 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
         if limit is None:
             raise ctx.error(owner, f"a {jtype.value} joint needs a <limit>", el.sourceline)
         joint.limits = _limits(ctx, limit, owner, name)
-        if jtype is JointType.PRISMATIC and -joint.limits.lower >= UNBOUNDED_LIMIT <= \
-                joint.limits.upper:
+        lim = joint.limits
+        if jtype is JointType.PRISMATIC and lim.lower <= -UNBOUNDED_LIMIT <= UNBOUNDED_LIMIT \
+                <= lim.upper:
             return _unbounded_slide(ctx, joint, owner, limit)
         if joint.limits.lower == joint.limits.upper:
             return _empty_range(ctx, joint, owner, limit)

@@ -65,10 +65,10 @@ def tolerated_prologue(data: bytes) -> tuple[bytes, list[str]]:
     it), and NUL bytes after the document (TinyXML2 reads up to the first)."""
     what = []
     declaration = _DECLARATION.search(data)
+    at_start = declaration is not None and data[:declaration.start()] in (b"", b"\xef\xbb\xbf")
     if declaration is not None and (
-            declaration.start() > 0 or b'version="1.' not in declaration.group().replace(
-                b"'", b'"')):
-        where = "not at the start of the file" if declaration.start() > 0 else "not version 1.x"
+            not at_start or b'version="1.' not in declaration.group().replace(b"'", b'"')):
+        where = "not version 1.x" if at_start else "not at the start of the file"
         what.append(f"its XML declaration {declaration.group().decode(errors='replace')!r} is "
                     f"{where}: ignored")
         # Blanked, not removed, so every element keeps its line number.
