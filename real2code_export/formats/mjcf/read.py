@@ -108,7 +108,9 @@ def _find_named(spec, name: str) -> tuple[str | None, int | None]:
 def _info_line(element) -> int | None:
     info = getattr(element, "info", "") or ""
     parts = info.split()
-    return int(parts[1]) if len(parts) == 2 and parts[0] == "line" and parts[1].isdigit() else None
+    # MuJoCo says "line 0" of an element it did not read from a file's text (an include's)
+    line = int(parts[1]) if len(parts) == 2 and parts[0] == "line" and parts[1].isdigit() else 0
+    return line or None
 
 
 def _missing_mesh(spec, path: Path) -> FormatError | None:
