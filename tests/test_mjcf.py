@@ -441,6 +441,26 @@ def test_unlimited_slide_is_kept_in_every_format(tmp_path):
     assert report.ok, [m.message for m in report.mismatches]
 
 
+def test_unnamed_joints_are_matched_with_the_source(tmp_path):
+    """Unnamed hinges and slides (one in a named body, one in a body with several joints of
+    an unnamed body) are compared with the joints our reader names after their parts."""
+    from real2code_export.check import check_files
+
+    path = write(tmp_path / "unnamed.xml", """<mujoco>
+  <worldbody>
+    <body name="base"><geom size="0.1"/>
+      <body name="arm" pos="0.2 0 0"><joint axis="0 1 0"/><geom size="0.05"/></body>
+      <body pos="0 0.3 0"><joint name="lift" type="slide" range="-0.2 0.5"/>
+        <joint type="hinge" axis="1 0 0" pos="0 0 0.1"/><geom size="0.05"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    written = export(mjcf.load(path), tmp_path / "out")
+    report = check_files(list(written.values()), source=path, validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+
+
 # -- third-party MJCF ------------------------------------------------------------------------
 PRISM_OBJ = """v 0 0 0
 v 0.1 0 0

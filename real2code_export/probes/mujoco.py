@@ -39,7 +39,7 @@ class MujocoProbe:
             jtype = int(model.jnt_type[i])
             if jtype not in (hinge, slide):
                 continue  # free / ball: held at qpos0
-            name = model.joint(i).name or f"<joint {i}>"
+            name = model.joint(i).name or _unnamed_joint(model, i)
             limited = bool(model.jnt_limited[i])
             lower, upper = (float(v) for v in model.jnt_range[i]) if limited else (None, None)
             kind = ("revolute" if limited else "continuous") if jtype == hinge else "prismatic"
@@ -113,6 +113,16 @@ def _mjcf_world_part(model) -> str | None:
         return WORLD
     adr, size = int(model.text_adr[named]), int(model.text_size[named])
     return bytes(model.text_data[adr:adr + size]).split(b"\0", 1)[0].decode("utf-8")
+
+
+def _unnamed_joint(model, j: int) -> str:
+    """An unnamed joint as the MJCF reader names it: ``<part>_joint``, its part the body's,
+    or for a body's joint before its last the intermediate part ``<body>_joint_<k>``."""
+    b = int(model.jnt_bodyid[j])
+    body = model.body(b).name or f"body_{b}"
+    k, count = j - int(model.body_jntadr[b]), int(model.body_jntnum[b])
+    part = body if k == count - 1 else f"{body}_joint_{k}"
+    return f"{part}_joint"
 
 
 def _urdf_kinematics(path: Path) -> str:
