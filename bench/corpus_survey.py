@@ -2,11 +2,13 @@
 formats, check every export against the SOURCE file in its own tools (100 configurations,
 1e-6), and list the repairs made. The table in docs/corpora.md comes from it.
 
-    .venv/bin/python bench/corpus_survey.py urdf|mjcf|PATH... [--load-only] [--markdown FILE]
+    .venv/bin/python bench/corpus_survey.py urdf|mjcf|pybullet|PATH... [--load-only]
+        [--markdown FILE]
 
-``urdf`` is example-robot-data (PyPI), ``mjcf`` the Menagerie snapshot in ../shared/data; any
-other argument is a robot file or a folder searched for them (``*.urdf``, and ``*.xml`` whose
-root is ``<mujoco>``), e.g. the URDF and MJCF files the ``pybullet`` wheel ships.
+``urdf`` is example-robot-data (PyPI), ``mjcf`` the Menagerie snapshot in ../shared/data,
+``pybullet`` the URDF and MJCF files the pybullet wheel ships (as the corpus tests take them,
+``tests/conftest.py``); any other argument is a robot file or a folder searched for them
+(``*.urdf``, and ``*.xml`` whose root is ``<mujoco>``).
 """
 
 from __future__ import annotations
@@ -36,6 +38,13 @@ def menagerie_files() -> list[Path]:
     root = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
     root = root / "mujoco_menagerie"
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
+
+
+def pybullet_files() -> list[Path]:
+    sys.path.insert(0, str(REPO / "tests"))
+    from conftest import pybullet_data_dir, pybullet_sources  # the corpus tests' own list
+
+    return pybullet_sources(pybullet_data_dir())
 
 
 def files_under(paths: list[str]) -> list[Path]:
@@ -83,8 +92,8 @@ def main() -> None:
         del args[args.index("--markdown"):args.index("--markdown") + 2]
     args = [a for a in args if a != "--load-only"]
     load_only = "--load-only" in sys.argv
-    files = (erd_files() if args == ["urdf"] else menagerie_files() if args == ["mjcf"]
-             else files_under(args))
+    named = {"urdf": erd_files, "mjcf": menagerie_files, "pybullet": pybullet_files}
+    files = named[args[0]]() if len(args) == 1 and args[0] in named else files_under(args)
     rows, counts = [], {}
     root = Path(os.path.commonpath([f.parent for f in files])) if files else Path()
     for f in files:
