@@ -286,7 +286,7 @@ def _add_material(spec, part: Part) -> None:
 
     role = mujoco.mjtTextureRole
     linear, srgb = mujoco.mjtColorSpace.mjCOLORSPACE_LINEAR, mujoco.mjtColorSpace.mjCOLORSPACE_SRGB
-    images = mujoco_images(part)
+    images = _mujoco_images(part)
     layers = []  # (MuJoCo role, texture name, file, colour space)
     if part.texture is not None:
         layers.append((role.mjTEXROLE_RGB, texture_name(part), images[texture_relpath(part)],
@@ -312,8 +312,8 @@ def _add_material(spec, part: Part) -> None:
     material.textures = textures
 
 
-def mujoco_images(part: Part) -> dict[str, str]:
-    """The shared image file (``meshfiles.image_files``) -> the file MuJoCo reads: the same,
+def _mujoco_images(part: Part) -> dict[str, str]:
+    """The shared image file (``meshfiles.image_textures``) -> the file MuJoCo reads: the same,
     or for a JPEG (which MuJoCo cannot decode) a PNG of its pixels beside it."""
     return {rel: (str(Path(rel).with_suffix(".png")) if texture.mime == "image/jpeg" else rel)
             for rel, texture in image_textures(part).items()}
@@ -328,7 +328,7 @@ def _write_png_copies(obj: ArticulatedObject, out_dir: Path) -> None:
 
     for part in obj.parts:
         textures = image_textures(part)
-        for rel, png in mujoco_images(part).items():
+        for rel, png in _mujoco_images(part).items():
             if png != rel:
                 buffer = BytesIO()
                 Image.open(BytesIO(textures[rel].image)).save(buffer, format="PNG")
