@@ -2,7 +2,13 @@
 formats, check every export against the SOURCE file in its own tools (100 configurations,
 1e-6), and list the repairs made. The table in docs/corpora.md comes from it.
 
-    .venv/bin/python bench/corpus_survey.py urdf|mjcf [--load-only] [--markdown FILE]
+    .venv/bin/python bench/corpus_survey.py urdf|mjcf|pybullet|PATH... [--load-only]
+        [--markdown FILE]
+
+``urdf`` is example-robot-data (PyPI), ``mjcf`` the Menagerie snapshot in ../shared/data,
+``pybullet`` the URDF and MJCF files the pybullet wheel ships (as the corpus tests take them,
+``tests/conftest.py``); any other argument is a robot file or a folder searched for them
+(``*.urdf``, and ``*.xml`` whose root is ``<mujoco>``).
 """
 
 from __future__ import annotations
@@ -34,6 +40,31 @@ def menagerie_files() -> list[Path]:
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
 
 
+def pybullet_files() -> list[Path]:
+    sys.path.insert(0, str(REPO / "tests"))
+    from conftest import pybullet_data_dir, pybullet_sources  # the corpus tests' own list
+
+    return pybullet_sources(pybullet_data_dir())
+
+
+def files_under(paths: list[str]) -> list[Path]:
+    """Robot description files named, or found under the folders named."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        found = [p] if p.is_file() else sorted([*p.rglob("*.urdf"), *p.rglob("*.xml")])
+        out += [f for f in found if f.suffix == ".urdf" or _is_mjcf(f)]
+    return out
+
+
+def _is_mjcf(path: Path) -> bool:
+    import xml.etree.ElementTree as ET
+
+    try:
+        return ET.parse(path).getroot().tag == "mujoco"
+    except ET.ParseError:
+        return False
+
+
 def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
     """(status, detail, number of warnings)."""
     with warnings.catch_warnings(record=True) as caught, tempfile.TemporaryDirectory() as tmp:
@@ -45,7 +76,10 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
             written = export(obj, Path(tmp) / "out")
         except Real2CodeError as e:
             return "refused", str(e).replace(str(path), path.name), len(caught)
-        report = check_files(list(written.values()), source=path, validate=False)
+        try:
+            report = check_files(list(written.values()), source=path, validate=False)
+        except Real2CodeError as e:
+            return "check error", str(e).replace(str(path), path.name), len(caught)
     if not report.ok:
         worst = "; ".join(m.message for m in report.mismatches[:2])
         return "disagrees", worst.replace("|", "/"), len(caught)
@@ -53,15 +87,21 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
 
 
 def main() -> None:
-    which = sys.argv[1]
+    args = sys.argv[1:]
+    if "--markdown" in args:
+        del args[args.index("--markdown"):args.index("--markdown") + 2]
+    args = [a for a in args if a != "--load-only"]
     load_only = "--load-only" in sys.argv
-    files = erd_files() if which == "urdf" else menagerie_files()
+    named = {"urdf": erd_files, "mjcf": menagerie_files, "pybullet": pybullet_files}
+    files = named[args[0]]() if len(args) == 1 and args[0] in named else files_under(args)
     rows, counts = [], {}
+    root = Path(os.path.commonpath([f.parent for f in files])) if files else Path()
     for f in files:
         start = time.perf_counter()
         status, detail, n_warn = survey(f, load_only)
         counts[status] = counts.get(status, 0) + 1
-        row = f"| {f.name} | {status} | {n_warn} | {time.perf_counter() - start:.1f} | {detail} |"
+        seconds = time.perf_counter() - start
+        row = f"| {f.relative_to(root)} | {status} | {n_warn} | {seconds:.1f} | {detail} |"
         print(row, flush=True)
         rows.append(row)
     print(", ".join(f"{n} {s}" for s, n in counts.items()) + f" (of {len(files)})")

@@ -20,12 +20,12 @@ import numpy as np
 from .dynamics.overlap import TOLERANCE, FileOverlaps, file_overlaps
 from .errors import CheckError
 from .jsonsafe import finite_or_null
+from .model import UNBOUNDED_LIMIT, UNBOUNDED_SLIDE_SPAN
 from .probes import JointInfo, Probe, open_probes
 from .probes.model import LABEL as MODEL_LABEL
 from .probes.source import SOURCE_LABEL, open_source_probes
 from .validators import Validation, start_validation
 
-UNBOUNDED_PRISMATIC = 1.0  # m either way, for a slide no probe bounds
 WORLD = "world"  # the world frame, as a part where a tool names it (URDF link, MuJoCo body 0)
 
 
@@ -286,20 +286,29 @@ def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) ->
 def _limit_close(a: float | None, b: float | None, tol: float) -> bool:
     """Within ``tol``, relative beyond 1 (rad or m): formats store limits as float32 (USD in
     degrees), so +-1800 degrees or a +-1e16 rotor limit is not exact to 1e-6 absolute."""
+    a, b = _bound(a), _bound(b)
     if a is None or b is None:
         return a is None and b is None
     return abs(a - b) <= tol * max(1.0, abs(a), abs(b))
 
 
+def _bound(value: float | None) -> float | None:
+    """None for no bound: absent, or at SDF's "no limit" (+-1e16, which the URDF writer
+    gives a slide without limits; float32 formats round it by 1e-7)."""
+    if value is None or abs(value) >= UNBOUNDED_LIMIT * (1.0 - 1e-6):
+        return None
+    return value
+
+
 def _agreed_range(name: str, base: JointInfo, infos: list[JointInfo]) -> JointInfo:
-    span = UNBOUNDED_PRISMATIC if base.kind == "prismatic" else math.pi
-    lowers = [j.lower for j in infos if j.lower is not None]
-    uppers = [j.upper for j in infos if j.upper is not None]
+    span = UNBOUNDED_SLIDE_SPAN if base.kind == "prismatic" else math.pi
+    lowers = [_bound(j.lower) for j in infos if _bound(j.lower) is not None]
+    uppers = [_bound(j.upper) for j in infos if _bound(j.upper) is not None]
     lower = max(lowers) if lowers else -span
     upper = min(uppers) if uppers else span
     if lower > upper:  # the probes disagree (already a mismatch): sample the reference's range
-        lower = base.lower if base.lower is not None else -span
-        upper = base.upper if base.upper is not None else span
+        lower = _bound(base.lower) if _bound(base.lower) is not None else -span
+        upper = _bound(base.upper) if _bound(base.upper) is not None else span
     return JointInfo(name, base.kind, lower, upper)
 
 

@@ -67,10 +67,15 @@ def map_relpath(part: Part, role: str) -> str:
     return f"{MESH_DIR}/{part.name}_{role}{part.maps[role].suffix}"
 
 
+def image_textures(part: Part) -> dict[str, Texture]:
+    """relpath -> image, for every image on the part (base colour and maps)."""
+    out = {texture_relpath(part): part.texture} if part.texture is not None else {}
+    return out | {map_relpath(part, role): t for role, t in part.maps.items()}
+
+
 def image_files(part: Part) -> dict[str, bytes]:
     """relpath -> encoded image, for every image on the part (base colour and maps)."""
-    out = {texture_relpath(part): part.texture.image} if part.texture is not None else {}
-    return out | {map_relpath(part, role): t.image for role, t in part.maps.items()}
+    return {rel: t.image for rel, t in image_textures(part).items()}
 
 
 def obj_bytes(mesh: Mesh, exact: bool = False, material: str | None = None) -> bytes:
@@ -292,7 +297,7 @@ def texture_from_file(image_path: Path) -> Texture:
             image.save(buffer, format="PNG")
         except Exception as e:  # Pillow raises many types for unreadable images
             raise FormatError(image_path, None, f"cannot read texture image: {e}") from e
-        warn(f"{image_path}: texture converted to PNG (glTF, USD and MuJoCo read PNG and JPEG)")
+        warn(f"{image_path}: texture converted to PNG (glTF and USD read PNG and JPEG, MuJoCo PNG)")
         data, mime = buffer.getvalue(), "image/png"
     return Texture(data, mime, image_path.stem)
 

@@ -28,6 +28,12 @@ from .primitives import Primitive
 
 NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 AXIS_UNIT_TOLERANCE = 1e-6
+# A limit this large or larger is no limit (SDF's and Gazebo's convention, +-1e16): the URDF
+# writer writes it for a slide without limits, since URDF requires a prismatic <limit>.
+UNBOUNDED_LIMIT = 1e16
+# How far sampling moves a slide without limits (m, either way from 0): kinematics are checked
+# over a span where a wrong axis or origin shows.
+UNBOUNDED_SLIDE_SPAN = 1.0
 DEFAULT_COLOR = (0.7, 0.7, 0.7, 1.0)
 
 
@@ -262,6 +268,8 @@ class Joint:
     child: str
     origin: np.ndarray = field(default_factory=lambda: np.eye(4))
     axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    # None: unbounded (a continuous joint; a prismatic one slides freely, as an MJCF slide
+    # without a range, e.g. a planar walker's root); revolute joints always have limits.
     limits: Limits | None = None
     dynamics: Dynamics = field(default_factory=Dynamics)
     state: float = 0.0  # the joint value observed at capture time
@@ -528,9 +536,9 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
         for attr in ("damping", "friction", "stiffness", "armature"):
             if getattr(d, attr) < 0:
                 raise ModelError(el, f"{attr} must be >= 0, got {getattr(d, attr)}")
-        if j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
-            if j.limits is None:
-                raise ModelError(el, f"a {j.type.value} joint needs limits")
+        if j.type is JointType.REVOLUTE and j.limits is None:
+            raise ModelError(el, "a revolute joint needs limits (continuous has none)")
+        if j.type in (JointType.REVOLUTE, JointType.PRISMATIC) and j.limits is not None:
             lim = j.limits
             _finite([lim.lower, lim.upper], el, "limits")
             if lim.lower > lim.upper:
@@ -628,11 +636,13 @@ def forward_kinematics(
 
 
 def sample_configuration(obj: ArticulatedObject, rng: np.random.Generator) -> dict[str, float]:
-    """Joint values drawn uniformly within limits (continuous joints in [-pi, pi])."""
+    """Joint values drawn uniformly within limits (continuous joints in [-pi, pi], slides
+    without limits within :data:`UNBOUNDED_SLIDE_SPAN`)."""
     out = {}
     for j in obj.movable_joints:
         if j.limits is None:
-            out[j.name] = float(rng.uniform(-np.pi, np.pi))
+            span = UNBOUNDED_SLIDE_SPAN if j.type is JointType.PRISMATIC else np.pi
+            out[j.name] = float(rng.uniform(-span, span))
         else:
             out[j.name] = float(rng.uniform(j.limits.lower, j.limits.upper))
     return out

@@ -52,9 +52,26 @@ def example_robot_data_dir() -> Path | None:
     return path if path.is_dir() else None
 
 
+def pybullet_data_dir() -> Path | None:
+    """The robot files the PyPI package pybullet ships (``pybullet_data``; None when absent)."""
+    try:
+        import pybullet_data
+    except ImportError:
+        return None
+    return Path(pybullet_data.getDataPath())
+
+
+def pybullet_sources(root: Path) -> list[Path]:
+    """pybullet_data's URDFs and MJCF files, less its 1000 generated ``random_urdfs`` (one
+    link and one OBJ each, all alike)."""
+    urdf = [p for p in sorted(root.rglob("*.urdf")) if "random_urdfs" not in p.parts]
+    return urdf + sorted((root / "mjcf").glob("*.xml"))
+
+
 def corpus_sources() -> list[tuple[str, Path]]:
-    """(id, file) of every URDF of example-robot-data and every main model of the MuJoCo
-    Menagerie snapshot in ../shared/data; a placeholder id when a corpus is absent (its
+    """(id, file) of every URDF of example-robot-data, every main model of the MuJoCo
+    Menagerie snapshot in ../shared/data and the robot files of pybullet_data (other people's
+    URDF and MJCF, from another toolchain); a placeholder id when a corpus is absent (its
     test then skips with a message)."""
     out: list[tuple[str, Path]] = []
     erd = example_robot_data_dir()
@@ -62,6 +79,11 @@ def corpus_sources() -> list[tuple[str, Path]]:
         out.append(("erd-absent", Path("example-robot-data (pip install example-robot-data)")))
     else:
         out += [(f"erd/{p.relative_to(erd)}", p) for p in sorted(erd.rglob("*.urdf"))]
+    bullet = pybullet_data_dir()
+    if bullet is None:
+        out.append(("pybullet-absent", Path("pybullet_data (pip install pybullet)")))
+    else:
+        out += [(f"pybullet/{p.relative_to(bullet)}", p) for p in pybullet_sources(bullet)]
     menagerie = SHARED_DATA / "mujoco_menagerie"
     if not (menagerie / "index.json").is_file():
         out.append(("menagerie-absent", menagerie))

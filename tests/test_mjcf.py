@@ -21,6 +21,7 @@ from real2code_export.model import (
     Dynamics,
     Inertial,
     Joint,
+    JointType,
     Limits,
     Mesh,
     Part,
@@ -414,17 +415,50 @@ def test_free_joint_below_the_top_level_is_refused(tmp_path):
         mjcf.load(path)
 
 
-def test_unlimited_slide_is_refused(tmp_path):
+def test_unlimited_slide_is_kept_in_every_format(tmp_path):
+    """An MJCF slide without a range (a planar walker's root) is a prismatic joint without
+    limits: unlimited in MJCF, USD and glTF, SDF's +-1e16 in URDF, read back without limits,
+    and every export agrees with the source."""
+    from real2code_export.check import check_files
+
     path = write(tmp_path / "slide.xml", """<mujoco>
   <worldbody>
     <body name="base"><geom size="0.1"/>
-      <body name="cart"><joint name="rail" type="slide"/><geom size="0.1"/></body>
+      <body name="cart"><joint name="rail" type="slide" axis="1 0 0" damping="0.5"/>
+        <geom size="0.1"/></body>
     </body>
   </worldbody>
 </mujoco>
 """)
-    with pytest.raises(FormatError, match=r"slide\.xml:4: <joint name='rail'>: .*needs limits"):
-        mjcf.load(path)
+    obj = mjcf.load(path)
+    rail = next(j for j in obj.joints if j.name == "rail")
+    assert rail.type is JointType.PRISMATIC and rail.limits is None
+    written = export(obj, tmp_path / "out")
+    for fmt, file in written.items():
+        back = load_any(file)
+        assert not [d for d in differences(obj, back) if "colour" not in d], fmt
+    report = check_files(list(written.values()), source=path, validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+
+
+def test_unnamed_joints_are_matched_with_the_source(tmp_path):
+    """Unnamed hinges and slides (one in a named body, one in a body with several joints of
+    an unnamed body) are compared with the joints our reader names after their parts."""
+    from real2code_export.check import check_files
+
+    path = write(tmp_path / "unnamed.xml", """<mujoco>
+  <worldbody>
+    <body name="base"><geom size="0.1"/>
+      <body name="arm" pos="0.2 0 0"><joint axis="0 1 0"/><geom size="0.05"/></body>
+      <body pos="0 0.3 0"><joint name="lift" type="slide" range="-0.2 0.5"/>
+        <joint type="hinge" axis="1 0 0" pos="0 0 0.1"/><geom size="0.05"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    written = export(mjcf.load(path), tmp_path / "out")
+    report = check_files(list(written.values()), source=path, validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
 
 
 # -- third-party MJCF ------------------------------------------------------------------------

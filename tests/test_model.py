@@ -72,7 +72,7 @@ def test_sample_configuration_stays_within_limits():
         (lambda o: setattr(o.joints[1], "axis", np.array([1.0, 1.0, 0.0])), "joint 'drawer_slide'", "unit vector"),
         (lambda o: setattr(o.joints[0].limits, "lower", 2.0), "joint 'door_hinge'", "lower limit 2.0 > upper"),
         (lambda o: setattr(o.joints[0], "state", 3.0), "joint 'door_hinge'", "outside the limits"),
-        (lambda o: setattr(o.joints[1], "limits", None), "joint 'drawer_slide'", "needs limits"),
+        (lambda o: setattr(o.joints[0], "limits", None), "joint 'door_hinge'", "needs limits"),
         (lambda o: setattr(o.joints[1], "parent", "ghost"), "joint 'drawer_slide'", "'ghost' does not exist"),
         (lambda o: setattr(o.parts[1], "name", "body"), "part 'body'", "duplicate part name"),
         (lambda o: setattr(o.parts[1], "name", "door 1"), "part 'door 1'", "identifier"),

@@ -237,3 +237,20 @@ def test_an_obj_s_other_material_maps_are_warned_about(tmp_path):
     (tmp_path / "a.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd wood.png\nnorm bumps.png\n")
     with pytest.warns(Real2CodeWarning, match=r"normal \(bumps.png\) are not kept"):
         assert read_mesh_file(tmp_path / "a.obj").texture is not None
+
+
+def test_a_jpeg_texture_reaches_mujoco_as_png_with_its_pixels(tmp_path):
+    """MuJoCo decodes no JPEG: the MJCF export refers to a PNG of the JPEG's pixels beside the
+    shared JPEG (which the other formats keep byte for byte); read back, the pixels are equal."""
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.open(io.BytesIO(png())).convert("RGB").save(buffer, format="JPEG")
+    obj = textured_cabinet()
+    door = obj.part("door")
+    door.texture = Texture(buffer.getvalue(), "image/jpeg", "wood")
+    written = export(obj, tmp_path)
+    assert (tmp_path / "meshes" / "door_texture.jpg").read_bytes() == buffer.getvalue()
+    assert 'file="door_texture.png"' in written["mjcf"].read_text()
+    for fmt, path in written.items():
+        assert not [d for d in differences(obj, load(path), 1e-6) if "texture" in d], fmt

@@ -546,6 +546,8 @@ def test_floating_base_through_every_format(tmp_path):
     obj = urdf.load(source)
     assert obj.joint("free").type.value == "floating" and obj.root.name == "world"
     np.testing.assert_allclose(forward_kinematics(obj)["body"][:3, 3], [0.1, 0.2, 0.5])
+    # An MJCF free joint's damping and armature (a USD free body has no joint prim for them).
+    obj.joint("free").dynamics = Dynamics(damping=0.1, armature=0.04)
     written = export(obj, tmp_path / "out")
     for fmt, path in written.items():
         with warnings.catch_warnings():
@@ -614,3 +616,45 @@ def test_unread_elements_are_kept_and_written_back(tmp_path):
     out = (tmp_path / "xml" / "floating_base.urdf").read_text()
     assert "<hardwareInterface>EffortJointInterface</hardwareInterface>" in out
     assert "urdf_elements" not in out  # the elements themselves, not their text twice
+
+
+def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
+    """pybullet's URDFs: an XML declaration saying version "0.0" after a blank line, a
+    <material> inside <geometry> after the shape, a zero-radius sphere (a contact point), NUL
+    bytes after the document, a slide "limited" at SDF's +-1e16. urdfdom (Pinocchio) and
+    MuJoCo load them; so do we, each repair warned with its element and line."""
+    path = tmp_path / "bullet.urdf"
+    path.write_bytes(f"""
+<?xml version="0.0" ?>
+<robot name="bullet">
+  <link name="base">{INERTIAL}
+    <visual><geometry><box size="0.1 0.1 0.1"/><material name="grey"/></geometry></visual>
+  </link>
+  <link name="toe">{INERTIAL}
+    <collision><geometry><sphere radius="0.0"/></geometry></collision>
+  </link>
+  <joint name="ankle" type="revolute"><parent link="base"/><child link="toe"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="cart">{INERTIAL}</link>
+  <joint name="rail" type="prismatic"><parent link="base"/><child link="cart"/>
+    <axis xyz="1 0 0"/><limit lower="-1e16" upper="1e16" effort="0" velocity="0"/></joint>
+</robot>
+""".encode() + b"\x00\x00")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    messages = "\n".join(str(w.message) for w in record)
+    for needle in ("""XML declaration '<?xml version="0.0" ?>' is not at the start""",
+                   "NUL bytes after the document: ignored",
+                   "bullet.urdf:5: <link name='base'>: <geometry> holds <material> after its "
+                   "<box>: ignored",
+                   "bullet.urdf:8: <link name='toe'>: <sphere> of zero size (radius='0.0') has "
+                   "no surface: left out",
+                   "bullet.urdf:14: <joint name='rail'>: <limit> lower=-1e16 upper=1e16 is no "
+                   "limit: the slide is read without limits, its effort and velocity dropped"):
+        assert needle in messages, messages
+    assert obj.part("toe").collision == [] and obj.part("base").visual is not None
+    assert obj.joint("rail").type is JointType.PRISMATIC and obj.joint("rail").limits is None
+    path = assert_round_trip(obj, tmp_path)
+    rng = np.random.default_rng(0)
+    assert pinocchio_matches(obj, path, rng) < 1e-6
+    assert mujoco_matches(obj, path, rng) < 1e-6

@@ -39,7 +39,7 @@ class MujocoProbe:
             jtype = int(model.jnt_type[i])
             if jtype not in (hinge, slide):
                 continue  # free / ball: held at qpos0
-            name = model.joint(i).name or f"<joint {i}>"
+            name = model.joint(i).name or _unnamed_joint(model, i)
             limited = bool(model.jnt_limited[i])
             lower, upper = (float(v) for v in model.jnt_range[i]) if limited else (None, None)
             kind = ("revolute" if limited else "continuous") if jtype == hinge else "prismatic"
@@ -115,13 +115,25 @@ def _mjcf_world_part(model) -> str | None:
     return bytes(model.text_data[adr:adr + size]).split(b"\0", 1)[0].decode("utf-8")
 
 
+def _unnamed_joint(model, j: int) -> str:
+    """An unnamed joint as the MJCF reader names it: ``<part>_joint``, its part the body's,
+    or for a body's joint before its last the intermediate part ``<body>_joint_<k>``."""
+    b = int(model.jnt_bodyid[j])
+    body = model.body(b).name or f"body_{b}"
+    k, count = j - int(model.body_jntadr[b]), int(model.body_jntnum[b])
+    part = body if k == count - 1 else f"{body}_joint_{k}"
+    return f"{part}_joint"
+
+
 def _urdf_kinematics(path: Path) -> str:
     """The URDF's text without <visual>/<collision>: its kinematics and masses, which is
     all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada)."""
     from lxml import etree
 
-    try:
-        root = etree.parse(str(path)).getroot()
+    from ..formats.urdf.structure import tolerated_prologue
+
+    try:  # what MuJoCo's own XML parser reads past, as the URDF reader does
+        root = etree.fromstring(tolerated_prologue(path.read_bytes())[0])
     except etree.XMLSyntaxError as e:
         raise CheckError(f"{path}: MuJoCo refused it: malformed XML: {e}") from e
     for el in root.findall("link/visual") + root.findall("link/collision"):
@@ -148,10 +160,17 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
                 spec.compiler.boundinertia = 1e-12
             else:
                 spec = mujoco.MjSpec.from_file(str(path))
+            if is_urdf:
+                # MuJoCo computes every mesh's volume, and refuses a flat one (a floor, a
+                # decal) that a URDF cannot mark as a shell; masses are not compared here.
+                for mesh in spec.meshes:
+                    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
             # bodies attached by fixed joints); visual-only geoms do not move anything.
             spec.compiler.fusestatic = False
-            spec.compiler.discardvisual = True
+            # (MuJoCo refuses to discard visual geoms that inertiafromgeom="true" weighs.)
+            spec.compiler.discardvisual = spec.compiler.inertiafromgeom != \
+                mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
             model = spec.compile()
     except ValueError as e:
         # The error and the element it names come first; MuJoCo appends its warnings.

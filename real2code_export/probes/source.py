@@ -26,7 +26,7 @@ class SourceProbe:
         self.label = f"{SOURCE_LABEL} {probe.label}"
         self.path = probe.path
         self.parts = [sanitize_name(n) for n in probe.parts]
-        self.joints = [JointInfo(sanitize_name(j.name), j.kind, j.lower, j.upper)
+        self.joints = [_as_imported(JointInfo(sanitize_name(j.name), j.kind, j.lower, j.upper))
                        for j in probe.joints]
         self._raw = {new.name: old.name for new, old in zip(self.joints, probe.joints,
                                                               strict=True)}
@@ -41,6 +41,14 @@ class SourceProbe:
     def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
         raw = self._probe.poses({self._raw[name]: v for name, v in q.items()})
         return dict(zip(self.parts, (raw[p] for p in self._probe.parts), strict=True))
+
+
+def _as_imported(joint: JointInfo) -> JointInfo:
+    """A hinge whose range is empty (a URDF <limit> giving only effort and velocity, its range
+    left at 0), as our importers and MuJoCo read it: unlimited (Pinocchio keeps [0, 0])."""
+    if joint.kind == "revolute" and joint.lower is not None and joint.lower == joint.upper:
+        return JointInfo(joint.name, "continuous", None, None)
+    return joint
 
 
 def open_source_probes(path: str | Path) -> list[Probe]:
@@ -64,11 +72,21 @@ def open_source_probes(path: str | Path) -> list[Probe]:
         return [SourceProbe(p) for p in mujoco_probe.open_probes(path, source=True)]
     from . import pinocchio as pinocchio_probe
 
+    # A file one tool refuses and the other loads is compared in the one that loads it (a
+    # tensor MuJoCo's balanceinertia does not mend; a joint type urdfdom does not know, such
+    # as pybullet's "spherical"), said in a warning; both refusing it is an error.
     probes: list[Probe] = []
-    try:
-        probes += mujoco_probe.open_probes(path, source=True)
-    except CheckError as e:  # a tensor MuJoCo's balanceinertia does not mend: Pinocchio loads it
-        warnings.warn(f"{e}; the source is compared in Pinocchio only", Real2CodeWarning,
+    refused: list[CheckError] = []
+    for opener in (lambda: mujoco_probe.open_probes(path, source=True),
+                   lambda: pinocchio_probe.open_probes(path)):
+        try:
+            probes += opener()
+        except CheckError as e:
+            refused.append(e)
+    if not probes:
+        raise refused[0]
+    for e in refused:
+        kept = " and ".join(p.label for p in probes)
+        warnings.warn(f"{e}; the source is compared in {kept} only", Real2CodeWarning,
                       stacklevel=2)
-    probes += pinocchio_probe.open_probes(path)
     return [SourceProbe(p) for p in probes]

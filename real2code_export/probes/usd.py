@@ -142,7 +142,7 @@ class UsdProbe:
                     else (None, None)
             else:
                 kind = "prismatic"
-                lower, upper = lim.lower * mpu, lim.upper * mpu
+                lower, upper = (lim.lower * mpu, lim.upper * mpu) if limited else (None, None)
         axis = AXES[str(d.axis)] if kind not in ("fixed", "ball") else AXES["X"]
         return _Link(prim_path.rsplit("/", 1)[-1], kind, parent, child, to_joint,
                      tf.inverse(child_frame), axis if forward else -axis,

@@ -34,6 +34,7 @@ import numpy as np
 from ... import atomic
 from ...meshfiles import write_object_meshes
 from ...model import (
+    UNBOUNDED_SLIDE_SPAN,
     ArticulatedObject,
     Joint,
     JointType,
@@ -222,11 +223,15 @@ def motion_trs(joint: Joint, q: float) -> dict:
 
 def sweep(joint: Joint) -> tuple[np.ndarray, np.ndarray]:
     """Key times (s) and joint values of a joint's animation."""
-    if joint.limits is None:  # continuous: one full turn from the observed state
+    if joint.limits is None and joint.type.angular:  # continuous: one full turn from the state
         n = int(math.ceil(2 * math.pi / MAX_KEY_STEP))
         values = joint.state + np.linspace(0.0, 2 * math.pi, n + 1)
         return np.linspace(0.0, 2 * SWEEP_SECONDS, n + 1), values
-    lo, hi = joint.limits.lower, joint.limits.upper
+    span = UNBOUNDED_SLIDE_SPAN
+    lo, hi = (joint.limits.lower, joint.limits.upper) if joint.limits is not None else \
+        (joint.state - span, joint.state + span)
+    if not joint.type.angular and hi - lo > 2 * span:  # a slide "limited" at +-1e16
+        lo, hi = max(lo, joint.state - span), min(hi, joint.state + span)
     if joint.type.angular and hi - lo > 2 * math.pi:
         # A range wider than a turn (rotors limited to +-1e16): one turn, from the state's
         # half turn back, shows every pose; the range itself is kept in the extras.

@@ -46,7 +46,7 @@ def describe_mujoco_error(message: str) -> tuple[str, str | None, str | None, in
         what = "malformed XML: " + re.sub(r"\s*Line number=.*", "", lines[1]).strip()
     name = m.group(1) if (m := _ELEMENT_NAME.search(text)) else None
     tag = m.group(1) if (m := _ELEMENT_TAG.search(text) or _XML_TAG.search(text)) else None
-    line = int(m.group(1)) if (m := _LINE.search(text)) else None
+    line = (int(m.group(1)) or None) if (m := _LINE.search(text)) else None  # 0: no line
     return what, name, tag, line
 
 

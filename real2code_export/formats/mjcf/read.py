@@ -108,7 +108,9 @@ def _find_named(spec, name: str) -> tuple[str | None, int | None]:
 def _info_line(element) -> int | None:
     info = getattr(element, "info", "") or ""
     parts = info.split()
-    return int(parts[1]) if len(parts) == 2 and parts[0] == "line" and parts[1].isdigit() else None
+    # MuJoCo says "line 0" of an element it did not read from a file's text (an include's)
+    line = int(parts[1]) if len(parts) == 2 and parts[0] == "line" and parts[1].isdigit() else 0
+    return line or None
 
 
 def _missing_mesh(spec, path: Path) -> FormatError | None:
@@ -310,12 +312,8 @@ class _Reader:
         ref = float(m.qpos0[qadr])
         if hinge:
             kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
-        elif limited:
+        else:  # a slide without a range slides freely (limits None)
             kind = JointType.PRISMATIC
-        else:
-            raise FormatError(self.path, f"<joint name='{raw}'>", "a slide joint without a "
-                              "range: the model needs limits for prismatic joints",
-                              _info_line(self.spec_joints[j]))
         joint = Joint(name, kind, parent_name, child, axis=axis)
         self.joint_of[j] = joint
         # Part frame = joint frame at qpos = 0: at the anchor, turned back by the reference.
@@ -337,9 +335,9 @@ class _Reader:
             if low != -high:
                 self.note("asymmetric actuatorfrcrange kept as its larger magnitude", name)
         velocity = self._custom_number(m.joint(j).name, "velocity")
-        if kind is JointType.CONTINUOUS:
+        if kind is JointType.CONTINUOUS or not m.jnt_limited[j]:
             if effort is not None or velocity is not None:
-                self.note("effort/velocity limits of continuous joints dropped", name)
+                self.note("effort/velocity limits of joints without a range dropped", name)
             return None
         low, high = (float(v) for v in m.jnt_range[j])
         return Limits(low, high, effort=None if effort is None else float(effort),

@@ -30,6 +30,7 @@ from ...meshfiles import (
     MESH_DIR,
     collision_file_meshes,
     collision_relpath,
+    image_textures,
     map_relpath,
     texture_relpath,
     visual_file_mesh,
@@ -126,6 +127,7 @@ def _text_as_attribute(text: str) -> str:
 
 
 def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
+    _write_png_copies(obj, out_dir)
     spec = _build(obj, meshdir=MESH_DIR, model_dir=out_dir)
     text = to_xml(spec, obj)
     sections = obj.metadata.get(ELEMENTS_KEY)
@@ -284,17 +286,20 @@ def _add_material(spec, part: Part) -> None:
 
     role = mujoco.mjtTextureRole
     linear, srgb = mujoco.mjtColorSpace.mjCOLORSPACE_LINEAR, mujoco.mjtColorSpace.mjCOLORSPACE_SRGB
+    images = _mujoco_images(part)
     layers = []  # (MuJoCo role, texture name, file, colour space)
     if part.texture is not None:
-        layers.append((role.mjTEXROLE_RGB, texture_name(part), texture_relpath(part), srgb))
+        layers.append((role.mjTEXROLE_RGB, texture_name(part), images[texture_relpath(part)],
+                       srgb))
     for ours, theirs, space in (("normal", role.mjTEXROLE_NORMAL, linear),
                                 ("occlusion", role.mjTEXROLE_OCCLUSION, linear),
                                 ("emissive", role.mjTEXROLE_EMISSIVE, srgb)):
         if ours in part.maps:
-            layers.append((theirs, f"{part.name}_{ours}", map_relpath(part, ours), space))
+            layers.append((theirs, f"{part.name}_{ours}", images[map_relpath(part, ours)],
+                           space))
     if _orm(part):
         layers.append((role.mjTEXROLE_ORM, f"{part.name}_occlusion",
-                       map_relpath(part, "occlusion"), linear))
+                       images[map_relpath(part, "occlusion")], linear))
     material = spec.add_material(name=texture_name(part), rgba=float32(part.color))
     textures = list(material.textures)
     added = set()
@@ -305,6 +310,29 @@ def _add_material(spec, part: Part) -> None:
             added.add(name)
         textures[theirs] = name
     material.textures = textures
+
+
+def _mujoco_images(part: Part) -> dict[str, str]:
+    """The shared image file (``meshfiles.image_textures``) -> the file MuJoCo reads: the same,
+    or for a JPEG (which MuJoCo cannot decode) a PNG of its pixels beside it."""
+    return {rel: (str(Path(rel).with_suffix(".png")) if texture.mime == "image/jpeg" else rel)
+            for rel, texture in image_textures(part).items()}
+
+
+def _write_png_copies(obj: ArticulatedObject, out_dir: Path) -> None:
+    """The PNG that MuJoCo reads for each JPEG image (pixels as Pillow decodes the JPEG, which
+    is what every reader of the shared file shows)."""
+    from io import BytesIO
+
+    from PIL import Image
+
+    for part in obj.parts:
+        textures = image_textures(part)
+        for rel, png in _mujoco_images(part).items():
+            if png != rel:
+                buffer = BytesIO()
+                Image.open(BytesIO(textures[rel].image)).save(buffer, format="PNG")
+                atomic.write_bytes(out_dir / png, buffer.getvalue())
 
 
 def _orm(part: Part) -> bool:

@@ -44,17 +44,30 @@ def mesh_area(mesh: Mesh) -> float:
                                       axis=1).sum())
 
 
-def shape_mesh(ctx: Context, el: etree._Element, owner: str) -> tuple[Mesh, Path | None]:
+SHAPE_TAGS = ("mesh", "box", "cylinder", "sphere", "capsule")
+
+
+def shape_mesh(ctx: Context, el: etree._Element,
+               owner: str) -> tuple[Mesh | None, Path | None]:
     """The mesh of a <visual>/<collision> element in ITS OWN frame (origin not applied),
-    and the mesh file it came from (None for primitives)."""
+    and the mesh file it came from (None for primitives); no mesh for a shape of zero size
+    (warned: it has no surface)."""
     geometry = el.find("geometry")
     if geometry is None:
         raise ctx.error(owner, f"<{el.tag}> has no <geometry>", el.sourceline)
-    shapes = [c for c in geometry if isinstance(c.tag, str)]
-    if len(shapes) != 1:
-        raise ctx.error(owner, f"<geometry> must hold exactly one shape, found {len(shapes)}",
-                        geometry.sourceline)
-    shape = shapes[0]
+    children = [c for c in geometry if isinstance(c.tag, str)]
+    if len(children) > 1 and children[0].tag in SHAPE_TAGS and not any(
+            c.tag in SHAPE_TAGS for c in children[1:]):
+        # urdfdom reads the first child of <geometry> as the shape and ignores the rest
+        # (pybullet's racecar has its <material> there): so does this reader.
+        ctx.warn(owner, f"<geometry> holds {', '.join(f'<{c.tag}>' for c in children[1:])} "
+                 f"after its <{children[0].tag}>: ignored, as urdfdom ignores it",
+                 children[1].sourceline)
+        children = children[:1]
+    if len(children) != 1:
+        raise ctx.error(owner, f"<geometry> must hold exactly one shape, found "
+                        f"{len(children)}", geometry.sourceline)
+    shape = children[0]
     if shape.tag == "mesh":
         marked = _marked_shape(ctx, shape, owner)
         return (marked, None) if marked is not None else _file_mesh(ctx, shape, owner)
@@ -69,9 +82,19 @@ def _positive(ctx: Context, el: etree._Element, attr: str, owner: str, count: in
     return values if count > 1 else float(values[0])
 
 
-def _primitive(ctx: Context, shape: etree._Element, owner: str) -> Mesh:
+def _primitive(ctx: Context, shape: etree._Element, owner: str) -> Mesh | None:
     """A URDF shape (and ``<capsule>``, which MuJoCo's and other readers take) kept as the
-    model's shape; URDF cylinders and capsules are centred, along z, as the model's are."""
+    model's shape; URDF cylinders and capsules are centred, along z, as the model's are.
+    None for a shape with a zero size and no negative one (urdfdom, Pinocchio and Bullet
+    load it; it has no surface and no volume, so nothing is lost), warned."""
+    sizes = {"box": ("size",), "sphere": ("radius",), "cylinder": ("radius", "length"),
+             "capsule": ("radius", "length")}.get(shape.tag, ())
+    values = [ctx.floats(shape, a, owner, count=3 if a == "size" else 1) for a in sizes]
+    if values and all(np.all(v >= 0) for v in values) and any(np.any(v == 0) for v in values):
+        ctx.warn(owner, f"<{shape.tag}> of zero size "
+                 f"({', '.join(f'{a}={shape.get(a)!r}' for a in sizes)}) has no surface: "
+                 "left out", shape.sourceline)
+        return None
     if shape.tag == "box":
         primitive = Primitive(ShapeKind.BOX, _positive(ctx, shape, "size", owner, 3))
     elif shape.tag == "sphere":

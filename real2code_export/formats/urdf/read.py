@@ -36,6 +36,7 @@ from ...inertia import DEFAULT_DENSITY, inertial_from_meshes
 from ...model import (
     AXIS_UNIT_TOLERANCE,
     DEFAULT_COLOR,
+    UNBOUNDED_LIMIT,
     ArticulatedObject,
     Dynamics,
     Inertial,
@@ -62,6 +63,7 @@ from .geometry import (
 )
 from .spec import ELEMENTS_KEY, UNKNOWN, ns
 from .structure import (
+    BALL_TYPE,
     check_tree,
     identifiers,
     joint_elements,
@@ -252,6 +254,8 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
     textures = []
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
+        if mesh is None:
+            continue
         mesh = _placed(mesh, origin_matrix(ctx, v, owner))
         visuals.append(mesh)
         color = material_color(ctx, v, materials, owner)
@@ -279,12 +283,13 @@ def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
                split_hollow: bool, hull: bool) -> list[Mesh]:
     owner = label(el)
     elements = list(el.iterchildren("collision"))
-    source = [_placed(shape_mesh(ctx, c, owner)[0], origin_matrix(ctx, c, owner))
-              for c in elements]
+    shaped = [(shape_mesh(ctx, c, owner)[0], c) for c in elements]
+    source = [_placed(mesh, origin_matrix(ctx, c, owner)) for mesh, c in shaped
+              if mesh is not None]
     if elements and all(c.get(ns("convex")) == "true" for c in elements):
         return source  # written by us: already convex pieces, kept exactly
     if not source:
-        if not visuals or el.get(ns("collision")) == UNKNOWN:
+        if elements or not visuals or el.get(ns("collision")) == UNKNOWN:
             return []
         ctx.note("collision", repr(name))
         source = visuals
@@ -360,7 +365,7 @@ def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
 def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str],
            joint_names: dict[str, str]) -> Joint:
     owner = label(el)
-    jtype = JointType(el.get("type"))
+    jtype = JointType.BALL if el.get("type") == BALL_TYPE else JointType(el.get("type"))
     if jtype is JointType.FIXED and el.get(ns("type")) == JointType.BALL.value:
         jtype = JointType.BALL  # our writer's ball joint (URDF has none)
     parent, child = joint_ends(el)
@@ -383,6 +388,10 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
         if limit is None:
             raise ctx.error(owner, f"a {jtype.value} joint needs a <limit>", el.sourceline)
         joint.limits = _limits(ctx, limit, owner, name)
+        lim = joint.limits
+        if jtype is JointType.PRISMATIC and lim.lower <= -UNBOUNDED_LIMIT <= UNBOUNDED_LIMIT \
+                <= lim.upper:
+            return _unbounded_slide(ctx, joint, owner, limit)
         if joint.limits.lower == joint.limits.upper:
             return _empty_range(ctx, joint, owner, limit)
         if el.get(ns("state")) is None:
@@ -407,6 +416,19 @@ def _mimic(ctx: Context, el: etree._Element, owner: str,
     return Mimic(joint_names.get(leader, leader),
                  ctx.number(mimic, "multiplier", owner, default=1.0),
                  ctx.number(mimic, "offset", owner, default=0.0))
+
+
+def _unbounded_slide(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
+    """A slide limited at +-1e16 or beyond: SDF's "no limit" (our writer's, for a slide without
+    limits, since URDF requires a prismatic <limit>): read without limits."""
+    given = [a for a in ("effort", "velocity")
+             if limit.get(a) is not None and limit.get(ns(a)) != UNKNOWN]
+    if given:
+        ctx.warn(owner, f"<limit> lower={limit.get('lower')} upper={limit.get('upper')} is no "
+                 f"limit: the slide is read without limits, its {' and '.join(given)} dropped",
+                 limit.sourceline)
+    joint.limits = None
+    return joint
 
 
 def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:

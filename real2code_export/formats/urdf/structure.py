@@ -6,6 +6,8 @@ and line, not as a consequence later.
 
 from __future__ import annotations
 
+import re
+
 from lxml import etree
 
 from ...model import NAME_PATTERN, sanitize_name
@@ -14,6 +16,8 @@ from .context import Context, label
 # URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
 # real2code:type="ball"); planar is not held.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating")
+# Not URDF, but written by pybullet's files and read as a ball joint by MuJoCo and Bullet.
+BALL_TYPE = "spherical"
 # The children of <robot> the reader uses, and <mujoco>: MuJoCo's compiler hints for loading
 # the file (our writer emits one), which describe no part of the object.
 READ_TAGS = ("link", "joint", "material", "mujoco")
@@ -25,10 +29,18 @@ def parse(ctx: Context) -> etree._Element:
     lxml keeps every element's source line for our messages."""
     parser = etree.XMLParser(remove_comments=True, remove_pis=True, resolve_entities=False,
                              no_network=True)
+    data = ctx.path.read_bytes()
     try:
-        robot = etree.parse(str(ctx.path), parser).getroot()
+        robot = etree.fromstring(data, parser, base_url=str(ctx.path))
     except etree.XMLSyntaxError as e:
-        raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+        repaired, what = tolerated_prologue(data)
+        if not what:
+            raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+        ctx.warn(None, "; ".join(what) + ", as urdfdom (TinyXML2) and MuJoCo ignore it")
+        try:
+            robot = etree.fromstring(repaired, parser, base_url=str(ctx.path))
+        except etree.XMLSyntaxError as e2:
+            raise ctx.error(None, f"malformed XML: {e2.msg}", e2.lineno) from e2
     namespace = etree.QName(robot).namespace
     if namespace is not None and etree.QName(robot).localname == "robot":
         # urdfdom (TinyXML) reads tags without namespaces, so ROS and Pinocchio load a
@@ -41,6 +53,31 @@ def parse(ctx: Context) -> etree._Element:
     if robot.tag != "robot":
         raise ctx.error(label(robot), "the root element must be <robot>", robot.sourceline)
     return robot
+
+
+_DECLARATION = re.compile(rb"<\?xml\s[^?]*\?>")
+
+
+def tolerated_prologue(data: bytes) -> tuple[bytes, list[str]]:
+    """The document with what urdfdom's TinyXML2 (ROS, Pinocchio) and MuJoCo load past and
+    libxml2 refuses blanked out, and what that was: an XML declaration whose version is not
+    1.0 (pybullet's files say "0.0") or that is not at the very start (blank lines before
+    it), and NUL bytes after the document (TinyXML2 reads up to the first)."""
+    what = []
+    declaration = _DECLARATION.search(data)
+    at_start = declaration is not None and data[:declaration.start()] in (b"", b"\xef\xbb\xbf")
+    if declaration is not None and (
+            not at_start or b'version="1.' not in declaration.group().replace(b"'", b'"')):
+        where = "not version 1.x" if at_start else "not at the start of the file"
+        what.append(f"its XML declaration {declaration.group().decode(errors='replace')!r} is "
+                    f"{where}: ignored")
+        # Blanked, not removed, so every element keeps its line number.
+        blank = re.sub(rb"[^\n]", b" ", declaration.group())
+        data = data[:declaration.start()] + blank + data[declaration.end():]
+    if data.rstrip(b"\x00 \t\r\n") != data.rstrip(b" \t\r\n"):
+        what.append("NUL bytes after the document: ignored")
+        data = data.rstrip(b"\x00 \t\r\n") + b"\n"
+    return data, what
 
 
 def unread_children(robot: etree._Element) -> list[etree._Element]:
@@ -78,7 +115,10 @@ def joint_elements(ctx: Context, robot: etree._Element,
         if jtype == "planar":
             raise ctx.error(owner, f"{jtype} joints are not supported (the model holds "
                             f"{', '.join(JOINT_TYPES)} joints)", el.sourceline)
-        if jtype not in JOINT_TYPES:
+        if jtype == BALL_TYPE:
+            ctx.warn(owner, f"type {jtype!r} is not URDF (urdfdom refuses it): read as a ball "
+                     "joint, as MuJoCo and Bullet read it", el.sourceline)
+        elif jtype not in JOINT_TYPES:
             raise ctx.error(owner, f"unknown joint type {jtype!r} (expected one of "
                             f"{', '.join(JOINT_TYPES)})", el.sourceline)
         for role in ("parent", "child"):

@@ -29,7 +29,17 @@ from ...meshfiles import (
     warn_maps_not_referenced,
     write_object_meshes,
 )
-from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from ...model import (
+    UNBOUNDED_LIMIT,
+    ArticulatedObject,
+    Joint,
+    JointType,
+    Limits,
+    Mesh,
+    Part,
+    metadata_json,
+    validate,
+)
 from ...primitives import Primitive, ShapeKind
 from .spec import (
     DEFAULT_EFFORT,
@@ -233,7 +243,8 @@ def _joint(joint: Joint) -> etree._Element:
         axis = axis / norm
     _sub(el, "axis", ("xyz", numbers(axis)))
     if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC):
-        lim = joint.limits
+        # URDF requires a prismatic <limit>: a slide without limits gets SDF's "no limit".
+        lim = joint.limits or Limits(-UNBOUNDED_LIMIT, UNBOUNDED_LIMIT)
         limit = _sub(el, "limit", ("lower", number(lim.lower)), ("upper", number(lim.upper)),
                      ("effort", number(DEFAULT_EFFORT if lim.effort is None else lim.effort)),
                      ("velocity", number(DEFAULT_VELOCITY if lim.velocity is None

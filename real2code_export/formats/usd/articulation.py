@@ -113,11 +113,6 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
     elif kind is JointType.BALL and desc.limit.enabled:
         warn(f"{path}: {element}: the spherical joint's cone limit is dropped (the model's ball "
              "joints are free)")
-    elif kind is JointType.PRISMATIC:
-        lim = desc.limit
-        if not (lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)):
-            raise FormatError(path, element, "a prismatic joint without finite limits cannot "
-                              "be represented")
     return Edge(prim_path, desc, kind, sides[0], sides[1])
 
 

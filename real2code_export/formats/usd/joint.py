@@ -151,6 +151,25 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
             as_float32(to_file(joint.limits.velocity)))
 
 
+# A free body has no joint prim to hold its floating joint's dynamics (MuJoCo's free joint
+# applies each value to its six DOFs): kept on the body, in SI, where not zero.
+FREE_DYNAMICS = {f: f"real2code:floatingJoint:{f}"
+                 for f in ("damping", "friction", "stiffness", "spring_ref", "armature")}
+
+
+def write_free_dynamics(body_prim, d: Dynamics) -> None:
+    from pxr import Sdf
+
+    for field_name, attr in FREE_DYNAMICS.items():
+        value = getattr(d, field_name)
+        if value != 0.0:
+            body_prim.CreateAttribute(attr, Sdf.ValueTypeNames.Double, custom=True).Set(value)
+
+
+def read_free_dynamics(body_prim) -> Dynamics:
+    return Dynamics(**{f: authored_value(body_prim, a) or 0.0 for f, a in FREE_DYNAMICS.items()})
+
+
 def _write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) -> None:
     """NewtonJointAPI's and MjcJointAPI's damping, friction, armature (and stiffness, spring
     reference, ``mjc:ref`` for a joint with one value)."""
@@ -257,6 +276,9 @@ def read_limits(desc, kind: JointType, prim, mpu: float, kpu: float,
     attributes or NewtonJointAPI's velocityLimit."""
     if kind not in (JointType.REVOLUTE, JointType.PRISMATIC):
         return None
+    lim = desc.limit
+    if not (lim.enabled and math.isfinite(lim.lower) and math.isfinite(lim.upper)):
+        return None  # a slide without limits (a revolute one is continuous)
     angular = kind is JointType.REVOLUTE
     to_model = math.radians if angular else (lambda v: v * mpu)
     effort = authored_value(prim, EFFORT)

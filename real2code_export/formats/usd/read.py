@@ -42,6 +42,7 @@ from .joint import (
     authored_value,
     axis_in_body1,
     read_dynamics,
+    read_free_dynamics,
     read_limits,
     read_mimic,
     rest_origin,
@@ -233,6 +234,7 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
         raw = named.Get() if named and named.HasAuthoredValue() else None
         return Joint(sanitize_name(raw or f"{names[e.child]}_floating", taken), e.kind,
                      names[e.parent], names[e.child],
+                     dynamics=read_free_dynamics(ctx.stage.GetPrimAtPath(e.child)),
                      origin=_rigid(ctx.to_part[e.parent] @ tf.inverse(world[e.parent])
                                    @ world[e.child], ctx.path, e.child))
     prim = ctx.stage.GetPrimAtPath(e.path)

@@ -31,7 +31,7 @@ from .conventions import (
     stage_text,
 )
 from .geometry import write_part_geometry
-from .joint import as_written, write_joint, write_mimic
+from .joint import as_written, write_free_dynamics, write_joint, write_mimic
 
 
 def to_usda(obj: ArticulatedObject) -> str:
@@ -84,8 +84,10 @@ def _stage(obj: ArticulatedObject):
         if j.child in frames:
             continue
         if j.type is JointType.FLOATING:  # a free body: no joint holds it; its name kept
-            stage.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}").CreateAttribute(
-                FLOATING_JOINT, Sdf.ValueTypeNames.String, custom=True).Set(j.name)
+            body = stage.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}")
+            body.CreateAttribute(FLOATING_JOINT, Sdf.ValueTypeNames.String,
+                                 custom=True).Set(j.name)
+            write_free_dynamics(body, j.dynamics)
             continue
         write_joint(stage, f"{base}/{PHYSICS}/{j.name}", j, f"{base}/{GEOMETRY}/{j.parent}",
                     f"{base}/{GEOMETRY}/{j.child}")
