@@ -71,6 +71,23 @@ def test_training_script_writes_loadable_weights(tmp_path):
     assert any(not torch.equal(before[k], after[k]) for k in before)  # it did train
 
 
+def test_views_from_other_paths_and_sensors_and_the_comparison(tmp_path):
+    """Training views from a ring through a noisy sensor: masks as rendered, depth cleaned
+    (no fault survives as a speck); and the comparison of two networks on such views."""
+    from pipeline.segment.compare import compare
+
+    views = make_views(1, seed=4, views_per_object=3, workers=1, cameras=("ring",),
+                       sensors=("phone-lidar",))
+    assert len(views) == 3
+    for v in views:
+        assert v.mask.any() and ((v.depth > 0) | (v.mask == 0)).mean() > 0.9
+    twice = compare([WEIGHTS, WEIGHTS], ["ring"], ["phone-lidar"], objects=1,
+                    views_per_object=2, cache_dir=tmp_path)
+    first, second = twice[("ring", "phone-lidar")]
+    assert first == second and 0.0 < first["mean_iou"] <= 1.0
+    assert list(tmp_path.glob("segment_compare_1_2_ring_phone-lidar.pkl"))
+
+
 def test_missing_or_foreign_weights(tmp_path):
     with pytest.raises(FormatError, match="segmentation weights not found"):
         LearnedSegmenter.load(tmp_path / "none.pt")
