@@ -59,11 +59,16 @@ def test_training_script_writes_loadable_weights(tmp_path):
     assert record["parameters"] > 0 and record["epochs"] == 1
     segmenter = LearnedSegmenter.load(out)
     assert segmenter is not None
-    # going on from those weights keeps their network and their record
+    # going on from those weights keeps their network and their record; rehearsing adds
+    # their own first object (seed 0), and every epoch but the last leaves a checkpoint
     more = tmp_path / "more.pt"
-    again = train(2, 1, 5, more, images_per_batch=4, prompts_per_image=4, workers=1,
-                  views_per_object=2, lr=1e-3, init=out)
+    again = train(2, 2, 5, more, images_per_batch=4, prompts_per_image=4, workers=1,
+                  views_per_object=2, lr=1e-3, init=out, rehearse=1)
     assert again["previous"]["seed"] == 0 and again["seed"] == 5 and again["lr"] == 1e-3
+    assert again["rehearsal"]["seed"] == 0 and again["views"] == 2 * 2 + 1 * 2
+    assert LearnedSegmenter.load(tmp_path / "more.epoch1.pt").config["training"]["epochs"] == 1
+    with pytest.raises(ValueError, match="needs --init"):
+        train(2, 1, 5, tmp_path / "x.pt", workers=1, rehearse=1)
     continued = LearnedSegmenter.load(more)
     assert continued.config["network"] == segmenter.config["network"]
     before = segmenter.network.state_dict()
