@@ -297,7 +297,7 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=lr, total_steps=epochs * per_epoch,
                                                 pct_start=0.15)
     rng = np.random.default_rng(seed)
-    history = []
+    history, validation = [], None
 
     def record(validation: dict) -> dict:
         out = {
@@ -343,7 +343,7 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
         if epoch + 1 < epochs:
             save_weights(net, {**config, "training": record(validation)},
                          out.with_name(f"{out.stem}.epoch{epoch + 1}{out.suffix}"))
-    config["training"] = record(validate(net, val))
+    config["training"] = record(validation if epochs else validate(net, val))
     save_weights(net, config, out)
     return config["training"]
 
