@@ -128,3 +128,27 @@ def test_held_out_procedural_captures_are_segmented_by_part():
         mean, per_part = matched_part_iou(seg.labels, [f.mask for f in capture.frames])
         assert len(case.obj.parts) <= seg.n_parts <= len(case.obj.parts) + 1, case.label
         assert mean > 0.9 and min(per_part.values()) > 0.8, (case.label, per_part)
+
+
+def test_weights_between_two_networks(tmp_path):
+    from pipeline.segment.interpolate import interpolate
+    from pipeline.weights import save_weights
+
+    config = {"network": {"dim": 16, "widths": [8, 12, 16, 24, 32], "fine": 0}}
+    paths = []
+    for seed in (0, 1):
+        torch.manual_seed(seed)
+        paths.append(save_weights(build_network(16, (8, 12, 16, 24, 32)), config,
+                                  tmp_path / f"{seed}.pt"))
+    nets = [LearnedSegmenter.load(p).network.state_dict() for p in paths]
+    interpolate(paths[0], paths[1], 0.25, tmp_path / "mixed.pt")
+    mixed = LearnedSegmenter.load(tmp_path / "mixed.pt")
+    assert mixed.config["training"]["interpolated"]["alpha"] == 0.25
+    for k, v in mixed.network.state_dict().items():
+        if v.is_floating_point():
+            assert torch.allclose(v, 0.75 * nets[0][k] + 0.25 * nets[1][k], atol=1e-6)
+    other = save_weights(build_network(8, (8, 8, 8, 8, 8)),
+                         {"network": {"dim": 8, "widths": [8] * 5, "fine": 0}},
+                         tmp_path / "other.pt")
+    with pytest.raises(ValueError, match="different networks"):
+        interpolate(paths[0], other, 0.5, tmp_path / "x.pt")
