@@ -141,6 +141,13 @@ def test_marching_cubes_gives_a_closed_mesh_in_the_world():
     assert mesh.volume == pytest.approx(expected, rel=0.08)
     assert np.allclose(mesh.centroid, frame.center, atol=0.01)
     assert mesh_from_grid(np.zeros((8, 8, 8)), frame) is None
+    # a speck where points were seen stays when enough of them lie on it, not for a stray few
+    corner = frame.from_unit(-0.5 + (np.array([[2, 2, 2]]) + 0.5) / n)
+    cell = 2 * frame.half / n
+    few = corner + np.random.default_rng(0).uniform(-0.3, 0.3, (3, 3)) * cell
+    many = corner + np.random.default_rng(1).uniform(-0.3, 0.3, (20, 3)) * cell
+    assert len(mesh_from_grid(grid, frame, seen=few).split(only_watertight=False)) == 1
+    assert len(mesh_from_grid(grid, frame, seen=many).split(only_watertight=False)) == 2
 
 
 def test_segment_only_meshes_the_points():

@@ -9,7 +9,7 @@ import pytest
 
 from pipeline.capture import read_capture
 from pipeline.fuse import point_map
-from pipeline.isolate import isolate_object, look_at_point, parse_box
+from pipeline.isolate import grid_clusters, isolate_object, look_at_point, parse_box
 from pipeline.procedural import generate
 from pipeline.render import render_object
 from pipeline.sensors import degrade, load_sensor
@@ -83,6 +83,18 @@ def test_a_given_box_keeps_what_lies_in_it(cabinet):
     assert kept > 0.98 and other < 0.002 and summary["region"]["box_given"]
     with pytest.raises(InputError, match="nothing off the room's planes"):
         isolate_object(room, box=(lo + 50, hi + 50))
+
+
+def test_grid_clusters_link_touching_cells_only():
+    rng = np.random.default_rng(0)
+    a = rng.uniform(0, 0.3, (500, 3))
+    b = rng.uniform(0, 0.3, (500, 3)) + [0.5, 0, 0]  # 20 cm from a
+    c = rng.uniform(0, 0.3, (500, 3)) + [0.32, 0, 0]  # 2 cm from a
+    labels = grid_clusters(np.concatenate([a, b]), 0.05)
+    assert len(set(labels[:500])) == len(set(labels[500:])) == 1
+    assert labels[0] != labels[-1]
+    labels = grid_clusters(np.concatenate([a, c]), 0.05)
+    assert len(set(labels)) == 1
 
 
 def test_the_box_option_is_checked():

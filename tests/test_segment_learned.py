@@ -59,16 +59,38 @@ def test_training_script_writes_loadable_weights(tmp_path):
     assert record["parameters"] > 0 and record["epochs"] == 1
     segmenter = LearnedSegmenter.load(out)
     assert segmenter is not None
-    # going on from those weights keeps their network and their record
+    # going on from those weights keeps their network and their record; rehearsing adds
+    # their own first object (seed 0), and every epoch but the last leaves a checkpoint
     more = tmp_path / "more.pt"
-    again = train(2, 1, 5, more, images_per_batch=4, prompts_per_image=4, workers=1,
-                  views_per_object=2, lr=1e-3, init=out)
+    again = train(2, 2, 5, more, images_per_batch=4, prompts_per_image=4, workers=1,
+                  views_per_object=2, lr=1e-3, init=out, rehearse=1)
     assert again["previous"]["seed"] == 0 and again["seed"] == 5 and again["lr"] == 1e-3
+    assert again["rehearsal"]["seed"] == 0 and again["views"] == 2 * 2 + 1 * 2
+    assert LearnedSegmenter.load(tmp_path / "more.epoch1.pt").config["training"]["epochs"] == 1
+    with pytest.raises(ValueError, match="needs --init"):
+        train(2, 1, 5, tmp_path / "x.pt", workers=1, rehearse=1)
     continued = LearnedSegmenter.load(more)
     assert continued.config["network"] == segmenter.config["network"]
     before = segmenter.network.state_dict()
     after = continued.network.state_dict()
     assert any(not torch.equal(before[k], after[k]) for k in before)  # it did train
+
+
+def test_views_from_other_paths_and_sensors_and_the_comparison(tmp_path):
+    """Training views from a ring through a noisy sensor: masks as rendered, depth cleaned
+    (no fault survives as a speck); and the comparison of two networks on such views."""
+    from pipeline.segment.compare import compare
+
+    views = make_views(1, seed=4, views_per_object=3, workers=1, cameras=("ring",),
+                       sensors=("phone-lidar",))
+    assert len(views) == 3
+    for v in views:
+        assert v.mask.any() and ((v.depth > 0) | (v.mask == 0)).mean() > 0.9
+    twice = compare([WEIGHTS, WEIGHTS], ["ring"], ["phone-lidar"], objects=1,
+                    views_per_object=2, cache_dir=tmp_path)
+    first, second = twice[("ring", "phone-lidar")]
+    assert first == second and 0.0 < first["mean_iou"] <= 1.0
+    assert list(tmp_path.glob("segment_compare_1_2_ring_phone-lidar.pkl"))
 
 
 def test_missing_or_foreign_weights(tmp_path):
@@ -86,7 +108,9 @@ needs_weights = pytest.mark.skipif(not WEIGHTS.is_file(), reason="no shipped wei
 def test_shipped_weights_record_their_training():
     seg = LearnedSegmenter.load()
     record = seg.config["training"]
-    assert record["total_seconds"] > 0 and record["validation"]["mean_iou"] > 0.5
+    mixed = record.get("interpolated")  # weights between two trainings record both
+    for r in [mixed["old"], mixed["new"]] if mixed else [record]:
+        assert r["total_seconds"] > 0 and r["validation"]["mean_iou"] > 0.5
     assert WEIGHTS.stat().st_size < 3_000_000
 
 
@@ -106,3 +130,27 @@ def test_held_out_procedural_captures_are_segmented_by_part():
         mean, per_part = matched_part_iou(seg.labels, [f.mask for f in capture.frames])
         assert len(case.obj.parts) <= seg.n_parts <= len(case.obj.parts) + 1, case.label
         assert mean > 0.9 and min(per_part.values()) > 0.8, (case.label, per_part)
+
+
+def test_weights_between_two_networks(tmp_path):
+    from pipeline.segment.interpolate import interpolate
+    from pipeline.weights import save_weights
+
+    config = {"network": {"dim": 16, "widths": [8, 12, 16, 24, 32], "fine": 0}}
+    paths = []
+    for seed in (0, 1):
+        torch.manual_seed(seed)
+        paths.append(save_weights(build_network(16, (8, 12, 16, 24, 32)), config,
+                                  tmp_path / f"{seed}.pt"))
+    nets = [LearnedSegmenter.load(p).network.state_dict() for p in paths]
+    interpolate(paths[0], paths[1], 0.25, tmp_path / "mixed.pt")
+    mixed = LearnedSegmenter.load(tmp_path / "mixed.pt")
+    assert mixed.config["training"]["interpolated"]["alpha"] == 0.25
+    for k, v in mixed.network.state_dict().items():
+        if v.is_floating_point():
+            assert torch.allclose(v, 0.75 * nets[0][k] + 0.25 * nets[1][k], atol=1e-6)
+    other = save_weights(build_network(8, (8, 8, 8, 8, 8)),
+                         {"network": {"dim": 8, "widths": [8] * 5, "fine": 0}},
+                         tmp_path / "other.pt")
+    with pytest.raises(ValueError, match="different networks"):
+        interpolate(paths[0], other, 0.5, tmp_path / "x.pt")

@@ -25,6 +25,10 @@ WEIGHTS = Path(__file__).resolve().parent / "weights" / "occupancy.pt"
 CELL = 0.01  # m, target grid spacing
 MIN_CELLS, MAX_CELLS = 16, 96
 KEEP_FRACTION = 0.05  # unseen components under this share of the largest volume are strays
+# ... and a seen one too when fewer points than this fall on it: a noisy sensor's stray points
+# (flying pixels, a speck of another surface) each made a one-cell cube, up to 40 per part on
+# a phone-LiDAR capture, and each cube became a collision piece to separate from the others
+MIN_SEEN_POINTS = 6
 
 
 class CompletionError(Real2CodeError, ValueError):
@@ -95,7 +99,8 @@ def mesh_from_grid(probability: np.ndarray, frame, level: float = 0.5,
                    seen: np.ndarray | None = None):
     """The ``level`` surface of a cell-centred grid over the unit cube, in the world, closed;
     ``None`` when nothing is occupied. Components smaller than ``KEEP_FRACTION`` of the
-    largest are dropped unless they lie at one of the ``seen`` world points."""
+    largest are dropped unless at least ``MIN_SEEN_POINTS`` of the ``seen`` world points lie
+    in them (their box)."""
     import trimesh
     from skimage import measure
 
@@ -113,12 +118,13 @@ def mesh_from_grid(probability: np.ndarray, frame, level: float = 0.5,
         volumes = np.array([abs(p.volume) for p in pieces])
         keep = volumes >= KEEP_FRACTION * volumes.max()
         if seen is not None and len(seen) and not keep.all():
-            from scipy.spatial import cKDTree
-
-            reach = float(np.linalg.norm(2.0 * frame.half / counts))  # one cell diagonal
-            tree = cKDTree(seen)
+            margin = 0.25 / counts  # a quarter cell, in the grid's unit frame
+            seen_unit = frame.to_unit(seen)
             for k in np.flatnonzero(~keep):
-                keep[k] = bool(np.any(tree.query(pieces[k].vertices)[0] <= reach))
+                unit = frame.to_unit(pieces[k].vertices)
+                lo, hi = unit.min(0) - margin, unit.max(0) + margin
+                inside = np.all((seen_unit >= lo) & (seen_unit <= hi), axis=1)
+                keep[k] = int(inside.sum()) >= MIN_SEEN_POINTS
         mesh = trimesh.util.concatenate([p for p, k in zip(pieces, keep, strict=True) if k])
     if mesh.volume < 0:
         mesh.invert()

@@ -19,7 +19,9 @@ HELD_OUT_SEED = 424242  # far from the training seeds (1 to a few) and their val
 
 def compare(weights: list[Path], cameras: list[str], sensors: list[str], objects: int,
             views_per_object: int = 2, workers: int = 1, cache_dir: Path | None = None,
-            ) -> dict[tuple[str, str], list[dict]]:
+            report=None) -> dict[tuple[str, str], list[dict]]:
+    """Per (camera path, sensor): each network's :func:`validate` figures; ``report(key,
+    rows)`` is called as each pair is done (a long comparison shows its rows as it goes)."""
     from .data import make_views
     from .learned import LearnedSegmenter
     from .train import _cached, validate
@@ -32,6 +34,8 @@ def compare(weights: list[Path], cameras: list[str], sensors: list[str], objects
                             f"{Path(sensor).stem}", lambda p=path, s=sensor: make_views(
                                 objects, HELD_OUT_SEED, views_per_object, workers, (p,), (s,)))
             out[(path, sensor)] = [validate(net, views) for net in nets]
+            if report is not None:
+                report((path, sensor), out[(path, sensor)])
     return out
 
 
@@ -45,14 +49,16 @@ def main(argv=None) -> None:
     p.add_argument("--cache-dir", type=Path, default=None,
                    help="keep the rendered views here between runs")
     args = p.parse_args(argv)
-    results = compare(args.weights, args.cameras.split(","), args.sensors.split(","),
-                      args.objects, workers=args.workers, cache_dir=args.cache_dir)
     names = [w.name if w.name != "segmenter.pt" else str(w) for w in args.weights]
     print("| cameras | sensor | " + " | ".join(names) + " |")
-    print("|---|---|" + "---|" * len(names))
-    for (path, sensor), rows in results.items():
+    print("|---|---|" + "---|" * len(names), flush=True)
+
+    def row(key, rows):
         cells = " | ".join(f"{r['mean_iou']:.3f} ({r['iou_over_0.9']:.2f})" for r in rows)
-        print(f"| {path} | {sensor} | {cells} |", flush=True)
+        print(f"| {key[0]} | {key[1]} | {cells} |", flush=True)
+
+    compare(args.weights, args.cameras.split(","), args.sensors.split(","), args.objects,
+            workers=args.workers, cache_dir=args.cache_dir, report=row)
 
 
 if __name__ == "__main__":
