@@ -151,8 +151,6 @@ def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarra
     return per.reshape(-1, samples.shape[1])
 
 
-
-
 def _uniform(traj: Trajectory) -> bool:
     dt = np.diff(traj.time)
     return bool(np.all(np.abs(dt - traj.sample_period) <= UNIFORM * traj.sample_period))
@@ -246,7 +244,7 @@ def declared_loop(models: Sequence, traj: Trajectory, initials: Sequence[Initial
         _start(m, d, traj, x0, qadr, dadr)
         datas.append(d)
     # Plain Python floats per model and sample: with one or a few joints, numpy's per-call
-    # overhead on arrays of a handful of values cost four times the MuJoCo step itself.
+    # overhead on arrays of a handful of values cost over twice the MuJoCo step itself.
     # The arithmetic is Feedback.commands' own, in its order (the same floats).
     qadr_l, dadr_l = [int(a) for a in qadr], [int(a) for a in dadr]
     const = [[lw.get(j, AppliedLaw()).constant for j in joints] for lw in laws]
