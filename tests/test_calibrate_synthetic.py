@@ -111,3 +111,12 @@ def test_a_stop_above_the_observed_state_is_written_as_measured(tmp_path):
     joint = out.joint(case.joint)
     assert joint.limits.lower == pytest.approx(fit.values[f"{case.joint}.limit_lower"])
     assert joint.state == joint.limits.lower
+
+
+def test_a_loop_the_screen_cannot_read_is_decided_by_the_replay():
+    """A declared position loop on a door whose recorded effort is the law applied to noisy
+    encoder readings: the equation-error screen prefers no effect to the nominal model, so
+    the replay decides among the best-screened structures and finds the hidden damping."""
+    r = run_case(54)
+    assert r["scenario"] == "closed_loop" and r["expected"] == ["damping"], r
+    assert r["right"] and not r["worse"], r
