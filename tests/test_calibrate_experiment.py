@@ -194,12 +194,12 @@ def test_declared_law_is_the_controller(tmp_path):
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
 
 
-def test_lockstep_replays_are_the_stepwise_replay(tmp_path):
-    """Several models replayed together through the declared law (one Python loop per
-    sample, the Jacobian's batch) give what each replayed alone gives."""
+def test_declared_loop_replays_are_the_stepwise_replay(tmp_path):
+    """Several models replayed through the declared law in plain floats (the Jacobian's
+    batch) give what each replayed alone by the general controller gives."""
     from real2code_export.calibrate.problem import build_problem
     from real2code_export.calibrate.residuals import build_model
-    from real2code_export.calibrate.simulate import AppliedLaw, lockstep, rollout
+    from real2code_export.calibrate.simulate import AppliedLaw, declared_loop, rollout
     from real2code_export.calibrate.trajectory import read_all
 
     obj, joint, t, q, ref, u, law = _pd_drawer(5, damping=4.0, duration=1.0)
@@ -225,7 +225,7 @@ saturation = [-0.05, 0.05]
     models = [build_model(problem, (damping,), {f"{joint}.damping": b}) for b in (2.0, 6.0)]
     initials = [{joint: (0.2, 0.0)}, {joint: (0.21, 0.05)}]
     laws = [{joint: AppliedLaw(offset=0.1)}, {}]
-    together = lockstep(models, tr, initials, laws)
+    together = declared_loop(models, tr, initials, laws)
     for m, x0, lw, got in zip(models, initials, laws, together, strict=True):
         alone = rollout(m, tr, x0, lw)
         np.testing.assert_allclose(got.positions, alone.positions, rtol=0, atol=1e-12)

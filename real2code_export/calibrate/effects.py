@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import warn
 from ..model import ArticulatedObject, Dynamics, Limits
 from .simulate import SMOOTH_TIMESTEP, AppliedLaw, set_direction_dependent_damping
 
@@ -285,7 +286,14 @@ class Effect:
             old = j.limits or Limits(lo, hi)
             lower = v.get("limit_lower", old.lower)
             upper = v.get("limit_upper", old.upper)
-            j.limits = Limits(min(lower, j.state), max(upper, j.state), old.effort, old.velocity)
+            j.limits = Limits(lower, upper, old.effort, old.velocity)
+            if not lower <= j.state <= upper:
+                # the measured stop wins over the observed state (a keyframe): moved to the
+                # nearest limit, as the MJCF reader repairs a state outside its range
+                state = min(max(j.state, lower), upper)
+                warn(f"joint {self.joint!r}: observed state {j.state:.6g} is outside the "
+                     f"measured stop's range [{lower:.6g}, {upper:.6g}]; moved to {state:.6g}")
+                j.state = state
             extras["limit"] = {"timeconst": float(v["limit_timeconst"]),
                                "dampratio": float(v["limit_dampratio"])}
         elif n == "inertia":

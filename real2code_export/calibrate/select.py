@@ -23,6 +23,11 @@ from .inverse import EquationFit, equation_fit
 from .problem import Problem
 
 SCREEN_TOP = 2  # structures per step fitted by simulation (after the inverse-dynamics screen)
+# ... and where the screen is blind (it prefers no effect to the nominal model: a loop's
+# effort computed from noisy positions says nothing of the plant), up to this many,
+# best-screened first, at every step: the replay has to tell. (Later in a search the
+# screen may prefer no extension of what the replay chose; that is no sign of blindness.)
+SCREEN_BLIND = 6
 MAX_EFFECTS = 4
 
 
@@ -208,6 +213,7 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
     screened: dict[tuple[str, ...], EquationFit] = {}
     log = []
     current = nominal
+    blind: bool | None = None  # the screen tells nothing (judged at the first step)
     if _nothing_left(nominal):
         log.append(f"residual {math.sqrt(nominal.rss / nominal.n):.2f} x noise: the nominal "
                    "model explains the data")
@@ -220,12 +226,20 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                 screened[_key(p)] = equation_fit(problem, p)
         screen_ref = _n_ref(screened.values())
         scored = sorted(proposals, key=lambda p: screened[_key(p)].bic(screen_ref))
+        if blind is None:  # judged once, on the nominal model's extensions
+            screened[()] = equation_fit(problem, ())
+            screen_ref = _n_ref(screened.values())
+            blind = screened[_key(scored[0])].bic(screen_ref) >= screened[()].bic(screen_ref)
+            if blind:
+                log.append("the equation error prefers no effect to the nominal model: the "
+                           f"replay decides among the {SCREEN_BLIND} best-screened at each step")
         # Structures with an end stop cannot be scored by the inverse dynamics (it leaves
         # the impacts out), and while a detected stop is not modelled every other
         # structure misses it: fit the best-screened ones with and without the stop.
         has_stop = any(e.name == "limit" for e in current.effects)
         with_stop = [] if has_stop else [p for p in scored if any(e.name == "limit" for e in p)]
-        chosen = [p for p in scored if p not in with_stop][:screen_top]
+        chosen = [p for p in scored if p not in with_stop][:SCREEN_BLIND if blind
+                                                            else screen_top]
         if chosen:  # the best-screened structure, with each possible stop
             chosen += [q for q in with_stop if set(_key(chosen[0])) <= set(_key(q))
                        and len(q) == len(chosen[0]) + 1]

@@ -25,6 +25,9 @@ from .trajectory import Trajectory
 MAX_TIMESTEP = 1e-3
 SMOOTH_TIMESTEP = 5e-3
 THREADS = max(1, min(4, os.cpu_count() or 1))
+# Sampling counts as uniform within this share of the period: time stamps stored in single
+# precision jitter by ~1e-5 of a millisecond period, far below a step
+UNIFORM = 1e-3
 
 
 @dataclass(frozen=True)
@@ -92,8 +95,12 @@ class Rollout:
 
 
 def substeps_for(period: float, fine: bool) -> int:
+    """Simulation steps per sample interval. A period over the step limit by no more than
+    the sampling's jitter (UNIFORM) takes one step: a 1 kHz record whose time stamps were
+    stored in single precision has a period of 1.000008 ms, and two steps per sample
+    would double every replay's cost for nothing."""
     limit = MAX_TIMESTEP if fine else SMOOTH_TIMESTEP
-    return max(1, math.ceil(period / limit - 1e-9))
+    return max(1, math.ceil(period / limit - UNIFORM))
 
 
 def compile_spec(spec):
@@ -142,11 +149,6 @@ def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarra
     a, b = samples[:-1], samples[1:]
     per = a[:, None, :] * (1 - frac)[None, :, None] + b[:, None, :] * frac[None, :, None]
     return per.reshape(-1, samples.shape[1])
-
-
-# Sampling counts as uniform within this share of the period: time stamps stored in single
-# precision jitter by ~1e-5 of a millisecond period, far below a step
-UNIFORM = 1e-3
 
 
 def _uniform(traj: Trajectory) -> bool:
@@ -222,13 +224,12 @@ def rollout(model, traj: Trajectory, initial: Initial,
     return Rollout(q_out, u_out)
 
 
-def lockstep(models: Sequence, traj: Trajectory, initials: Sequence[Initial],
-             laws: Sequence[Mapping[str, AppliedLaw]], fine: bool = True,
-             refine: int = 1) -> list[Rollout]:
+def declared_loop(models: Sequence, traj: Trajectory, initials: Sequence[Initial],
+                  laws: Sequence[Mapping[str, AppliedLaw]], fine: bool = True,
+                  refine: int = 1) -> list[Rollout]:
     """Replays of a declared closed loop (``traj.feedback``, uniform samples) for several
-    models stepped together: the law is computed for all of them at once each sample
-    (the Python cost of a step is paid once per sample, not once per model), each model
-    stepped by MuJoCo. Same replay as :func:`rollout`."""
+    models: the law evaluated in plain floats each sample, each model stepped by MuJoCo.
+    Same replay as :func:`rollout` (whose general controller takes a dict per sample)."""
     import mujoco
 
     joints = traj.joints
@@ -242,28 +243,58 @@ def lockstep(models: Sequence, traj: Trajectory, initials: Sequence[Initial],
         d = mujoco.MjData(m)
         _start(m, d, traj, x0, qadr, dadr)
         datas.append(d)
-    const = np.array([[lw.get(j, AppliedLaw()).constant for j in joints] for lw in laws])
-    q = np.empty((nb, n, nj))
-    u = np.zeros((nb, n, nj))
-    loops = [(k, traj.feedback[j]) for k, j in enumerate(joints) if j in traj.feedback]
-    columns = traj.columns
+    # Plain Python floats per model and sample: with one or a few joints, numpy's per-call
+    # overhead on arrays of a handful of values cost over twice the MuJoCo step itself.
+    # The arithmetic is Feedback.commands' own, in its order (the same floats).
+    qadr_l, dadr_l = [int(a) for a in qadr], [int(a) for a in dadr]
+    const = [[lw.get(j, AppliedLaw()).constant for j in joints] for lw in laws]
+    loops = {k: _LoopTerms(traj.feedback[j], traj.columns, period)
+             for k, j in enumerate(joints) if j in traj.feedback}
+    q = [[[0.0] * n for _ in range(nj)] for _ in range(nb)]  # model, joint, sample
+    u: list[list[list[float]]] = []
     step = mujoco.mj_step
-    pairs = list(zip(models, datas, strict=True))
-    qpos = [d.qpos for d in datas]
-    qfrc = [d.qfrc_applied for d in datas]
-    for i in range(n):
-        for b in range(nb):
-            q[b, i] = qpos[b][qadr]
-        for k, f in loops:  # the law's output is held over the interval
-            u[:, i, k] = f.gain * f.commands(i, q[:, :, k], columns, period)
-        if i == n - 1:
-            break
-        force = u[:, i] + const
-        for b, (m, d) in enumerate(pairs):
-            qfrc[b][dadr] = force[b]
+    for b, (m, d) in enumerate(zip(models, datas, strict=True)):
+        read, qfrc = d.qpos.item, d.qfrc_applied
+        qb, cb = q[b], const[b]
+        ub = [[0.0] * n for _ in range(nj)]
+        per_joint = [(qadr_l[k], dadr_l[k], cb[k], qb[k], ub[k],
+                      loops[k].effort if k in loops else None) for k in range(nj)]
+        for i in range(n):
+            for adr, _, _, qk, uk, law in per_joint:
+                qk[i] = read(adr)
+                if law is not None:  # the law's output is held over the interval
+                    uk[i] = law(i, qk)
+            if i == n - 1:
+                break
+            for _, dof, c, _, uk, _ in per_joint:
+                qfrc[dof] = uk[i] + c
             for _ in range(nsub):
                 step(m, d)
-    return [Rollout(q[b], u[b]) for b in range(nb)]
+        u.append(ub)
+    return [Rollout(np.array(q[b]).T.copy(), np.array(u[b]).T.copy()) for b in range(nb)]
+
+
+class _LoopTerms:
+    """One declared loop's law in plain floats (``Feedback.commands`` for one replay):
+    the reference and added columns as lists, the constants unpacked."""
+
+    def __init__(self, f, columns: Mapping[str, np.ndarray], period: float):
+        self.f = f
+        self.ref = [float(x) for x in columns[f.reference]]
+        self.added = [float(x) for x in columns[f.added]] if f.added is not None else None
+        self.period = period
+        self.lo, self.hi = f.saturation if f.saturation is not None else (None, None)
+
+    def effort(self, k: int, q: list[float]) -> float:
+        f = self.f
+        taps = min(f.velocity_taps, k)
+        v = (q[k] - q[k - taps]) / (taps * self.period) if taps > 0 else 0.0
+        u = f.kp * (self.ref[k] - q[k]) - f.kd * v
+        if self.added is not None:
+            u = u + self.added[k]
+        if self.lo is not None:
+            u = min(max(u, self.lo), self.hi)
+        return f.gain * u
 
 
 class BatchRunner:
@@ -284,7 +315,7 @@ class BatchRunner:
 
         traj = self.traj
         if traj.feedback and traj.controller is None and _uniform(traj):
-            return lockstep(models, traj, initials, laws, fine, refine)
+            return declared_loop(models, traj, initials, laws, fine, refine)
         needs_state = traj.law() is not None or not _uniform(traj)
         if needs_state:
             data = mujoco.MjData(models[0])
