@@ -21,28 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from ..formats import format_for_path
-from . import Experiment, Recorder, Trajectory
+from . import Experiment, Recorder, Trajectory, urdf_laws
 from .venv import GENESIS_VENV, run_in_venv, serve
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "genesis", path, experiment, GENESIS_VENV)
-
-
-def _urdf_laws(path: Path) -> dict[str, dict[str, float]]:
-    """Each URDF joint's springs and armature, from our ``real2code:`` attributes."""
-    from lxml import etree
-
-    from ..formats.urdf.spec import NAMESPACE
-
-    prefix = f"{{{NAMESPACE}}}"
-    out: dict[str, dict[str, float]] = {}
-    for joint in etree.parse(str(path)).getroot().iter("joint"):
-        dyn = joint.find("dynamics")
-        if dyn is not None:
-            out[joint.get("name", "")] = {k.removeprefix(prefix): float(v)
-                                          for k, v in dyn.attrib.items() if k.startswith(prefix)}
-    return out
 
 
 def _mjcf_spring_refs(path: Path) -> dict[str, tuple[float, float, float]]:
@@ -82,7 +66,7 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     movable = [j for j in entity.joints if j.n_dofs == 1]
     dofs = [j.dofs_idx_local[0] for j in movable]
     if urdf:
-        laws = _urdf_laws(path)
+        laws = urdf_laws(path)
         for joint in movable:
             joint.set_sol_params(np.array([*LIMIT_SOLREF, *LIMIT_SOLIMP]))
         law = [laws.get(j.name, {}) for j in movable]
