@@ -77,6 +77,18 @@ def test_genesis_agrees_with_mujoco(laptop, engine, experiment, within):
     assert run.max_angle < within
 
 
+def test_springs_and_armature_from_the_urdf(tmp_path):
+    """URDF has no place for springs or armature: engines that run it read ours from the
+    real2code: attributes (urdf_laws), and agree with MuJoCo's MJCF, which holds them."""
+    obj = generate("laptop", seed=3)
+    for j in obj.movable_joints:
+        j.dynamics.damping, j.dynamics.friction = 0.05, 0.02
+        j.dynamics.stiffness, j.dynamics.spring_ref, j.dynamics.armature = 0.8, 0.6, 0.003
+    report = simulate_file(object_json.save(obj, tmp_path), ["pinocchio"], ["laws"])
+    run = next(r for r in report.runs if r.engine == "Pinocchio (URDF)")
+    assert run.status == "ok" and run.max_angle < 1e-3, (run.status, run.max_angle)
+
+
 def test_report_json_and_exit_status(laptop, tmp_path, capsys):
     out = tmp_path / "report.json"
     assert run(["simulate", str(laptop), "--engines", "pinocchio", "--json", str(out)]) == 0
