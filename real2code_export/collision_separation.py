@@ -98,7 +98,7 @@ def separate(obj: ArticulatedObject, *, parts: set[str] | None = None, gap: floa
     for piece in pieces:
         small[piece.part] += SMALL_PIECE_FRACTION * piece.volume
     cuts: list[Cut] = []
-    met: dict[str, set[int]] = {}  # per joint: the pieces cut (or cut against) along its range
+    met: dict[str, set[int]] = {}  # per joint: the pieces whose boxes met along its range
     for q, pair in _configurations(obj, sweep):
         pieces, found, touched = _separate_at(obj, q, pair, pieces, mutable, small, gap,
                                               min_thickness)
@@ -106,8 +106,8 @@ def separate(obj: ArticulatedObject, *, parts: set[str] | None = None, gap: floa
         for name in q:
             met.setdefault(name, set()).update(touched)
     # Halfway between two swept values a corner of one piece may cut across an edge of the
-    # other although both values left them clear: the pieces that met along a range are
-    # separated there too.
+    # other although both values left them clear: the pieces whose bounding boxes met along
+    # a range are separated there too.
     for joint in obj.movable_joints:
         if not met.get(joint.name):
             continue
@@ -128,7 +128,7 @@ def _separate_at(obj: ArticulatedObject, q: dict[str, float], pair: tuple[str, s
                  ) -> tuple[list[_Piece], list[Cut], set[int]]:
     """Separate the pieces at one configuration (of the parts ``pair`` only, when given; of
     the pieces whose ids are in ``only``, when given): the pieces left, what was cut, and
-    the ids of the pieces that met."""
+    the ids of the pieces whose bounding boxes met."""
     poses = forward_kinematics(obj, q)
     # along a range only the joint's child and parent are compared: only they are placed
     placed = [p for p in pieces if (pair is None or p.part in pair)
@@ -142,11 +142,12 @@ def _separate_at(obj: ArticulatedObject, q: dict[str, float], pair: tuple[str, s
         for a, b in _candidate_pairs(placed, pair, mutable, gap):
             if a.volume == 0 or b.volume == 0:
                 continue
+            touched |= {id(a), id(b)}  # their boxes meet: they may meet in between
             cut = _separate_pair(a, b, poses, mutable, small, gap, min_thickness)
             if cut is not None:
                 part, other, depth, outcome, new_pieces = cut
                 found.append(Cut(part, other, depth, dict(q), outcome))
-                touched |= {id(a), id(b), *(id(p) for p in new_pieces)}
+                touched |= {id(p) for p in new_pieces}
                 pieces += new_pieces
                 placed += new_pieces
         cuts += found
