@@ -98,31 +98,64 @@ def separate(obj: ArticulatedObject, *, parts: set[str] | None = None, gap: floa
     for piece in pieces:
         small[piece.part] += SMALL_PIECE_FRACTION * piece.volume
     cuts: list[Cut] = []
+    met: dict[str, set[int]] = {}  # per joint: the pieces whose boxes met along its range
     for q, pair in _configurations(obj, sweep):
-        poses = forward_kinematics(obj, q)
-        # along a range only the joint's child and parent are compared: only they are placed
-        placed = [p for p in pieces if pair is None or p.part in pair]
-        for piece in placed:
-            piece.place(poses[piece.part])
-        for _ in range(_MAX_PASSES):  # a carved piece's new pieces are checked on the next pass
-            found = []
-            for a, b in _candidate_pairs(placed, pair, mutable, gap):
-                if a.volume == 0 or b.volume == 0:
-                    continue
-                cut = _separate_pair(a, b, poses, mutable, small, gap, min_thickness)
-                if cut is not None:
-                    part, other, depth, outcome, new_pieces = cut
-                    found.append(Cut(part, other, depth, dict(q), outcome))
-                    pieces += new_pieces
-                    placed += new_pieces
+        pieces, found, touched = _separate_at(obj, q, pair, pieces, mutable, small, gap,
+                                              min_thickness)
+        cuts += found
+        for name in q:
+            met.setdefault(name, set()).update(touched)
+    # Halfway between two swept values a corner of one piece may cut across an edge of the
+    # other although both values left them clear: the pieces whose bounding boxes met along
+    # a range are separated there too.
+    for joint in obj.movable_joints:
+        if not met.get(joint.name):
+            continue
+        values = sweep_values(obj, joint, sweep)
+        for v in (values[1:] + values[:-1]) / 2:
+            pieces, found, _ = _separate_at(obj, {joint.name: float(v)},
+                                            (joint.child, joint.parent), pieces, mutable, small,
+                                            gap, min_thickness, only=met[joint.name])
             cuts += found
-            pieces = [p for p in pieces if p.volume > 0]
-            placed = [p for p in placed if p.volume > 0]
-            if not any(c.outcome == "carved" for c in found):
-                break
     for part in out.parts:
         part.collision = [p.mesh for p in pieces if p.part == part.name]
     return out, cuts
+
+
+def _separate_at(obj: ArticulatedObject, q: dict[str, float], pair: tuple[str, str] | None,
+                 pieces: list[_Piece], mutable: set[str], small: dict[str, float], gap: float,
+                 min_thickness: float, only: set[int] | None = None
+                 ) -> tuple[list[_Piece], list[Cut], set[int]]:
+    """Separate the pieces at one configuration (of the parts ``pair`` only, when given; of
+    the pieces whose ids are in ``only``, when given): the pieces left, what was cut, and
+    the ids of the pieces whose bounding boxes met."""
+    poses = forward_kinematics(obj, q)
+    # along a range only the joint's child and parent are compared: only they are placed
+    placed = [p for p in pieces if (pair is None or p.part in pair)
+              and (only is None or id(p) in only)]
+    for piece in placed:
+        piece.place(poses[piece.part])
+    cuts: list[Cut] = []
+    touched: set[int] = set()
+    for _ in range(_MAX_PASSES):  # a carved piece's new pieces are checked on the next pass
+        found = []
+        for a, b in _candidate_pairs(placed, pair, mutable, gap):
+            if a.volume == 0 or b.volume == 0:
+                continue
+            touched |= {id(a), id(b)}  # their boxes meet: they may meet in between
+            cut = _separate_pair(a, b, poses, mutable, small, gap, min_thickness)
+            if cut is not None:
+                part, other, depth, outcome, new_pieces = cut
+                found.append(Cut(part, other, depth, dict(q), outcome))
+                touched |= {id(p) for p in new_pieces}
+                pieces += new_pieces
+                placed += new_pieces
+        cuts += found
+        pieces = [p for p in pieces if p.volume > 0]
+        placed = [p for p in placed if p.volume > 0]
+        if not any(c.outcome == "carved" for c in found):
+            break
+    return pieces, cuts, touched
 
 
 def _candidate_pairs(pieces: list[_Piece], pair: tuple[str, str] | None, mutable: set[str],

@@ -44,5 +44,7 @@ if [ ! -f "$viewer/node_modules/three/build/three.module.js" ]; then
   (cd "$viewer" && npm ci --silent --no-audit --no-fund)
 fi
 
-# The engines that need their own venv (PhysX via ovphysx, Newton): see setup_engines.sh.
+# The engines that need their own venv (PhysX via ovphysx, Newton, SAPIEN): see
+# setup_engines.sh; Genesis (torch, mujoco 4.0): see setup_genesis.sh.
 scripts/setup_engines.sh
+scripts/setup_genesis.sh

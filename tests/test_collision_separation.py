@@ -182,3 +182,22 @@ def test_a_partnet_object_whose_pieces_trimesh_finds_no_box_for():
     with pytest.warns(Real2CodeWarning):
         obj = load_any(path, faithful_collision=True)
     assert all(p.collision for p in obj.parts if p.visual is not None)
+
+
+def test_pieces_that_meet_along_a_range_are_kept_apart_halfway_too(tmp_path):
+    """PartNet 8867's door: a corner of one piece cut across an edge of the other between two
+    swept values, both of which left them clear; separation now also cuts the pieces that
+    met along a range halfway between the values, where `simulate` measures too."""
+    from real2code_export.dynamics.overlap import overlaps_along_ranges
+    from real2code_export.formats import load as load_any
+
+    from conftest import partnet_dir
+
+    path = partnet_dir() / "8867" / "mobility.urdf"
+    if not path.is_file():
+        pytest.skip(f"{path} is not here")
+    with pytest.warns(Real2CodeWarning):
+        obj = load_any(path, faithful_collision=True)
+    mjcf = write_formats(obj, tmp_path, ["mjcf"])["mjcf"]
+    assert overlaps(mjcf) == []
+    assert overlaps_along_ranges(mjcf, obj) == []

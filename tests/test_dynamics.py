@@ -62,6 +62,33 @@ def test_newton_agrees_at_a_limit(laptop, engine):
     assert run.max_angle < 1e-3
 
 
+@pytest.mark.parametrize(("engine", "experiment", "within"), [
+    ("genesis-mjcf", "swing", 1e-9),  # MuJoCo's integration: a one-step lag would be 1e-3
+    ("genesis-urdf", "limit", 1e-3),  # the URDF's laws, armature and limit softness set
+])
+def test_genesis_agrees_with_mujoco(laptop, engine, experiment, within):
+    """Genesis (.venv-genesis, scripts/setup_genesis.sh): an armature of 0 kept 0, MuJoCo's
+    Euler, the joint values of the step just taken. One run each: ~30 s of start-up."""
+    report = simulate_file(laptop, [engine], [experiment])
+    run = next(r for r in report.runs if r.engine.startswith("Genesis"))
+    if run.status == "skipped":
+        pytest.skip(run.message)
+    assert run.status == "ok", run.message
+    assert run.max_angle < within
+
+
+def test_springs_and_armature_from_the_urdf(tmp_path):
+    """URDF has no place for springs or armature: engines that run it read ours from the
+    real2code: attributes (urdf_laws), and agree with MuJoCo's MJCF, which holds them."""
+    obj = generate("laptop", seed=3)
+    for j in obj.movable_joints:
+        j.dynamics.damping, j.dynamics.friction = 0.05, 0.02
+        j.dynamics.stiffness, j.dynamics.spring_ref, j.dynamics.armature = 0.8, 0.6, 0.003
+    report = simulate_file(object_json.save(obj, tmp_path), ["pinocchio"], ["laws"])
+    run = next(r for r in report.runs if r.engine == "Pinocchio (URDF)")
+    assert run.status == "ok" and run.max_angle < 1e-3, (run.status, run.max_angle)
+
+
 def test_report_json_and_exit_status(laptop, tmp_path, capsys):
     out = tmp_path / "report.json"
     assert run(["simulate", str(laptop), "--engines", "pinocchio", "--json", str(out)]) == 0

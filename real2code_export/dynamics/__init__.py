@@ -114,3 +114,21 @@ class Recorder:
             if self.experiment.boxes else None
         return Trajectory(list(self.experiment.joints), np.array(self.times),
                           np.array(self.rows).reshape(len(self.times), -1), notes or [], boxes)
+
+
+def urdf_laws(path) -> dict[str, dict[str, float]]:
+    """Each URDF joint's ``<dynamics>`` attributes by joint name: damping and friction, and
+    our ``real2code:`` stiffness, springref and armature (URDF has no place for them), for
+    engines whose URDF loaders leave those at their own defaults."""
+    from lxml import etree
+
+    from ..formats.urdf.spec import NAMESPACE
+
+    prefix = f"{{{NAMESPACE}}}"
+    out: dict[str, dict[str, float]] = {}
+    for joint in etree.parse(str(path)).getroot().iter("joint"):
+        dyn = joint.find("dynamics")
+        if dyn is not None:
+            out[joint.get("name", "")] = {k.removeprefix(prefix): float(v)
+                                          for k, v in dyn.attrib.items()}
+    return out

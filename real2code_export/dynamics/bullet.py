@@ -16,8 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..probes._stdio import captured_c_output
-from . import EngineUnavailable, Experiment, Recorder, Trajectory
-from .pinocchio import _extra_laws
+from . import EngineUnavailable, Experiment, Recorder, Trajectory, urdf_laws
 
 JOINT_ERP = 0.001
 
@@ -62,7 +61,7 @@ def _run(pb, client, path: Path, experiment: Experiment) -> Trajectory:
             pb.setCollisionFilterGroupMask(body, link, 0, 0, **kw)
     pb.setJointMotorControlArray(body, index, pb.VELOCITY_CONTROL, targetVelocities=[0.0] * len(index),
                                  forces=[friction[j] for j in index], **kw)
-    extra = _extra_laws(path)
+    extra = urdf_laws(path)
     springs = [(j, extra[n]["stiffness"], extra[n].get("springref", 0.0))
                for n, j in zip(experiment.joints, index, strict=True)
                if extra.get(n, {}).get("stiffness", 0.0) > 0.0]

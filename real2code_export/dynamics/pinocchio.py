@@ -14,28 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import EngineUnavailable, Experiment, Recorder, Trajectory
+from . import EngineUnavailable, Experiment, Recorder, Trajectory, urdf_laws
 
 PGS_ITERATIONS = 60
 PGS_TOLERANCE = 1e-12  # N m s (or N s): an impulse change below this ends the passes
-
-
-def _extra_laws(path: Path) -> dict[str, dict[str, float]]:
-    """``real2code:stiffness``/``springref``/``armature`` of each joint's ``<dynamics>``."""
-    from lxml import etree
-
-    from ..formats.urdf.spec import NAMESPACE
-
-    prefix = f"{{{NAMESPACE}}}"
-    out: dict[str, dict[str, float]] = {}
-    for joint in etree.parse(str(path)).getroot().iter("joint"):
-        dyn = joint.find("dynamics")
-        if dyn is None:
-            continue
-        values = {k[len(prefix):]: float(v) for k, v in dyn.attrib.items()
-                  if k in {prefix + a for a in ("stiffness", "springref", "armature")}}
-        out[joint.get("name", "")] = values
-    return out
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
@@ -64,7 +46,7 @@ def simulate(path: Path, experiment: Experiment) -> Trajectory:
     lower = np.full(nv, -np.inf)
     upper = np.full(nv, np.inf)
     stiffness, springref, armature = np.zeros(nv), np.zeros(nv), np.zeros(nv)
-    extra = _extra_laws(path)
+    extra = urdf_laws(path)
     for jid in range(1, model.njoints):
         joint, name = model.joints[jid], model.names[jid]
         if joint.nv != 1:

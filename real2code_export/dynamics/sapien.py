@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import Experiment, Recorder, Trajectory
+from . import Experiment, Recorder, Trajectory, urdf_laws
 from .venv import run_in_venv, serve
 
 FRICTION_DRIVE_DAMPING = 1e4  # N m s/rad: the friction drive holds a joint still below it
@@ -27,23 +27,6 @@ FRICTION_DRIVE_DAMPING = 1e4  # N m s/rad: the friction drive holds a joint stil
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "sapien", path, experiment)
-
-
-def _laws(path: Path) -> dict[str, dict[str, float]]:
-    """Each joint's ``<dynamics>``: damping and friction, and our real2code: stiffness,
-    springref and armature."""
-    from lxml import etree
-
-    from ..formats.urdf.spec import NAMESPACE
-
-    prefix = f"{{{NAMESPACE}}}"
-    out: dict[str, dict[str, float]] = {}
-    for joint in etree.parse(str(path)).getroot().iter("joint"):
-        dyn = joint.find("dynamics")
-        if dyn is not None:
-            out[joint.get("name", "")] = {k.removeprefix(prefix): float(v)
-                                          for k, v in dyn.attrib.items()}
-    return out
 
 
 def _without_visuals(path: Path) -> Path:
@@ -78,7 +61,7 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     missing = [n for n in experiment.joints if n not in joints]
     if missing:
         raise KeyError(f"{path}: SAPIEN's articulation has no joint named {missing[0]!r}")
-    laws = _laws(path)
+    laws = urdf_laws(path)
     active = list(articulation.active_joints)
     law = [laws.get(j.name, {}) for j in active]
     damping = np.array([x.get("damping", 0.0) for x in law])
