@@ -149,9 +149,9 @@ def _pd_drawer(seed: int, damping: float, rate: float = 500.0, duration: float =
     return obj, joint, t, q_meas, ref, u_out, dict(kp=kp, kd=kd, gain=gain, taps=taps)
 
 
-def test_closed_loop_replayed_through_the_declared_law(tmp_path):
-    b = 6.0
-    obj, joint, t, q, ref, u, law = _pd_drawer(3, damping=b)
+def _write_loop(tmp_path, joint, t, q, ref, u, law, extra: str = "") -> Path:
+    """A PD loop's run as a CSV (position, reference, effort) and its experiment file
+    declaring the law (``extra``: more lines of the feedback table)."""
     lines = ["time,pos,ref,force"] + [f"{a!r},{x!r},{r!r},{f!r}" for a, x, r, f in
                                       zip(t.tolist(), q.tolist(), ref.tolist(), u.tolist(),
                                           strict=True)]
@@ -166,7 +166,14 @@ kp = {law['kp']}
 kd = {law['kd']}
 velocity_taps = {law['taps']}
 gain = {law['gain']}
-""")
+""" + extra)
+    return csv
+
+
+def test_closed_loop_replayed_through_the_declared_law(tmp_path):
+    b = 6.0
+    obj, joint, t, q, ref, u, law = _pd_drawer(3, damping=b)
+    csv = _write_loop(tmp_path, joint, t, q, ref, u, law)
     result = calibrate(obj, [csv])
     report = result.report
     assert report["causes"] == ["damping"], report["selection_log"]
@@ -203,22 +210,7 @@ def test_declared_loop_replays_are_the_stepwise_replay(tmp_path):
     from real2code_export.calibrate.trajectory import read_all
 
     obj, joint, t, q, ref, u, law = _pd_drawer(5, damping=4.0, duration=1.0)
-    lines = ["time,pos,ref,force"] + [f"{a!r},{x!r},{r!r},{f!r}" for a, x, r, f in
-                                      zip(t.tolist(), q.tolist(), ref.tolist(), u.tolist(),
-                                          strict=True)]
-    csv = _write(tmp_path / "loop.csv", "\n".join(lines) + "\n")
-    _write(beside(csv), f"""
-[joints.{joint}]
-position = "pos"
-effort = "force"
-[joints.{joint}.feedback]
-reference = "ref"
-kp = {law['kp']}
-kd = {law['kd']}
-velocity_taps = {law['taps']}
-gain = {law['gain']}
-saturation = [-0.05, 0.05]
-""")
+    csv = _write_loop(tmp_path, joint, t, q, ref, u, law, "saturation = [-0.05, 0.05]\n")
     tr, = read_all([csv], obj)
     problem = build_problem(obj, [tr])
     damping = problem.effects[joint]["damping"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -118,6 +119,15 @@ def shape_json(shape: Primitive) -> dict[str, Any]:
             "translation": shape.pose[:3, 3].tolist(), "rotation": shape.pose[:3, :3].tolist()}
 
 
+def _choice(d: Any, key: str, kinds: type[StrEnum], path: Path, el: str, what: str) -> str:
+    """``d[key]``, which must be one of the enumeration's values."""
+    value = _get(d, key, path, el)
+    if value not in {k.value for k in kinds}:
+        raise FormatError(path, el, f"unknown {what} {value!r} (expected one of "
+                          f"{[k.value for k in kinds]})")
+    return value
+
+
 def _transform(d: Any, path: Path, el: str, what: str) -> np.ndarray:
     """A 4x4 transform from its ``translation`` (3) and row-major ``rotation`` (9)."""
     out = np.eye(4)
@@ -130,10 +140,7 @@ def _transform(d: Any, path: Path, el: str, what: str) -> np.ndarray:
 def shape_from_json(d: Any, path: Path, el: str) -> Primitive:
     if not isinstance(d, dict):
         raise FormatError(path, el, f"a shape must be an object, got {d!r}")
-    kind = _get(d, "kind", path, el)
-    if kind not in {k.value for k in ShapeKind}:
-        raise FormatError(path, el, f"unknown shape kind {kind!r} (expected one of "
-                          f"{[k.value for k in ShapeKind]})")
+    kind = _choice(d, "kind", ShapeKind, path, el, "shape kind")
     size = _get(d, "size", path, el)
     pose = _transform(d, path, el, "")
     shape = Primitive(kind, _vec(size, len(size) if isinstance(size, list) else 1, path, el,
@@ -243,10 +250,7 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         el = f"joints[{i}]"
         name = _get(jd, "name", path, el)
         el = f"joint {name!r}"
-        jtype = _get(jd, "type", path, el)
-        if jtype not in {t.value for t in JointType}:
-            raise FormatError(path, el, f"unknown joint type {jtype!r} (expected one of "
-                              f"{[t.value for t in JointType]})")
+        jtype = _choice(jd, "type", JointType, path, el, "joint type")
         od = _get(jd, "origin", path, el)
         origin = _transform(od, path, el, "origin ")
         limits = None
