@@ -31,6 +31,9 @@ from conftest import partnet_dir
 from helpers import box_inertial, box_mesh, small_cabinet
 
 pxr = pytest.importorskip("pxr")
+# Newton's schemas (NewtonJointAPI, NewtonMassAPI), as our reader registers them before opening
+# a stage: the writer authors the file through Sdf and registers nothing.
+import newton_usd_schemas  # noqa: E402, F401
 from pxr import Sdf, Usd, UsdPhysics, UsdValidation  # noqa: E402
 
 TOL = 1e-6

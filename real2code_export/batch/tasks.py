@@ -152,7 +152,8 @@ def reconstruct_task(obj: BatchObject, out: Path, options: TaskOptions) -> TaskR
 def _format_imports() -> tuple[str, ...]:
     from ..formats import FORMATS
 
-    names = (n for f in FORMATS.values() for n in (*f.requires, f.module, *f.probes))
+    names = (n for f in FORMATS.values()
+             for n in (*f.requires, *f.read_requires, f.module, *f.probes))
     return tuple(dict.fromkeys(names))
 
 

@@ -48,7 +48,7 @@ def chosen_formats(args) -> list[str]:
     if not args.to:
         return export_formats()
     for name in args.to:
-        FORMATS[name].load_module()  # raises, naming what fails to import
+        FORMATS[name].load_module(writing=True)  # raises, naming what fails to import
     return list(args.to)
 
 

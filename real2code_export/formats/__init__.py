@@ -36,7 +36,9 @@ class Format:
     description: str
     module: str  # has load(path) and/or save(obj, out_dir, *, write_meshes)
     suffixes: tuple[str, ...]  # files of this format; the first is what an export writes
-    requires: tuple[str, ...] = ()  # modules the format's reader/writer cannot work without
+    requires: tuple[str, ...] = ()  # modules the format's writer (and reader) cannot work without
+    # and those its reader alone needs (USD: the schema modules; the writer authors through Sdf)
+    read_requires: tuple[str, ...] = ()
     probes: tuple[str, ...] = ()  # modules whose open_probes(path) load it in its own tools
     validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
     # (and start_<function>, where the module has one: validators.start_validation)
@@ -56,23 +58,25 @@ class Format:
         """The file an export writes: DIR/<object name><suffix>."""
         return self.suffixes[0]
 
-    def load_module(self) -> ModuleType:
+    def load_module(self, *, writing: bool = False) -> ModuleType:
         """The format's module; UnavailableError (exit 2) naming why when it cannot be used
-        here."""
-        problem = unavailable_reason(self.name)
+        here (``writing``: to write files, which may need fewer imports than reading)."""
+        problem = unavailable_reason(self.name, writing=writing)
         if problem:
             raise UnavailableError(f"format {self.name!r} is not available here: {problem}")
         return importlib.import_module(self.module)
 
 
 FORMATS: dict[str, Format] = {}
-_PROBLEMS: dict[str, str | None] = {}  # format name -> why it cannot be used here (None: it can)
+# (format name, writing only) -> why it cannot be used so here (None: it can)
+_PROBLEMS: dict[tuple[str, bool], str | None] = {}
 
 
 def register(fmt: Format) -> Format:
     """Add (or replace) a format; everything that offers formats asks :data:`FORMATS`."""
     FORMATS[fmt.name] = fmt
-    _PROBLEMS.pop(fmt.name, None)
+    for writing in (False, True):
+        _PROBLEMS.pop((fmt.name, writing), None)
     return fmt
 
 
@@ -87,7 +91,8 @@ for _fmt in (
            (".urdf",), requires=("lxml.etree",), probes=(_P + "mujoco", _P + "pinocchio"),
            kept_elements="urdf_elements"),
     Format("usd", "USD", "USD with UsdPhysics joints", "real2code_export.formats.usd",
-           (".usda", ".usd", ".usdc"), requires=("pxr.Usd", "pxr.UsdPhysics"),
+           (".usda", ".usd", ".usdc"), requires=("pxr.Sdf",),
+           read_requires=("pxr.Usd", "pxr.UsdPhysics"),
            probes=(_P + "usd",), validator="real2code_export.validators:validate_usd",
            mesh_files=False, hulls_collision=True),
     Format("gltf", "glTF", "Binary glTF with KHR physics joints", "real2code_export.formats.gltf",
@@ -101,19 +106,21 @@ for _fmt in (
 # -- availability --------------------------------------------------------------------------------
 
 
-def unavailable_reason(name: str) -> str | None:
-    """Why format ``name`` cannot be used here (its imports fail), or None when it can.
-    Imports its dependencies and its module the first time; cached."""
+def unavailable_reason(name: str, *, writing: bool = False) -> str | None:
+    """Why format ``name`` cannot be read and written here (``writing``: cannot be written;
+    its imports fail), or None when it can. Imports its dependencies and its module the
+    first time; cached."""
     if name not in FORMATS:
         raise FormatError(None, "--to", f"unknown format {name!r}; choose from "
                           f"{', '.join(FORMATS)}")
-    if name not in _PROBLEMS:
-        _PROBLEMS[name] = _import_problem(FORMATS[name])
-    return _PROBLEMS[name]
+    key = (name, writing)
+    if key not in _PROBLEMS:
+        _PROBLEMS[key] = _import_problem(FORMATS[name], writing)
+    return _PROBLEMS[key]
 
 
-def _import_problem(fmt: Format) -> str | None:
-    for module in (*fmt.requires, fmt.module):
+def _import_problem(fmt: Format, writing: bool) -> str | None:
+    for module in (*fmt.requires, fmt.module, *(() if writing else fmt.read_requires)):
         try:
             importlib.import_module(module)
         except Exception as e:  # noqa: BLE001 - a broken package fails in any way it likes
@@ -132,8 +139,10 @@ def forget_availability() -> None:
 
 
 def export_formats() -> list[str]:
-    """The formats an export writes by default: every exported format available here."""
-    return [f.name for f in FORMATS.values() if f.exported and available(f.name)]
+    """The formats an export writes by default: every exported format that can be written
+    here."""
+    return [f.name for f in FORMATS.values()
+            if f.exported and unavailable_reason(f.name, writing=True) is None]
 
 
 def hulls_collision(formats: list[str] | tuple[str, ...]) -> bool:
@@ -243,7 +252,7 @@ def write_formats(obj: ArticulatedObject, folder: str | Path,
     if unknown:
         raise FormatError(None, "--to", f"unknown format(s) {unknown}; choose from {list(FORMATS)}")
     validate(obj)
-    modules = {name: FORMATS[name].load_module() for name in formats}
+    modules = {name: FORMATS[name].load_module(writing=True) for name in formats}
     unwritable = [name for name, module in modules.items() if not hasattr(module, "save")]
     if unwritable:
         raise FormatError(None, "--to", f"format(s) {unwritable} cannot be written")

@@ -14,56 +14,48 @@ from ... import transforms as tf
 from ...engine_settings import LINK_DAMPING
 from ...errors import warn
 from ...model import Inertial, Mesh, Part
-from .conventions import as_float32, quatd, quatf
+from .conventions import as_float32, quatf
+from .layer import apply, attribute, define, place
 
 PHYSX_RIGID_BODY = "PhysxRigidBodyAPI"
 PHYSX_LINK_DAMPING = ("physxRigidBody:linearDamping", "physxRigidBody:angularDamping")
 
 
-def write_body(stage, path: str, part: Part, world: np.ndarray):
-    from pxr import Gf, Sdf, UsdGeom, UsdPhysics
+def write_body(layer, path: str, part: Part, world: np.ndarray):
+    from pxr import Gf
 
-    xform = UsdGeom.Xform.Define(stage, path)
-    xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(*world[:3, 3].tolist()))
-    xform.AddOrientOp(UsdGeom.XformOp.PrecisionDouble).Set(quatd(world[:3, :3]))
-    prim = xform.GetPrim()
-    UsdPhysics.RigidBodyAPI.Apply(prim)
+    prim = define(layer, path, "Xform", "PhysicsRigidBodyAPI")
+    place(prim, world)
     # PhysX damps every body it is not told otherwise about (angular 0.05): our parts move
     # by their joint laws alone. Codeless: usd-core has no PhysxSchema, the tokens suffice.
-    prim.AddAppliedSchema(PHYSX_RIGID_BODY)
+    apply(prim, PHYSX_RIGID_BODY)
     for name in PHYSX_LINK_DAMPING:
-        prim.CreateAttribute(name, Sdf.ValueTypeNames.Float, custom=False).Set(LINK_DAMPING)
+        attribute(prim, name, "Float", LINK_DAMPING)
     inertial = part.inertial
     if inertial is None:
         return prim
-    mass = UsdPhysics.MassAPI.Apply(prim)
-    mass.CreateMassAttr(as_float32(inertial.mass))
-    mass.CreateCenterOfMassAttr(Gf.Vec3f(*inertial.com.tolist()))
+    apply(prim, "PhysicsMassAPI")
+    attribute(prim, "physics:mass", "Float", as_float32(inertial.mass))
+    attribute(prim, "physics:centerOfMass", "Point3f", Gf.Vec3f(*inertial.com.tolist()))
     moments, axes = inertial.principal()
-    mass.CreateDiagonalInertiaAttr(Gf.Vec3f(*moments.tolist()))
-    mass.CreatePrincipalAxesAttr(quatf(axes))
-    prim.ApplyAPI("NewtonMassAPI")
+    attribute(prim, "physics:diagonalInertia", "Float3", Gf.Vec3f(*moments.tolist()))
+    attribute(prim, "physics:principalAxes", "Quatf", quatf(axes))
+    apply(prim, "NewtonMassAPI")
     i = inertial.inertia
-    prim.GetAttribute("newton:inertia").Set(
-        [float(i[0, 0]), float(i[1, 1]), float(i[2, 2]), float(i[0, 1]), float(i[0, 2]),
-         float(i[1, 2])])
+    attribute(prim, "newton:inertia", "DoubleArray",
+              [float(i[0, 0]), float(i[1, 1]), float(i[2, 2]), float(i[0, 1]), float(i[0, 2]),
+               float(i[1, 2])])
     return prim
 
 
-def write_frame(stage, path: str, joint):
+def write_frame(layer, path: str, joint):
     """A frame: an Xform in its parent's body at the fixed joint's origin (double precision),
     the joint's name in ``real2code:fixedJoint``."""
-    from pxr import Gf, Sdf, UsdGeom
-
     from .conventions import FRAME_JOINT
 
-    xform = UsdGeom.Xform.Define(stage, path)
-    origin = joint.origin
-    xform.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).Set(
-        Gf.Vec3d(*origin[:3, 3].tolist()))
-    xform.AddOrientOp(UsdGeom.XformOp.PrecisionDouble).Set(quatd(origin[:3, :3]))
-    prim = xform.GetPrim()
-    prim.CreateAttribute(FRAME_JOINT, Sdf.ValueTypeNames.String, custom=True).Set(joint.name)
+    prim = define(layer, path, "Xform")
+    place(prim, joint.origin)
+    attribute(prim, FRAME_JOINT, "String", joint.name, custom=True)
     return prim
 
 

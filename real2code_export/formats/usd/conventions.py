@@ -1,6 +1,6 @@
-"""What the USD writer and reader agree on: the layout, stage metadata and units, making and
-opening stages, and the conversions between the model's float64 transforms and USD's value
-types.
+"""What the USD writer and reader agree on: the layout, stage metadata and units (the writer
+authors them in ``layer``), opening stages, and the conversions between the model's float64
+transforms and USD's value types.
 
 Layout of a file we write (after Newton's urdf-usd-converter asset structure):
 
@@ -29,7 +29,6 @@ from pathlib import Path
 import numpy as np
 
 from ... import transforms as tf
-from ...engine_settings import PHYSX_SOLVER
 from ...errors import FormatError, InputError
 
 GEOMETRY, PHYSICS, LOOKS = "Geometry", "Physics", "Looks"
@@ -39,44 +38,6 @@ WORLD_JOINT = "world_fixed"
 METADATA = f"{NAMESPACE}:metadata"  # the object's metadata (JSON) on the object prim
 FLOATING_JOINT = f"{NAMESPACE}:floatingJoint"  # on a free body: its floating joint's name
 FRAME_JOINT = f"{NAMESPACE}:fixedJoint"  # on a frame (an Xform in a body): its joint's name
-
-
-def new_stage(name: str):
-    """An in-memory stage with Z up, metres, kilograms, the object Xform as defaultPrim and
-    a PhysicsScene (gravity -Z, 9.81 m/s^2)."""
-    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
-
-    layer = Sdf.Layer.CreateAnonymous(f"{name}.usda")
-    stage = Usd.Stage.Open(layer)
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
-    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
-    layer.documentation = f"{name}: written by real2code_export"
-    root = UsdGeom.Xform.Define(stage, f"/{name}").GetPrim()
-    stage.SetDefaultPrim(root)
-    for scope in (GEOMETRY, PHYSICS, LOOKS):
-        UsdGeom.Scope.Define(stage, f"/{name}/{scope}")
-    scene = UsdPhysics.Scene.Define(stage, "/" + (SCENE if name != SCENE else f"{SCENE}_1"))
-    scene.CreateGravityDirectionAttr(Gf.Vec3f(0.0, 0.0, -1.0))
-    scene.CreateGravityMagnitudeAttr(9.81)
-    # PhysX's default TGS solver lets a freely swinging door drift 0.36 rad from MuJoCo in
-    # 2 s at 1 ms; PGS integrates it as MuJoCo does (1e-4 rad; `real2code simulate`).
-    scene.GetPrim().AddAppliedSchema("PhysxSceneAPI")
-    scene.GetPrim().CreateAttribute("physxScene:solverType", Sdf.ValueTypeNames.Token,
-                                    custom=False).Set(PHYSX_SOLVER)
-    return stage, root
-
-
-def stage_text(stage) -> str:
-    return stage.GetRootLayer().ExportToString()
-
-
-def save_stage(stage, path: Path) -> None:
-    """The stage's layer written to ``path`` (.usda) by USD itself: the same bytes as
-    :func:`stage_text`, without passing them through a Python string (on a 47 MB file,
-    0.55 s of CPU instead of 0.7)."""
-    if not stage.GetRootLayer().Export(str(path)):
-        raise OSError(f"USD could not write {path}")
 
 
 # -- opening ---------------------------------------------------------------------------------
@@ -193,13 +154,6 @@ def quatf(rotation: np.ndarray):
 
     w, x, y, z = (float(v) for v in snapped_quat(rotation))
     return Gf.Quatf(w, x, y, z)
-
-
-def quatd(rotation: np.ndarray):
-    from pxr import Gf
-
-    w, x, y, z = (float(v) for v in tf.matrix_to_quat(rotation))
-    return Gf.Quatd(w, x, y, z)
 
 
 def rotation_of(quat) -> np.ndarray:

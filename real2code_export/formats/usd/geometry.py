@@ -22,6 +22,7 @@ from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import DEFAULT_COLOR, Mesh, Part, Texture
 from ...primitives import Primitive, ShapeKind
+from .layer import apply, attribute, connect, define, extent, place, relationship
 
 ST = "st"  # the texture-coordinate primvar's name, as UsdPreviewSurface's examples use
 
@@ -34,69 +35,72 @@ def collision_name(part: Part, k: int) -> str:
     return f"{part.name}_collision_{k}"
 
 
-def _define_mesh(stage, path: str, mesh: Mesh):
-    from pxr import UsdGeom, Vt
+def _define_mesh(layer, path: str, mesh: Mesh, *schemas: str):
+    from pxr import Vt
 
-    geom = UsdGeom.Mesh.Define(stage, path)
-    points = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(mesh.vertices, dtype=np.float32))
-    geom.CreatePointsAttr(points)
-    geom.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32)))
-    geom.CreateFaceVertexIndicesAttr(
-        Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.faces.reshape(-1), dtype=np.int32)))
-    geom.CreateExtentAttr(UsdGeom.Mesh.ComputeExtent(points))
-    geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)  # flat triangles, not Catmull-Clark
-    return geom
+    prim = define(layer, path, "Mesh", *schemas)
+    vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
+    attribute(prim, "points", "Point3fArray", Vt.Vec3fArray.FromNumpy(vertices))
+    attribute(prim, "faceVertexCounts", "IntArray",
+              Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32)))
+    attribute(prim, "faceVertexIndices", "IntArray",
+              Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.faces.reshape(-1), dtype=np.int32)))
+    attribute(prim, "extent", "Float3Array", extent(vertices.min(axis=0), vertices.max(axis=0)))
+    # flat triangles, not Catmull-Clark
+    attribute(prim, "subdivisionScheme", "Token", "none", uniform=True)
+    return prim
 
 
-def write_part_geometry(stage, part: Part, body_path: str, material_path: str) -> None:
+def write_part_geometry(layer, part: Part, body_path: str, material_path: str) -> None:
     """Visual mesh, collision pieces and the part's material (bound on the part prim, so the
     colour is kept even for a part without a visual mesh)."""
-    from pxr import Gf, Sdf, UsdPhysics, UsdShade
+    from pxr import Gf
 
     r, g, b, a = (float(c) for c in part.color)
-    material = UsdShade.Material.Define(stage, material_path)
-    shader = UsdShade.Shader.Define(stage, f"{material_path}/PreviewSurface")
-    shader.CreateIdAttr("UsdPreviewSurface")
-    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(r, g, b))
-    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(a)
-    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.6)
+    material = define(layer, material_path, "Material")
+    surface = f"{material_path}/PreviewSurface"
+    shader = define(layer, surface, "Shader")
+    attribute(shader, "info:id", "Token", "UsdPreviewSurface", uniform=True)
+    attribute(shader, "inputs:diffuseColor", "Color3f", Gf.Vec3f(r, g, b))
+    attribute(shader, "inputs:opacity", "Float", a)
+    attribute(shader, "inputs:roughness", "Float", 0.6)
     if part.texture is not None or part.maps:
-        _texture_network(stage, material, material_path, shader, part)
-    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-    body = stage.GetPrimAtPath(body_path)
-    UsdShade.MaterialBindingAPI.Apply(body).Bind(material)
+        _texture_network(layer, material, material_path, shader, part)
+    attribute(shader, "outputs:surface", "Token")
+    connect(material, "outputs:surface", "Token", f"{surface}.outputs:surface")
+    body = layer.GetPrimAtPath(body_path)
+    apply(body, "MaterialBindingAPI")
+    relationship(body, "material:binding", material_path)
 
     visuals = []
     own = part.visual.remainder() if part.visual is not None else None
     if own is not None:
-        visual = _define_mesh(stage, f"{body_path}/{visual_name(part)}", own)
+        visual = _define_mesh(layer, f"{body_path}/{visual_name(part)}", own)
         if own.uv is not None:
             _texture_coordinates(visual, own.uv)
         visuals.append(visual)
     for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
-        visuals.append(define_shape(stage, f"{body_path}/{part.name}_visual_{k}", shape))
+        visuals.append(define_shape(layer, f"{body_path}/{part.name}_visual_{k}", shape))
     for visual in visuals:  # displayColor too, for viewers and importers (MuJoCo's) that
-        visual.CreateDisplayColorAttr([Gf.Vec3f(r, g, b)])  # read no materials
-        visual.CreateDisplayOpacityAttr([a])
+        attribute(visual, "primvars:displayColor", "Color3fArray", [Gf.Vec3f(r, g, b)])
+        attribute(visual, "primvars:displayOpacity", "FloatArray", [a])  # read no materials
     for k, piece in enumerate(part.collision):
         where = f"{body_path}/{collision_name(part, k)}"
         if piece.primitive is not None:  # an analytic collider
-            geom = define_shape(stage, where, piece.primitive)
+            geom = define_shape(layer, where, piece.primitive, "PhysicsCollisionAPI")
         else:
-            geom = _define_mesh(stage, where, piece)
-        geom.CreatePurposeAttr("guide")
-        UsdPhysics.CollisionAPI.Apply(geom.GetPrim())
-        if piece.primitive is None:
-            UsdPhysics.MeshCollisionAPI.Apply(geom.GetPrim()).CreateApproximationAttr(
-                UsdPhysics.Tokens.convexHull)
+            geom = _define_mesh(layer, where, piece, "PhysicsCollisionAPI",
+                                "PhysicsMeshCollisionAPI")
+            attribute(geom, "physics:approximation", "Token", "convexHull", uniform=True)
+        attribute(geom, "purpose", "Token", "guide", uniform=True)
 
 
-def _texture_coordinates(geom, uv: np.ndarray) -> None:
-    from pxr import Sdf, UsdGeom, Vt
+def _texture_coordinates(prim, uv: np.ndarray) -> None:
+    from pxr import Vt
 
-    st = UsdGeom.PrimvarsAPI(geom.GetPrim()).CreatePrimvar(
-        ST, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
-    st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv, dtype=np.float32)))
+    st = attribute(prim, f"primvars:{ST}", "TexCoord2fArray",
+                   Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(uv, dtype=np.float32)))
+    st.SetInfo("interpolation", "vertex")
 
 
 # role -> (UsdPreviewSurface input and its type, the image's colour space, the outputs read)
@@ -111,40 +115,41 @@ _SHADER_NAMES = {"texture": "Image", "metallic_roughness": "MetallicRoughness",
                  "normal": "Normal", "occlusion": "Occlusion", "emissive": "Emissive"}
 
 
-def _texture_network(stage, material, material_path: str, surface, part: Part) -> None:
+def _texture_network(layer, material, material_path: str, surface, part: Part) -> None:
     """UsdPreviewSurface's inputs from UsdUVTextures of the part's images (files beside the
     meshes, relative to the layer) through the ``st`` primvar: the base colour into
     diffuseColor, glTF's metallic-roughness map's G and B into roughness and metallic, the
     normal map (scaled and biased to -1..1) into normal, occlusion's R, emissive's RGB."""
-    from pxr import Gf, Sdf, UsdShade
+    from pxr import Gf, Sdf
 
     from ...meshfiles import map_relpath, texture_relpath
 
-    reader = UsdShade.Shader.Define(stage, f"{material_path}/TexCoords")
-    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    coordinates = f"{material_path}/TexCoords"
+    reader = define(layer, coordinates, "Shader")
+    attribute(reader, "info:id", "Token", "UsdPrimvarReader_float2", uniform=True)
+    attribute(reader, "outputs:result", "Float2")  # read by each image's st
     # (varname is a string since UsdPreviewSurface 2.3; a token before, which UsdValidation
     # now calls an error)
-    varname = material.CreateInput("frame:stPrimvarName", Sdf.ValueTypeNames.String)
-    varname.Set(ST)
-    reader.CreateInput("varname", Sdf.ValueTypeNames.String).ConnectToSource(varname)
+    attribute(material, "inputs:frame:stPrimvarName", "String", ST)
+    connect(reader, "inputs:varname", "String", f"{material_path}.inputs:frame:stPrimvarName")
     images = {"texture": texture_relpath(part)} if part.texture is not None else {}
     images |= {role: map_relpath(part, role) for role in part.maps}
     for role, relpath in images.items():
         inputs, kind, colorspace, outputs = _MAP_INPUTS[role]
-        image = UsdShade.Shader.Define(stage, f"{material_path}/{_SHADER_NAMES[role]}")
-        image.CreateIdAttr("UsdUVTexture")
-        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(f"./{relpath}"))
-        image.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(colorspace)
-        image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
-            reader.ConnectableAPI(), "result")
+        image_path = f"{material_path}/{_SHADER_NAMES[role]}"
+        image = define(layer, image_path, "Shader")
+        attribute(image, "info:id", "Token", "UsdUVTexture", uniform=True)
+        attribute(image, "inputs:file", "Asset", Sdf.AssetPath(f"./{relpath}"))
+        attribute(image, "inputs:sourceColorSpace", "Token", colorspace)
+        connect(image, "inputs:st", "Float2", f"{coordinates}.outputs:result")
         if role == "normal":  # stored 0..1, a normal is -1..1
-            image.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
-            image.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
+            attribute(image, "inputs:scale", "Float4", Gf.Vec4f(2, 2, 2, 1))
+            attribute(image, "inputs:bias", "Float4", Gf.Vec4f(-1, -1, -1, 0))
         names = (inputs,) if isinstance(inputs, str) else inputs
         for name, channel in zip(names, outputs, strict=True):
-            output = image.CreateOutput(channel, getattr(
-                Sdf.ValueTypeNames, "Float3" if channel == "rgb" else "Float"))
-            surface.CreateInput(name, getattr(Sdf.ValueTypeNames, kind)).ConnectToSource(output)
+            output = f"outputs:{channel}"
+            attribute(image, output, "Float3" if channel == "rgb" else "Float")
+            connect(surface, f"inputs:{name}", kind, f"{image_path}.{output}")
 
 
 # -- reading ---------------------------------------------------------------------------------
@@ -324,37 +329,34 @@ def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:
     return Mesh.of_primitive(shape)
 
 
-def define_shape(stage, path: str, shape: Primitive):
+def define_shape(layer, path: str, shape: Primitive, *schemas: str):
     """A UsdGeom Cube (scaled to the box), Sphere (scaled for an ellipsoid), Cylinder or
-    Capsule (axis Z) at the shape's pose, in double precision."""
-    from pxr import Gf, UsdGeom
-
-    s = shape.size
+    Capsule (axis Z) at the shape's pose, in double precision, with its extent (what
+    UsdGeom's ComputeExtent gives for the shape's own size, before the scale op)."""
+    s = [float(v) for v in shape.size]
     scale = None
     if shape.kind is ShapeKind.BOX:
-        geom = UsdGeom.Cube.Define(stage, path)
-        geom.CreateSizeAttr(1.0)
+        prim = define(layer, path, "Cube", *schemas)
+        attribute(prim, "size", "Double", 1.0)
+        half = [0.5, 0.5, 0.5]
         scale = s
     elif shape.kind in (ShapeKind.SPHERE, ShapeKind.ELLIPSOID):
-        geom = UsdGeom.Sphere.Define(stage, path)
-        geom.CreateRadiusAttr(float(s[0]) if shape.kind is ShapeKind.SPHERE else 1.0)
+        prim = define(layer, path, "Sphere", *schemas)
+        radius = s[0] if shape.kind is ShapeKind.SPHERE else 1.0
+        attribute(prim, "radius", "Double", radius)
+        half = [radius] * 3
         scale = s if shape.kind is ShapeKind.ELLIPSOID else None
     else:
-        geom = (UsdGeom.Capsule if shape.kind is ShapeKind.CAPSULE else UsdGeom.Cylinder).Define(
-            stage, path)
-        geom.CreateRadiusAttr(float(s[0]))
-        geom.CreateHeightAttr(float(s[1]))
-        geom.CreateAxisAttr(UsdGeom.Tokens.z)
-    double = UsdGeom.XformOp.PrecisionDouble
-    geom.AddTranslateOp(double).Set(Gf.Vec3d(*(float(x) for x in shape.pose[:3, 3])))
-    w, x, y, z = (float(c) for c in tf.matrix_to_quat(shape.pose[:3, :3]))
-    geom.AddOrientOp(double).Set(Gf.Quatd(w, Gf.Vec3d(x, y, z)))
-    if scale is not None:
-        geom.AddScaleOp(double).Set(Gf.Vec3d(*(float(v) for v in scale)))
-    extent = UsdGeom.Boundable.ComputeExtentFromPlugins(geom, 0.0)
-    if extent is not None:
-        geom.CreateExtentAttr(extent)
-    return geom
+        capsule = shape.kind is ShapeKind.CAPSULE
+        prim = define(layer, path, "Capsule" if capsule else "Cylinder", *schemas)
+        radius, height = s[0], s[1]
+        attribute(prim, "radius", "Double", radius)
+        attribute(prim, "height", "Double", height)
+        attribute(prim, "axis", "Token", "Z", uniform=True)
+        half = [radius, radius, height * 0.5 + (radius if capsule else 0.0)]
+    place(prim, shape.pose, scale)
+    attribute(prim, "extent", "Float3Array", extent([-h for h in half], half))
+    return prim
 
 
 def read_color(prim, mesh_prims, path) -> tuple[float, float, float, float]:

@@ -46,6 +46,7 @@ from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
 from ...model import Dynamics, Joint, JointType, Limits, Mimic
 from .conventions import NAMESPACE, as_float32, float_outward, snapped_quat
+from .layer import apply, attribute, define, relationship
 
 TOKENS = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
           "Z": np.array([0.0, 0.0, 1.0])}
@@ -97,49 +98,46 @@ def as_written(joint: Joint) -> Joint:
 
 
 # -- writing ---------------------------------------------------------------------------------
-def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -> None:
-    from pxr import Gf, Sdf, UsdPhysics
+_JOINT_TYPES = {JointType.FIXED: "PhysicsFixedJoint", JointType.BALL: "PhysicsSphericalJoint",
+                JointType.PRISMATIC: "PhysicsPrismaticJoint"}  # else PhysicsRevoluteJoint
+
+
+def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
+    from pxr import Gf
 
     kind = joint.type
-    if kind is JointType.FIXED:
-        usd = UsdPhysics.FixedJoint.Define(stage, path)
-    elif kind is JointType.BALL:
-        usd = UsdPhysics.SphericalJoint.Define(stage, path)
-    elif kind is JointType.PRISMATIC:
-        usd = UsdPhysics.PrismaticJoint.Define(stage, path)
-    else:
-        usd = UsdPhysics.RevoluteJoint.Define(stage, path)
+    prim = define(layer, path, _JOINT_TYPES.get(kind, "PhysicsRevoluteJoint"))
     if body0 is not None:
-        usd.CreateBody0Rel().SetTargets([body0])
-    usd.CreateBody1Rel().SetTargets([body1])
+        relationship(prim, "physics:body0", body0)
+    relationship(prim, "physics:body1", body1)
     f = joint_frames(joint)
-    usd.CreateLocalPos0Attr(Gf.Vec3f(*f.pos0.tolist()))
-    usd.CreateLocalRot0Attr(Gf.Quatf(*f.rot0.tolist()))
-    usd.CreateLocalPos1Attr(Gf.Vec3f(0.0, 0.0, 0.0))
-    usd.CreateLocalRot1Attr(Gf.Quatf(*f.rot1.tolist()))
+    attribute(prim, "physics:localPos0", "Point3f", Gf.Vec3f(*f.pos0.tolist()))
+    attribute(prim, "physics:localRot0", "Quatf", Gf.Quatf(*f.rot0.tolist()))
+    attribute(prim, "physics:localPos1", "Point3f", Gf.Vec3f(0.0, 0.0, 0.0))
+    attribute(prim, "physics:localRot1", "Quatf", Gf.Quatf(*f.rot1.tolist()))
     if kind is JointType.BALL:
-        _write_dynamics(usd.GetPrim(), joint.dynamics, angular=True)
+        _write_dynamics(prim, joint.dynamics, angular=True)
     if not kind.movable:
-        return
+        return prim
     angular = kind.angular
-    usd.CreateAxisAttr(f.token)
+    attribute(prim, "physics:axis", "Token", f.token, uniform=True)
     to_file = math.degrees if angular else float  # positions: degrees or metres
     if joint.limits is not None:
-        usd.CreateLowerLimitAttr(float_outward(to_file(joint.limits.lower), upward=False))
-        usd.CreateUpperLimitAttr(float_outward(to_file(joint.limits.upper), upward=True))
-    prim = usd.GetPrim()
+        attribute(prim, "physics:lowerLimit", "Float",
+                  float_outward(to_file(joint.limits.lower), upward=False))
+        attribute(prim, "physics:upperLimit", "Float",
+                  float_outward(to_file(joint.limits.upper), upward=True))
 
     def custom(name: str, value: float) -> None:
-        prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=True).Set(float(value))
+        attribute(prim, name, "Double", float(value), custom=True)
 
     custom(STATE, joint.state)
     # PhysX's PhysicsJointStateAPI (not registered here either): the initial joint position,
     # read by Isaac Sim and by Newton's PhysX resolver, so simulation starts at q = state.
     instance = "angular" if angular else "linear"
-    prim.AddAppliedSchema(f"PhysicsJointStateAPI:{instance}")
+    apply(prim, f"PhysicsJointStateAPI:{instance}")
     for name, value in (("position", to_file(joint.state)), ("velocity", 0.0)):
-        prim.CreateAttribute(f"state:{instance}:physics:{name}", Sdf.ValueTypeNames.Float,
-                             custom=False).Set(as_float32(value))
+        attribute(prim, f"state:{instance}:physics:{name}", "Float", as_float32(value))
     if joint.limits is not None and joint.limits.effort is not None:
         custom(EFFORT, joint.limits.effort)
     if joint.limits is not None and joint.limits.velocity is not None:
@@ -147,8 +145,9 @@ def write_joint(stage, path: str, joint: Joint, body0: str | None, body1: str) -
 
     _write_dynamics(prim, joint.dynamics, angular, ref=to_file(joint.state))
     if joint.limits is not None and joint.limits.velocity is not None:
-        prim.GetAttribute("newton:velocityLimit").Set(
-            as_float32(to_file(joint.limits.velocity)))
+        attribute(prim, "newton:velocityLimit", "Float",
+                  as_float32(to_file(joint.limits.velocity)))
+    return prim
 
 
 # A free body has no joint prim to hold its floating joint's dynamics (MuJoCo's free joint
@@ -158,12 +157,10 @@ FREE_DYNAMICS = {f: f"real2code:floatingJoint:{f}"
 
 
 def write_free_dynamics(body_prim, d: Dynamics) -> None:
-    from pxr import Sdf
-
     for field_name, attr in FREE_DYNAMICS.items():
         value = getattr(d, field_name)
         if value != 0.0:
-            body_prim.CreateAttribute(attr, Sdf.ValueTypeNames.Double, custom=True).Set(value)
+            attribute(body_prim, attr, "Double", value, custom=True)
 
 
 def read_free_dynamics(body_prim) -> Dynamics:
@@ -172,42 +169,37 @@ def read_free_dynamics(body_prim) -> Dynamics:
 
 def _write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) -> None:
     """NewtonJointAPI's and MjcJointAPI's damping, friction, armature (and stiffness, spring
-    reference, ``mjc:ref`` for a joint with one value)."""
-    from pxr import Sdf
-
-    prim.ApplyAPI("NewtonJointAPI")
+    reference, ``mjc:ref`` for a joint with one value). Newton's attributes are floats, as
+    its schema declares them (newton-usd-schemas generatedSchema.usda)."""
+    apply(prim, "NewtonJointAPI")
     per_degree = math.pi / 180.0 if angular else 1.0
-    prim.GetAttribute("newton:damping").Set(as_float32(d.damping * per_degree))
-    prim.GetAttribute("newton:friction").Set(as_float32(d.friction))
-    prim.GetAttribute("newton:armature").Set(as_float32(d.armature))
+    attribute(prim, "newton:damping", "Float", as_float32(d.damping * per_degree))
+    attribute(prim, "newton:friction", "Float", as_float32(d.friction))
+    attribute(prim, "newton:armature", "Float", as_float32(d.armature))
 
-    prim.AddAppliedSchema("MjcJointAPI")  # not registered here: see the module docstring
+    apply(prim, "MjcJointAPI")  # not registered here: see the module docstring
     to_file = math.degrees if angular else float
     values = (d.damping, d.friction, d.armature, d.stiffness, to_file(d.spring_ref), ref)
     for name, value in zip(MJC_ATTRS, values, strict=True):
         if value is None:
             continue
-        prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=False,
-                             variability=Sdf.VariabilityUniform).Set(float(value))
+        attribute(prim, name, "Double", float(value), uniform=True)
     # The constraint softness our MJCF authors (MjcJointAPI: solreflimit, solimplimit,
     # solreffriction), for importers that build a MuJoCo model from the USD.
     for name, value in (("mjc:solreflimit", LIMIT_SOLREF), ("mjc:solimplimit", LIMIT_SOLIMP),
                         ("mjc:solreffriction", FRICTION_SOLREF)):
-        prim.CreateAttribute(name, Sdf.ValueTypeNames.DoubleArray, custom=False,
-                             variability=Sdf.VariabilityUniform).Set(list(value))
+        attribute(prim, name, "DoubleArray", [float(v) for v in value], uniform=True)
 
 
 def write_mimic(prim, mimic: Mimic, leader_path: str, angular: bool) -> None:
     """NewtonMimicAPI (newton-usd-schemas): q = coef0 + coef1 * q_leader on the follower,
     coef0 in degrees for an angular joint."""
-    from pxr import Sdf
-
-    prim.ApplyAPI("NewtonMimicAPI")
-    prim.GetRelationship("newton:mimicJoint").SetTargets([Sdf.Path(leader_path)])
-    prim.GetAttribute("newton:mimicCoef0").Set(
-        as_float32(math.degrees(mimic.offset) if angular else mimic.offset))
-    prim.GetAttribute("newton:mimicCoef1").Set(as_float32(mimic.multiplier))
-    prim.GetAttribute("newton:mimicEnabled").Set(True)
+    apply(prim, "NewtonMimicAPI")
+    relationship(prim, "newton:mimicJoint", leader_path)
+    attribute(prim, "newton:mimicCoef0", "Float",
+              as_float32(math.degrees(mimic.offset) if angular else mimic.offset))
+    attribute(prim, "newton:mimicCoef1", "Float", as_float32(mimic.multiplier))
+    attribute(prim, "newton:mimicEnabled", "Bool", True)
 
 
 # -- reading ---------------------------------------------------------------------------------

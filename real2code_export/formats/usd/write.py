@@ -1,8 +1,8 @@
 """USD save: the object at q = state (bodies where the capture saw them), UsdPhysics joints,
 mass, collision and looks, through the concept modules (body, geometry, joint) in the layout
-of ``conventions``; deterministic text (.usda), written atomically. A frame (a part with no
-mass or geometry, fixed, nothing hanging from it) is an Xform in its parent's body, no rigid
-body of its own (PhysX would give it a default mass)."""
+of ``conventions``, authored through Sdf (``layer``); deterministic text (.usda), written
+atomically. A frame (a part with no mass or geometry, fixed, nothing hanging from it) is an
+Xform in its parent's body, no rigid body of its own (PhysX would give it a default mass)."""
 
 from __future__ import annotations
 
@@ -20,39 +20,32 @@ from ...model import (
     validate,
 )
 from .body import write_body, write_frame
-from .conventions import (
-    FLOATING_JOINT,
-    GEOMETRY,
-    LOOKS,
-    METADATA,
-    PHYSICS,
-    WORLD_JOINT,
-    save_stage,
-    stage_text,
-)
+from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
 from .geometry import write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
+from .layer import apply, attribute, new_layer
 
 
 def to_usda(obj: ArticulatedObject) -> str:
     """The object's .usda text (what :func:`save` writes)."""
-    return stage_text(_stage(obj))
+    return _layer(obj).ExportToString()
 
 
-def _stage(obj: ArticulatedObject):
-    import newton_usd_schemas  # noqa: F401  (registers NewtonJointAPI / NewtonMassAPI)
-    from pxr import Sdf, UsdPhysics
+def _layer(obj: ArticulatedObject):
+    from pxr import Sdf
 
-    from .conventions import new_stage
+    with Sdf.ChangeBlock():
+        return _author(obj)
 
-    stage, root = new_stage(obj.name)
+
+def _author(obj: ArticulatedObject):
+    layer, root = new_layer(obj.name, SCENE if obj.name != SCENE else f"{SCENE}_1")
     # Fixed base: "this API can be on a direct or indirect parent of the root joint which is
     # connected to the world, or on the joint itself" (UsdPhysicsArticulationRootAPI docs).
     # The object Xform is an indirect parent of the world joint below.
-    UsdPhysics.ArticulationRootAPI.Apply(root)
-    root.SetAssetInfoByKey("name", obj.name)
-    root.CreateAttribute(METADATA, Sdf.ValueTypeNames.String, custom=True).Set(
-        metadata_json(obj, sort_keys=True))
+    apply(root, "PhysicsArticulationRootAPI")
+    root.assetInfo = {"name": obj.name}
+    attribute(root, METADATA, "String", metadata_json(obj, sort_keys=True), custom=True)
 
     base = f"/{obj.name}"
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
@@ -62,39 +55,37 @@ def _stage(obj: ArticulatedObject):
         if part.name in frames:
             continue
         body = f"{base}/{GEOMETRY}/{part.name}"
-        write_body(stage, body, part, world[part.name])
-        write_part_geometry(stage, part, body, f"{base}/{LOOKS}/{part.name}")
+        write_body(layer, body, part, world[part.name])
+        write_part_geometry(layer, part, body, f"{base}/{LOOKS}/{part.name}")
     for joint in [j for j in obj.joints if j.child in frames]:  # an Xform in its parent body
         frame = obj.part(joint.child)
         path = f"{base}/{GEOMETRY}/{joint.parent}/{frame.name}"
-        if stage.GetPrimAtPath(path):  # the name is one of the parent's own prims': a body
+        if layer.GetPrimAtPath(path):  # the name is one of the parent's own prims': a body
             frames.discard(frame.name)
             path = f"{base}/{GEOMETRY}/{frame.name}"
-            write_body(stage, path, frame, world[frame.name])
+            write_body(layer, path, frame, world[frame.name])
         else:
-            write_frame(stage, path, joint)
-        write_part_geometry(stage, frame, path, f"{base}/{LOOKS}/{frame.name}")
+            write_frame(layer, path, joint)
+        write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}")
 
     world_joint = sanitize_name(WORLD_JOINT, {j.name for j in obj.joints})
     root_part = obj.root.name
-    write_joint(stage, f"{base}/{PHYSICS}/{world_joint}",
+    write_joint(layer, f"{base}/{PHYSICS}/{world_joint}",
                 Joint(world_joint, JointType.FIXED, "", root_part), None,
                 f"{base}/{GEOMETRY}/{root_part}")
     for j in obj.joints:
         if j.child in frames:
             continue
         if j.type is JointType.FLOATING:  # a free body: no joint holds it; its name kept
-            body = stage.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}")
-            body.CreateAttribute(FLOATING_JOINT, Sdf.ValueTypeNames.String,
-                                 custom=True).Set(j.name)
+            body = layer.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}")
+            attribute(body, FLOATING_JOINT, "String", j.name, custom=True)
             write_free_dynamics(body, j.dynamics)
             continue
-        write_joint(stage, f"{base}/{PHYSICS}/{j.name}", j, f"{base}/{GEOMETRY}/{j.parent}",
-                    f"{base}/{GEOMETRY}/{j.child}")
+        joint = write_joint(layer, f"{base}/{PHYSICS}/{j.name}", j,
+                            f"{base}/{GEOMETRY}/{j.parent}", f"{base}/{GEOMETRY}/{j.child}")
         if j.mimic is not None:
-            write_mimic(stage.GetPrimAtPath(f"{base}/{PHYSICS}/{j.name}"), j.mimic,
-                        f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
-    return stage
+            write_mimic(joint, j.mimic, f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
+    return layer
 
 
 def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
@@ -106,5 +97,13 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
         write_object_meshes(obj, out_dir)
     else:
         write_texture_images(obj, out_dir)
-    stage = _stage(obj)
-    return atomic.write_with(out_dir / f"{obj.name}.usda", lambda tmp: save_stage(stage, tmp))
+    layer = _layer(obj)
+    return atomic.write_with(out_dir / f"{obj.name}.usda", lambda tmp: _export(layer, tmp))
+
+
+def _export(layer, path: Path) -> None:
+    """The layer written to ``path`` (.usda) by USD itself: the same bytes as
+    :func:`to_usda`, without passing them through a Python string (on a 47 MB file, 0.55 s
+    of CPU instead of 0.7)."""
+    if not layer.Export(str(path)):
+        raise OSError(f"USD could not write {path}")
