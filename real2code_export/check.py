@@ -212,8 +212,19 @@ def _compare(paths, n_configurations, seed, tol_position, tol_rotation, referenc
     return CheckReport(
         files=[str(p) for p in paths], reference=names[ref], probes=results, joints=joints,
         configurations=configurations, tol_position=tol_position, tol_rotation=tol_rotation,
-        parts=parts, mismatches=mismatches, overlaps=file_overlaps(paths),
+        parts=parts, mismatches=mismatches,
+        overlaps=file_overlaps(paths, compiled=_compiled_mjcf(probes, paths)),
     ), probes
+
+
+def _compiled_mjcf(probes: list[Probe], paths) -> dict[Path, object]:
+    """The MuJoCo models the probes compiled of MJCF files among ``paths`` (without contact
+    exclusions: ``probes.mujoco``), which the overlap measure uses instead of compiling the
+    file again."""
+    files = {Path(p) for p in paths}
+    return {Path(p.path): p.model for p in probes
+            if Path(p.path) in files and Path(p.path).suffix.lower() == ".xml"
+            and getattr(p, "model", None) is not None}
 
 
 def _display_names(probes: list[Probe]) -> list[str]:

@@ -59,10 +59,12 @@ class FileOverlaps:
                           for o in self.overlaps]}
 
 
-def file_overlaps(paths, tolerance: float = TOLERANCE) -> FileOverlaps:
+def file_overlaps(paths, tolerance: float = TOLERANCE, compiled=None) -> FileOverlaps:
     """Overlapping collision pieces at q = 0 in the first MJCF among ``paths``, else the
     first URDF (both compiled by MuJoCo; the other formats hold the same pieces when they
-    are exports of one object)."""
+    are exports of one object). ``compiled``: MuJoCo models of MJCF files among ``paths``
+    already compiled without contact exclusions (check's probes), by path, used instead of
+    compiling the file again."""
     chosen = [Path(p) for p in paths if Path(p).suffix.lower() == ".xml"] or \
         [Path(p) for p in paths if Path(p).suffix.lower() == ".urdf"]
     if not chosen:
@@ -71,6 +73,9 @@ def file_overlaps(paths, tolerance: float = TOLERANCE) -> FileOverlaps:
         import mujoco  # noqa: F401
     except ImportError:
         return FileOverlaps(None, [], "MuJoCo is not installed")
+    model = (compiled or {}).get(chosen[0])
+    if model is not None and chosen[0].suffix.lower() == ".xml" and model.nexclude == 0:
+        return FileOverlaps(str(chosen[0]), _overlaps_in(model, tolerance))
     try:
         return FileOverlaps(str(chosen[0]), overlaps(chosen[0], tolerance=tolerance))
     except ValueError as e:  # MuJoCo refused the file: the probes report it
@@ -100,6 +105,19 @@ def overlaps_along_ranges(mjcf: Path, obj: ArticulatedObject,
         if worst is not None:
             found.append(worst)
     return found
+
+
+def _overlaps_in(model, tolerance: float) -> list[Overlap]:
+    """Overlaps at q = 0 in a model compiled already (exclusions removed), parent filtering
+    off while measuring as :func:`_compiled` sets it."""
+    import mujoco
+
+    flags = model.opt.disableflags
+    model.opt.disableflags = flags | int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+    try:
+        return _overlaps(model, mujoco.MjData(model), {}, tolerance)
+    finally:
+        model.opt.disableflags = flags
 
 
 def _compiled(mjcf: Path):

@@ -168,6 +168,11 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
             # bodies attached by fixed joints); visual-only geoms do not move anything.
             spec.compiler.fusestatic = False
+            # Contact exclusions move nothing either; without them the compiled model also
+            # serves check's overlap measure, which counts every pair (dynamics/overlap.py),
+            # instead of MuJoCo compiling the file a second time.
+            for exclude in list(spec.excludes):
+                spec.delete(exclude)
             # (MuJoCo refuses to discard visual geoms that inertiafromgeom="true" weighs.)
             spec.compiler.discardvisual = spec.compiler.inertiafromgeom != \
                 mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
