@@ -160,11 +160,6 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
                 spec.compiler.boundinertia = 1e-12
             else:
                 spec = mujoco.MjSpec.from_file(str(path))
-            if is_urdf:
-                # MuJoCo computes every mesh's volume, and refuses a flat one (a floor, a
-                # decal) that a URDF cannot mark as a shell; masses are not compared here.
-                for mesh in spec.meshes:
-                    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
             # bodies attached by fixed joints); visual-only geoms do not move anything.
             spec.compiler.fusestatic = False
@@ -176,7 +171,18 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
             # (MuJoCo refuses to discard visual geoms that inertiafromgeom="true" weighs.)
             spec.compiler.discardvisual = spec.compiler.inertiafromgeom != \
                 mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
-            model = spec.compile()
+            try:
+                model = spec.compile()
+            except ValueError:
+                if not is_urdf:
+                    raise
+                # MuJoCo computes every mesh's volume, and refuses a flat one (a floor, a
+                # decal) that a URDF cannot mark as a shell; masses are not compared here.
+                # (Only on refusal: meshes compiled as the file has them share MuJoCo's mesh
+                # cache with the MJCF export of the same meshes, compiled once for both.)
+                for mesh in spec.meshes:
+                    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+                model = spec.compile()
     except ValueError as e:
         # The error and the element it names come first; MuJoCo appends its warnings.
         lines = [line.strip() for line in str(e).splitlines() if line.strip()]
