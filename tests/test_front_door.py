@@ -136,6 +136,24 @@ def test_a_format_whose_dependency_fails_is_not_offered(broken_pxr, cabinet_json
     assert "pxr" in capsys.readouterr().err
 
 
+def test_a_format_whose_reader_alone_fails_is_written_not_read(toy_format, cabinet_json,
+                                                               tmp_path, monkeypatch, capsys):
+    """``Format.read_requires``: what only the reader imports (USD's schema modules; its
+    writer authors through Sdf) failing leaves the format offered to export, refused to
+    read with the reason."""
+    monkeypatch.setitem(sys.modules, "toy_reader_dependency", None)  # installed, broken
+    formats.register(dataclasses.replace(toy_format, read_requires=("toy_reader_dependency",)))
+    assert "toy" in formats.export_formats() and not formats.available("toy")
+    assert "toy_reader_dependency" in formats.unavailable_reason("toy")
+    assert formats.unavailable_reason("toy", writing=True) is None
+    out = tmp_path / "out"
+    assert run(["export", str(cabinet_json), "--to", "toy", "--out", str(out)]) == EXIT_OK
+    capsys.readouterr()
+    assert run(["export", str(next(out.glob("*.toy"))), "--to", "urdf",
+                "--out", str(tmp_path / "o2")]) == EXIT_ERROR
+    assert "toy_reader_dependency" in capsys.readouterr().err
+
+
 # -- every command: bad input is exit 2 with a message, never a traceback ------------------------
 def _no_visuals(tmp_path) -> Path:
     obj = small_cabinet()
