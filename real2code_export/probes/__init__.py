@@ -43,6 +43,22 @@ class Probe(Protocol):
     #   -> (N, len(parts), 4, 4) world poses in the order of ``parts``.
 
 
+def joint_motions(kind: str, axis, values: np.ndarray) -> np.ndarray:
+    """(N, 4, 4) motions of a joint at ``values``: a rotation about the unit ``axis``
+    (revolute, continuous; Rodrigues, the very arithmetic of ``transforms.axis_angle_matrix``),
+    a translation along it (prismatic), the identity for any other kind (held at rest)."""
+    values = np.asarray(values, dtype=float)
+    out = np.broadcast_to(np.eye(4), (len(values), 4, 4)).copy()
+    if kind in ("revolute", "continuous"):
+        x, y, z = np.asarray(axis, dtype=float)
+        k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+        s, c = np.sin(values)[:, None, None], np.cos(values)[:, None, None]
+        out[:, :3, :3] = np.eye(3) + s * k + (1.0 - c) * (k @ k)
+    elif kind == "prismatic":
+        out[:, :3, 3] = np.asarray(axis, dtype=float) * values[:, None]
+    return out
+
+
 def open_probes(path: str | Path) -> list[Probe]:
     """Every probe for ``path``: the registry's probe modules for its format, in report
     order (chosen by suffix)."""

@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import transforms as tf
 from ..errors import CheckError, NameNotFoundError, Real2CodeError
-from . import JointInfo
+from . import JointInfo, joint_motions
 
 LABEL = "glTF (nodes + joint metadata)"
 EXTRAS_KEY = "real2code"
@@ -114,23 +114,31 @@ class GltfProbe:
         unknown = set(q) - known
         if unknown:
             raise NameNotFoundError(f"unknown joint(s) {sorted(unknown)} in {self.path}")
+        values = np.array([[float(q.get(j.name, 0.0)) for j in self.joints]])
+        return {name: pose[0] for name, pose in self._world_poses(values).items()}
+
+    def pose_array(self, values) -> np.ndarray:
+        """(N, len(joints)) joint values in the order of ``joints`` -> (N, len(parts), 4, 4),
+        every configuration at once."""
+        values = np.atleast_2d(np.asarray(values, dtype=float))
+        poses = self._world_poses(values)
+        return np.stack([poses[name] for name in self.parts], axis=1)
+
+    def _world_poses(self, values: np.ndarray) -> dict[str, np.ndarray]:
+        """Part node name -> (N, 4, 4) world poses (Z up) at the N rows of ``values``."""
+        n = len(values)
+        column = {j.name: k for k, j in enumerate(self.joints)}
         world: dict[int, np.ndarray] = {}
-        stack = [(r, Z_UP_FROM_Y_UP) for r in reversed(self.roots)]
+        stack = [(r, np.broadcast_to(Z_UP_FROM_Y_UP, (n, 4, 4))) for r in reversed(self.roots)]
         while stack:
             i, parent = stack.pop()
-            node = self.nodes[i]
             local = self._locals[i]
-            if i in self._motion:
+            if i in self._motion:  # the joint's motion replaces the written (observed) pose
                 name, kind, axis = self._motion[i]
-                value = float(q.get(name, 0.0))
-                if kind in ("revolute", "continuous"):
-                    local = tf.make(rotation=tf.axis_angle_matrix(axis, value))
-                elif kind == "prismatic":
-                    local = tf.make(translation=axis * value)
-                else:
-                    local = np.eye(4)
+                q = values[:, column[name]] if name in column else np.zeros(n)
+                local = joint_motions(kind, axis, q)
             world[i] = parent @ local
-            stack.extend((c, world[i]) for c in reversed(node.children or []))
+            stack.extend((c, world[i]) for c in reversed(self.nodes[i].children or []))
         return {self.nodes[i].name: world[i] for i in world if i in self._part_nodes}
 
 

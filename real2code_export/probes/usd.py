@@ -23,7 +23,7 @@ import numpy as np
 from .. import transforms as tf
 from ..errors import CheckError
 from ..formats.usd.conventions import load_physics
-from . import JointInfo
+from . import JointInfo, joint_motions
 
 WORLD = ""
 AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
@@ -122,6 +122,7 @@ class UsdProbe:
 
         self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links
                        if k.kind not in ("fixed", "ball")]
+        self._column = {j.name: k for k, j in enumerate(self.joints)}
 
     def _link(self, item, parent: str, mpu: float) -> _Link:
         prim_path, kind_name, d = item
@@ -149,23 +150,28 @@ class UsdProbe:
                      tf.make(translation=child_frame[:3, 3]), lower, upper)
 
     def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
-        world = {WORLD: self._world, **self._roots}
-        out = {self._names[b]: pose for b, pose in self._roots.items()}
+        values = [float(q.get(j.name, 0.0)) for j in self.joints]
+        return dict(zip(self.parts, self.pose_array([values])[0], strict=True))
+
+    def pose_array(self, values) -> np.ndarray:
+        """(N, len(joints)) joint values in the order of ``joints`` -> (N, len(parts), 4, 4),
+        every configuration at once."""
+        values = np.atleast_2d(np.asarray(values, dtype=float))
+        n = len(values)
+        world = {b: np.broadcast_to(pose, (n, 4, 4))
+                 for b, pose in {WORLD: self._world, **self._roots}.items()}
+        out = {self._names[b]: world[b] for b in self._roots}
         for link in self._links:
-            value = float(q.get(link.name, 0.0))
-            if link.kind in ("revolute", "continuous"):
-                motion = tf.make(rotation=tf.axis_angle_matrix(link.axis, value))
-            elif link.kind == "prismatic":
-                motion = tf.make(translation=link.axis * value)
-            else:
-                motion = np.eye(4)
+            column = self._column.get(link.name)
+            q = values[:, column] if column is not None else np.zeros(n)
+            motion = joint_motions(link.kind, link.axis, q)
             body = world[link.parent] @ link.to_joint @ motion @ link.from_joint
             world[link.child] = body
             out[self._names[link.child]] = body @ link.child_offset
         for name, body, local in self._frames:
             if body in world:
                 out[name] = world[body] @ local
-        return out
+        return np.stack([out[name] for name in self.parts], axis=1)
 
 
 def _frames(body, mpu: float):
