@@ -1,0 +1,78 @@
+"""Benchmark: one command as a user runs it, with another checkout's code (``--before``)
+against this one's, alternating run by run so a busy machine slows both alike; the CPU time
+(user + system, child processes included) of each, median and minimum.
+
+    git archive REV | tar -x -C /tmp/before     # the code to compare with, as a folder (link
+                                                # its gltf_validator/node_modules for check)
+    .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] check DIR [DIR ...]
+    .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] export FILE [FILE ...]
+
+``check DIR``: ``real2code check`` of every file in DIR (an export's folder); ``export
+FILE``: ``real2code export FILE --to usd`` into a temporary folder. Both checkouts run in the
+same console script and interpreter, each chosen by ``PYTHONPATH``; both are byte-compiled
+first, as ``pip install`` does (a stale ``__pycache__`` would make one of them compile its
+modules from source on every run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _machine import byte_compile, describe, load_average  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _cpu(command: list[str], tree: Path) -> float:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    done = subprocess.run(command, env={**os.environ, "PYTHONPATH": str(tree)},
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if done.returncode not in (0, 1):  # (1: the check found a disagreement, a result too)
+        sys.exit(f"{tree}: {' '.join(command)} failed: {done.stderr.strip()[-500:]}")
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--before", required=True, type=Path, help="the other checkout")
+    p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("command", choices=["check", "export"])
+    p.add_argument("inputs", nargs="+", type=Path)
+    args = p.parse_args()
+    ours = shutil.which("real2code", path=str(Path(sys.executable).parent)) or "real2code"
+    trees = {"before": args.before.resolve(), "after": REPO}
+    for tree in trees.values():
+        byte_compile(tree / "real2code_export")
+    print(f"machine: {describe()}; load average at start {load_average()}")
+    print(f"| {args.command} | before ({trees['before']}) | after ({REPO}) |")
+    print("|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for item in args.inputs:
+            if args.command == "check":
+                command = [ours, "check", *sorted(str(f) for f in item.iterdir() if f.is_file())]
+            else:
+                command = [ours, "export", str(item), "--to", "usd", "--out", f"{tmp}/out"]
+            cpu: dict[str, list[float]] = {name: [] for name in trees}
+            for _ in range(args.repeat):
+                for name, tree in trees.items():
+                    shutil.rmtree(f"{tmp}/out", ignore_errors=True)
+                    cpu[name].append(_cpu(command, tree))
+            print(f"| `{item.name}` | " + " | ".join(
+                f"{statistics.median(v):.3f} ({min(v):.3f})" for v in cpu.values()) + " |",
+                flush=True)
+    print(f"CPU s, median (min) of {args.repeat} runs each; load average at end "
+          f"{load_average()}")
+
+
+if __name__ == "__main__":
+    main()
