@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CheckError, FormatError
-from ..formats import object_json
 from ..model import ArticulatedObject, forward_kinematics
 from . import JointInfo
 
@@ -64,7 +63,11 @@ class ModelProbe:
 
 def open_probes(path: str | Path) -> list[ModelProbe]:
     """object.json read by its own reader, meshes left out: kinematics needs none, and
-    parsing them (and importing trimesh) would cost more than the whole rest of a check."""
+    parsing them (and importing trimesh) would cost more than the whole rest of a check.
+    (Its reader is imported here, when a file needs it: ``check`` imports this module for
+    :data:`LABEL`, and most checks have no object.json.)"""
+    from ..formats import object_json
+
     path = Path(path)
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
