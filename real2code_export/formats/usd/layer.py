@@ -1,12 +1,14 @@
 """Authoring the file we write through Sdf, USD's layer API: prim, attribute and relationship
-specs with the types and variability the schemas (UsdGeom, UsdShade, UsdPhysics, Newton's)
-declare, restated here because writing through those schema modules would import them.
+specs. The concept modules (body, geometry, joint) give each property the type and
+variability its schema (UsdGeom, UsdShade, UsdPhysics, Newton's) declares: restated there,
+because writing through those schema modules would import them.
 
 Why not ``Usd``/``UsdGeom``/``UsdPhysics``/``UsdShade``: importing them and building the
-first stage's schema registry cost 0.05 to 0.07 s of CPU, a sixth of a whole ``real2code
-export`` of a PartNet-Mobility object to USD; the layer is the same either way (the .usda
-text is byte-identical: properties are written sorted by name, prims in the order defined,
-as a stage writes them). Reading (``read.py``) stays on ``Usd`` and UsdPhysics' own parser.
+first stage's schema registry cost 0.05 to 0.07 s of CPU, a fifth of a whole ``real2code
+export`` of a PartNet-Mobility object to USD (docs/benchmarks.md); the layer is the same
+either way (the .usda text is byte-identical: properties are written sorted by name, prims
+in the order defined, as a stage writes them). Reading (``read.py``) stays on ``Usd`` and
+UsdPhysics' own parser.
 """
 
 from __future__ import annotations
@@ -82,13 +84,14 @@ def attribute(spec, name: str, type_name: str, value=None, *, uniform: bool = Fa
     return attr
 
 
-def connect(spec, name: str, type_name: str, source: str, value=None):
-    """An attribute (a shader's input or output) connected to the attribute at ``source``
-    (what ``UsdShadeInput.ConnectToSource`` authors: one connection, explicit)."""
+def connect(spec, name: str, type_name: str, source: str):
+    """An attribute (a shader's input or output; the one the prim has by that name, if any)
+    connected to the attribute at ``source`` (what ``UsdShadeInput.ConnectToSource``
+    authors: one connection, explicit)."""
     from pxr import Sdf
 
     attr = spec.attributes[name] if name in spec.attributes else \
-        attribute(spec, name, type_name, value)
+        attribute(spec, name, type_name)
     attr.connectionPathList.explicitItems = [Sdf.Path(source)]
     return attr
 
