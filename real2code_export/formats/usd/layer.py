@@ -70,13 +70,19 @@ def apply(spec, *schemas: str) -> None:
         prependedItems=have + [s for s in schemas if s not in have]))
 
 
+_VALUE_TYPES: dict[str, object] = {}  # "Float" -> Sdf.ValueTypeNames.Float, looked up once
+
+
 def attribute(spec, name: str, type_name: str, value=None, *, uniform: bool = False,
               custom: bool = False):
     """An attribute of Sdf value type ``type_name`` ("Float", "Point3fArray", ...), with
     ``value`` as its default unless None."""
     from pxr import Sdf
 
-    attr = Sdf.AttributeSpec(spec, name, getattr(Sdf.ValueTypeNames, type_name),
+    value_type = _VALUE_TYPES.get(type_name)
+    if value_type is None:
+        value_type = _VALUE_TYPES[type_name] = getattr(Sdf.ValueTypeNames, type_name)
+    attr = Sdf.AttributeSpec(spec, name, value_type,
                              Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying,
                              declaresCustom=custom)
     if value is not None:
