@@ -4,7 +4,8 @@ armature and limits compared in Pinocchio (source URDF against URDF export) and 
 (source URDF as MuJoCo imports it, where it loads it as it is, against the MJCF export); each
 MJCF source against its MJCF export in MuJoCo (``real2code_export.probes.dynamics``). A
 difference is a repair when one of the reader's warnings names its element (the warning says
-what changed), unexplained otherwise. The tables in docs/corpora.md come from it.
+what changed), unexplained otherwise; the kinds of warning that explain differences are
+counted at the end. The tables in docs/corpora.md come from it.
 
     .venv/bin/python bench/corpus_dynamics.py urdf|mjcf|pybullet|PATH... [--markdown FILE]
 """
@@ -12,10 +13,12 @@ what changed), unexplained otherwise. The tables in docs/corpora.md come from it
 from __future__ import annotations
 
 import os
+import re
 import sys
 import tempfile
 import time
 import warnings
+from collections import Counter
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -26,6 +29,22 @@ from real2code_export.formats import export, hulls_collision, load  # noqa: E402
 from real2code_export.probes import dynamics  # noqa: E402
 
 FORMATS = ["urdf", "mjcf"]
+KINDS: Counter = Counter()  # kind of explaining warning -> differences it explains
+
+
+def _kind(warning: str) -> str:
+    """A repair warning without its file, element and names: what kind of repair it is."""
+    text = re.sub(r"^\S+?(:\d+)?: ", "", warning)  # the file (and line)
+    text = re.sub(r"^<\w+ name='[^']*'>: ", "", text)  # the element
+    text = re.sub(r"'[^']*'(, '[^']*')*", "...", text)
+    return re.split(r"[:(]", text, maxsplit=1)[0].strip()
+
+
+def _explained(found: list, said: list[str]) -> None:
+    for d in found:
+        by = [w for w in said if any(f"'{n}'" in w for n in d.names)]
+        if by:
+            KINDS[_kind(by[0])] += 1
 
 
 def compared(path: Path) -> list[str]:
@@ -52,6 +71,7 @@ def compared(path: Path) -> list[str]:
                 cells.append("does not load it" if path.suffix == ".urdf" else "")
                 continue
             left = dynamics.unexplained(found, said)
+            _explained(found, said)
             cells.append(f"{len(found)} ({len(found) - len(left)} warned, "
                          f"{len(left)} unexplained)" if found else "equal")
             first = first or (str(left[0]) if left else "")
@@ -75,6 +95,8 @@ def main() -> None:
         print(row, flush=True)
         rows.append(row)
     total = f"{unexplained} of {len(files)} files with an unexplained difference"
+    kinds = "\n".join(f"- {kind}: {n}" for kind, n in KINDS.most_common())
+    total += f"\n\nDifferences explained, by the kind of warning naming their element:\n\n{kinds}"
     print(total)
     if "--markdown" in sys.argv:
         out = Path(sys.argv[sys.argv.index("--markdown") + 1])
