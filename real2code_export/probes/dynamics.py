@@ -186,9 +186,9 @@ def urdf_mujoco_differences(source: str | Path, export: str | Path,
 def _pinocchio(path: Path):
     import pinocchio as pin
 
-    from .pinocchio import _build_model
+    from .pinocchio import build_model
 
-    model = _build_model(path)
+    model = build_model(path)
     data = model.createData()
     pin.forwardKinematics(model, data, pin.neutral(model))
     return model, data

@@ -12,9 +12,9 @@ their type. The actuators, tendons, sensors and equalities an MJCF reader kept i
 are written back where MuJoCo compiles them (:mod:`.kept`). Every parent/child pair is excluded from
 contact. Every hinge and slide has ``ref`` = its state and its body is written at that pose, so
 that MuJoCo starts there (qpos0) and joint values mean the same as in the model
-(:func:`_placed_joints`). What MJCF has no place for is kept in the keyframe "observed" (joint
-states, for a reader that looks there) and in ``<custom>`` data named ``real2code:<element>:<field>`` (velocity limits, fixed-joint names,
-metadata, ...).
+(:func:`_placed_joints`). What MJCF has no place for is kept in the keyframe "observed" (the
+joint states again, for a reader that looks there) and in ``<custom>`` data named
+``real2code:<element>:<field>`` (velocity limits, fixed-joint names, metadata, ...).
 """
 
 from __future__ import annotations
