@@ -42,7 +42,7 @@ def _kind(warning: str) -> str:
 
 def _explained(found: list, said: list[str]) -> None:
     for d in found:
-        by = [w for w in said if any(f"'{n}'" in w for n in d.names)]
+        by = dynamics.explaining(d, said)
         if by:
             KINDS[_kind(by[0])] += 1
 

@@ -15,7 +15,8 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
 Names are compared as our importers make them (``model.sanitize_name``). Each function returns
 a :class:`Difference` per quantity beyond ``tol`` (absolute and relative), naming the source's
 elements it concerns, so that a caller can tell a reader's warned repair (a warning naming one
-of them: :func:`unexplained`) from a loss; an empty list means equal.
+of them and saying what it changed of that kind: :func:`explaining`) from a loss; an empty
+list means equal.
 """
 
 from __future__ import annotations
@@ -28,21 +29,31 @@ import numpy as np
 from ..model import sanitize_name
 from ._stdio import captured_c_output
 
+# What a warning that explains a difference speaks of: mass properties, or a joint's law.
+MASS_WORDS = ("mass", "inertia")
+JOINT_WORDS = ("limit", "range", "joint", "damping", "friction", "armature")
+
 
 @dataclass(frozen=True)
 class Difference:
     names: tuple[str, ...]  # the source's links, bodies or joint it concerns
     message: str
+    words: tuple[str, ...] = JOINT_WORDS  # one of which a warning explaining it says
 
     def __str__(self) -> str:
         return self.message
 
 
+def explaining(difference: Difference, warned: list[str]) -> list[str]:
+    """The warnings that explain ``difference``: a reader's repair names the element it
+    changed (``'NAME'``) and says what of it (mass, inertia; a limit, the joint type)."""
+    return [w for w in warned if any(f"'{n}'" in w for n in difference.names)
+            and any(word in w for word in difference.words)]
+
+
 def unexplained(differences: list[Difference], warned: list[str]) -> list[Difference]:
-    """The differences that no warning explains: a warning (a reader's repair, which says the
-    element it changed as ``'NAME'``) naming none of the difference's elements."""
-    text = "\n".join(warned)
-    return [d for d in differences if not any(f"'{n}'" in text for n in d.names)]
+    """The differences that no warning explains (:func:`explaining`)."""
+    return [d for d in differences if not explaining(d, warned)]
 
 
 def _close(x, y, tol: float) -> bool:
@@ -118,7 +129,7 @@ def _mass_differences(element: str, names: tuple[str, ...], a, b,
     """(mass, principal moments, centre of mass in the world) of one rigid group each."""
     pairs = (("mass", a[0], b[0]), ("principal moments", np.sort(a[1]), np.sort(b[1])),
              ("centre of mass", a[2], b[2]))
-    return [Difference(names, f"{element}: {what} {x} != {y}")
+    return [Difference(names, f"{element}: {what} {x} != {y}", MASS_WORDS)
             for what, x, y in pairs if not _close(x, y, tol)]
 
 
