@@ -3,7 +3,7 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
 
 - MJCF source, MJCF export, both compiled by MuJoCo: per named body its mass, principal
   moments and centre of mass at q = 0; per named joint damping, frictionloss, armature,
-  stiffness and range (:func:`mjcf_differences`).
+  stiffness, range and ref (qpos0, where the joint starts) (:func:`mjcf_differences`).
 - URDF source, URDF export, both built by Pinocchio: per joint the inertia of everything
   rigidly attached to it (Pinocchio merges fixed links into their joint, as we may merge or
   split them), in the world at the neutral configuration; damping, friction, armature,
@@ -85,6 +85,7 @@ def _mujoco_joint_differences(src, exp, tol: float) -> list[Difference]:
 
     out = []
     ball = int(mujoco.mjtJoint.mjJNT_BALL)
+    scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
     for j in range(src.njnt):
         name = src.joint(j).name
         if not name:
@@ -101,6 +102,12 @@ def _mujoco_joint_differences(src, exp, tol: float) -> list[Difference]:
                  ("limited", src.jnt_limited[j], exp.jnt_limited[e])]
         if src.jnt_limited[j] and int(src.jnt_type[j]) != ball:
             pairs.append(("range", src.jnt_range[j], exp.jnt_range[e]))
+        if int(src.jnt_type[j]) in scalar:  # where it starts (ref); a start outside the
+            # range is the nearest limit in the model (its state), warned by the reader
+            ref = src.qpos0[src.jnt_qposadr[j]]
+            lo, hi = src.jnt_range[j] if src.jnt_limited[j] else (-np.inf, np.inf)
+            if lo <= ref <= hi:
+                pairs.append(("ref (qpos0)", ref, exp.qpos0[exp.jnt_qposadr[e]]))
         out += [Difference((name,), f"joint {name!r}: {what} {a} != {b}")
                 for what, a, b in pairs if not _close(a, b, tol)]
     return out
