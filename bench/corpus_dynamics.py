@@ -3,8 +3,8 @@ URDF exported to URDF and MJCF, its masses, inertias, centres of mass, damping, 
 armature and limits compared in Pinocchio (source URDF against URDF export) and in MuJoCo
 (source URDF as MuJoCo imports it, where it loads it as it is, against the MJCF export); each
 MJCF source against its MJCF export in MuJoCo (``real2code_export.probes.dynamics``). A
-difference is a repair when one of the reader's warnings names its element (the warning says
-what changed), unexplained otherwise; the kinds of warning that explain differences are
+difference is warned when one of the reader's warnings names its element and says what of it
+changed (``dynamics.explaining``), unexplained otherwise; the kinds of warning that explain differences are
 counted at the end. The tables in docs/corpora.md come from it.
 
     .venv/bin/python bench/corpus_dynamics.py urdf|mjcf|pybullet|PATH... [--markdown FILE]

@@ -6,8 +6,9 @@ inertias, damping, friction, armature, limits: the model's tolerance); and the s
 dynamics as its tools build it equal the export's in the same tools
 (:mod:`real2code_export.probes.dynamics`): an MJCF source's and the MJCF export's in MuJoCo;
 a URDF source's and the URDF export's in Pinocchio, and the source as MuJoCo imports it (where
-MuJoCo loads it as it is) against the MJCF export; a difference a reader's repair warning
-names the element of is the repair (the warning says what changed), any other fails.
+MuJoCo loads it as it is) against the MJCF export; a difference is a repair when a reader's
+warning names its element and says what of it changed (``dynamics.explaining``), any other
+fails.
 
 Files are converted in a process pool (one worker per core) as the session starts; each test
 waits for its own file. Files that do not convert are listed in REFUSED with the reason they
