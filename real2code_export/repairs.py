@@ -48,7 +48,11 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     moments, axes = np.linalg.eigh(tensor)
     largest = float(moments[-1])
     scale = max(float(np.abs(moments).max()), 1e-300)
-    ok = moments[0] > 0 and moments[0] + moments[1] >= moments[2] * (1 - 1e-9) - 1e-9 * scale
+    # A smallest moment of zero up to rounding (1e-17 beside 0.2: a rod's tensor rotated and
+    # written to 4 digits) is below what MuJoCo accepts (mjMINVAL, absolute) as well.
+    floor = min(MIN_MOMENT, RELATIVE_MOMENT_FLOOR * largest)
+    ok = moments[0] > 0 and moments[0] >= floor and \
+        moments[0] + moments[1] >= moments[2] * (1 - 1e-9) - 1e-9 * scale
     if ok:
         return inertial, None
     if scale <= 1e-12 * inertial.mass:  # zero, or zero up to rounding: a point mass
@@ -71,6 +75,7 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     repaired = 0.5 * (repaired + repaired.T)
     change = float(np.abs(new - moments).max() / largest)
     why = ("is not positive definite" if moments[0] <= 0 else
+           "has a principal moment of zero up to rounding" if moments[0] < floor else
            "violates the triangle inequality (A + B >= C)")
     return (Inertial(inertial.mass, inertial.com, repaired),
             f"inertia tensor {why}: principal moments {_fmt(moments)} raised to {_fmt(new)} "

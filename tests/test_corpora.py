@@ -2,8 +2,13 @@
 URDF and MJCF file pybullet ships (pybullet_data, less its generated random_urdfs), to all four
 formats, each export checked against its SOURCE file loaded in its own tools
 (kinematics to 1e-6 m / rad at 100 configurations) and its dynamics read back equal (masses,
-inertias, damping, friction, armature, limits: the model's tolerance); an MJCF source's own
-dynamics, as MuJoCo compiles it, equal the MJCF export's (:func:`mjcf_dynamics_differences`).
+inertias, damping, friction, armature, limits: the model's tolerance); and the source's own
+dynamics as its tools build it equal the export's in the same tools
+(:mod:`real2code_export.probes.dynamics`): an MJCF source's and the MJCF export's in MuJoCo;
+a URDF source's and the URDF export's in Pinocchio, and the source as MuJoCo imports it (where
+MuJoCo loads it as it is) against the MJCF export; a difference is a repair when a reader's
+warning names its element and says what of it changed (``dynamics.explaining``), any other
+fails.
 
 Files are converted in a process pool (one worker per core) as the session starts; each test
 waits for its own file. Files that do not convert are listed in REFUSED with the reason they
@@ -77,8 +82,8 @@ def _convert(source: str) -> dict:
 
     path, start = SOURCES[source], time.perf_counter()
     out: dict = {"error": None, "mismatches": [], "dynamics": {}}
-    with warnings.catch_warnings(), tempfile.TemporaryDirectory() as tmp:
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings(record=True) as said, tempfile.TemporaryDirectory() as tmp:
+        warnings.simplefilter("always")
         try:
             obj = load(path)
             written = export(obj, Path(tmp) / "out")
@@ -92,8 +97,7 @@ def _convert(source: str) -> dict:
             out["error"] = f"check: {e}"
             return out
         out["mismatches"] = [m.message for m in report.mismatches]
-        if "mjcf" in written and path.suffix == ".xml":
-            out["source_dynamics"] = mjcf_dynamics_differences(path, written["mjcf"])
+        out["source_dynamics"] = source_dynamics(path, written, [str(w.message) for w in said])
         for fmt, file in written.items():
             back = load(file)
             out["dynamics"][fmt] = [d for d in differences(obj, back)
@@ -102,64 +106,24 @@ def _convert(source: str) -> dict:
     return out
 
 
-def mjcf_dynamics_differences(source: Path, export: Path, tol: float = 1e-6) -> list[str]:
-    """The SOURCE's dynamics against the MJCF export's, both compiled by MuJoCo: per named
-    body its mass, principal moments and centre of mass in the world at q = 0; per named joint
-    its damping, frictionloss, armature, stiffness and range (the model's tolerance)."""
-    import mujoco
-    import numpy as np
+def source_dynamics(path: Path, written: dict[str, Path], said: list[str]) -> list[str]:
+    """The source's dynamics in its own tools against the exports' (module docstring); the
+    differences no repair warning explains."""
+    from real2code_export.errors import CheckError
+    from real2code_export.probes import dynamics
 
-    from real2code_export.model import sanitize_name
-
-    models = [mujoco.MjSpec.from_file(str(f)).compile() for f in (source, export)]
-    datas = [mujoco.MjData(m) for m in models]
-    for m, d in zip(models, datas, strict=True):
-        # Hinges and slides at 0 (a joint's ref makes qpos0 differ, not its pose at a value);
-        # balls and free joints at qpos0, their rest pose.
-        d.qpos[:] = m.qpos0
-        for j in range(m.njnt):
-            if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
-                                      int(mujoco.mjtJoint.mjJNT_SLIDE)):
-                d.qpos[m.jnt_qposadr[j]] = 0.0
-        mujoco.mj_kinematics(m, d)
-    src, exp = models
-
-    def close(x, y) -> bool:
-        return bool(np.allclose(x, y, atol=tol, rtol=tol))
-
+    if path.suffix == ".xml":  # MJCF: compared in full, no repair excused
+        return [f"MuJoCo: {d}" for d in dynamics.mjcf_differences(path, written["mjcf"])]
     out = []
-    for b in range(1, src.nbody):
-        name = src.body(b).name
-        e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_BODY, sanitize_name(name)) if name else -1
-        if e < 0:
-            continue  # a body the export names otherwise is the kinematic check's business
-        if not close(src.body_mass[b], exp.body_mass[e]):
-            out.append(f"body {name!r}: mass {src.body_mass[b]} != {exp.body_mass[e]}")
-        if not close(np.sort(src.body_inertia[b]), np.sort(exp.body_inertia[e])):
-            out.append(f"body {name!r}: inertia {src.body_inertia[b]} != {exp.body_inertia[e]}")
-        if not close(datas[0].xipos[b], datas[1].xipos[e]):
-            out.append(f"body {name!r}: centre of mass {datas[0].xipos[b]} != "
-                       f"{datas[1].xipos[e]}")
-    for j in range(src.njnt):
-        name = src.joint(j).name
-        if not name:
-            continue
-        e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_JOINT, sanitize_name(name))
-        if e < 0:
-            out.append(f"joint {name!r}: not in the export")
-            continue
-        ds, de = src.jnt_dofadr[j], exp.jnt_dofadr[e]
-        for what, a, b in (("damping", src.dof_damping[ds], exp.dof_damping[de]),
-                           ("frictionloss", src.dof_frictionloss[ds], exp.dof_frictionloss[de]),
-                           ("armature", src.dof_armature[ds], exp.dof_armature[de]),
-                           ("stiffness", src.jnt_stiffness[j], exp.jnt_stiffness[e]),
-                           ("limited", src.jnt_limited[j], exp.jnt_limited[e])):
-            if not close(a, b):
-                out.append(f"joint {name!r}: {what} {a} != {b}")
-        if src.jnt_limited[j] and int(src.jnt_type[j]) != int(mujoco.mjtJoint.mjJNT_BALL) and not close(
-                src.jnt_range[j], exp.jnt_range[e]):
-            out.append(f"joint {name!r}: range {src.jnt_range[j]} != {exp.jnt_range[e]}")
-    return out
+    try:
+        found = dynamics.urdf_differences(path, written["urdf"])
+    except CheckError as e:  # Pinocchio refuses the source (kinematics says so too)
+        if str(path) not in str(e):
+            raise
+        found = []
+    out += [f"Pinocchio: {d}" for d in dynamics.unexplained(found, said)]
+    found = dynamics.urdf_mujoco_differences(path, written["mjcf"]) or []
+    return out + [f"MuJoCo: {d}" for d in dynamics.unexplained(found, said)]
 
 
 @pytest.fixture(scope="session")
@@ -191,4 +155,4 @@ def test_every_corpus_file_converts_and_agrees_with_its_source(source, converted
     for fmt, diffs in result["dynamics"].items():
         assert not diffs, f"{fmt}: " + "\n".join(diffs[:10])
     source_diffs = result.get("source_dynamics", [])
-    assert not source_diffs, "source -> MJCF: " + "\n".join(source_diffs[:10])
+    assert not source_diffs, "source -> export: " + "\n".join(source_diffs[:10])

@@ -106,7 +106,12 @@ def mesh_count(obj: ArticulatedObject) -> int:
 
 
 def qpos_for(model, q: dict[str, float]) -> np.ndarray:
+    """MuJoCo's qpos for joint values ``q``; a hinge or slide not named at 0, as the model
+    has it (qpos0 is the joints' refs, their states), balls and free joints at qpos0."""
     qpos = model.qpos0.copy()
+    for j in range(model.njnt):
+        if int(model.jnt_type[j]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            qpos[model.jnt_qposadr[j]] = 0.0
     for name, value in q.items():
         qpos[model.joint(name).qposadr[0]] = value
     return qpos
@@ -743,3 +748,78 @@ def test_a_body_with_several_joints_is_a_chain_that_moves_as_mujoco_moves_it(tmp
                                    atol=1e-12)
     back = mjcf.load(mjcf.save(obj, tmp_path / "out"))
     assert not differences(obj, back)
+
+
+# A planar walker's root (two slides and a hinge in one body, its height a ref, as Gymnasium's
+# hopper has it), a tilted chain of hinges with refs off their body origin, and a joint with a
+# ref, a springref and a joint equality whose polynomial is about the refs.
+REFS = """<mujoco model="refs">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="torso" pos="0 0 1.25">
+      <joint name="rootx" type="slide" axis="1 0 0" limited="false"/>
+      <joint name="rootz" type="slide" axis="0 0 1" ref="1.25" limited="false"/>
+      <joint name="rooty" type="hinge" axis="0 1 0" limited="false"/>
+      <geom type="capsule" size="0.05" fromto="0 0 -0.2 0 0 0.2" mass="3"/>
+      <body name="arm" pos="0.3 0 0" euler="0.2 0 0.4">
+        <joint name="hx" axis="1 0 0" pos="0.1 0 0" ref="0.3" range="-1 1"/>
+        <joint name="hy" axis="0 1 0.2" pos="0 0.2 0" ref="-0.5" range="-2 1"/>
+        <joint name="sz" type="slide" axis="0 0 1" ref="0.1" range="-0.5 0.5"/>
+        <geom type="capsule" size="0.02" fromto="0 0 0 0.2 0 0" mass="0.5"/>
+        <body name="tip" pos="0.2 0 0">
+          <joint name="tz" axis="0 0 1" ref="0.7" springref="0.2" stiffness="3"/>
+          <geom type="sphere" size="0.03" mass="0.1"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality><joint joint1="tz" joint2="hx" polycoef="0.1 2 0 0 0"/></equality>
+</mujoco>
+"""
+
+
+def test_joint_refs_are_where_the_export_starts_in_mujoco(tmp_path):
+    """A joint's ref is the model's joint state (the pose the object starts in): the MJCF
+    export has the source's refs (MuJoCo's qpos0), hence its bodies where the source has them
+    before anything moves, its joint equality's polynomial and its springs; kinematics at any
+    value and the model read back are the same."""
+    source = write(tmp_path / "refs.xml", REFS)
+    obj = mjcf.load(source)
+    assert obj.joint("rootz").state == 1.25 and obj.joint("hy").state == -0.5
+    path = mjcf.save(obj, tmp_path / "out")
+    src, exp = (mujoco.MjModel.from_xml_path(str(p)) for p in (source, path))
+    for j in range(src.njnt):
+        name = src.joint(j).name
+        assert src.qpos0[src.jnt_qposadr[j]] == pytest.approx(
+            exp.qpos0[exp.joint(name).qposadr[0]], abs=1e-12), name
+        assert src.qpos_spring[src.jnt_qposadr[j]] == pytest.approx(
+            exp.qpos_spring[exp.joint(name).qposadr[0]], abs=1e-12), name
+    np.testing.assert_allclose(exp.eq_data[0], src.eq_data[0], atol=1e-12)
+    poses = [world_poses(m, mujoco.MjData(m), m.qpos0) for m in (src, exp)]
+    for body in ("torso", "arm", "tip"):
+        np.testing.assert_allclose(poses[1][body], poses[0][body], atol=1e-12, err_msg=body)
+    rng = np.random.default_rng(1)
+    data = mujoco.MjData(exp)
+    for _ in range(20):
+        q = sample_configuration(obj, rng)
+        fk, mj = forward_kinematics(obj, q), world_poses(exp, data, qpos_for(exp, q))
+        for body in ("torso", "arm", "tip"):
+            np.testing.assert_allclose(mj[body], fk[body], atol=1e-12, err_msg=body)
+    assert not differences(obj, mjcf.load(path))
+
+
+def test_joint_states_in_every_format_and_where_urdf_cannot_hold_them(tmp_path):
+    """The state (MJCF's ref) round-trips through every format; URDF, which has no initial
+    joint position, says which joints its tools start elsewhere."""
+    obj = mjcf.load(write(tmp_path / "refs.xml", REFS))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        written = export(obj, tmp_path / "out")
+    said = "\n".join(str(w.message) for w in caught if w.category is Real2CodeWarning)
+    assert "URDF has no initial joint position" in said and "'rootz'" in said
+    assert "'rootx'" not in said.split("URDF has no initial joint position")[1].split("\n")[0]
+    for fmt, path in written.items():
+        back = load_any(path)
+        states = {j.name: j.state for j in back.movable_joints}
+        assert states == pytest.approx({j.name: j.state for j in obj.movable_joints},
+                                       abs=1e-9), fmt

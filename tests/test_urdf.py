@@ -298,13 +298,16 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
     """What real robot files carry and Pinocchio / MuJoCo load: a tensor negative by rounding,
     a zero tensor (a sensor frame), one off the triangle inequality, a moving massless link, a
     revolute joint without <limit>, one with only effort and velocity (lower == upper == 0), a
-    slide with lower == upper."""
+    slide with lower == upper, a tensor with a moment of zero up to rounding (a rod's, rotated
+    and written to 4 digits, which MuJoCo refuses)."""
     zero = ('<inertial><mass value="0.1"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" '
             'izz="0"/></inertial>')
     rounding = ('<inertial><mass value="1"/><inertia ixx="-2e-22" ixy="0" ixz="0" iyy="1e-22" '
                 'iyz="0" izz="3e-6"/></inertial>')
     triangle = ('<inertial><mass value="1"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" '
                 'iyz="0" izz="0.01"/></inertial>')
+    rod = ('<inertial><mass value="0.01"/><inertia ixx="0.2125" ixy="-0.005" ixz="0.0225" '
+           'iyy="0.205" iyz="0.045" izz="0.0125"/></inertial>')
     path = tmp_path / "repairs.urdf"
     path.write_text(f"""<robot name="repairs">
   <link name="base">{rounding}</link>
@@ -335,6 +338,11 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
     <parent link="base"/><child link="wheel"/><axis xyz="0 1 0"/><origin xyz="0 0.2 0"/>
     <limit effort="35" velocity="20"/>
   </joint>
+  <link name="rod">{rod}</link>
+  <joint name="slide" type="prismatic">
+    <parent link="base"/><child link="rod"/><axis xyz="1 0 0"/><origin xyz="0 -0.2 0"/>
+    <limit effort="1" lower="-1" upper="1" velocity="1"/>
+  </joint>
 </robot>""")
     with pytest.warns(Real2CodeWarning) as record:
         obj = urdf.load(path)
@@ -348,7 +356,9 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
                    "<joint name='locked'>: <limit> lower == upper == 0.5: the slide cannot "
                    "move; imported as a fixed joint at q = 0.5",
                    "<joint name='wheel'>: <limit> lower == upper == 0: an empty range, which "
-                   "MuJoCo loads unlimited; imported as continuous"):
+                   "MuJoCo loads unlimited; imported as continuous",
+                   "<link name='rod'>: inertia tensor has a principal moment of zero up to "
+                   "rounding"):
         assert needle in messages, messages
     np.testing.assert_allclose(np.linalg.eigvalsh(obj.part("arm").inertial.inertia),
                                [0.005, 0.005, 0.01], rtol=1e-5)
@@ -359,6 +369,7 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
     assert locked.type is JointType.FIXED
     np.testing.assert_allclose(locked.origin[:3, 3], [0.6, 0, 0])  # 0.1 + 0.5 along x
     assert obj.joint("wheel").type is JointType.CONTINUOUS
+    assert min(np.linalg.eigvalsh(obj.part("rod").inertial.inertia)) > 1e-12
     path = assert_round_trip(obj, tmp_path)  # the repaired model is what every tool loads
     rng = np.random.default_rng(0)
     assert pinocchio_matches(obj, path, rng) < 1e-6

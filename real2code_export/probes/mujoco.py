@@ -125,7 +125,7 @@ def _unnamed_joint(model, j: int) -> str:
     return f"{part}_joint"
 
 
-def _urdf_kinematics(path: Path) -> str:
+def urdf_kinematics(path: Path) -> str:
     """The URDF's text without <visual>/<collision>: its kinematics and masses, which is
     all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada)."""
     from lxml import etree
@@ -141,6 +141,19 @@ def _urdf_kinematics(path: Path) -> str:
     return etree.tostring(root, encoding="unicode")
 
 
+def source_urdf_spec(path: Path):
+    """A user's URDF as MuJoCo imports it for a reference: its kinematics and masses
+    (:func:`urdf_kinematics`), with MuJoCo's own repairs of bad inertia (``balanceinertia``,
+    ``boundmass``, ``boundinertia``) as a user importing it into MuJoCo would set them."""
+    import mujoco
+
+    spec = mujoco.MjSpec.from_string(urdf_kinematics(path))
+    spec.compiler.balanceinertia = True
+    spec.compiler.boundmass = 1e-6
+    spec.compiler.boundinertia = 1e-12
+    return spec
+
+
 def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
     """``source``: the user's own file as the reference; a URDF is loaded for its kinematics
     (geometry removed) with MuJoCo's own repairs of bad inertia (``balanceinertia``,
@@ -154,10 +167,7 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
         # qhull prints pages on a degenerate mesh; MuJoCo's own error says it in a line.
         with captured_c_output():
             if source and is_urdf:
-                spec = mujoco.MjSpec.from_string(_urdf_kinematics(path))
-                spec.compiler.balanceinertia = True
-                spec.compiler.boundmass = 1e-6
-                spec.compiler.boundinertia = 1e-12
+                spec = source_urdf_spec(path)
             else:
                 spec = mujoco.MjSpec.from_file(str(path))
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges

@@ -91,7 +91,7 @@ class PinocchioProbe:
         return dict(zip(self.parts, self.pose_array(values)[0], strict=True))
 
 
-def _build_model(path: Path):
+def build_model(path: Path):
     import pinocchio as pin
 
     with captured_c_output() as printed:
@@ -112,4 +112,4 @@ def _build_model(path: Path):
 
 def open_probes(path: str | Path) -> list[PinocchioProbe]:
     path = Path(path)
-    return [PinocchioProbe(path, _build_model(path))]
+    return [PinocchioProbe(path, build_model(path))]

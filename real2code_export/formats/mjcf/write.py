@@ -10,9 +10,11 @@ inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part 
 one colliding mesh geom per convex piece (group 3); shapes (box, cylinder, ...) are geoms of
 their type. The actuators, tendons, sensors and equalities an MJCF reader kept in the metadata
 are written back where MuJoCo compiles them (:mod:`.kept`). Every parent/child pair is excluded from
-contact. What MJCF has no place for is kept in the keyframe "observed" (joint states) and in
-``<custom>`` data named ``real2code:<element>:<field>`` (velocity limits, fixed-joint names,
-metadata, ...).
+contact. Every hinge and slide has ``ref`` = its state and its body is written at that pose, so
+that MuJoCo starts there (qpos0) and joint values mean the same as in the model
+(:func:`_placed_joints`). What MJCF has no place for is kept in the keyframe "observed" (the
+joint states again, for a reader that looks there) and in ``<custom>`` data named
+``real2code:<element>:<field>`` (velocity limits, fixed-joint names, metadata, ...).
 """
 
 from __future__ import annotations
@@ -228,6 +230,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
     sites, chains = site_parts(obj), body_chains(obj)
     merged = {j.child for chain in chains.values() for j in chain[:-1]}
+    refs = {j.name: j.state for j in joints if not j.type.multi_dof}  # a joint's ref
     for joint in joints:
         if joint.child in sites:  # a frame: a site of its parent's body
             _add_site(bodies[joint.parent], joint)
@@ -242,11 +245,13 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         if joint.child not in sites and bodies[joint.parent] is not bodies[joint.child]:
             spec.add_exclude(bodyname1=bodies[joint.parent].name,
                              bodyname2=bodies[joint.child].name)
-    for joint in joints:  # our joints have no ref: qpos0 = 0, polycoef = offset, multiplier
+    for joint in joints:  # y - y0 = a0 + a1 (x - x0), y0 and x0 the joints' qpos0 (refs)
         if joint.mimic is not None:
+            m = joint.mimic
+            offset = m.offset + m.multiplier * refs.get(m.joint, 0.0) - refs.get(joint.name, 0.0)
             spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, objtype=mujoco.mjtObj.mjOBJ_JOINT,
-                              name1=joint.name, name2=joint.mimic.joint,
-                              data=[joint.mimic.offset, joint.mimic.multiplier] + [0.0] * 10)
+                              name1=joint.name, name2=m.joint,
+                              data=[offset, m.multiplier] + [0.0] * 10)
     _add_custom(spec, obj, [p for p in parts if p.name not in merged], joints)
     qpos = [x for j in joints for x in _qpos(j)]
     if qpos:  # bodies, hence qpos, are in this same depth-first order
@@ -362,17 +367,17 @@ def _stem(relpath: str) -> str:
 
 def _add_body(parent, part: Part, chain: list[Joint] | None):
     """The part's body, placed by the joint into it, or by a chain of joints that MJCF holds
-    in one body (each at its anchor; :func:`.structure.anchors`)."""
+    in one body, at the joints' states (:func:`_placed_joints`)."""
     if chain is None:
         body = parent.add_body(name=part.name)
     else:
-        base, points = anchors(chain)
-        rotation = tf.matrix_to_quat(base[:3, :3])
-        body = parent.add_body(name=part.name, pos=[x + 0.0 for x in base[:3, 3]],
+        pose, placed = _placed_joints(chain)
+        rotation = tf.matrix_to_quat(pose[:3, :3])
+        body = parent.add_body(name=part.name, pos=[x + 0.0 for x in pose[:3, 3]],
                                quat=snap_unit(rotation, sign_free=True))
-        for joint, anchor in zip(chain, points, strict=True):
+        for joint, anchor, axis in placed:
             if joint.type is not JointType.FIXED:
-                _add_joint(body, joint, anchor)
+                _add_joint(body, joint, anchor, axis)
     if part.inertial is not None:
         body.explicitinertial = True
         body.mass = part.inertial.mass
@@ -416,7 +421,32 @@ def _shape_geom(shape) -> dict:
                 quat=snap_unit(tf.matrix_to_quat(shape.pose[:3, :3]), sign_free=True))
 
 
-def _add_joint(body, joint: Joint, anchor: np.ndarray) -> None:
+def _placed_joints(chain: list[Joint]) -> tuple[np.ndarray, list[tuple[Joint, np.ndarray,
+                                                                         np.ndarray]]]:
+    """The body's pose with every hinge and slide of ``chain`` at its state (the joint's
+    ``ref``, where MuJoCo starts it), and each joint's anchor and axis in that body frame.
+
+    MuJoCo moves a body from its written pose by each joint in turn, by ``qpos - ref``, about
+    the anchor and axis as written. With G_k(q) the k-th joint's motion about its anchor in
+    the body at q = 0 (:func:`.structure.anchors`), the model's pose is G_1(q_1) ... G_n(q_n)
+    = P G'_1(q_1 - r_1) ... G'_n(q_n - r_n) with P = G_1(r_1) ... G_n(r_n) and G'_k the k-th
+    motion carried by H_k = (G_{k+1}(r_{k+1}) ... G_n(r_n))^-1: its anchor H_k p_k, its axis
+    R(H_k) a_k."""
+    base, points = anchors(chain)
+    steps = [tf.make(translation=p) @ j.motion(j.state if not j.type.multi_dof else 0.0)
+             @ tf.make(translation=-p) for j, p in zip(chain, points, strict=True)]
+    pose = base
+    for step in steps:
+        pose = pose @ step
+    placed, after = [], np.eye(4)
+    for joint, point, step in reversed(list(zip(chain, points, steps, strict=True))):
+        h = np.linalg.inv(after)
+        placed.append((joint, h[:3, :3] @ point + h[:3, 3], h[:3, :3] @ joint.axis))
+        after = step @ after
+    return pose, placed[::-1]
+
+
+def _add_joint(body, joint: Joint, anchor: np.ndarray, axis: np.ndarray) -> None:
     import mujoco
 
     d = joint.dynamics
@@ -430,7 +460,7 @@ def _add_joint(body, joint: Joint, anchor: np.ndarray) -> None:
         body.add_joint(type=kind, **options)
         return
     kind = mujoco.mjtJoint.mjJNT_HINGE if joint.type.angular else mujoco.mjtJoint.mjJNT_SLIDE
-    options.update(type=kind, axis=snap_unit(joint.axis), springref=d.spring_ref)
+    options.update(type=kind, axis=snap_unit(axis), springref=d.spring_ref, ref=joint.state)
     limits = joint.limits
     if limits is None:
         options["limited"] = mujoco.mjtLimited.mjLIMITED_FALSE

@@ -1,0 +1,258 @@
+"""A source file's dynamics as its own tools compile it, against an export's: what "dynamics
+carried" means for a user's file, beyond our reader and writer agreeing with each other.
+
+- MJCF source, MJCF export, both compiled by MuJoCo: per named body its mass, principal
+  moments and centre of mass at q = 0; per named joint damping, frictionloss, armature,
+  stiffness, range and ref (qpos0, where the joint starts) (:func:`mjcf_differences`).
+- URDF source, URDF export, both built by Pinocchio: per joint the inertia of everything
+  rigidly attached to it (Pinocchio merges fixed links into their joint, as we may merge or
+  split them), in the world at the neutral configuration; damping, friction, armature,
+  position, velocity and effort limits (:func:`urdf_differences`).
+- URDF source in MuJoCo's URDF import, MJCF export: per welded group of bodies (MuJoCo's
+  ``body_weldid``: a moving body with the bodies fixed to it) its mass, principal moments
+  and centre of mass; per joint as above (:func:`urdf_mujoco_differences`).
+
+Names are compared as our importers make them (``model.sanitize_name``). Each function returns
+a :class:`Difference` per quantity beyond ``tol`` (absolute and relative), naming the source's
+elements it concerns, so that a caller can tell a reader's warned repair (a warning naming one
+of them and saying what it changed of that kind: :func:`explaining`) from a loss; an empty
+list means equal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..model import sanitize_name
+from ._stdio import captured_c_output
+
+# What a warning that explains a difference speaks of: mass properties, or a joint's law.
+MASS_WORDS = ("mass", "inertia")
+JOINT_WORDS = ("limit", "range", "joint", "damping", "friction", "armature")
+
+
+@dataclass(frozen=True)
+class Difference:
+    names: tuple[str, ...]  # the source's links, bodies or joint it concerns
+    message: str
+    words: tuple[str, ...] = JOINT_WORDS  # one of which a warning explaining it says
+
+    def __str__(self) -> str:
+        return self.message
+
+
+def explaining(difference: Difference, warned: list[str]) -> list[str]:
+    """The warnings that explain ``difference``: a reader's repair names the element it
+    changed (``'NAME'``) and says what of it (mass, inertia; a limit, the joint type)."""
+    return [w for w in warned if any(f"'{n}'" in w for n in difference.names)
+            and any(word in w for word in difference.words)]
+
+
+def unexplained(differences: list[Difference], warned: list[str]) -> list[Difference]:
+    """The differences that no warning explains (:func:`explaining`)."""
+    return [d for d in differences if not explaining(d, warned)]
+
+
+def _close(x, y, tol: float) -> bool:
+    return bool(np.allclose(np.asarray(x, float), np.asarray(y, float), atol=tol, rtol=tol))
+
+
+# -- MuJoCo ---------------------------------------------------------------------------------
+def _compiled(spec):
+    """The compiled model and its data at q = 0 for hinges and slides (a joint's ref makes
+    qpos0 differ, not its pose at a value), balls and free joints at qpos0 (their rest)."""
+    import mujoco
+
+    with captured_c_output():
+        m = spec.compile()
+    d = mujoco.MjData(m)
+    d.qpos[:] = m.qpos0
+    for j in range(m.njnt):
+        if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                  int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            d.qpos[m.jnt_qposadr[j]] = 0.0
+    mujoco.mj_kinematics(m, d)
+    return m, d
+
+
+def _mujoco_joint_differences(src, exp, tol: float) -> list[Difference]:
+    """Per named joint of ``src``: damping, frictionloss, armature, stiffness, limited and
+    (hinge, slide) range, against the joint of that name in ``exp``."""
+    import mujoco
+
+    out = []
+    ball = int(mujoco.mjtJoint.mjJNT_BALL)
+    scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+    for j in range(src.njnt):
+        name = src.joint(j).name
+        if not name:
+            continue
+        e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_JOINT, sanitize_name(name))
+        if e < 0:
+            out.append(Difference((name,), f"joint {name!r}: not in the export"))
+            continue
+        ds, de = src.jnt_dofadr[j], exp.jnt_dofadr[e]
+        pairs = [("damping", src.dof_damping[ds], exp.dof_damping[de]),
+                 ("frictionloss", src.dof_frictionloss[ds], exp.dof_frictionloss[de]),
+                 ("armature", src.dof_armature[ds], exp.dof_armature[de]),
+                 ("stiffness", src.jnt_stiffness[j], exp.jnt_stiffness[e]),
+                 ("limited", src.jnt_limited[j], exp.jnt_limited[e])]
+        if src.jnt_limited[j] and int(src.jnt_type[j]) != ball:
+            pairs.append(("range", src.jnt_range[j], exp.jnt_range[e]))
+        if int(src.jnt_type[j]) in scalar:  # where it starts (ref); a start outside the
+            # range is the nearest limit in the model (its state), warned by the reader
+            ref = src.qpos0[src.jnt_qposadr[j]]
+            lo, hi = src.jnt_range[j] if src.jnt_limited[j] else (-np.inf, np.inf)
+            if lo <= ref <= hi:
+                pairs.append(("ref (qpos0)", ref, exp.qpos0[exp.jnt_qposadr[e]]))
+        out += [Difference((name,), f"joint {name!r}: {what} {a} != {b}")
+                for what, a, b in pairs if not _close(a, b, tol)]
+    return out
+
+
+def mjcf_differences(source: str | Path, export: str | Path,
+                     tol: float = 1e-6) -> list[Difference]:
+    """An MJCF SOURCE against its MJCF EXPORT, both compiled by MuJoCo, body by body."""
+    import mujoco
+
+    (src, ds), (exp, de) = (_compiled(mujoco.MjSpec.from_file(str(f))) for f in (source, export))
+    out = []
+    for b in range(1, src.nbody):
+        name = src.body(b).name
+        e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_BODY, sanitize_name(name)) if name else -1
+        if e < 0:
+            continue  # a body the export names otherwise is the kinematic check's business
+        out += _mass_differences(f"body {name!r}", (name,),
+                                 (src.body_mass[b], src.body_inertia[b], ds.xipos[b]),
+                                 (exp.body_mass[e], exp.body_inertia[e], de.xipos[e]), tol)
+    return out + _mujoco_joint_differences(src, exp, tol)
+
+
+def _mass_differences(element: str, names: tuple[str, ...], a, b,
+                      tol: float) -> list[Difference]:
+    """(mass, principal moments, centre of mass in the world) of one rigid group each."""
+    pairs = (("mass", a[0], b[0]), ("principal moments", np.sort(a[1]), np.sort(b[1])),
+             ("centre of mass", a[2], b[2]))
+    return [Difference(names, f"{element}: {what} {x} != {y}", MASS_WORDS)
+            for what, x, y in pairs if not _close(x, y, tol)]
+
+
+def _welded_groups(m, d) -> dict[int, tuple[float, np.ndarray, np.ndarray]]:
+    """Weld body id (a body with a joint, or the world) -> (mass, principal moments, centre
+    of mass in the world) of it and every body fixed to it."""
+    out = {}
+    for weld, bodies in _welds(m).items():
+        mass = float(sum(m.body_mass[b] for b in bodies))
+        if mass <= 0.0:
+            out[weld] = (0.0, np.zeros(3), np.zeros(3))
+            continue
+        com = sum(m.body_mass[b] * d.xipos[b] for b in bodies) / mass
+        tensor = np.zeros((3, 3))
+        for b in bodies:  # parallel axis theorem about the group's centre of mass
+            rot = d.ximat[b].reshape(3, 3)
+            r = d.xipos[b] - com
+            tensor += rot @ np.diag(m.body_inertia[b]) @ rot.T
+            tensor += m.body_mass[b] * (r @ r * np.eye(3) - np.outer(r, r))
+        out[weld] = (mass, np.linalg.eigvalsh(tensor), com)
+    return out
+
+
+def _welds(m) -> dict[int, list[int]]:
+    groups: dict[int, list[int]] = {}
+    for b in range(1, m.nbody):
+        groups.setdefault(int(m.body_weldid[b]), []).append(b)
+    return groups
+
+
+def urdf_mujoco_differences(source: str | Path, export: str | Path,
+                            tol: float = 1e-6) -> list[Difference] | None:
+    """A URDF SOURCE as MuJoCo imports it (kinematics and masses, every link kept a body, no
+    repair of MuJoCo's turned on) against the MJCF EXPORT, per welded group named by its
+    moving body, and per joint; None when MuJoCo refuses the source as it is."""
+    import mujoco
+
+    from .mujoco import urdf_kinematics
+
+    try:
+        spec = mujoco.MjSpec.from_string(urdf_kinematics(Path(source)))
+        spec.compiler.fusestatic = False
+        src, ds = _compiled(spec)
+    except ValueError:
+        return None  # (a tensor off the triangle inequality, a massless moving link)
+    exp, de = _compiled(mujoco.MjSpec.from_file(str(export)))
+    a, b, members = _welded_groups(src, ds), _welded_groups(exp, de), _welds(src)
+    out = []
+    for weld, group in a.items():
+        if weld == 0:
+            continue  # the world's own share: which links MuJoCo counts in it is its choice
+        name = src.body(weld).name
+        names = tuple(src.body(k).name for k in members[weld])
+        e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_BODY, sanitize_name(name))
+        if e < 0 or int(exp.body_weldid[e]) != e:
+            out.append(Difference(names, f"body {name!r}: no moving body of that name in "
+                                         "the export"))
+            continue
+        out += _mass_differences(f"body {name!r} and the bodies fixed to it", names, group,
+                                 b[e], tol)
+    return out + _mujoco_joint_differences(src, exp, tol)
+
+
+# -- Pinocchio ------------------------------------------------------------------------------
+def _pinocchio(path: Path):
+    import pinocchio as pin
+
+    from .pinocchio import build_model
+
+    model = build_model(path)
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    return model, data
+
+
+def urdf_differences(source: str | Path, export: str | Path,
+                     tol: float = 1e-6) -> list[Difference]:
+    """A URDF SOURCE against its URDF EXPORT, both built by Pinocchio, joint by joint (the
+    universe's share included: links fixed to the world)."""
+    import pinocchio as pin
+
+    (src, ds), (exp, de) = _pinocchio(Path(source)), _pinocchio(Path(export))
+    ids = {name: k for k, name in enumerate(exp.names)}
+    links: dict[int, list[str]] = {}
+    for frame in src.frames:
+        if frame.type == pin.FrameType.BODY:
+            links.setdefault(int(frame.parentJoint), []).append(frame.name)
+    out = []
+    for j in range(src.njoints):
+        name = src.names[j]
+        e = 0 if j == 0 else ids.get(sanitize_name(name), -1)
+        if e < 0:
+            out.append(Difference((name,), f"joint {name!r}: not in the export"))
+            continue
+        out += _mass_differences(f"the links of joint {name!r}", tuple(links.get(j, ())),
+                                 _world_inertia(src, ds, j), _world_inertia(exp, de, e), tol)
+        if j > 0:
+            out += _pinocchio_joint_differences(src, exp, j, e, tol)
+    return out
+
+
+def _pinocchio_joint_differences(src, exp, j: int, e: int, tol: float) -> list[Difference]:
+    name = src.names[j]
+    js, je = src.joints[j], exp.joints[e]
+    vs, ve = slice(js.idx_v, js.idx_v + js.nv), slice(je.idx_v, je.idx_v + je.nv)
+    pairs = [(what, getattr(src, what)[vs], getattr(exp, what)[ve])
+             for what in ("damping", "friction", "armature", "effortLimit", "velocityLimit")]
+    if js.nq == js.nv == 1:  # revolute, prismatic: a range (a continuous joint: cos, sin)
+        for what in ("lowerPositionLimit", "upperPositionLimit"):
+            theirs = getattr(exp, what)[je.idx_q] if je.nq == 1 else f"none ({je.shortname()})"
+            pairs.append((what, getattr(src, what)[js.idx_q], theirs))
+    return [Difference((name,), f"joint {name!r}: {what} {x} != {y}") for what, x, y in pairs
+            if isinstance(y, str) or np.shape(x) != np.shape(y) or not _close(x, y, tol)]
+
+
+def _world_inertia(model, data, j: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass, principal moments, centre of mass in the world) of joint ``j``'s links."""
+    inertia = data.oMi[j].act(model.inertias[j])
+    return float(inertia.mass), np.linalg.eigvalsh(inertia.inertia), np.array(inertia.lever)

@@ -1,0 +1,98 @@
+"""A source file's dynamics in its own tools against an export's
+(``real2code_export.probes.dynamics``): equal after an export, a changed mass, damping or
+limit found and named, a reader's repair told apart from a loss by the warning naming it."""
+
+from __future__ import annotations
+
+import warnings
+
+import pytest
+
+from real2code_export.formats import export, load
+from real2code_export.probes import dynamics
+
+URDF = """<robot name="arm">
+  <link name="base">
+    <inertial><origin xyz="0 0 0.05"/><mass value="2"/>
+      <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial>
+  </link>
+  <link name="upper">
+    <inertial><origin xyz="0.1 0 0" rpy="0.3 0 0"/><mass value="1"/>
+      <inertia ixx="0.001" ixy="0.0001" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+  </link>
+  <link name="tool">
+    <inertial><origin xyz="0 0 0.02"/><mass value="0.2"/>
+      <inertia ixx="0.0001" ixy="0" ixz="0" iyy="0.0001" iyz="0" izz="0.0001"/></inertial>
+  </link>
+  <link name="lower">
+    <inertial><mass value="0.5"/>
+      <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.0015" iyz="0" izz="0.001"/></inertial>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.1" rpy="0 0.2 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1.5" effort="20" velocity="3"/>
+    <dynamics damping="0.4" friction="0.1"/>
+  </joint>
+  <joint name="tool_mount" type="fixed">
+    <parent link="upper"/><child link="tool"/><origin xyz="0.2 0 0"/>
+  </joint>
+  <joint name="elbow" type="prismatic">
+    <parent link="upper"/><child link="lower"/><origin xyz="0.25 0 0"/>
+    <axis xyz="1 0 0"/><limit lower="0" upper="0.1" effort="50" velocity="0.5"/>
+    <dynamics damping="2"/>
+  </joint>
+</robot>
+"""
+
+
+@pytest.fixture()
+def exported(tmp_path):
+    source = tmp_path / "arm.urdf"
+    source.write_text(URDF)
+    written = export(load(source), tmp_path / "out", ["urdf", "mjcf"])
+    return source, written
+
+
+def test_an_export_has_its_urdf_sources_dynamics_in_pinocchio_and_mujoco(exported):
+    source, written = exported
+    assert dynamics.urdf_differences(source, written["urdf"]) == []
+    assert dynamics.urdf_mujoco_differences(source, written["mjcf"]) == []
+
+
+def test_a_changed_mass_damping_or_limit_is_found_and_named(exported, tmp_path):
+    source, written = exported
+    changed = tmp_path / "changed.urdf"
+    changed.write_text(URDF.replace('<mass value="0.2"/>', '<mass value="0.25"/>')
+                       .replace('damping="2"', 'damping="1"')
+                       .replace('effort="20"', 'effort="10"'))
+    found = dynamics.urdf_differences(source, changed)
+    said = "\n".join(map(str, found))
+    # the tool's mass counts in the joint that carries it (Pinocchio merges fixed links)
+    assert "the links of joint 'shoulder': mass 1.2 != 1.25" in said
+    assert "joint 'elbow': damping" in said and "joint 'shoulder': effortLimit" in said
+    by_name = {n for d in found for n in d.names}
+    assert {"upper", "tool", "elbow", "shoulder"} <= by_name
+    # a warning naming one of the elements and saying what of it changed explains the
+    # difference; one about something else (its collision) does not
+    mass = [d for d in found if "tool" in d.names]
+    assert mass and dynamics.unexplained(found, ["<link name='tool'>: mass repaired"]) == [
+        d for d in found if d not in mass]
+    assert dynamics.unexplained(found, ["no <collision> in links 'tool'"]) == found
+    assert dynamics.unexplained(found, []) == found
+
+
+def test_mujoco_where_it_loads_the_urdf_as_it_is(tmp_path):
+    """MuJoCo refuses a moving link without mass as it is: nothing to compare there (None);
+    Pinocchio loads it and compares."""
+    massless = tmp_path / "massless.urdf"
+    massless.write_text(URDF.replace('<inertial><mass value="0.5"/>\n      <inertia ixx="0.002" '
+                                     'ixy="0" ixz="0" iyy="0.0015" iyz="0" izz="0.001"/>'
+                                     '</inertial>', ''))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = export(load(massless), tmp_path / "massless", ["urdf", "mjcf"])
+    said = "\n".join(str(w.message) for w in caught)
+    assert "moves part 'lower', which has no mass" in said
+    assert dynamics.urdf_mujoco_differences(massless, out["mjcf"]) is None
+    # the negligible mass given (1e-6 kg) is within the tolerance
+    assert dynamics.urdf_differences(massless, out["urdf"]) == []
