@@ -208,3 +208,43 @@ def test_bad_shapes_are_refused_with_file_and_element(tmp_path):
     (tmp_path / "cone.urdf").write_text(marked)
     with pytest.raises(FormatError, match=r"cone\.urdf:\d+: <link name='lid'>.*unknown shape"):
         _quiet_load(tmp_path / "cone.urdf")
+
+
+COLLIDING_ELLIPSOID = """<mujoco model="pebble">
+  <worldbody>
+    <body name="base"><geom type="box" size="0.1 0.1 0.02"/>
+      <body name="pebble" pos="0 0 0.1" euler="0.3 0 0">
+        <joint name="turn" axis="0 0 1" range="-1 1"/>
+        <geom type="ellipsoid" size="0.04 0.02 0.01" pos="0.01 0 0" euler="0 0 0.5"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_colliding_ellipsoid_in_usd_is_a_convex_mesh_read_back_as_the_shape(tmp_path):
+    """UsdPhysics has no ellipsoid and refuses a sphere scaled unevenly as a collider: the
+    USD holds a convex mesh that UsdValidation accepts, and reads back as the ellipsoid."""
+    from pxr import Usd, UsdPhysics
+
+    from real2code_export.validators import validate_usd
+
+    source = tmp_path / "pebble.xml"
+    source.write_text(COLLIDING_ELLIPSOID)
+    obj = _quiet_load(source)
+    (piece,) = obj.part("pebble").collision
+    assert piece.primitive.kind is ShapeKind.ELLIPSOID
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        usd = export(obj, tmp_path / "out", ["usd"])["usd"]
+    stage = Usd.Stage.Open(str(usd))
+    (collider,) = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.CollisionAPI)
+                   and p.GetName() == "pebble_collision_0"]
+    assert collider.GetTypeName() == "Mesh"
+    assert UsdPhysics.MeshCollisionAPI(collider).GetApproximationAttr().Get() == "convexHull"
+    (validation,) = validate_usd([usd])
+    assert validation.errors == 0, validation.messages
+    back = _quiet_load(usd)
+    assert not differences(obj, back), differences(obj, back)
+    assert back.part("pebble").collision[0].primitive.kind is ShapeKind.ELLIPSOID

@@ -4,7 +4,10 @@ PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose
 renderers skip them). Geometry is inline, in the part frame, so the file is self-contained.
 Shapes (box, sphere, ellipsoid, cylinder, capsule) are UsdGeom Cube / Sphere / Cylinder /
 Capsule prims, placed by double-precision xformOps (a box is a unit cube scaled, an ellipsoid
-a unit sphere scaled); as colliders they have the CollisionAPI alone (analytic shapes).
+a unit sphere scaled); as colliders they have the CollisionAPI alone (analytic shapes), except
+the ellipsoid: UsdPhysics has none and refuses a sphere scaled unevenly as a collider (PhysX
+cannot scale one; UsdValidation's ColliderNonUniformScale), so a colliding ellipsoid is its
+tessellation as a convex mesh, with its radii in our namespace for the reader.
 
 Mesh prims are named after their part (``<part>/<part>``, ``<part>/<part>_collision_<k>``),
 never a generic ``visual``: importers that fold a single-mesh Xform into one object (Blender's
@@ -22,6 +25,7 @@ from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import DEFAULT_COLOR, Mesh, Part, Texture
 from ...primitives import Primitive, ShapeKind
+from .conventions import NAMESPACE
 from .layer import apply, attribute, connect, define, extent, place, relationship
 
 ST = "st"  # the texture-coordinate primvar's name, as UsdPreviewSurface's examples use
@@ -49,6 +53,36 @@ def _define_mesh(layer, path: str, mesh: Mesh, *schemas: str):
     # flat triangles, not Catmull-Clark
     attribute(prim, "subdivisionScheme", "Token", "none", uniform=True)
     return prim
+
+
+ELLIPSOID_RADII = f"{NAMESPACE}:ellipsoid:radii"
+
+
+def _define_ellipsoid_collider(layer, path: str, shape: Primitive):
+    """A colliding ellipsoid as a convex mesh: its tessellation in its own frame, placed
+    rigidly at the shape's pose, the radii in ``real2code:ellipsoid:radii``."""
+    from pxr import Gf
+
+    own = Mesh(*Primitive(shape.kind, shape.size).tessellation())
+    prim = _define_mesh(layer, path, own, "PhysicsCollisionAPI", "PhysicsMeshCollisionAPI")
+    attribute(prim, "physics:approximation", "Token", "convexHull", uniform=True)
+    attribute(prim, ELLIPSOID_RADII, "Double3", Gf.Vec3d(*(float(r) for r in shape.size)),
+              uniform=True, custom=True)
+    place(prim, shape.pose)
+    return prim
+
+
+def ellipsoid_collider(prim, to_part: np.ndarray) -> Mesh | None:
+    """The ellipsoid :func:`_define_ellipsoid_collider` wrote, in the part frame (``to_part``:
+    the prim's frame -> part), or None where the prim is no such mesh or is placed with a
+    scale (then it is read as the mesh it is)."""
+    radii = prim.GetAttribute(ELLIPSOID_RADII)
+    if not radii or radii.Get() is None:
+        return None
+    matrix = np.asarray(to_part, dtype=np.float64)
+    if not tf.is_rotation(matrix[:3, :3]):
+        return None
+    return Mesh.of_primitive(Primitive(ShapeKind.ELLIPSOID, list(radii.Get()), matrix))
 
 
 def write_part_geometry(layer, part: Part, body_path: str, material_path: str) -> None:
@@ -86,7 +120,9 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str) -
         attribute(visual, "primvars:displayOpacity", "FloatArray", [a])  # read no materials
     for k, piece in enumerate(part.collision):
         where = f"{body_path}/{collision_name(part, k)}"
-        if piece.primitive is not None:  # an analytic collider
+        if piece.primitive is not None and piece.primitive.kind is ShapeKind.ELLIPSOID:
+            geom = _define_ellipsoid_collider(layer, where, piece.primitive)
+        elif piece.primitive is not None:  # an analytic collider
             geom = define_shape(layer, where, piece.primitive, "PhysicsCollisionAPI")
         else:
             geom = _define_mesh(layer, where, piece, "PhysicsCollisionAPI",

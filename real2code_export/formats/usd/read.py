@@ -36,7 +36,7 @@ from .conventions import (
     stage_units,
     world_transforms,
 )
-from .geometry import read_color, read_images, read_mesh, shape_mesh
+from .geometry import ellipsoid_collider, read_color, read_images, read_mesh, shape_mesh
 from .joint import (
     STATE,
     authored_value,
@@ -154,7 +154,9 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
     for sp in shape_paths:
         shape = ctx.stage.GetPrimAtPath(sp)
         if shape.IsA(UsdGeom.Mesh):
-            collision.append(read_mesh(shape, placed(shape), path, f"prim <{sp}>"))
+            mesh = ellipsoid_collider(shape, placed(shape))
+            collision.append(mesh if mesh is not None else
+                             read_mesh(shape, placed(shape), path, f"prim <{sp}>"))
         else:
             mesh = shape_mesh(shape, placed(shape))
             if mesh is None:
