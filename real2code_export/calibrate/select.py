@@ -109,7 +109,36 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
                 log.append(f"refined {'+'.join(current.names)} into {'+'.join(f.names)}: "
                            f"BIC {f.bic(n_ref):.1f}")
                 best = f
+            elif not f.degenerate():
+                best = _without_absent(problem, f, best, fits, log) or best
     return best
+
+
+def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
+                    log: list[str]) -> Fit | None:
+    """A structure with an effect that is not there beside the others may be right without
+    it (an encoder's zero error tried beside direction-dependent friction, whose Coulomb
+    asymmetry holds the same constant force): the structure less its absent effects,
+    fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
+    there. (A structure is never reached otherwise: the search only adds.)"""
+    rest = tuple(e for e in f.effects if f.present(e))
+    if not rest or len(rest) == len(f.effects) or _key(rest) in fits:
+        return None
+    g = fit_candidate(problem, rest, refine=False, warm=dict(f.values))
+    fits[_key(rest)] = g
+    n_ref = _n_ref(fits.values())
+    if g.bic(n_ref) >= current.bic(n_ref):
+        log.append(f"tried {'+'.join(g.names)} (less what was not there): "
+                   f"BIC {g.bic(n_ref):.1f}, no better")
+        return None
+    g = refine_fit(g)
+    fits[_key(rest)] = g
+    if g.degenerate() or not all(g.present(e) for e in g.effects):
+        log.append(f"tried {'+'.join(g.names)} (less what was not there): "
+                   f"BIC {g.bic(n_ref):.1f}, an effect not significant")
+        return None
+    log.append(f"tried {'+'.join(g.names)} (less what was not there): BIC {g.bic(n_ref):.1f}")
+    return g
 
 
 def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
@@ -271,6 +300,9 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             else:
                 log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
                            "an effect not significant")
+                kept = _without_absent(problem, f, current, fits, log)
+                if kept is not None:
+                    break
         if kept is None:
             # effects that each lower the BIC but are not significant alone may be two
             # that stand in for each other (friction and inertia both slow a push): their
