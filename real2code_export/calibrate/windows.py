@@ -12,11 +12,11 @@ median) under a redescending
 foreign force is left as an outlier. A stretch of outliers (one that reaches the
 smoothing's edge runs on to the record's end: a hand that lets go at the start of the
 record acts from its first sample) counts as a push when
-the work it does on the joint is positive and large against the joint's kinetic energy: an
-unmodelled effect of the state (inertia, a spring) only moves energy back and forth, and a
-stop or friction takes it out (a stop's rebound, which gives back what it took, is not
-counted). The run is cut there; each piece keeps its own initial state
-(multiple shooting across the push).
+the work it does on the joint is large against the joint's kinetic energy, put in or taken
+out (a hand that brakes a moving lid): an unmodelled effect of the state (inertia, a spring)
+only moves energy back and forth, friction's share is in the regression, and a stretch at a
+stop (its impact takes energy out, its rebound gives it back) is not counted. The run is
+cut there; each piece keeps its own initial state (multiple shooting across the push).
 """
 
 from __future__ import annotations
