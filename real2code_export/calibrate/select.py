@@ -122,9 +122,17 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
     there. (A structure is never reached otherwise: the search only adds.)"""
     rest = tuple(e for e in f.effects if f.present(e))
-    if not rest or len(rest) == len(f.effects) or _key(rest) in fits:
+    if not rest or len(rest) == len(f.effects) or _key(rest) == _key(current.effects):
         return None
+    earlier = fits.get(_key(rest))
+    if earlier is not None and earlier.bic(_n_ref(fits.values())) < current.bic(
+            _n_ref(fits.values())):
+        return None  # already tried on its merits
+    # (re)fitted from the richer fit's values: fitted earlier from a poorer model, it may
+    # have stopped in another minimum (a spring's rest position far from the data's)
     g = fit_candidate(problem, rest, refine=False, warm=dict(f.values))
+    if earlier is not None and earlier.rss <= g.rss:
+        return None
     fits[_key(rest)] = g
     n_ref = _n_ref(fits.values())
     if g.bic(n_ref) >= current.bic(n_ref):
@@ -205,7 +213,10 @@ def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
         if f.degenerate() or not all(f.present(e) for e in f.effects):
             log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}, "
                        "an effect not significant")
-            continue
+            f = None if f.degenerate() else _without_absent(problem, f, current, fits, log)
+            if f is None:
+                continue
+            n_ref = _n_ref(fits.values())
         log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}")
         if best is None or f.bic(n_ref) < best.bic(n_ref):
             best = f
@@ -233,6 +244,27 @@ def _warm_start(current: Fit) -> dict[str, float]:
 def _n_ref(fits) -> float:
     best = min(fits, key=lambda f: f.rss)
     return best.n_eff
+
+
+def _judge(problem: Problem, f: Fit, current: Fit, fits: dict, n_ref: float,
+           log: list[str]) -> Fit | None:
+    """``f`` (refined) if it beats ``current`` by BIC with all its effects there and none
+    two of the same thing; else, where an effect is not there, the structure without it
+    (:func:`_without_absent`); else None."""
+    if f.bic(n_ref) >= current.bic(n_ref):
+        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, no better")
+        return None
+    f = refine_fit(f)
+    fits[_key(f.effects)] = f
+    if f.degenerate():
+        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, two effects "
+                   "explain the same thing")
+        return None
+    if all(f.present(e) for e in f.effects):
+        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
+        return f
+    log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, an effect not significant")
+    return _without_absent(problem, f, current, fits, log)
 
 
 def select(problem: Problem, screen_top: int = SCREEN_TOP,
@@ -285,24 +317,21 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
         # best BIC first; each is refined (its numerical error measured) before its
         # effects are tested, and the first that passes is kept
         for f in sorted(new, key=lambda f: f.bic(n_ref)):
-            if f.bic(n_ref) >= current.bic(n_ref):
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, no better")
-                continue
-            f = refine_fit(f)
-            fits[_key(f.effects)] = f
-            if f.degenerate():
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, two effects "
-                           "explain the same thing")
-            elif all(f.present(e) for e in f.effects):
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
-                kept = f
+            kept = _judge(problem, f, current, fits, n_ref, log)
+            if kept is not None:
                 break
-            else:
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
-                           "an effect not significant")
-                kept = _without_absent(problem, f, current, fits, log)
-                if kept is not None:
-                    break
+        if kept is None and new:
+            # the best of them, fitted from the current model's values, may have stopped in
+            # that model's minimum (a spring stiffened to stand in for a lighter lid): once
+            # more from its own inverse-dynamics start, the better kept
+            f = min(new, key=lambda f: f.bic(n_ref))
+            g = fit_candidate(problem, f.effects, refine=False)
+            if g.rss < f.rss:
+                fits[_key(g.effects)] = g
+                new[new.index(f)] = g
+                n_ref = _n_ref(fits.values())
+                log.append(f"{'+'.join(g.names)} again from its inverse-dynamics start")
+                kept = _judge(problem, g, current, fits, n_ref, log)
         if kept is None:
             # effects that each lower the BIC but are not significant alone may be two
             # that stand in for each other (friction and inertia both slow a push): their
