@@ -320,11 +320,13 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             kept = _judge(problem, f, current, fits, n_ref, log)
             if kept is not None:
                 break
-        if kept is None and new:
+        linear = [f for f in new if all(e.name != "limit" for e in f.effects)]
+        if kept is None and linear:
             # the best of them, fitted from the current model's values, may have stopped in
             # that model's minimum (a spring stiffened to stand in for a lighter lid): once
-            # more from its own inverse-dynamics start, the better kept
-            f = min(new, key=lambda f: f.bic(n_ref))
+            # more from its own inverse-dynamics start, the better kept (a stop has no such
+            # start: the equation error leaves its impacts out)
+            f = min(linear, key=lambda f: f.bic(n_ref))
             g = fit_candidate(problem, f.effects, refine=False)
             if g.rss < f.rss:
                 fits[_key(g.effects)] = g
