@@ -8,8 +8,12 @@ interval, widened for residual correlation, excludes absence). BIC counts the ef
 samples of the best-fitting residual so far (a correlated residual carries less evidence
 than its length), the same count for every candidate compared, so extra parameters must
 pay for themselves. Extensions that each lower the BIC without being significant alone
-are tried together. The search stops when no extension earns its parameters: nothing is
-forced onto the data.
+are tried together. A structure with an effect that is not there beside the others is
+tried without it (the search only adds: a refinement may make an earlier effect redundant);
+where no structure of a step passes, the best is fitted once more from its own
+inverse-dynamics start (from the current model's values it may stop in that model's
+minimum). The search stops when no extension earns its parameters: nothing is forced onto
+the data.
 """
 
 from __future__ import annotations
