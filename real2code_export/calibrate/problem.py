@@ -60,6 +60,9 @@ class Problem:
 
 
 FRICTION_TIMECONST = 2 * MAX_TIMESTEP
+# s: where 40 ms of samples cannot tell a run's start from rest, this long a look can
+# (a creep of a few noise levels per second; a piece is at least windows.MIN_PIECE long)
+CREEP_SECONDS = 0.25
 
 
 def calibration_spec(obj: ArticulatedObject, joints: list[str], gravity=None):
@@ -108,12 +111,12 @@ def rigid_effort(spec, joints: list[str], traj_q: np.ndarray, dq: np.ndarray,
     return out
 
 
-def _initial_state(t: np.ndarray, q: np.ndarray, noise: float
+def _initial_state(t: np.ndarray, q: np.ndarray, noise: float, seconds: float = 0.04
                    ) -> tuple[tuple[float, float], tuple[float, float]]:
-    """Position and velocity at the first sample from a local quadratic over ~40 ms, and
-    their standard errors."""
+    """Position and velocity at the first sample from a local quadratic over ``seconds``,
+    and their standard errors."""
     period = float(np.median(np.diff(t)))
-    n = int(min(len(t), max(6, round(0.04 / period))))
+    n = int(min(len(t), max(6, round(seconds / period))))
     tt = t[:n] - t[0]
     a = np.column_stack([np.ones(n), tt, tt**2])
     coef, *_ = np.linalg.lstsq(a, q[:n], rcond=None)
@@ -209,7 +212,15 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             (q0, v0), (sq, sv) = _initial_state(tr.time, qs[:, k], sig_q[k])
             x0[k] = (q0, v0)
             se[k] = (sq, sv)
-            free[k] = (True, abs(v0) > 4 * sv)
+            moving = abs(v0) > 4 * sv
+            if not moving:
+                # a slow creep hides in 40 ms of noise but drifts a replay away over
+                # seconds (a piece that starts where a push was left out): a longer look
+                (_, v_long), (_, sv_long) = _initial_state(tr.time, qs[:, k], sig_q[k],
+                                                           CREEP_SECONDS)
+                if abs(v_long) > 4 * sv_long:
+                    moving, x0[k, 1] = True, v_long
+            free[k] = (True, moving)
             if not free[k, 1]:
                 x0[k, 1] = 0.0
         x0s.append(x0)

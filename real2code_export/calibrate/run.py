@@ -227,6 +227,15 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                     f"the nominal model (cross-validation by {cv.kind}, {cv.error}: squared "
                     f"error {cv.sse_calibrated:.4g} vs {cv.sse_nominal:.4g} noise units)")
     calibrated = calibrated_object(model, selection.chosen)
+    # the calibrated model replayed as it will be exported: the gain is measured on it
+    after = replay(calibrated, trajectories)
+    fits = _replays("fitted", trajectories, selection.nominal, after)
+    if rejected is None and selection.chosen.effects and \
+            _total_rmse(fits, "calibrated") > _total_rmse(fits, "nominal"):
+        # (its own fit is better; the exported model's replay, initial states as the data
+        # give them, is not: what it fitted lives in the fit's initial states)
+        rejected = (f"{'+'.join(selection.chosen.names)} replays the fitted data worse than "
+                    "the nominal model")
     holdouts = []
     if held and rejected is None:
         held_nominal = replay(model, held)
@@ -241,9 +250,8 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
         if held:
             holdouts = _replays("held out", held, replay(model, held),
                                 replay(calibrated, held))
-    # the calibrated model replayed as it will be exported: the gain is measured on it
-    after = replay(calibrated, trajectories)
-    fits = _replays("fitted", trajectories, selection.nominal, after)
+        after = replay(calibrated, trajectories)
+        fits = _replays("fitted", trajectories, selection.nominal, after)
     report = build_report(problem, selection, fits, holdouts, _features(problem, selection.nominal),
                           [tr.source for tr in trajectories], [tr.source for tr in held],
                           model.name)

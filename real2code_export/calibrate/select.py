@@ -8,8 +8,12 @@ interval, widened for residual correlation, excludes absence). BIC counts the ef
 samples of the best-fitting residual so far (a correlated residual carries less evidence
 than its length), the same count for every candidate compared, so extra parameters must
 pay for themselves. Extensions that each lower the BIC without being significant alone
-are tried together. The search stops when no extension earns its parameters: nothing is
-forced onto the data.
+are tried together. A structure with an effect that is not there beside the others is
+tried without it (the search only adds: a refinement may make an earlier effect redundant);
+where no structure of a step passes, the best is fitted once more from its own
+inverse-dynamics start (from the current model's values it may stop in that model's
+minimum). The search stops when no extension earns its parameters: nothing is forced onto
+the data.
 """
 
 from __future__ import annotations
@@ -109,7 +113,44 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
                 log.append(f"refined {'+'.join(current.names)} into {'+'.join(f.names)}: "
                            f"BIC {f.bic(n_ref):.1f}")
                 best = f
+            elif not f.degenerate():
+                best = _without_absent(problem, f, best, fits, log) or best
     return best
+
+
+def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
+                    log: list[str]) -> Fit | None:
+    """A structure with an effect that is not there beside the others may be right without
+    it (an encoder's zero error tried beside direction-dependent friction, whose Coulomb
+    asymmetry holds the same constant force): the structure less its absent effects,
+    fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
+    there. (A structure is never reached otherwise: the search only adds.)"""
+    rest = tuple(e for e in f.effects if f.present(e))
+    if not rest or len(rest) == len(f.effects) or _key(rest) == _key(current.effects):
+        return None
+    earlier = fits.get(_key(rest))
+    if earlier is not None and earlier.bic(_n_ref(fits.values())) < current.bic(
+            _n_ref(fits.values())):
+        return None  # already tried on its merits
+    # (re)fitted from the richer fit's values: fitted earlier from a poorer model, it may
+    # have stopped in another minimum (a spring's rest position far from the data's)
+    g = fit_candidate(problem, rest, refine=False, warm=dict(f.values))
+    if earlier is not None and earlier.rss <= g.rss:
+        return None
+    fits[_key(rest)] = g
+    n_ref = _n_ref(fits.values())
+    if g.bic(n_ref) >= current.bic(n_ref):
+        log.append(f"tried {'+'.join(g.names)} (less what was not there): "
+                   f"BIC {g.bic(n_ref):.1f}, no better")
+        return None
+    g = refine_fit(g)
+    fits[_key(rest)] = g
+    if g.degenerate() or not all(g.present(e) for e in g.effects):
+        log.append(f"tried {'+'.join(g.names)} (less what was not there): "
+                   f"BIC {g.bic(n_ref):.1f}, an effect not significant")
+        return None
+    log.append(f"tried {'+'.join(g.names)} (less what was not there): BIC {g.bic(n_ref):.1f}")
+    return g
 
 
 def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
@@ -176,7 +217,10 @@ def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
         if f.degenerate() or not all(f.present(e) for e in f.effects):
             log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}, "
                        "an effect not significant")
-            continue
+            f = None if f.degenerate() else _without_absent(problem, f, current, fits, log)
+            if f is None:
+                continue
+            n_ref = _n_ref(fits.values())
         log.append(f"tried {'+'.join(f.names)} together: BIC {f.bic(n_ref):.1f}")
         if best is None or f.bic(n_ref) < best.bic(n_ref):
             best = f
@@ -204,6 +248,27 @@ def _warm_start(current: Fit) -> dict[str, float]:
 def _n_ref(fits) -> float:
     best = min(fits, key=lambda f: f.rss)
     return best.n_eff
+
+
+def _judge(problem: Problem, f: Fit, current: Fit, fits: dict, n_ref: float,
+           log: list[str]) -> Fit | None:
+    """``f`` (refined) if it beats ``current`` by BIC with all its effects there and none
+    two of the same thing; else, where an effect is not there, the structure without it
+    (:func:`_without_absent`); else None."""
+    if f.bic(n_ref) >= current.bic(n_ref):
+        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, no better")
+        return None
+    f = refine_fit(f)
+    fits[_key(f.effects)] = f
+    if f.degenerate():
+        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, two effects "
+                   "explain the same thing")
+        return None
+    if all(f.present(e) for e in f.effects):
+        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
+        return f
+    log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, an effect not significant")
+    return _without_absent(problem, f, current, fits, log)
 
 
 def select(problem: Problem, screen_top: int = SCREEN_TOP,
@@ -256,21 +321,23 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
         # best BIC first; each is refined (its numerical error measured) before its
         # effects are tested, and the first that passes is kept
         for f in sorted(new, key=lambda f: f.bic(n_ref)):
-            if f.bic(n_ref) >= current.bic(n_ref):
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, no better")
-                continue
-            f = refine_fit(f)
-            fits[_key(f.effects)] = f
-            if f.degenerate():
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, two effects "
-                           "explain the same thing")
-            elif all(f.present(e) for e in f.effects):
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
-                kept = f
+            kept = _judge(problem, f, current, fits, n_ref, log)
+            if kept is not None:
                 break
-            else:
-                log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, "
-                           "an effect not significant")
+        linear = [f for f in new if all(e.name != "limit" for e in f.effects)]
+        if kept is None and linear:
+            # the best of them, fitted from the current model's values, may have stopped in
+            # that model's minimum (a spring stiffened to stand in for a lighter lid): once
+            # more from its own inverse-dynamics start, the better kept (a stop has no such
+            # start: the equation error leaves its impacts out)
+            f = min(linear, key=lambda f: f.bic(n_ref))
+            g = fit_candidate(problem, f.effects, refine=False)
+            if g.rss < f.rss:
+                fits[_key(g.effects)] = g
+                new[new.index(f)] = g
+                n_ref = _n_ref(fits.values())
+                log.append(f"{'+'.join(g.names)} again from its inverse-dynamics start")
+                kept = _judge(problem, g, current, fits, n_ref, log)
         if kept is None:
             # effects that each lower the BIC but are not significant alone may be two
             # that stand in for each other (friction and inertia both slow a push): their

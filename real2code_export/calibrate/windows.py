@@ -12,11 +12,11 @@ median) under a redescending
 foreign force is left as an outlier. A stretch of outliers (one that reaches the
 smoothing's edge runs on to the record's end: a hand that lets go at the start of the
 record acts from its first sample) counts as a push when
-the work it does on the joint is positive and large against the joint's kinetic energy: an
-unmodelled effect of the state (inertia, a spring) only moves energy back and forth, and a
-stop or friction takes it out (a stop's rebound, which gives back what it took, is not
-counted). The run is cut there; each piece keeps its own initial state
-(multiple shooting across the push).
+the work it does on the joint is large against the joint's kinetic energy, put in or taken
+out (a hand that brakes a moving lid): an unmodelled effect of the state (inertia, a spring)
+only moves energy back and forth, friction's share is in the regression, and a stretch at a
+stop (its impact takes energy out, its rebound gives it back) is not counted. The run is
+cut there; each piece keeps its own initial state (multiple shooting across the push).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, lsq_linear
 
 from . import features
 from .effects import MAX_DELAY
@@ -161,18 +161,23 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # whose scale follows the residual's own spread leaves it out of the fit
         coef = np.array([1e-6, 1e-6] + [0.0] * (x.shape[1] - 2))
         f_scale = 0.1
+        at_stop = _at_stops(qs[:, k], period)
         if j in tr.efforts:
             # the inertia is what the measured effort says: fitted (least squares) where
             # the effort acts, then held. A robust loss left free would find a minimum for
             # every inertia that the zero-effort samples allow, the push among them, and
             # could as well call the measured pushes the outliers.
-            acting = use & (np.abs(measured) > ACTING * np.percentile(np.abs(measured[use]),
-                                                                       95))
+            # (not where the joint is at a stop: the stop's force would pass for inertia,
+            # and every push elsewhere then for a force against the motion)
+            acting = use & ~at_stop & (np.abs(measured) > ACTING * np.percentile(
+                np.abs(measured[use]), 95))
             if acting.sum() >= MIN_SAMPLES:
                 a_act = x[acting] / scale
-                b = np.linalg.lstsq(a_act - a_act.mean(axis=0), y[acting] / ys
-                                    - np.mean(y[acting] / ys), rcond=None)[0]
-                held = float(np.clip(b[3], lower[3], upper[3]))
+                # bounded as the robust fit is: over a push or two the smooth columns are
+                # nearly collinear, and a negative damping would buy any inertia
+                b = lsq_linear(a_act - a_act.mean(axis=0), y[acting] / ys
+                               - np.mean(y[acting] / ys), bounds=(lower, upper)).x
+                held = float(b[3])
                 coef[3] = held
                 lower[3], upper[3] = held - 1e-9 * max(abs(held), 1.0), \
                     held + 1e-9 * max(abs(held), 1.0)
@@ -200,7 +205,6 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                 merged.append([a, b])
         inertia = float(np.median(mass[:, k])) + d.armature
         energy_scale = 0.5 * inertia * v95**2
-        at_stop = _at_stops(qs[:, k], period)
         for a, b in merged:
             if (b - a) * period < MIN_PUSH or at_stop[a:b].any():
                 continue  # too short, or a stop's rebound (it gives back what it took)
@@ -210,7 +214,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
             wb = tr.n if b >= tr.n - edge else b
             # the unmeasured force is -r: its work on the joint
             work = float(np.sum(-r[wa:wb] * dq[wa:wb, k]) * period)
-            if work > PUSH_ENERGY * energy_scale and work > 0:
+            if abs(work) > PUSH_ENERGY * energy_scale:
                 # grow the stretch to where the force starts and ends (half the threshold)
                 lo, hi = a, b
                 while lo > 0 and abs(r[lo - 1]) > 0.5 * OUTLIER_SIGMAS * sigma:
@@ -219,9 +223,11 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                     hi += 1
                 found.append(Excluded(tr.source, j, float(tr.time[lo]),
                                       float(tr.time[hi - 1]), work,
-                                      f"energy rises by {work:.3g} J ({work / energy_scale:.2g}"
-                                      " x the joint's kinetic energy) that no candidate effect "
-                                      "and no measured effort explains: an unmeasured push"))
+                                      f"energy {'rises' if work > 0 else 'falls'} by "
+                                      f"{abs(work):.3g} J ({abs(work) / energy_scale:.2g} x "
+                                      "the joint's kinetic energy) in a way no candidate "
+                                      "effect and no measured effort explains: an unmeasured "
+                                      "push"))
     return found
 
 
