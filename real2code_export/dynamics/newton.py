@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engine_settings import MULTICCD
 from ..formats import format_for_path
 from . import Experiment, Recorder, Trajectory
 from .venv import run_in_venv, serve
@@ -74,8 +75,12 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     qd[qd_idx] = experiment.v0
     # Its MuJoCo solver (on MuJoCo's CPU library): Featherstone applies no joint friction and
     # makes every limit a spring (docs/engines.md).
+    # its default turns MuJoCo's several contact points per convex pair off (a box then
+    # rests 5 mm deep): our MJCF and USD say multiccd; a URDF has no place for it
+    multiccd = MULTICCD if kind == "urdf" else None
     solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True,
-                                         disable_contacts=not experiment.contacts)
+                                         disable_contacts=not experiment.contacts,
+                                         enable_multiccd=multiccd)
     if experiment.self_contacts:
         import mujoco
 

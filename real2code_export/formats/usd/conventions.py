@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import transforms as tf
-from ...engine_settings import PHYSX_SOLVER
+from ...engine_settings import MULTICCD, PHYSX_SOLVER
 from ...errors import FormatError, InputError
 
 GEOMETRY, PHYSICS, LOOKS = "Geometry", "Physics", "Looks"
@@ -64,6 +64,10 @@ def new_stage(name: str):
     scene.GetPrim().AddAppliedSchema("PhysxSceneAPI")
     scene.GetPrim().CreateAttribute("physxScene:solverType", Sdf.ValueTypeNames.Token,
                                     custom=False).Set(PHYSX_SOLVER)
+    # MuJoCo's several contact points per convex pair, which Newton turns off unless told
+    scene.GetPrim().AddAppliedSchema("MjcSceneAPI")
+    scene.GetPrim().CreateAttribute("mjc:flag:multiccd", Sdf.ValueTypeNames.Bool, custom=False,
+                                    variability=Sdf.VariabilityUniform).Set(MULTICCD)
     return stage, root
 
 
