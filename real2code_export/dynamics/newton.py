@@ -31,7 +31,10 @@ def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "newton", path, experiment)
 
 
-def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
+def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
+                  ) -> Trajectory:
+    """With ``featherstone``, Newton's own reduced-coordinate solver instead of MuJoCo's
+    (newton_featherstone.py says what it leaves out)."""
     import newton
     import warp as wp
 
@@ -73,15 +76,18 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     qd = model.joint_qd.numpy()
     q[q_idx] = experiment.q0
     qd[qd_idx] = experiment.v0
-    # Its MuJoCo solver (on MuJoCo's CPU library): Featherstone applies no joint friction and
-    # makes every limit a spring (docs/engines.md).
-    # its default turns MuJoCo's several contact points per convex pair off (a box then
-    # rests 5 mm deep): our MJCF and USD say multiccd; a URDF has no place for it
-    multiccd = MULTICCD if kind == "urdf" else None
-    solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True,
-                                         disable_contacts=not experiment.contacts,
-                                         enable_multiccd=multiccd)
-    if experiment.self_contacts:
+    if featherstone:
+        if experiment.contacts:
+            raise ValueError("Newton's Featherstone solver is run without contacts here")
+        solver = newton.solvers.SolverFeatherstone(model, angular_damping=0.0)
+    else:  # its MuJoCo solver, on MuJoCo's CPU library
+        # its default turns MuJoCo's several contact points per convex pair off (a box then
+        # rests 5 mm deep): our MJCF and USD say multiccd; a URDF has no place for it
+        multiccd = MULTICCD if kind == "urdf" else None
+        solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True,
+                                             disable_contacts=not experiment.contacts,
+                                             enable_multiccd=multiccd)
+    if experiment.self_contacts and not featherstone:
         import mujoco
 
         solver.mj_model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
