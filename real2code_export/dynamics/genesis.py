@@ -11,7 +11,9 @@ does not read are set from our ``real2code:`` attributes: armature, springs; and
 limit softness as our MJCF authors it (Genesis keeps one set of constraint parameters per
 joint, for its limit and its dry friction alike). Genesis's spring pulls toward the joint's
 reference pose (``qpos0``), not MuJoCo's ``springref``: the difference is a constant joint
-force. Contacts are not simulated here.
+force. In the contact experiments every pair of parts collides (Genesis filters a joint's
+parent and child, and pieces touching at q = 0, unless told; it reads no MJCF ``<exclude>``)
+and the boxes are free cubes of the experiment's mass.
 """
 
 from __future__ import annotations
