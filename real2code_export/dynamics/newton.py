@@ -12,7 +12,9 @@ from the written pose when ``mjc:ref`` is authored (see ``_unshift_limits``); th
 experiment sets the initial state by joint name and its gravity (a USD's PhysicsScene
 would set its own).
 An experiment's boxes are free bodies; ``self_contacts`` drops the importers' filtered
-shape pairs between bodies and MuJoCo's parent/child filter.
+shape pairs between bodies and MuJoCo's parent/child filter. Newton turns MuJoCo's several
+contact points per convex pair (multiccd) off unless the file asks for them, as our MJCF
+and USD do; a URDF's run is told.
 """
 
 from __future__ import annotations
