@@ -224,8 +224,9 @@ def _drop_judge(floors: list[Floor], half: float) -> Judge:
             deepest = max(deepest, floor.height + half - z)  # into the floor's top level
             if miss > 0:
                 said.append(f"the box in {floor.joint} ended {miss * 1000:.0f} mm off its floor")
-        message = "; ".join(said) or (f"{len(floors)} box(es) at rest in their drawers, "
-                                      f"{deepest * 1000:.1f} mm into the floor at most")
+        depth = f"{deepest * 1000:.1f} mm into the floor at most" if deepest >= 0 else \
+            f"{-deepest * 1000:.1f} mm above it"  # an engine's contact offset
+        message = "; ".join(said) or f"{len(floors)} box(es) at rest in their drawers, {depth}"
         return Verdict(not said, message, distance=worst)
 
     return judge
