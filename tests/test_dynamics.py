@@ -62,6 +62,17 @@ def test_newton_agrees_at_a_limit(laptop, engine):
     assert run.max_angle < 1e-3
 
 
+def test_newton_featherstone_swings_as_mujoco(laptop):
+    """Newton's own solver from the USD, its body damping off: rigid-body dynamics alone
+    agree (its limits are springs and it has no dry friction: docs/engines.md). ~20 s."""
+    report = simulate_file(laptop, ["newton-featherstone"], ["swing"])
+    run = next(r for r in report.runs if r.engine.startswith("Newton"))
+    if run.status == "skipped":
+        pytest.skip(run.message)
+    assert run.status == "ok", run.message
+    assert run.max_angle < 1e-3
+
+
 @pytest.mark.parametrize(("engine", "experiment", "within"), [
     ("genesis-mjcf", "swing", 1e-9),  # MuJoCo's integration: a one-step lag would be 1e-3
     ("genesis-urdf", "limit", 1e-3),  # the URDF's laws, armature and limit softness set

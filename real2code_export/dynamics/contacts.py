@@ -207,7 +207,7 @@ def drop(obj: ArticulatedObject
 def _drop_judge(floors: list[Floor], half: float) -> Judge:
     def judge(trajectory: Trajectory) -> Verdict:
         column = {n: i for i, n in enumerate(trajectory.joints)}
-        worst, said = 0.0, []
+        worst, deepest, said = 0.0, -np.inf, []
         for b, floor in enumerate(floors):
             i = column[floor.joint]
             moved = (trajectory.q[-1, i] - trajectory.q[0, i]) * floor.axis
@@ -221,9 +221,12 @@ def _drop_judge(floors: list[Floor], half: float) -> Judge:
             if not np.all(np.isfinite(centre)):
                 miss = float("inf")
             worst = max(worst, miss)
+            deepest = max(deepest, floor.height + half - z)  # into the floor's top level
             if miss > 0:
                 said.append(f"the box in {floor.joint} ended {miss * 1000:.0f} mm off its floor")
-        message = "; ".join(said) or f"{len(floors)} box(es) at rest in their drawers"
+        depth = f"{deepest * 1000:.1f} mm into the floor at most" if deepest >= 0 else \
+            f"{-deepest * 1000:.1f} mm above it"  # an engine's contact offset
+        message = "; ".join(said) or f"{len(floors)} box(es) at rest in their drawers, {depth}"
         return Verdict(not said, message, distance=worst)
 
     return judge

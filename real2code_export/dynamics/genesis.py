@@ -11,7 +11,9 @@ does not read are set from our ``real2code:`` attributes: armature, springs; and
 limit softness as our MJCF authors it (Genesis keeps one set of constraint parameters per
 joint, for its limit and its dry friction alike). Genesis's spring pulls toward the joint's
 reference pose (``qpos0``), not MuJoCo's ``springref``: the difference is a constant joint
-force. Contacts are not simulated here.
+force. In the contact experiments every pair of parts collides (Genesis filters a joint's
+parent and child, and pieces touching at q = 0, unless told; it reads no MJCF ``<exclude>``)
+and the boxes are free cubes of the experiment's mass.
 """
 
 from __future__ import annotations
@@ -51,13 +53,19 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
         gs.init(backend=gs.cpu, precision="64", logging_level="warning")
     scene = gs.Scene(
         sim_options=gs.options.SimOptions(dt=experiment.dt, gravity=tuple(experiment.gravity)),
-        rigid_options=gs.options.RigidOptions(enable_collision=experiment.contacts,
-                                              integrator=gs.integrator.Euler),
+        rigid_options=gs.options.RigidOptions(
+            enable_collision=experiment.contacts, integrator=gs.integrator.Euler,
+            # every pair of parts collides, a joint's parent and child and pieces that touch
+            # at q = 0 included (Genesis filters both by default)
+            enable_self_collision=experiment.self_contacts,
+            enable_adjacent_collision=experiment.self_contacts,
+            enable_neutral_collision=experiment.self_contacts),
         show_viewer=False)
     urdf = format_for_path(path).name == "urdf"
     morph = gs.morphs.URDF(file=str(path), fixed=True, default_armature=None) if urdf else \
         gs.morphs.MJCF(file=str(path), default_armature=None)
     entity = scene.add_entity(morph)
+    boxes = _add_boxes(gs, scene, experiment)
     scene.build()
     joints = {j.name: j for j in entity.joints}
     missing = [n for n in experiment.joints if n not in joints]
@@ -92,10 +100,18 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
-            recorder.add(step, np.asarray(entity.get_qpos(q_idx).cpu(), dtype=float))
+            recorder.add(step, np.asarray(entity.get_qpos(q_idx).cpu(), dtype=float),
+                         [np.asarray(b.get_pos().cpu(), dtype=float) for b in boxes])
         if step < experiment.steps:
             scene.step()
     return recorder.trajectory()
+
+
+def _add_boxes(gs, scene, experiment: Experiment) -> list:
+    size = experiment.box_size
+    material = gs.materials.Rigid(rho=experiment.box_mass / size ** 3)
+    return [scene.add_entity(gs.morphs.Box(size=(size, size, size), pos=tuple(centre)),
+                             material=material) for centre in experiment.boxes]
 
 
 if __name__ == "__main__":

@@ -12,7 +12,9 @@ from the written pose when ``mjc:ref`` is authored (see ``_unshift_limits``); th
 experiment sets the initial state by joint name and its gravity (a USD's PhysicsScene
 would set its own).
 An experiment's boxes are free bodies; ``self_contacts`` drops the importers' filtered
-shape pairs between bodies and MuJoCo's parent/child filter.
+shape pairs between bodies and MuJoCo's parent/child filter. Newton turns MuJoCo's several
+contact points per convex pair (multiccd) off unless the file asks for them, as our MJCF
+and USD do; a URDF's run is told.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engine_settings import MULTICCD
 from ..formats import format_for_path
 from . import Experiment, Recorder, Trajectory
 from .venv import run_in_venv, serve
@@ -30,7 +33,10 @@ def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "newton", path, experiment)
 
 
-def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
+def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
+                  ) -> Trajectory:
+    """With ``featherstone``, Newton's own reduced-coordinate solver instead of MuJoCo's
+    (newton_featherstone.py says what it leaves out)."""
     import newton
     import warp as wp
 
@@ -72,11 +78,18 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     qd = model.joint_qd.numpy()
     q[q_idx] = experiment.q0
     qd[qd_idx] = experiment.v0
-    # Its MuJoCo solver (on MuJoCo's CPU library): Featherstone applies no joint friction and
-    # makes every limit a spring (docs/engines.md).
-    solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True,
-                                         disable_contacts=not experiment.contacts)
-    if experiment.self_contacts:
+    if featherstone:
+        if experiment.contacts:
+            raise ValueError("Newton's Featherstone solver is run without contacts here")
+        solver = newton.solvers.SolverFeatherstone(model, angular_damping=0.0)
+    else:  # its MuJoCo solver, on MuJoCo's CPU library
+        # its default turns MuJoCo's several contact points per convex pair off (a box then
+        # rests 5 mm deep): our MJCF and USD say multiccd; a URDF has no place for it
+        multiccd = MULTICCD if kind == "urdf" else None
+        solver = newton.solvers.SolverMuJoCo(model, use_mujoco_cpu=True,
+                                             disable_contacts=not experiment.contacts,
+                                             enable_multiccd=multiccd)
+    if experiment.self_contacts and not featherstone:
         import mujoco
 
         solver.mj_model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)

@@ -51,10 +51,10 @@ ENGINES: dict[str, Engine] = {e.name: e for e in (
     Engine("newton-usd", "Newton (USD)", "usd", "real2code_export.dynamics.newton"),
     Engine("newton-mjcf", "Newton (MJCF)", "mjcf", "real2code_export.dynamics.newton"),
     Engine("newton-urdf", "Newton (URDF)", "urdf", "real2code_export.dynamics.newton"),
-    Engine("genesis-urdf", "Genesis (URDF)", "urdf", "real2code_export.dynamics.genesis",
-           contacts=False),
-    Engine("genesis-mjcf", "Genesis (MJCF)", "mjcf", "real2code_export.dynamics.genesis",
-           contacts=False),
+    Engine("newton-featherstone", "Newton Featherstone (USD)", "usd",
+           "real2code_export.dynamics.newton_featherstone", contacts=False),
+    Engine("genesis-urdf", "Genesis (URDF)", "urdf", "real2code_export.dynamics.genesis"),
+    Engine("genesis-mjcf", "Genesis (MJCF)", "mjcf", "real2code_export.dynamics.genesis"),
 )}
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from ... import atomic
 from ... import transforms as tf
-from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF, MULTICCD
 from ...errors import ExportError, warn
 from ...meshfiles import (
     MESH_DIR,
@@ -60,6 +60,7 @@ SUFFIX = ".xml"
 # MuJoCo 4.0.0 leaves out an inertial pos of zero when it writes a spec as authored, and its
 # own parser then refuses the file (the attribute is required): it is put back.
 _INERTIAL_WITHOUT_POS = re.compile(r"<inertial (?![^>]*\bpos=)")
+_COMPILER = re.compile(r"<compiler\b[^>]*/>")
 
 
 def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
@@ -109,7 +110,31 @@ def to_xml(spec, obj: ArticulatedObject) -> str:
         message, name, _tag, _line = describe_mujoco_error(str(e))
         where = _element_owner(obj, name) if name is not None else f"object {obj.name!r}"
         raise ExportError(f"MJCF: MuJoCo refused {where}: {message}") from e
-    return _text_as_attribute(_INERTIAL_WITHOUT_POS.sub('<inertial pos="0 0 0" ', text))
+    text = _INERTIAL_WITHOUT_POS.sub('<inertial pos="0 0 0" ', text)
+    return _text_as_attribute(_with_multiccd(text))
+
+
+def _with_multiccd(text: str) -> str:
+    """``<option><flag multiccd="enable"/></option>`` written out although it is MuJoCo's
+    default (which MuJoCo's writer leaves out): Newton's MuJoCo solver turns it off unless the
+    file says so (engine_settings.MULTICCD)."""
+    value = "enable" if MULTICCD else "disable"
+    compiler = _COMPILER.search(text)
+    if "<option" not in text and compiler is not None:  # MuJoCo's output: no parse needed
+        at = compiler.end()
+        return f'{text[:at]}\n\n  <option>\n    <flag multiccd="{value}"/>\n  </option>{text[at:]}'
+    from lxml import etree
+
+    root = etree.fromstring(text.encode("utf-8"))
+    option = root.find("option")
+    if option is None:
+        option = etree.Element("option")
+        root.insert(0, option)
+    flag = option.find("flag")
+    if flag is None:
+        flag = etree.SubElement(option, "flag")
+    flag.set("multiccd", value)
+    return etree.tostring(root, encoding="unicode") + "\n"
 
 
 def _text_as_attribute(text: str) -> str:

@@ -21,10 +21,11 @@ from ... import transforms as tf
 def new_layer(name: str, scene: str):
     """An anonymous layer with Z up, metres, kilograms, the object prim ``/<name>`` (an
     Xform, the defaultPrim) and its Geometry, Physics and Looks scopes, and a PhysicsScene
-    ``/<scene>`` (gravity -Z, 9.81 m/s^2, PhysX's PGS solver). Returns (layer, object prim)."""
+    ``/<scene>`` (gravity -Z, 9.81 m/s^2, PhysX's PGS solver, MuJoCo's multiccd). Returns
+    (layer, object prim)."""
     from pxr import Gf, Sdf
 
-    from ...engine_settings import PHYSX_SOLVER
+    from ...engine_settings import MULTICCD, PHYSX_SOLVER
     from .conventions import GEOMETRY, LOOKS, PHYSICS
 
     layer = Sdf.Layer.CreateAnonymous(f"{name}.usda")
@@ -45,6 +46,9 @@ def new_layer(name: str, scene: str):
     # (PhysxSceneAPI is codeless here: usd-core has no PhysxSchema, the tokens suffice.)
     apply(physics_scene, "PhysxSceneAPI")
     attribute(physics_scene, "physxScene:solverType", "Token", PHYSX_SOLVER)
+    # MuJoCo's several contact points per convex pair, which Newton turns off unless told
+    apply(physics_scene, "MjcSceneAPI")
+    attribute(physics_scene, "mjc:flag:multiccd", "Bool", MULTICCD, uniform=True)
     return layer, root
 
 
