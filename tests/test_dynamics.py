@@ -22,11 +22,13 @@ from conftest import REPO
 
 @pytest.fixture(scope="module")
 def laptop(tmp_path_factory):
-    """A small object: a hinge under gravity, light to simulate."""
+    """A small object: a hinge under gravity, light to simulate, observed part open (our MJCF
+    then writes ref = the state, which engines must not take for the joint value)."""
     folder = tmp_path_factory.mktemp("laptop")
     obj = generate("laptop", seed=3)
     for j in obj.movable_joints:  # the laws experiment must have laws to apply
         j.dynamics.damping, j.dynamics.friction = 0.05, 0.02
+        j.state = j.limits.lower + 0.3 * (j.limits.upper - j.limits.lower)
     return object_json.save(obj, folder)
 
 

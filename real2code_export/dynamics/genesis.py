@@ -95,7 +95,9 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
         entity.control_dofs_force(offset, dofs)
     q_idx = [joints[n].qs_idx_local[0] for n in experiment.joints]
     v_idx = [joints[n].dofs_idx_local[0] for n in experiment.joints]
-    entity.set_dofs_position(np.array(experiment.q0), v_idx)
+    # the joint values themselves: a dof's "position" is its deflection from qpos0, which an
+    # MJCF's ref (our MJCF writes ref = the state) moves away from the joint value
+    entity.set_qpos(np.array(experiment.q0), q_idx, zero_velocity=False)
     entity.set_dofs_velocity(np.array(experiment.v0), v_idx)
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):

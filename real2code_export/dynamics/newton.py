@@ -8,8 +8,9 @@ attributes are registered before import, from the USD's MjcJointAPI; a URDF has 
 for them, so they are set as MuJoCo (URDF) is told. Without them Newton makes a limit its
 default spring (ke 1e4, kd 10), off which a door rebounds. Its USD importer reads the
 observed state with PhysX's schema resolver (else it starts at q = 0) and counts limits
-from the written pose when ``mjc:ref`` is authored (see ``_unshift_limits``); the
-experiment sets the initial state by joint name and its gravity (a USD's PhysicsScene
+from the written pose when ``mjc:ref`` is authored (see ``_unshift_limits``); its MJCF
+importer counts joint values from the written pose too (q - ref; our MJCF writes ref = the
+state); the experiment sets the initial state by joint name and its gravity (a USD's PhysicsScene
 would set its own).
 An experiment's boxes are free bodies; ``self_contacts`` drops the importers' filtered
 shape pairs between bodies and MuJoCo's parent/child filter. Newton turns MuJoCo's several
@@ -74,9 +75,12 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
     qd_start = model.joint_qd_start.numpy()
     q_idx = np.array([q_start[names.index(n)] for n in experiment.joints])
     qd_idx = np.array([qd_start[names.index(n)] for n in experiment.joints])
+    # an MJCF's joints count from the written pose in Newton (q - ref, its limits moved
+    # alike); its USD and URDF joints count as ours
+    ref = _mjcf_refs(builder, qd_idx) if kind == "mjcf" else np.zeros(len(qd_idx))
     q = model.joint_q.numpy()
     qd = model.joint_qd.numpy()
-    q[q_idx] = experiment.q0
+    q[q_idx] = np.asarray(experiment.q0, dtype=np.float64) - ref
     qd[qd_idx] = experiment.v0
     if featherstone:
         if experiment.contacts:
@@ -100,7 +104,7 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
-            recorder.add(step, state_0.joint_q.numpy()[q_idx],
+            recorder.add(step, state_0.joint_q.numpy()[q_idx] + ref,
                          state_0.body_q.numpy()[boxes, :3])
         if step < experiment.steps:
             state_0.clear_forces()
@@ -126,6 +130,13 @@ def _mujoco_softness(builder) -> None:
         attrs["mujoco:solimplimit"].values[dof] = dtype(*LIMIT_SOLIMP)
         attrs["mujoco:solreffriction"].values[dof] = attrs["mujoco:solreffriction"].dtype(
             *FRICTION_SOLREF)
+
+
+def _mjcf_refs(builder, dofs) -> np.ndarray:
+    """Each of ``dofs``' MJCF ``ref`` as Newton's MJCF importer kept it (0 where none)."""
+    ref = builder.custom_attributes.get("mujoco:dof_ref")
+    values = ref.values if ref is not None and isinstance(ref.values, dict) else {}
+    return np.array([float(values.get(int(d), 0.0)) for d in dofs])
 
 
 def _unshift_limits(builder) -> None:
