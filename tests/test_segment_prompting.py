@@ -255,3 +255,31 @@ def test_a_patch_cut_off_from_its_part_goes_to_the_part_it_touches():
     # a second piece as big as the main one is not a stray patch: nothing moves
     halves = np.where(cloud[:, 0] < 0.5, 1, 2)[: len(front)]
     assert reassign_detached(front, halves, step)[1] == []
+
+
+def test_a_small_part_inside_the_carcass_box_is_the_carcass():
+    """A patch of a carcass's top cut out as a part of its own goes back to the carcass; a
+    drawer pulled out of it (outside the box) and a large part inside it stay."""
+    from pipeline.compartments import return_enclosed
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    shell = np.concatenate([_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
+                            _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+                            _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
+                            _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y),
+                            _grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z)])
+    drawer = np.concatenate([_grid(0.3, 0.2, (0.45, 0.05, -0.3), y, z),  # front, 15 cm out
+                             _grid(0.5, 0.3, (-0.05, 0.05, -0.3), x, y)])
+    cloud = np.concatenate([shell, drawer])
+    truth = np.concatenate([np.ones(len(shell), int), np.full(len(drawer), 2)])
+    labels = truth.copy()
+    patch = (cloud[:, 2] == 0.4) & (np.abs(cloud[:, 0]) < 0.07) & (np.abs(cloud[:, 1]) < 0.07)
+    labels[patch] = 3
+    out, moved = return_enclosed(cloud, labels, voxel=0.02)
+    assert np.array_equal(out, truth)
+    assert moved == [{"part": 3, "points": int(patch.sum()), "enclosed": True}]
+    assert np.array_equal(return_enclosed(cloud, truth, voxel=0.02)[0], truth)  # exact parts
+    side = (cloud[:, 1] == 0.4) & (truth == 1)  # a whole side wall: too large to be a patch
+    whole = truth.copy()
+    whole[side] = 3
+    assert return_enclosed(cloud, whole, voxel=0.02)[1] == []
