@@ -1,11 +1,11 @@
-"""A rigid part is one connected piece of surface: pieces of a part's label cut off from its
-main piece belong to the part they touch.
+"""Stray pieces of a part's label go to the part they lie in: a piece cut off from the label's
+main piece, far from it, and touching another part along much of its outline.
 
 Under a depth sensor's faults the mask network's masks stray: a drawer's masks also take a
 patch of the carcass beside it, seen from a view or two, and the vote keeps it. The patch
 lies apart from the drawer's own surface, so its box (fitted to both) grows to the
 carcass's size and the joint read off it turns (on a phone-LiDAR ring a table's drawer
-label held a 300-point patch of its top, and the table's two joints came out 90 degrees
+label held a 300-point patch of the table's body, and the table's two joints came out 90 degrees
 off). Geometry tells such patches apart where the masks cannot: a stray patch lies well
 away from its label's own surface and inside another part's (a good share of its points
 touch that part). A true part's surface can fall apart too, and must not lose pieces: cut

@@ -9,7 +9,7 @@ consistent 3D part segmentation from per-view masks.
 4. Suppress duplicates by merging: prompts whose masks hold each other's points are one
    part (average-linkage clustering); drop groups the model does not trust; give every
    point the part that claims it most; dissolve specks; smooth the labels over the cloud.
-5. Pieces of a part cut off from its main piece go to the part they touch (``pieces``).
+5. Stray pieces of a part, far from its main piece, go to the part they lie in (``pieces``).
 6. Every view's label image: each pixel takes the label of its nearest labelled point.
 """
 
