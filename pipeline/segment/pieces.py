@@ -1,5 +1,5 @@
-"""Stray pieces of a part's label go to the part they lie in: a piece cut off from the label's
-main piece, far from it, and touching another part along much of its outline.
+"""Stray pieces of a moving part's label go back to the carcass they lie in: a piece cut off
+from the label's main piece, far from it, and touching the carcass along much of its outline.
 
 Under a depth sensor's faults the mask network's masks stray: a drawer's masks also take a
 patch of the carcass beside it, seen from a view or two, and the vote keeps it. The patch
@@ -29,6 +29,7 @@ class PieceOptions:
     max_share: float = 0.5  # a piece up to this share of its label's main piece may move ...
     min_gap_spacings: float = 5.0  # ... when it lies this far from the main piece ...
     min_touching: float = 0.3  # ... and this share of its points touch the part it goes to
+    min_points: int = 5  # a piece of fewer points tells nothing of where it belongs
 
 
 def _components(points: np.ndarray, radius: float) -> np.ndarray:
@@ -45,19 +46,23 @@ def _components(points: np.ndarray, radius: float) -> np.ndarray:
 
 def reassign_detached(cloud: np.ndarray, labels: np.ndarray, spacing: float,
                       options: PieceOptions = PieceOptions()) -> tuple[np.ndarray, list[dict]]:
-    """``labels`` (1..n over ``cloud``) with every stray piece of a label given to the label
-    whose points it touches most (within ``link_spacings`` spacings): a piece cut off from
-    its label's main (largest) piece, at most ``max_share`` of its size, at least
-    ``min_gap_spacings`` from it, and with at least ``min_touching`` of its points touching
-    the other label. Returns the labels (the same numbering: a label keeps its main piece)
-    and what moved."""
+    """``labels`` (1..n over ``cloud``, 1 the largest: the carcass) with every stray piece of
+    a moving part's label given to the carcass: a piece cut off from its label's main
+    (largest) piece, at most ``max_share`` of its size, at least ``min_gap_spacings`` from
+    it, touching the carcass more than any other part (within ``link_spacings`` spacings)
+    and with at least ``min_touching`` of its points touching it. Returns the labels (the
+    same numbering: a label keeps its main piece) and what moved.
+
+    Only to the carcass, and never the carcass's own pieces: on the demo capture the pieces
+    that moved between other parts, or out of the carcass, were mostly wrong (and turned a
+    joint); those that moved into it were right, as on the phone-LiDAR test objects."""
     from scipy.spatial import cKDTree
 
     radius = options.link_spacings * spacing
     out = labels.copy()
     moved = []
     tree = cKDTree(cloud)
-    for label in range(1, int(labels.max()) + 1):
+    for label in range(2, int(labels.max()) + 1):  # the carcass keeps its own pieces
         index = np.nonzero(labels == label)[0]
         if len(index) < 2:
             continue
@@ -68,7 +73,8 @@ def reassign_detached(cloud: np.ndarray, labels: np.ndarray, spacing: float,
         main = int(np.argmax(sizes))
         main_tree = cKDTree(cloud[index[piece == main]])
         for p in np.argsort(-sizes):
-            if p == main or sizes[p] > options.max_share * sizes[main]:
+            if (p == main or sizes[p] > options.max_share * sizes[main]
+                    or sizes[p] < options.min_points):
                 continue
             members = index[piece == p]
             if main_tree.query(cloud[members])[0].min() < options.min_gap_spacings * spacing:
