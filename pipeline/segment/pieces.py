@@ -1,5 +1,5 @@
-"""Stray pieces of a moving part's label go back to the carcass they lie in: a piece cut off
-from the label's main piece, far from it, and touching the carcass along much of its outline.
+"""Stray pieces of a moving part's label go to the part they lie in: a piece cut off from the
+label's main piece, far from it, and touching another part along much of its outline.
 
 Under a depth sensor's faults the mask network's masks stray: a drawer's masks also take a
 patch of the carcass beside it, seen from a view or two, and the vote keeps it. The patch
@@ -47,15 +47,17 @@ def _components(points: np.ndarray, radius: float) -> np.ndarray:
 def reassign_detached(cloud: np.ndarray, labels: np.ndarray, spacing: float,
                       options: PieceOptions = PieceOptions()) -> tuple[np.ndarray, list[dict]]:
     """``labels`` (1..n over ``cloud``, 1 the largest: the carcass) with every stray piece of
-    a moving part's label given to the carcass: a piece cut off from its label's main
-    (largest) piece, at most ``max_share`` of its size, at least ``min_gap_spacings`` from
-    it, touching the carcass more than any other part (within ``link_spacings`` spacings)
-    and with at least ``min_touching`` of its points touching it. Returns the labels (the
-    same numbering: a label keeps its main piece) and what moved.
+    a moving part's label given to the part whose points it touches most (within
+    ``link_spacings`` spacings): a piece cut off from its label's main (largest) piece, of
+    at least ``min_points`` and at most ``max_share`` of its size, at least
+    ``min_gap_spacings`` from it, and with at least ``min_touching`` of its points touching
+    that part. Returns the labels (the same numbering: a label keeps its main piece) and
+    what moved.
 
-    Only to the carcass, and never the carcass's own pieces: on the demo capture the pieces
-    that moved between other parts, or out of the carcass, were mostly wrong (and turned a
-    joint); those that moved into it were right, as on the phone-LiDAR test objects."""
+    The carcass keeps its own pieces (its shell, seen past doors and through gaps, falls
+    into pieces that border the parts in front of them), and a piece of a few points says
+    nothing of where it belongs: on the demo capture both kinds of move were wrong, and a
+    2-point piece 40 spacings from its part, handed to another, turned that one's joint."""
     from scipy.spatial import cKDTree
 
     radius = options.link_spacings * spacing
