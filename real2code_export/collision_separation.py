@@ -265,7 +265,7 @@ def _carve(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: set[str]
     import trimesh
 
     big, intruder = (a, b) if a.volume >= b.volume else (b, a)
-    if big.part not in mutable:
+    if big.part not in mutable or len(intruder.world) < 4:  # no box to carve around
         return a.part, b.part, depth, "left", []
     try:
         to_box, extents = trimesh.bounds.oriented_bounds(intruder.world)
