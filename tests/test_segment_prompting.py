@@ -252,6 +252,10 @@ def test_a_patch_cut_off_from_its_part_goes_to_the_part_it_touches():
     assert np.all(out[len(front):len(front) + len(drawer)] == 2)  # the drawer keeps its own
     assert np.all(out[-len(lone):] == 2)  # touching no other part, the speck stays
     assert moved == [{"from": 2, "to": 1, "points": int(patch.sum())}]
+    # the carcass keeps its own pieces, even one lying in a drawer's front
+    kept = labels.copy()
+    kept[(cloud[:, 1] == -0.1) & (cloud[:, 0] < 0.4)] = 1
+    assert all(m["from"] != 1 for m in reassign_detached(cloud, kept, step)[1])
     # a second piece as big as the main one is not a stray patch: nothing moves
     halves = np.where(cloud[:, 0] < 0.5, 1, 2)[: len(front)]
     assert reassign_detached(front, halves, step)[1] == []
