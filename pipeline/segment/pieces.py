@@ -5,8 +5,8 @@ Under a depth sensor's faults the mask network's masks stray: a drawer's masks a
 patch of the carcass beside it, seen from a view or two, and the vote keeps it. The patch
 lies apart from the drawer's own surface, so its box (fitted to both) grows to the
 carcass's size and the joint read off it turns (on a phone-LiDAR ring a table's drawer
-label held a 300-point patch of the table's body, and the table's two joints came out 90 degrees
-off). Geometry tells such patches apart where the masks cannot: a stray patch lies well
+label held a 300-point patch of the table's body, and the table's two joints came out 90
+degrees off). Geometry tells such patches apart where the masks cannot: a stray patch lies well
 away from its label's own surface and inside another part's (a good share of its points
 touch that part). A true part's surface can fall apart too, and must not lose pieces: cut
 by an occluder or a thin gap its pieces lie a few spacings apart, and where a piece borders
