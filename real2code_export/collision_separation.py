@@ -265,11 +265,12 @@ def _carve(a: _Piece, b: _Piece, poses: dict[str, np.ndarray], mutable: set[str]
     import trimesh
 
     big, intruder = (a, b) if a.volume >= b.volume else (b, a)
-    if big.part not in mutable:
+    if big.part not in mutable or len(intruder.world) < 4:  # no box to carve around
         return a.part, b.part, depth, "left", []
     try:
         to_box, extents = trimesh.bounds.oriented_bounds(intruder.world)
-    except TypeError:  # no box found (NaN volumes, as in collision_boxes): axis-aligned
+    except (TypeError, ValueError):  # no box found (NaN volumes, as in collision_boxes, or
+        # a flat piece whose hull trimesh cannot take): axis-aligned
         low, high = intruder.world.min(axis=0), intruder.world.max(axis=0)
         to_box, extents = np.eye(4), high - low
         to_box[:3, 3] = -(low + high) / 2

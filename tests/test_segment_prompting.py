@@ -69,6 +69,7 @@ def _truth(capture):
 def test_oracle_masks_give_one_label_per_part(cabinet_capture):
     seg = segment_capture(cabinet_capture, MaskOracle())
     assert seg.n_parts == len(cabinet_capture.parts)
+    assert seg.details["detached_points_moved"] <= 0.001 * seg.details["cloud_points"]
     mean, per_part = matched_part_iou(seg.labels, _truth(cabinet_capture))
     assert min(per_part.values()) > 0.95, per_part
     for lab, frame in zip(seg.labels, cabinet_capture.frames, strict=True):
@@ -226,3 +227,63 @@ def test_compartment_behind_a_swung_door_goes_back_to_the_carcass():
     # ... while a plane whose points face elsewhere (RANSAC across a box's edges) does not
     normals[truth == 2] = x
     assert np.array_equal(return_compartments(cloud, labels, 0.02, normals=normals)[0], labels)
+
+
+def _panel(x0, x1, z0, z1, y, step):
+    xs, zs = np.meshgrid(np.arange(x0, x1, step), np.arange(z0, z1, step))
+    return np.column_stack([xs.ravel(), np.full(xs.size, y), zs.ravel()])
+
+
+def test_a_patch_cut_off_from_its_part_goes_to_the_part_it_touches():
+    from pipeline.segment.pieces import reassign_detached
+
+    step = 0.01
+    front = _panel(0.0, 1.0, 0.0, 0.6, 0.0, step)  # a carcass's front
+    drawer = _panel(0.3, 0.7, 0.2, 0.4, -0.1, step)  # a drawer pulled 10 cm out of it
+    lone = _panel(3.0, 3.1, 0.0, 0.1, 0.0, step)  # a speck touching nothing
+    cloud = np.concatenate([front, drawer, lone])
+    labels = np.concatenate([np.ones(len(front), int), np.full(len(drawer), 2),
+                             np.full(len(lone), 2)])
+    patch = ((np.abs(cloud[:, 0] - 0.1) < 0.05) & (np.abs(cloud[:, 2] - 0.5) < 0.05)
+             & (cloud[:, 1] == 0.0))
+    labels[patch] = 2  # the drawer's masks strayed onto the carcass's front beside it
+    out, moved = reassign_detached(cloud, labels, step)
+    assert np.all(out[patch] == 1)  # back to the carcass, which surrounds it
+    assert np.all(out[len(front):len(front) + len(drawer)] == 2)  # the drawer keeps its own
+    assert np.all(out[-len(lone):] == 2)  # touching no other part, the speck stays
+    assert moved == [{"from": 2, "to": 1, "points": int(patch.sum())}]
+    # the carcass keeps its own pieces, even one lying in a drawer's front
+    kept = labels.copy()
+    kept[(cloud[:, 1] == -0.1) & (cloud[:, 0] < 0.4)] = 1
+    assert all(m["from"] != 1 for m in reassign_detached(cloud, kept, step)[1])
+    # a second piece as big as the main one is not a stray patch: nothing moves
+    halves = np.where(cloud[:, 0] < 0.5, 1, 2)[: len(front)]
+    assert reassign_detached(front, halves, step)[1] == []
+
+
+def test_a_small_part_inside_the_carcass_box_is_the_carcass():
+    """A patch of a carcass's top cut out as a part of its own goes back to the carcass; a
+    drawer pulled out of it (outside the box) and a large part inside it stay."""
+    from pipeline.compartments import return_enclosed
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    shell = np.concatenate([_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
+                            _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+                            _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
+                            _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y),
+                            _grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z)])
+    drawer = np.concatenate([_grid(0.3, 0.2, (0.45, 0.05, -0.3), y, z),  # front, 15 cm out
+                             _grid(0.5, 0.3, (-0.05, 0.05, -0.3), x, y)])
+    cloud = np.concatenate([shell, drawer])
+    truth = np.concatenate([np.ones(len(shell), int), np.full(len(drawer), 2)])
+    labels = truth.copy()
+    patch = (cloud[:, 2] == 0.4) & (np.abs(cloud[:, 0]) < 0.07) & (np.abs(cloud[:, 1]) < 0.07)
+    labels[patch] = 3
+    out, moved = return_enclosed(cloud, labels, voxel=0.02)
+    assert np.array_equal(out, truth)
+    assert moved == [{"part": 3, "points": int(patch.sum()), "enclosed": True}]
+    assert np.array_equal(return_enclosed(cloud, truth, voxel=0.02)[0], truth)  # exact parts
+    side = (cloud[:, 1] == 0.4) & (truth == 1)  # a whole side wall: too large to be a patch
+    whole = truth.copy()
+    whole[side] = 3
+    assert return_enclosed(cloud, whole, voxel=0.02)[1] == []

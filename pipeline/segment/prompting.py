@@ -9,7 +9,8 @@ consistent 3D part segmentation from per-view masks.
 4. Suppress duplicates by merging: prompts whose masks hold each other's points are one
    part (average-linkage clustering); drop groups the model does not trust; give every
    point the part that claims it most; dissolve specks; smooth the labels over the cloud.
-5. Every view's label image: each pixel takes the label of its nearest labelled point.
+5. Stray pieces of a part, far from its main piece, go to the part they lie in (``pieces``).
+6. Every view's label image: each pixel takes the label of its nearest labelled point.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from ..fuse import (
     visible,
     voxel_downsample,
 )
+from .pieces import reassign_detached
 
 
 class PromptSegmenter(Protocol):
@@ -258,10 +260,13 @@ def segment_capture(capture: Capture, segmenter: PromptSegmenter,
     min_points = max(5, int(options.min_fraction * len(cloud)))
     point_labels = assign(group_scores(score, groups), cloud, min_points,
                           options.smoothing_neighbours, options.smoothing_rounds)
+    point_labels, moved = reassign_detached(cloud, point_labels, voxel)
+    point_labels = numbered_by_size(point_labels)
     n_parts = int(point_labels.max())
     details = {"cloud_points": len(cloud), "prompts": len(prompt_index),
                "prompt_groups": len(groups), "parts": n_parts,
-               "prompts_per_group": [len(g) for g in groups]}
+               "prompts_per_group": [len(g) for g in groups],
+               "detached_points_moved": sum(m["points"] for m in moved)}
     return Segmentation(label_views(capture, cloud, point_labels), n_parts, cloud,
                         point_labels, segmenter.name, details, spacing=voxel)
 
