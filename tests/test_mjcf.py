@@ -808,16 +808,18 @@ def test_joint_refs_are_where_the_export_starts_in_mujoco(tmp_path):
     assert not differences(obj, mjcf.load(path))
 
 
-def test_joint_states_in_every_format_and_where_urdf_cannot_hold_them(tmp_path):
+def test_joint_states_in_every_format(tmp_path):
     """The state (MJCF's ref) round-trips through every format; URDF, which has no initial
-    joint position, says which joints its tools start elsewhere."""
+    joint position, holds it in real2code:state (its tools start at 0; docs/formats.md)."""
     obj = mjcf.load(write(tmp_path / "refs.xml", REFS))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
         written = export(obj, tmp_path / "out")
-    said = "\n".join(str(w.message) for w in caught if w.category is Real2CodeWarning)
-    assert "URDF has no initial joint position" in said and "'rootz'" in said
-    assert "'rootx'" not in said.split("URDF has no initial joint position")[1].split("\n")[0]
+    from lxml import etree
+
+    held = {j.get("name") for j in etree.parse(str(written["urdf"])).iter("joint")
+            if any(key.endswith("}state") for key in j.attrib)}
+    assert held == {j.name for j in obj.movable_joints if j.state != 0.0} and "rootz" in held
     for fmt, path in written.items():
         back = load_any(path)
         states = {j.name: j.state for j in back.movable_joints}

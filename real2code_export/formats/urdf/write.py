@@ -69,7 +69,6 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     """Write ``out_dir/<obj.name>.urdf`` (and, if ``write_meshes``, the mesh files)."""
     validate(obj)
     warn_maps_not_referenced(obj, "URDF")
-    warn_states_not_held(obj)
     out_dir = Path(out_dir)
     text = to_bytes(obj)
     if write_meshes:
@@ -215,17 +214,6 @@ def _link(part: Part) -> etree._Element:
         else:
             _mesh_geometry(el, collision_relpath(part.name, k))
     return link
-
-
-def warn_states_not_held(obj: ArticulatedObject) -> None:
-    """URDF has no initial joint position: its tools start every joint at 0. The states are
-    kept in ``real2code:state`` for our reader; the warning says which joints start elsewhere
-    in the other formats (MJCF ``ref``, USD joint state, glTF node pose)."""
-    moved = [j.name for j in obj.joints if j.type.movable and j.state != 0.0]
-    if moved:
-        warn(f"URDF: {obj.name!r}: URDF has no initial joint position: joints "
-             f"{', '.join(map(repr, moved))} start at q = 0 in URDF tools (their states kept "
-             f"as {PREFIX}:state for our reader)")
 
 
 def _joint(joint: Joint) -> etree._Element:
