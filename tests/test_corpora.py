@@ -1,7 +1,8 @@
 """Every URDF of example-robot-data, every MuJoCo Menagerie model in ../shared/data and every
 URDF and MJCF file pybullet ships (pybullet_data, less its generated random_urdfs), to all four
 formats, each export checked against its SOURCE file loaded in its own tools
-(kinematics to 1e-6 m / rad at 100 configurations) and its dynamics read back equal (masses,
+(kinematics to 1e-6 m / rad at 100 configurations), the USD passing UsdValidation, and its
+dynamics read back equal (masses,
 inertias, damping, friction, armature, limits: the model's tolerance); and the source's own
 dynamics as its tools build it equal the export's in the same tools
 (:mod:`real2code_export.probes.dynamics`): an MJCF source's and the MJCF export's in MuJoCo;
@@ -79,6 +80,7 @@ def _convert(source: str) -> dict:
     from real2code_export.errors import Real2CodeError
     from real2code_export.formats import export, load
     from real2code_export.model import differences
+    from real2code_export.validators import validate_usd
 
     path, start = SOURCES[source], time.perf_counter()
     out: dict = {"error": None, "mismatches": [], "dynamics": {}}
@@ -97,6 +99,10 @@ def _convert(source: str) -> dict:
             out["error"] = f"check: {e}"
             return out
         out["mismatches"] = [m.message for m in report.mismatches]
+        # UsdValidation on the USD (the Node glTF validator, a process per file, is left to
+        # the format tests): an export PhysX or Isaac would refuse is not converted
+        (usd,) = validate_usd([written["usd"]])
+        out["usd_errors"] = usd.messages[:usd.errors]
         out["source_dynamics"] = source_dynamics(path, written, [str(w.message) for w in said])
         for fmt, file in written.items():
             back = load(file)
@@ -152,6 +158,7 @@ def test_every_corpus_file_converts_and_agrees_with_its_source(source, converted
         assert result["mismatches"], f"{source} agrees now: take it off DISAGREES"
     else:
         assert not result["mismatches"], "\n".join(result["mismatches"][:10])
+    assert not result["usd_errors"], "UsdValidation: " + "\n".join(result["usd_errors"][:10])
     for fmt, diffs in result["dynamics"].items():
         assert not diffs, f"{fmt}: " + "\n".join(diffs[:10])
     source_diffs = result.get("source_dynamics", [])
