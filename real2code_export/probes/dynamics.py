@@ -26,7 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..model import sanitize_name
+from .. import transforms as tf
+from ..inertia import combine_inertials
+from ..model import Inertial, sanitize_name
 from ._stdio import captured_c_output
 
 # What a warning that explains a difference speaks of: mass properties, or a joint's law.
@@ -149,14 +151,10 @@ def _welded_groups(m, d) -> dict[int, tuple[float, np.ndarray, np.ndarray]]:
         if mass <= 0.0:
             out[weld] = (0.0, np.zeros(3), np.zeros(3))
             continue
-        com = sum(m.body_mass[b] * d.xipos[b] for b in bodies) / mass
-        tensor = np.zeros((3, 3))
-        for b in bodies:  # parallel axis theorem about the group's centre of mass
-            rot = d.ximat[b].reshape(3, 3)
-            r = d.xipos[b] - com
-            tensor += rot @ np.diag(m.body_inertia[b]) @ rot.T
-            tensor += m.body_mass[b] * (r @ r * np.eye(3) - np.outer(r, r))
-        out[weld] = (mass, np.linalg.eigvalsh(tensor), com)
+        group = combine_inertials([  # each body's principal frame placed in the world
+            (Inertial(m.body_mass[b], np.zeros(3), np.diag(m.body_inertia[b])),
+             tf.make(d.ximat[b].reshape(3, 3), d.xipos[b])) for b in bodies])
+        out[weld] = (mass, np.linalg.eigvalsh(group.inertia), group.com)
     return out
 
 
