@@ -36,6 +36,7 @@ from . import meshcache
 from .atomic import write_bytes
 from .collision_boxes import DEFAULT_RESOLUTION, hollow_pieces
 from .errors import InputError, warn
+from .meshtopology import used_indices
 from .model import Mesh
 
 METHODS = ("auto", "hull", "pieces", "boxes", "coacd")
@@ -97,7 +98,7 @@ def _qhull_mesh(points: np.ndarray):
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     inward = np.einsum("ij,ij->i", normals, hull.equations[:, :3]) < 0
     faces[inward] = faces[inward][:, ::-1]
-    used = np.unique(faces)
+    used = used_indices(faces)
     remap = np.full(len(points), -1)
     remap[used] = np.arange(len(used))
     return trimesh.Trimesh(points[used], remap[faces], process=False)
@@ -105,7 +106,7 @@ def _qhull_mesh(points: np.ndarray):
 
 def _used_vertices(mesh: Mesh) -> np.ndarray:
     if len(mesh.faces):
-        return mesh.vertices[np.unique(mesh.faces)]
+        return mesh.vertices[used_indices(mesh.faces)]
     return mesh.vertices
 
 

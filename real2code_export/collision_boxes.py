@@ -25,6 +25,7 @@ import itertools
 
 import numpy as np
 
+from .meshtopology import used_indices
 from .model import Mesh
 
 DEFAULT_RESOLUTION = 40  # voxels along the longest side of the part
@@ -43,7 +44,7 @@ def hollow_pieces(mesh: Mesh, hull_volume: float, pitch: float, max_pieces: int
 
     if len(mesh.faces) == 0 or hull_volume <= 0:
         return None
-    points = mesh.vertices[np.unique(mesh.faces)]
+    points = mesh.vertices[used_indices(mesh.faces)]
     if np.ptp(points, axis=0).max() < 3 * pitch:  # a few voxels: no cavity worth keeping
         return None
     try:

@@ -18,6 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .errors import FormatError, warn
+from .meshtopology import used_indices
 from .model import ArticulatedObject, Mesh, Part, Texture
 
 RGBA = tuple[float, float, float, float]
@@ -258,7 +259,7 @@ def _obj_texture(path: Path, mesh: Mesh, material: np.ndarray, materials) -> Tex
     """The colour image (``map_Kd``) the OBJ's faces use: one per mesh, as a part has one;
     more, a missing image, or one without texture coordinates to place it are warned about
     (the part keeps its colour, as viewers show it)."""
-    used = sorted({int(k) for k in np.unique(material) if 0 <= k < len(materials)})
+    used = [int(k) for k in used_indices(material) if k < len(materials)]
     others = sorted({f"{field.removesuffix('_texname')} ({getattr(materials[k], field)})"
                      for k in used for field in _MTL_MAPS if getattr(materials[k], field)})
     if others:  # MTL's PBR extension spreads glTF's maps over channels: not read yet

@@ -21,6 +21,17 @@ import numpy as np
 MERGE_DIGITS = 8
 
 
+def used_indices(indices: np.ndarray) -> np.ndarray:
+    """The distinct non-negative integers in ``indices``, sorted (``np.unique``'s answer, for
+    the vertex indices of faces or the material ids of an OBJ's faces; negatives are none).
+    Counted by ``np.bincount``: ``np.unique`` without ``return_*`` asks ``np.ma`` whether the
+    array is masked, and importing ``numpy.ma`` costs 13 ms of CPU, 4 % of a URDF -> USD
+    export of a PartNet object."""
+    flat = np.asarray(indices).reshape(-1)
+    flat = flat[flat >= 0]
+    return np.flatnonzero(np.bincount(flat)) if len(flat) else np.zeros(0, dtype=np.intp)
+
+
 def merged(vertices: np.ndarray, faces: np.ndarray, digits: int = MERGE_DIGITS
            ) -> tuple[np.ndarray, np.ndarray]:
     """The vertices the faces use, those equal after rounding to ``digits`` decimals made
