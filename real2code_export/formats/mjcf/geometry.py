@@ -1,7 +1,8 @@
 """Geoms of a compiled MuJoCo model as triangle meshes in their body's frame.
 
 Mesh geoms are read from their files (float64, faces as written) where trimesh reads the
-format, else taken from the compiled model (float32); primitives are kept as the model's
+format, else taken from the compiled model (float32); OBJ files are read once, before MuJoCo
+compiles, and MuJoCo is given their vertices (:func:`give_meshes`). Primitives are kept as the model's
 shapes (box, sphere, ellipsoid, capsule, cylinder), with their fixed tessellation. MuJoCo moves a mesh to its own inertial frame when it compiles and folds
 that move into the geom pose; it is undone here, so a file mesh keeps its own coordinates.
 """
@@ -20,6 +21,39 @@ from ...primitives import Primitive, ShapeKind
 
 # Formats trimesh reads as MuJoCo does; others (e.g. MuJoCo's own .msh) come from the model.
 _FILE_FORMATS = (".obj", ".stl", ".ply", ".off")
+# Read here and given to MuJoCo as vertices and faces (MjSpec's uservert, userface), so each
+# file is read once: MuJoCo parsing an OBJ's text costs more than compiling the same numbers
+# given (the 25 Menagerie models' compile, kuka_iiwa_14 0.12 -> 0.04 s of CPU; every body's
+# mass, inertia and frame and every geom's pose and size compile bit-identical). Binary STL
+# MuJoCo reads quicker than it merges the same triangles given vertex by vertex: left to it.
+_GIVEN_FORMATS = (".obj",)
+
+
+def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
+    """Read the OBJ files of ``spec``'s meshes (``files``: spec mesh -> resolved path) and put
+    their vertices and faces into the spec in place of the file, before it is compiled: the
+    spec mesh, the mesh as the file has it (unscaled: MuJoCo applies the mesh's ``scale``),
+    and the warnings reading it gave (said when a geom uses the mesh, as before). A file
+    this reader refuses is left to MuJoCo, which then reads it or names it."""
+    import warnings
+
+    from ...errors import Real2CodeError
+
+    given = []
+    for spec_mesh, path in files.items():
+        if path.suffix.lower() not in _GIVEN_FORMATS or not path.is_file():
+            continue
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            try:
+                mesh = read_mesh(path)
+            except Real2CodeError:
+                continue
+        spec_mesh.uservert = mesh.vertices.reshape(-1)
+        spec_mesh.userface = mesh.faces.reshape(-1)
+        spec_mesh.file = ""
+        given.append((spec_mesh, mesh, said))
+    return given
 
 
 def pose(pos, quat) -> np.ndarray:
@@ -32,9 +66,11 @@ def geom_pose(model, g: int) -> np.ndarray:
 
 
 def geom_mesh(model, g: int, source: Path, element: str,
-              mesh_cache: dict[int, tuple[Mesh, np.ndarray]]) -> Mesh | None:
+              mesh_cache: dict[int, tuple[Mesh, np.ndarray]],
+              given: dict[int, tuple[Mesh, list]] | None = None) -> Mesh | None:
     """Geom ``g`` as a mesh in its body's frame; None for what has no finite surface
-    (planes, height fields, SDFs), which the caller reports."""
+    (planes, height fields, SDFs), which the caller reports. ``given``: mesh id -> the mesh
+    read before compiling and its warnings (:func:`give_meshes`)."""
     import mujoco
 
     kind = int(model.geom_type[g])
@@ -44,7 +80,8 @@ def geom_mesh(model, g: int, source: Path, element: str,
     if kind == G.mjGEOM_MESH:
         mesh_id = int(model.geom_dataid[g])
         if mesh_id not in mesh_cache:
-            mesh_cache[mesh_id] = _mesh_asset(model, mesh_id, source, element)
+            mesh_cache[mesh_id] = _mesh_asset(model, mesh_id, source, element,
+                                              (given or {}).get(mesh_id))
         mesh, mesh_frame = mesh_cache[mesh_id]
         transform = placed @ mesh_frame
         if np.allclose(transform, np.eye(4), rtol=0.0, atol=1e-12):
@@ -89,16 +126,15 @@ def mjcf_geom(shape: Primitive) -> tuple[int, list[float]]:
             [s[0], 0.5 * s[1], 0.0])
 
 
-def _mesh_asset(model, mesh_id: int, source: Path, element: str) -> tuple[Mesh, np.ndarray]:
+def _mesh_asset(model, mesh_id: int, source: Path, element: str,
+                given: tuple[Mesh, list] | None) -> tuple[Mesh, np.ndarray]:
     """The mesh in its own file coordinates (scaled), and the transform from those to the
     compiled geom frame (the inverse of MuJoCo's centring)."""
     start, count = int(model.mesh_vertadr[mesh_id]), int(model.mesh_vertnum[mesh_id])
     fstart, fcount = int(model.mesh_faceadr[mesh_id]), int(model.mesh_facenum[mesh_id])
     compiled = np.asarray(model.mesh_vert[start:start + count], dtype=np.float64)
-    path = _mesh_path(model, mesh_id)
-    if path is not None and path.suffix.lower() in _FILE_FORMATS:
-        mesh = read_mesh(path, source=source, element=element,
-                         scale=np.asarray(model.mesh_scale[mesh_id], dtype=np.float64))
+    mesh = _file_mesh(model, mesh_id, source, element, given)
+    if mesh is not None:
         centring = pose(model.mesh_pos[mesh_id], model.mesh_quat[mesh_id])
         # Same place as MuJoCo's vertices (float32)? Else (legacy refpos/refquat, a reader
         # that saw another file) MuJoCo's own vertices are the truth.
@@ -110,6 +146,24 @@ def _mesh_asset(model, mesh_id: int, source: Path, element: str) -> tuple[Mesh, 
     if len(faces) == 0:
         raise FormatError(source, element, "mesh has no triangles")
     return Mesh(compiled, faces), np.eye(4)
+
+
+def _file_mesh(model, mesh_id: int, source: Path, element: str,
+               given: tuple[Mesh, list] | None) -> Mesh | None:
+    """The mesh as its file has it (float64), scaled as MuJoCo scales it; None when the file
+    is in a format read from the compiled model only."""
+    import warnings
+
+    scale = np.asarray(model.mesh_scale[mesh_id], dtype=np.float64)
+    if given is not None:
+        mesh, said = given
+        for w in said:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return Mesh(mesh.vertices * scale, mesh.faces, mesh.uv)
+    path = _mesh_path(model, mesh_id)
+    if path is not None and path.suffix.lower() in _FILE_FORMATS:
+        return read_mesh(path, source=source, element=element, scale=scale)
+    return None
 
 
 def _bounds(vertices: np.ndarray) -> np.ndarray:

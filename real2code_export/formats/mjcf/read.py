@@ -50,7 +50,7 @@ from .conventions import (
     describe_mujoco_error,
     parse_custom_name,
 )
-from .geometry import geom_mesh, pose
+from .geometry import geom_mesh, give_meshes, pose
 from .kept import ELEMENTS_KEY, merge_sections, unread_sections
 
 _DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's: the material's colour shows instead
@@ -61,8 +61,8 @@ def load(path: str | Path) -> ArticulatedObject:
     path = Path(path)
     if not path.is_file():
         raise FormatError(path, None, "file not found")
-    spec, model = _compile(path)
-    return _Reader(path, spec, model).read()
+    spec, model, given = _compile(path)
+    return _Reader(path, spec, model, given_meshes=given).read()
 
 
 # -- parse and compile, errors named ------------------------------------------------------------
@@ -73,13 +73,17 @@ def _compile(path: Path):
         spec = mujoco.MjSpec.from_file(str(path.resolve()))
     except ValueError as e:
         raise _error(path, str(e)) from e
+    given = give_meshes(spec, {mesh: _mesh_file(spec, mesh, path)
+                               for mesh in spec.meshes if mesh.file})
     try:
-        return spec, spec.compile()
+        model = spec.compile()
     except ValueError as e:
         missing = _missing_mesh(spec, path)
         if missing is not None:
             raise missing from e
         raise _error(path, str(e), spec) from e
+    # (a mesh MuJoCo dropped, as discardvisual does, has no id)
+    return spec, model, {mesh.id: (read, said) for mesh, read, said in given if mesh.id >= 0}
 
 
 def _error(path: Path, message: str, spec=None) -> FormatError:
@@ -115,18 +119,24 @@ def _info_line(element) -> int | None:
 
 def _missing_mesh(spec, path: Path) -> FormatError | None:
     """A clear error for the usual compile failure: a mesh file that is not there."""
-    base = Path(spec.modelfiledir or path.parent)
-    meshdir = Path(spec.meshdir or "")
     for mesh in spec.meshes:
         if not mesh.file:
             continue
-        file = Path(mesh.file)
-        candidate = file if file.is_absolute() else (
-            meshdir / file if meshdir.is_absolute() else base / meshdir / file)
+        candidate = _mesh_file(spec, mesh, path)
         if not candidate.is_file():
             return FormatError(path, f"<mesh name='{mesh.name}'>",
                                f"mesh file not found: {candidate}", _info_line(mesh))
     return None
+
+
+def _mesh_file(spec, mesh, path: Path) -> Path:
+    """Where MuJoCo looks for a mesh's file: ``meshdir`` (``assetdir``) under the model's
+    folder unless absolute, the file under that unless absolute."""
+    base = Path(spec.modelfiledir or path.parent)
+    meshdir = Path(spec.meshdir or "")
+    file = Path(mesh.file)
+    return file if file.is_absolute() else (
+        meshdir / file if meshdir.is_absolute() else base / meshdir / file)
 
 
 # -- the compiled model -> the object -----------------------------------------------------------
@@ -141,6 +151,7 @@ class _Reader:
     spec_bodies: dict[int, object] = field(default_factory=dict)  # model id -> spec element
     spec_joints: dict[int, object] = field(default_factory=dict)
     mesh_assets: dict[int, tuple[Mesh, np.ndarray]] = field(default_factory=dict)  # read once
+    given_meshes: dict[int, tuple[Mesh, list]] = field(default_factory=dict)  # see give_meshes
     notes: dict[str, list[str]] = field(default_factory=dict)
     taken_parts: set[str] = field(default_factory=set)
     joint_of: dict[int, Joint] = field(default_factory=dict)  # MuJoCo joint id -> model joint
@@ -401,7 +412,7 @@ class _Reader:
         shown, hidden, colliding = [], [], []
         for g in range(int(m.body_geomadr[b]), int(m.body_geomadr[b] + m.body_geomnum[b])):
             element = f"<geom name='{m.geom(g).name}'>" if m.geom(g).name else f"geom {g}"
-            mesh = geom_mesh(m, g, self.path, element, self.mesh_assets)
+            mesh = geom_mesh(m, g, self.path, element, self.mesh_assets, self.given_meshes)
             if mesh is None:
                 self.note("geoms without a finite surface skipped (plane, hfield, sdf)",
                           f"{name}/{m.geom(g).name or g}")
