@@ -3,12 +3,15 @@ a user would pick instead, one run, same machine, same load.
 
     bench/setup_converters.sh            # urdf-usd-converter, mujoco-usd-converter (own venv)
     .venv/bin/python bench/corpora.py [--corpus urdf|mjcf|both] [--limit N] [--markdown F]
+                                      [--usd-only]
 
 Per file: ``real2code export FILE --out D`` (all four formats, one process, as a user runs
 it), then ``real2code check D/*`` (four exports, 100 configurations), ``real2code export
 FILE --to usd`` (what the converter writes) and the converter (``urdf_usd_converter FILE D``
 / ``mujoco_usd_converter FILE D``, USD only). Prints the per-file seconds (wall, and the
 CPU the command used), the medians and totals per corpus and the ratios converter / ours.
+``--usd-only``: the USD export and the converter alone (a quarter of the run's CPU), for the
+one ratio the converter can be compared on.
 """
 
 from __future__ import annotations
@@ -58,13 +61,14 @@ def timed(cmd: list[str]) -> tuple[float, float, int, str]:
     return wall, cpu, done.returncode, last[0][:160]
 
 
-def run_file(path: Path, converter: str) -> dict:
+def run_file(path: Path, converter: str, usd_only: bool = False) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        ours, ours_cpu, rc, said = timed([*REAL2CODE, "export", str(path), "--out",
-                                          f"{tmp}/ours"])
-        row = {"file": path.name, "export_s": ours, "export_cpu": ours_cpu, "export_rc": rc,
-               "said": said}
-        if rc == 0:
+        row: dict = {"file": path.name}
+        if not usd_only:
+            ours, ours_cpu, rc, said = timed([*REAL2CODE, "export", str(path), "--out",
+                                              f"{tmp}/ours"])
+            row.update(export_s=ours, export_cpu=ours_cpu, export_rc=rc, said=said)
+        if not usd_only and rc == 0:
             files = sorted(str(p) for p in Path(tmp, "ours").iterdir() if p.is_file())
             check, check_cpu, rc_check, _ = timed([*REAL2CODE, "check", *files])
             row.update(check_s=check, check_cpu=check_cpu, check_rc=rc_check)
@@ -72,6 +76,8 @@ def run_file(path: Path, converter: str) -> dict:
         usd, usd_cpu, rc_usd, _ = timed([*REAL2CODE, "export", str(path), "--to", "usd",
                                          "--out", f"{tmp}/usd"])
         row.update(usd_s=usd, usd_cpu=usd_cpu, usd_rc=rc_usd)
+        if usd_only:
+            row.update(export_rc=rc_usd)
         conv, conv_cpu, rc_conv, said_conv = timed([str(CONVERTERS / converter), str(path),
                                                     f"{tmp}/conv"])
         row.update(converter_s=conv, converter_cpu=conv_cpu, converter_rc=rc_conv,
@@ -82,6 +88,19 @@ def run_file(path: Path, converter: str) -> dict:
 def _median(rows: list[dict], key: str) -> float:
     values = [r[key] for r in rows if key in r]
     return statistics.median(values) if values else float("nan")
+
+
+def usd_summary(name: str, rows: list[dict]) -> str:
+    """The ``--usd-only`` line: medians and totals of the USD export and the converter."""
+    ok = [r for r in rows if r["usd_rc"] == 0]
+    conv_ok = [r for r in rows if r["converter_rc"] == 0]
+    usd, usd_cpu = _median(rows, "usd_s"), _median(rows, "usd_cpu")
+    conv, conv_cpu = _median(rows, "converter_s"), _median(rows, "converter_cpu")
+    ratios = [r["converter_cpu"] / r["usd_cpu"] for r in rows]
+    return (f"| {name} | {len(rows)} | {len(ok)} | {len(conv_ok)} | {usd:.2f} ({usd_cpu:.2f})"
+            f" | {conv:.2f} ({conv_cpu:.2f}) | {conv / usd:.2f} ({conv_cpu / usd_cpu:.2f}) | "
+            f"{sum(r['usd_s'] for r in rows):.1f} / {sum(r['converter_s'] for r in rows):.1f} | "
+            f"{sum(x > 1 for x in ratios)} / {sum(x >= 2 for x in ratios)} |")
 
 
 def summary(name: str, rows: list[dict]) -> str:
@@ -103,6 +122,8 @@ def main() -> None:
     p.add_argument("--corpus", choices=["urdf", "mjcf", "both"], default="both")
     p.add_argument("--limit", type=int, default=None, help="first N files of each corpus")
     p.add_argument("--markdown", help="also write the tables to this file")
+    p.add_argument("--usd-only", action="store_true",
+                   help="only `real2code export --to usd` and the converter")
     args = p.parse_args()
     if not (CONVERTERS / "urdf_usd_converter").exists():
         sys.exit("run bench/setup_converters.sh first")
@@ -110,22 +131,34 @@ def main() -> None:
     corpora = {"urdf": ("example-robot-data (URDF)", urdf_files, "urdf_usd_converter"),
                "mjcf": ("MuJoCo Menagerie (MJCF)", mjcf_files, "mujoco_usd_converter")}
     lines = [f"machine: {describe()}; load average at start {load_average()}", "",
-             "seconds: wall (CPU, user + system)", "",
-             "| file | ours: export, 4 formats | ours: check | ours: export --to usd | "
-             "converter (USD) | converter / ours (4 formats) | converter / ours (USD) | "
-             "exit ours / converter |", "|---|---|---|---|---|---|---|---|"]
+             "seconds: wall (CPU, user + system)", ""]
+    if args.usd_only:
+        lines += ["| file | ours: export --to usd | converter (USD) | converter / ours "
+                  "(wall, CPU) | exit ours / converter |", "|---|---|---|---|---|"]
+        totals = ["| corpus | files | we export | converter exits clean | median export --to "
+                  "usd | median converter | converter / ours (medians) | total ours / "
+                  "converter (wall s) | files faster (CPU) / 2x faster (CPU) |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+    else:
+        lines += ["| file | ours: export, 4 formats | ours: check | ours: export --to usd | "
+                  "converter (USD) | converter / ours (4 formats) | converter / ours (USD) | "
+                  "exit ours / converter |", "|---|---|---|---|---|---|---|---|"]
+        totals = ["| corpus | files | we export | converter exits clean | median export, 4 "
+                  "formats | median export --to usd | median converter | converter / ours (4 "
+                  "formats, medians) | converter / ours (USD, medians) | total ours / converter"
+                  " (s) | median check |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     print(lines[0], flush=True)
-    totals = ["| corpus | files | we export | converter exits clean | median export, 4 formats |"
-              " median export --to usd | median converter | converter / ours (4 formats, "
-              "medians) | converter / ours (USD, medians) | total ours / converter (s) | "
-              "median check |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for key in (["urdf", "mjcf"] if args.corpus == "both" else [args.corpus]):
         name, files, converter = corpora[key]
         rows = []
         for path in files()[: args.limit]:
-            r = run_file(path, converter)
+            r = run_file(path, converter, args.usd_only)
             rows.append(r)
-            line = (f"| {r['file']} | {r['export_s']:.2f} ({r['export_cpu']:.2f}) | "
+            line = (f"| {r['file']} | {r['usd_s']:.2f} ({r['usd_cpu']:.2f}) | "
+                    f"{r['converter_s']:.2f} ({r['converter_cpu']:.2f}) | "
+                    f"{r['converter_s'] / r['usd_s']:.2f}, "
+                    f"{r['converter_cpu'] / r['usd_cpu']:.2f} | {r['usd_rc']} / "
+                    f"{r['converter_rc']} |") if args.usd_only else (f"| {r['file']} | {r['export_s']:.2f} ({r['export_cpu']:.2f}) | "
                     f"{r.get('check_s', float('nan')):.2f} ({r.get('check_cpu', float('nan')):.2f})"
                     f" | {r['usd_s']:.2f} ({r['usd_cpu']:.2f}) | {r['converter_s']:.2f} "
                     f"({r['converter_cpu']:.2f}) | {r['converter_s'] / r['export_s']:.2f} | "
@@ -133,7 +166,7 @@ def main() -> None:
                     f"{r['converter_rc']} |")
             print(line, flush=True)
             lines.append(line)
-        totals.append(summary(name, rows))
+        totals.append(usd_summary(name, rows) if args.usd_only else summary(name, rows))
     lines[0] += f"; at end {load_average()}"
     text = "\n".join(lines + [""] + totals) + "\n"
     print("\n".join(totals))
