@@ -334,6 +334,42 @@ def test_missing_mesh_file_names_file_and_mesh(tmp_path):
         mjcf.load(path)
 
 
+def test_obj_meshes_read_once_compile_as_mujoco_compiles_the_file(tmp_path):
+    """The reader reads an OBJ once and gives MuJoCo its vertices (``give_meshes``): the model
+    it reads compiles as MuJoCo compiles the file itself (the mesh's scale, its centring into
+    the geom pose, the mass from the geom), and keeps the file's own float64 vertices."""
+    from real2code_export.formats.mjcf.read import _compile
+
+    mesh = trimesh.creation.box(extents=(0.3, 0.2, 0.1))
+    mesh.apply_translation((0.1, -0.05, 0.02))
+    (tmp_path / "meshes").mkdir()
+    mesh.export(tmp_path / "meshes" / "lid.obj")
+    path = write(tmp_path / "lid.xml", """<mujoco>
+  <compiler meshdir="meshes"/>
+  <asset>
+    <mesh name="lid" file="lid.obj" scale="1 2 0.5"/>
+    <mesh name="unused" file="lid.obj"/>
+  </asset>
+  <worldbody>
+    <body name="base"><geom size="0.1"/>
+      <body name="lid" pos="0 0 0.2"><joint name="hinge" axis="0 1 0"/>
+        <geom type="mesh" mesh="lid" density="300"/></body></body>
+  </worldbody>
+</mujoco>
+""")
+    _, model, given = _compile(path)
+    assert len(given) == 2  # read here, not by MuJoCo
+    direct = mujoco.MjModel.from_xml_path(str(path))
+    for field in ("body_mass", "body_inertia", "body_ipos", "body_iquat", "geom_pos",
+                  "geom_quat", "geom_size"):
+        assert np.array_equal(getattr(model, field), getattr(direct, field)), field
+    obj = mjcf.load(path)
+    lid = next(p for p in obj.parts if p.name == "lid")
+    expected = np.asarray(mesh.vertices) * [1.0, 2.0, 0.5]
+    assert np.allclose(np.sort(lid.visual.vertices, axis=0), np.sort(expected, axis=0),
+                       rtol=0, atol=1e-12)
+
+
 def test_compile_error_names_file_element_and_line(tmp_path):
     path = write(tmp_path / "physics.xml", """<mujoco>
   <worldbody>
