@@ -2,9 +2,10 @@
 
 Mesh geoms are read from their files (float64, faces as written) where trimesh reads the
 format, else taken from the compiled model (float32); OBJ files are read once, before MuJoCo
-compiles, and MuJoCo is given their vertices (:func:`give_meshes`). Primitives are kept as the model's
-shapes (box, sphere, ellipsoid, capsule, cylinder), with their fixed tessellation. MuJoCo moves a mesh to its own inertial frame when it compiles and folds
-that move into the geom pose; it is undone here, so a file mesh keeps its own coordinates.
+compiles, and MuJoCo is given their vertices (:func:`give_meshes`). Primitives are kept as
+the model's shapes (box, sphere, ellipsoid, capsule, cylinder), with their fixed
+tessellation. MuJoCo moves a mesh to its own inertial frame when it compiles and folds that
+move into the geom pose; it is undone here, so a file mesh keeps its own coordinates.
 """
 
 from __future__ import annotations
