@@ -42,8 +42,7 @@ REFUSED = {
     "erd/romeo_description/urdf/romeo_laas_small.urdf": "mesh file not found: /usr/Romeo",
     "erd/ur_description/urdf/ur3.urdf": "has no <link>",
     # pybullet_data: Bullet's own extensions and files its loader alone reads.
-    "pybullet/cube_no_rotation.urdf": "lower=1 > upper=-1",  # Bullet: "no limit"; MuJoCo refuses
-    "pybullet/biped/biped2d_pybullet.urdf": "lower=1 > upper=-1",
+    "pybullet/biped/biped2d_pybullet.urdf": "lower='-1.57.' is not a list of numbers",
     "pybullet/plane_implicit.urdf": "unknown geometry <plane>",  # urdfdom refuses it too
     "pybullet/toys/concave_box.urdf": "unknown geometry <cdf>",
     "pybullet/torus_deform.urdf": "has no <link>",  # a deformable: <deformable>, no link

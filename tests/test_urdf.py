@@ -736,3 +736,42 @@ def test_continuous_joints_keep_their_effort_and_velocity_in_every_format(tmp_pa
         warnings.simplefilter("ignore", Real2CodeWarning)
         out = export(load(both), tmp_path / "both_out", ["urdf"])
     assert dynamics.urdf_differences(both, out["urdf"]) == []
+
+
+def test_an_inverted_range_is_bullets_no_limit(tmp_path):
+    """``lower > upper`` (pybullet's planar bases): Bullet simulates the joint without a
+    range, urdfdom loads it as written, MuJoCo refuses it: read without a range, warned,
+    effort and velocity kept; the export agrees with the source in Pinocchio."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export
+
+    path = tmp_path / "planar.urdf"
+    path.write_text(f"""<robot name="planar">
+  <link name="world"/>
+  <link name="x_link">{INERTIAL}</link>
+  <link name="body">{INERTIAL}</link>
+  <joint name="x_to_world" type="prismatic">
+    <parent link="world"/><child link="x_link"/><axis xyz="1 0 0"/>
+    <limit effort="0.0" lower="1" upper="-1" velocity="1000.0"/>
+  </joint>
+  <joint name="pitch" type="revolute">
+    <parent link="x_link"/><child link="body"/><axis xyz="0 1 0"/>
+    <limit effort="2" lower="0.5" upper="-0.5" velocity="3"/>
+  </joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    said = "\n".join(str(w.message) for w in record)
+    assert ("planar.urdf:7: <joint name='x_to_world'>: <limit> lower=1 > upper=-1: Bullet's "
+            "\"no limit\"; imported as a slide without limits") in said, said
+    assert "<joint name='pitch'>: <limit> lower=0.5 > upper=-0.5" in said, said
+    rail, pitch = obj.joint("x_to_world"), obj.joint("pitch")
+    assert rail.type is JointType.PRISMATIC and rail.limits is None
+    assert rail.drive_limits == DriveLimits(0.0, 1000.0)
+    assert pitch.type is JointType.CONTINUOUS and pitch.drive_limits == DriveLimits(2.0, 3.0)
+    written = export(obj, tmp_path / "out", ["urdf", "mjcf"])
+    pytest.importorskip("pinocchio")
+    report = check_files(list(written.values()), source=path, n_configurations=10,
+                         validate=False, warned=said.splitlines())
+    assert report.ok, [m.message for m in report.mismatches]
+    assert any(d.repaired for d in report.dynamics if d.tool == "Pinocchio")

@@ -396,6 +396,8 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
             return _unbounded_slide(ctx, joint, owner, limit)
         if joint.limits.lower == joint.limits.upper:
             return _empty_range(ctx, joint, owner, limit)
+        if joint.limits.lower > joint.limits.upper:
+            return _inverted_range(ctx, joint, owner, limit)
         if el.get(ns("state")) is None:
             # URDF has no observed state; q = 0 is the rest pose, or the nearest limit when the
             # range excludes 0 (PartNet has such drawers).
@@ -452,6 +454,22 @@ def _unbounded_slide(ctx: Context, joint: Joint, owner: str, limit: etree._Eleme
     return joint
 
 
+def _inverted_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
+    """``lower > upper``: Bullet's "no limit" (pybullet's planar bases), which urdfdom loads
+    as written and MuJoCo refuses: read without a range, as Bullet simulates it."""
+    kind = "continuous" if joint.type is JointType.REVOLUTE else "a slide without limits"
+    ctx.warn(owner, f"<limit> lower={limit.get('lower')} > upper={limit.get('upper')}: "
+             f"Bullet's \"no limit\"; imported as {kind} (its effort and velocity kept)",
+             limit.sourceline)
+    lim = joint.limits
+    if joint.type is JointType.REVOLUTE:
+        joint.type = JointType.CONTINUOUS
+    joint.limits = None
+    if lim.effort is not None or lim.velocity is not None:
+        joint.drive_limits = DriveLimits(lim.effort, lim.velocity)
+    return joint
+
+
 def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
     """``lower == upper`` (often a <limit> giving only effort and velocity, its range left at
     urdfdom's 0): MuJoCo loads such a hinge unlimited, so does this reader (continuous); a
@@ -494,9 +512,6 @@ def _axis(ctx: Context, el: etree._Element, owner: str) -> np.ndarray:
 def _limits(ctx: Context, el: etree._Element, owner: str, name: str) -> Limits:
     lower = ctx.number(el, "lower", owner, default=0.0)
     upper = ctx.number(el, "upper", owner, default=0.0)
-    if lower > upper:
-        raise ctx.error(owner, f"<limit> lower={el.get('lower')} > upper={el.get('upper')}",
-                        el.sourceline)
     return Limits(lower=lower, upper=upper, **_effort_velocity(ctx, el, owner, name))
 
 
