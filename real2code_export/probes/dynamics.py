@@ -12,7 +12,8 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
   ``body_weldid``: a moving body with the bodies fixed to it) its mass, principal moments
   and centre of mass; per joint as above (:func:`urdf_mujoco_differences`).
 
-Names are compared as our importers make them (``model.sanitize_name``). Each function returns
+:func:`against_source` picks, for each export, the comparison its tool makes (``check
+--reference``). Names are compared as our importers make them (``model.sanitize_name``). Each function returns
 a :class:`Difference` per quantity beyond ``tol`` (absolute and relative), naming the source's
 elements it concerns, so that a caller can tell a reader's warned repair (a warning naming one
 of them and saying what it changed of that kind: :func:`explaining`) from a loss; an empty
@@ -272,8 +273,8 @@ def against_source(source: str | Path, exports: list[str | Path],
     """The dynamics of each export that a tool of the source builds, against the source in
     that tool: an MJCF source's MJCF exports in MuJoCo (:func:`mjcf_differences`); a URDF
     source's URDF exports in Pinocchio (:func:`urdf_differences`) and MJCF exports in MuJoCo
-    (:func:`urdf_mujoco_differences`). Other pairs (an MJCF source's URDF, USD and glTF) are
-    not compared here: their dynamics are the model's, which the MJCF export carries."""
+    (:func:`urdf_mujoco_differences`). Other exports (an MJCF source's URDF; USD, glTF) are
+    not compared here: their dynamics are the model's, as the round trips hold them."""
     from ..errors import CheckError
 
     source = Path(source)
