@@ -24,7 +24,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from corpus_survey import erd_files, files_under, menagerie_files, pybullet_files  # noqa: E402
 
-from real2code_export.errors import CheckError, Real2CodeError  # noqa: E402
+from real2code_export.errors import Real2CodeError  # noqa: E402
 from real2code_export.formats import export, hulls_collision, load  # noqa: E402
 from real2code_export.probes import dynamics  # noqa: E402
 
@@ -58,14 +58,9 @@ def compared(path: Path) -> list[str]:
             return ["refused", "", str(e).replace(str(path), path.name)]
         said = [str(w.message) for w in caught]
         cells, first = [], ""
-        if path.suffix == ".urdf":
-            try:
-                pin = dynamics.urdf_differences(path, written["urdf"])
-            except CheckError:
-                pin = None
-            tools = (pin, dynamics.urdf_mujoco_differences(path, written["mjcf"]))
-        else:
-            tools = (None, dynamics.mjcf_differences(path, written["mjcf"]))
+        by_tool = {c.tool: c.differences
+                   for c in dynamics.against_source(path, [written["urdf"], written["mjcf"]])}
+        tools = (by_tool.get("Pinocchio"), by_tool["MuJoCo"])
         for found in tools:
             if found is None:
                 cells.append("does not load it" if path.suffix == ".urdf" else "")

@@ -42,6 +42,7 @@ from real2code_export.errors import ModelError, warn
 from real2code_export.model import (
     DEFAULT_COLOR,
     ArticulatedObject,
+    DriveLimits,
     Dynamics,
     Inertial,
     Joint,
@@ -475,10 +476,16 @@ def _read_joint(je, parent: str, parent_frame: np.ndarray, child_ob, world: _Fra
                         _scaled(_optional(je, rp.VELOCITY, el), along))
     if jtype is JointType.CONTINUOUS:
         limits = None
+    drive_limits = None  # a joint without a range: its effort and velocity, if any
+    if limits is None and jtype in (JointType.CONTINUOUS, JointType.PRISMATIC) and (
+            rp.EFFORT in je or rp.VELOCITY in je):
+        drive_limits = DriveLimits(_optional(je, rp.EFFORT, el),
+                                   _scaled(_optional(je, rp.VELOCITY, el), along))
     dynamics = Dynamics(**{k: _number(je, rp.dynamics_key(k), el, 0.0) for k in rp.DYNAMICS})
     state = along * _number(je, rp.STATE, el, 0.0) if jtype.movable else 0.0
     joint = Joint(name, jtype, parent, child_ob.name, origin,
-                  axis if jtype.movable else np.array([0.0, 0.0, 1.0]), limits, dynamics, state)
+                  axis if jtype.movable else np.array([0.0, 0.0, 1.0]), limits, dynamics, state,
+                  drive_limits=drive_limits)
     return joint, parent_frame @ joint.transform(motion.value if jtype.movable else 0.0)
 
 

@@ -280,10 +280,11 @@ def _joint_properties(je, joint: Joint) -> None:
         je[rp.LOWER], je[rp.UPPER] = joint.limits.lower, joint.limits.upper
         for key in (rp.LOWER, rp.UPPER):
             je.id_properties_ui(key).update(subtype=unit)
-        if joint.limits.effort is not None:
-            je[rp.EFFORT] = joint.limits.effort
-        if joint.limits.velocity is not None:
-            je[rp.VELOCITY] = joint.limits.velocity
+    # effort and velocity, with a range or without (a continuous joint's drive_limits)
+    if joint.effort_limit is not None:
+        je[rp.EFFORT] = joint.effort_limit
+    if joint.velocity_limit is not None:
+        je[rp.VELOCITY] = joint.velocity_limit
     for name in rp.DYNAMICS:
         je[rp.dynamics_key(name)] = float(getattr(joint.dynamics, name))
 

@@ -5,6 +5,12 @@ Configuration 0 is q = 0; configuration 1 is the observed state when an object.j
 among the files; the rest are drawn uniformly within the limits the probes agree on.
 Joints and parts missing from a probe, differing joint kinds or limits, and poses further
 apart than the tolerance are mismatches; ``report.ok`` is False when there is any.
+
+With the user's source file as the reference, the exports' dynamics are compared with the
+source's too, each built in a tool of the source (``probes.dynamics.against_source``):
+masses, inertias and centres of mass, joints' damping, friction, armature, stiffness and
+limits; a difference is a mismatch unless a repair warning of our reader names its element
+and says what of it changed (``probes.dynamics.explaining``).
 """
 
 from __future__ import annotations
@@ -66,6 +72,22 @@ class PartResult:
 
 
 @dataclass
+class DynamicsResult:
+    """One export's dynamics against the source's, both built in one tool."""
+
+    file: str
+    tool: str
+    compared: bool
+    differences: int = 0  # beyond the tolerance, repaired ones included
+    repaired: list[str] = field(default_factory=list)  # those a repair warning explains
+    note: str = ""  # why not compared
+
+    def to_json(self) -> dict[str, Any]:
+        return {"file": self.file, "tool": self.tool, "compared": self.compared,
+                "differences": self.differences, "repaired": self.repaired, "note": self.note}
+
+
+@dataclass
 class CheckReport:
     files: list[str]
     reference: str
@@ -80,6 +102,8 @@ class CheckReport:
     # parts' collision pieces overlapping at q = 0 (reported, not part of ``ok``: a robot's
     # links overlap at their joints by design; docs/engines.md)
     overlaps: FileOverlaps | None = None
+    dynamics: list[DynamicsResult] = field(default_factory=list)  # against the source
+    tol_dynamics: float = 1e-6
 
     @property
     def ok(self) -> bool:
@@ -130,6 +154,8 @@ class CheckReport:
             ],
             "validations": [v.to_json() for v in self.validations],
             "overlaps_at_zero": self.overlaps.to_json() if self.overlaps else None,
+            "dynamics_against_source": [d.to_json() for d in self.dynamics],
+            "tolerance_dynamics": self.tol_dynamics,
             "ok": self.ok,
         }
 
@@ -149,6 +175,8 @@ def check_files(
     reference: str | Path | None = None,
     validate: bool = True,
     source: str | Path | None = None,
+    tol_dynamics: float = 1e-6,
+    warned: Sequence[str] | None = None,
 ) -> CheckReport:
     """Load every file in its own tool(s) and compare part poses at shared configurations.
 
@@ -157,7 +185,10 @@ def check_files(
     (object.json) if present, else the first file's first probe. With ``validate`` the
     formats' own validators run too (glTF, USD); any error they report is a mismatch.
     ``source``: the user's input file (URDF or MJCF), loaded in its own tools
-    (``probes.source.open_source_probes``), is the reference every file is compared with.
+    (``probes.source.open_source_probes``), is the reference every file is compared with,
+    and the exports' dynamics are compared with its (``tol_dynamics``, absolute and
+    relative, the model's tolerance). ``warned``: our reader's warnings on the source (its
+    repairs); None reads the source again to learn them when some dynamics differ.
     """
     if not paths:
         raise CheckError("no files to check")
@@ -167,6 +198,8 @@ def check_files(
     finish = start_validation(list(paths)) if validate else list
     report, probes = _compare(paths, n_configurations, seed, tol_position, tol_rotation,
                               reference, source)
+    if source is not None:
+        _compare_dynamics(report, source, tol_dynamics, warned)
     validations = finish()  # the probes still open: USD's validator reuses their parsed layers
     del probes
     for v in validations:
@@ -215,6 +248,49 @@ def _compare(paths, n_configurations, seed, tol_position, tol_rotation, referenc
         parts=parts, mismatches=mismatches,
         overlaps=file_overlaps(paths, compiled=_compiled_mjcf(probes, paths)),
     ), probes
+
+
+def _compare_dynamics(report: CheckReport, source: str | Path, tol: float,
+                      warned: Sequence[str] | None) -> None:
+    """The exports' dynamics against the source's (module docstring), into ``report``."""
+    from .probes import dynamics
+
+    report.tol_dynamics = tol
+    comparisons = dynamics.against_source(source, report.files, tol)
+    if warned is None and any(c.differences for c in comparisons):
+        warned = _repair_warnings(source)
+    for c in comparisons:
+        probe = next((r for r in report.probes if not r.is_reference
+                      and Path(r.path) == c.export and r.label.startswith(c.tool)), None)
+        if c.differences is None:
+            report.dynamics.append(DynamicsResult(str(c.export), c.tool, False, note=c.note))
+            continue
+        left = dynamics.unexplained(c.differences, list(warned or ()))
+        report.dynamics.append(DynamicsResult(
+            str(c.export), c.tool, True, len(c.differences),
+            [str(d) for d in c.differences if d not in left]))
+        name = probe.name if probe is not None else f"{c.tool} {c.export.name}"
+        report.mismatches += [Mismatch("dynamics", name, d.names[0] if d.names else "",
+                                       f"{c.tool}: {d} (the source's, then the export's)")
+                              for d in left]
+        if left and probe is not None:
+            probe.ok = False
+
+
+def _repair_warnings(source: str | Path) -> list[str]:
+    """Our reader's warnings on ``source``: what it repaired (masses, tensors, limits)."""
+    import warnings
+
+    from .errors import Real2CodeError
+    from .formats import load
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        try:
+            load(source, hull_collision=False)
+        except Real2CodeError:
+            return []
+    return [str(w.message) for w in said]
 
 
 def _compiled_mjcf(probes: list[Probe], paths) -> dict[Path, object]:
@@ -469,6 +545,21 @@ def format_table(report: CheckReport, worst: int = 5) -> str:
                   f"{TOLERANCE * 1000:g} mm, {Path(o.file).name if o.file else '-'}): "
                   + (o.message or str(len(o.overlaps)))]
         lines += [f"  {x.part_a} / {x.part_b}: {x.depth * 1000:.1f} mm" for x in o.overlaps]
+    if report.dynamics:
+        lines += ["", "dynamics against the source (masses, inertias, centres of mass; joints' "
+                  "damping, friction, armature, stiffness, limits; tolerance "
+                  f"{report.tol_dynamics:g}):"]
+        rows = [("file", "tool", "verdict")]
+        for d in report.dynamics:
+            left = d.differences - len(d.repaired)
+            verdict = (f"not compared: {d.note}" if not d.compared else
+                       "equal" if not d.differences else
+                       f"{d.differences} differ, {len(d.repaired)} repaired by the reader"
+                       + (f", {left} not" if left else ""))
+            rows.append((Path(d.file).name, d.tool, verdict))
+        lines += _columns(rows)
+        for d in report.dynamics:
+            lines += [f"  repaired ({Path(d.file).name}, {d.tool}): {r}" for r in d.repaired[:5]]
     if report.mismatches:
         lines += ["", f"mismatches ({len(report.mismatches)}):"]
         lines += [f"  {m.probe}: {m.message}" for m in report.mismatches]

@@ -232,6 +232,16 @@ class Limits:
 
 
 @dataclass
+class DriveLimits:
+    """Effort (N m or N) and velocity (rad/s or m/s) limits of a joint without a range: a
+    continuous joint (URDF's ``<limit effort velocity>`` on one), a slide without limits.
+    A joint with a range holds them in its :class:`Limits`."""
+
+    effort: float | None = None
+    velocity: float | None = None
+
+
+@dataclass
 class Dynamics:
     """Joint dynamics in SI units (angular joints: per radian).
 
@@ -274,6 +284,20 @@ class Joint:
     dynamics: Dynamics = field(default_factory=Dynamics)
     state: float = 0.0  # the joint value observed at capture time
     mimic: Mimic | None = None
+    # effort and velocity limits where ``limits`` is None (a joint without a range)
+    drive_limits: DriveLimits | None = None
+
+    @property
+    def effort_limit(self) -> float | None:
+        """The effort limit (N m or N), from :attr:`limits` or :attr:`drive_limits`."""
+        held = self.limits if self.limits is not None else self.drive_limits
+        return None if held is None else held.effort
+
+    @property
+    def velocity_limit(self) -> float | None:
+        """The velocity limit (rad/s or m/s), from :attr:`limits` or :attr:`drive_limits`."""
+        held = self.limits if self.limits is not None else self.drive_limits
+        return None if held is None else held.velocity
 
     def __post_init__(self) -> None:
         self.type = JointType(self.type)
@@ -554,6 +578,15 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                 )
         elif j.limits is not None:
             raise ModelError(el, f"a {j.type.value} joint takes no limits")
+        if j.drive_limits is not None:
+            if j.limits is not None or j.type not in (JointType.CONTINUOUS,
+                                                      JointType.PRISMATIC):
+                raise ModelError(el, "drive_limits are for a continuous joint or a slide "
+                                     "without a range (others hold them in limits)")
+            for attr in ("effort", "velocity"):
+                v = getattr(j.drive_limits, attr)
+                if v is not None and (not math.isfinite(v) or v < 0):
+                    raise ModelError(el, f"{attr} limit must be finite and >= 0, got {v}")
         if not j.type.movable and j.state != 0.0:
             raise ModelError(el, f"a {j.type.value} joint has no state")
 
@@ -708,6 +741,11 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
         elif x.limits is not None:
             for attr in ("lower", "upper", "effort", "velocity"):
                 u, v = getattr(x.limits, attr), getattr(y.limits, attr)
+                if (u is None) != (v is None) or (u is not None and not close(u, v)):
+                    out.append(f"{el}: {attr} limit {u} != {v}")
+        if x.limits is None and y.limits is None:  # a joint without a range: drive_limits
+            for attr in ("effort", "velocity"):
+                u, v = getattr(x, f"{attr}_limit"), getattr(y, f"{attr}_limit")
                 if (u is None) != (v is None) or (u is not None and not close(u, v)):
                     out.append(f"{el}: {attr} limit {u} != {v}")
         for attr in ("damping", "friction", "stiffness", "spring_ref", "armature"):

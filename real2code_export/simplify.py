@@ -59,5 +59,7 @@ def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
         joints.append(Joint(j.name, j.type, keep_of[j.parent], j.child,
                             offset[j.parent] @ j.origin, j.axis.copy(),
                             None if j.limits is None else dataclasses.replace(j.limits),
-                            dataclasses.replace(j.dynamics), j.state))
+                            dataclasses.replace(j.dynamics), j.state,
+                            drive_limits=None if j.drive_limits is None
+                            else dataclasses.replace(j.drive_limits)))
     return ArticulatedObject(obj.name, parts, joints, dict(obj.metadata))

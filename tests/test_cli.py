@@ -19,7 +19,7 @@ BAD_INPUTS = [
     ("two_roots.urdf", "root"),
     ("nan_origin.urdf", "not finite"),
     ("zero_axis.urdf", "zero"),
-    ("lower_above_upper.urdf", "lower"),
+    ("not_collada_mesh.urdf", "not a collada file"),
     ("unknown_joint_type.urdf", "unknown joint type"),
 ]
 

@@ -89,3 +89,92 @@ def test_a_urdf_source_with_package_uris_and_collada_is_a_reference(tmp_path, ca
     assert "source MuJoCo (URDF)" in said and "source Pinocchio (URDF)" in said
     assert said.rstrip().endswith("AGREE")
     assert Path(out / "pkg.urdf").is_file()
+
+
+# An arm whose joints carry damping, friction and armature, with a mass of its own.
+ARM = """<mujoco model="arm">
+  <worldbody>
+    <body name="base" pos="0 0 0.1">
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+      <body name="link" pos="0 0 0.1">
+        <joint name="elbow" axis="0 1 0" range="-1 1" damping="0.5" frictionloss="0.2"
+               armature="0.01"/>
+        <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.4"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_an_export_whose_dynamics_differ_from_the_source_is_caught(tmp_path, capsys):
+    """The kinematics of an export agree with the source; its mass, damping or armature
+    altered (a loss no repair warning names) is a mismatch, and check exits 1."""
+    source = tmp_path / "arm.xml"
+    source.write_text(ARM)
+    out = tmp_path / "out"
+    assert run(["export", str(source), "--out", str(out), "--to", "mjcf,urdf",
+                "--check", "--configurations", "5"]) == EXIT_OK
+    said = capsys.readouterr().out
+    assert "dynamics against the source" in said and "equal" in said
+    exported = (out / "arm.xml").read_text()
+    for old, new, expected in [('mass="0.4"', 'mass="0.5"', "body 'link': mass 0.4 != 0.5"),
+                               ('damping="0.5"', 'damping="0.6"', "damping 0.5 != 0.6"),
+                               ('armature="0.01"', 'armature="0.02"', "armature 0.01 != 0.02")]:
+        assert old in exported, (old, exported)
+        altered = tmp_path / f"altered_{expected.split()[0]}" / "arm.xml"
+        altered.parent.mkdir(exist_ok=True)
+        altered.write_text(exported.replace(old, new))
+        report = check_files([altered], source=source, n_configurations=5, validate=False)
+        assert not [m for m in report.mismatches if m.kind != "dynamics"], report.mismatches
+        found = [m for m in report.mismatches if m.kind == "dynamics"]
+        assert any(expected in m.message for m in found), found
+        assert run(["check", str(altered), "--reference", str(source),
+                    "--configurations", "5"]) == EXIT_DISAGREE
+    # beyond the tolerance the user gives only
+    report = check_files([altered], source=source, n_configurations=5, validate=False,
+                         tol_dynamics=2.0)
+    assert report.ok, report.mismatches
+
+
+URDF_ROUNDED = """<robot name="rounded">
+  <link name="base"><inertial><mass value="1"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <link name="arm"><inertial><mass value="0.5"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.0052"/></inertial></link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="arm"/><origin xyz="0 0 0.3"/>
+    <axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="3" velocity="4"/>
+    <dynamics damping="0.3" friction="0.1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_a_urdf_source_repaired_by_the_reader_is_told_from_a_loss(tmp_path, capsys):
+    """The arm's tensor misses the triangle inequality (0.001 + 0.004 < 0.0052): the reader
+    balances it, warned; the export differs from the source there, as a repair, not a
+    mismatch. Its damping altered in the URDF export is one (Pinocchio)."""
+    source = tmp_path / "rounded.urdf"
+    source.write_text(URDF_ROUNDED)
+    out = tmp_path / "out"
+    assert run(["export", str(source), "--out", str(out), "--to", "urdf,mjcf",
+                "--check", "--configurations", "5"]) == EXIT_OK
+    said = capsys.readouterr()
+    assert "triangle inequality" in said.err
+    assert "repaired by the reader" in said.out and said.out.rstrip().endswith("AGREE")
+    # check alone reads the source again for the reader's warnings
+    files = [out / "rounded.urdf", out / "rounded.xml"]
+    report = check_files(files, source=source, n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+    assert {d.tool for d in report.dynamics} == {"Pinocchio", "MuJoCo"}
+    assert any(d.repaired for d in report.dynamics), report.dynamics
+    # the same differences with no warning to explain them are mismatches
+    report = check_files(files, source=source, n_configurations=5, validate=False, warned=[])
+    assert {m.kind for m in report.mismatches} == {"dynamics"}
+    text = (out / "rounded.urdf").read_text()
+    assert 'damping="0.3"' in text
+    (out / "rounded.urdf").write_text(text.replace('damping="0.3"', 'damping="0.7"'))
+    report = check_files(files, source=source, n_configurations=5, validate=False)
+    assert [m.message for m in report.mismatches] == [
+        "Pinocchio: joint 'shoulder': damping [0.3] != [0.7] (the source's, then the export's)"]

@@ -18,6 +18,7 @@ from real2code_export.formats.urdf.write import stable_rpy
 from real2code_export.meshfiles import obj_bytes
 from real2code_export.model import (
     ArticulatedObject,
+    DriveLimits,
     Dynamics,
     Inertial,
     Joint,
@@ -233,7 +234,6 @@ def line_of(path: Path, needle: str) -> int:
     ("two_roots.urdf", "<link name='stray'>", '<link name="stray">', "root"),
     ("nan_origin.urdf", "<joint name='hinge'>", 'xyz="0 nan 0"', "not finite"),
     ("zero_axis.urdf", "<joint name='hinge'>", "<axis", "zero length"),
-    ("lower_above_upper.urdf", "<joint name='slide'>", "<limit", "lower"),
     ("unknown_joint_type.urdf", "<joint name='hinge'>", 'type="hinge"', "unknown joint type"),
     ("planar_joint.urdf", "<joint name='free'>", 'type="planar"', "not supported"),
     ("unknown_parent.urdf", "<joint name='hinge'>", '<parent link="frame"', "not a link"),
@@ -369,6 +369,7 @@ def test_inertia_limit_and_mass_repairs_are_warned_and_load_in_the_tools(tmp_pat
     assert locked.type is JointType.FIXED
     np.testing.assert_allclose(locked.origin[:3, 3], [0.6, 0, 0])  # 0.1 + 0.5 along x
     assert obj.joint("wheel").type is JointType.CONTINUOUS
+    assert obj.joint("wheel").drive_limits == DriveLimits(35.0, 20.0)  # kept, not dropped
     assert min(np.linalg.eigvalsh(obj.part("rod").inertial.inertia)) > 1e-12
     path = assert_round_trip(obj, tmp_path)  # the repaired model is what every tool loads
     rng = np.random.default_rng(0)
@@ -567,7 +568,9 @@ def test_floating_base_through_every_format(tmp_path):
         assert not [d for d in differences(obj, back) if "object name" not in d], fmt
     report = check_files(list(written.values()), source=source, n_configurations=5,
                          validate=False)
-    assert report.ok, [m.message for m in report.mismatches]
+    # the free joint's dynamics given above are not the source's: check names them, only them
+    assert {m.kind for m in report.mismatches} == {"dynamics"}, report.mismatches
+    assert all("joint 'free'" in m.message for m in report.mismatches), report.mismatches
 
     odom = tmp_path / "odom.urdf"
     odom.write_text(source.read_text().replace('"world"', '"odom"'))
@@ -659,13 +662,115 @@ def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
                    "bullet.urdf:5: <link name='base'>: <geometry> holds <material> after its "
                    "<box>: ignored",
                    "bullet.urdf:8: <link name='toe'>: <sphere> of zero size (radius='0.0') has "
-                   "no surface: left out",
-                   "bullet.urdf:14: <joint name='rail'>: <limit> lower=-1e16 upper=1e16 is no "
-                   "limit: the slide is read without limits, its effort and velocity dropped"):
+                   "no surface: left out"):
         assert needle in messages, messages
     assert obj.part("toe").collision == [] and obj.part("base").visual is not None
+    # +-1e16 is no limit: a slide without a range, its effort and velocity kept
     assert obj.joint("rail").type is JointType.PRISMATIC and obj.joint("rail").limits is None
+    assert obj.joint("rail").drive_limits == DriveLimits(0.0, 0.0)
     path = assert_round_trip(obj, tmp_path)
     rng = np.random.default_rng(0)
     assert pinocchio_matches(obj, path, rng) < 1e-6
     assert mujoco_matches(obj, path, rng) < 1e-6
+
+
+def test_continuous_joints_keep_their_effort_and_velocity_in_every_format(tmp_path):
+    """A continuous joint's <limit effort velocity> (its range ignored, as urdfdom does) and
+    a slide without a range's effort and velocity: carried by every format (URDF <limit> on
+    the continuous joint, MJCF actuatorfrcrange, USD real2code:effort and
+    newton:velocityLimit, glTF and object.json extras), read back equal; Pinocchio reads the
+    source's and the export's limits alike."""
+    from real2code_export.formats import export, load
+    from real2code_export.model import differences
+    from real2code_export.probes import dynamics
+
+    path = tmp_path / "wheels.urdf"
+    path.write_text(f"""<robot name="wheels">
+  <link name="base">{INERTIAL}</link>
+  <link name="wheel">{INERTIAL}</link>
+  <link name="spinner">{INERTIAL}</link>
+  <link name="cart">{INERTIAL}</link>
+  <joint name="wheel" type="continuous">
+    <parent link="base"/><child link="wheel"/><axis xyz="0 1 0"/><origin xyz="0 0.2 0"/>
+    <limit lower="-1" upper="1" effort="12.5" velocity="3"/>
+  </joint>
+  <joint name="spinner" type="continuous">
+    <parent link="base"/><child link="spinner"/><axis xyz="0 0 1"/><origin xyz="0 -0.2 0"/>
+    <limit effort="4"/>
+  </joint>
+  <joint name="rail" type="prismatic">
+    <parent link="base"/><child link="cart"/><axis xyz="1 0 0"/><origin xyz="0.3 0 0"/>
+    <limit lower="-1e16" upper="1e16" effort="7" velocity="0.5"/>
+  </joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = load(path)
+    said = "\n".join(str(w.message) for w in record)
+    assert "<limit> lower and upper ignored on continuous joints 'wheel'" in said, said
+    assert obj.joint("wheel").drive_limits == DriveLimits(12.5, 3.0)
+    assert obj.joint("spinner").drive_limits == DriveLimits(4.0, None)  # velocity unknown
+    assert obj.joint("rail").drive_limits == DriveLimits(7.0, 0.5)
+    written = export(obj, tmp_path / "out", ["json", "urdf", "mjcf", "usd", "gltf"])
+    for fmt, file in written.items():
+        back = load(file)
+        assert [d for d in differences(obj, back) if "limit" in d] == [], fmt
+        assert back.joint("wheel").drive_limits == DriveLimits(12.5, 3.0), fmt
+        assert back.joint("spinner").effort_limit == 4.0, fmt
+        assert back.joint("spinner").velocity_limit is None, fmt
+    text = written["urdf"].read_text()
+    assert '<limit effort="12.5" velocity="3.0"/>' in text, text
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    wheel = model.joint("wheel")
+    assert not model.jnt_limited[wheel.id] and model.jnt_actfrclimited[wheel.id]
+    assert tuple(model.jnt_actfrcrange[wheel.id]) == (-12.5, 12.5)
+    # Pinocchio (urdfdom) wants both effort and velocity: the source with both given
+    pytest.importorskip("pinocchio")
+    both = tmp_path / "both" / "wheels.urdf"
+    both.parent.mkdir()
+    both.write_text(path.read_text().replace('<limit effort="4"/>',
+                                             '<limit effort="4" velocity="9"/>'))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        out = export(load(both), tmp_path / "both_out", ["urdf"])
+    assert dynamics.urdf_differences(both, out["urdf"]) == []
+
+
+def test_an_inverted_range_is_bullets_no_limit(tmp_path):
+    """``lower > upper`` (pybullet's planar bases): Bullet simulates the joint without a
+    range, urdfdom loads it as written, MuJoCo refuses it: read without a range, warned,
+    effort and velocity kept; the export agrees with the source in Pinocchio."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export
+
+    path = tmp_path / "planar.urdf"
+    path.write_text(f"""<robot name="planar">
+  <link name="world"/>
+  <link name="x_link">{INERTIAL}</link>
+  <link name="body">{INERTIAL}</link>
+  <joint name="x_to_world" type="prismatic">
+    <parent link="world"/><child link="x_link"/><axis xyz="1 0 0"/>
+    <limit effort="0.0" lower="1" upper="-1" velocity="1000.0"/>
+  </joint>
+  <joint name="pitch" type="revolute">
+    <parent link="x_link"/><child link="body"/><axis xyz="0 1 0"/>
+    <limit effort="2" lower="0.5" upper="-0.5" velocity="3"/>
+  </joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    said = "\n".join(str(w.message) for w in record)
+    assert ("planar.urdf:7: <joint name='x_to_world'>: <limit> lower=1 > upper=-1: Bullet's "
+            "\"no limit\"; imported as a slide without limits") in said, said
+    assert "<joint name='pitch'>: <limit> lower=0.5 > upper=-0.5" in said, said
+    rail, pitch = obj.joint("x_to_world"), obj.joint("pitch")
+    assert rail.type is JointType.PRISMATIC and rail.limits is None
+    assert rail.drive_limits == DriveLimits(0.0, 1000.0)
+    assert pitch.type is JointType.CONTINUOUS and pitch.drive_limits == DriveLimits(2.0, 3.0)
+    written = export(obj, tmp_path / "out", ["urdf", "mjcf"])
+    pytest.importorskip("pinocchio")
+    report = check_files(list(written.values()), source=path, n_configurations=10,
+                         validate=False, warned=said.splitlines())
+    assert report.ok, [m.message for m in report.mismatches]
+    assert any(d.repaired for d in report.dynamics if d.tool == "Pinocchio")

@@ -123,3 +123,21 @@ def test_changing_a_joint_kind_is_refused(blender, generated, tmp_path):
     with pytest.raises(RuntimeError, match="type changed from revolute to prismatic"):
         export(blender, root, out, check=False)
     assert not out.exists()
+
+
+def test_a_continuous_joints_effort_and_velocity_round_trip(blender, generated, tmp_path):
+    """A joint without a range keeps its effort and velocity (``drive_limits``) through the
+    rig: imported as ID properties, exported back."""
+    from real2code_export.formats import object_json
+    from real2code_export.model import DriveLimits, JointType, differences
+
+    obj = load(generated["laptop"]["json"])
+    hinge = next(j for j in obj.joints if j.type is JointType.REVOLUTE)
+    hinge.type, hinge.limits, hinge.state = JointType.CONTINUOUS, None, 0.0
+    hinge.drive_limits = DriveLimits(7.0, 2.0)
+    path = object_json.save(obj, tmp_path / "in")
+    root = import_rig(blender, path)
+    assert export(blender, root, tmp_path / "out", formats={"json"}, check=False) == {"FINISHED"}
+    exported = load(tmp_path / "out" / "object.json")
+    assert exported.joint(hinge.name).drive_limits == DriveLimits(7.0, 2.0)
+    assert [d for d in differences(obj, exported, tol=1e-6) if "limit" in d] == []

@@ -3,9 +3,10 @@ them back in their own tools."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
-from ..errors import Real2CodeError
+from ..errors import Real2CodeError, Real2CodeWarning
 from .options import EXIT_DISAGREE, EXIT_OK, add_formats_option, chosen_formats, model_help
 
 
@@ -16,12 +17,14 @@ def add_parsers(sub) -> None:
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--check", action="store_true",
                    help="check every export against the input (a URDF or MJCF input loaded in "
-                        "its own tools as the reference); exit 1 on disagreement")
+                        "its own tools as the reference: kinematics and dynamics); exit 1 on "
+                        "disagreement")
     s.add_argument("--configurations", type=int, default=100, help="for --check")
     _add_source_options(s)
     s.set_defaults(func=cmd_export)
 
-    s = sub.add_parser("check", help="load files in their own tools and compare kinematics")
+    s = sub.add_parser("check", help="load files in their own tools and compare kinematics "
+                       "(and dynamics with --reference)")
     s.add_argument("files", nargs="+", help=model_help("model files to compare"))
     s.add_argument("--json", help="also write the report as JSON to this file")
     s.add_argument("--configurations", type=int, default=100, help="random configurations")
@@ -30,7 +33,11 @@ def add_parsers(sub) -> None:
     s.add_argument("--tol-rotation", type=float, default=1e-6, help="radians (default 1e-6)")
     s.add_argument("--reference", metavar="FILE",
                    help="the URDF or MJCF the files were made from, loaded in its own tools "
-                        "(MuJoCo; and Pinocchio for URDF) as the reference")
+                        "(MuJoCo; and Pinocchio for URDF) as the reference; the exports' "
+                        "masses, inertias and joint dynamics and limits are compared with it "
+                        "too")
+    s.add_argument("--tol-dynamics", type=float, default=1e-6,
+                   help="with --reference: absolute and relative (default 1e-6)")
     _add_source_options(s)
     s.set_defaults(func=cmd_check)
 
@@ -64,8 +71,13 @@ def cmd_export(args) -> int:
     formats = chosen_formats(args)
     _use_package_path(args)
     # USD (and glTF) consumers hull each collision mesh themselves: an export to those alone
-    # computes no hulls (docs/formats.md, "Collision").
-    obj = load(args.input, hull_collision=not hulls_collision(formats))
+    # computes no hulls (docs/formats.md, "Collision"). The reader's warnings (its repairs)
+    # are kept for --check: a repaired mass or limit differs from the source's, warned.
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always", Real2CodeWarning)
+        obj = load(args.input, hull_collision=not hulls_collision(formats))
+    for w in said:  # on to the command's boundary, which prints them
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     written = export(obj, args.out, formats)
     for name, path in written.items():
         print(f"{name:5s} {path}")
@@ -81,7 +93,8 @@ def cmd_export(args) -> int:
         kind = None
     source = Path(args.input) if kind in ("urdf", "mjcf") else None
     report = check_files(list(written.values()), source=source,
-                         n_configurations=args.configurations)
+                         n_configurations=args.configurations,
+                         warned=[str(w.message) for w in said])
     print(format_table(report))
     return EXIT_OK if report.ok else EXIT_DISAGREE
 
@@ -97,6 +110,7 @@ def cmd_check(args) -> int:
         seed=args.seed,
         tol_position=args.tol_position,
         tol_rotation=args.tol_rotation,
+        tol_dynamics=args.tol_dynamics,
     )
     print(format_table(report))
     if args.json:

@@ -79,8 +79,9 @@ def _opened(joint: Joint) -> float:
 def _without_velocity_limits(obj: ArticulatedObject) -> ArticulatedObject:
     out = copy.deepcopy(obj)
     for j in out.movable_joints:
-        if j.limits is not None:
-            j.limits.velocity = None
+        for held in (j.limits, j.drive_limits):
+            if held is not None:
+                held.velocity = None
     return out
 
 

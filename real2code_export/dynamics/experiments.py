@@ -43,8 +43,8 @@ def _without_limits(obj: ArticulatedObject) -> ArticulatedObject:
     for j in out.movable_joints:
         if j.type is not JointType.CONTINUOUS:
             s = _start(j)
-            j.limits = Limits(s - WIDE, s + WIDE, j.limits.effort if j.limits else None,
-                              j.limits.velocity if j.limits else None)
+            j.limits = Limits(s - WIDE, s + WIDE, j.effort_limit, j.velocity_limit)
+            j.drive_limits = None  # (a slide without a range had them there)
     return out
 
 
@@ -60,8 +60,9 @@ def _without_velocity_limits(obj: ArticulatedObject) -> ArticulatedObject:
     not: the experiments compare motion, so no run has one (docs/engines.md)."""
     out = copy.deepcopy(obj)
     for j in out.movable_joints:
-        if j.limits is not None:
-            j.limits.velocity = None
+        for held in (j.limits, j.drive_limits):
+            if held is not None:
+                held.velocity = None
     return out
 
 

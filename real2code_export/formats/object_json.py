@@ -31,6 +31,7 @@ from ..meshfiles import (
 from ..model import (
     PBR_MAPS,
     ArticulatedObject,
+    DriveLimits,
     Dynamics,
     Inertial,
     Joint,
@@ -102,6 +103,8 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                 },
                 "state": j.state,
                 **({} if j.mimic is None else {"mimic": mimic_json(j.mimic)}),
+                **({} if j.drive_limits is None else {"drive_limits": {
+                    "effort": j.drive_limits.effort, "velocity": j.drive_limits.velocity}}),
             }
         )
     return {
@@ -263,6 +266,10 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
                 velocity=None if ld.get("velocity") is None
                 else _num(ld["velocity"], path, el, "velocity"),
             )
+        drive = jd.get("drive_limits")
+        drive_limits = None if drive is None else DriveLimits(**{
+            k: None if drive.get(k) is None else _num(drive[k], path, el, f"{k} limit")
+            for k in ("effort", "velocity")})
         dd = jd.get("dynamics") or {}
         dynamics = Dynamics(**{
             k: _num(dd.get(k, 0.0), path, el, k)
@@ -274,6 +281,7 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
             axis=_vec(jd.get("axis", [0, 0, 1]), 3, path, el, "axis"), limits=limits,
             dynamics=dynamics, state=_num(jd.get("state", 0.0), path, el, "state"),
             mimic=None if jd.get("mimic") is None else mimic_from_json(jd["mimic"], path, el),
+            drive_limits=drive_limits,
         ))
     obj = ArticulatedObject(name=_get(data, "name", path, "object"), parts=parts, joints=joints,
                             metadata=dict(data.get("metadata") or {}))

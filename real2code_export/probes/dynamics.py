@@ -12,7 +12,8 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
   ``body_weldid``: a moving body with the bodies fixed to it) its mass, principal moments
   and centre of mass; per joint as above (:func:`urdf_mujoco_differences`).
 
-Names are compared as our importers make them (``model.sanitize_name``). Each function returns
+:func:`against_source` picks, for each export, the comparison its tool makes (``check
+--reference``). Names are compared as our importers make them (``model.sanitize_name``). Each function returns
 a :class:`Difference` per quantity beyond ``tol`` (absolute and relative), naming the source's
 elements it concerns, so that a caller can tell a reader's warned repair (a warning naming one
 of them and saying what it changed of that kind: :func:`explaining`) from a loss; an empty
@@ -254,3 +255,46 @@ def _world_inertia(model, data, j: int) -> tuple[float, np.ndarray, np.ndarray]:
     """(mass, principal moments, centre of mass in the world) of joint ``j``'s links."""
     inertia = data.oMi[j].act(model.inertias[j])
     return float(inertia.mass), np.linalg.eigvalsh(inertia.inertia), np.array(inertia.lever)
+
+
+# -- a source against its exports (``check --reference``) -------------------------------
+@dataclass(frozen=True)
+class Comparison:
+    """One export's dynamics against the source's, in one tool."""
+
+    export: Path
+    tool: str  # the tool both were built in: "MuJoCo" or "Pinocchio"
+    differences: list[Difference] | None  # None: the tool refuses the source as it is
+    note: str = ""  # why it is not compared (with differences None)
+
+
+def against_source(source: str | Path, exports: list[str | Path],
+                   tol: float = 1e-6) -> list[Comparison]:
+    """The dynamics of each export that a tool of the source builds, against the source in
+    that tool: an MJCF source's MJCF exports in MuJoCo (:func:`mjcf_differences`); a URDF
+    source's URDF exports in Pinocchio (:func:`urdf_differences`) and MJCF exports in MuJoCo
+    (:func:`urdf_mujoco_differences`). Other exports (an MJCF source's URDF; USD, glTF) are
+    not compared here: their dynamics are the model's, as the round trips hold them."""
+    from ..errors import CheckError
+
+    source = Path(source)
+    is_urdf = source.suffix.lower() == ".urdf"
+    out = []
+    for export in map(Path, exports):
+        suffix = export.suffix.lower()
+        if suffix == ".xml":
+            if is_urdf:
+                found = urdf_mujoco_differences(source, export, tol)
+                note = "" if found is not None else "MuJoCo refuses the source as it is"
+            else:
+                found, note = mjcf_differences(source, export, tol), ""
+            out.append(Comparison(export, "MuJoCo", found, note))
+        elif suffix == ".urdf" and is_urdf:
+            try:
+                out.append(Comparison(export, "Pinocchio", urdf_differences(source, export, tol)))
+            except CheckError as e:  # Pinocchio refuses the source (or the export: the
+                if str(source) not in str(e):  # kinematic check says so too)
+                    raise
+                out.append(Comparison(export, "Pinocchio", None,
+                                      "Pinocchio refuses the source"))
+    return out

@@ -45,9 +45,15 @@ class SourceProbe:
 
 def _as_imported(joint: JointInfo) -> JointInfo:
     """A hinge whose range is empty (a URDF <limit> giving only effort and velocity, its range
-    left at 0), as our importers and MuJoCo read it: unlimited (Pinocchio keeps [0, 0])."""
-    if joint.kind == "revolute" and joint.lower is not None and joint.lower == joint.upper:
+    left at 0), as our importers and MuJoCo read it: unlimited (Pinocchio keeps [0, 0]); a
+    range with lower > upper (Bullet's "no limit", which Pinocchio keeps and MuJoCo refuses)
+    as our importers read it: unlimited."""
+    if joint.lower is None or joint.upper is None:
+        return joint
+    if joint.kind == "revolute" and joint.lower >= joint.upper:
         return JointInfo(joint.name, "continuous", None, None)
+    if joint.kind == "prismatic" and joint.lower > joint.upper:
+        return JointInfo(joint.name, "prismatic", None, None)
     return joint
 
 

@@ -20,6 +20,7 @@ from ... import transforms as tf
 from ...errors import FormatError, ModelError, warn
 from ...model import (
     ArticulatedObject,
+    DriveLimits,
     Dynamics,
     Inertial,
     Joint,
@@ -202,6 +203,9 @@ def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
             limits = Limits(float(ld["lower"]), float(ld["upper"]),
                             None if ld.get("effort") is None else float(ld["effort"]),
                             None if ld.get("velocity") is None else float(ld["velocity"]))
+        drive = d.get("drive_limits")
+        drive_limits = None if drive is None else DriveLimits(
+            *(None if drive.get(k) is None else float(drive[k]) for k in ("effort", "velocity")))
         dd = d.get("dynamics", {})
         dynamics = Dynamics(**{k: float(dd.get(k, 0.0))
                                for k in ("damping", "friction", "stiffness", "spring_ref", "armature")})
@@ -209,7 +213,7 @@ def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
         return Joint(name=name, type=JointType(d["type"]), parent=d["parent"], child=d["child"],
                      origin=origin, axis=_vector(d.get("axis", [0, 0, 1]), 3, doc, el, "axis"),
                      limits=limits, dynamics=dynamics, state=float(d.get("state", 0.0)),
-                     mimic=mimic)
+                     mimic=mimic, drive_limits=drive_limits)
     except (KeyError, TypeError, ValueError, AttributeError) as e:
         raise FormatError(doc.path, el, f"bad joint metadata ({type(e).__name__}: {e})") from e
 

@@ -209,6 +209,9 @@ def _joint_extras(joint: Joint) -> dict:
             if getattr(joint.limits, key) is not None:
                 lim[key] = float(getattr(joint.limits, key))
         out["limits"] = lim
+    if joint.drive_limits is not None:  # a joint without a range: effort and velocity
+        out["drive_limits"] = {k: float(v) for k in ("effort", "velocity")
+                               if (v := getattr(joint.drive_limits, k)) is not None}
     return {EXTRAS_KEY: out}
 
 

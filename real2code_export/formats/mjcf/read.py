@@ -30,6 +30,7 @@ from ...errors import FormatError, ModelError, warn
 from ...model import (
     DEFAULT_COLOR,
     ArticulatedObject,
+    DriveLimits,
     Dynamics,
     Inertial,
     Joint,
@@ -329,7 +330,7 @@ class _Reader:
         self.joint_of[j] = joint
         # Part frame = joint frame at qpos = 0: at the anchor, turned back by the reference.
         joint.origin = base @ tf.make(translation=anchor) @ joint.motion(-ref)
-        joint.limits = self._limits(j, kind, name)
+        joint.limits, joint.drive_limits = self._limits(j, kind, name)
         dynamics.spring_ref = float(m.qpos_spring[qadr])
         joint.dynamics = dynamics
         if np.any(m.dof_dampingpoly[dof]) or np.any(m.jnt_stiffnesspoly[j]):
@@ -337,7 +338,10 @@ class _Reader:
         joint.state = self._state(qadr, joint)
         return joint
 
-    def _limits(self, j: int, kind: JointType, name: str) -> Limits | None:
+    def _limits(self, j: int, kind: JointType,
+                name: str) -> tuple[Limits | None, DriveLimits | None]:
+        """(range with effort and velocity, or None; effort and velocity of a joint without a
+        range, or None)."""
         m = self.model
         effort = self._custom_number(m.joint(j).name, "effort")
         if effort is None and m.jnt_actfrclimited[j]:
@@ -346,13 +350,14 @@ class _Reader:
             if low != -high:
                 self.note("asymmetric actuatorfrcrange kept as its larger magnitude", name)
         velocity = self._custom_number(m.joint(j).name, "velocity")
+        effort = None if effort is None else float(effort)
+        velocity = None if velocity is None else float(velocity)
         if kind is JointType.CONTINUOUS or not m.jnt_limited[j]:
-            if effort is not None or velocity is not None:
-                self.note("effort/velocity limits of joints without a range dropped", name)
-            return None
+            if effort is None and velocity is None:
+                return None, None
+            return None, DriveLimits(effort, velocity)
         low, high = (float(v) for v in m.jnt_range[j])
-        return Limits(low, high, effort=None if effort is None else float(effort),
-                      velocity=None if velocity is None else float(velocity))
+        return Limits(low, high, effort=effort, velocity=velocity), None
 
     def _custom_number(self, element: str, field_name: str) -> float | None:
         value = self.custom.get((element, field_name))

@@ -492,9 +492,12 @@ def _add_joint(body, joint: Joint, anchor: np.ndarray, axis: np.ndarray) -> None
     else:
         options["limited"] = mujoco.mjtLimited.mjLIMITED_TRUE
         options["range"] = [limits.lower, limits.upper]
-        if limits.effort is not None and limits.effort > 0:  # 0 is kept in <custom>
-            options["actfrclimited"] = mujoco.mjtLimited.mjLIMITED_TRUE
-            options["actfrcrange"] = [-limits.effort, limits.effort]
+    # the effort limit, with a range or without: the force MuJoCo lets actuators apply at the
+    # joint (actuatorfrcrange)
+    effort = joint.effort_limit
+    if effort is not None and effort > 0:  # 0 is kept in <custom>
+        options["actfrclimited"] = mujoco.mjtLimited.mjLIMITED_TRUE
+        options["actfrcrange"] = [-effort, effort]
     body.add_joint(**options)
 
 
@@ -502,11 +505,11 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
     for joint in joints:
         if joint.type is JointType.FIXED:  # a jointless body has no joint name to carry
             spec.add_text(name=custom_name(joint.child, "parent_joint"), data=joint.name)
-        limits = joint.limits
-        if limits is not None and limits.velocity is not None:
-            spec.add_numeric(name=custom_name(joint.name, "velocity"), data=[limits.velocity])
-        if limits is not None and limits.effort is not None and not limits.effort > 0:
-            spec.add_numeric(name=custom_name(joint.name, "effort"), data=[limits.effort])
+        if joint.velocity_limit is not None:  # MuJoCo has no velocity limit
+            spec.add_numeric(name=custom_name(joint.name, "velocity"),
+                             data=[joint.velocity_limit])
+        if joint.effort_limit is not None and not joint.effort_limit > 0:
+            spec.add_numeric(name=custom_name(joint.name, "effort"), data=[joint.effort_limit])
     for part in parts:
         if part.visual is None and not part.collision:  # no geom to carry its colour
             spec.add_numeric(name=custom_name(part.name, "color"), data=list(part.color))

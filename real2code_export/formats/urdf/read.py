@@ -38,6 +38,7 @@ from ...model import (
     DEFAULT_COLOR,
     UNBOUNDED_LIMIT,
     ArticulatedObject,
+    DriveLimits,
     Dynamics,
     Inertial,
     Joint,
@@ -230,8 +231,9 @@ def _report_notes(ctx: Context) -> None:
         "renamed": "names changed to identifiers: {}",
         "limit": "<limit> without effort and/or velocity (urdfdom refuses that) in joints {}: "
                  "kept as unknown",
-        "limit_dropped": "<limit> ignored on continuous or fixed joints {} (the model keeps "
-                         "limits only on revolute and prismatic joints)",
+        "limit_dropped": "<limit> ignored on fixed joints {}",
+        "range_dropped": "<limit> lower and upper ignored on continuous joints {} (as urdfdom "
+                         "ignores them; effort and velocity kept)",
         "inertial": "no <inertial> in links {}: mass properties computed from their visual "
                     f"meshes at {DEFAULT_DENSITY} kg/m^3",
         "collision": "no <collision> in links {}: convex collision pieces made from their "
@@ -394,13 +396,37 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
             return _unbounded_slide(ctx, joint, owner, limit)
         if joint.limits.lower == joint.limits.upper:
             return _empty_range(ctx, joint, owner, limit)
+        if joint.limits.lower > joint.limits.upper:
+            return _inverted_range(ctx, joint, owner, limit)
         if el.get(ns("state")) is None:
             # URDF has no observed state; q = 0 is the rest pose, or the nearest limit when the
             # range excludes 0 (PartNet has such drawers).
             joint.state = min(max(0.0, joint.limits.lower), joint.limits.upper)
+    elif limit is not None and jtype is JointType.CONTINUOUS:
+        # urdfdom reads a continuous joint's effort and velocity and ignores its range
+        if any(float(limit.get(a) or 0.0) != 0.0 for a in ("lower", "upper")
+               if _is_number(limit.get(a))):
+            ctx.note("range_dropped", repr(name))
+        joint.drive_limits = _drive_limits(ctx, limit, owner, name)
     elif limit is not None:
         ctx.note("limit_dropped", repr(name))
     return joint
+
+
+def _is_number(text: str | None) -> bool:
+    try:
+        float(text)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _drive_limits(ctx: Context, el: etree._Element, owner: str,
+                  name: str) -> DriveLimits | None:
+    """A joint without a range's effort and velocity (None when the <limit> gives neither)."""
+    known = _effort_velocity(ctx, el, owner, name)
+    return None if known["effort"] is None and known["velocity"] is None else \
+        DriveLimits(**known)
 
 
 def _mimic(ctx: Context, el: etree._Element, owner: str,
@@ -421,13 +447,26 @@ def _mimic(ctx: Context, el: etree._Element, owner: str,
 def _unbounded_slide(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
     """A slide limited at +-1e16 or beyond: SDF's "no limit" (our writer's, for a slide without
     limits, since URDF requires a prismatic <limit>): read without limits."""
-    given = [a for a in ("effort", "velocity")
-             if limit.get(a) is not None and limit.get(ns(a)) != UNKNOWN]
-    if given:
-        ctx.warn(owner, f"<limit> lower={limit.get('lower')} upper={limit.get('upper')} is no "
-                 f"limit: the slide is read without limits, its {' and '.join(given)} dropped",
-                 limit.sourceline)
+    lim = joint.limits
     joint.limits = None
+    if lim.effort is not None or lim.velocity is not None:  # kept without the range
+        joint.drive_limits = DriveLimits(lim.effort, lim.velocity)
+    return joint
+
+
+def _inverted_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) -> Joint:
+    """``lower > upper``: Bullet's "no limit" (pybullet's planar bases), which urdfdom loads
+    as written and MuJoCo refuses: read without a range, as Bullet simulates it."""
+    kind = "continuous" if joint.type is JointType.REVOLUTE else "a slide without limits"
+    ctx.warn(owner, f"<limit> lower={limit.get('lower')} > upper={limit.get('upper')}: "
+             f"Bullet's \"no limit\"; imported as {kind} (its effort and velocity kept)",
+             limit.sourceline)
+    lim = joint.limits
+    if joint.type is JointType.REVOLUTE:
+        joint.type = JointType.CONTINUOUS
+    joint.limits = None
+    if lim.effort is not None or lim.velocity is not None:
+        joint.drive_limits = DriveLimits(lim.effort, lim.velocity)
     return joint
 
 
@@ -438,8 +477,12 @@ def _empty_range(ctx: Context, joint: Joint, owner: str, limit: etree._Element) 
     value = joint.limits.lower
     if joint.type is JointType.REVOLUTE:
         ctx.warn(owner, f"<limit> lower == upper == {value:g}: an empty range, which MuJoCo "
-                 "loads unlimited; imported as continuous", limit.sourceline)
+                 "loads unlimited; imported as continuous (its effort and velocity kept)",
+                 limit.sourceline)
+        lim = joint.limits
         joint.type, joint.limits = JointType.CONTINUOUS, None
+        if lim.effort is not None or lim.velocity is not None:
+            joint.drive_limits = DriveLimits(lim.effort, lim.velocity)
         return joint
     ctx.warn(owner, f"<limit> lower == upper == {value:g}: the slide cannot move; imported as "
              f"a fixed joint at q = {value:g}", limit.sourceline)
@@ -469,10 +512,14 @@ def _axis(ctx: Context, el: etree._Element, owner: str) -> np.ndarray:
 def _limits(ctx: Context, el: etree._Element, owner: str, name: str) -> Limits:
     lower = ctx.number(el, "lower", owner, default=0.0)
     upper = ctx.number(el, "upper", owner, default=0.0)
-    if lower > upper:
-        raise ctx.error(owner, f"<limit> lower={el.get('lower')} > upper={el.get('upper')}",
-                        el.sourceline)
-    known = {}
+    return Limits(lower=lower, upper=upper, **_effort_velocity(ctx, el, owner, name))
+
+
+def _effort_velocity(ctx: Context, el: etree._Element, owner: str,
+                     name: str) -> dict[str, float | None]:
+    """A <limit>'s effort and velocity, None where it gives none (noted) or where our writer
+    marked the value written as a default."""
+    known: dict[str, float | None] = {}
     for attr in ("effort", "velocity"):
         if el.get(ns(attr)) == UNKNOWN:  # our own marker: the value written is a default
             known[attr] = None
@@ -485,7 +532,7 @@ def _limits(ctx: Context, el: etree._Element, owner: str, name: str) -> Limits:
             if value < 0:
                 raise ctx.error(owner, f"<limit> {attr}={el.get(attr)} is negative", el.sourceline)
             known[attr] = value
-    return Limits(lower=lower, upper=upper, **known)
+    return known
 
 
 def _dynamics(ctx: Context, el: etree._Element, owner: str) -> Dynamics:

@@ -242,15 +242,21 @@ def _joint(joint: Joint) -> etree._Element:
     if abs(norm - 1.0) > 1e-12:  # our reader keeps near-unit axes as written: make it unit
         axis = axis / norm
     _sub(el, "axis", ("xyz", numbers(axis)))
-    if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC):
-        # URDF requires a prismatic <limit>: a slide without limits gets SDF's "no limit".
-        lim = joint.limits or Limits(-UNBOUNDED_LIMIT, UNBOUNDED_LIMIT)
-        limit = _sub(el, "limit", ("lower", number(lim.lower)), ("upper", number(lim.upper)),
-                     ("effort", number(DEFAULT_EFFORT if lim.effort is None else lim.effort)),
-                     ("velocity", number(DEFAULT_VELOCITY if lim.velocity is None
-                                         else lim.velocity)))
-        for attr in ("effort", "velocity"):
-            if getattr(lim, attr) is None:
+    if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC) or \
+            joint.drive_limits is not None:
+        # URDF requires a prismatic <limit>: a slide without limits gets SDF's "no limit"; a
+        # continuous joint's <limit> holds its effort and velocity (urdfdom ignores its range)
+        if joint.type is JointType.CONTINUOUS:
+            range_ = ()
+        else:
+            lim = joint.limits or Limits(-UNBOUNDED_LIMIT, UNBOUNDED_LIMIT)
+            range_ = (("lower", number(lim.lower)), ("upper", number(lim.upper)))
+        effort, velocity = joint.effort_limit, joint.velocity_limit
+        limit = _sub(el, "limit", *range_,
+                     ("effort", number(DEFAULT_EFFORT if effort is None else effort)),
+                     ("velocity", number(DEFAULT_VELOCITY if velocity is None else velocity)))
+        for attr, value in (("effort", effort), ("velocity", velocity)):
+            if value is None:
                 limit.set(ns(attr), UNKNOWN)
     _dynamics(el, joint)
     if joint.mimic is not None:

@@ -44,7 +44,7 @@ import numpy as np
 from ... import transforms as tf
 from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
-from ...model import Dynamics, Joint, JointType, Limits, Mimic
+from ...model import DriveLimits, Dynamics, Joint, JointType, Limits, Mimic
 from .conventions import NAMESPACE, as_float32, float_outward, snapped_quat
 from .layer import apply, attribute, define, relationship
 
@@ -94,7 +94,8 @@ def as_written(joint: Joint) -> Joint:
     return Joint(joint.name, joint.type, joint.parent, joint.child,
                  origin=rest_origin(f.pos0, f.rot0, f.rot1),
                  axis=axis_in_body1(f.rot1, f.token) if joint.type.movable else joint.axis,
-                 limits=joint.limits, dynamics=joint.dynamics, state=joint.state)
+                 limits=joint.limits, dynamics=joint.dynamics, state=joint.state,
+                 drive_limits=joint.drive_limits)
 
 
 # -- writing ---------------------------------------------------------------------------------
@@ -138,15 +139,14 @@ def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
     apply(prim, f"PhysicsJointStateAPI:{instance}")
     for name, value in (("position", to_file(joint.state)), ("velocity", 0.0)):
         attribute(prim, f"state:{instance}:physics:{name}", "Float", as_float32(value))
-    if joint.limits is not None and joint.limits.effort is not None:
-        custom(EFFORT, joint.limits.effort)
-    if joint.limits is not None and joint.limits.velocity is not None:
-        custom(VELOCITY, joint.limits.velocity)
+    if joint.effort_limit is not None:  # with a range or without (drive_limits)
+        custom(EFFORT, joint.effort_limit)
+    if joint.velocity_limit is not None:
+        custom(VELOCITY, joint.velocity_limit)
 
     _write_dynamics(prim, joint.dynamics, angular, ref=to_file(joint.state))
-    if joint.limits is not None and joint.limits.velocity is not None:
-        attribute(prim, "newton:velocityLimit", "Float",
-                  as_float32(to_file(joint.limits.velocity)))
+    if joint.velocity_limit is not None:
+        attribute(prim, "newton:velocityLimit", "Float", as_float32(to_file(joint.velocity_limit)))
     return prim
 
 
@@ -263,15 +263,13 @@ def read_dynamics(prim, angular: bool, mpu: float, kpu: float, where: str) -> Dy
 
 
 def read_limits(desc, kind: JointType, prim, mpu: float, kpu: float,
-                where: str) -> Limits | None:
-    """Range from the parsed joint (degrees -> rad, units -> m), effort and velocity from our
-    attributes or NewtonJointAPI's velocityLimit."""
-    if kind not in (JointType.REVOLUTE, JointType.PRISMATIC):
-        return None
-    lim = desc.limit
-    if not (lim.enabled and math.isfinite(lim.lower) and math.isfinite(lim.upper)):
-        return None  # a slide without limits (a revolute one is continuous)
-    angular = kind is JointType.REVOLUTE
+                where: str) -> tuple[Limits | None, DriveLimits | None]:
+    """(the range from the parsed joint (degrees -> rad, units -> m) with effort and velocity,
+    or None; effort and velocity of a joint without a range, or None), effort and velocity
+    from our attributes or NewtonJointAPI's velocityLimit."""
+    if kind not in (JointType.REVOLUTE, JointType.PRISMATIC, JointType.CONTINUOUS):
+        return None, None
+    angular = kind.angular
     to_model = math.radians if angular else (lambda v: v * mpu)
     effort = authored_value(prim, EFFORT)
     newton_velocity = authored_value(prim, "newton:velocityLimit")
@@ -279,8 +277,14 @@ def read_limits(desc, kind: JointType, prim, mpu: float, kpu: float,
                      None if newton_velocity is None else to_model(newton_velocity))
     if effort is not None:
         effort *= kpu * (mpu * mpu if angular else mpu)
+    lim = desc.limit
+    if kind is JointType.CONTINUOUS or not (lim.enabled and math.isfinite(lim.lower)
+                                            and math.isfinite(lim.upper)):
+        # a continuous joint, a slide without limits
+        drive = None if effort is None and velocity is None else DriveLimits(effort, velocity)
+        return None, drive
     return Limits(to_model(float(desc.limit.lower)), to_model(float(desc.limit.upper)),
-                  effort=effort, velocity=velocity)
+                  effort=effort, velocity=velocity), None
 
 
 def state_from_motion(motion: np.ndarray, kind: JointType, token: str,

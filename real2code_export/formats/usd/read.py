@@ -256,11 +256,12 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     motion = tf.inverse(world[e.body0] @ t0) @ (world[e.body1] @ t1)
     state = _choose_state(state_from_motion(motion, kind, token, where),
                           authored_value(prim, STATE), kind, where)
-    limits = read_limits(e.desc, kind, prim, mpu, kpu, where)
+    limits, drive_limits = read_limits(e.desc, kind, prim, mpu, kpu, where)
     if limits is not None:
         state = _into_limits(state, limits, kind, where)
     return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent], names[e.child],
                  origin=origin, axis=axis, limits=limits, state=state,
+                 drive_limits=drive_limits,
                  dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where),
                  mimic=read_mimic(prim, kind.angular, mpu))
 
