@@ -25,6 +25,7 @@ import numpy as np
 
 from .dynamics.overlap import TOLERANCE, FileOverlaps, file_overlaps
 from .errors import CheckError
+from .formats import format_for_path
 from .jsonsafe import finite_or_null
 from .model import UNBOUNDED_LIMIT, UNBOUNDED_SLIDE_SPAN
 from .probes import JointInfo, Probe, open_probes
@@ -299,7 +300,7 @@ def _compiled_mjcf(probes: list[Probe], paths) -> dict[Path, object]:
     file again."""
     files = {Path(p) for p in paths}
     return {Path(p.path): p.model for p in probes
-            if Path(p.path) in files and Path(p.path).suffix.lower() == ".xml"
+            if Path(p.path) in files and format_for_path(p.path).name == "mjcf"
             and getattr(p, "model", None) is not None}
 
 

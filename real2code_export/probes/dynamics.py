@@ -276,20 +276,21 @@ def against_source(source: str | Path, exports: list[str | Path],
     (:func:`urdf_mujoco_differences`). Other exports (an MJCF source's URDF; USD, glTF) are
     not compared here: their dynamics are the model's, as the round trips hold them."""
     from ..errors import CheckError
+    from ..formats import format_for_path
 
     source = Path(source)
-    is_urdf = source.suffix.lower() == ".urdf"
+    is_urdf = format_for_path(source).name == "urdf"
     out = []
     for export in map(Path, exports):
-        suffix = export.suffix.lower()
-        if suffix == ".xml":
+        kind = format_for_path(export).name
+        if kind == "mjcf":
             if is_urdf:
                 found = urdf_mujoco_differences(source, export, tol)
                 note = "" if found is not None else "MuJoCo refuses the source as it is"
             else:
                 found, note = mjcf_differences(source, export, tol), ""
             out.append(Comparison(export, "MuJoCo", found, note))
-        elif suffix == ".urdf" and is_urdf:
+        elif kind == "urdf" and is_urdf:
             try:
                 out.append(Comparison(export, "Pinocchio", urdf_differences(source, export, tol)))
             except CheckError as e:  # Pinocchio refuses the source (or the export: the

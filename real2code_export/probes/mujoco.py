@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CheckError, NameNotFoundError
+from ..formats import format_for_path
 from . import JointInfo
 from ._stdio import captured_c_output
 
@@ -161,7 +162,7 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
     import mujoco
 
     path = Path(path)
-    is_urdf = path.suffix.lower() == ".urdf"
+    is_urdf = format_for_path(path).name == "urdf"
     label = "MuJoCo (URDF)" if is_urdf else "MuJoCo (MJCF)"
     try:
         # qhull prints pages on a degenerate mesh; MuJoCo's own error says it in a line.
