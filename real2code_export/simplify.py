@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from .errors import warn
-from .model import ArticulatedObject, Inertial, Joint, JointType, Mesh, Part
+from .model import ArticulatedObject, Inertial, JointType, Mesh, Part
 
 
 def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
@@ -56,10 +56,13 @@ def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
     for j in obj.joints:
         if j.type is JointType.FIXED:
             continue
-        joints.append(Joint(j.name, j.type, keep_of[j.parent], j.child,
-                            offset[j.parent] @ j.origin, j.axis.copy(),
-                            None if j.limits is None else dataclasses.replace(j.limits),
-                            dataclasses.replace(j.dynamics), j.state,
-                            drive_limits=None if j.drive_limits is None
-                            else dataclasses.replace(j.drive_limits)))
+        # replace, not a new Joint: every field the model grows (mimic, drive limits) is kept
+        joints.append(dataclasses.replace(
+            j, parent=keep_of[j.parent], origin=offset[j.parent] @ j.origin,
+            axis=j.axis.copy(), limits=_copy(j.limits), dynamics=_copy(j.dynamics),
+            mimic=_copy(j.mimic), drive_limits=_copy(j.drive_limits)))
     return ArticulatedObject(obj.name, parts, joints, dict(obj.metadata))
+
+
+def _copy(value):
+    return None if value is None else dataclasses.replace(value)

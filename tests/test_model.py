@@ -256,3 +256,20 @@ def test_mimics_are_validated_and_unusable_ones_dropped_with_a_reason():
                  Joint("follow", "revolute", "a", "b", limits=Limits(-1, 1), mimic=Mimic("x")))
     (name, message), = unusable_mimics(other)
     assert name == "follow" and "'x' dropped (it does not exist)" in message
+
+
+def test_merging_fixed_joints_keeps_every_field_of_the_joints_below():
+    from real2code_export.model import DriveLimits, Limits, Mimic
+    from real2code_export.simplify import merge_fixed_joints
+
+    weld = Joint("weld", "fixed", "base", "bracket", origin=tf.make(translation=[0, 0, 0.5]))
+    lead = Joint("lead", "revolute", "bracket", "a", limits=Limits(-1, 1), state=0.2)
+    follow = Joint("follow", "revolute", "a", "b", limits=Limits(-1, 1),
+                   mimic=Mimic("lead", -2.0, 0.1))
+    spin = Joint("spin", "continuous", "b", "c", drive_limits=DriveLimits(3.0, 7.0))
+    merged = validate(merge_fixed_joints(validate(_arm(weld, lead, follow, spin))))
+    assert [p.name for p in merged.parts] == ["base", "a", "b", "c"]
+    assert merged.joint("lead").parent == "base" and merged.joint("lead").state == 0.2
+    np.testing.assert_allclose(merged.joint("lead").origin[:3, 3], [0, 0, 0.5])
+    assert merged.joint("follow").mimic == Mimic("lead", -2.0, 0.1)
+    assert merged.joint("spin").drive_limits == DriveLimits(3.0, 7.0)
