@@ -113,9 +113,10 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
                 jtype, frame_point = JointType.REVOLUTE, point
             else:
                 axis, point = joint_axis_and_position(child_box, cj.idx, cj.edge, cj.sign)
-                samples = surface(child_name)[0]
+                samples, normals = surface(child_name)
                 parent_mesh = world[parent_name]
-                clearance = slide_clearance(parent_mesh.vertices, parent_mesh.faces, samples, axis)
+                clearance = slide_clearance(parent_mesh.vertices, parent_mesh.faces, samples,
+                                            normals, axis)
                 state = slide_opening_from_mesh(parent_box, samples, axis, clearance,
                                                 surface(parent_name))
                 closed = OBB(child_box.center - axis * state, child_box.R, child_box.extent)
