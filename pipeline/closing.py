@@ -233,15 +233,18 @@ def frame_plane(points: np.ndarray, normals: np.ndarray, child_samples: np.ndarr
 
 def slide_clearance(parent_vertices: np.ndarray, parent_faces: np.ndarray,
                     child_samples: np.ndarray, child_normals: np.ndarray,
-                    axis: np.ndarray) -> float:
+                    axis: np.ndarray, share: float = 0.0) -> float:
     """How far the child can slide back along -axis before its surface meets its parent's
     (rays from its surface samples; inf when nothing is behind it): where an overlay
     drawer's front meets the frame, or a drawer's back meets the carcass. A stop is faces
     meeting across an area: only the child's surface facing back (``child_normals``)
     against the parent's faces across the motion counts (contacts the motion slides along
-    do not), and the slide stops where a share of that surface has met the parent (on a
-    scan, specks of the frame left on a drawer's sides, or a side bulging past the opening
-    by the depth noise, would otherwise stop it where it stands). Parent surface inside
+    do not), and the slide stops where ``share`` of that surface has met the parent: on
+    exact meshes (0) the first contact, since a real stop can be small (an overlay
+    front's rim on its frame: ~1 % of that surface on PartNet-Mobility); on scanned parts
+    (:data:`SCAN_STOP_SHARE`) a share, since specks of the frame left on a drawer's sides
+    and a carcass's hidden surfaces guessed by the completion would otherwise stop it
+    where it stands (~1-3 % of that surface on a phone-LiDAR capture). Parent surface inside
     the cross-section of the child's own body behind it is no stop: the child already
     passes through there (a scan's completion closes a carcass's opening behind the
     drawer's front with a membrane the drawer's box pierces)."""
@@ -260,7 +263,7 @@ def slide_clearance(parent_vertices: np.ndarray, parent_faces: np.ndarray,
     met = np.isfinite(hit) & (hit > CONTACT) & (across > STOP_FACING)
     met[met] = ~_within_child(child_samples, axis, starts[met], hit[met])
     hit = np.sort(hit[met])
-    needed = int(np.ceil(STOP_SHARE * len(starts)))
+    needed = max(1, int(np.ceil(share * len(starts))))
     return float(hit[needed - 1]) if len(hit) >= needed else float("inf")
 
 
@@ -283,7 +286,7 @@ def _within_child(child_samples: np.ndarray, axis: np.ndarray, starts: np.ndarra
 
 
 STOP_FACING = 0.7  # |cos| to the axis of faces that meet head-on (within ~45 degrees)
-STOP_SHARE = 0.05  # of the child's back-facing surface: a real stop is faces meeting, not specks
+SCAN_STOP_SHARE = 0.05  # of a scanned child's back-facing surface: faces meeting, not specks
 CONTACT = 1e-4  # m: surfaces this close already touch
 
 
