@@ -138,6 +138,21 @@ def test_demo_reconstructs_the_shipped_capture(tmp_path, capsys):
     assert all(j.type_ok and j.axis_deg < 2.0 for j in scores.joints), scores.joints
 
 
+def test_the_room_demo_capture_is_taken_as_people_take_them():
+    """``real2code demo --room``'s capture: the object in a room, a hand-held path, the phone
+    preset's faults, no masks needed (its true masks ship for scoring only)."""
+    from pipeline.capture import ROOM_SAMPLE_CAPTURE
+
+    capture = read_capture(ROOM_SAMPLE_CAPTURE)
+    extra = capture.extra
+    assert extra["camera_path"] == "handheld" and extra["sensor"]["name"] == "phone-lidar"
+    assert {"floor", "wall"} <= set(extra["room"]) and len(capture.frames) == 12
+    depth = np.stack([f.depth for f in capture.frames])
+    assert (depth == 0).mean() > 0.005  # the sensor's missing pixels are there
+    truth = load(capture.ground_truth_path())
+    assert len(truth.parts) == 6 and len(truth.movable_joints) == 5
+
+
 def test_evaluation_scores_a_reconstruction():
     from pipeline.evaluate_articulation import procedural_cases
     from pipeline.evaluate_reconstruction import evaluate, markdown
