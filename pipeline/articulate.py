@@ -27,6 +27,7 @@ from real2code_export.model import (
 )
 
 from .closing import (
+    SCAN_STOP_SHARE,
     front_plane,
     hinge_opening_from_mesh,
     hinge_upper,
@@ -68,7 +69,8 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     to 62 degrees). ``observed``: what each part was measured at (by the keys of
     ``meshes``: its points, or its points and their measured normals), from which the
     aligned boxes read their frames (completed meshes follow their completion grid's
-    axes)."""
+    axes); given, the parts are a scan's, and a slide's stop must be a share of its
+    surface meeting the parent (:func:`pipeline.closing.slide_clearance`)."""
     from real2code_export.inertia import DEFAULT_DENSITY, inertial_from_mesh
 
     if len(meshes) < 2:
@@ -83,6 +85,9 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
     else:
         boxes = [part_obb(c) for c in clouds]
     program = predictor.predict(boxes)
+    # a scan's hidden surfaces are guessed and its visible ones noisy: a slide's stop must
+    # be a share of its surface meeting the parent, where exact meshes stop at first contact
+    stop_share = 0.0 if observed is None else SCAN_STOP_SHARE
     sampled: dict[str, tuple[np.ndarray, np.ndarray]] = {}
 
     def surface(part: str) -> tuple[np.ndarray, np.ndarray]:
@@ -113,9 +118,10 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
                 jtype, frame_point = JointType.REVOLUTE, point
             else:
                 axis, point = joint_axis_and_position(child_box, cj.idx, cj.edge, cj.sign)
-                samples = surface(child_name)[0]
+                samples, normals = surface(child_name)
                 parent_mesh = world[parent_name]
-                clearance = slide_clearance(parent_mesh.vertices, parent_mesh.faces, samples, axis)
+                clearance = slide_clearance(parent_mesh.vertices, parent_mesh.faces, samples,
+                                            normals, axis, stop_share)
                 state = slide_opening_from_mesh(parent_box, samples, axis, clearance,
                                                 surface(parent_name))
                 closed = OBB(child_box.center - axis * state, child_box.R, child_box.extent)

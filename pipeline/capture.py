@@ -28,8 +28,13 @@ import numpy as np
 from real2code_export import atomic
 from real2code_export.errors import FormatError
 
-# The capture ``real2code demo`` reconstructs: package data, so it ships in the wheel.
+# The captures ``real2code demo`` reconstructs: package data, so they ship in the wheel. The
+# room one is the same cabinet as people capture it: standing on a floor before a wall with
+# clutter around it, a hand-held camera path, the phone-LiDAR preset's faults
+# (`real2code render samples/cabinet/object.json --cameras handheld --capture phone-lidar
+# --room --state random --seed 0`, run in pipeline/).
 SAMPLE_CAPTURE = Path(__file__).resolve().parent / "samples" / "cabinet_capture"
+ROOM_SAMPLE_CAPTURE = Path(__file__).resolve().parent / "samples" / "cabinet_room_capture"
 
 TRANSFORMS = "transforms.json"
 GROUND_TRUTH_DIR = "ground_truth"

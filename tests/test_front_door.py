@@ -240,14 +240,15 @@ def test_the_demo_capture_ships_as_package_data():
     import tomllib
 
     import pipeline
-    from pipeline.capture import SAMPLE_CAPTURE
+    from pipeline.capture import ROOM_SAMPLE_CAPTURE, SAMPLE_CAPTURE
 
     root = Path(pipeline.__file__).resolve().parent
     config = tomllib.loads((REPO / "pyproject.toml").read_text())
     patterns = config["tool"]["setuptools"]["package-data"]["pipeline"]
     shipped = {p for pattern in patterns for p in root.glob(pattern) if p.is_file()}
-    needed = {p for p in SAMPLE_CAPTURE.rglob("*") if p.is_file()}
-    assert (SAMPLE_CAPTURE / "transforms.json") in needed and needed <= shipped
+    for capture in (SAMPLE_CAPTURE, ROOM_SAMPLE_CAPTURE):
+        needed = {p for p in capture.rglob("*") if p.is_file()}
+        assert (capture / "transforms.json") in needed and needed <= shipped
 
 
 def test_building_the_parser_imports_no_stage():
