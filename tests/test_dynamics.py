@@ -90,6 +90,22 @@ def test_genesis_agrees_with_mujoco(laptop, engine, experiment, within):
     assert run.max_angle < within
 
 
+@pytest.mark.parametrize("end", ["lower", "upper"])
+def test_a_joint_at_its_limit_pushed_into_it_stays(tmp_path, end):
+    """A joint observed at its limit (a reconstruction's range often ends at the observed
+    state), pushed into it: the hard stops (Pinocchio here) do not let it move; MuJoCo's
+    limit acted only once past it and let it one step (v0 * dt = 1 mrad) in, until our
+    files authored its margin (engine_settings.LIMIT_MARGIN)."""
+    obj = generate("refrigerator", seed=3)  # a door: gravity along its hinge, no pull
+    for j in obj.movable_joints:
+        j.state = getattr(j.limits, end)
+    report = simulate_file(object_json.save(obj, tmp_path), ["pinocchio", "mujoco-urdf"],
+                           ["limit"])
+    by = {r.engine: r for r in report.runs}
+    assert by["Pinocchio (URDF)"].max_angle < 1e-4, by["Pinocchio (URDF)"].per_joint
+    assert by["MuJoCo (URDF)"].max_angle < 1e-9  # the URDF's run told the same margin
+
+
 def test_springs_and_armature_from_the_urdf(tmp_path):
     """URDF has no place for springs or armature: engines that run it read ours from the
     real2code: attributes (urdf_laws), and agree with MuJoCo's MJCF, which holds them."""

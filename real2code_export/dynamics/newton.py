@@ -114,12 +114,12 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
 
 
 def _mujoco_softness(builder) -> None:
-    """A URDF has no place for MuJoCo's limit and friction softness: the values our MJCF and
-    USD author, set on every DOF as MuJoCo (URDF) is told (docs/engines.md). Without them
+    """A URDF has no place for MuJoCo's limit and friction softness and limit margin: the
+    values our MJCF and USD author, set on every DOF as MuJoCo (URDF) is told (docs/engines.md). Without them
     Newton makes a limit its spring (ke 1e4, kd 10) and lets dry friction creep."""
     from newton._src.solvers.mujoco.solver_mujoco import SOLREF_MODE_RAW
 
-    from ..engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+    from ..engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
 
     attrs = builder.custom_attributes
     dtype = attrs["mujoco:solimplimit"].dtype
@@ -130,6 +130,7 @@ def _mujoco_softness(builder) -> None:
         attrs["mujoco:solimplimit"].values[dof] = dtype(*LIMIT_SOLIMP)
         attrs["mujoco:solreffriction"].values[dof] = attrs["mujoco:solreffriction"].dtype(
             *FRICTION_SOLREF)
+        attrs["mujoco:limit_margin"].values[dof] = LIMIT_MARGIN
 
 
 def _mjcf_refs(builder, dofs) -> np.ndarray:
