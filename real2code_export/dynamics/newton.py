@@ -101,6 +101,8 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
     state_0.joint_q.assign(q)
     state_0.joint_qd.assign(qd)
     newton.eval_fk(model, state_0.joint_q, state_0.joint_qd, state_0)
+    if featherstone:
+        _featherstone_limits(newton, model, solver, q, experiment.dt)
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
@@ -111,6 +113,33 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
             solver.step(state_0, state_1, control, None, experiment.dt)
             state_0, state_1 = state_1, state_0
     return recorder.trajectory()
+
+
+def _featherstone_limits(newton, model, solver, q: np.ndarray, dt: float) -> None:
+    """Featherstone's limit is a spring and damper acting while a joint is past it (its
+    default ke 1e4, kd 10 whatever the joint: a door rebounds 1.6 to 4 rad off). Told here,
+    per joint, the stiffest its explicit step takes without overshoot: MuJoCo's shortest
+    limit (solref: time constant 2 dt), critically damped, scaled by the joint's effective
+    inertia at the start, 1 / (H^-1)_ii from the solver's own joint-space inertia H (armature
+    added), as MuJoCo scales its constraint. They depend on the step, so no file authors them
+    (docs/engines.md)."""
+    scratch_in, scratch_out = model.state(), model.state()
+    scratch_in.joint_q.assign(q)
+    newton.eval_fk(model, scratch_in.joint_q, scratch_in.joint_qd, scratch_in)
+    solver.step(scratch_in, scratch_out, model.control(), None, dt)  # evaluates H at q
+    h = solver.H.numpy()
+    armature = model.joint_armature.numpy()
+    inertia = np.zeros(model.joint_dof_count)
+    for start, n, first in zip(solver.articulation_H_start.numpy(),
+                               solver.articulation_H_rows.numpy(),
+                               solver.articulation_dof_start.numpy(), strict=True):
+        if n:
+            block = h[start:start + n * n].reshape(n, n).astype(float)
+            block = np.triu(block) + np.triu(block, 1).T + np.diag(armature[first:first + n])
+            inertia[first:first + n] = 1.0 / np.diag(np.linalg.inv(block))
+    timeconst = 2.0 * dt
+    model.joint_limit_kd.assign((inertia * 2.0 / timeconst).astype(np.float32))
+    model.joint_limit_ke.assign((inertia / timeconst ** 2).astype(np.float32))
 
 
 def _mujoco_softness(builder) -> None:
