@@ -1,9 +1,9 @@
 """MuJoCo: the MJCF (the reference) and the URDF, each compiled by MjSpec and stepped with
 the file's own integrator and joint laws; the experiment sets time step, gravity, contacts
-and the initial state by joint name. For a URDF, MuJoCo's limit and friction softness are
-set as our MJCF authors them (URDF has no place for them), its limit margin too. An experiment's boxes are added
-as free bodies; with ``self_contacts`` the file's ``<exclude>`` pairs are removed and
-parent/child filtering is off."""
+and the initial state by joint name. For a URDF, MuJoCo's limit and friction softness and
+its limit margin are set as our MJCF authors them (URDF has no place for them). An
+experiment's boxes are added as free bodies; with ``self_contacts`` the file's
+``<exclude>`` pairs are removed and parent/child filtering is off."""
 
 from __future__ import annotations
 

@@ -144,8 +144,9 @@ def _featherstone_limits(newton, model, solver, q: np.ndarray, dt: float) -> Non
 
 def _mujoco_softness(builder) -> None:
     """A URDF has no place for MuJoCo's limit and friction softness and limit margin: the
-    values our MJCF and USD author, set on every DOF as MuJoCo (URDF) is told (docs/engines.md). Without them
-    Newton makes a limit its spring (ke 1e4, kd 10) and lets dry friction creep."""
+    values our MJCF and USD author, set on every DOF as MuJoCo (URDF) is told
+    (docs/engines.md). Without them Newton makes a limit its spring (ke 1e4, kd 10) and lets
+    dry friction creep."""
     from newton._src.solvers.mujoco.solver_mujoco import SOLREF_MODE_RAW
 
     from ..engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
