@@ -16,6 +16,15 @@ LIMIT_SOLREF = (0.002, 20.0)
 LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 FRICTION_SOLREF = (0.002, 1.0)
 
+# MuJoCo's limit acts only once a joint is past it (distance < margin, margin 0 by default),
+# the hard stops of PhysX, Pinocchio, SAPIEN and Bullet as soon as it is at it. A joint
+# observed at its limit (a reconstruction's range often ends at the observed state) and
+# pushed into it would move one step (v * dt) into MuJoCo's and not into theirs: a heavy
+# flap then falls from a few mrad further and ~1 ms later, 1.7e-2 rad apart after its fall
+# (`real2code simulate`, docs/engines.md). A margin far below anything measured makes the
+# limit act at contact; MuJoCo's margin amounts to the range narrowed by it (rad or m).
+LIMIT_MARGIN = 1e-6
+
 # PhysX damps every rigid body it is not told otherwise about (linear and angular 0.05).
 LINK_DAMPING = 0.0
 

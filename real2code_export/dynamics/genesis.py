@@ -8,7 +8,8 @@ defaults to its own approximation of implicitfast); the joint values from ``get_
 ``get_dofs_position`` holds the values before the last step's position update (the
 trajectory would lag one step). From a URDF, which has no place for them, the laws Genesis
 does not read are set from our ``real2code:`` attributes: armature, springs; and MuJoCo's
-limit softness as our MJCF authors it (Genesis keeps one set of constraint parameters per
+limit softness and margin as our MJCF authors them (a margin, which Genesis reads from no
+file, as the range narrowed by it) (Genesis keeps one set of constraint parameters per
 joint, for its limit and its dry friction alike). Genesis's spring pulls toward the joint's
 reference pose (``qpos0``), not MuJoCo's ``springref``: the difference is a constant joint
 force. In the contact experiments every pair of parts collides (Genesis filters a joint's
@@ -31,8 +32,9 @@ def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "genesis", path, experiment, GENESIS_VENV)
 
 
-def _mjcf_spring_refs(path: Path) -> dict[str, tuple[float, float, float]]:
-    """Each MJCF joint's (stiffness, springref, qpos0) as MuJoCo compiles them."""
+def _mjcf_joints(path: Path) -> dict[str, tuple[float, float, float, float]]:
+    """Each MJCF joint's (stiffness, springref, qpos0, limit margin) as MuJoCo compiles
+    them."""
     import mujoco
 
     m = mujoco.MjModel.from_xml_path(str(path))
@@ -40,14 +42,14 @@ def _mjcf_spring_refs(path: Path) -> dict[str, tuple[float, float, float]]:
     for j in range(m.njnt):
         adr = int(m.jnt_qposadr[j])
         out[m.joint(j).name] = (float(m.jnt_stiffness[j]), float(m.qpos_spring[adr]),
-                                float(m.qpos0[adr]))
+                                float(m.qpos0[adr]), float(m.jnt_margin[j]))
     return out
 
 
 def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
     import genesis as gs
 
-    from ..engine_settings import LIMIT_SOLIMP, LIMIT_SOLREF
+    from ..engine_settings import LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
 
     if not gs._initialized:
         gs.init(backend=gs.cpu, precision="64", logging_level="warning")
@@ -83,10 +85,12 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
         spring_ref = np.array([x.get("springref", 0.0) for x in law])
         qpos0 = np.zeros(len(movable))  # Genesis's reference pose of a URDF joint
         entity.set_dofs_stiffness(stiffness, dofs)
+        margin = np.full(len(movable), LIMIT_MARGIN)
     else:
-        springs = _mjcf_spring_refs(path)
-        stiffness, spring_ref, qpos0 = (np.array([springs[j.name][i] for j in movable])
-                                        for i in range(3))
+        springs = _mjcf_joints(path)
+        stiffness, spring_ref, qpos0, margin = (np.array([springs[j.name][i] for j in movable])
+                                                for i in range(4))
+    _narrow_limits(entity, dofs, margin)
     # the spring toward springref, not qpos0: a constant force makes up the difference
     offset = stiffness * (spring_ref - qpos0)
     if np.any(offset):
@@ -107,6 +111,18 @@ def simulate_here(path: Path, experiment: Experiment) -> Trajectory:
         if step < experiment.steps:
             scene.step()
     return recorder.trajectory()
+
+
+def _narrow_limits(entity, dofs: list[int], margin: np.ndarray) -> None:
+    """Genesis's limit acts once a joint is past it and reads no MuJoCo joint margin; the
+    margin (a limit that acts at contact) amounts in MuJoCo to the range narrowed by it:
+    so narrowed here (engine_settings.LIMIT_MARGIN)."""
+    if not dofs or not np.any(margin):
+        return
+    lower, upper = (np.asarray(v.cpu(), dtype=float) for v in entity.get_dofs_limit(dofs))
+    limited = np.isfinite(lower) & np.isfinite(upper) & (upper - lower > 2 * margin)
+    entity.set_dofs_limit(np.where(limited, lower + margin, lower),
+                          np.where(limited, upper - margin, upper), dofs)
 
 
 def _add_boxes(gs, scene, experiment: Experiment) -> list:

@@ -1,9 +1,9 @@
 """MuJoCo: the MJCF (the reference) and the URDF, each compiled by MjSpec and stepped with
 the file's own integrator and joint laws; the experiment sets time step, gravity, contacts
-and the initial state by joint name. For a URDF, MuJoCo's limit and friction softness are
-set as our MJCF authors them (URDF has no place for them). An experiment's boxes are added
-as free bodies; with ``self_contacts`` the file's ``<exclude>`` pairs are removed and
-parent/child filtering is off."""
+and the initial state by joint name. For a URDF, MuJoCo's limit and friction softness and
+its limit margin are set as our MJCF authors them (URDF has no place for them). An
+experiment's boxes are added as free bodies; with ``self_contacts`` the file's
+``<exclude>`` pairs are removed and parent/child filtering is off."""
 
 from __future__ import annotations
 
@@ -28,12 +28,13 @@ def load_spec(path: Path):
     if path.suffix.lower() == ".urdf":
         # URDF has no place for MuJoCo's constraint softness: the settings our MJCF authors
         # are what a user must set (docs/engines.md).
-        from ..engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+        from ..engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
 
         for joint in spec.joints:
             joint.solref_limit = list(LIMIT_SOLREF)
             joint.solimp_limit = list(LIMIT_SOLIMP)
             joint.solref_friction = list(FRICTION_SOLREF)
+            joint.margin = LIMIT_MARGIN
     return mujoco, spec
 
 

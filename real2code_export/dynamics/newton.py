@@ -101,6 +101,8 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
     state_0.joint_q.assign(q)
     state_0.joint_qd.assign(qd)
     newton.eval_fk(model, state_0.joint_q, state_0.joint_qd, state_0)
+    if featherstone:
+        _featherstone_limits(newton, model, solver, q, experiment.dt)
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
@@ -113,13 +115,41 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
     return recorder.trajectory()
 
 
+def _featherstone_limits(newton, model, solver, q: np.ndarray, dt: float) -> None:
+    """Featherstone's limit is a spring and damper acting while a joint is past it (its
+    default ke 1e4, kd 10 whatever the joint: a door rebounds 1.6 to 4 rad off). Told here,
+    per joint, the stiffest its explicit step takes without overshoot: MuJoCo's shortest
+    limit (solref: time constant 2 dt), critically damped, scaled by the joint's effective
+    inertia at the start, 1 / (H^-1)_ii from the solver's own joint-space inertia H (armature
+    added), as MuJoCo scales its constraint. They depend on the step, so no file authors them
+    (docs/engines.md)."""
+    scratch_in, scratch_out = model.state(), model.state()
+    scratch_in.joint_q.assign(q)
+    newton.eval_fk(model, scratch_in.joint_q, scratch_in.joint_qd, scratch_in)
+    solver.step(scratch_in, scratch_out, model.control(), None, dt)  # evaluates H at q
+    h = solver.H.numpy()
+    armature = model.joint_armature.numpy()
+    inertia = np.zeros(model.joint_dof_count)
+    for start, n, first in zip(solver.articulation_H_start.numpy(),
+                               solver.articulation_H_rows.numpy(),
+                               solver.articulation_dof_start.numpy(), strict=True):
+        if n:
+            block = h[start:start + n * n].reshape(n, n).astype(float)
+            block = np.triu(block) + np.triu(block, 1).T + np.diag(armature[first:first + n])
+            inertia[first:first + n] = 1.0 / np.diag(np.linalg.inv(block))
+    timeconst = 2.0 * dt
+    model.joint_limit_kd.assign((inertia * 2.0 / timeconst).astype(np.float32))
+    model.joint_limit_ke.assign((inertia / timeconst ** 2).astype(np.float32))
+
+
 def _mujoco_softness(builder) -> None:
-    """A URDF has no place for MuJoCo's limit and friction softness: the values our MJCF and
-    USD author, set on every DOF as MuJoCo (URDF) is told (docs/engines.md). Without them
-    Newton makes a limit its spring (ke 1e4, kd 10) and lets dry friction creep."""
+    """A URDF has no place for MuJoCo's limit and friction softness and limit margin: the
+    values our MJCF and USD author, set on every DOF as MuJoCo (URDF) is told
+    (docs/engines.md). Without them Newton makes a limit its spring (ke 1e4, kd 10) and lets
+    dry friction creep."""
     from newton._src.solvers.mujoco.solver_mujoco import SOLREF_MODE_RAW
 
-    from ..engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+    from ..engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
 
     attrs = builder.custom_attributes
     dtype = attrs["mujoco:solimplimit"].dtype
@@ -130,6 +160,7 @@ def _mujoco_softness(builder) -> None:
         attrs["mujoco:solimplimit"].values[dof] = dtype(*LIMIT_SOLIMP)
         attrs["mujoco:solreffriction"].values[dof] = attrs["mujoco:solreffriction"].dtype(
             *FRICTION_SOLREF)
+        attrs["mujoco:limit_margin"].values[dof] = LIMIT_MARGIN
 
 
 def _mjcf_refs(builder, dofs) -> np.ndarray:

@@ -3,10 +3,11 @@ symplectic Euler) on our USD, loaded as for its MuJoCo solver (newton.py). Runs 
 engines venv (venv.py).
 
 What it leaves out, by its own documentation: joint dry friction (``joint_friction`` is not
-applied); a limit is a spring (``joint_limit_ke``, ``joint_limit_kd``: 1e4 and 10 unless the
-file says otherwise), not a constraint; damping is applied explicitly (MuJoCo's implicitly).
-Its angular body damping (0.05 by default) is set to 0, as PhysX's is in our USD. No
-contacts are simulated here.
+applied); a limit is a spring and damper (``joint_limit_ke``, ``joint_limit_kd``: 1e4 and 10
+unless the file says otherwise), not a constraint: the check sets them per joint from its
+effective inertia and the step (newton.py, ``_featherstone_limits``); damping is applied
+explicitly (MuJoCo's implicitly). Its angular body damping (0.05 by default) is set to 0, as
+PhysX's is in our USD. No contacts are simulated here.
 """
 
 from __future__ import annotations

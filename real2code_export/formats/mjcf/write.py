@@ -26,7 +26,13 @@ import numpy as np
 
 from ... import atomic
 from ... import transforms as tf
-from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF, MULTICCD
+from ...engine_settings import (
+    FRICTION_SOLREF,
+    LIMIT_MARGIN,
+    LIMIT_SOLIMP,
+    LIMIT_SOLREF,
+    MULTICCD,
+)
 from ...errors import ExportError, warn
 from ...meshfiles import (
     MESH_DIR,
@@ -228,6 +234,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     spec.default.joint.solref_limit = list(LIMIT_SOLREF)
     spec.default.joint.solimp_limit = list(LIMIT_SOLIMP)
     spec.default.joint.solref_friction = list(FRICTION_SOLREF)
+    spec.default.joint.margin = LIMIT_MARGIN
     if model_dir is not None:
         spec.modelfiledir = str(model_dir) + "/"
 

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import transforms as tf
-from ...engine_settings import FRICTION_SOLREF, LIMIT_SOLIMP, LIMIT_SOLREF
+from ...engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
 from ...errors import warn
 from ...model import DriveLimits, Dynamics, Joint, JointType, Limits, Mimic
 from .conventions import NAMESPACE, as_float32, float_outward, snapped_quat
@@ -189,6 +189,9 @@ def _write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) 
     for name, value in (("mjc:solreflimit", LIMIT_SOLREF), ("mjc:solimplimit", LIMIT_SOLIMP),
                         ("mjc:solreffriction", FRICTION_SOLREF)):
         attribute(prim, name, "DoubleArray", [float(v) for v in value], uniform=True)
+    # the limit acting at contact, as the MJCF's margin (Newton reads it as is: not converted
+    # from degrees as mjc:ref is; a millionth either way)
+    attribute(prim, "mjc:margin", "Double", LIMIT_MARGIN, uniform=True)
 
 
 def write_mimic(prim, mimic: Mimic, leader_path: str, angular: bool) -> None:
