@@ -288,7 +288,8 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
         staged = write_stages(result, staging, formats)
         say(f"checking {len(staged)} files in their own tools ...")
         report = check_files(list(staged.values()), n_configurations=check_configurations)
-        (staging / "check.json").write_text(json.dumps(report.to_json(), indent=1) + "\n")
+        checked = atomic.as_moved(report.to_json(), staging, out)
+        (staging / "check.json").write_text(json.dumps(checked, indent=1) + "\n")
         result.timings["export_and_check"] = time.perf_counter() - t
         (staging / "report.json").write_text(json.dumps({
             "capture": str(capture.path), "segmentation": segmentation,

@@ -78,3 +78,20 @@ def staged_output(out_dir: str | Path) -> Iterator[Path]:
             shutil.rmtree(out_dir, ignore_errors=True)
         raise
     shutil.rmtree(staging, ignore_errors=True)
+
+
+def as_moved(value, staging: Path, out_dir: Path):
+    """``value`` (JSON data: dicts, lists, strings) with every path inside ``staging`` named
+    where :func:`staged_output` moves it, for a report written among the files it describes
+    (a check of the staged exports must not name the staging folder, which is gone)."""
+    if isinstance(value, dict):
+        return {k: as_moved(v, staging, out_dir) for k, v in value.items()}
+    if isinstance(value, list):
+        return [as_moved(v, staging, out_dir) for v in value]
+    if isinstance(value, str) and value:
+        path = Path(value)
+        for base, to in ((Path(staging), Path(out_dir)),
+                         (Path(staging).resolve(), Path(out_dir).resolve())):
+            if path.is_relative_to(base):
+                return str(to / path.relative_to(base))
+    return value

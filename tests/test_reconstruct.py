@@ -62,6 +62,9 @@ def test_ground_truth_masks_segment_only(capture_dir, tmp_path):
     assert types == sorted(j.type for j in truth.movable_joints)
     for fmt in ("mjcf", "urdf", "usd", "gltf"):
         assert result.written[fmt].is_file()
+    checked = json.loads((out / "check.json").read_text())  # names the files where they are
+    assert sorted(checked["files"]) == sorted(str(p) for p in result.written.values())
+    assert ".real2code-staging" not in json.dumps(checked)
 
 
 def test_one_part_is_refused_and_nothing_is_written(tmp_path):
