@@ -22,7 +22,6 @@ pose (q = 0), where the parts were modelled shut.
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -30,6 +29,7 @@ import numpy as np
 
 from ..model import ArticulatedObject, Dynamics, Joint, JointType, forward_kinematics
 from . import Experiment, Trajectory
+from .experiments import without_velocity_limits
 
 BOX_SIZE = 0.05  # m, the dropped cube's edge
 BOX_MASS = 0.1  # kg
@@ -74,15 +74,6 @@ def _opened(joint: Joint) -> float:
             min(max(joint.state, joint.limits.lower), joint.limits.upper)
     far = joint.limits.upper if closed == joint.limits.lower else joint.limits.lower
     return closed + OPEN_FRACTION * (far - closed)
-
-
-def _without_velocity_limits(obj: ArticulatedObject) -> ArticulatedObject:
-    out = copy.deepcopy(obj)
-    for j in out.movable_joints:
-        for held in (j.limits, j.drive_limits):
-            if held is not None:
-                held.velocity = None
-    return out
 
 
 def _experiment(name: str, obj: ArticulatedObject, q0: dict[str, float],
@@ -177,7 +168,7 @@ def drop(obj: ArticulatedObject
          ) -> tuple[ArticulatedObject, Experiment | None, Judge, list[str]]:
     """Every joint open; a box over every drawer's floor (no experiment without one). Notes
     name drawers without one."""
-    variant = _without_velocity_limits(obj)
+    variant = without_velocity_limits(obj)
     q = {j.name: _opened(j) for j in variant.movable_joints}
     for joint in variant.movable_joints:  # the doors held open: only drawers move
         if joint.type is not JointType.PRISMATIC:
@@ -239,7 +230,7 @@ def shut(obj: ArticulatedObject
          ) -> tuple[ArticulatedObject, Experiment | None, Judge, list[str]]:
     """Every door thrown shut (no experiment without a door); notes name hinges without a
     closed end."""
-    variant = _without_velocity_limits(obj)
+    variant = without_velocity_limits(obj)
     q, v, doors, notes = {}, {}, {}, []
     for joint in variant.movable_joints:
         closed = closed_end(joint)

@@ -55,7 +55,7 @@ def _without_laws(obj: ArticulatedObject) -> ArticulatedObject:
     return out
 
 
-def _without_velocity_limits(obj: ArticulatedObject) -> ArticulatedObject:
+def without_velocity_limits(obj: ArticulatedObject) -> ArticulatedObject:
     """PhysX clamps a joint's speed at its velocity limit; MuJoCo, Bullet and Pinocchio do
     not: the experiments compare motion, so no run has one (docs/engines.md)."""
     out = copy.deepcopy(obj)
@@ -70,7 +70,7 @@ def _without_collision(obj: ArticulatedObject) -> ArticulatedObject:
     """No contacts in any engine: the collision geometry left out (inertials are explicit).
     Parts overlapping at some joint value would otherwise push each other apart, wherever
     a format does not exclude the pair."""
-    out = _without_velocity_limits(obj)
+    out = without_velocity_limits(obj)
     for part in out.parts:
         part.collision = []
     return out

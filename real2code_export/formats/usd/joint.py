@@ -36,6 +36,7 @@ Units (checked against the schemas' own documentation):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -91,11 +92,9 @@ def as_written(joint: Joint) -> Joint:
     """The joint as the file states it (float32 frames): bodies are placed with these, so the
     file is self-consistent and an imported file re-exports to the same bytes."""
     f = joint_frames(joint)
-    return Joint(joint.name, joint.type, joint.parent, joint.child,
-                 origin=rest_origin(f.pos0, f.rot0, f.rot1),
-                 axis=axis_in_body1(f.rot1, f.token) if joint.type.movable else joint.axis,
-                 limits=joint.limits, dynamics=joint.dynamics, state=joint.state,
-                 drive_limits=joint.drive_limits)
+    return dataclasses.replace(
+        joint, origin=rest_origin(f.pos0, f.rot0, f.rot1),
+        axis=axis_in_body1(f.rot1, f.token) if joint.type.movable else joint.axis)
 
 
 # -- writing ---------------------------------------------------------------------------------
