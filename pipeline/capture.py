@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from real2code_export import atomic
+from real2code_export.batch.inputs import CAPTURE_FILE
 from real2code_export.errors import FormatError
 
 # The captures ``real2code demo`` reconstructs: package data, so they ship in the wheel. The
@@ -36,7 +37,7 @@ from real2code_export.errors import FormatError
 SAMPLE_CAPTURE = Path(__file__).resolve().parent / "samples" / "cabinet_capture"
 ROOM_SAMPLE_CAPTURE = Path(__file__).resolve().parent / "samples" / "cabinet_room_capture"
 
-TRANSFORMS = "transforms.json"
+TRANSFORMS = CAPTURE_FILE  # named in the core, where `batch` finds captures without the pipeline
 GROUND_TRUTH_DIR = "ground_truth"
 DEFAULT_DEPTH_SCALE = 1e-3  # nerfstudio's default: depth PNGs in millimetres
 _INTRINSICS = ("fl_x", "fl_y", "cx", "cy", "w", "h")

@@ -165,12 +165,12 @@ def run_demo(out: str | Path, room: bool = False) -> int:
     """``real2code demo``: reconstruct the shipped sample capture with the shipped models,
     print where every stage's output went and what the check found. ``room``: the capture
     of the cabinet in a room, hand-held, with phone-LiDAR faults."""
-    from pipeline.capture import ROOM_SAMPLE_CAPTURE, SAMPLE_CAPTURE
+    from pipeline.capture import ROOM_SAMPLE_CAPTURE, SAMPLE_CAPTURE, TRANSFORMS
 
     from ..errors import Real2CodeError
 
     capture = ROOM_SAMPLE_CAPTURE if room else SAMPLE_CAPTURE
-    if not (capture / "transforms.json").is_file():
+    if not (capture / TRANSFORMS).is_file():
         raise Real2CodeError(f"{capture}: the sample capture shipped with the package is "
                              "missing (reinstall real2code-export)")
     parser = argparse.ArgumentParser()
