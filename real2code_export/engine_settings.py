@@ -11,7 +11,7 @@ the hard constraints of Bullet, PhysX and Pinocchio's loop do (measured: ``real2
 simulate``, docs/engines.md). A fixed 2 ms limit was as stiff at 1 ms steps but softer at
 shorter ones: a flap falling onto its stop at 0.5 ms steps ended 4.4e-2 rad from the hard
 stops, 1.5e-2 with the limit at two steps. Critically damped (ratio 1) gives a door thrown
-into its stop back a quarter of its speed (0.44 rad off in 2 s).
+into its stop back up to a quarter of its speed (a door 0.44 rad off in 2 s).
 """
 
 from __future__ import annotations

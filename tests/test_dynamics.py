@@ -117,7 +117,7 @@ def test_a_joint_at_its_limit_pushed_into_it_stays(tmp_path, end):
 
 def test_bullet_damps_as_mujoco_a_light_part_thrown_into_its_stop(tmp_path):
     """A light lid (b dt / I of 1.6 %) with damping and dry friction, thrown toward its
-    closed stop and falling into it at ~7 rad/s: Bullet applies joint damping at the step's
+    closed stop and falling into it at ~3.4 rad/s: Bullet applies joint damping at the step's
     start velocity, MuJoCo at its end (implicitly); left to Bullet, the lid arrived 1.8e-2
     rad apart (6.6e-3 in `laws`). The check applies it at the end velocity."""
     obj = generate("box", seed=5)
