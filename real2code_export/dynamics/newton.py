@@ -103,6 +103,7 @@ def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False
     newton.eval_fk(model, state_0.joint_q, state_0.joint_qd, state_0)
     if featherstone:
         _featherstone_limits(newton, model, solver, q, experiment.dt)
+        _narrow_limits(model)
     recorder = Recorder(experiment)
     for step in range(experiment.steps + 1):
         if recorder.due(step):
@@ -140,6 +141,23 @@ def _featherstone_limits(newton, model, solver, q: np.ndarray, dt: float) -> Non
     timeconst = 2.0 * dt
     model.joint_limit_kd.assign((inertia * 2.0 / timeconst).astype(np.float32))
     model.joint_limit_ke.assign((inertia / timeconst ** 2).astype(np.float32))
+
+
+def _narrow_limits(model) -> None:
+    """Featherstone's limit acts once a joint is past it and reads no MuJoCo margin: the
+    ranges narrowed by the file's margin (what MuJoCo's margin amounts to; Genesis's alike).
+    Without it a joint observed at its limit and pushed into it goes one step (v dt) in,
+    and its limit damper, which also resists the way out, holds it there while gravity
+    pulls: the demo's flaps left their open limits ~10 ms late, 9.2e-2 rad by their fall."""
+    margin = getattr(getattr(model, "mujoco", None), "limit_margin", None)
+    if margin is None:
+        return
+    margin = margin.numpy().astype(float)
+    lower = model.joint_limit_lower.numpy().astype(float)
+    upper = model.joint_limit_upper.numpy().astype(float)
+    narrow = (margin > 0) & np.isfinite(lower) & np.isfinite(upper) & (upper - lower > 2 * margin)
+    model.joint_limit_lower.assign(np.where(narrow, lower + margin, lower).astype(np.float32))
+    model.joint_limit_upper.assign(np.where(narrow, upper - margin, upper).astype(np.float32))
 
 
 def _mujoco_softness(builder) -> None:
