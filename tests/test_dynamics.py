@@ -116,21 +116,6 @@ def test_a_joint_at_its_limit_pushed_into_it_stays(tmp_path, end):
     assert by["MuJoCo (URDF)"].max_angle < 1e-9  # the URDF's run told the same margin
 
 
-def test_bullet_damps_as_mujoco_a_light_part_thrown_into_its_stop(tmp_path):
-    """A light lid (b dt / I of 1.6 %) with damping and dry friction, thrown toward its
-    closed stop and falling into it at ~3.4 rad/s: Bullet applies joint damping at the step's
-    start velocity, MuJoCo at its end (implicitly); left to Bullet, the lid arrived 1.8e-2
-    rad apart (6.6e-3 in `laws`). The check applies it at the end velocity."""
-    obj = generate("box", seed=5)
-    for j in obj.movable_joints:
-        j.state = j.limits.lower + 0.5 * (j.limits.upper - j.limits.lower)
-    report = simulate_file(object_json.save(obj, tmp_path), ["bullet"], ["laws", "limit"])
-    by = {r.experiment: r for r in report.runs if r.engine == "Bullet (URDF)"}
-    assert by["laws"].max_angle < 1e-9, by["laws"].per_joint
-    # what is left: MuJoCo's limit lets the lid in by part of a step's travel, as Bullet's
-    assert by["limit"].max_angle < 1e-3, by["limit"].per_joint
-
-
 def test_mujocos_limit_is_as_stiff_as_a_shorter_step_allows(tmp_path):
     """Our MJCF's limit time constant is raised to two steps at whatever step a user runs:
     a door thrown into its stop at 0.5 ms steps stops as near Pinocchio's hard stop as at

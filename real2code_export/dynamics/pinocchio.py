@@ -15,7 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from . import EngineUnavailable, Experiment, Recorder, Trajectory, urdf_laws
-from .impulses import constrain
+
+PGS_ITERATIONS = 60
+PGS_TOLERANCE = 1e-12  # N m s (or N s): an impulse change below this ends the passes
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
@@ -78,7 +80,7 @@ def simulate(path: Path, experiment: Experiment) -> Trajectory:
         m_hat = mass + dt * np.diag(damping)  # MuJoCo's implicit damping
         inverse = np.linalg.inv(m_hat)
         v_free = v + dt * inverse @ force
-        v = constrain(v_free, inverse, theta, dt, friction, lower, upper)
+        v = _constrain(v_free, inverse, theta, dt, friction, lower, upper)
         theta = theta + dt * v
     return recorder.trajectory()
 
@@ -102,3 +104,39 @@ def _configuration(pin, model):
         return q
 
     return q_of
+
+
+def _constrain(v_free, inverse, theta, dt, friction, lower, upper) -> np.ndarray:
+    """Velocity after dry friction (an impulse bounded by friction * dt per joint) and hard
+    limits (an impulse that only pushes, so that the next position stays in range)."""
+    n = len(v_free)
+    rows = [i for i in range(n) if friction[i] > 0]
+    at_lower = [i for i in range(n) if theta[i] + dt * v_free[i] < lower[i]]
+    at_upper = [i for i in range(n) if theta[i] + dt * v_free[i] > upper[i]]
+    if not rows and not at_lower and not at_upper:
+        return v_free
+    impulse_f = np.zeros(n)
+    impulse_l = np.zeros(n)
+    v = v_free.copy()
+    for _ in range(PGS_ITERATIONS):
+        change = 0.0
+        for i in rows:  # friction: drive v_i to 0 within the bound
+            old = impulse_f[i]
+            impulse_f[i] = np.clip(old - v[i] / inverse[i, i], -friction[i] * dt, friction[i] * dt)
+            v += inverse[:, i] * (impulse_f[i] - old)
+            change = max(change, abs(impulse_f[i] - old))
+        for i in at_lower:  # v_i >= (lower - theta_i) / dt, push only
+            old = impulse_l[i]
+            target = (lower[i] - theta[i]) / dt
+            impulse_l[i] = max(0.0, old + (target - v[i]) / inverse[i, i])
+            v += inverse[:, i] * (impulse_l[i] - old)
+            change = max(change, abs(impulse_l[i] - old))
+        for i in at_upper:
+            old = impulse_l[i]
+            target = (upper[i] - theta[i]) / dt
+            impulse_l[i] = min(0.0, old + (target - v[i]) / inverse[i, i])
+            v += inverse[:, i] * (impulse_l[i] - old)
+            change = max(change, abs(impulse_l[i] - old))
+        if change <= PGS_TOLERANCE:  # converged: a further pass would change nothing
+            break
+    return v
