@@ -266,6 +266,41 @@ def test_import_export_import_is_lossless_and_byte_stable(written, tmp_path):
     assert again.read_bytes() == path.read_bytes()
 
 
+def test_a_mesh_is_written_once(tmp_path):
+    """A collider with its part's visual mesh data, and a part whose visual mesh another
+    part's already holds, refer to the mesh written first (an internal reference): the data
+    is in the file once, and composed, each prim has it; a visual with other texture
+    coordinates, or a mesh that differs, is written out."""
+    arm = axes_zoo().part("arm")
+    twin = Part("twin", visual=arm.visual, collision=[arm.visual, box_mesh([0.1, 0.1, 0.1])],
+                inertial=arm.inertial)
+    textured = Part("textured", visual=box_mesh([0.3, 0.05, 0.05]), inertial=arm.inertial)
+    textured.visual.uv = np.zeros((len(textured.visual.vertices), 2))
+    obj = ArticulatedObject("twins", [arm, twin, textured], [
+        Joint("a", "fixed", "arm", "twin", origin=tf.make(None, [0.0, 0.5, 0.0])),
+        Joint("b", "fixed", "arm", "textured", origin=tf.make(None, [0.0, 1.0, 0.0]))])
+    path = usd.save(obj, tmp_path, write_meshes=False)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    source = "/twins/Geometry/arm/arm"
+    for prim, refers in [("arm/arm", None), ("arm/arm_collision_0", source),
+                         ("twin/twin", source), ("twin/twin_collision_0", source),
+                         ("twin/twin_collision_1", None), ("textured/textured", None)]:
+        spec = layer.GetPrimAtPath(f"/twins/Geometry/{prim}")
+        assert [str(r.primPath) for r in spec.referenceList.prependedItems] == \
+            ([refers] if refers else []), prim
+        assert ("points" in spec.attributes) == (refers is None), prim
+    stage = Usd.Stage.Open(str(path))
+    points = stage.GetPrimAtPath(source).GetAttribute("points").Get()
+    for prim in ["arm/arm_collision_0", "twin/twin", "twin/twin_collision_0"]:
+        assert stage.GetPrimAtPath(f"/twins/Geometry/{prim}").GetAttribute("points").Get() \
+            == points
+    assert _validation_errors(stage) == []
+    back = usd.load(path)
+    assert differences(obj, back, TOL) == []
+    assert usd.save(back, tmp_path / "again", write_meshes=False).read_bytes() == \
+        path.read_bytes()
+
+
 @pytest.mark.partnet
 @pytest.mark.parametrize("object_id", ["8867", "101773", "26387"])
 def test_partnet_objects_round_trip(tmp_path, object_id):
