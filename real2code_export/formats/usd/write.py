@@ -51,7 +51,7 @@ def _author(obj: ArticulatedObject):
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
     world = forward_kinematics(written, obj.observed_configuration())
     frames = obj.frame_parts()
-    visuals: dict = {}  # the visual meshes written so far, which colliders may refer to
+    visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
     for part in obj.parts:
         if part.name in frames:
             continue
