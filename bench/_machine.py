@@ -54,3 +54,13 @@ def byte_compile(*folders) -> None:
 
     for folder in folders:
         compileall.compile_dir(str(folder), quiet=1)
+
+
+def converters_bin():
+    """The bin folder of the converters' venv (bench/setup_converters.sh): ``.venv-converters``
+    in the repository, or the venv ``REAL2CODE_CONVERTERS`` names (a worktree whose
+    ``.venv-converters`` is a link to another checkout's, not made yet)."""
+    from pathlib import Path
+
+    venv = os.environ.get("REAL2CODE_CONVERTERS")
+    return Path(venv or Path(__file__).resolve().parents[1] / ".venv-converters") / "bin"

@@ -29,10 +29,10 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _machine import byte_compile, describe, load_average  # noqa: E402
+from _machine import byte_compile, converters_bin, describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-CONVERTERS = REPO / ".venv-converters" / "bin"
+CONVERTERS = converters_bin()
 REAL2CODE = [sys.executable, "-m", "real2code_export.cli"]
 
 

@@ -3,7 +3,8 @@ USD converter) on PartNet-Mobility objects, each as the whole command a user run
 process: imports, reading the URDF and its meshes, writing the USD), side by side in one run,
 the two alternating so a busy machine slows both alike.
 
-    bench/setup_converters.sh   # .venv-converters with the converters (they cannot share .venv)
+    bench/setup_converters.sh   # .venv-converters with the converters (they cannot share .venv;
+                                # REAL2CODE_CONVERTERS=DIR: that venv instead)
     .venv/bin/python bench/export_vs_converter.py [--objects 3] [--repeat 3]
 
 Target (issue 17): ``real2code export`` at least 2x faster than the converter (ratio >= 2).
@@ -32,11 +33,11 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _machine import byte_compile, describe, load_average  # noqa: E402
+from _machine import byte_compile, converters_bin, describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
-CONVERTER = REPO / ".venv-converters" / "bin" / "urdf_usd_converter"
+CONVERTER = converters_bin() / "urdf_usd_converter"
 
 
 def _run(command: list[str]) -> tuple[float, float]:

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The converters users pick instead of real2code, for bench/corpora.py, in their own venv
-# (.venv-converters): they pin other mujoco / usd-core versions than ours. Idempotent.
+# (.venv-converters, or the folder REAL2CODE_CONVERTERS names): they pin other mujoco /
+# usd-core versions than ours. Idempotent.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-VENV=.venv-converters
+VENV=${REAL2CODE_CONVERTERS:-.venv-converters}
 PY=${PYTHON:-python3.11}
 if [ ! -x "$VENV/bin/urdf_usd_converter" ] || [ ! -x "$VENV/bin/mujoco_usd_converter" ]; then
     "$PY" -m venv "$VENV"

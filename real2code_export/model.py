@@ -16,6 +16,8 @@ import hashlib
 import math
 import re
 from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
@@ -501,8 +503,29 @@ def metadata_json(obj: ArticulatedObject, **dumps_options: Any) -> str:
                          f"not JSON (finite numbers, strings, lists, dicts only): {e}") from e
 
 
+# the object a ``validated`` block has checked: validate() of it returns at once
+_VALIDATED: ContextVar[ArticulatedObject | None] = ContextVar("validated", default=None)
+
+
+@contextmanager
+def validated(obj: ArticulatedObject) -> Iterator[ArticulatedObject]:
+    """Validate ``obj`` once for the block: inside it, :func:`validate` of this same object
+    returns at once. Each writer validates what it is given (a library call needs that);
+    writing one object in several formats (``formats.write_formats``) validates it once
+    this way. The block must not change ``obj``."""
+    validate(obj)
+    token = _VALIDATED.set(obj)
+    try:
+        yield obj
+    finally:
+        _VALIDATED.reset(token)
+
+
 def validate(obj: ArticulatedObject) -> ArticulatedObject:
-    """Check the whole object; raise :class:`ModelError` at the first problem. Returns ``obj``."""
+    """Check the whole object; raise :class:`ModelError` at the first problem. Returns ``obj``
+    (at once inside a :func:`validated` block of the same object)."""
+    if _VALIDATED.get() is obj:
+        return obj
     if not NAME_PATTERN.match(obj.name or ""):
         raise ModelError(f"object {obj.name!r}", "name must be an identifier ([A-Za-z_][A-Za-z0-9_]*)")
     metadata_json(obj)

@@ -266,6 +266,41 @@ def test_import_export_import_is_lossless_and_byte_stable(written, tmp_path):
     assert again.read_bytes() == path.read_bytes()
 
 
+def test_a_mesh_is_written_once(tmp_path):
+    """A collider with its part's visual mesh data, and a part whose visual mesh another
+    part's already holds, refer to the mesh written first (an internal reference): the data
+    is in the file once, and composed, each prim has it; a visual with other texture
+    coordinates, or a mesh that differs, is written out."""
+    arm = axes_zoo().part("arm")
+    twin = Part("twin", visual=arm.visual, collision=[arm.visual, box_mesh([0.1, 0.1, 0.1])],
+                inertial=arm.inertial)
+    textured = Part("textured", visual=box_mesh([0.3, 0.05, 0.05]), inertial=arm.inertial)
+    textured.visual.uv = np.zeros((len(textured.visual.vertices), 2))
+    obj = ArticulatedObject("twins", [arm, twin, textured], [
+        Joint("a", "fixed", "arm", "twin", origin=tf.make(None, [0.0, 0.5, 0.0])),
+        Joint("b", "fixed", "arm", "textured", origin=tf.make(None, [0.0, 1.0, 0.0]))])
+    path = usd.save(obj, tmp_path, write_meshes=False)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    source = "/twins/Geometry/arm/arm"
+    for prim, refers in [("arm/arm", None), ("arm/arm_collision_0", source),
+                         ("twin/twin", source), ("twin/twin_collision_0", source),
+                         ("twin/twin_collision_1", None), ("textured/textured", None)]:
+        spec = layer.GetPrimAtPath(f"/twins/Geometry/{prim}")
+        assert [str(r.primPath) for r in spec.referenceList.prependedItems] == \
+            ([refers] if refers else []), prim
+        assert ("points" in spec.attributes) == (refers is None), prim
+    stage = Usd.Stage.Open(str(path))
+    points = stage.GetPrimAtPath(source).GetAttribute("points").Get()
+    for prim in ["arm/arm_collision_0", "twin/twin", "twin/twin_collision_0"]:
+        assert stage.GetPrimAtPath(f"/twins/Geometry/{prim}").GetAttribute("points").Get() \
+            == points
+    assert _validation_errors(stage) == []
+    back = usd.load(path)
+    assert differences(obj, back, TOL) == []
+    assert usd.save(back, tmp_path / "again", write_meshes=False).read_bytes() == \
+        path.read_bytes()
+
+
 @pytest.mark.partnet
 @pytest.mark.parametrize("object_id", ["8867", "101773", "26387"])
 def test_partnet_objects_round_trip(tmp_path, object_id):
@@ -288,7 +323,7 @@ def test_an_export_to_usd_alone_leaves_the_hulls_to_physx(tmp_path):
     thickened so that hull has the volume the computed piece would; kinematics and masses are
     those of the default read. No trimesh or scipy is imported (issue 17: their import cost
     more than the export), nor USD's schema modules (the writer authors through Sdf), nor
-    ``numpy.ma`` (``np.unique`` imports it: 13 ms)."""
+    ``numpy.ma`` (``np.unique`` imports it: 13 ms), nor the cutting apart of pieces made."""
     import subprocess
     import sys
 
@@ -300,7 +335,8 @@ def test_an_export_to_usd_alone_leaves_the_hulls_to_physx(tmp_path):
             f"rc = run(['export', {str(urdf)!r}, '--to', 'usd', '--out', {str(tmp_path)!r}]); "
             "print(rc, ' '.join(sorted({m.split('.')[0] for m in sys.modules} "
             "& {'trimesh', 'scipy'} | {m for m in sys.modules} & {'pxr.Usd', 'pxr.UsdGeom', "
-            "'pxr.UsdPhysics', 'pxr.UsdShade', 'newton_usd_schemas', 'numpy.ma'})))")
+            "'pxr.UsdPhysics', 'pxr.UsdShade', 'newton_usd_schemas', 'numpy.ma', "
+            "'real2code_export.collision_separation'})))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True, env={**__import__("os").environ, "REAL2CODE_CACHE": "off"})
     assert done.stdout.split("\n")[-2].strip() == "0", done.stdout[-2000:]

@@ -245,21 +245,21 @@ def write_formats(obj: ArticulatedObject, folder: str | Path,
     """Write ``obj`` in each format (default: :func:`export_formats`) into ``folder`` (a
     staging folder: not atomic by itself, see :func:`export`)."""
     from ..meshfiles import write_object_meshes
-    from ..model import validate
+    from ..model import validated
 
     formats = export_formats() if formats is None else list(formats)
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise FormatError(None, "--to", f"unknown format(s) {unknown}; choose from {list(FORMATS)}")
-    validate(obj)
-    modules = {name: FORMATS[name].load_module(writing=True) for name in formats}
-    unwritable = [name for name, module in modules.items() if not hasattr(module, "save")]
-    if unwritable:
-        raise FormatError(None, "--to", f"format(s) {unwritable} cannot be written")
-    folder = Path(folder)
-    warn_kept_elements(obj, formats)
-    # object.json wants exact mesh text; the other formats share the same files.
-    if any(FORMATS[name].mesh_files for name in formats):
-        write_object_meshes(obj, folder, exact="json" in formats)
-    return {name: Path(module.save(obj, folder, write_meshes=False))
-            for name, module in modules.items()}
+    with validated(obj):  # once, not again by each writer
+        modules = {name: FORMATS[name].load_module(writing=True) for name in formats}
+        unwritable = [name for name, module in modules.items() if not hasattr(module, "save")]
+        if unwritable:
+            raise FormatError(None, "--to", f"format(s) {unwritable} cannot be written")
+        folder = Path(folder)
+        warn_kept_elements(obj, formats)
+        # object.json wants exact mesh text; the other formats share the same files.
+        if any(FORMATS[name].mesh_files for name in formats):
+            write_object_meshes(obj, folder, exact="json" in formats)
+        return {name: Path(module.save(obj, folder, write_meshes=False))
+                for name, module in modules.items()}

@@ -30,7 +30,6 @@ import numpy as np
 from lxml import etree
 
 from ...collision import collision_pieces, thickened
-from ...collision_separation import separate
 from ...errors import FormatError, ModelError
 from ...inertia import DEFAULT_DENSITY, inertial_from_meshes
 from ...model import (
@@ -153,6 +152,8 @@ def _shapes(elements: list[etree._Element]) -> set[tuple[str, str]]:
 def _separated(ctx: Context, obj: ArticulatedObject, parts: set[str]) -> ArticulatedObject:
     """The pieces we made cut apart where two parts' pieces overlap (source meshes often
     interpenetrate): a URDF has no contact exclusions, so overlapping pieces would collide."""
+    from ...collision_separation import separate  # only where pieces were made: not for USD
+
     out, cuts = separate(obj, parts=parts)
     for outcome, what in (("cut", "cut back"), ("dropped", "removed"),
                           ("carved", "split around another"),

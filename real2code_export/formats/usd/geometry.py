@@ -13,6 +13,10 @@ Mesh prims are named after their part (``<part>/<part>``, ``<part>/<part>_collis
 never a generic ``visual``: importers that fold a single-mesh Xform into one object (Blender's
 does) name it after the mesh prim, and should show the part's name. The reader tells visual
 from collision by the PhysicsCollisionAPI, not by name.
+
+A mesh's data is in the file once: a collider or visual mesh equal to a visual mesh written
+before it (a collision that is the visual, as most robots' files give it; a left and a right
+finger) is an internal reference to that prim (``_define_mesh_once``).
 """
 
 from __future__ import annotations
@@ -85,11 +89,15 @@ def ellipsoid_collider(prim, to_part: np.ndarray) -> Mesh | None:
     return Mesh.of_primitive(Primitive(ShapeKind.ELLIPSOID, list(radii.Get()), matrix))
 
 
-def write_part_geometry(layer, part: Part, body_path: str, material_path: str) -> None:
+def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
+                        visuals_written: dict[str, Mesh] | None = None) -> None:
     """Visual mesh, collision pieces and the part's material (bound on the part prim, so the
-    colour is kept even for a part without a visual mesh)."""
+    colour is kept even for a part without a visual mesh). ``visuals_written`` (prim path ->
+    mesh: the visual meshes of the layer so far, this part's added): a mesh whose data one
+    of them already holds refers to it (:func:`_define_mesh_once`)."""
     from pxr import Gf
 
+    visuals_written = {} if visuals_written is None else visuals_written
     r, g, b, a = (float(c) for c in part.color)
     material = define(layer, material_path, "Material")
     surface = f"{material_path}/PreviewSurface"
@@ -109,10 +117,8 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str) -
     visuals = []
     own = part.visual.remainder() if part.visual is not None else None
     if own is not None:
-        visual = _define_mesh(layer, f"{body_path}/{visual_name(part)}", own)
-        if own.uv is not None:
-            _texture_coordinates(visual, own.uv)
-        visuals.append(visual)
+        visuals.append(_define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
+                                         visuals_written, visual=True))
     for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
         visuals.append(define_shape(layer, f"{body_path}/{part.name}_visual_{k}", shape))
     for visual in visuals:  # displayColor too, for viewers and importers (MuJoCo's) that
@@ -125,10 +131,50 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str) -
         elif piece.primitive is not None:  # an analytic collider
             geom = define_shape(layer, where, piece.primitive, "PhysicsCollisionAPI")
         else:
-            geom = _define_mesh(layer, where, piece, "PhysicsCollisionAPI",
-                                "PhysicsMeshCollisionAPI")
+            geom = _define_mesh_once(layer, where, piece, visuals_written, visual=False)
             attribute(geom, "physics:approximation", "Token", "convexHull", uniform=True)
         attribute(geom, "purpose", "Token", "guide", uniform=True)
+
+
+def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, Mesh], *,
+                      visual: bool):
+    """A visual mesh (with its texture coordinates) or a convex collider's mesh, its data
+    written once: where a visual mesh already written has the same points and triangles (a
+    part whose collision is its visual, as most robots' files give it; a robot's left and
+    right fingers), the prim is an internal reference to it instead of a second copy.
+    Composed, it has that mesh's points, indices, extent, texture coordinates (a visual
+    refers only to one with the same) and display colour (a visual authors its own; a
+    collider's consumers read none). Every reader that composes the stage (UsdPhysics,
+    PhysX, Newton, UsdValidation, ours) sees the same mesh either way; only visuals are
+    referred to, so no collider's schemas reach another prim."""
+    from pxr import Sdf
+
+    schemas = () if visual else ("PhysicsCollisionAPI", "PhysicsMeshCollisionAPI")
+    source = next((where for where, seen in visuals_written.items()
+                   if _same_data(seen, mesh, uv=visual)), None)
+    if source is not None:
+        prim = define(layer, path, "Mesh", *schemas)
+        prim.referenceList.prependedItems.append(Sdf.Reference(primPath=source))
+        return prim
+    prim = _define_mesh(layer, path, mesh, *schemas)
+    if visual:
+        if mesh.uv is not None:
+            _texture_coordinates(prim, mesh.uv)
+        visuals_written[path] = mesh
+    return prim
+
+
+def _same_data(a: Mesh, b: Mesh, *, uv: bool) -> bool:
+    """Whether ``a`` and ``b`` are written as the same points (float32) and triangles (and,
+    with ``uv``, texture coordinates)."""
+    if a.vertices.shape != b.vertices.shape or a.faces.shape != b.faces.shape \
+            or not np.array_equal(a.faces, b.faces) \
+            or not np.array_equal(a.vertices.astype(np.float32), b.vertices.astype(np.float32)):
+        return False
+    if not uv or (a.uv is None and b.uv is None):
+        return True
+    return a.uv is not None and b.uv is not None and a.uv.shape == b.uv.shape \
+        and np.array_equal(a.uv.astype(np.float32), b.uv.astype(np.float32))
 
 
 def _texture_coordinates(prim, uv: np.ndarray) -> None:

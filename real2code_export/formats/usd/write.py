@@ -51,12 +51,13 @@ def _author(obj: ArticulatedObject):
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
     world = forward_kinematics(written, obj.observed_configuration())
     frames = obj.frame_parts()
+    visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
     for part in obj.parts:
         if part.name in frames:
             continue
         body = f"{base}/{GEOMETRY}/{part.name}"
         write_body(layer, body, part, world[part.name])
-        write_part_geometry(layer, part, body, f"{base}/{LOOKS}/{part.name}")
+        write_part_geometry(layer, part, body, f"{base}/{LOOKS}/{part.name}", visuals)
     for joint in [j for j in obj.joints if j.child in frames]:  # an Xform in its parent body
         frame = obj.part(joint.child)
         path = f"{base}/{GEOMETRY}/{joint.parent}/{frame.name}"
@@ -66,7 +67,7 @@ def _author(obj: ArticulatedObject):
             write_body(layer, path, frame, world[frame.name])
         else:
             write_frame(layer, path, joint)
-        write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}")
+        write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}", visuals)
 
     world_joint = sanitize_name(WORLD_JOINT, {j.name for j in obj.joints})
     root_part = obj.root.name
