@@ -1,6 +1,7 @@
 """The compartment seen past a swung-open door, and pieces of the carcass cut out as parts of
-their own, go back to the carcass: repairs of a part segmentation by what a carcass is, their
-own stage between segmentation and fusion.
+their own, go back to the carcass, and an open panel's points in other labels go to it:
+repairs of a part segmentation by what a carcass is, their own stage between segmentation
+and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
 compartment the door reveals, which the carcass's own masks leave out, so no vote gives those
@@ -41,8 +42,9 @@ class CompartmentOptions:
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
-    """``seg`` with the compartments behind open doors given back to the carcass (its cloud's
-    labels and every view's label image); what moved is in ``details["returned_to_carcass"]``.
+    """``seg`` with open panels' points in other labels given to them, then the compartments
+    behind open doors and enclosed pieces given back to the carcass (its cloud's labels and
+    every view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
     if seg.spacing is None:
         return seg
@@ -113,18 +115,22 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
 def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                  options: CompartmentOptions = CompartmentOptions(),
                  normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
-    """Points of a swung-open panel that the carcass's label (1, the largest part) took go
-    to the panel's part: the carcass's points on that part's turned plane, facing along
-    it, and joined to the part's own panel points through such points.
+    """Points of a swung-open panel that other labels took go to the panel's part: points on
+    that part's turned plane, facing along it more than along any of the carcass's axes,
+    joined to the part's own plane points through such points, and at least
+    ``claim_share`` as many as those (fewer are the blurred normals at a corner of the
+    carcass). Points on their own label's turned plane stay.
 
     The reverse of :func:`return_compartments`. A flap swung open and seen nearly edge-on
     loses the strip beside its hinge to the carcass (on the demo capture 257 of a top
-    flap's 788 points: the flap's box lost a third of its height and the carcass's box
-    grew 18 cm forward, so the hinges shut against that face closed two flaps onto one
-    place). A carcass is built square, so none of its own surface lies in a plane turned
-    from its axes and facing along it, joined to an open panel. Needs the measured
-    ``normals``: without them a turned plane cuts the carcass's walls along lines that
-    would be taken too. Returns the labels, renumbered by size, and what moved, per part."""
+    flap's 788 points: the carcass's box grew 18 cm forward, and two flaps that shut
+    against that false face closed onto one place); on a noisy capture two flaps hinged on
+    one rail shared a label while the rest of one had a label of its own (the room demo
+    capture). A carcass is built square, so none of its own surface lies in a plane turned
+    from its axes and faces along it; a neighbouring panel turned another way faces
+    elsewhere. Needs the measured ``normals``: without them a turned plane cuts the
+    carcass's walls along lines that would be taken too. Returns the labels, renumbered by
+    size, and what moved, per part and source label."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
