@@ -110,7 +110,8 @@ def articulate(meshes: dict[str, Mesh], predictor: JointPredictor, *, name: str 
             if cj.type == "hinge":
                 hull, behind = _extremes(world[child_name]), surface(parent_name)[0]
                 axis, point = joint_axis_and_position(child_box, cj.idx, cj.edge, cj.sign)
-                state = hinge_opening_from_mesh(parent_box, hull, axis, point, behind)
+                others = [surface(n)[0] for n in names if n not in (parent_name, child_name)]
+                state = hinge_opening_from_mesh(parent_box, hull, axis, point, behind, others)
                 if state < 0:  # keep q = 0 closed and opening positive
                     axis, state = -axis, -state
                 closed = rotated_box(child_box, axis, point, -state)

@@ -1,6 +1,7 @@
 """The compartment seen past a swung-open door, and pieces of the carcass cut out as parts of
-their own, go back to the carcass: repairs of a part segmentation by what a carcass is, their
-own stage between segmentation and fusion.
+their own, go back to the carcass, and an open panel's points in other labels go to it:
+repairs of a part segmentation by what a carcass is, their own stage between segmentation
+and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
 compartment the door reveals, which the carcass's own masks leave out, so no vote gives those
@@ -31,6 +32,9 @@ class CompartmentOptions:
     # are the compartment seen through the opening and go back to the carcass
     panel_normal_deg: float = 20.0  # a plane counts as a panel by its points whose measured
     # normals lie within this of its own (RANSAC also fits planes across a box's edges)
+    panel_link_voxels: float = 2.5  # other labels' points on an open panel's plane, joined
+    # to it through points this close, are the panel's (the strip beside a flap's hinge) ...
+    claim_share: float = 0.1  # ... when they are at least this share of its plane's points
     enclosed_share: float = 0.03  # a part of at most this share of the carcass's points ...
     enclosed_inside: float = 0.98  # ... with this share of them inside the carcass's box ...
     enclosed_margin_voxels: float = 1.0  # ... (grown by this many spacings) is the carcass's
@@ -38,8 +42,9 @@ class CompartmentOptions:
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
-    """``seg`` with the compartments behind open doors given back to the carcass (its cloud's
-    labels and every view's label image); what moved is in ``details["returned_to_carcass"]``.
+    """``seg`` with open panels' points in other labels given to them, then the compartments
+    behind open doors and enclosed pieces given back to the carcass (its cloud's labels and
+    every view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
     if seg.spacing is None:
         return seg
@@ -47,8 +52,9 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                 for f in capture.frames]
     normals = axis_mean(seg.points, np.concatenate([p for p, _ in measured]),
                         np.concatenate([n for _, n in measured]))
-    labels, moved = return_compartments(seg.points, seg.point_labels, seg.spacing, options,
-                                        normals)
+    labels, claimed = claim_panels(seg.points, seg.point_labels, seg.spacing, options, normals)
+    labels, moved = return_compartments(seg.points, labels, seg.spacing, options, normals)
+    moved = claimed + moved
     labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
     moved += enclosed
     if not moved:  # the labels stand (already numbered by size): no views to redo
@@ -80,38 +86,132 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
     capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
     Returns the labels, renumbered by size, and what was moved, per part."""
-    import open3d as o3d
-
     out = labels.copy()
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
     body = part_obb(cloud[labels == 1])
-    o3d.utility.random.seed(0)  # RANSAC, deterministic
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
-        if len(index) < 30:
+        panel = turned_panel(cloud[index], body, voxel, options,
+                             None if normals is None else normals[index])
+        if panel is None:
             continue
+        normal, offset, _, turn = panel
         pts = cloud[index]
-        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
-        (a, b, c, d), inliers = pcd.segment_plane(options.panel_voxels * voxel, 3, 300)
-        normal = np.array([a, b, c]) / np.linalg.norm([a, b, c])
-        if normals is not None:  # the plane's points that face along it
-            inliers = np.asarray(inliers, dtype=int)
-            facing = np.abs(normals[index[inliers]] @ normal)
-            inliers = inliers[facing >= np.cos(np.radians(options.panel_normal_deg))]
-        if len(inliers) < options.panel_fraction * len(pts):
-            continue
-        turn = np.degrees(np.arccos(min(1.0, float(np.max(np.abs(body.R.T @ normal))))))
-        if turn < options.panel_min_angle:
-            continue
-        behind = np.abs(pts @ normal + d / np.linalg.norm([a, b, c])) > (
-            options.behind_voxels * voxel)
-        back = behind & body.contains(pts, tol=voxel)
+        off_panel = np.abs(pts @ normal + offset) > options.behind_voxels * voxel
+        if normals is not None:  # near the hinge the compartment lies close to the plane:
+            # what faces along the carcass and not along the panel is the carcass's
+            along, square = _facing(normals[index], normal, body)
+            tight = np.cos(np.radians(options.panel_normal_deg))
+            off_panel |= (square >= tight) & (along < tight)
+        back = off_panel & body.contains(pts, tol=voxel)
         if back.any():
             out[index[back]] = 1
             moved.append({"part": k, "points": int(back.sum()), "panel_turn_deg": round(turn, 1)})
     return numbered_by_size(out), moved
+
+
+def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                 options: CompartmentOptions = CompartmentOptions(),
+                 normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """Points of a swung-open panel that other labels took go to the panel's part: points on
+    that part's turned plane, facing along it more than along any of the carcass's axes,
+    joined to the part's own plane points through such points, and at least
+    ``claim_share`` as many as those (fewer are the blurred normals at a corner of the
+    carcass). Points on their own label's turned plane stay.
+
+    The reverse of :func:`return_compartments`. A flap swung open and seen nearly edge-on
+    loses the strip beside its hinge to the carcass (on the demo capture 257 of a top
+    flap's 788 points: the carcass's box grew 18 cm forward, and two flaps that shut
+    against that false face closed onto one place); on a noisy capture two flaps hinged on
+    one rail shared a label while the rest of one had a label of its own (the room demo
+    capture). A carcass is built square, so none of its own surface lies in a plane turned
+    from its axes and faces along it; a neighbouring panel turned another way faces
+    elsewhere. Needs the measured ``normals``: without them a turned plane cuts the
+    carcass's walls along lines that would be taken too. Returns the labels, renumbered by
+    size, and what moved, per part and source label."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    out = labels.copy()
+    moved = []
+    if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = part_obb(cloud[labels == 1])
+    panels, own = {}, np.zeros(len(cloud), dtype=bool)  # own: on its own label's open panel
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        panel = turned_panel(cloud[index], body, voxel, options, normals[index])
+        if panel is not None:
+            panels[k] = (index, *panel)
+            own[index[panel[2]]] = True
+    for k, (index, normal, offset, inliers, turn) in panels.items():
+        candidates = np.nonzero((out != k) & ~own)[0]
+        # on the panel (return_compartments' complement: within behind_voxels of its plane),
+        # facing along it, and closer to it than to any of the carcass's own axes
+        on_plane = np.abs(cloud[candidates] @ normal + offset) <= options.behind_voxels * voxel
+        along, square = _facing(normals[candidates], normal, body)
+        facing = (along >= np.cos(np.radians(options.panel_normal_deg))) & (along > square)
+        candidates = candidates[on_plane & facing]
+        if len(candidates) == 0:
+            continue
+        # joined to the part's panel through the candidates (points this close are one surface)
+        nodes = np.concatenate([index[inliers], candidates])
+        pairs = cKDTree(cloud[nodes]).query_pairs(options.panel_link_voxels * voxel,
+                                                  output_type="ndarray")
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                           shape=(len(nodes), len(nodes)))
+        component = connected_components(graph, directed=False)[1]
+        joined = np.isin(component[len(inliers):], component[:len(inliers)])
+        for source in np.unique(out[candidates[joined]]):
+            taken = candidates[joined][out[candidates[joined]] == source]
+            if len(taken) < options.claim_share * len(inliers):  # a corner's blurred normals
+                continue
+            out[taken] = k
+            moved.append({"part": k, "points": len(taken), "claimed_from": int(source),
+                          "panel_turn_deg": round(turn, 1)})
+    return numbered_by_size(out), moved
+
+
+def _facing(normals: np.ndarray, panel: np.ndarray, body) -> tuple[np.ndarray, np.ndarray]:
+    """How far each measured normal faces along a turned panel's normal ``panel`` and along
+    the nearest of the carcass's axes (normals the views disagree on are shortened by
+    :func:`pipeline.fuse.axis_mean`, and so face along neither). Returns
+    (|n . panel|, the largest |n . axis|)."""
+    return np.abs(normals @ panel), np.abs(normals @ body.R).max(axis=1)
+
+
+def turned_panel(points: np.ndarray, body, voxel: float,
+                 options: CompartmentOptions = CompartmentOptions(),
+                 normals: np.ndarray | None = None,
+                 ) -> tuple[np.ndarray, float, np.ndarray, float] | None:
+    """A part's main plane when it is a panel turned away from the carcass's box ``body``
+    (a door or flap swung open): RANSAC's plane (open3d) holding ``panel_fraction`` of
+    ``points`` within ``panel_voxels`` spacings, counting with measured ``normals`` only the
+    points that face along it, turned at least ``panel_min_angle`` from every axis of
+    ``body``. Returns (unit normal, offset: n . x + offset = 0 on the plane, the inliers'
+    indices, the turn in degrees), or None."""
+    import open3d as o3d
+
+    if len(points) < 30:
+        return None
+    o3d.utility.random.seed(0)  # RANSAC, deterministic
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    (a, b, c, d), inliers = pcd.segment_plane(options.panel_voxels * voxel, 3, 300)
+    length = float(np.linalg.norm([a, b, c]))
+    normal = np.array([a, b, c]) / length
+    inliers = np.asarray(inliers, dtype=int)
+    if normals is not None:  # the plane's points that face along it
+        facing = np.abs(normals[inliers] @ normal)
+        inliers = inliers[facing >= np.cos(np.radians(options.panel_normal_deg))]
+    if len(inliers) < options.panel_fraction * len(points):
+        return None
+    turn = float(np.degrees(np.arccos(min(1.0, float(np.max(np.abs(body.R.T @ normal)))))))
+    if turn < options.panel_min_angle:
+        return None
+    return normal, d / length, inliers, turn
 
 
 def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,

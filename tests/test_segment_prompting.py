@@ -287,3 +287,43 @@ def test_a_small_part_inside_the_carcass_box_is_the_carcass():
     whole = truth.copy()
     whole[side] = 3
     assert return_enclosed(cloud, whole, voxel=0.02)[1] == []
+
+
+def test_an_open_panels_strip_in_other_labels_goes_to_the_panel():
+    """A flap tipped 40 degrees forward about its bottom edge on a carcass's front: the strip
+    beside its hinge went to the carcass's label and its upper half to a second label that
+    also holds another panel (two flaps sharing a label, one of them cut in two). The
+    strip and the half, on the flap's plane, facing along it and joined to it, go to the
+    flap; the carcass's walls (square to it) and the other panel stay."""
+    from pipeline.compartments import claim_panels
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    back = _grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z)
+    walls = [_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+             _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)]
+    a = np.radians(40)
+    up = (np.sin(a), 0, np.cos(a))  # along the tipped flap, from its hinge at z = 0
+    flap = _grid(0.8, 0.36, (0.3, -0.4, 0.0), y, up)
+    other = _grid(0.8, 0.3, (0.3, -0.4, -0.35), y, z)  # a panel shut below it
+    cloud = np.concatenate([back, *walls, flap, other])
+    n_carcass = len(back) + sum(map(len, walls))
+    truth = np.concatenate([np.ones(n_carcass, int), np.full(len(flap), 2),
+                            np.full(len(other), 3)])
+    normals = np.concatenate([np.tile(x, (len(back), 1)), np.tile(y, (len(walls[0]), 1)),
+                              np.tile(y, (len(walls[1]), 1)), np.tile(z, (len(walls[2]), 1)),
+                              np.tile(z, (len(walls[3]), 1)),
+                              np.tile((np.cos(a), 0, -np.sin(a)), (len(flap), 1)),
+                              np.tile(x, (len(other), 1))]).astype(float)
+    along = (flap - (0.3, 0, 0)) @ np.asarray(up)
+    labels = truth.copy()
+    labels[n_carcass:n_carcass + len(flap)][along < 0.08] = 1  # the strip by the hinge
+    labels[n_carcass:n_carcass + len(flap)][along > 0.2] = 3  # the upper half
+    out, moved = claim_panels(cloud, labels, 0.02, normals=normals)
+    kept = out[n_carcass:n_carcass + len(flap)]
+    assert (kept == kept[len(kept) // 2]).all() and kept[0] not in (out[0], out[-1])
+    assert np.array_equal(out[:n_carcass] == out[0], np.ones(n_carcass, bool))  # walls stay
+    assert (out[-len(other):] == out[-1]).all() and out[-1] != out[0]
+    assert sorted(m["claimed_from"] for m in moved) == [1, 3]
+    # exact parts are left alone; without measured normals nothing is claimed
+    assert np.array_equal(claim_panels(cloud, truth, 0.02, normals=normals)[0], truth)
+    assert claim_panels(cloud, labels, 0.02)[1] == []

@@ -59,6 +59,18 @@ def hinge_axis_candidates(child: OBB, parent: OBB) -> list[int]:
     return aligned if len(aligned) == 1 else [0, 1, 2]
 
 
+TURNED_DEG = 10.0  # a child box turned this far about a parent axis has turned: no slide
+
+
+def turned(child: OBB, parent: OBB) -> bool:
+    """Whether the child's box is turned about one axis it shares with its parent by at
+    least :data:`TURNED_DEG`: a hinge turns its part, a slide only moves it (a drawer's box
+    comes out square to its carcass, ``pipeline.obb.aligned_boxes``)."""
+    cos = np.abs(parent.R.T @ child.R).max(axis=0)  # each child axis against its nearest
+    return (int((cos > ALIGNED_COS).sum()) == 1
+            and float(cos.min()) < np.cos(np.radians(TURNED_DEG)))
+
+
 def slide_axis_candidates(child: OBB, parent: OBB, min_protrusion: float = 0.01) -> list[int]:
     """A drawer pulled out sticks out of its parent along its slide axis: when the child
     protrudes (by more than ``min_protrusion`` m) past one face of its parent, only the child
@@ -76,8 +88,9 @@ def decode(out: dict[str, np.ndarray], n: int, boxes: list[OBB] | None = None
            ) -> ArticulationProgram:
     """The most likely valid program from the network's scores: the root first, then each
     child's joint, then parents chosen so that the joints form a tree. With ``boxes``, the
-    axis is restricted to what the geometry allows (a hinge: the axes a turn leaves aligned;
-    a slide: the axis it sticks out along); the network scores the rest."""
+    type and axis are restricted to what the geometry allows (a box turned from its parent's
+    is a hinge's; a hinge's axis is one a turn leaves aligned; a slide's the axis it sticks
+    out along); the network scores the rest."""
     root = int(np.argmax(out["root"][:n]))
     joints = []
     parent_scores = out["parent"][:n, :n].copy()
@@ -85,16 +98,17 @@ def decode(out: dict[str, np.ndarray], n: int, boxes: list[OBB] | None = None
         if i == root:
             continue
         idx_scores = out["idx"][i].copy()
+        jtype = JOINT_TYPES[int(np.argmax(out["type"][i]))]
         if boxes is not None:
             parent = int(np.argmax(np.where(np.arange(n) == i, -np.inf, parent_scores[i])))
-            candidates = (hinge_axis_candidates if JOINT_TYPES[int(np.argmax(out["type"][i]))]
-                          == "hinge" else slide_axis_candidates)
+            if turned(boxes[i], boxes[parent]):
+                jtype = "hinge"
+            candidates = hinge_axis_candidates if jtype == "hinge" else slide_axis_candidates
             allowed = candidates(boxes[i], boxes[parent])
             idx_scores[[k for k in range(3) if k not in allowed]] = -np.inf
         idx = int(np.argmax(idx_scores))
         edge = EDGES[int(np.argmax(out["edge"][i, idx]))]
         sign = (-1, 1)[int(np.argmax(out["sign"][i, idx]))]
-        jtype = JOINT_TYPES[int(np.argmax(out["type"][i]))]
         joints.append(ChildJoint(i, jtype, idx, edge if jtype == "hinge" else (0, 0), sign))
     parents = _tree_parents(parent_scores, root, [j.box for j in joints])
     joints = [ChildJoint(j.box, j.type, j.idx, j.edge, j.sign,
