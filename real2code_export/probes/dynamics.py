@@ -22,6 +22,7 @@ list means equal.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -67,12 +68,16 @@ def _close(x, y, tol: float) -> bool:
 
 # -- MuJoCo ---------------------------------------------------------------------------------
 def _compiled(spec):
-    """The compiled model and its data at q = 0 for hinges and slides (a joint's ref makes
-    qpos0 differ, not its pose at a value), balls and free joints at qpos0 (their rest)."""
+    """``spec`` compiled, at rest (:func:`_at_rest`)."""
+    with captured_c_output():
+        return _at_rest(spec.compile())
+
+
+def _at_rest(m):
+    """The model and its data at q = 0 for hinges and slides (a joint's ref makes qpos0
+    differ, not its pose at a value), balls and free joints at qpos0 (their rest)."""
     import mujoco
 
-    with captured_c_output():
-        m = spec.compile()
     d = mujoco.MjData(m)
     d.qpos[:] = m.qpos0
     for j in range(m.njnt):
@@ -81,6 +86,20 @@ def _compiled(spec):
             d.qpos[m.jnt_qposadr[j]] = 0.0
     mujoco.mj_kinematics(m, d)
     return m, d
+
+
+def _mjcf(path: str | Path, compiled: Mapping[Path, object] | None):
+    """An MJCF file as MuJoCo compiles it, every body kept, at rest: the model a kinematic
+    probe compiled already where ``compiled`` holds one (path -> MjModel; its contact
+    exclusions and visual geoms dropped, which move and weigh nothing), else compiled here."""
+    import mujoco
+
+    model = (compiled or {}).get(Path(path))
+    if model is not None:
+        return _at_rest(model)
+    spec = mujoco.MjSpec.from_file(str(path))
+    spec.compiler.fusestatic = False
+    return _compiled(spec)
 
 
 # What a URDF holds of a joint as MuJoCo imports it (<dynamics damping friction>, <limit>);
@@ -134,12 +153,13 @@ def _limited(m, j: int) -> bool:
         np.abs(m.jnt_range[j]) >= UNBOUNDED_LIMIT * (1.0 - 1e-6))
 
 
-def mjcf_differences(source: str | Path, export: str | Path,
-                     tol: float = 1e-6) -> list[Difference]:
-    """An MJCF SOURCE against its MJCF EXPORT, both compiled by MuJoCo, body by body."""
+def mjcf_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
+                     compiled: Mapping[Path, object] | None = None) -> list[Difference]:
+    """An MJCF SOURCE against its MJCF EXPORT, both compiled by MuJoCo (``compiled``:
+    :func:`_mjcf`), body by body."""
     import mujoco
 
-    (src, ds), (exp, de) = (_compiled(mujoco.MjSpec.from_file(str(f))) for f in (source, export))
+    (src, ds), (exp, de) = _mjcf(source, compiled), _mjcf(export, compiled)
     out = []
     for b in range(1, src.nbody):
         name = src.body(b).name
@@ -205,32 +225,28 @@ def _welds(m, balls_fixed: bool = False) -> dict[int, list[int]]:
     return groups
 
 
-def urdf_mujoco_differences(source: str | Path, export: str | Path,
-                            tol: float = 1e-6) -> list[Difference] | None:
+def urdf_mujoco_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
+                            compiled: Mapping[Path, object] | None = None
+                            ) -> list[Difference] | None:
     """A URDF SOURCE as MuJoCo imports it (kinematics and masses, every link kept a body, no
     repair of MuJoCo's turned on) against the MJCF EXPORT, per welded group named by its
     moving body, and per joint; None when MuJoCo refuses the source as it is."""
-    import mujoco
 
     try:
         src, ds = _compiled(_urdf_spec(Path(source)))
     except ValueError:
         return None  # (a tensor off the triangle inequality, a massless moving link)
-    exp, de = _compiled(mujoco.MjSpec.from_file(str(export)))
+    exp, de = _mjcf(export, compiled)
     return _welded_differences(src, ds, exp, de, tol) + _mujoco_joint_differences(src, exp, tol)
 
 
-def mjcf_urdf_differences(source: str | Path, export: str | Path,
-                          tol: float = 1e-6) -> list[Difference]:
+def mjcf_urdf_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
+                          compiled: Mapping[Path, object] | None = None) -> list[Difference]:
     """An MJCF SOURCE against its URDF EXPORT as MuJoCo imports it, per welded group named by
     its moving body (a body of several joints is a chain in a URDF: its last link carries the
     mass; a ball joint is fixed at its rest), and per joint what a URDF holds
     (:data:`URDF_HOLDS`)."""
-    import mujoco
-
-    spec = mujoco.MjSpec.from_file(str(source))
-    spec.compiler.fusestatic = False  # (every body kept, as in the export)
-    src, ds = _compiled(spec)
+    src, ds = _mjcf(source, compiled)
     exp, de = _compiled(_urdf_spec(Path(export)))
     # a URDF has no ball joint: the writer fixes one at its rest (warned)
     return (_welded_differences(src, ds, exp, de, tol, balls_fixed=True)
@@ -342,14 +358,16 @@ class Comparison:
     note: str = ""  # why it is not compared (with differences None)
 
 
-def against_source(source: str | Path, exports: list[str | Path],
-                   tol: float = 1e-6) -> list[Comparison]:
+def against_source(source: str | Path, exports: list[str | Path], tol: float = 1e-6,
+                   compiled: Mapping[Path, object] | None = None) -> list[Comparison]:
     """The dynamics of each export that a tool of the source builds, against the source in
     that tool: an MJCF source's MJCF exports in MuJoCo (:func:`mjcf_differences`); a URDF
     source's URDF exports in Pinocchio (:func:`urdf_differences`) and MJCF exports in MuJoCo
     (:func:`urdf_mujoco_differences`); an MJCF source's URDF exports as MuJoCo imports them
     (:func:`mjcf_urdf_differences`). USD and glTF exports are not compared here: their
-    dynamics are the model's, as the round trips hold them."""
+    dynamics are the model's, as the round trips hold them. ``compiled``: MJCF files' models
+    that the kinematic probes compiled already (path -> MjModel), used instead of compiling
+    the files again."""
     from ..errors import CheckError
     from ..formats import format_for_path
 
@@ -360,13 +378,14 @@ def against_source(source: str | Path, exports: list[str | Path],
         kind = format_for_path(export).name
         if kind == "mjcf":
             if is_urdf:
-                found = urdf_mujoco_differences(source, export, tol)
+                found = urdf_mujoco_differences(source, export, tol, compiled)
                 note = "" if found is not None else "MuJoCo refuses the source as it is"
             else:
-                found, note = mjcf_differences(source, export, tol), ""
+                found, note = mjcf_differences(source, export, tol, compiled), ""
             out.append(Comparison(export, "MuJoCo", found, note))
         elif kind == "urdf" and not is_urdf:
-            out.append(Comparison(export, "MuJoCo", mjcf_urdf_differences(source, export, tol)))
+            out.append(Comparison(export, "MuJoCo",
+                                  mjcf_urdf_differences(source, export, tol, compiled)))
         elif kind == "urdf":
             try:
                 out.append(Comparison(export, "Pinocchio", urdf_differences(source, export, tol)))
