@@ -86,6 +86,8 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
                                  warned=[str(w.message) for w in caught])
         except Real2CodeError as e:
             return "check error", str(e).replace(str(path), path.name), len(caught)
+        except Exception as e:  # a crash is a finding too: the survey goes on to the next
+            return "crash", f"{type(e).__name__}: {e}".splitlines()[0], len(caught)
     if not report.ok:
         worst = "; ".join(m.message for m in report.mismatches[:2])
         return "disagrees", worst.replace("|", "/"), len(caught)
