@@ -140,14 +140,16 @@ def test_an_export_whose_dynamics_differ_from_the_source_is_caught(tmp_path, cap
 def test_an_mjcf_sources_urdf_export_is_compared_as_mujoco_imports_it(tmp_path, capsys):
     """An MJCF source's URDF export, as MuJoCo imports it, has the source's masses, damping,
     friction and ranges (a ball joint, which a URDF has not, fixed at its rest with its mass
-    counted in its parent's); its mass, damping or friction altered is a mismatch."""
+    counted in its parent's; a mocap body, which moves on no joint, fixed); its mass,
+    damping or friction altered is a mismatch."""
     capsule = '<geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.4"/>'
     source = tmp_path / "arm.xml"
     source.write_text(ARM.replace(capsule, capsule + """
         <body name="wrist" pos="0.2 0 0">
           <joint name="wrist" type="ball" damping="0.1"/>
           <geom type="sphere" size="0.03" mass="0.2"/>
-        </body>"""))
+        </body>""").replace("<worldbody>", """<worldbody>
+    <body name="target" mocap="true" pos="0.3 0 0.3"><geom type="sphere" size="0.02"/></body>"""))
     out = tmp_path / "out"
     assert run(["export", str(source), "--out", str(out), "--to", "urdf",
                 "--check", "--configurations", "5"]) == EXIT_OK

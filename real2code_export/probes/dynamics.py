@@ -207,17 +207,18 @@ def _body_name(m, b: int) -> str:
     return m.body(b).name or f"body_{b}"
 
 
-def _welds(m, balls_fixed: bool = False) -> dict[int, list[int]]:
-    """Weld body id -> the bodies welded to it (MuJoCo's ``body_weldid``); ``balls_fixed``: a
-    body whose joints are all ball joints welded to its parent too."""
+def _welds(m, as_urdf: bool = False) -> dict[int, list[int]]:
+    """Weld body id -> the bodies welded to it (MuJoCo's ``body_weldid``); ``as_urdf``: as a
+    URDF holds them, a body whose joints are all ball joints, and a mocap body (moved by the
+    user, no joint), welded to its parent too."""
     import mujoco
 
     weld = [int(w) for w in m.body_weldid]
-    if balls_fixed:
+    if as_urdf:
         ball = int(mujoco.mjtJoint.mjJNT_BALL)
         for b in range(1, m.nbody):  # (parents come before their children)
             kinds = {int(m.jnt_type[j]) for j in range(m.njnt) if int(m.jnt_bodyid[j]) == b}
-            if kinds == {ball} or (not kinds and weld[b] != b):
+            if kinds == {ball} or m.body_mocapid[b] >= 0 or (not kinds and weld[b] != b):
                 weld[b] = weld[int(m.body_parentid[b])]
     groups: dict[int, list[int]] = {}
     for b in range(1, m.nbody):
@@ -244,12 +245,12 @@ def mjcf_urdf_differences(source: str | Path, export: str | Path, tol: float = 1
                           compiled: Mapping[Path, object] | None = None) -> list[Difference]:
     """An MJCF SOURCE against its URDF EXPORT as MuJoCo imports it, per welded group named by
     its moving body (a body of several joints is a chain in a URDF: its last link carries the
-    mass; a ball joint is fixed at its rest), and per joint what a URDF holds
+    mass; a ball joint is fixed at its rest, a mocap body fixed), and per joint what a URDF holds
     (:data:`URDF_HOLDS`)."""
     src, ds = _mjcf(source, compiled)
     exp, de = _compiled(_urdf_spec(Path(export)))
-    # a URDF has no ball joint: the writer fixes one at its rest (warned)
-    return (_welded_differences(src, ds, exp, de, tol, balls_fixed=True)
+    # a URDF has no ball joint (the writer fixes one at its rest, warned) nor mocap body
+    return (_welded_differences(src, ds, exp, de, tol, as_urdf=True)
             + _mujoco_joint_differences(src, exp, tol, held=URDF_HOLDS, balls=False))
 
 
@@ -266,12 +267,13 @@ def _urdf_spec(path: Path):
 
 
 def _welded_differences(src, ds, exp, de, tol: float,
-                        balls_fixed: bool = False) -> list[Difference]:
+                        as_urdf: bool = False) -> list[Difference]:
     """Per welded group of ``src`` that moves, named by its moving body, against the group of
-    the body of that name in ``exp``; ``balls_fixed``: ``src``'s ball joints held fixed."""
+    the body of that name in ``exp``; ``as_urdf``: ``src``'s welds as a URDF holds them
+    (:func:`_welds`)."""
     import mujoco
 
-    members = _welds(src, balls_fixed)
+    members = _welds(src, as_urdf)
     a, b = _welded_groups(src, ds, members), _welded_groups(exp, de, _welds(exp))
     out = []
     for weld, group in a.items():
