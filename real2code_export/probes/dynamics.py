@@ -268,8 +268,8 @@ def _urdf_spec(path: Path):
 
 def _welded_differences(src, ds, exp, de, tol: float,
                         as_urdf: bool = False) -> list[Difference]:
-    """Per welded group of ``src`` that moves, named by its moving body, against the group of
-    the body of that name in ``exp``; ``as_urdf``: ``src``'s welds as a URDF holds them
+    """Per welded group of ``src`` that moves, named by its moving body, against the group
+    that holds the body of that name in ``exp``; ``as_urdf``: ``src``'s welds as a URDF holds them
     (:func:`_welds`)."""
     import mujoco
 
@@ -282,12 +282,14 @@ def _welded_differences(src, ds, exp, de, tol: float,
         name = _body_name(src, weld)
         names = tuple(_body_name(src, k) for k in members[weld])
         e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_BODY, sanitize_name(name))
-        if e < 0 or int(exp.body_weldid[e]) != e:
+        if e < 0 or int(exp.body_weldid[e]) == 0:
             out.append(Difference(names, f"body {name!r}: no moving body of that name in "
                                          "the export"))
             continue
+        # (the group it is in: a body of a hinge and a ball, split at its joints, hangs on
+        # its hinge's intermediate part, a URDF fixing the ball)
         out += _mass_differences(f"body {name!r} and the bodies fixed to it", names, group,
-                                 b[e], tol)
+                                 b[int(exp.body_weldid[e])], tol)
     return out
 
 
