@@ -797,3 +797,24 @@ def test_an_inertial_without_mass_is_read_as_none_as_urdfdom_drops_it(tmp_path):
     assert "<link name='puck'>: <inertial> has no <mass>: read as a link without" in said
     assert "no <inertial> in links 'puck'" in said
     assert obj.part("puck").inertial.mass == pytest.approx(0.2 * 0.1 * 0.1 * 500.0)
+
+
+def test_a_package_not_found_is_resolved_where_its_path_lies_above_the_urdf(tmp_path):
+    """``package://NAME/REST`` where no package NAME is found, but REST lies under a folder
+    above the URDF (the meshes shipped in the description package, the URI naming another
+    package): the nearest such folder, as yourdfpy resolves it, with a warning naming the
+    link and the URI. A REST found nowhere is still refused."""
+    root = tmp_path / "arm_description"
+    write_obj(root / "meshes" / "visual" / "base.obj", box((0.1, 0.2, 0.3)))
+    source = root / "urdf" / "arm.urdf"
+    source.parent.mkdir(parents=True)
+    uri = "package://arm_support/meshes/visual/base.obj"
+    source.write_text(f"""<robot name="arm"><link name="base">{INERTIAL}
+      <visual><geometry><mesh filename="{uri}"/></geometry></visual></link></robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<link name='base'>: 'package://arm_support/"
+                      r"meshes/visual/base.obj': no package 'arm_support' found"):
+        obj = urdf.load(source)
+    assert len(obj.part("base").visual.faces) == 12
+    source.write_text(source.read_text().replace("visual/base.obj", "visual/other.obj"))
+    with pytest.raises(FormatError, match="cannot resolve 'package://arm_support/"):
+        urdf.load(source)
