@@ -11,6 +11,8 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
 - URDF source in MuJoCo's URDF import, MJCF export: per welded group of bodies (MuJoCo's
   ``body_weldid``: a moving body with the bodies fixed to it) its mass, principal moments
   and centre of mass; per joint as above (:func:`urdf_mujoco_differences`).
+- MJCF source, URDF export in MuJoCo's URDF import: the same per welded group; per joint
+  what a URDF holds as MuJoCo reads it (:func:`mjcf_urdf_differences`).
 
 :func:`against_source` picks, for each export, the comparison its tool makes (``check
 --reference``). Names are compared as our importers make them (``model.sanitize_name``). Each function returns
@@ -51,9 +53,7 @@ class Difference:
 def explaining(difference: Difference, warned: list[str]) -> list[str]:
     """The warnings that explain ``difference``: a reader's repair names the element it
     changed (``'NAME'``) and says what of it (mass, inertia; a limit, the joint type)."""
-    quoted = {f"'{n}'" for n in difference.names} | {f"'{sanitize_name(n)}'"
-                                                      for n in difference.names}
-    return [w for w in warned if any(q in w for q in quoted)
+    return [w for w in warned if any(f"'{n}'" in w for n in difference.names)
             and any(word in w for word in difference.words)]
 
 
@@ -232,7 +232,6 @@ def urdf_mujoco_differences(source: str | Path, export: str | Path, tol: float =
     """A URDF SOURCE as MuJoCo imports it (kinematics and masses, every link kept a body, no
     repair of MuJoCo's turned on) against the MJCF EXPORT, per welded group named by its
     moving body, and per joint; None when MuJoCo refuses the source as it is."""
-
     try:
         src, ds = _compiled(_urdf_spec(Path(source)))
     except ValueError:
@@ -245,8 +244,8 @@ def mjcf_urdf_differences(source: str | Path, export: str | Path, tol: float = 1
                           compiled: Mapping[Path, object] | None = None) -> list[Difference]:
     """An MJCF SOURCE against its URDF EXPORT as MuJoCo imports it, per welded group named by
     its moving body (a body of several joints is a chain in a URDF: its last link carries the
-    mass; a ball joint is fixed at its rest, a mocap body fixed), and per joint what a URDF holds
-    (:data:`URDF_HOLDS`)."""
+    mass; a ball joint is fixed at its rest, a mocap body fixed), and per joint what a URDF
+    holds (:data:`URDF_HOLDS`)."""
     src, ds = _mjcf(source, compiled)
     exp, de = _compiled(_urdf_spec(Path(export)))
     # a URDF has no ball joint (the writer fixes one at its rest, warned) nor mocap body
@@ -269,8 +268,8 @@ def _urdf_spec(path: Path):
 def _welded_differences(src, ds, exp, de, tol: float,
                         as_urdf: bool = False) -> list[Difference]:
     """Per welded group of ``src`` that moves, named by its moving body, against the group
-    that holds the body of that name in ``exp``; ``as_urdf``: ``src``'s welds as a URDF holds them
-    (:func:`_welds`)."""
+    that holds the body of that name in ``exp``; ``as_urdf``: ``src``'s welds as a URDF holds
+    them (:func:`_welds`)."""
     import mujoco
 
     members = _welds(src, as_urdf)
