@@ -200,8 +200,8 @@ def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
             raise FormatError(source or path, element,
                               f"cannot read mesh {path}: {type(e).__name__}: {e}", line) from e
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-            raise NoTrianglesError(source or path, element, f"mesh {path} has no triangles",
-                               line)
+            raise NoTrianglesError(source or path, element,
+                                   f"mesh {path} has no triangles", line)
         mesh = Mesh.from_trimesh(loaded)
     if scale is not None:
         mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces, mesh.uv)
