@@ -8,7 +8,9 @@ formats, check every export against the SOURCE file in its own tools (100 config
 ``urdf`` is example-robot-data (PyPI), ``mjcf`` the Menagerie snapshot in ../shared/data,
 ``pybullet`` the URDF and MJCF files the pybullet wheel ships (as the corpus tests take them,
 ``tests/conftest.py``); any other argument is a robot file or a folder searched for them
-(``*.urdf``, and ``*.xml`` whose root is ``<mujoco>``).
+(``*.urdf``, and ``*.xml`` whose root is ``<mujoco>``). A file refused is marked "refused, as
+its tools" where the source's own tools refuse it too (MuJoCo; for URDF, MuJoCo and
+Pinocchio).
 """
 
 from __future__ import annotations
@@ -75,7 +77,8 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
                 return "loads", f"{len(obj.parts)} parts", len(caught)
             written = export(obj, Path(tmp) / "out")
         except Real2CodeError as e:
-            return "refused", str(e).replace(str(path), path.name), len(caught)
+            status = "refused" if _its_tools_load(path) else "refused, as its tools"
+            return status, str(e).replace(str(path), path.name), len(caught)
         try:
             # kinematics and dynamics against the source; the reader's warnings say which
             # differences are its repairs
@@ -83,10 +86,26 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
                                  warned=[str(w.message) for w in caught])
         except Real2CodeError as e:
             return "check error", str(e).replace(str(path), path.name), len(caught)
+        except Exception as e:  # a crash is a finding too: the survey goes on to the next
+            return "crash", f"{type(e).__name__}: {e}".splitlines()[0], len(caught)
     if not report.ok:
         worst = "; ".join(m.message for m in report.mismatches[:2])
         return "disagrees", worst.replace("|", "/"), len(caught)
     return "agrees", f"{len(obj.parts)} parts, {len(obj.movable_joints)} joints", len(caught)
+
+
+def _its_tools_load(path: Path) -> bool:
+    """Whether the source's own tools load it (MuJoCo for MJCF; MuJoCo or Pinocchio for
+    URDF): a file they refuse too is not ours to convert."""
+    from real2code_export.probes.source import open_source_probes
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            open_source_probes(path)
+        except Real2CodeError:
+            return False
+    return True
 
 
 def main() -> None:

@@ -200,7 +200,8 @@ def check_files(
     report, probes = _compare(paths, n_configurations, seed, tol_position, tol_rotation,
                               reference, source)
     if source is not None:
-        _compare_dynamics(report, source, tol_dynamics, warned)
+        _compare_dynamics(report, source, tol_dynamics, warned,
+                          _compiled_mjcf(probes, [*paths, source]))
     validations = finish()  # the probes still open: USD's validator reuses their parsed layers
     del probes
     for v in validations:
@@ -252,12 +253,13 @@ def _compare(paths, n_configurations, seed, tol_position, tol_rotation, referenc
 
 
 def _compare_dynamics(report: CheckReport, source: str | Path, tol: float,
-                      warned: Sequence[str] | None) -> None:
-    """The exports' dynamics against the source's (module docstring), into ``report``."""
+                      warned: Sequence[str] | None, compiled: dict[Path, object]) -> None:
+    """The exports' dynamics against the source's (module docstring), into ``report``;
+    ``compiled``: the MJCF models the probes compiled (:func:`_compiled_mjcf`)."""
     from .probes import dynamics
 
     report.tol_dynamics = tol
-    comparisons = dynamics.against_source(source, report.files, tol)
+    comparisons = dynamics.against_source(source, report.files, tol, compiled)
     if warned is None and any(c.differences for c in comparisons):
         warned = _repair_warnings(source)
     for c in comparisons:
@@ -296,8 +298,8 @@ def _repair_warnings(source: str | Path) -> list[str]:
 
 def _compiled_mjcf(probes: list[Probe], paths) -> dict[Path, object]:
     """The MuJoCo models the probes compiled of MJCF files among ``paths`` (without contact
-    exclusions: ``probes.mujoco``), which the overlap measure uses instead of compiling the
-    file again."""
+    exclusions: ``probes.mujoco``), which the overlap measure and the dynamics against the
+    source use instead of compiling the file again."""
     files = {Path(p) for p in paths}
     return {Path(p.path): p.model for p in probes
             if Path(p.path) in files and format_for_path(p.path).name == "mjcf"

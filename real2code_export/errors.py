@@ -59,6 +59,10 @@ class FormatError(Real2CodeError):
         super().__init__(text + message)
 
 
+class NoTrianglesError(FormatError):
+    """A mesh file with no triangles (vertices only: MuJoCo takes their convex hull)."""
+
+
 class UnavailableError(Real2CodeError):
     """A format (or tool) whose dependencies do not import here: says which and why."""
 

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import FormatError, warn
+from .errors import FormatError, NoTrianglesError, warn
 from .meshtopology import used_indices
 from .model import ArticulatedObject, Mesh, Part, Texture
 
@@ -200,7 +200,8 @@ def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
             raise FormatError(source or path, element,
                               f"cannot read mesh {path}: {type(e).__name__}: {e}", line) from e
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-            raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
+            raise NoTrianglesError(source or path, element,
+                                   f"mesh {path} has no triangles", line)
         mesh = Mesh.from_trimesh(loaded)
     if scale is not None:
         mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces, mesh.uv)
@@ -224,7 +225,8 @@ def _read_obj(path: Path, source, element, line) -> MeshFile:
     faces = np.concatenate([np.zeros(0, np.int64)]
                            + [np.array(m.vertex_indices(), dtype=np.int64) for m in shapes])
     if len(faces) == 0 or len(faces) % 3:
-        raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
+        raise NoTrianglesError(source or path, element, f"mesh {path} has no triangles",
+                               line)
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise FormatError(source or path, element, f"mesh {path}: a face refers to vertex "
                           f"{int(faces.max()) + 1} of {len(vertices)}", line)
@@ -359,7 +361,8 @@ def _read_stl(path: Path, source, element, line) -> Mesh:
             raise FormatError(source or path, element, f"cannot read STL mesh {path}: {e}",
                               line) from e
     if len(corners) == 0 or len(corners) % 3:
-        raise FormatError(source or path, element, f"mesh {path} has no triangles", line)
+        raise NoTrianglesError(source or path, element, f"mesh {path} has no triangles",
+                               line)
     return Mesh(corners.astype(np.float64), np.arange(len(corners)).reshape(-1, 3))
 
 

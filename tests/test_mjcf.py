@@ -861,3 +861,29 @@ def test_joint_states_in_every_format(tmp_path):
         states = {j.name: j.state for j in back.movable_joints}
         assert states == pytest.approx({j.name: j.state for j in obj.movable_joints},
                                        abs=1e-9), fmt
+
+
+def test_a_mesh_file_of_vertices_only_is_their_convex_hull_as_in_mujoco(tmp_path):
+    """An OBJ with vertices and no faces (a point cloud): MuJoCo meshes it as their convex
+    hull; the reader takes that hull, with a warning naming the mesh, and the body's mass is
+    MuJoCo's. A mesh file with no vertices at all is still refused."""
+    points = np.random.default_rng(0).normal(size=(30, 3))
+    (tmp_path / "points.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in points))
+    source = tmp_path / "cloud.xml"
+    source.write_text("""<mujoco model="cloud">
+      <asset><mesh name="points" file="points.obj" scale="0.1 0.1 0.1"/></asset>
+      <worldbody><body name="rock"><freejoint/><geom type="mesh" mesh="points"/></body>
+      </worldbody></mujoco>""")
+    with pytest.warns(Real2CodeWarning, match="points.obj has vertices but no triangles"):
+        obj = load_any(source)
+    hull = trimesh.convex.convex_hull(points * 0.1)
+    rock = obj.part("rock")
+    assert len(rock.visual.faces) == len(hull.faces)
+    assert rock.inertial.mass == pytest.approx(
+        mujoco.MjModel.from_xml_path(str(source)).body_mass[1], rel=1e-6)
+    empty = tmp_path / "empty"  # (another folder: the mesh cache knows the first file)
+    empty.mkdir()
+    (empty / "points.obj").write_text("# nothing\n")
+    (empty / "cloud.xml").write_text(source.read_text())
+    with pytest.raises(FormatError, match="<mesh name='points'>: at least 4 vertices"):
+        load_any(empty / "cloud.xml")

@@ -137,6 +137,37 @@ def test_an_export_whose_dynamics_differ_from_the_source_is_caught(tmp_path, cap
     assert report.ok, report.mismatches
 
 
+def test_an_mjcf_sources_urdf_export_is_compared_as_mujoco_imports_it(tmp_path, capsys):
+    """An MJCF source's URDF export, as MuJoCo imports it, has the source's masses, damping,
+    friction and ranges (a ball joint, which a URDF has not, fixed at its rest with its mass
+    counted in its parent's; a mocap body, which moves on no joint, fixed); its mass,
+    damping or friction altered is a mismatch."""
+    capsule = '<geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.4"/>'
+    source = tmp_path / "arm.xml"
+    source.write_text(ARM.replace(capsule, capsule + """
+        <body name="wrist" pos="0.2 0 0">
+          <joint name="wrist" type="ball" damping="0.1"/>
+          <geom type="sphere" size="0.03" mass="0.2"/>
+        </body>""").replace("<worldbody>", """<worldbody>
+    <body name="target" mocap="true" pos="0.3 0 0.3"><geom type="sphere" size="0.02"/></body>"""))
+    out = tmp_path / "out"
+    assert run(["export", str(source), "--out", str(out), "--to", "urdf",
+                "--check", "--configurations", "5"]) == EXIT_OK
+    said = capsys.readouterr().out
+    assert "dynamics against the source" in said, said
+    exported = (out / "arm.urdf").read_text()
+    for old, new, expected in [('value="0.4"', 'value="0.5"', "mass 0.6"),
+                               ('damping="0.5"', 'damping="0.6"', "damping 0.5 != 0.6"),
+                               ('friction="0.2"', 'friction="0.3"', "frictionloss 0.2 != 0.3")]:
+        assert old in exported, (old, exported)
+        altered = out / f"altered_{old.split('=')[0]}.urdf"  # (beside its meshes)
+        altered.write_text(exported.replace(old, new))
+        report = check_files([altered], source=source, n_configurations=5, validate=False)
+        assert not [m for m in report.mismatches if m.kind != "dynamics"], report.mismatches
+        found = [m.message for m in report.mismatches if m.kind == "dynamics"]
+        assert any(expected in m for m in found), found
+
+
 URDF_ROUNDED = """<robot name="rounded">
   <link name="base"><inertial><mass value="1"/>
     <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>

@@ -96,3 +96,27 @@ def test_mujoco_where_it_loads_the_urdf_as_it_is(tmp_path):
     assert dynamics.urdf_mujoco_differences(massless, out["mjcf"]) is None
     # the negligible mass given (1e-6 kg) is within the tolerance
     assert dynamics.urdf_differences(massless, out["urdf"]) == []
+
+
+def test_a_massless_body_with_several_joints_compares_its_mass_only(tmp_path):
+    """A body with no mass and several joints (a mobile base's x, y and yaw) is split at its
+    joints and written back with its frame at the joints' anchor: MuJoCo puts the centre of
+    mass of nothing at the body's origin, which has moved; only the mass (0 = 0) compares."""
+    source = tmp_path / "cart.xml"
+    source.write_text("""<mujoco model="cart"><worldbody>
+      <body name="cart">
+        <joint name="forward" type="slide" axis="1 0 0" pos="-0.2 0 0"/>
+        <joint name="yaw" type="hinge" axis="0 0 1" pos="-0.2 0 0"/>
+        <body name="chassis" pos="0.1 0 0.2"><geom type="box" size="0.3 0.2 0.1"/></body>
+      </body></worldbody></mujoco>""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (the split parts' boundmass)
+        out = export(load(source), tmp_path / "out", ["mjcf"])
+    assert dynamics.mjcf_differences(source, out["mjcf"]) == []
+    # a mass the export gains is still found
+    heavy = tmp_path / "heavy.xml"
+    heavy.write_text(out["mjcf"].read_text().replace(
+        '<body name="cart" pos="-0.2 0 0">',
+        '<body name="cart" pos="-0.2 0 0"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>'))
+    said = "\n".join(map(str, dynamics.mjcf_differences(source, heavy)))
+    assert "body 'cart': mass 0.0 != 1.0" in said

@@ -774,3 +774,47 @@ def test_an_inverted_range_is_bullets_no_limit(tmp_path):
                          validate=False, warned=said.splitlines())
     assert report.ok, [m.message for m in report.mismatches]
     assert any(d.repaired for d in report.dynamics if d.tool == "Pinocchio")
+
+
+def test_an_inertial_without_mass_is_read_as_none_as_urdfdom_drops_it(tmp_path):
+    """``<inertial>`` with an ``<inertia>`` but no ``<mass>``: urdfdom (Pinocchio, ROS) drops
+    it and loads the link, MuJoCo refuses the file. Read as a link without ``<inertial>``
+    (mass from its visual geometry, as for any such link), each step warned with the link."""
+    source = tmp_path / "puck.urdf"
+    source.write_text("""<robot name="puck">
+      <link name="world"/>
+      <joint name="slide" type="prismatic"><parent link="world"/><child link="puck"/>
+        <axis xyz="1 0 0"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint>
+      <link name="puck">
+        <inertial><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>
+        <visual><geometry><box size="0.2 0.1 0.1"/></geometry></visual>
+      </link>
+    </robot>""")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = urdf.load(source)
+    said = "\n".join(str(w.message) for w in caught)
+    assert "<link name='puck'>: <inertial> has no <mass>: read as a link without" in said
+    assert "no <inertial> in links 'puck'" in said
+    assert obj.part("puck").inertial.mass == pytest.approx(0.2 * 0.1 * 0.1 * 500.0)
+
+
+def test_a_package_not_found_is_resolved_where_its_path_lies_above_the_urdf(tmp_path):
+    """``package://NAME/REST`` where no package NAME is found, but REST lies under a folder
+    above the URDF (the meshes shipped in the description package, the URI naming another
+    package): the nearest such folder, as yourdfpy resolves it, with a warning naming the
+    link and the URI. A REST found nowhere is still refused."""
+    root = tmp_path / "arm_description"
+    write_obj(root / "meshes" / "visual" / "base.obj", box((0.1, 0.2, 0.3)))
+    source = root / "urdf" / "arm.urdf"
+    source.parent.mkdir(parents=True)
+    uri = "package://arm_support/meshes/visual/base.obj"
+    source.write_text(f"""<robot name="arm"><link name="base">{INERTIAL}
+      <visual><geometry><mesh filename="{uri}"/></geometry></visual></link></robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<link name='base'>: 'package://arm_support/"
+                      r"meshes/visual/base.obj': no package 'arm_support' found"):
+        obj = urdf.load(source)
+    assert len(obj.part("base").visual.faces) == 12
+    source.write_text(source.read_text().replace("visual/base.obj", "visual/other.obj"))
+    with pytest.raises(FormatError, match="cannot resolve 'package://arm_support/"):
+        urdf.load(source)

@@ -11,6 +11,8 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
 - URDF source in MuJoCo's URDF import, MJCF export: per welded group of bodies (MuJoCo's
   ``body_weldid``: a moving body with the bodies fixed to it) its mass, principal moments
   and centre of mass; per joint as above (:func:`urdf_mujoco_differences`).
+- MJCF source, URDF export in MuJoCo's URDF import: the same per welded group; per joint
+  what a URDF holds as MuJoCo reads it (:func:`mjcf_urdf_differences`).
 
 :func:`against_source` picks, for each export, the comparison its tool makes (``check
 --reference``). Names are compared as our importers make them (``model.sanitize_name``). Each function returns
@@ -22,6 +24,7 @@ list means equal.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,7 +32,7 @@ import numpy as np
 
 from .. import transforms as tf
 from ..inertia import combine_inertials
-from ..model import Inertial, sanitize_name
+from ..model import UNBOUNDED_LIMIT, Inertial, sanitize_name
 from ._stdio import captured_c_output
 
 # What a warning that explains a difference speaks of: mass properties, or a joint's law.
@@ -65,12 +68,16 @@ def _close(x, y, tol: float) -> bool:
 
 # -- MuJoCo ---------------------------------------------------------------------------------
 def _compiled(spec):
-    """The compiled model and its data at q = 0 for hinges and slides (a joint's ref makes
-    qpos0 differ, not its pose at a value), balls and free joints at qpos0 (their rest)."""
+    """``spec`` compiled, at rest (:func:`_at_rest`)."""
+    with captured_c_output():
+        return _at_rest(spec.compile())
+
+
+def _at_rest(m):
+    """The model and its data at q = 0 for hinges and slides (a joint's ref makes qpos0
+    differ, not its pose at a value), balls and free joints at qpos0 (their rest)."""
     import mujoco
 
-    with captured_c_output():
-        m = spec.compile()
     d = mujoco.MjData(m)
     d.qpos[:] = m.qpos0
     for j in range(m.njnt):
@@ -81,9 +88,31 @@ def _compiled(spec):
     return m, d
 
 
-def _mujoco_joint_differences(src, exp, tol: float) -> list[Difference]:
-    """Per named joint of ``src``: damping, frictionloss, armature, stiffness, limited and
-    (hinge, slide) range, against the joint of that name in ``exp``."""
+def _mjcf(path: str | Path, compiled: Mapping[Path, object] | None):
+    """An MJCF file as MuJoCo compiles it, every body kept, at rest: the model a kinematic
+    probe compiled already where ``compiled`` holds one (path -> MjModel; its contact
+    exclusions and visual geoms dropped, which move and weigh nothing), else compiled here."""
+    import mujoco
+
+    model = (compiled or {}).get(Path(path))
+    if model is not None:
+        return _at_rest(model)
+    spec = mujoco.MjSpec.from_file(str(path))
+    spec.compiler.fusestatic = False
+    return _compiled(spec)
+
+
+# What a URDF holds of a joint as MuJoCo imports it (<dynamics damping friction>, <limit>);
+# armature, stiffness and the spring's reference are in our namespace, which MuJoCo skips.
+URDF_HOLDS = ("damping", "frictionloss", "limited", "range")
+
+
+def _mujoco_joint_differences(src, exp, tol: float, held: tuple[str, ...] | None = None,
+                              balls: bool = True) -> list[Difference]:
+    """Per named joint of ``src``: damping, frictionloss, armature, stiffness, limited,
+    (hinge, slide) range and ref, against the joint of that name in ``exp``; ``held``: only
+    those quantities, ``balls`` False: not its ball joints (what the export's format holds
+    as its tool reads it)."""
     import mujoco
 
     out = []
@@ -91,7 +120,7 @@ def _mujoco_joint_differences(src, exp, tol: float) -> list[Difference]:
     scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
     for j in range(src.njnt):
         name = src.joint(j).name
-        if not name:
+        if not name or (not balls and int(src.jnt_type[j]) == ball):
             continue
         e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_JOINT, sanitize_name(name))
         if e < 0:
@@ -102,26 +131,35 @@ def _mujoco_joint_differences(src, exp, tol: float) -> list[Difference]:
                  ("frictionloss", src.dof_frictionloss[ds], exp.dof_frictionloss[de]),
                  ("armature", src.dof_armature[ds], exp.dof_armature[de]),
                  ("stiffness", src.jnt_stiffness[j], exp.jnt_stiffness[e]),
-                 ("limited", src.jnt_limited[j], exp.jnt_limited[e])]
-        if src.jnt_limited[j] and int(src.jnt_type[j]) != ball:
+                 ("limited", _limited(src, j), _limited(exp, e))]
+        if _limited(src, j) and int(src.jnt_type[j]) != ball:
             pairs.append(("range", src.jnt_range[j], exp.jnt_range[e]))
         if int(src.jnt_type[j]) in scalar:  # where it starts (ref); a start outside the
             # range is the nearest limit in the model (its state), warned by the reader
             ref = src.qpos0[src.jnt_qposadr[j]]
-            lo, hi = src.jnt_range[j] if src.jnt_limited[j] else (-np.inf, np.inf)
+            lo, hi = src.jnt_range[j] if _limited(src, j) else (-np.inf, np.inf)
             if lo <= ref <= hi:
                 pairs.append(("ref (qpos0)", ref, exp.qpos0[exp.jnt_qposadr[e]]))
         out += [Difference((name,), f"joint {name!r}: {what} {a} != {b}")
-                for what, a, b in pairs if not _close(a, b, tol)]
+                for what, a, b in pairs
+                if (held is None or what in held) and not _close(a, b, tol)]
     return out
 
 
-def mjcf_differences(source: str | Path, export: str | Path,
-                     tol: float = 1e-6) -> list[Difference]:
-    """An MJCF SOURCE against its MJCF EXPORT, both compiled by MuJoCo, body by body."""
+def _limited(m, j: int) -> bool:
+    """Whether joint ``j`` has a range: one at SDF's "no limit" (+-1e16, which a URDF, whose
+    slides must have one, is given for a slide without) is none."""
+    return bool(m.jnt_limited[j]) and not np.all(
+        np.abs(m.jnt_range[j]) >= UNBOUNDED_LIMIT * (1.0 - 1e-6))
+
+
+def mjcf_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
+                     compiled: Mapping[Path, object] | None = None) -> list[Difference]:
+    """An MJCF SOURCE against its MJCF EXPORT, both compiled by MuJoCo (``compiled``:
+    :func:`_mjcf`), body by body."""
     import mujoco
 
-    (src, ds), (exp, de) = (_compiled(mujoco.MjSpec.from_file(str(f))) for f in (source, export))
+    (src, ds), (exp, de) = _mjcf(source, compiled), _mjcf(export, compiled)
     out = []
     for b in range(1, src.nbody):
         name = src.body(b).name
@@ -136,18 +174,23 @@ def mjcf_differences(source: str | Path, export: str | Path,
 
 def _mass_differences(element: str, names: tuple[str, ...], a, b,
                       tol: float) -> list[Difference]:
-    """(mass, principal moments, centre of mass in the world) of one rigid group each."""
+    """(mass, principal moments, centre of mass in the world) of one rigid group each. Of
+    two massless groups only the mass is compared: where a tool puts the centre of mass of
+    nothing (its body's origin, which a body split at its joints moves) means nothing."""
     pairs = (("mass", a[0], b[0]), ("principal moments", np.sort(a[1]), np.sort(b[1])),
              ("centre of mass", a[2], b[2]))
+    if _close(a[0], 0.0, tol) and _close(b[0], 0.0, tol):
+        pairs = pairs[:1]
     return [Difference(names, f"{element}: {what} {x} != {y}", MASS_WORDS)
             for what, x, y in pairs if not _close(x, y, tol)]
 
 
-def _welded_groups(m, d) -> dict[int, tuple[float, np.ndarray, np.ndarray]]:
+def _welded_groups(m, d, welds: dict[int, list[int]]
+                   ) -> dict[int, tuple[float, np.ndarray, np.ndarray]]:
     """Weld body id (a body with a joint, or the world) -> (mass, principal moments, centre
-    of mass in the world) of it and every body fixed to it."""
+    of mass in the world) of it and every body fixed to it (``welds``: :func:`_welds`)."""
     out = {}
-    for weld, bodies in _welds(m).items():
+    for weld, bodies in welds.items():
         mass = float(sum(m.body_mass[b] for b in bodies))
         if mass <= 0.0:
             out[weld] = (0.0, np.zeros(3), np.zeros(3))
@@ -159,44 +202,94 @@ def _welded_groups(m, d) -> dict[int, tuple[float, np.ndarray, np.ndarray]]:
     return out
 
 
-def _welds(m) -> dict[int, list[int]]:
+def _body_name(m, b: int) -> str:
+    """A body's name as our readers make it (an unnamed MJCF body is ``body_<id>``)."""
+    return m.body(b).name or f"body_{b}"
+
+
+def _welds(m, as_urdf: bool = False) -> dict[int, list[int]]:
+    """Weld body id -> the bodies welded to it (MuJoCo's ``body_weldid``); ``as_urdf``: as a
+    URDF holds them, a body whose joints are all ball joints, and a mocap body (moved by the
+    user, no joint), welded to its parent too."""
+    import mujoco
+
+    weld = [int(w) for w in m.body_weldid]
+    if as_urdf:
+        ball = int(mujoco.mjtJoint.mjJNT_BALL)
+        for b in range(1, m.nbody):  # (parents come before their children)
+            kinds = {int(m.jnt_type[j]) for j in range(m.njnt) if int(m.jnt_bodyid[j]) == b}
+            if kinds == {ball} or m.body_mocapid[b] >= 0 or (not kinds and weld[b] != b):
+                weld[b] = weld[int(m.body_parentid[b])]
     groups: dict[int, list[int]] = {}
     for b in range(1, m.nbody):
-        groups.setdefault(int(m.body_weldid[b]), []).append(b)
+        groups.setdefault(weld[b], []).append(b)
     return groups
 
 
-def urdf_mujoco_differences(source: str | Path, export: str | Path,
-                            tol: float = 1e-6) -> list[Difference] | None:
+def urdf_mujoco_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
+                            compiled: Mapping[Path, object] | None = None
+                            ) -> list[Difference] | None:
     """A URDF SOURCE as MuJoCo imports it (kinematics and masses, every link kept a body, no
     repair of MuJoCo's turned on) against the MJCF EXPORT, per welded group named by its
     moving body, and per joint; None when MuJoCo refuses the source as it is."""
+    try:
+        src, ds = _compiled(_urdf_spec(Path(source)))
+    except ValueError:
+        return None  # (a tensor off the triangle inequality, a massless moving link)
+    exp, de = _mjcf(export, compiled)
+    return _welded_differences(src, ds, exp, de, tol) + _mujoco_joint_differences(src, exp, tol)
+
+
+def mjcf_urdf_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
+                          compiled: Mapping[Path, object] | None = None) -> list[Difference]:
+    """An MJCF SOURCE against its URDF EXPORT as MuJoCo imports it, per welded group named by
+    its moving body (a body of several joints is a chain in a URDF: its last link carries the
+    mass; a ball joint is fixed at its rest, a mocap body fixed), and per joint what a URDF
+    holds (:data:`URDF_HOLDS`)."""
+    src, ds = _mjcf(source, compiled)
+    exp, de = _compiled(_urdf_spec(Path(export)))
+    # a URDF has no ball joint (the writer fixes one at its rest, warned) nor mocap body
+    return (_welded_differences(src, ds, exp, de, tol, as_urdf=True)
+            + _mujoco_joint_differences(src, exp, tol, held=URDF_HOLDS, balls=False))
+
+
+def _urdf_spec(path: Path):
+    """A URDF as MuJoCo imports it: kinematics and masses, every link kept a body, none of
+    MuJoCo's repairs turned on."""
     import mujoco
 
     from .mujoco import urdf_kinematics
 
-    try:
-        spec = mujoco.MjSpec.from_string(urdf_kinematics(Path(source)))
-        spec.compiler.fusestatic = False
-        src, ds = _compiled(spec)
-    except ValueError:
-        return None  # (a tensor off the triangle inequality, a massless moving link)
-    exp, de = _compiled(mujoco.MjSpec.from_file(str(export)))
-    a, b, members = _welded_groups(src, ds), _welded_groups(exp, de), _welds(src)
+    spec = mujoco.MjSpec.from_string(urdf_kinematics(path))
+    spec.compiler.fusestatic = False
+    return spec
+
+
+def _welded_differences(src, ds, exp, de, tol: float,
+                        as_urdf: bool = False) -> list[Difference]:
+    """Per welded group of ``src`` that moves, named by its moving body, against the group
+    that holds the body of that name in ``exp``; ``as_urdf``: ``src``'s welds as a URDF holds
+    them (:func:`_welds`)."""
+    import mujoco
+
+    members = _welds(src, as_urdf)
+    a, b = _welded_groups(src, ds, members), _welded_groups(exp, de, _welds(exp))
     out = []
     for weld, group in a.items():
         if weld == 0:
             continue  # the world's own share: which links MuJoCo counts in it is its choice
-        name = src.body(weld).name
-        names = tuple(src.body(k).name for k in members[weld])
+        name = _body_name(src, weld)
+        names = tuple(_body_name(src, k) for k in members[weld])
         e = mujoco.mj_name2id(exp, mujoco.mjtObj.mjOBJ_BODY, sanitize_name(name))
-        if e < 0 or int(exp.body_weldid[e]) != e:
+        if e < 0 or int(exp.body_weldid[e]) == 0:
             out.append(Difference(names, f"body {name!r}: no moving body of that name in "
                                          "the export"))
             continue
+        # (the group it is in: a body of a hinge and a ball, split at its joints, hangs on
+        # its hinge's intermediate part, a URDF fixing the ball)
         out += _mass_differences(f"body {name!r} and the bodies fixed to it", names, group,
-                                 b[e], tol)
-    return out + _mujoco_joint_differences(src, exp, tol)
+                                 b[int(exp.body_weldid[e])], tol)
+    return out
 
 
 # -- Pinocchio ------------------------------------------------------------------------------
@@ -268,13 +361,16 @@ class Comparison:
     note: str = ""  # why it is not compared (with differences None)
 
 
-def against_source(source: str | Path, exports: list[str | Path],
-                   tol: float = 1e-6) -> list[Comparison]:
+def against_source(source: str | Path, exports: list[str | Path], tol: float = 1e-6,
+                   compiled: Mapping[Path, object] | None = None) -> list[Comparison]:
     """The dynamics of each export that a tool of the source builds, against the source in
     that tool: an MJCF source's MJCF exports in MuJoCo (:func:`mjcf_differences`); a URDF
     source's URDF exports in Pinocchio (:func:`urdf_differences`) and MJCF exports in MuJoCo
-    (:func:`urdf_mujoco_differences`). Other exports (an MJCF source's URDF; USD, glTF) are
-    not compared here: their dynamics are the model's, as the round trips hold them."""
+    (:func:`urdf_mujoco_differences`); an MJCF source's URDF exports as MuJoCo imports them
+    (:func:`mjcf_urdf_differences`). USD and glTF exports are not compared here: their
+    dynamics are the model's, as the round trips hold them. ``compiled``: MJCF files' models
+    that the kinematic probes compiled already (path -> MjModel), used instead of compiling
+    the files again."""
     from ..errors import CheckError
     from ..formats import format_for_path
 
@@ -285,12 +381,15 @@ def against_source(source: str | Path, exports: list[str | Path],
         kind = format_for_path(export).name
         if kind == "mjcf":
             if is_urdf:
-                found = urdf_mujoco_differences(source, export, tol)
+                found = urdf_mujoco_differences(source, export, tol, compiled)
                 note = "" if found is not None else "MuJoCo refuses the source as it is"
             else:
-                found, note = mjcf_differences(source, export, tol), ""
+                found, note = mjcf_differences(source, export, tol, compiled), ""
             out.append(Comparison(export, "MuJoCo", found, note))
-        elif kind == "urdf" and is_urdf:
+        elif kind == "urdf" and not is_urdf:
+            out.append(Comparison(export, "MuJoCo",
+                                  mjcf_urdf_differences(source, export, tol, compiled)))
+        elif kind == "urdf":
             try:
                 out.append(Comparison(export, "Pinocchio", urdf_differences(source, export, tol)))
             except CheckError as e:  # Pinocchio refuses the source (or the export: the

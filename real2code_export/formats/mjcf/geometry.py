@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import transforms as tf
-from ...errors import FormatError
+from ...errors import FormatError, NoTrianglesError, warn
 from ...meshfiles import read_mesh
 from ...model import Mesh
 from ...primitives import Primitive, ShapeKind
@@ -163,7 +163,15 @@ def _file_mesh(model, mesh_id: int, source: Path, element: str,
         return Mesh(mesh.vertices * scale, mesh.faces, mesh.uv)
     path = _mesh_path(model, mesh_id)
     if path is not None and path.suffix.lower() in _FILE_FORMATS:
-        return read_mesh(path, source=source, element=element, scale=scale)
+        try:
+            return read_mesh(path, source=source, element=element, scale=scale)
+        except NoTrianglesError:
+            if not model.mesh_facenum[mesh_id]:
+                raise
+            # vertices only: MuJoCo meshes them as their convex hull
+            warn(f"{source}: {element}: mesh {path} has vertices but no triangles: their "
+                 f"convex hull taken as MuJoCo takes it ({int(model.mesh_facenum[mesh_id])} "
+                 "triangles)")
     return None
 
 

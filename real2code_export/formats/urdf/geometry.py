@@ -136,7 +136,8 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) 
 
     ``package://NAME/REST`` and ``model://NAME/REST``: the first folder named NAME holding
     REST, looked for in the URDF's own folder and its parents (a package inside a source or
-    install tree), then in the search path (:func:`package_search_path`)."""
+    install tree), then in the search path (:func:`package_search_path`); failing that, the
+    nearest of those parents holding REST itself (warned)."""
     scheme = next((s for s in ("package://", "model://") if filename.startswith(s)), None)
     if scheme is not None:
         package, _, rest = filename[len(scheme):].partition("/")
@@ -147,6 +148,13 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) 
                 return folder / rest
             if (folder / package / rest).exists():
                 return folder / package / rest
+        # No such package, but REST lies under a folder above the URDF (a package renamed
+        # or copied without its name): the nearest one, as yourdfpy resolves it.
+        found = next((f for f in (here, *here.parents) if (f / rest).is_file()), None)
+        if found is not None:
+            ctx.warn(owner, f"{filename!r}: no package {package!r} found; {rest!r} taken from "
+                     f"{found}, the nearest folder above the URDF holding it", line)
+            return found / rest
         raise ctx.error(owner, f"cannot resolve {filename!r}: no parent folder of the URDF is "
                         f"named {package!r} (or holds one) with {rest!r} in it, nor any folder "
                         f"of the search path {[str(f) for f in search]} (ROS_PACKAGE_PATH, "

@@ -314,6 +314,11 @@ def _link_inertial(ctx: Context, el: etree._Element, name: str,
                    visuals: list[Mesh]) -> Inertial | None:
     owner = label(el)
     inertial_el = el.find("inertial")
+    if inertial_el is not None and inertial_el.find("mass") is None:
+        # urdfdom (Pinocchio, ROS) drops such an <inertial> and loads the link; MuJoCo refuses
+        ctx.warn(owner, "<inertial> has no <mass>: read as a link without <inertial>, as "
+                 "urdfdom drops it", inertial_el.sourceline)
+        inertial_el = None
     if inertial_el is not None:
         return _inertial(ctx, inertial_el, owner)
     if not visuals or el.get(ns("inertial")) == UNKNOWN:
@@ -327,8 +332,6 @@ def _link_inertial(ctx: Context, el: etree._Element, name: str,
 
 def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
     mass_el = el.find("mass")
-    if mass_el is None:
-        raise ctx.error(owner, "<inertial> has no <mass>", el.sourceline)
     mass = ctx.number(mass_el, "value", owner)
     if mass == 0.0:
         ctx.warn(owner, "<mass value='0'>: the link is treated as massless (no inertial)",
