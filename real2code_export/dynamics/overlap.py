@@ -3,8 +3,10 @@ collision detection sees them (each piece is a convex hull, as in every engine).
 
 Every pair of parts counts, parent and child included: a format without contact exclusions
 (URDF) leaves those pairs to collide too. The MJCF is loaded with its ``<exclude>`` pairs
-removed and parent filtering off; ``mj_forward`` at the joint values gives the contacts,
-and a negative distance is an overlap. Along a joint's range only its child and its parent
+removed and parent filtering off; MuJoCo's collision detection at the joint values
+(``mj_kinematics``, ``mj_flex`` and ``mj_collision``, not ``mj_forward``: a scene of thousands of
+contacts would fill MuJoCo's arena with a constraint problem nobody reads) gives the
+contacts, and a negative distance is an overlap. Along a joint's range only its child and its parent
 count: a drawer that meets a closed door beside it is a real collision, not an overlap.
 """
 
@@ -138,7 +140,9 @@ def _overlaps(model, data, q: dict[str, float], tolerance: float) -> list[Overla
     data.qpos[:] = 0.0
     for name, value in q.items():
         data.qpos[model.joint(name).qposadr[0]] = value
-    mujoco.mj_forward(model, data)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_flex(model, data)  # a flex's vertices, where a source has one
+    mujoco.mj_collision(model, data)
     deepest: dict[tuple[str, str], float] = {}
     for c in data.contact[:data.ncon]:
         if c.dist >= -tolerance:
