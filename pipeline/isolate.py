@@ -27,6 +27,7 @@ import numpy as np
 from real2code_export.errors import InputError
 
 from .capture import Capture, Frame
+from .ransac import fit_plane
 
 
 @dataclass(frozen=True)
@@ -149,8 +150,6 @@ def scenery_planes(points: np.ndarray, tolerance: np.ndarray, wide: np.ndarray,
                    ) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
     """Which of one frame's world ``points`` lie on the room's planes, and those planes
     (unit normal, offset)."""
-    import open3d as o3d
-
     scenery = np.zeros(len(points), bool)
     searched = np.ones(len(points), bool)  # not yet a plane's
     planes = []
@@ -160,14 +159,10 @@ def scenery_planes(points: np.ndarray, tolerance: np.ndarray, wide: np.ndarray,
             break
         sample = pool if len(pool) <= options.ransac_points else \
             rng.choice(pool, options.ransac_points, replace=False)
-        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points[sample]))
-        model, _ = cloud.segment_plane(float(np.median(tolerance[sample])), 3,
-                                       options.ransac_iterations)
-        normal, offset = np.asarray(model[:3]), float(model[3])
-        normal_len = np.linalg.norm(normal)
-        if normal_len == 0:
+        normal, offset, _ = fit_plane(points[sample], float(np.median(tolerance[sample])),
+                                      options.ransac_iterations, rng)
+        if not normal.any():
             break
-        normal, offset = normal / normal_len, offset / normal_len
         distance = np.abs(points @ normal + offset)
         on_plane = searched & (distance <= tolerance)
         if on_plane.sum() < options.min_plane_share * len(points):
@@ -274,11 +269,8 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
 
     if "object_isolation" in capture.extra:
         return capture, capture.extra["object_isolation"]
-    import open3d as o3d
-
     region = object_region(capture, box, options)
     rng = np.random.default_rng(0)
-    o3d.utility.random.seed(0)  # its RANSAC draws: the same capture, the same result
     per_frame, kept_points = [], []
     room_planes = []
     for frame in capture.frames:
