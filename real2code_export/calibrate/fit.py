@@ -37,6 +37,10 @@ MATERIAL = 1.0
 # measured by one replay this many times finer, with the input interpolated: the
 # Gauss-Newton step it asks for corrects the estimate and widens its interval.
 REFINE = 4
+# A fit stops when an iteration lowers the squared residual by less than this share of
+# one sample's part of it (rss / n): what the BIC and the 95 % intervals resolve is
+# several such parts (an interval's edge is 3.84), so the rest would move no decision.
+STOP_SHARE = 0.01
 
 
 @dataclass
@@ -118,7 +122,7 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
     params = [p for e in effects for p in e.params]
     slots = initial_slots(problem)
     warm = warm or {}
-    x0_theta, lb, ub, scales = [], [], [], []
+    x0_theta, lb, ub, scales, origin = [], [], [], [], []
     for p in params:
         v = warm.get(p.key, start.values[p.key] if start is not None else p.nominal)
         scale = max(abs(v), abs(p.nominal), 1e-3 * (p.upper - p.lower), 1e-12)
@@ -126,6 +130,7 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
         lb.append(p.lower)
         ub.append(p.upper)
         scales.append(scale)
+        origin.append(0.0)
     for t, k, c in slots:
         v = float(warm.get(f"initial:{t}:{k}:{c}", problem.initial[t][k, c]))
         se = float(problem.initial_stderr[t][k, c])
@@ -137,12 +142,13 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
         lb.append(v - slack)
         ub.append(v + slack)
         scales.append(max(abs(v) if c == 1 else 0.0, 10 * se, 1e-9))
-    scales_a = np.array(scales, float)
-    ev = Evaluator(problem, effects, scales_a)
-    x0 = np.array(x0_theta, float) / scales_a
+        origin.append(v)
+    scales_a, origin_a = np.array(scales, float), np.array(origin, float)
+    ev = Evaluator(problem, effects, scales_a, origin=origin_a)
+    x0 = (np.array(x0_theta, float) - origin_a) / scales_a
     x0 = _start_limit_softness(ev, params, x0, scales_a)
-    lb_a = np.array(lb, float) / scales_a
-    ub_a = np.array(ub, float) / scales_a
+    lb_a = (np.array(lb, float) - origin_a) / scales_a
+    ub_a = (np.array(ub, float) - origin_a) / scales_a
     # a start on a bound stalls the trust region: nudge inside
     width = np.where(np.isfinite(ub_a - lb_a), ub_a - lb_a, 1.0)
     x0 = np.clip(x0, lb_a + 1e-6 * width, ub_a - 1e-6 * width)
@@ -160,8 +166,12 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
         return ev.jacobian(x, last["r"], ub_a)
 
     if len(x0):
+        n = int(ev.offsets[-1]) + len(problem.links) * len(problem.joints)
+        # (the variables are in units of their scales and start near zero, so scipy's
+        # relative step tolerance is left tight and its Jacobian scaling evens them out)
         res = least_squares(fun, x0, jac=jac, bounds=(lb_a, ub_a), method="trf",
-                            max_nfev=max_nfev, xtol=1e-5, ftol=1e-7, gtol=1e-8)
+                            max_nfev=max_nfev, xtol=1e-5, ftol=max(STOP_SHARE / n, 1e-12),
+                            gtol=1e-8, x_scale="jac")
         x_star = res.x
         jmat = res.jac
         if not np.array_equal(last.get("x"), x_star):
@@ -197,7 +207,8 @@ def refine_fit(fit: Fit) -> Fit:
     sol = fit.solution
     if fit.refined or sol is None or not sol.ev.params:
         return fit  # no effect parameters (a replay): only initial states, nothing to refine
-    ref = Evaluator(sol.problem, sol.ev.effects, sol.scales, refine=REFINE)
+    ref = Evaluator(sol.problem, sol.ev.effects, sol.scales, refine=REFINE,
+                    origin=sol.ev.origin)
     r_ref, _ = ref.residual(sol.x)
     sol.ev.count += REFINE * len(sol.problem.trajectories)
     step = -np.linalg.lstsq(sol.jac, r_ref, rcond=1e-8)[0]
