@@ -354,8 +354,8 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             new.append(f)
         n_ref = _n_ref(fits.values())
         if lost and not any(_follows(problem, f) for f in new):
-            log.append("no replay follows the data (each predicts the motion worse than "
-                       "its mean): an unmeasured force drives the joint, or the model "
+            log.append("no replay follows the data (each predicts a run worse than the "
+                       "run's mean): an unmeasured force drives the joint, or the model "
                        "misses more than any candidate holds; the search stops")
             break
         kept = None
