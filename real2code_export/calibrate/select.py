@@ -38,7 +38,8 @@ SCREEN_BLIND = 6
 MAX_EFFECTS = 4
 # Where the current model's replay does not follow the data (:func:`_follows`), each
 # structure of the step is first fitted with this many evaluations: enough to see whether
-# its replay comes back onto the data; only one that does is fitted to the end.
+# its replay comes back onto the data; only one that does (or, where none does, the
+# closest) is fitted to the end.
 LOOK_NFEV = 4
 
 
@@ -352,6 +353,11 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                 f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
             fits[_key(p)] = f
             new.append(f)
+        if lost and new and not any(_follows(problem, f) for f in new):
+            # four evaluations may not have been enough: the closest look to the end
+            best = min(new, key=lambda f: f.rss)
+            f = fit_candidate(problem, best.effects, refine=False, warm=dict(best.values))
+            fits[_key(f.effects)] = new[new.index(best)] = f
         n_ref = _n_ref(fits.values())
         if lost and not any(_follows(problem, f) for f in new):
             log.append("no replay follows the data (each predicts a run worse than the "
