@@ -13,7 +13,8 @@ tried without it (the search only adds: a refinement may make an earlier effect 
 where no structure of a step passes, the best is fitted once more from its own
 inverse-dynamics start (from the current model's values it may stop in that model's
 minimum). The search stops when no extension earns its parameters: nothing is forced onto
-the data.
+the data; and where no structure's replay follows every run (a person moves the joint),
+since the output error then measures a divergence, not an effect.
 """
 
 from __future__ import annotations
