@@ -31,9 +31,8 @@ from .uncertainty import Solution, input_noise_spread, uncertainty
 DEGENERATE = 0.999  # parameters of two effects this correlated explain the same thing
 # An effect is named only if removing it moves the simulated motion by at least this many
 # noise standard deviations (RMS): smaller ones are statistically visible in long records
-# but are not worth a model change. (A closed loop hides a real effect from the position:
-# direction-dependent friction moving it by 0.83 noise deviations, 15 standard errors.)
-MATERIAL = 0.75
+# but are not worth a model change.
+MATERIAL = 1.0
 # The replay's own numerical error (sampled input, step size, soft dry friction) is
 # measured by one replay this many times finer, with the input interpolated: the
 # Gauss-Newton step it asks for corrects the estimate and widens its interval.
