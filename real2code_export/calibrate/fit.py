@@ -41,8 +41,8 @@ REFINE = 4
 # one sample's part of it (rss / n): what the BIC and the 95 % intervals resolve is
 # several such parts (an interval's edge is 3.84), so the rest would move no decision.
 STOP_SHARE = 0.01
-# A stop's softness (MuJoCo's solreflimit) starts from the best of this grid: its minima
-# lie as close as a factor of two in the time constant.
+# A stop's softness (MuJoCo's solreflimit) has local minima: it starts from the best of
+# this grid (time constants a factor of two to two and a half apart).
 SOFTNESS_TIMECONSTS = (0.002, 0.004, 0.008, 0.016, 0.04)
 SOFTNESS_DAMPRATIOS = (0.25, 0.6, 1.2, 2.5)
 # A stop's fit leaving this many noise variances per sample gets a second start from the
