@@ -2,7 +2,8 @@
 have (tests/synthetic_scenarios.py), each calibrated from its CSV (and experiment file) with
 a held-out run, scored against the hidden truth; prints the table of docs/calibration.md.
 
-    python bench/calibrate_suite.py [--rounds 21] [--workers N] [--json results.json]
+    python bench/calibrate_suite.py [--rounds 21 | --cases 60:120,7] [--workers N]
+                                    [--json results.json]
 
 (CI runs the first rounds only: tests/test_calibrate_synthetic.py.)
 """
@@ -25,14 +26,26 @@ from _machine import describe  # noqa: E402
 from synthetic_suite import N_CASES, ci_seeds, markdown, run_cases, score  # noqa: E402
 
 
+def _cases(text: str) -> list[int]:
+    seeds: list[int] = []
+    for part in text.split(","):
+        a, _, b = part.partition(":")
+        seeds += list(range(int(a), int(b))) if b else [int(a)]
+    if not all(0 <= s < N_CASES for s in seeds):
+        raise argparse.ArgumentTypeError(f"seeds run from 0 to {N_CASES - 1}")
+    return seeds
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rounds", type=int, default=None,
                         help="only the first rounds (10 cases each; default: all)")
+    parser.add_argument("--cases", type=_cases, default=None,
+                        help="only these seeds: ranges and single seeds, e.g. 60:120,7")
     parser.add_argument("--workers", type=int, default=os.cpu_count())
     parser.add_argument("--json", type=Path, help="also write every case's result here")
     args = parser.parse_args()
-    seeds = ci_seeds(args.rounds) if args.rounds else list(range(N_CASES))
+    seeds = args.cases or (ci_seeds(args.rounds) if args.rounds else list(range(N_CASES)))
     print(f"machine      {describe()}, load average {os.getloadavg()[0]:.1f}")
     t0 = time.perf_counter()
     results = run_cases(seeds, args.workers)
@@ -41,7 +54,8 @@ def main() -> int:
     print(markdown(results))
     print()
     print(f"{len(results)} cases in {wall:.0f} s wall ({s['seconds']:.0f} s of calibration, "
-          f"{args.workers} workers)")
+          f"{s['cpu']:.0f} s of its CPU, {args.workers} workers, load average "
+          f"{os.getloadavg()[0]:.1f} at the end)")
     for label, key in (("wrong causes", "wrong"), ("named on effect-free data", "noisy"),
                        ("values outside their intervals", "outside"),
                        ("held out worse than nominal", "worse_cases")):

@@ -55,9 +55,9 @@ def run_case(seed: int) -> dict:
     case = make(seed)
     with tempfile.TemporaryDirectory() as tmp:
         fit, held = case.write(Path(tmp))
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         report = calibrate(case.obj, [fit], [held]).report
-        seconds = time.perf_counter() - t0
+        seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     checks = []
     for key, truth in truth_params(case).items():
         p = report["parameters"].get(key)
@@ -72,7 +72,8 @@ def run_case(seed: int) -> dict:
             "named": list(report["causes"]), "clean": not case.truth,
             "right": set(report["causes"]) == case.expected_causes(), "checks": checks,
             "unexplained": bool(report["unexplained"]), "holdout_before": before,
-            "holdout_after": after, "worse": after > before * (1 + 1e-9), "seconds": seconds}
+            "holdout_after": after, "worse": after > before * (1 + 1e-9), "seconds": seconds,
+            "cpu": cpu}
 
 
 def run_cases(seeds: list[int], workers: int | None = None) -> list[dict]:
@@ -112,6 +113,7 @@ def score(results: list[dict]) -> dict:
         "worse_cases": [(r["seed"], r["scenario"], r["holdout_before"], r["holdout_after"])
                         for r in results if r["worse"]],
         "seconds": sum(r["seconds"] for r in results),
+        "cpu": sum(r.get("cpu", 0.0) for r in results),
     }
 
 

@@ -24,7 +24,7 @@ from . import features
 from .effects import Effect
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
-from .residuals import Evaluator, initial_slots
+from .residuals import Evaluator, initial_slots, noise_floor
 from .simulate import Rollout
 from .uncertainty import Solution, input_noise_spread, uncertainty
 
@@ -37,6 +37,18 @@ MATERIAL = 1.0
 # measured by one replay this many times finer, with the input interpolated: the
 # Gauss-Newton step it asks for corrects the estimate and widens its interval.
 REFINE = 4
+# A fit stops when an iteration lowers the squared residual by less than this share of
+# one sample's part of it (rss / n): what the BIC and the 95 % intervals resolve is
+# several such parts (an interval's edge is 3.84), so the rest would move no decision.
+STOP_SHARE = 0.01
+# A stop's softness (MuJoCo's solreflimit) has local minima: it starts from the best of
+# this grid (time constants a factor of two to two and a half apart).
+SOFTNESS_TIMECONSTS = (0.002, 0.004, 0.008, 0.016, 0.04)
+SOFTNESS_DAMPRATIOS = (0.25, 0.6, 1.2, 2.5)
+# A stop's fit leaving this many noise variances per sample gets a second start from the
+# approach before the first impact (fitted on at least MIN_APPROACH samples).
+SECOND_START = 1.5
+MIN_APPROACH = 50
 
 
 @dataclass
@@ -118,7 +130,7 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
     params = [p for e in effects for p in e.params]
     slots = initial_slots(problem)
     warm = warm or {}
-    x0_theta, lb, ub, scales = [], [], [], []
+    x0_theta, lb, ub, scales, origin = [], [], [], [], []
     for p in params:
         v = warm.get(p.key, start.values[p.key] if start is not None else p.nominal)
         scale = max(abs(v), abs(p.nominal), 1e-3 * (p.upper - p.lower), 1e-12)
@@ -126,6 +138,7 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
         lb.append(p.lower)
         ub.append(p.upper)
         scales.append(scale)
+        origin.append(0.0)
     for t, k, c in slots:
         v = float(warm.get(f"initial:{t}:{k}:{c}", problem.initial[t][k, c]))
         se = float(problem.initial_stderr[t][k, c])
@@ -137,12 +150,13 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
         lb.append(v - slack)
         ub.append(v + slack)
         scales.append(max(abs(v) if c == 1 else 0.0, 10 * se, 1e-9))
-    scales_a = np.array(scales, float)
-    ev = Evaluator(problem, effects, scales_a)
-    x0 = np.array(x0_theta, float) / scales_a
+        origin.append(v)
+    scales_a, origin_a = np.array(scales, float), np.array(origin, float)
+    ev = Evaluator(problem, effects, scales_a, origin=origin_a)
+    x0 = (np.array(x0_theta, float) - origin_a) / scales_a
     x0 = _start_limit_softness(ev, params, x0, scales_a)
-    lb_a = np.array(lb, float) / scales_a
-    ub_a = np.array(ub, float) / scales_a
+    lb_a = (np.array(lb, float) - origin_a) / scales_a
+    ub_a = (np.array(ub, float) - origin_a) / scales_a
     # a start on a bound stalls the trust region: nudge inside
     width = np.where(np.isfinite(ub_a - lb_a), ub_a - lb_a, 1.0)
     x0 = np.clip(x0, lb_a + 1e-6 * width, ub_a - 1e-6 * width)
@@ -160,8 +174,10 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
         return ev.jacobian(x, last["r"], ub_a)
 
     if len(x0):
-        res = least_squares(fun, x0, jac=jac, bounds=(lb_a, ub_a), method="trf",
-                            max_nfev=max_nfev, xtol=1e-5, ftol=1e-7, gtol=1e-8)
+        n = int(ev.offsets[-1]) + len(problem.links) * len(problem.joints)
+        res = _solve(fun, jac, x0, lb_a, ub_a, max_nfev, n)
+        if 2 * res.cost / n > SECOND_START:
+            res = _second_start(ev, params, res, fun, jac, lb_a, ub_a, max_nfev, n)
         x_star = res.x
         jmat = res.jac
         if not np.array_equal(last.get("x"), x_star):
@@ -197,7 +213,8 @@ def refine_fit(fit: Fit) -> Fit:
     sol = fit.solution
     if fit.refined or sol is None or not sol.ev.params:
         return fit  # no effect parameters (a replay): only initial states, nothing to refine
-    ref = Evaluator(sol.problem, sol.ev.effects, sol.scales, refine=REFINE)
+    ref = Evaluator(sol.problem, sol.ev.effects, sol.scales, refine=REFINE,
+                    origin=sol.ev.origin)
     r_ref, _ = ref.residual(sol.x)
     sol.ev.count += REFINE * len(sol.problem.trajectories)
     step = -np.linalg.lstsq(sol.jac, r_ref, rcond=1e-8)[0]
@@ -235,6 +252,60 @@ def _without_stop(sol: Solution, stop: Effect) -> float:
     return float(np.sqrt(np.mean((r - sol.r) ** 2)))
 
 
+def _solve(fun, jac, x0, lb, ub, max_nfev, n):
+    # (the variables are in units of their scales and start near zero, so scipy's
+    # relative step tolerance is left tight and its Jacobian scaling evens them out)
+    return least_squares(fun, x0, jac=jac, bounds=(lb, ub), method="trf",
+                         max_nfev=max_nfev, xtol=1e-5, ftol=max(STOP_SHARE / n, 1e-12),
+                         gtol=1e-8, x_scale="jac")
+
+
+def _second_start(ev: Evaluator, params, first, fun, jac, lb, ub, max_nfev, n):
+    """A stop whose fit leaves more than the noise may sit in another minimum of its
+    softness: fit the approach before the first impact alone (the stop plays no part
+    there, so the initial state and the other effects come from the free motion), start
+    the softness from the grid at that point, fit the whole again, keep the better."""
+    mask = _before_impact(ev, params, first.x)
+    if mask is None:
+        return first
+    approach = _solve(lambda x: fun(x) * mask, lambda x: jac(x) * mask[:, None], first.x,
+                      lb, ub, max_nfev, n)
+    x1 = _start_limit_softness(ev, params, approach.x, ev.scales)
+    width = np.where(np.isfinite(ub - lb), ub - lb, 1.0)
+    x1 = np.clip(x1, lb + 1e-6 * width, ub - 1e-6 * width)
+    second = _solve(fun, jac, x1, lb, ub, max_nfev, n)
+    return second if second.cost < first.cost else first
+
+
+def _before_impact(ev: Evaluator, params, x: np.ndarray) -> np.ndarray | None:
+    """Residual rows of the samples before a run first reaches a fitted stop (within
+    three noise deviations of its edge); None where there is no stop or no approach
+    long enough to fit."""
+    values, _ = ev.split(x)
+    pr = ev.problem
+    edges = [(p.joint, p.name, values[p.key]) for p in params
+             if p.name in ("limit_lower", "limit_upper")]
+    if not edges:
+        return None
+    nj = len(pr.joints)
+    mask = np.zeros(int(ev.offsets[-1]) + len(pr.links) * nj)
+    kept = 0
+    for t, tr in enumerate(pr.trajectories):
+        cut = tr.n
+        for j, side, edge in edges:
+            k = pr.joints.index(j)
+            q = tr.positions[j]
+            band = 3 * noise_floor(pr.position_noise[t][k], q)
+            hit = q >= edge - band if side == "limit_upper" else q <= edge + band
+            if hit.any():
+                cut = min(cut, int(np.argmax(hit)))
+        for k in range(nj):
+            a = int(ev.offsets[t]) + k * tr.n
+            mask[a:a + cut] = 1.0
+        kept += cut
+    return mask if kept >= max(MIN_APPROACH, 4 * len(x)) else None
+
+
 def _start_limit_softness(ev: Evaluator, params, x0: np.ndarray, scales: np.ndarray
                           ) -> np.ndarray:
     """An end stop's softness has local minima: start from the best of a small grid of
@@ -244,8 +315,8 @@ def _start_limit_softness(ev: Evaluator, params, x0: np.ndarray, scales: np.ndar
     if not idx_tc:
         return x0
     points = []
-    for tc in (0.003, 0.01, 0.03):
-        for dr in (0.3, 1.0, 2.0):
+    for tc in SOFTNESS_TIMECONSTS:
+        for dr in SOFTNESS_DAMPRATIOS:
             x = x0.copy()
             for i in idx_tc:
                 x[i] = min(max(tc, params[i].lower), params[i].upper) / scales[i]

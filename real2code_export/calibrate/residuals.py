@@ -77,11 +77,15 @@ class Evaluator:
     """Residuals of one candidate as a function of the scaled parameter vector."""
 
     def __init__(self, problem: Problem, effects: tuple[Effect, ...], scales: np.ndarray,
-                 refine: int = 1):
+                 refine: int = 1, origin: np.ndarray | None = None):
         self.problem = problem
         self.refine = refine
         self.effects = effects
         self.scales = scales
+        # value = origin + x * scale: an initial state is measured from where the data put
+        # it (from zero, a start of 0.2 rad over a scale of 1e-3 rad is a variable in the
+        # hundreds, and the optimiser's relative step tolerance stops every fit early)
+        self.origin = np.zeros(len(scales)) if origin is None else origin
         self.params = [p for e in effects for p in e.params]
         self.slots = initial_slots(problem)
         self.fine = problem.nonsmooth or any(e.name in NONSMOOTH for e in effects)
@@ -93,7 +97,7 @@ class Evaluator:
         self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
 
     def split(self, x: np.ndarray):
-        theta = x * self.scales
+        theta = self.origin + x * self.scales
         values = {p.key: float(theta[i]) for i, p in enumerate(self.params)}
         x0 = [v.copy() for v in self.problem.initial]
         for i, (t, k, c) in enumerate(self.slots):

@@ -13,7 +13,8 @@ tried without it (the search only adds: a refinement may make an earlier effect 
 where no structure of a step passes, the best is fitted once more from its own
 inverse-dynamics start (from the current model's values it may stop in that model's
 minimum). The search stops when no extension earns its parameters: nothing is forced onto
-the data.
+the data; and where no structure's replay follows every run (a person moves the joint),
+since the output error then measures a divergence, not an effect.
 """
 
 from __future__ import annotations
@@ -21,10 +22,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .effects import Effect, extensions
 from .fit import MATERIAL, Fit, fit_candidate, refine_fit
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
+from .residuals import noise_floor
 
 SCREEN_TOP = 2  # structures per step fitted by simulation (after the inverse-dynamics screen)
 # ... and where the screen is blind (it prefers no effect to the nominal model: a loop's
@@ -33,6 +37,11 @@ SCREEN_TOP = 2  # structures per step fitted by simulation (after the inverse-dy
 # screen may prefer no extension of what the replay chose; that is no sign of blindness.)
 SCREEN_BLIND = 6
 MAX_EFFECTS = 4
+# Where the current model's replay does not follow the data (:func:`_follows`), each
+# structure of the step is first fitted with this many evaluations: enough to see whether
+# its replay comes back onto the data; only one that does (or, where none does, the
+# closest) is fitted to the end.
+LOOK_NFEV = 4
 
 
 @dataclass
@@ -82,7 +91,32 @@ def _proposals(problem: Problem, current: tuple[Effect, ...]) -> list[tuple[Effe
 def _nothing_left(fit: Fit) -> bool:
     """Whether the residual is so close to the sensor noise that no further effect could
     move the motion by MATERIAL noise deviations (what it explains adds in quadrature)."""
-    return fit.rss / fit.n < 1.0 + 0.8 * MATERIAL**2
+    return _within_noise(fit.rss, fit.n)
+
+
+def _within_noise(rss: float, n: int) -> bool:
+    return rss / n < 1.0 + 0.8 * MATERIAL**2
+
+
+def _follows(problem: Problem, fit: Fit) -> bool:
+    """Whether the replay follows the data at all: on every run it predicts the measured
+    motion better than the run's mean does (R^2 > 0), or within the sensor noise. A
+    replay that does worse on a run has left it (a person moves the joint, or the model
+    misses more than any candidate holds); the least squares of its output error then
+    reads that divergence, not an effect. (Each run on its own: their noise levels, and so
+    their weights in the residual, can differ by orders of magnitude.)"""
+    ev = fit.solution.ev
+    for t, tr in enumerate(problem.trajectories):
+        r = fit.residual[ev.offsets[t]:ev.offsets[t + 1]]
+        rss = float(r @ r)
+        spread = 0.0
+        for k, j in enumerate(problem.joints):
+            q = tr.positions[j]
+            sigma = noise_floor(problem.position_noise[t][k], q)
+            spread += float(np.sum(((q - q.mean()) / sigma) ** 2))
+        if rss >= spread and not _within_noise(rss, r.size):
+            return False
+    return True
 
 
 def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str]) -> Fit:
@@ -312,11 +346,25 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                    and q not in chosen]
         new = []
         warm = _warm_start(current)
+        lost = not _follows(problem, current)
         for p in chosen:
-            f = fit_candidate(problem, p, refine=False, warm=warm)
+            f = fit_candidate(problem, p, refine=False, warm=warm,
+                              **({"max_nfev": LOOK_NFEV} if lost else {}))
+            if lost and _follows(problem, f):  # back on the data: fitted to the end
+                f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
             fits[_key(p)] = f
             new.append(f)
+        if lost and new and not any(_follows(problem, f) for f in new):
+            # four evaluations may not have been enough: the closest look to the end
+            best = min(new, key=lambda f: f.rss)
+            f = fit_candidate(problem, best.effects, refine=False, warm=dict(best.values))
+            fits[_key(f.effects)] = new[new.index(best)] = f
         n_ref = _n_ref(fits.values())
+        if lost and not any(_follows(problem, f) for f in new):
+            log.append("no replay follows the data (each predicts a run worse than the "
+                       "run's mean): an unmeasured force drives the joint, or the model "
+                       "misses more than any candidate holds; the search stops")
+            break
         kept = None
         # best BIC first; each is refined (its numerical error measured) before its
         # effects are tested, and the first that passes is kept
