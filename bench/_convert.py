@@ -10,7 +10,6 @@ data set's business; what reaches ``real2code calibrate`` is the general contrac
 from __future__ import annotations
 
 import json
-import os
 import sys
 import tomllib
 from pathlib import Path
@@ -19,13 +18,15 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from _data import SHARED_DATA  # noqa: E402
 
 from real2code_export import atomic  # noqa: E402
 from real2code_export.formats import object_json  # noqa: E402
 from real2code_export.model import ArticulatedObject  # noqa: E402
 
-MEASURED = Path(os.environ.get("REAL2CODE_SHARED_DATA", ROOT.parent / "shared" / "data")) \
-    / "measured"
+MEASURED = SHARED_DATA / "measured"
 
 
 class DataError(Exception):

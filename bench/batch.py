@@ -22,13 +22,13 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _data import SHARED_DATA  # noqa: E402
 from _machine import describe  # noqa: E402
 
 from real2code_export.batch import TaskOptions, TaskResult, TaskSpec, run_batch  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-PARTNET = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data")
-               ) / "partnet_mobility"
+PARTNET = SHARED_DATA / "partnet_mobility"
 
 
 def noop_task(obj, out: Path, options) -> TaskResult:

@@ -28,6 +28,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "bench"))
+from _data import SHARED_DATA  # noqa: E402
 from _machine import describe  # noqa: E402
 
 from real2code_export import collision_separation  # noqa: E402
@@ -37,7 +38,7 @@ from real2code_export.formats import load, write_formats  # noqa: E402
 from real2code_export.formats.urdf import read as urdf_read  # noqa: E402
 from real2code_export.model import Mesh  # noqa: E402
 
-PARTNET = REPO.parent / "shared" / "data" / "partnet_mobility"
+PARTNET = SHARED_DATA / "partnet_mobility"
 
 
 def overlap_summary(obj) -> str:

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import resource
 import statistics
 import subprocess
@@ -29,6 +28,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _data import SHARED_DATA  # noqa: E402
 from _machine import byte_compile, converters_bin, describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -42,8 +42,7 @@ def urdf_files() -> list[Path]:
 
 
 def mjcf_files() -> list[Path]:
-    root = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
-    root = root / "mujoco_menagerie"
+    root = SHARED_DATA / "mujoco_menagerie"
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
 
 

@@ -24,6 +24,8 @@ import time
 import warnings
 from pathlib import Path
 
+from _data import SHARED_DATA
+
 from real2code_export.check import check_files
 from real2code_export.errors import Real2CodeError
 from real2code_export.formats import export, load
@@ -37,8 +39,7 @@ def erd_files() -> list[Path]:
 
 
 def menagerie_files() -> list[Path]:
-    root = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
-    root = root / "mujoco_menagerie"
+    root = SHARED_DATA / "mujoco_menagerie"
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "bench"))
+from _data import SHARED_DATA  # noqa: E402
 from _machine import describe  # noqa: E402
 
 from pipeline.procedural import generate  # noqa: E402
@@ -34,7 +35,7 @@ from real2code_export.formats import object_json  # noqa: E402
 
 CATEGORIES = [("storage_furniture", 1), ("table", 2), ("refrigerator", 3), ("laptop", 4),
               ("box", 5)]
-PARTNET = REPO.parent / "shared" / "data" / "partnet_mobility"
+PARTNET = SHARED_DATA / "partnet_mobility"
 
 
 def objects(kinds: list[str], demo: str | None, folder: Path) -> list[tuple[str, Path]]:

@@ -33,10 +33,11 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _data import SHARED_DATA  # noqa: E402
 from _machine import byte_compile, converters_bin, describe, load_average  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-DATA = Path(os.environ.get("REAL2CODE_SHARED_DATA", REPO.parent / "shared" / "data"))
+DATA = SHARED_DATA
 CONVERTER = converters_bin() / "urdf_usd_converter"
 
 
