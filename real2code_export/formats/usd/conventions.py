@@ -78,7 +78,20 @@ def open_stage(path: Path):
         raise FormatError(path, None, f"cannot open USD: {text.strip().splitlines()[-1]}") from e
     if stage is None:
         raise FormatError(path, None, "cannot open USD")
+    _refuse_missing_sublayers(stage, path)
     return stage
+
+
+def _refuse_missing_sublayers(stage, path: Path) -> None:
+    """A sublayer USD cannot read (our binary mesh layer, moved or deleted) would compose
+    into a stage without the prims and values it holds, with only a warning: refused."""
+    from pxr import Pcp
+
+    errors = stage.GetCompositionErrors() if hasattr(stage, "GetCompositionErrors") else []
+    missing = [e for e in errors if e.errorType == Pcp.ErrorType_InvalidSublayerPath]
+    if missing:
+        raise FormatError(path, None, f"a layer it sublayers cannot be read: "
+                          f"{str(missing[0]).strip().rstrip('.')}")
 
 
 def stage_units(stage) -> tuple[float, float, np.ndarray]:
