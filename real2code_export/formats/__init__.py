@@ -67,6 +67,12 @@ class Format:
         return importlib.import_module(self.module)
 
 
+def output_file(name: str, out_dir: str | Path, object_name: str) -> Path:
+    """The file format ``name``'s writer writes for object ``object_name``:
+    ``out_dir/<object_name><output suffix>`` (writers ask here, not restate their suffix)."""
+    return Path(out_dir) / f"{object_name}{FORMATS[name].output_suffix}"
+
+
 FORMATS: dict[str, Format] = {}
 # (format name, writing only) -> why it cannot be used so here (None: it can)
 _PROBLEMS: dict[tuple[str, bool], str | None] = {}

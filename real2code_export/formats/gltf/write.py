@@ -44,6 +44,7 @@ from ...model import (
     metadata_json,
     validate,
 )
+from .. import output_file
 from ..object_json import mimic_json, shape_json
 from . import physics
 from .conventions import (
@@ -404,4 +405,4 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     out_dir = Path(out_dir)
     if write_meshes:
         write_object_meshes(obj, out_dir)
-    return atomic.write_bytes(out_dir / f"{obj.name}.glb", build(obj))
+    return atomic.write_bytes(output_file("gltf", out_dir, obj.name), build(obj))

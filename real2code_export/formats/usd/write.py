@@ -19,6 +19,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
+from .. import output_file
 from .body import write_body, write_frame
 from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
 from .geometry import move_mesh_arrays, write_part_geometry
@@ -101,7 +102,7 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
         relative = mesh_layer_path(obj.name)
         atomic.write_with(out_dir / relative, lambda tmp: _export(data, tmp))
         layer.subLayerPaths.append(f"./{relative}")
-    return atomic.write_with(out_dir / f"{obj.name}.usda", lambda tmp: _export(layer, tmp))
+    return atomic.write_with(output_file("usd", out_dir, obj.name), lambda tmp: _export(layer, tmp))
 
 
 def mesh_layer_path(name: str) -> str:
