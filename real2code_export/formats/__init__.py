@@ -43,7 +43,7 @@ class Format:
     validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
     # (and start_<function>, where the module has one: validators.start_validation)
     exported: bool = True  # written by default (``export`` without --to)
-    mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it embeds them)
+    mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it holds its own)
     # the metadata key under which its reader keeps what the model has no place for, and its
     # writer writes back (actuators, <transmission>, ...); other writers carry it as metadata
     kept_elements: str | None = None

@@ -10,6 +10,9 @@ Layout of a file we write (after Newton's urdf-usd-converter asset structure):
         Looks/<part>     Material (UsdPreviewSurface)
     /PhysicsScene        outside the asset, so referencing the object never adds a second scene
 
+The mesh arrays are in a binary layer the .usda sublayers, ``meshes/<object>.usdc``
+(``geometry.move_mesh_arrays``; docs/formats.md).
+
 Part prims are flat (siblings under Geometry, each placed in the world at q = state): every
 USD physics engine accepts flat bodies, while nested rigid bodies are not yet supported
 everywhere (urdf-usd-converter docs/concept_mapping.md, "Flat Bodies").
