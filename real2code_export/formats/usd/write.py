@@ -1,8 +1,9 @@
 """USD save: the object at q = state (bodies where the capture saw them), UsdPhysics joints,
 mass, collision and looks, through the concept modules (body, geometry, joint) in the layout
 of ``conventions``, authored through Sdf (``layer``); deterministic text (.usda) over a binary
-layer of the mesh arrays (``meshes/<name>.usdc``), each written atomically. A frame (a part with no mass or geometry, fixed, nothing hanging from it) is an
-Xform in its parent's body, no rigid body of its own (PhysX would give it a default mass)."""
+layer of the mesh arrays (``meshes/<name>.usdc``), each written atomically. A frame (a part
+with no mass or geometry, fixed, nothing hanging from it) is an Xform in its parent's body,
+no rigid body of its own (PhysX would give it a default mass)."""
 
 from __future__ import annotations
 
