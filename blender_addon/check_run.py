@@ -101,7 +101,7 @@ def run_inside(files: list[Path], configurations: int = 100) -> CheckOutcome:
     usable, skipped = [], []
     for f in files:
         suffix = f.suffix.lower()
-        if suffix == ".urdf":
+        if suffix in FORMATS["urdf"].suffixes:
             skipped.append(f"{f.name}: URDF is checked by Pinocchio and MuJoCo together, and "
                            "Pinocchio needs numpy >= 2 (not in Blender's Python)")
         elif suffix in USD_SUFFIXES and (reason := _usd_probe_problem(f, ensure_pxr)):

@@ -385,6 +385,27 @@ def test_import_export_import_is_lossless_and_idempotent(exported, tmp_path, nam
     assert differences(first, second, tol=0.0) == []
 
 
+def test_data_the_buffer_holds_is_written_once(tmp_path):
+    """Two parts with the same collision mesh (a robot's left and right fingers): the second
+    one's accessors are the first's, the data once in the buffer; read back, both have it."""
+    obj = OBJECTS["cabinet"]
+    first = next(p for p in obj.parts if p.collision and p.collision[0].primitive is None)
+    piece = Mesh(first.collision[0].vertices + [0.0, 0.0, 0.01], first.collision[0].faces)
+    twin = Part("twin", collision=[piece], inertial=first.inertial)
+    other = Part("other", collision=[piece], inertial=first.inertial)
+    doubled = ArticulatedObject("doubled", [*obj.parts, twin, other], [
+        *obj.joints, Joint("t", "fixed", obj.root.name, "twin"),
+        Joint("o", "fixed", obj.root.name, "other", origin=tf.make(None, [0.0, 1.0, 0.0]))])
+    path = gltf.save(doubled, tmp_path, write_meshes=False)
+    doc = pygltflib.GLTF2().load(str(path))
+    meshes = {m.name: m.primitives[0] for m in doc.meshes}
+    a, b = meshes["twin_collision_0"], meshes["other_collision_0"]
+    assert (a.attributes.POSITION, a.indices) == (b.attributes.POSITION, b.indices)
+    views = [doc.accessors[i].bufferView for i in range(len(doc.accessors))]
+    assert len(set(views)) == len(views)  # no two accessors over the same data written twice
+    assert differences(doubled, gltf.load(path), TOL) == []
+
+
 def test_pygltflib_rewrites_our_file_byte_for_byte(exported, documents):
     """Our GLB is exactly what pygltflib writes for the document it reads from it."""
     for name in ("cabinet", PROCEDURAL[0] if PROCEDURAL else "door"):

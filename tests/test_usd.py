@@ -281,6 +281,7 @@ def test_a_mesh_is_written_once(tmp_path):
         Joint("b", "fixed", "arm", "textured", origin=tf.make(None, [0.0, 1.0, 0.0]))])
     path = usd.save(obj, tmp_path, write_meshes=False)
     layer = Sdf.Layer.FindOrOpen(str(path))
+    arrays = Sdf.Layer.FindOrOpen(str(tmp_path / usd.mesh_layer_path("twins")))
     source = "/twins/Geometry/arm/arm"
     for prim, refers in [("arm/arm", None), ("arm/arm_collision_0", source),
                          ("twin/twin", source), ("twin/twin_collision_0", source),
@@ -288,7 +289,9 @@ def test_a_mesh_is_written_once(tmp_path):
         spec = layer.GetPrimAtPath(f"/twins/Geometry/{prim}")
         assert [str(r.primPath) for r in spec.referenceList.prependedItems] == \
             ([refers] if refers else []), prim
-        assert ("points" in spec.attributes) == (refers is None), prim
+        assert "points" not in spec.attributes, prim
+        data = arrays.GetPrimAtPath(f"/twins/Geometry/{prim}")
+        assert ("points" in data.attributes) == (refers is None), prim
     stage = Usd.Stage.Open(str(path))
     points = stage.GetPrimAtPath(source).GetAttribute("points").Get()
     for prim in ["arm/arm_collision_0", "twin/twin", "twin/twin_collision_0"]:
@@ -299,6 +302,33 @@ def test_a_mesh_is_written_once(tmp_path):
     assert differences(obj, back, TOL) == []
     assert usd.save(back, tmp_path / "again", write_meshes=False).read_bytes() == \
         path.read_bytes()
+
+
+def test_the_mesh_arrays_are_a_binary_layer_beside_the_text(tmp_path):
+    """``<name>.usda`` (text: every prim, schema and value but the mesh arrays) sublayers
+    ``meshes/<name>.usdc`` (binary: points, triangles, texture coordinates, at the same prim
+    paths, in the same order); composed, the stage reads as before; without its mesh layer
+    the file is refused, naming the layer."""
+    obj = small_cabinet()
+    path = usd.save(obj, tmp_path / "out", write_meshes=False)
+    mesh_layer = tmp_path / "out" / usd.mesh_layer_path(obj.name)
+    assert mesh_layer.read_bytes().startswith(b"PXR-USDC")
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    assert list(layer.subLayerPaths) == [f"./{usd.mesh_layer_path(obj.name)}"]
+    text = path.read_text()
+    assert not re.search(r"\b(points|faceVertexIndices|faceVertexCounts|primvars:st) =", text)
+    stage = Usd.Stage.Open(str(path))
+    meshes = [p for p in stage.Traverse() if p.GetTypeName() == "Mesh"]
+    assert meshes and all(len(p.GetAttribute("points").Get()) for p in meshes)
+    order = [p.name for p in layer.GetPrimAtPath(f"/{obj.name}/Geometry").nameChildren]
+    assert [p.GetName() for p in stage.GetPrimAtPath(f"/{obj.name}/Geometry").GetChildren()] \
+        == order
+    assert _validation_errors(stage) == []
+    assert differences(obj, usd.load(path), TOL) == []
+    del stage, meshes  # (USD keeps a layer loaded while a stage holds it)
+    mesh_layer.unlink()
+    with pytest.raises(FormatError, match=f"sublayers.*{obj.name}.usdc"):
+        usd.load(path)
 
 
 @pytest.mark.partnet
@@ -384,13 +414,13 @@ def test_usdc_and_registry(tmp_path):
     written = export(obj, tmp_path / "out", ["usd"])
     usda = written["usd"]
     assert usda.name == "small_cabinet.usda"
-    # USD embeds its meshes: an export to USD alone writes no shared OBJ files
-    assert not (tmp_path / "out" / "meshes").exists()
+    # USD holds its meshes in its own binary layer: an export to USD alone writes no OBJ
+    assert [p.name for p in (tmp_path / "out" / "meshes").iterdir()] == ["small_cabinet.usdc"]
     both = export(obj, tmp_path / "both", ["usd", "urdf"])
     assert (tmp_path / "both" / "meshes" / "door.obj").is_file()  # the URDF's mesh files
     assert both["usd"].read_bytes() == usda.read_bytes()
     crate = tmp_path / "small_cabinet.usdc"
-    assert Sdf.Layer.FindOrOpen(str(usda)).Export(str(crate))
+    assert Usd.Stage.Open(str(usda)).Export(str(crate))  # one binary file, flattened
     assert differences(obj, load_any(crate), TOL) == []
 
 

@@ -43,7 +43,7 @@ class Format:
     validator: str | None = None  # "module:function", function(list[Path]) -> [Validation]
     # (and start_<function>, where the module has one: validators.start_validation)
     exported: bool = True  # written by default (``export`` without --to)
-    mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it embeds them)
+    mesh_files: bool = True  # its file refers to the shared meshes/*.obj (else it holds its own)
     # the metadata key under which its reader keeps what the model has no place for, and its
     # writer writes back (actuators, <transmission>, ...); other writers carry it as metadata
     kept_elements: str | None = None
@@ -65,6 +65,12 @@ class Format:
         if problem:
             raise UnavailableError(f"format {self.name!r} is not available here: {problem}")
         return importlib.import_module(self.module)
+
+
+def output_file(name: str, out_dir: str | Path, object_name: str) -> Path:
+    """The file format ``name``'s writer writes for object ``object_name``:
+    ``out_dir/<object_name><output suffix>`` (writers ask here, not restate their suffix)."""
+    return Path(out_dir) / f"{object_name}{FORMATS[name].output_suffix}"
 
 
 FORMATS: dict[str, Format] = {}

@@ -24,6 +24,7 @@ float32 vertices) and re-exporting what it read gives the same bytes.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 import struct
@@ -44,6 +45,7 @@ from ...model import (
     metadata_json,
     validate,
 )
+from .. import output_file
 from ..object_json import mimic_json, shape_json
 from . import physics
 from .conventions import (
@@ -81,11 +83,19 @@ class _Builder:
         self.g = pygltflib
         self.gltf = pygltflib.GLTF2(asset=pygltflib.Asset(generator=GENERATOR, version="2.0"))
         self.blob = bytearray()
+        self._written: dict[tuple, int] = {}  # (digest of the bytes, how read) -> accessor
 
     def accessor(self, data: np.ndarray, component: int, type_: str, *, target: int | None = None,
                  bounds: bool = False) -> int:
+        """The accessor of ``data``; data the buffer already holds read the same way (a
+        collision mesh equal to another part's, a robot's left and right fingers) is that
+        accessor, not a second copy (glTF lets primitives share accessors)."""
         g = self.g
         raw = np.ascontiguousarray(data).astype(data.dtype.newbyteorder("<"), copy=False).tobytes()
+        key = (hashlib.blake2b(raw, digest_size=32).digest(), len(raw), component, type_,
+               target, bounds)
+        if key in self._written:
+            return self._written[key]
         self.gltf.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(self.blob),
                                                   byteLength=len(raw), target=target))
         self.blob += raw + b"\0" * (-len(raw) % 4)
@@ -97,7 +107,8 @@ class _Builder:
             acc.min = [v.item() for v in flat.min(axis=0)]
             acc.max = [v.item() for v in flat.max(axis=0)]
         self.gltf.accessors.append(acc)
-        return len(self.gltf.accessors) - 1
+        self._written[key] = len(self.gltf.accessors) - 1
+        return self._written[key]
 
     def mesh(self, name: str, data: VertexData, material: int | None) -> int:
         g = self.g
@@ -404,4 +415,4 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     out_dir = Path(out_dir)
     if write_meshes:
         write_object_meshes(obj, out_dir)
-    return atomic.write_bytes(out_dir / f"{obj.name}.glb", build(obj))
+    return atomic.write_bytes(output_file("gltf", out_dir, obj.name), build(obj))

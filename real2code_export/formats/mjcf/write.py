@@ -46,6 +46,7 @@ from ...meshfiles import (
     write_object_meshes,
 )
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from .. import output_file
 from .conventions import (
     COLLISION_GROUP,
     KEYFRAME,
@@ -60,8 +61,6 @@ from .conventions import (
 from .geometry import mjcf_geom
 from .kept import ELEMENTS_KEY, restore, without_files
 from .structure import anchors, body_chains, site_parts
-
-SUFFIX = ".xml"
 
 # MuJoCo 4.0.0 leaves out an inertial pos of zero when it writes a spec as authored, and its
 # own parser then refuses the file (the attribute is required): it is put back.
@@ -91,7 +90,7 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     with atomic.staged_output(out_dir) as staging:
         write_object_meshes(obj, staging)
         _write_xml(obj, staging)
-    return out_dir / f"{obj.name}{SUFFIX}"
+    return output_file("mjcf", out_dir, obj.name)
 
 
 def build_spec(obj: ArticulatedObject, *, mesh_dir: Path | None = None):
@@ -166,7 +165,7 @@ def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
     sections = obj.metadata.get(ELEMENTS_KEY)
     if isinstance(sections, dict) and sections:
         text = _with_kept(obj, text, sections, out_dir)
-    return atomic.write_text(out_dir / f"{obj.name}{SUFFIX}", text)
+    return atomic.write_text(output_file("mjcf", out_dir, obj.name), text)
 
 
 def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path) -> str:

@@ -41,6 +41,7 @@ from ...model import (
     validate,
 )
 from ...primitives import Primitive, ShapeKind
+from .. import output_file
 from .spec import (
     DEFAULT_EFFORT,
     DEFAULT_VELOCITY,
@@ -54,7 +55,6 @@ from .spec import (
 )
 from .structure import READ_TAGS
 
-SUFFIX = ".urdf"
 URDF_SHAPES = (ShapeKind.BOX, ShapeKind.CYLINDER, ShapeKind.SPHERE)  # URDF 1.0's elements
 
 # MuJoCo's URDF defaults differ from MJCF's (docs: "URDF extensions"): it fuses links joined
@@ -76,7 +76,7 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     for relpath, mesh in shape_mesh_files(obj).items():
         (out_dir / relpath).parent.mkdir(parents=True, exist_ok=True)
         atomic.write_bytes(out_dir / relpath, obj_bytes(mesh))
-    return atomic.write_bytes(out_dir / f"{obj.name}{SUFFIX}", text)
+    return atomic.write_bytes(output_file("urdf", out_dir, obj.name), text)
 
 
 def to_bytes(obj: ArticulatedObject) -> bytes:

@@ -1,7 +1,8 @@
 """USD (UsdPhysics) export and import with usd-core.
 
-``save(obj, out_dir)`` writes ``out_dir/<name>.usda``: Z up, metres, kilograms; one rigid
-body per part with inline meshes, a UsdPreviewSurface colour and convex collision pieces;
+``save(obj, out_dir)`` writes ``out_dir/<name>.usda`` over the binary layer of its mesh
+arrays, ``out_dir/meshes/<name>.usdc``: Z up, metres, kilograms; one rigid body per part with
+its meshes, a UsdPreviewSurface colour and convex collision pieces;
 UsdPhysics joints (revolute limits in degrees) with NewtonJointAPI and MjcJointAPI dynamics;
 the object fixed to the world and posed at its observed state. ``load(path)`` reads any
 .usda/.usd/.usdc through UsdPhysics' own parser. Module map, as in every format package:
@@ -11,6 +12,6 @@ body (rigid bodies, mass), joint (joints, units), articulation (the parsed tree)
 """
 
 from .read import load
-from .write import save, to_usda
+from .write import mesh_layer_path, save
 
-__all__ = ["load", "save", "to_usda"]
+__all__ = ["load", "mesh_layer_path", "save"]

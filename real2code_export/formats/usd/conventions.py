@@ -10,6 +10,9 @@ Layout of a file we write (after Newton's urdf-usd-converter asset structure):
         Looks/<part>     Material (UsdPreviewSurface)
     /PhysicsScene        outside the asset, so referencing the object never adds a second scene
 
+The mesh arrays are in a binary layer the .usda sublayers, ``meshes/<object>.usdc``
+(``geometry.move_mesh_arrays``; docs/formats.md).
+
 Part prims are flat (siblings under Geometry, each placed in the world at q = state): every
 USD physics engine accepts flat bodies, while nested rigid bodies are not yet supported
 everywhere (urdf-usd-converter docs/concept_mapping.md, "Flat Bodies").
@@ -78,7 +81,20 @@ def open_stage(path: Path):
         raise FormatError(path, None, f"cannot open USD: {text.strip().splitlines()[-1]}") from e
     if stage is None:
         raise FormatError(path, None, "cannot open USD")
+    _refuse_missing_sublayers(stage, path)
     return stage
+
+
+def _refuse_missing_sublayers(stage, path: Path) -> None:
+    """A sublayer USD cannot read (our binary mesh layer, moved or deleted) would compose
+    into a stage without the prims and values it holds, with only a warning: refused."""
+    from pxr import Pcp
+
+    errors = stage.GetCompositionErrors() if hasattr(stage, "GetCompositionErrors") else []
+    missing = [e for e in errors if e.errorType == Pcp.ErrorType_InvalidSublayerPath]
+    if missing:
+        raise FormatError(path, None, f"a layer it sublayers cannot be read: "
+                          f"{str(missing[0]).strip().rstrip('.')}")
 
 
 def stage_units(stage) -> tuple[float, float, np.ndarray]:

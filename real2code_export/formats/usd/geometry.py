@@ -1,7 +1,7 @@
 """Meshes and materials: a part's visual mesh (UsdGeom.Mesh bound to a UsdPreviewSurface
 with the part's linear colour) and its convex collision pieces (UsdGeom.Mesh with
 PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
-renderers skip them). Geometry is inline, in the part frame, so the file is self-contained.
+renderers skip them). Geometry is in the part frame.
 Shapes (box, sphere, ellipsoid, cylinder, capsule) are UsdGeom Cube / Sphere / Cylinder /
 Capsule prims, placed by double-precision xformOps (a box is a unit cube scaled, an ellipsoid
 a unit sphere scaled); as colliders they have the CollisionAPI alone (analytic shapes), except
@@ -13,6 +13,12 @@ Mesh prims are named after their part (``<part>/<part>``, ``<part>/<part>_collis
 never a generic ``visual``: importers that fold a single-mesh Xform into one object (Blender's
 does) name it after the mesh prim, and should show the part's name. The reader tells visual
 from collision by the PhysicsCollisionAPI, not by name.
+
+The mesh arrays (points, triangles, texture coordinates) are written to a binary layer of
+their own, ``meshes/<object>.usdc``, which the .usda sublayers (:func:`move_mesh_arrays`): the
+.usda keeps everything else as text (every prim, schema, joint, mass, material, extent),
+the arrays are in the binary (crate) format USD reads lazily and writes in a tenth of the
+time, as the converters lay out their assets (a Geometry layer in .usdc beside the text).
 
 A mesh's data is in the file once: a collider or visual mesh equal to a visual mesh written
 before it (a collision that is the visual, as most robots' files give it; a left and a right
@@ -57,6 +63,36 @@ def _define_mesh(layer, path: str, mesh: Mesh, *schemas: str):
     # flat triangles, not Catmull-Clark
     attribute(prim, "subdivisionScheme", "Token", "none", uniform=True)
     return prim
+
+
+# what UsdGeom.Mesh holds per vertex or face, the bulk of a file: the binary layer's
+MESH_ARRAYS = ("points", "faceVertexCounts", "faceVertexIndices", f"primvars:{ST}")
+
+
+def move_mesh_arrays(layer):
+    """A new anonymous binary (.usdc) layer holding every mesh's :data:`MESH_ARRAYS`, moved
+    out of ``layer`` to the same prim paths: ``layer`` sublayered over it composes the meshes
+    it had, and an internal reference to a mesh prim brings its arrays as before (it reads
+    the whole layer stack). Every prim of ``layer`` is an ``over`` in the new one, in the
+    same order: USD orders a prim's children from the weakest layer up, so an over missing
+    there would move its prim behind its siblings. None when ``layer`` has no mesh."""
+    from pxr import Sdf
+
+    data = Sdf.Layer.CreateAnonymous("meshes.usdc")
+    moved = 0
+    with Sdf.ChangeBlock():
+        todo = [(child, data.pseudoRoot) for child in reversed(layer.rootPrims)]
+        while todo:
+            spec, parent = todo.pop()
+            over = Sdf.PrimSpec(parent, spec.name, Sdf.SpecifierOver)
+            for name in MESH_ARRAYS:
+                if name in spec.attributes:
+                    path = spec.path.AppendProperty(name)
+                    Sdf.CopySpec(layer, path, data, path)
+                    spec.RemoveProperty(spec.attributes[name])
+                    moved += 1
+            todo.extend((child, over) for child in reversed(spec.nameChildren))
+    return data if moved else None
 
 
 ELLIPSOID_RADII = f"{NAMESPACE}:ellipsoid:radii"
