@@ -78,8 +78,8 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     gives those points back, and the door becomes a carcass-deep box that reads as a drawer.
     Geometry tells them apart where the masks cannot: a door swung open is a panel turned
     away from the carcass's axes, while the compartment's walls and a drawer's front and
-    box are square to them. So for each part whose main plane (RANSAC, :mod:`pipeline.ransac`) holds enough
-    of its points and is turned at least ``panel_min_angle`` from every axis of the
+    box are square to them. So for each part whose main plane (RANSAC,
+    :mod:`pipeline.ransac`) holds enough of its points and is turned at least ``panel_min_angle`` from every axis of the
     carcass's box, the points well off that plane and inside the carcass's box are handed to
     the carcass. Drawers and closed doors are left alone (no turned panel); a door opened
     past ~80 degrees is too (its panel is square to the carcass again). With the points'
@@ -87,6 +87,8 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
     capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
     Returns the labels, renumbered by size, and what was moved, per part."""
+    from scipy.spatial import cKDTree
+
     out = labels.copy()
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -98,14 +100,17 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                              None if normals is None else normals[index])
         if panel is None:
             continue
-        normal, offset, _, turn = panel
+        normal, offset, inliers, turn = panel
         pts = cloud[index]
         off_panel = np.abs(pts @ normal + offset) > options.behind_voxels * voxel
         if normals is not None:  # near the hinge the compartment lies close to the plane:
-            # what faces along the carcass and not along the panel is the carcass's
+            # what faces along the carcass and not along the panel is the carcass's, unless
+            # it touches the panel's own plane points (the panel's edges, which face so too)
             along, square = _facing(normals[index], normal, body)
             tight = np.cos(np.radians(options.panel_normal_deg))
-            off_panel |= (square >= tight) & (along < tight)
+            link = options.panel_link_voxels * voxel  # beyond it the query answers inf
+            apart = np.isinf(cKDTree(pts[inliers]).query(pts, distance_upper_bound=link)[0])
+            off_panel |= (square >= tight) & (along < tight) & apart
         back = off_panel & body.contains(pts, tol=voxel)
         if back.any():
             out[index[back]] = 1
