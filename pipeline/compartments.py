@@ -79,9 +79,10 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     Geometry tells them apart where the masks cannot: a door swung open is a panel turned
     away from the carcass's axes, while the compartment's walls and a drawer's front and
     box are square to them. So for each part whose main plane (RANSAC,
-    :mod:`pipeline.ransac`) holds enough of its points and is turned at least ``panel_min_angle`` from every axis of the
-    carcass's box, the points well off that plane and inside the carcass's box are handed to
-    the carcass. Drawers and closed doors are left alone (no turned panel); a door opened
+    :mod:`pipeline.ransac`) holds enough of its points and is turned at least
+    ``panel_min_angle`` from every axis of the carcass's box, the points well off that plane
+    and inside the carcass's box are handed to the carcass. Drawers and closed doors are
+    left alone (no turned panel); a door opened
     past ~80 degrees is too (its panel is square to the carcass again). With the points'
     measured ``normals`` (:func:`pipeline.fuse.axis_mean`), only the plane's points that
     face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
@@ -194,9 +195,10 @@ def turned_panel(points: np.ndarray, body, voxel: float,
                  normals: np.ndarray | None = None,
                  ) -> tuple[np.ndarray, float, np.ndarray, float] | None:
     """A part's main plane when it is a panel turned away from the carcass's box ``body``
-    (a door or flap swung open): RANSAC's plane (:func:`pipeline.ransac.fit_plane`) holding ``panel_fraction`` of
-    ``points`` within ``panel_voxels`` spacings, counting with measured ``normals`` only the
-    points that face along it, turned at least ``panel_min_angle`` from every axis of
+    (a door or flap swung open): RANSAC's plane (:func:`pipeline.ransac.fit_plane`) holding
+    ``panel_fraction`` of ``points`` within ``panel_voxels`` spacings, counting with measured
+    ``normals`` only the points that face along it, turned at least ``panel_min_angle``
+    from every axis of
     ``body``. Returns (unit normal, offset: n . x + offset = 0 on the plane, the inliers'
     indices, the turn in degrees), or None."""
     if len(points) < 30:
