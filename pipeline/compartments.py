@@ -18,6 +18,7 @@ import numpy as np
 from .capture import Capture
 from .fuse import axis_mean, normal_map, point_map
 from .obb import part_obb
+from .ransac import fit_plane
 from .segment.prompting import Segmentation, label_views, numbered_by_size
 
 
@@ -77,15 +78,18 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     gives those points back, and the door becomes a carcass-deep box that reads as a drawer.
     Geometry tells them apart where the masks cannot: a door swung open is a panel turned
     away from the carcass's axes, while the compartment's walls and a drawer's front and
-    box are square to them. So for each part whose main plane (RANSAC, open3d) holds enough
-    of its points and is turned at least ``panel_min_angle`` from every axis of the
-    carcass's box, the points well off that plane and inside the carcass's box are handed to
-    the carcass. Drawers and closed doors are left alone (no turned panel); a door opened
+    box are square to them. So for each part whose main plane (RANSAC,
+    :mod:`pipeline.ransac`) holds enough of its points and is turned at least
+    ``panel_min_angle`` from every axis of the carcass's box, the points well off that plane
+    and inside the carcass's box are handed to the carcass. Drawers and closed doors are
+    left alone (no turned panel); a door opened
     past ~80 degrees is too (its panel is square to the carcass again). With the points'
     measured ``normals`` (:func:`pipeline.fuse.axis_mean`), only the plane's points that
     face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
     capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
     Returns the labels, renumbered by size, and what was moved, per part."""
+    from scipy.spatial import cKDTree
+
     out = labels.copy()
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -97,14 +101,17 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                              None if normals is None else normals[index])
         if panel is None:
             continue
-        normal, offset, _, turn = panel
+        normal, offset, inliers, turn = panel
         pts = cloud[index]
         off_panel = np.abs(pts @ normal + offset) > options.behind_voxels * voxel
         if normals is not None:  # near the hinge the compartment lies close to the plane:
-            # what faces along the carcass and not along the panel is the carcass's
+            # what faces along the carcass and not along the panel is the carcass's, unless
+            # it touches the panel's own plane points (the panel's edges, which face so too)
             along, square = _facing(normals[index], normal, body)
             tight = np.cos(np.radians(options.panel_normal_deg))
-            off_panel |= (square >= tight) & (along < tight)
+            link = options.panel_link_voxels * voxel  # beyond it the query answers inf
+            apart = np.isinf(cKDTree(pts[inliers]).query(pts, distance_upper_bound=link)[0])
+            off_panel |= (square >= tight) & (along < tight) & apart
         back = off_panel & body.contains(pts, tol=voxel)
         if back.any():
             out[index[back]] = 1
@@ -188,21 +195,19 @@ def turned_panel(points: np.ndarray, body, voxel: float,
                  normals: np.ndarray | None = None,
                  ) -> tuple[np.ndarray, float, np.ndarray, float] | None:
     """A part's main plane when it is a panel turned away from the carcass's box ``body``
-    (a door or flap swung open): RANSAC's plane (open3d) holding ``panel_fraction`` of
-    ``points`` within ``panel_voxels`` spacings, counting with measured ``normals`` only the
-    points that face along it, turned at least ``panel_min_angle`` from every axis of
+    (a door or flap swung open): RANSAC's plane (:func:`pipeline.ransac.fit_plane`) holding
+    ``panel_fraction`` of ``points`` within ``panel_voxels`` spacings, counting with measured
+    ``normals`` only the points that face along it, turned at least ``panel_min_angle``
+    from every axis of
     ``body``. Returns (unit normal, offset: n . x + offset = 0 on the plane, the inliers'
     indices, the turn in degrees), or None."""
-    import open3d as o3d
-
     if len(points) < 30:
         return None
-    o3d.utility.random.seed(0)  # RANSAC, deterministic
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    (a, b, c, d), inliers = pcd.segment_plane(options.panel_voxels * voxel, 3, 300)
-    length = float(np.linalg.norm([a, b, c]))
-    normal = np.array([a, b, c]) / length
-    inliers = np.asarray(inliers, dtype=int)
+    # our own seeded RANSAC: open3d's segment_plane gave other planes run to run, seeded
+    normal, offset, inliers = fit_plane(points, options.panel_voxels * voxel, 300,
+                                        np.random.default_rng(0))
+    if not normal.any():
+        return None
     if normals is not None:  # the plane's points that face along it
         facing = np.abs(normals[inliers] @ normal)
         inliers = inliers[facing >= np.cos(np.radians(options.panel_normal_deg))]
@@ -211,7 +216,7 @@ def turned_panel(points: np.ndarray, body, voxel: float,
     turn = float(np.degrees(np.arccos(min(1.0, float(np.max(np.abs(body.R.T @ normal)))))))
     if turn < options.panel_min_angle:
         return None
-    return normal, d / length, inliers, turn
+    return normal, offset, inliers, turn
 
 
 def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
