@@ -159,7 +159,7 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     asymmetry holds the same constant force): the structure less its absent effects,
     fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
     there. (A structure is never reached otherwise: the search only adds.)"""
-    rest = tuple(e for e in f.effects if f.present(e))
+    rest = tuple(e for e in f.effects if _there(f, e, fits, _n_ref(fits.values())))
     if not rest or len(rest) == len(f.effects) or _key(rest) == _key(current.effects):
         return None
     earlier = fits.get(_key(rest))
@@ -298,11 +298,33 @@ def _judge(problem: Problem, f: Fit, current: Fit, fits: dict, n_ref: float,
         log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, two effects "
                    "explain the same thing")
         return None
-    if all(f.present(e) for e in f.effects):
-        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}")
+    if all(_there(f, e, fits, n_ref) for e in f.effects):
+        rescued = [e.name for e in f.effects if not f.present(e)]
+        log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}" + (
+            f" ({', '.join(rescued)}: the 95 % interval reaches absence, but the structure "
+            "fitted without it is worse by BIC)" if rescued else ""))
         return f
     log.append(f"tried {'+'.join(f.names)}: BIC {f.bic(n_ref):.1f}, an effect not significant")
     return _without_absent(problem, f, current, fits, log)
+
+
+def _there(f: Fit, e: Effect, fits: dict, n_ref: float) -> bool:
+    """Whether effect ``e`` of fit ``f`` is there: its 95 % interval excludes absence
+    (:meth:`Fit.present`), or, where that linearised interval reaches absence, the
+    structure without it, fitted by itself, is worse by BIC (the likelihood ratio). The
+    interval is the residual's linear picture, blind to the bounds and to a valley's
+    curve: an encoder's zero error on a lid trades against the Coulomb asymmetry of
+    direction-dependent friction, its interval reaches zero, and yet without it the
+    friction alone leaves the data far behind. Either way the effect must move the motion
+    materially.
+    (Direction-dependent friction's absence is symmetric friction, not no friction: only
+    its interval judges it.)"""
+    if f.present(e):
+        return True
+    if e.name == "asymmetric_friction" or f.material.get(e.name, math.inf) < MATERIAL:
+        return False
+    without = fits.get(_key(tuple(x for x in f.effects if x is not e)))
+    return without is not None and without.bic(n_ref) > f.bic(n_ref)
 
 
 def select(problem: Problem, screen_top: int = SCREEN_TOP,
