@@ -143,7 +143,13 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
         if f.bic(n_ref) < best.bic(n_ref):
             f = refine_fit(f)
             fits[_key(p)] = f
-            if all(f.present(e) for e in f.effects) and not f.degenerate():
+            # what only the direction dependence explains: the symmetric model refitted
+            # takes up the rest (its linearised motion change, the others held, does not)
+            gained = math.sqrt(max(current.rss - f.rss, 0.0) / f.n)
+            if gained < MATERIAL:
+                log.append(f"{'+'.join(f.names)} refines {'+'.join(current.names)} by "
+                           f"{gained:.2f} noise deviations: not material")
+            elif all(f.present(e) for e in f.effects) and not f.degenerate():
                 log.append(f"refined {'+'.join(current.names)} into {'+'.join(f.names)}: "
                            f"BIC {f.bic(n_ref):.1f}")
                 best = f
