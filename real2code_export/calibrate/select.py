@@ -12,7 +12,9 @@ are tried together. A structure with an effect that is not there beside the othe
 tried without it (the search only adds: a refinement may make an earlier effect redundant);
 where no structure of a step passes, the best is fitted once more from its own
 inverse-dynamics start (from the current model's values it may stop in that model's
-minimum). The search stops when no extension earns its parameters: nothing is forced onto
+minimum), and the next best-screened are fitted too. An effect whose interval reaches
+absence is still there where the structure fitted without it is worse by BIC. The search
+stops when no extension earns its parameters: nothing is forced onto
 the data; and where no structure's replay follows every run (a person moves the joint),
 since the output error then measures a divergence, not an effect.
 """
