@@ -227,8 +227,9 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                     f"the nominal model (cross-validation by {cv.kind}, {cv.error}: squared "
                     f"error {cv.sse_calibrated:.4g} vs {cv.sse_nominal:.4g} noise units)")
     calibrated = calibrated_object(model, selection.chosen)
-    # the calibrated model replayed as it will be exported: the gain is measured on it
-    after = replay(calibrated, trajectories)
+    # the calibrated model replayed as it will be exported: the gain is measured on it (the
+    # nominal model's replay is the selection's own nominal fit: not made twice)
+    after = replay(calibrated, trajectories) if selection.chosen.effects else selection.nominal
     fits = _replays("fitted", trajectories, selection.nominal, after)
     if rejected is None and selection.chosen.effects and \
             _total_rmse(fits, "calibrated") > _total_rmse(fits, "nominal"):
@@ -236,10 +237,11 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
         # give them, is not: what it fitted lives in the fit's initial states)
         rejected = (f"{'+'.join(selection.chosen.names)} replays the fitted data worse than "
                     "the nominal model")
+    held_nominal = replay(model, held) if held else None
     holdouts = []
     if held and rejected is None:
-        held_nominal = replay(model, held)
-        holdouts = _replays("held out", held, held_nominal, replay(calibrated, held))
+        held_after = replay(calibrated, held) if selection.chosen.effects else held_nominal
+        holdouts = _replays("held out", held, held_nominal, held_after)
         if _total_rmse(holdouts, "calibrated") > _total_rmse(holdouts, "nominal"):
             rejected = (f"{'+'.join(selection.chosen.names)} predicts the held-out data "
                         "worse than the nominal model")
@@ -248,10 +250,8 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
         selection.chosen = selection.nominal
         calibrated = calibrated_object(model, selection.nominal)
         if held:
-            holdouts = _replays("held out", held, replay(model, held),
-                                replay(calibrated, held))
-        after = replay(calibrated, trajectories)
-        fits = _replays("fitted", trajectories, selection.nominal, after)
+            holdouts = _replays("held out", held, held_nominal, held_nominal)
+        fits = _replays("fitted", trajectories, selection.nominal, selection.nominal)
     report = build_report(problem, selection, fits, holdouts, _features(problem, selection.nominal),
                           [tr.source for tr in trajectories], [tr.source for tr in held],
                           model.name)
