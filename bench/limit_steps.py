@@ -1,7 +1,7 @@
 """The `limit` experiment at shorter steps than the check's 1 ms: which engine's stop is off
 at 1 ms, told against every engine's own run at the finest step (the nearest each comes to
-the continuous motion: a stop that acts only once a joint is past it converges as the square
-root of the step, one that looks a step ahead as the step).
+the continuous motion; a stop that looks a step ahead converges with the step, one that
+acts only at or past its limit need not: docs/engines.md).
 
     .venv/bin/python bench/limit_steps.py OBJECT|--flap [--steps 1e-3,2.5e-4,6.25e-5]
         [--engines mujoco,pinocchio,bullet]
@@ -9,10 +9,10 @@ root of the step, one that looks a step ahead as the step).
 OBJECT: any file our readers take (a demo's object.json); `--flap`: a laptop's screen
 (`generate("laptop", seed=3)`) given the range -4 to 1.2 rad, observed at 1.2 and without
 joint laws: thrown into its open stop, where gravity pulls it out, it falls through its
-range onto its other stop at ~8 rad/s, and gravity pulls it out of that one too. `mujoco` is the check's reference
-(the MJCF); the others are `real2code simulate`'s engine names, each run on the file it
-reads. One row per engine and step; one column per engine at the finest step
-(docs/engines.md).
+range onto its other stop at speed, and gravity pulls it out of that one too. `mujoco` is
+the check's reference (the MJCF); the others are `real2code simulate`'s engine names, each
+run on the file it reads. One row per engine and step; one column per engine at the
+finest step (docs/engines.md).
 """
 
 from __future__ import annotations

@@ -118,7 +118,7 @@ def test_a_joint_at_its_limit_pushed_into_it_stays(tmp_path, end):
 
 def flap(folder):
     """A laptop's screen as a flap: observed at its open stop, where gravity pulls it out;
-    thrown into it, it falls through its range onto its other stop at ~8 rad/s, and gravity
+    thrown into it, it falls through its range onto its other stop at speed, and gravity
     pulls it back out of that one too. No joint laws: the stops alone."""
     obj = generate("laptop", seed=3)
     (j,) = obj.movable_joints
