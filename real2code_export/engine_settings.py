@@ -17,7 +17,13 @@ into its stop back up to a quarter of its speed (a door 0.44 rad off in 2 s).
 from __future__ import annotations
 
 LIMIT_SOLREF = (0.0002, 20.0)  # s (two steps of 0.1 ms), damping ratio
-LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+# The same impedance at contact as deeper in (dmin = dmax): at the time constant of two steps
+# MuJoCo's limit then takes the whole approach velocity in the step it acts, as Bullet's
+# does; with 0.99 at contact (0.999 deeper) it left 1 - 0.99 / 0.999 of it, about 1 %, each
+# step, so a joint thrown into a limit crept in and left it late: a flap released into its open
+# stop ended 0.11 rad from Pinocchio's and 9.3e-2 from Bullet's, which agree to 2e-4 until
+# its second arrival; now 2.0e-2 and 3.8e-5 (bench/limit_steps.py, docs/engines.md).
+LIMIT_SOLIMP = (0.999, 0.999, 0.001, 0.5, 2.0)
 FRICTION_SOLREF = (0.002, 1.0)
 
 # MuJoCo's limit acts only once a joint is past it (distance < margin, margin 0 by default),
