@@ -295,3 +295,62 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
         assert not [m for m in report.mismatches if m.kind != "dynamics"], report.mismatches
     assert run(["check", str(altered), "--reference", str(source),
                 "--configurations", "5"]) == EXIT_DISAGREE
+
+
+# What other people's MJCF files are made of: an <include>, meshes found through assetdir and
+# meshdir, angles in degrees turned in "zyx" order, a childclass and nested default classes,
+# fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation.
+KINDS_MAIN = """<mujoco model="kinds">
+  <compiler angle="degree" eulerseq="zyx" assetdir="assets" meshdir="assets/meshes"
+            autolimits="true"/>
+  <default>
+    <default class="arm">
+      <joint damping="0.3" armature="0.01" axis="0 0 1"/>
+      <geom density="800"/>
+      <default class="stiff">
+        <joint stiffness="2" springref="10" frictionloss="0.05"/>
+        <default class="light"><geom density="100"/></default>
+      </default>
+    </default>
+  </default>
+  <asset><mesh name="block" file="block.obj" scale="0.001 0.001 0.001"/></asset>
+  <include file="parts/arm.xml"/>
+</mujoco>
+"""
+KINDS_ARM = """<mujoco>
+  <worldbody>
+    <frame pos="0 0 0.3" euler="0 0 20">
+      <body name="upper" euler="90 0 30" childclass="arm" gravcomp="1">
+        <joint name="shoulder" range="-45 90"/>
+        <geom type="mesh" mesh="block"/>
+        <body name="lower" pos="0.1 0 0" euler="0 30 45">
+          <joint name="elbow" class="stiff" range="0 120"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02"/>
+          <geom type="cylinder" fromto="0 0 0 0 0 0.1" size="0.01" class="light"/>
+        </body>
+      </body>
+    </frame>
+    <replicate count="2" offset="0.3 0 0">
+      <body name="bead" pos="0 0.5 0"><joint name="bead" axis="1 0 0"/>
+        <geom type="sphere" size="0.02" mass="0.05"/></body>
+    </replicate>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsys):
+    import trimesh
+
+    (tmp_path / "assets" / "meshes").mkdir(parents=True)
+    trimesh.creation.box((100, 50, 20)).export(tmp_path / "assets" / "meshes" / "block.obj")
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "arm.xml").write_text(KINDS_ARM)
+    source = tmp_path / "kinds.xml"
+    source.write_text(KINDS_MAIN)
+    assert run(["export", str(source), "--out", str(tmp_path / "out"), "--to", "mjcf,usd,gltf",
+                "--check", "--configurations", "5"]) == EXIT_OK
+    said = capsys.readouterr()
+    assert said.out.rstrip().endswith("AGREE") and "differ" not in said.out, said.out
+    assert "gravity compensation (gravcomp) not carried" in said.err
+    assert "<body name='upper'> (1)" in said.err
