@@ -97,6 +97,9 @@ def load(path: str | Path, *, faithful_collision: bool = False,
         raise FormatError(path, None, "file not found")
     ctx = Context(path)
     robot = parse(ctx)
+    compiler = robot.find("mujoco/compiler")
+    if compiler is not None:
+        ctx.meshdir = compiler.get("meshdir") or compiler.get("assetdir")
     links = link_elements(ctx, robot)
     joints = joint_elements(ctx, robot, links)
     check_tree(ctx, links, joints)
@@ -239,6 +242,8 @@ def _report_notes(ctx: Context) -> None:
                     f"meshes at {DEFAULT_DENSITY} kg/m^3",
         "collision": "no <collision> in links {}: convex collision pieces made from their "
                      "visual meshes",
+        "meshdir": f"<mujoco><compiler meshdir={ctx.meshdir!r}>: mesh files {{}} found in that "
+                   "folder, where MuJoCo looks for them, not beside the URDF",
     }
     for kind, names in ctx.notes.items():
         ctx.warn(None, messages[kind].format(", ".join(names)))
