@@ -354,3 +354,27 @@ def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsy
     assert said.out.rstrip().endswith("AGREE") and "differ" not in said.out, said.out
     assert "gravity compensation (gravcomp) not carried" in said.err
     assert "<body name='upper'> (1)" in said.err
+
+
+PLANAR = """<robot name="base_on_floor">
+  <link name="floor"><inertial><mass value="5"/>
+    <inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <link name="cart"><inertial><origin xyz="0.02 0 0"/><mass value="2"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.04"/></inertial></link>
+  <joint name="plane" type="planar"><parent link="floor"/><child link="cart"/>
+    <origin xyz="0 0 0.1" rpy="0 0 0.3"/><axis xyz="0 0 1"/><dynamics damping="0.5"/></joint>
+</robot>
+"""
+
+
+def test_a_urdf_planar_joint_is_read_as_mujoco_and_pinocchio_move_it(tmp_path, capsys):
+    """A planar joint (a mobile base on the floor): two slides and a hinge, as MuJoCo's URDF
+    import makes it (``plane_TX``, ``plane_TY``, ``plane_RZ``) and as Pinocchio's planar
+    joint moves, warned; every export agrees with the source in both tools."""
+    source = tmp_path / "base.urdf"
+    source.write_text(PLANAR)
+    assert run(["export", str(source), "--out", str(tmp_path / "out"), "--to", "urdf,mjcf",
+                "--check", "--configurations", "10"]) == EXIT_OK
+    said = capsys.readouterr()
+    assert "<joint name='plane'>: a planar joint: read as MuJoCo imports it" in said.err
+    assert "source Pinocchio (URDF)" in said.out and said.out.rstrip().endswith("AGREE")

@@ -47,6 +47,15 @@ class PinocchioProbe:
                 self.joints.append(JointInfo(name, "continuous", None, None))
                 cont_cols.append(len(self.joints) - 1)
                 cont_idx.append(jm.idx_q)
+            elif kind_name == "JointModelPlanar":  # q = (x, y, cos, sin): as MuJoCo's
+                # import names it and the URDF reader reads it, two slides and a hinge
+                for suffix, kind in (("TX", "prismatic"), ("TY", "prismatic")):
+                    self.joints.append(JointInfo(f"{name}_{suffix}", kind, None, None))
+                    scalar_cols.append(len(self.joints) - 1)
+                    scalar_idx.append(jm.idx_q + (suffix == "TY"))
+                self.joints.append(JointInfo(f"{name}_RZ", "continuous", None, None))
+                cont_cols.append(len(self.joints) - 1)
+                cont_idx.append(jm.idx_q + 2)
             elif kind_name in _REVOLUTE or kind_name in _PRISMATIC:
                 kind = "revolute" if kind_name in _REVOLUTE else "prismatic"
                 self.joints.append(JointInfo(name, kind, lo, hi))
