@@ -218,15 +218,16 @@ def _welds(m, as_urdf: bool = False) -> dict[int, list[int]]:
 
 
 def urdf_mujoco_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
-                            compiled: Mapping[Path, object] | None = None
+                            compiled: Mapping[Path, object] | None = None, in_mujoco=None
                             ) -> list[Difference] | None:
     """A URDF SOURCE as MuJoCo imports it (kinematics and masses, every link kept a body, no
     repair of MuJoCo's turned on) against the MJCF EXPORT, per welded group named by its
-    moving body, and per joint; None when MuJoCo refuses the source as it is."""
-    try:
-        src, ds = _compiled(_urdf_spec(Path(source)))
-    except ValueError:
+    moving body, and per joint; None when MuJoCo refuses the source as it is. ``in_mujoco``:
+    :func:`_source_in_mujoco` of the source, where a caller has it already."""
+    found = in_mujoco or [_source_in_mujoco(Path(source), True, compiled)]
+    if found[0] is None:
         return None  # (a tensor off the triangle inequality, a massless moving link)
+    src, ds = found[0]
     exp, de = _mjcf(export, compiled)
     return _welded_differences(src, ds, exp, de, tol) + _mujoco_joint_differences(src, exp, tol)
 
@@ -444,7 +445,9 @@ def against_source(source: str | Path, exports: list[str | Path], tol: float = 1
         kind = format_for_path(export).name
         if kind == "mjcf":
             if is_urdf:
-                found = urdf_mujoco_differences(source, export, tol, compiled)
+                if not in_mujoco:
+                    in_mujoco.append(_source_in_mujoco(source, is_urdf, compiled))
+                found = urdf_mujoco_differences(source, export, tol, compiled, in_mujoco)
                 note = "" if found is not None else "MuJoCo refuses the source as it is"
             else:
                 found, note = mjcf_differences(source, export, tol, compiled), ""
