@@ -13,6 +13,9 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
   and centre of mass; per joint as above (:func:`urdf_mujoco_differences`).
 - MJCF source, URDF export in MuJoCo's URDF import: the same per welded group; per joint
   what a URDF holds as MuJoCo reads it (:func:`mjcf_urdf_differences`).
+- MJCF source (or a URDF source MuJoCo loads as it is), USD or glTF export as its schema
+  states it (``probes.schema_dynamics``): the same per welded group; per joint what the
+  schema holds (:func:`schema_differences`).
 
 :func:`against_source` picks, for each export, the comparison its tool makes (``check
 --reference``). Names are compared as our importers make them (``model.sanitize_name``). Each function returns
