@@ -235,7 +235,6 @@ def line_of(path: Path, needle: str) -> int:
     ("nan_origin.urdf", "<joint name='hinge'>", 'xyz="0 nan 0"', "not finite"),
     ("zero_axis.urdf", "<joint name='hinge'>", "<axis", "zero length"),
     ("unknown_joint_type.urdf", "<joint name='hinge'>", 'type="hinge"', "unknown joint type"),
-    ("planar_joint.urdf", "<joint name='free'>", 'type="planar"', "not supported"),
     ("unknown_parent.urdf", "<joint name='hinge'>", '<parent link="frame"', "not a link"),
     ("duplicate_link.urdf", "<link name='door'>", '<link name="door"/>', "duplicate"),
     ("not_collada_mesh.urdf", "<link name='base'>", "not_collada.dae", "not a Collada file"),
