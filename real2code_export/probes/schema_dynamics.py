@@ -26,7 +26,7 @@ import numpy as np
 
 from .. import transforms as tf
 from ..inertia import combine_inertials
-from ..model import Inertial
+from ..model import UNBOUNDED_LIMIT, Inertial
 
 WORLD = ""  # the world's group
 
@@ -152,10 +152,8 @@ def _usd_joint(prim, kind: str, desc, mpu: float) -> list[tuple[str, str, object
     to_model = math.radians if angular else (lambda v: v * mpu)
     lim = desc.limit
     limited = bool(lim.enabled) and math.isfinite(lim.lower) and math.isfinite(lim.upper)
-    items.append(("limited (physics:lowerLimit, upperLimit)", "limited", limited))
-    if limited:
-        items.append(("range (physics:lowerLimit, upperLimit)", "range",
-                      (to_model(float(lim.lower)), to_model(float(lim.upper)))))
+    bounds = (to_model(float(lim.lower)), to_model(float(lim.upper))) if limited else None
+    items += _range("physics:lowerLimit, upperLimit", bounds)
     if prim.GetAttribute("mjc:ref").HasAuthoredValue():
         items.append(("ref (mjc:ref)", "ref", to_model(_authored(prim, "mjc:ref"))))
     return items
@@ -245,7 +243,14 @@ def _gltf_joint(desc: dict, axis, extras: dict) -> list[tuple[str, str, object]]
               ("armature (real2code extras)", "armature", float(law.get("armature", 0.0)))]
     if axis is not None:
         limited = axis.lower is not None and axis.upper is not None
-        items.append(("limited (limits)", "limited", limited))
-        if limited:
-            items.append(("range (limits)", "range", (axis.lower, axis.upper)))
+        items += _range("limits", (axis.lower, axis.upper) if limited else None)
     return items
+
+
+def _range(where: str, bounds: tuple[float, float] | None) -> list[tuple[str, str, object]]:
+    """Whether a joint is limited, and its range: one at SDF's "no limit" (+-1e16, a URDF's
+    unbounded rotor) is none, as ``probes.dynamics`` reads the source's."""
+    if bounds is not None and all(abs(b) >= UNBOUNDED_LIMIT * (1.0 - 1e-6) for b in bounds):
+        bounds = None
+    out: list[tuple[str, str, object]] = [(f"limited ({where})", "limited", bounds is not None)]
+    return out + ([(f"range ({where})", "range", bounds)] if bounds is not None else [])
