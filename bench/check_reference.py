@@ -1,7 +1,9 @@
 """What comparing the dynamics adds to ``check --reference``: per robot file, exported to all
 four formats, the CPU seconds of the whole check against the source (100 configurations,
 validators off: they run beside it in their own processes) and of the dynamics comparison
-alone (``probes.dynamics.against_source``), each after one warm run.
+alone (``probes.dynamics.against_source``), each after one warm run, and of the USD and glTF
+exports' part of it given the probes check has opened (their schemas read from the stage
+and document those probes hold).
 
     .venv/bin/python bench/check_reference.py FILE...
 """
@@ -19,7 +21,7 @@ from _machine import describe  # noqa: E402
 
 from real2code_export.check import check_files  # noqa: E402
 from real2code_export.formats import export, load  # noqa: E402
-from real2code_export.probes import dynamics  # noqa: E402
+from real2code_export.probes import dynamics, open_probes  # noqa: E402
 
 
 def cpu(fn, *args, **kwargs) -> float:
@@ -30,8 +32,9 @@ def cpu(fn, *args, **kwargs) -> float:
 
 def main() -> None:
     print(f"machine: {describe()}")
-    print("| file | check --reference (s CPU) | dynamics comparison (s CPU) | share |")
-    print("|---|---|---|---|")
+    print("| file | check --reference (s CPU) | dynamics comparison (s CPU) | share | "
+          "of it USD and glTF (s CPU) |")
+    print("|---|---|---|---|---|")
     for source in map(Path, sys.argv[1:]):
         with warnings.catch_warnings(record=True) as caught, \
                 tempfile.TemporaryDirectory() as tmp:
@@ -44,8 +47,11 @@ def main() -> None:
             check_files(files, **options)  # warm: imports, MuJoCo's mesh cache
             whole = cpu(check_files, files, **options)
             part = cpu(dynamics.against_source, source, files)
-        print(f"| {source.name} | {whole:.2f} | {part:.2f} | {100 * part / whole:.0f} % |",
-              flush=True)
+            schemas = [f for f in files if f.suffix in (".usda", ".glb")]
+            opened = {f: open_probes(f)[0] for f in schemas}
+            schema = cpu(dynamics.against_source, source, schemas, opened=opened)
+        print(f"| {source.name} | {whole:.2f} | {part:.2f} | {100 * part / whole:.0f} % | "
+              f"{schema:.2f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -201,7 +201,7 @@ def check_files(
                               reference, source)
     if source is not None:
         _compare_dynamics(report, source, tol_dynamics, warned,
-                          _compiled_mjcf(probes, [*paths, source]))
+                          _compiled_mjcf(probes, [*paths, source]), _opened(probes, paths))
     validations = finish()  # the probes still open: USD's validator reuses their parsed layers
     del probes
     for v in validations:
@@ -253,18 +253,22 @@ def _compare(paths, n_configurations, seed, tol_position, tol_rotation, referenc
 
 
 def _compare_dynamics(report: CheckReport, source: str | Path, tol: float,
-                      warned: Sequence[str] | None, compiled: dict[Path, object]) -> None:
+                      warned: Sequence[str] | None, compiled: dict[Path, object],
+                      opened: dict[Path, Probe]) -> None:
     """The exports' dynamics against the source's (module docstring), into ``report``;
-    ``compiled``: the MJCF models the probes compiled (:func:`_compiled_mjcf`)."""
+    ``compiled``: the MJCF models the probes compiled (:func:`_compiled_mjcf`); ``opened``:
+    the USD and glTF probes (:func:`_opened`)."""
     from .probes import dynamics
 
     report.tol_dynamics = tol
-    comparisons = dynamics.against_source(source, report.files, tol, compiled)
+    comparisons = dynamics.against_source(source, report.files, tol, compiled, opened)
     if warned is None and any(c.differences for c in comparisons):
         warned = _repair_warnings(source)
     for c in comparisons:
-        probe = next((r for r in report.probes if not r.is_reference
-                      and Path(r.path) == c.export and r.label.startswith(c.tool)), None)
+        of_file = [r for r in report.probes if not r.is_reference and Path(r.path) == c.export]
+        # (the probe of that tool; a USD or glTF file's one probe, its schema's reading)
+        probe = next((r for r in of_file if r.label.startswith(c.tool)),
+                     of_file[0] if len(of_file) == 1 else None)
         if c.differences is None:
             report.dynamics.append(DynamicsResult(str(c.export), c.tool, False, note=c.note))
             continue
@@ -304,6 +308,15 @@ def _compiled_mjcf(probes: list[Probe], paths) -> dict[Path, object]:
     return {Path(p.path): p.model for p in probes
             if Path(p.path) in files and format_for_path(p.path).name == "mjcf"
             and getattr(p, "model", None) is not None}
+
+
+def _opened(probes: list[Probe], paths) -> dict[Path, Probe]:
+    """The probes of USD and glTF files among ``paths`` that read them as their schema does
+    (``probes.usd``, ``probes.gltf``: a stage, a document), which the dynamics against the
+    source read instead of opening the files again."""
+    files = {Path(p) for p in paths}
+    return {Path(p.path): p for p in probes if Path(p.path) in files
+            and (hasattr(p, "stage") or hasattr(p, "document"))}
 
 
 def _display_names(probes: list[Probe]) -> list[str]:

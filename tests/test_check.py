@@ -456,3 +456,26 @@ def test_exported_files_agree_with_the_model(tmp_path, formats):
     assert all(sorted(p.parts) == sorted(q.name for q in obj.parts) for p in report.probes)
     assert report.configurations[1] == obj.observed_configuration()
     assert report.ok, format_table(report)
+
+
+def test_a_urdf_of_more_dofs_than_pinocchio_holds_is_checked_in_mujoco(tmp_path, monkeypatch):
+    """Pinocchio's data grows as the cube of the degrees of freedom (a flex's 1153 vertex
+    slides asked for more than 21 GB): beyond ``MAX_DOFS`` the file is not loaded in
+    Pinocchio, with a warning naming it, and MuJoCo's probe checks it alone, as an export
+    and as the source."""
+    from real2code_export.probes import pinocchio
+
+    links = "".join(f'<link name="l{i}"><inertial><mass value="0.1"/><inertia ixx="1e-4" '
+                    f'iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+                    for i in range(4))
+    joints = "".join(f'<joint name="s{i}" type="prismatic"><parent link="l{i - 1}"/>'
+                     f'<child link="l{i}"/><axis xyz="1 0 0"/>'
+                     f'<limit lower="0" upper="0.1" effort="1" velocity="1"/></joint>'
+                     for i in range(1, 4))
+    path = tmp_path / "chain.urdf"
+    path.write_text(f'<robot name="chain">{links}{joints}</robot>')
+    monkeypatch.setattr(pinocchio, "MAX_DOFS", 2)
+    with pytest.warns(UserWarning, match="not loaded in Pinocchio: 3 degrees of freedom"):
+        report = check_files([path], source=path, n_configurations=3, validate=False)
+    assert [p.label for p in report.probes] == ["source MuJoCo (URDF)", "MuJoCo (URDF)"]
+    assert report.ok, report.mismatches

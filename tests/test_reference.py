@@ -209,3 +209,172 @@ def test_a_urdf_source_repaired_by_the_reader_is_told_from_a_loss(tmp_path, caps
     report = check_files(files, source=source, n_configurations=5, validate=False)
     assert [m.message for m in report.mismatches] == [
         "Pinocchio: joint 'shoulder': damping [0.3] != [0.7] (the source's, then the export's)"]
+
+
+def _edit_glb(path: Path, edit) -> None:
+    """Rewrite a .glb's JSON chunk through ``edit(document)``, its binary chunk kept."""
+    import json
+    import struct
+
+    data = path.read_bytes()
+    size = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + size])
+    edit(doc)
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    rest = data[20 + size:]
+    body = struct.pack("<I", len(text)) + b"JSON" + text + rest
+    path.write_bytes(data[:8] + struct.pack("<I", 12 + len(body)) + body)
+
+
+def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, capsys):
+    """An MJCF source's USD and glTF exports state its masses, damping, friction, armature
+    and ranges in their schemas (UsdPhysics' mass and limits, MuJoCo's and Newton's joint
+    attributes; KHR_physics_rigid_bodies' motion, limits and drives): equal after an
+    export, with a ball joint, a body of two joints and a mocap body; each altered is a
+    mismatch, and check exits 1."""
+    capsule = '<geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.4"/>'
+    source = tmp_path / "arm.xml"
+    source.write_text(ARM.replace(capsule, capsule + """
+        <body name="wrist" pos="0.2 0 0">
+          <joint name="wrist" type="ball" damping="0.1"/>
+          <geom type="sphere" size="0.03" mass="0.2"/>
+          <body name="finger" pos="0.05 0 0">
+            <joint name="slide" type="slide" axis="1 0 0" range="0 0.1" damping="1"/>
+            <joint name="spin" axis="0 0 1" armature="0.003"/>
+            <geom type="box" size="0.01 0.01 0.02" mass="0.05" pos="0.01 0 0"/>
+            <body name="tip" pos="0.02 0 0"><geom type="sphere" size="0.005" mass="0.01"/></body>
+          </body>
+        </body>""").replace("<worldbody>", """<worldbody>
+    <body name="target" mocap="true" pos="0.3 0 0.3"><geom type="sphere" size="0.02"/></body>"""))
+    out = tmp_path / "out"
+    assert run(["export", str(source), "--out", str(out), "--to", "usd,gltf",
+                "--check", "--configurations", "5"]) == EXIT_OK
+    said = capsys.readouterr().out
+    assert "arm.usda  MuJoCo / UsdPhysics" in said and "arm.glb   MuJoCo / KHR" in said, said
+    usda = (out / "arm.usda").read_text()
+    for old, new, expected in [
+            ("float physics:mass = 0.01", "float physics:mass = 0.02",
+             "body 'finger' and the bodies fixed to it: mass 0.06"),
+            ("uniform double mjc:damping = 0.5", "uniform double mjc:damping = 0.6",
+             "joint 'elbow': damping (mjc:damping) 0.5 != 0.6"),
+            ("float newton:armature = 0.003", "float newton:armature = 0.004",
+             "joint 'spin': armature (newton:armature) 0.003 != 0.004"),
+            ("float physics:upperLimit = 0.1", "float physics:upperLimit = 0.2",
+             "joint 'slide': range")]:
+        assert old in usda, old
+        altered = out / "altered.usda"
+        altered.write_text(usda.replace(old, new, 1))
+        report = check_files([altered], source=source, n_configurations=5, validate=False)
+        found = [m.message for m in report.mismatches if m.kind == "dynamics"]
+        assert any(expected in m for m in found), (expected, found)
+    assert run(["check", str(altered), "--reference", str(source),
+                "--configurations", "5"]) == EXIT_DISAGREE
+
+    def heavier(doc):
+        next(n for n in doc["nodes"] if n.get("name") == "link")["extensions"][
+            "KHR_physics_rigid_bodies"]["motion"]["mass"] = 0.5
+
+    def undamped(doc):
+        joints = doc["extensions"]["KHR_physics_rigid_bodies"]["physicsJoints"]
+        next(j for j in joints if j["name"] == "wrist")["drives"] = []
+
+    def stiffer(doc):
+        node = next(n for n in doc["nodes"] if n.get("name") == "spin")
+        node["extras"]["real2code"]["dynamics"]["armature"] = 0.01
+
+    for edit, expected in [(heavier, "body 'link' and the bodies fixed to it: mass 0.4 != 0.5"),
+                           (undamped, "joint 'wrist': damping (drive) 0.1 != 0.0"),
+                           (stiffer, "joint 'spin': armature (real2code extras) 0.003 != 0.01")]:
+        altered = out / "altered.glb"
+        altered.write_bytes((out / "arm.glb").read_bytes())
+        _edit_glb(altered, edit)
+        report = check_files([altered], source=source, n_configurations=5, validate=False)
+        found = [m.message for m in report.mismatches if m.kind == "dynamics"]
+        assert any(expected in m for m in found), (expected, found)
+        assert not [m for m in report.mismatches if m.kind != "dynamics"], report.mismatches
+    assert run(["check", str(altered), "--reference", str(source),
+                "--configurations", "5"]) == EXIT_DISAGREE
+
+
+# What other people's MJCF files are made of: an <include>, meshes found through assetdir and
+# meshdir, angles in degrees turned in "zyx" order, a childclass and nested default classes,
+# fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation.
+KINDS_MAIN = """<mujoco model="kinds">
+  <compiler angle="degree" eulerseq="zyx" assetdir="assets" meshdir="assets/meshes"
+            autolimits="true"/>
+  <default>
+    <default class="arm">
+      <joint damping="0.3" armature="0.01" axis="0 0 1"/>
+      <geom density="800"/>
+      <default class="stiff">
+        <joint stiffness="2" springref="10" frictionloss="0.05"/>
+        <default class="light"><geom density="100"/></default>
+      </default>
+    </default>
+  </default>
+  <asset><mesh name="block" file="block.obj" scale="0.001 0.001 0.001"/></asset>
+  <include file="parts/arm.xml"/>
+</mujoco>
+"""
+KINDS_ARM = """<mujoco>
+  <worldbody>
+    <frame pos="0 0 0.3" euler="0 0 20">
+      <body name="upper" euler="90 0 30" childclass="arm" gravcomp="1">
+        <joint name="shoulder" range="-45 90"/>
+        <geom type="mesh" mesh="block"/>
+        <body name="lower" pos="0.1 0 0" euler="0 30 45">
+          <joint name="elbow" class="stiff" range="0 120"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02"/>
+          <geom type="cylinder" fromto="0 0 0 0 0 0.1" size="0.01" class="light"/>
+        </body>
+      </body>
+    </frame>
+    <replicate count="2" offset="0.3 0 0">
+      <body name="bead" pos="0 0.5 0"><joint name="bead" axis="1 0 0"/>
+        <geom type="sphere" size="0.02" mass="0.05"/></body>
+    </replicate>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsys):
+    import trimesh
+
+    (tmp_path / "assets" / "meshes").mkdir(parents=True)
+    trimesh.creation.box((100, 50, 20)).export(tmp_path / "assets" / "meshes" / "block.obj")
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "arm.xml").write_text(KINDS_ARM)
+    source = tmp_path / "kinds.xml"
+    source.write_text(KINDS_MAIN)
+    assert run(["export", str(source), "--out", str(tmp_path / "out"), "--to", "mjcf,usd,gltf",
+                "--check", "--configurations", "5"]) == EXIT_OK
+    said = capsys.readouterr()
+    assert said.out.rstrip().endswith("AGREE") and "differ" not in said.out, said.out
+    assert "gravity compensation (gravcomp) not carried" in said.err
+    assert "<body name='upper'> (1)" in said.err
+
+
+PLANAR = """<robot name="base_on_floor">
+  <link name="floor"><inertial><mass value="5"/>
+    <inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <link name="cart"><inertial><origin xyz="0.02 0 0"/><mass value="2"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.04"/></inertial></link>
+  <joint name="plane" type="planar"><parent link="floor"/><child link="cart"/>
+    <origin xyz="0 0 0.1" rpy="0 0 0.3"/><axis xyz="0 0 1"/><dynamics damping="0.5"/></joint>
+</robot>
+"""
+
+
+def test_a_urdf_planar_joint_is_read_as_mujoco_and_pinocchio_move_it(tmp_path, capsys):
+    """A planar joint (a mobile base on the floor): two slides and a hinge, as MuJoCo's URDF
+    import makes it (``plane_TX``, ``plane_TY``, ``plane_RZ``) and as Pinocchio's planar
+    joint moves, warned; every export agrees with the source in both tools."""
+    source = tmp_path / "base.urdf"
+    source.write_text(PLANAR)
+    assert run(["export", str(source), "--out", str(tmp_path / "out"), "--to", "urdf,mjcf",
+                "--check", "--configurations", "10"]) == EXIT_OK
+    said = capsys.readouterr()
+    assert "<joint name='plane'>: a planar joint: read as MuJoCo imports it" in said.err
+    assert "source Pinocchio (URDF)" in said.out and said.out.rstrip().endswith("AGREE")

@@ -235,7 +235,6 @@ def line_of(path: Path, needle: str) -> int:
     ("nan_origin.urdf", "<joint name='hinge'>", 'xyz="0 nan 0"', "not finite"),
     ("zero_axis.urdf", "<joint name='hinge'>", "<axis", "zero length"),
     ("unknown_joint_type.urdf", "<joint name='hinge'>", 'type="hinge"', "unknown joint type"),
-    ("planar_joint.urdf", "<joint name='free'>", 'type="planar"', "not supported"),
     ("unknown_parent.urdf", "<joint name='hinge'>", '<parent link="frame"', "not a link"),
     ("duplicate_link.urdf", "<link name='door'>", '<link name="door"/>', "duplicate"),
     ("not_collada_mesh.urdf", "<link name='base'>", "not_collada.dae", "not a Collada file"),
@@ -818,3 +817,22 @@ def test_a_package_not_found_is_resolved_where_its_path_lies_above_the_urdf(tmp_
     source.write_text(source.read_text().replace("visual/base.obj", "visual/other.obj"))
     with pytest.raises(FormatError, match="cannot resolve 'package://arm_support/"):
         urdf.load(source)
+
+
+def test_meshes_in_the_folder_a_mujoco_compiler_meshdir_names(tmp_path):
+    """A URDF prepared for MuJoCo names its meshes relative to ``<mujoco><compiler
+    meshdir>``, where MuJoCo looks for them: found there, said in a warning; a mesh in
+    neither place is still refused, naming the link."""
+    (tmp_path / "assets" / "meshes").mkdir(parents=True)
+    trimesh.creation.box((0.1, 0.2, 0.3)).export(tmp_path / "assets" / "meshes" / "box.stl")
+    text = """<robot name="mj"><mujoco><compiler meshdir="assets/meshes/"/></mujoco>
+      <link name="base"><visual><geometry><mesh filename="{}"/></geometry></visual></link>
+    </robot>"""
+    path = tmp_path / "mj.urdf"
+    path.write_text(text.format("box.stl"))
+    with pytest.warns(Real2CodeWarning, match=r"meshdir='assets/meshes/'>: mesh files 'box.stl'"):
+        obj = urdf.load(path)
+    assert np.allclose(np.ptp(obj.parts[0].visual.vertices, axis=0), [0.1, 0.2, 0.3])
+    path.write_text(text.format("other.stl"))
+    with pytest.raises(FormatError, match="<link name='base'>: mesh file not found"):
+        urdf.load(path)

@@ -13,6 +13,9 @@ carried" means for a user's file, beyond our reader and writer agreeing with eac
   and centre of mass; per joint as above (:func:`urdf_mujoco_differences`).
 - MJCF source, URDF export in MuJoCo's URDF import: the same per welded group; per joint
   what a URDF holds as MuJoCo reads it (:func:`mjcf_urdf_differences`).
+- MJCF source (or a URDF source MuJoCo loads as it is), USD or glTF export as its schema
+  states it (``probes.schema_dynamics``): the same per welded group; per joint what the
+  schema holds (:func:`schema_differences`).
 
 :func:`against_source` picks, for each export, the comparison its tool makes (``check
 --reference``). Names are compared as our importers make them (``model.sanitize_name``). Each function returns
@@ -117,7 +120,6 @@ def _mujoco_joint_differences(src, exp, tol: float, held: tuple[str, ...] | None
 
     out = []
     ball = int(mujoco.mjtJoint.mjJNT_BALL)
-    scalar = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
     for j in range(src.njnt):
         name = src.joint(j).name
         if not name or (not balls and int(src.jnt_type[j]) == ball):
@@ -126,24 +128,16 @@ def _mujoco_joint_differences(src, exp, tol: float, held: tuple[str, ...] | None
         if e < 0:
             out.append(Difference((name,), f"joint {name!r}: not in the export"))
             continue
-        ds, de = src.jnt_dofadr[j], exp.jnt_dofadr[e]
-        pairs = [("damping", src.dof_damping[ds], exp.dof_damping[de]),
-                 ("frictionloss", src.dof_frictionloss[ds], exp.dof_frictionloss[de]),
-                 ("armature", src.dof_armature[ds], exp.dof_armature[de]),
-                 ("stiffness", src.jnt_stiffness[j], exp.jnt_stiffness[e]),
-                 ("limited", _limited(src, j), _limited(exp, e))]
-        if _limited(src, j) and int(src.jnt_type[j]) != ball:
-            pairs.append(("range", src.jnt_range[j], exp.jnt_range[e]))
-        if int(src.jnt_type[j]) in scalar:  # where it starts (ref); a start outside the
-            # range is the nearest limit in the model (its state), warned by the reader
-            ref = src.qpos0[src.jnt_qposadr[j]]
-            lo, hi = src.jnt_range[j] if _limited(src, j) else (-np.inf, np.inf)
-            if lo <= ref <= hi:
-                pairs.append(("ref (qpos0)", ref, exp.qpos0[exp.jnt_qposadr[e]]))
-        out += [Difference((name,), f"joint {name!r}: {what} {a} != {b}")
-                for what, a, b in pairs
-                if (held is None or what in held) and not _close(a, b, tol)]
+        ours, theirs = _joint_quantities(src, j), _joint_quantities(exp, e)
+        theirs["ref"] = exp.qpos0[exp.jnt_qposadr[e]]
+        theirs.setdefault("range", exp.jnt_range[e])
+        out += [Difference((name,), f"joint {name!r}: {_LABELS.get(q, q)} {a} != {theirs[q]}")
+                for q, a in ours.items()
+                if (held is None or q in held) and not _close(a, theirs[q], tol)]
     return out
+
+
+_LABELS = {"ref": "ref (qpos0)"}
 
 
 def _limited(m, j: int) -> bool:
@@ -208,18 +202,18 @@ def _body_name(m, b: int) -> str:
 
 
 def _welds(m, as_urdf: bool = False) -> dict[int, list[int]]:
-    """Weld body id -> the bodies welded to it (MuJoCo's ``body_weldid``); ``as_urdf``: as a
-    URDF holds them, a body whose joints are all ball joints, and a mocap body (moved by the
-    user, no joint), welded to its parent too."""
+    """Weld body id -> the bodies welded to it (MuJoCo's ``body_weldid``), a mocap body
+    (moved by the user, on no joint: fixed in every export) welded to its parent too;
+    ``as_urdf``: as a URDF holds them, a body whose joints are all ball joints too."""
     import mujoco
 
     weld = [int(w) for w in m.body_weldid]
-    if as_urdf:
-        ball = int(mujoco.mjtJoint.mjJNT_BALL)
-        for b in range(1, m.nbody):  # (parents come before their children)
-            kinds = {int(m.jnt_type[j]) for j in range(m.njnt) if int(m.jnt_bodyid[j]) == b}
-            if kinds == {ball} or m.body_mocapid[b] >= 0 or (not kinds and weld[b] != b):
-                weld[b] = weld[int(m.body_parentid[b])]
+    ball = int(mujoco.mjtJoint.mjJNT_BALL)
+    for b in range(1, m.nbody):  # (parents come before their children)
+        kinds = {int(m.jnt_type[j]) for j in range(m.njnt) if int(m.jnt_bodyid[j]) == b}
+        if (as_urdf and kinds == {ball}) or m.body_mocapid[b] >= 0 or \
+                (not kinds and weld[b] != b):
+            weld[b] = weld[int(m.body_parentid[b])]
     groups: dict[int, list[int]] = {}
     for b in range(1, m.nbody):
         groups.setdefault(weld[b], []).append(b)
@@ -227,15 +221,16 @@ def _welds(m, as_urdf: bool = False) -> dict[int, list[int]]:
 
 
 def urdf_mujoco_differences(source: str | Path, export: str | Path, tol: float = 1e-6,
-                            compiled: Mapping[Path, object] | None = None
+                            compiled: Mapping[Path, object] | None = None, in_mujoco=None
                             ) -> list[Difference] | None:
     """A URDF SOURCE as MuJoCo imports it (kinematics and masses, every link kept a body, no
     repair of MuJoCo's turned on) against the MJCF EXPORT, per welded group named by its
-    moving body, and per joint; None when MuJoCo refuses the source as it is."""
-    try:
-        src, ds = _compiled(_urdf_spec(Path(source)))
-    except ValueError:
+    moving body, and per joint; None when MuJoCo refuses the source as it is. ``in_mujoco``:
+    :func:`_source_in_mujoco` of the source, where a caller has it already."""
+    found = in_mujoco or [_source_in_mujoco(Path(source), True, compiled)]
+    if found[0] is None:
         return None  # (a tensor off the triangle inequality, a massless moving link)
+    src, ds = found[0]
     exp, de = _mjcf(export, compiled)
     return _welded_differences(src, ds, exp, de, tol) + _mujoco_joint_differences(src, exp, tol)
 
@@ -289,6 +284,75 @@ def _welded_differences(src, ds, exp, de, tol: float,
         # its hinge's intermediate part, a URDF fixing the ball)
         out += _mass_differences(f"body {name!r} and the bodies fixed to it", names, group,
                                  b[int(exp.body_weldid[e])], tol)
+    return out
+
+
+def schema_differences(src, ds, view, tol: float) -> list[Difference]:
+    """A source compiled by MuJoCo (``src``, ``ds`` at rest) against what a USD or glTF
+    export states in its schema (``view``: ``probes.schema_dynamics``), per welded group
+    named by its moving body (a ball joint and a free body move in both), and per joint
+    each value the schema holds (a free joint has no joint there)."""
+    import mujoco
+
+    members = _welds(src)
+    out = []
+    for weld, group in _welded_groups(src, ds, members).items():
+        if weld == 0:
+            continue
+        name = _body_name(src, weld)
+        names = tuple(_body_name(src, k) for k in members[weld])
+        key = view.group.get(sanitize_name(name))
+        if key is None or key == "":
+            out.append(Difference(names, f"body {name!r}: no moving body of that name in "
+                                         "the export"))
+            continue
+        theirs = view.group_inertia(key)
+        if isinstance(theirs, str):
+            out.append(Difference(names, f"body {name!r}: {theirs}", MASS_WORDS))
+            continue
+        out += _mass_differences(f"body {name!r} and the bodies fixed to it", names, group,
+                                 theirs, tol)
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    for j in range(src.njnt):
+        name = src.joint(j).name
+        if not name or int(src.jnt_type[j]) == free:
+            continue
+        stated = view.joints.get(sanitize_name(name))
+        if stated is None:
+            out.append(Difference((name,), f"joint {name!r}: not in the export"))
+            continue
+        ours = _joint_quantities(src, j)
+        out += [Difference((name,), f"joint {name!r}: {what} {ours[q]} != {value}",
+                           QUANTITY_WORDS[q])
+                for what, q, value in stated if q in ours and not _close(ours[q], value, tol)]
+    return out
+
+
+# What a warning explaining a difference in one quantity of a joint says of it (a warning
+# about the joint's mass or its type explains no change of its damping or range).
+QUANTITY_WORDS = {"damping": ("damping",), "frictionloss": ("friction",),
+                  "armature": ("armature",), "stiffness": ("stiffness", "spring"),
+                  "limited": ("limit", "range"), "range": ("limit", "range"),
+                  "ref": ("limit", "range", "ref", "state")}
+
+
+def _joint_quantities(m, j: int) -> dict[str, object]:
+    """Joint ``j``'s damping, frictionloss, armature, stiffness, limited, range (a limited
+    hinge or slide) and ref (qpos0 of a hinge or slide, where inside its range: a start
+    outside is the nearest limit in the model, warned by the reader)."""
+    import mujoco
+
+    d = m.jnt_dofadr[j]
+    out: dict[str, object] = {"damping": m.dof_damping[d], "frictionloss": m.dof_frictionloss[d],
+                              "armature": m.dof_armature[d], "stiffness": m.jnt_stiffness[j],
+                              "limited": _limited(m, j)}
+    if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+        if out["limited"]:
+            out["range"] = m.jnt_range[j]
+        ref = m.qpos0[m.jnt_qposadr[j]]
+        lo, hi = m.jnt_range[j] if out["limited"] else (-np.inf, np.inf)
+        if lo <= ref <= hi:
+            out["ref"] = ref
     return out
 
 
@@ -362,26 +426,31 @@ class Comparison:
 
 
 def against_source(source: str | Path, exports: list[str | Path], tol: float = 1e-6,
-                   compiled: Mapping[Path, object] | None = None) -> list[Comparison]:
+                   compiled: Mapping[Path, object] | None = None,
+                   opened: Mapping[Path, object] | None = None) -> list[Comparison]:
     """The dynamics of each export that a tool of the source builds, against the source in
     that tool: an MJCF source's MJCF exports in MuJoCo (:func:`mjcf_differences`); a URDF
     source's URDF exports in Pinocchio (:func:`urdf_differences`) and MJCF exports in MuJoCo
     (:func:`urdf_mujoco_differences`); an MJCF source's URDF exports as MuJoCo imports them
-    (:func:`mjcf_urdf_differences`). USD and glTF exports are not compared here: their
-    dynamics are the model's, as the round trips hold them. ``compiled``: MJCF files' models
-    that the kinematic probes compiled already (path -> MjModel), used instead of compiling
-    the files again."""
+    (:func:`mjcf_urdf_differences`); USD and glTF exports as their schemas state them
+    against the source in MuJoCo (:func:`schema_differences`). ``compiled``: MJCF files'
+    models that the kinematic probes compiled already (path -> MjModel), used instead of
+    compiling the files again; ``opened``: USD and glTF files' probes opened already (path
+    -> probe), whose stage and document are read instead of opening the files again."""
     from ..errors import CheckError
     from ..formats import format_for_path
 
     source = Path(source)
     is_urdf = format_for_path(source).name == "urdf"
+    in_mujoco: list = []  # the source compiled by MuJoCo, once: [(model, data) or None]
     out = []
     for export in map(Path, exports):
         kind = format_for_path(export).name
         if kind == "mjcf":
             if is_urdf:
-                found = urdf_mujoco_differences(source, export, tol, compiled)
+                if not in_mujoco:
+                    in_mujoco.append(_source_in_mujoco(source, is_urdf, compiled))
+                found = urdf_mujoco_differences(source, export, tol, compiled, in_mujoco)
                 note = "" if found is not None else "MuJoCo refuses the source as it is"
             else:
                 found, note = mjcf_differences(source, export, tol, compiled), ""
@@ -397,4 +466,46 @@ def against_source(source: str | Path, exports: list[str | Path], tol: float = 1
                     raise
                 out.append(Comparison(export, "Pinocchio", None,
                                       "Pinocchio refuses the source"))
+        elif kind in SCHEMA_TOOLS:
+            if not in_mujoco:
+                in_mujoco.append(_source_in_mujoco(source, is_urdf, compiled))
+            tool = SCHEMA_TOOLS[kind]
+            if in_mujoco[0] is None:
+                out.append(Comparison(export, tool, None, "MuJoCo refuses the source as it is"))
+                continue
+            view = _schema_view(kind, export, opened)
+            if view is None:
+                out.append(Comparison(export, tool, None, "a glTF without our node extras: "
+                                      "its bodies are not posed here"))
+                continue
+            out.append(Comparison(export, tool, schema_differences(*in_mujoco[0], view, tol)))
     return out
+
+
+# the tool named for a USD or glTF export's comparison: the source's in MuJoCo, the export's
+# as its schema states it (``probes.schema_dynamics``)
+SCHEMA_TOOLS = {"usd": "MuJoCo / UsdPhysics", "gltf": "MuJoCo / KHR_physics_rigid_bodies"}
+
+
+def _source_in_mujoco(source: Path, is_urdf: bool, compiled):
+    """(model, data) of the source compiled by MuJoCo at rest; None when MuJoCo refuses a
+    URDF source as it is."""
+    if not is_urdf:
+        return _mjcf(source, compiled)
+    try:
+        return _compiled(_urdf_spec(source))
+    except ValueError:
+        return None
+
+
+def _schema_view(kind: str, export: Path, opened: Mapping[Path, object] | None):
+    from . import open_probes, schema_dynamics
+
+    probe = (opened or {}).get(export)
+    if probe is None:
+        probe = open_probes(export)[0]
+    if kind == "usd":
+        return schema_dynamics.usd_dynamics(probe)
+    if not hasattr(probe, "node_poses"):  # (``probes.gltf.ImportedGltfProbe``)
+        return None
+    return schema_dynamics.gltf_dynamics(probe)

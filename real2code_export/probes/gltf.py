@@ -79,6 +79,7 @@ class GltfProbe:
     def __init__(self, path: str | Path):
         self.path = Path(path)
         doc = _document(self.path)
+        self.document = doc  # (the dynamics against a source read its physics extension)
         nodes, scenes = doc.get("nodes"), doc.get("scenes")
         if not isinstance(nodes, list) or not nodes or not all(isinstance(n, dict)
                                                                for n in nodes):
@@ -126,6 +127,13 @@ class GltfProbe:
 
     def _world_poses(self, values: np.ndarray) -> dict[str, np.ndarray]:
         """Part node name -> (N, 4, 4) world poses (Z up) at the N rows of ``values``."""
+        world = self.node_poses(values)
+        return {self.nodes[i].name: world[i] for i in world if i in self._part_nodes}
+
+    def node_poses(self, values: np.ndarray) -> dict[int, np.ndarray]:
+        """Node index -> (N, 4, 4) world pose (Z up) of every node in the scene at the N rows
+        of ``values`` (joint values in the order of ``joints``)."""
+        values = np.atleast_2d(np.asarray(values, dtype=float))
         n = len(values)
         column = {j.name: k for k, j in enumerate(self.joints)}
         world: dict[int, np.ndarray] = {}
@@ -139,7 +147,7 @@ class GltfProbe:
                 local = joint_motions(kind, axis, q)
             world[i] = parent @ local
             stack.extend((c, world[i]) for c in reversed(self.nodes[i].children or []))
-        return {self.nodes[i].name: world[i] for i in world if i in self._part_nodes}
+        return world
 
 
 class ImportedGltfProbe:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..dynamics.overlap import drop_exclusions
 from ..errors import CheckError, NameNotFoundError
 from ..formats import format_for_path
 from . import JointInfo
@@ -174,11 +175,6 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
             # bodies attached by fixed joints); visual-only geoms do not move anything.
             spec.compiler.fusestatic = False
-            # Contact exclusions move nothing either; without them the compiled model also
-            # serves check's overlap measure, which counts every pair (dynamics/overlap.py),
-            # instead of MuJoCo compiling the file a second time.
-            for exclude in list(spec.excludes):
-                spec.delete(exclude)
             # (MuJoCo refuses to discard visual geoms that inertiafromgeom="true" weighs.)
             spec.compiler.discardvisual = spec.compiler.inertiafromgeom != \
                 mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
@@ -202,6 +198,10 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
             message += f" (and {len(lines) - 2} more lines of MuJoCo warnings)"
         raise CheckError(f"{path}: MuJoCo refused it: {message}") from e
 
+    # Contact exclusions move nothing either; without them the compiled model also serves
+    # check's overlap measure, which counts every pair, instead of MuJoCo compiling the file
+    # a second time.
+    drop_exclusions(model)
     world = None if is_urdf else _mjcf_world_part(model)
     first = 0 if (_urdf_has_world_link(path) if is_urdf else world is not None) else 1
     body_ids = list(range(first, model.nbody))

@@ -64,9 +64,11 @@ class UsdProbe:
         except Tf.ErrorException as e:
             raise CheckError(f"{path}: cannot load with UsdPhysics: {e}") from e
         # kept while the probe lives: the file's layer stays loaded, and check's USD
-        # validator, opening the same file, composes it without parsing it again
-        self._stage = stage
+        # validator, opening the same file, composes it without parsing it again; the
+        # dynamics against a source read its masses and joint laws from it
+        self.stage, self.parsed = stage, parsed
         mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
+        self.meters_per_unit = mpu
         self._world = np.eye(4)
         if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y:
             self._world[:3, :3] = tf.axis_angle_matrix([1.0, 0.0, 0.0], math.pi / 2)
@@ -156,22 +158,28 @@ class UsdProbe:
     def pose_array(self, values) -> np.ndarray:
         """(N, len(joints)) joint values in the order of ``joints`` -> (N, len(parts), 4, 4),
         every configuration at once."""
-        values = np.atleast_2d(np.asarray(values, dtype=float))
-        n = len(values)
-        world = {b: np.broadcast_to(pose, (n, 4, 4))
-                 for b, pose in {WORLD: self._world, **self._roots}.items()}
+        world = self.body_poses(values)
         out = {self._names[b]: world[b] for b in self._roots}
-        for link in self._links:
-            column = self._column.get(link.name)
-            q = values[:, column] if column is not None else np.zeros(n)
-            motion = joint_motions(link.kind, link.axis, q)
-            body = world[link.parent] @ link.to_joint @ motion @ link.from_joint
-            world[link.child] = body
-            out[self._names[link.child]] = body @ link.child_offset
+        out.update((self._names[link.child], world[link.child] @ link.child_offset)
+                   for link in self._links)
         for name, body, local in self._frames:
             if body in world:
                 out[name] = world[body] @ local
         return np.stack([out[name] for name in self.parts], axis=1)
+
+    def body_poses(self, values) -> dict[str, np.ndarray]:
+        """Rigid body prim path (and WORLD) -> (N, 4, 4): each body's own frame in the world
+        (metres) at the N rows of ``values`` (joint values in the order of ``joints``)."""
+        values = np.atleast_2d(np.asarray(values, dtype=float))
+        n = len(values)
+        world = {b: np.broadcast_to(pose, (n, 4, 4))
+                 for b, pose in {WORLD: self._world, **self._roots}.items()}
+        for link in self._links:
+            column = self._column.get(link.name)
+            q = values[:, column] if column is not None else np.zeros(n)
+            motion = joint_motions(link.kind, link.axis, q)
+            world[link.child] = world[link.parent] @ link.to_joint @ motion @ link.from_joint
+        return world
 
 
 def _frames(body, mpu: float):

@@ -16,8 +16,9 @@ Written (following the extension's current draft and its reference Blender expor
   radians / metres; the joint value is the twist of the child frame relative to the parent
   frame, as in the extension's joint-limit metrics.
 - the model's spring and damping become a ``force`` drive (stiffness toward spring_ref,
-  damping toward zero velocity): the drive equation is exactly that passive spring-damper.
-  Friction, armature and effort/velocity limits have no place in the extension and live
+  damping toward zero velocity): the drive equation is exactly that passive spring-damper;
+  a ball joint's damping is one such drive on each of its three rotations (its stiffness,
+  toward a rotation, is in our extras only). Friction, armature and effort/velocity limits have no place in the extension and live
   in our extras only.
 """
 
@@ -126,6 +127,9 @@ def joint_description(joint: Joint) -> dict:
         if d.damping > 0:
             drive.update(velocityTarget=0.0, damping=d.damping)
         out["drives"] = [drive]
+    elif t is JointType.BALL and d.damping > 0:  # MuJoCo's ball damps each of its rotations
+        out["drives"] = [{"type": "angular", "mode": "force", "axis": k, "velocityTarget": 0.0,
+                          "damping": d.damping} for k in range(3)]
     return out
 
 

@@ -185,6 +185,9 @@ class _Reader:
             self.frames[0] = np.eye(4)
             parts.append(self._part(0))
         for b in range(1, m.nbody):
+            if m.body_gravcomp[b]:  # a force MuJoCo applies, no law of the model's
+                self.note("gravity compensation (gravcomp) not carried: the model has no "
+                          "place for it", f"{self._body_label(b)} ({float(m.body_gravcomp[b]):g})")
             parent = int(m.body_parentid[b])
             body_pose = pose(m.body_pos[b], m.body_quat[b])
             if parent == 0 and not world_used:  # the root: its part frame is the world

@@ -30,6 +30,9 @@ class Context:
     textures: dict[Path, Texture | None] = field(default_factory=dict)  # each file's map_Kd
     # Repairs reported once per file (listing the links or joints), not once per element.
     notes: dict[str, list[str]] = field(default_factory=dict)
+    # A <mujoco><compiler meshdir|assetdir> extension: the folder (relative to the URDF) in
+    # which MuJoCo looks for a relative mesh filename.
+    meshdir: str | None = None
 
     def note(self, kind: str, name: str) -> None:
         self.notes.setdefault(kind, []).append(name)

@@ -1,6 +1,8 @@
 """<visual>/<collision> contents: origins, shapes (mesh files or primitives) and colours.
 
-Mesh filenames are relative to the URDF, ``file://`` paths, or ``package://name/rest`` /
+Mesh filenames are relative to the URDF (or, failing that, to the folder a MuJoCo
+``<mujoco><compiler meshdir>`` extension names, as MuJoCo reads them), ``file://`` paths, or
+``package://name/rest`` /
 ``model://name/rest`` (resolved by searching the URDF's parent folders, then
 ``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``: there is no ROS
 package index here). Primitives are kept as the model's shapes (with their fixed
@@ -162,7 +164,15 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) 
     if filename.startswith("file://"):
         return Path(unquote(filename[len("file://"):]))
     path = Path(filename)
-    return path if path.is_absolute() else ctx.path.parent / path
+    if path.is_absolute():
+        return path
+    beside = ctx.path.parent / path
+    if not beside.exists() and ctx.meshdir is not None:  # where MuJoCo looks for it
+        inside = ctx.path.parent / ctx.meshdir / path
+        if inside.exists():
+            ctx.note("meshdir", repr(filename))
+            return inside
+    return beside
 
 
 def _file_mesh(ctx: Context, shape: etree._Element, owner: str) -> tuple[Mesh, Path]:

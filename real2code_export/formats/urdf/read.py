@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from ... import transforms as tf
 from ...collision import collision_pieces, thickened
 from ...errors import FormatError, ModelError
 from ...inertia import DEFAULT_DENSITY, inertial_from_meshes
@@ -64,6 +65,7 @@ from .geometry import (
 from .spec import ELEMENTS_KEY, UNKNOWN, ns
 from .structure import (
     BALL_TYPE,
+    PLANAR,
     check_tree,
     identifiers,
     joint_elements,
@@ -97,6 +99,9 @@ def load(path: str | Path, *, faithful_collision: bool = False,
         raise FormatError(path, None, "file not found")
     ctx = Context(path)
     robot = parse(ctx)
+    compiler = robot.find("mujoco/compiler")
+    if compiler is not None:
+        ctx.meshdir = compiler.get("meshdir") or compiler.get("assetdir")
     links = link_elements(ctx, robot)
     joints = joint_elements(ctx, robot, links)
     check_tree(ctx, links, joints)
@@ -106,12 +111,18 @@ def load(path: str | Path, *, faithful_collision: bool = False,
     materials = robot_materials(ctx, robot)
     parts = [_part(ctx, el, part_names[raw], materials, faithful_collision,
                    hull_collision or faithful_collision) for raw, el in links.items()]
-    joint_list = [_joint(ctx, el, joint_names[raw], part_names, joint_names)
-                  for raw, el in joints.items()]
+    joint_list, joint_el = [], {}  # (the element each joint of the model comes from)
+    for raw, el in joints.items():
+        if el.get("type") == PLANAR:
+            chain, between = _planar(ctx, el, joint_names[raw], part_names, joint_names)
+            parts += between
+        else:
+            chain = [_joint(ctx, el, joint_names[raw], part_names, joint_names)]
+        joint_list += chain
+        joint_el.update((j.name, el) for j in chain)
     _report_notes(ctx)
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
                             metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
-    joint_el = {joint_names[raw]: el for raw, el in joints.items()}
     for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
         el = joint_el[joint_name]
         ctx.warn(label(el), message, el.sourceline)
@@ -239,6 +250,8 @@ def _report_notes(ctx: Context) -> None:
                     f"meshes at {DEFAULT_DENSITY} kg/m^3",
         "collision": "no <collision> in links {}: convex collision pieces made from their "
                      "visual meshes",
+        "meshdir": f"<mujoco><compiler meshdir={ctx.meshdir!r}>: mesh files {{}} found in that "
+                   "folder, where MuJoCo looks for them, not beside the URDF",
     }
     for kind, names in ctx.notes.items():
         ctx.warn(None, messages[kind].format(", ".join(names)))
@@ -415,6 +428,36 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
     elif limit is not None:
         ctx.note("limit_dropped", repr(name))
     return joint
+
+
+def _planar(ctx: Context, el: etree._Element, name: str, part_names: dict[str, str],
+            joint_names: dict[str, str]) -> tuple[list[Joint], list[Part]]:
+    """A planar joint (motion in the plane normal to its axis) as MuJoCo's URDF import makes
+    it: slides ``<name>_TX`` and ``<name>_TY`` along the plane's axes (x and y of the joint
+    frame turned so that z is the axis) and a hinge ``<name>_RZ`` about the axis, through
+    two massless intermediate parts ``<child>_<name>_TX``/``_TY``, each with the joint's
+    dynamics; unlimited (urdfdom ignores a planar joint's <limit>). Pinocchio's planar
+    joint moves in x and y whatever the axis."""
+    owner = label(el)
+    parent, child = joint_ends(el)
+    axis = _axis(ctx, el, owner)
+    turn = tf.rotation_between([0.0, 0.0, 1.0], axis)
+    dynamics = _dynamics(ctx, el, owner)
+    taken = set(part_names.values()) | set(joint_names.values())
+    names = [sanitize_name(f"{name}_{k}", taken) for k in ("TX", "TY", "RZ")]
+    between = [sanitize_name(f"{part_names[child]}_{n}", taken) for n in names[:2]]
+    ends = [part_names[parent], *between, part_names[child]]
+    origins = [origin_matrix(ctx, el, owner), np.eye(4), np.eye(4)]
+    kinds = (JointType.PRISMATIC, JointType.PRISMATIC, JointType.CONTINUOUS)
+    axes = (turn[:, 0], turn[:, 1], axis)
+    chain = [Joint(name=n, type=kind, parent=a, child=b, origin=o, axis=ax,
+                   dynamics=copy.copy(dynamics))
+             for n, kind, a, b, o, ax in zip(names, kinds, ends[:-1], ends[1:], origins, axes,
+                                             strict=True)]
+    ctx.warn(owner, f"a planar joint: read as MuJoCo imports it, slides {names[0]!r} and "
+             f"{names[1]!r} and hinge {names[2]!r} through massless parts "
+             f"{', '.join(map(repr, between))}", el.sourceline)
+    return chain, [Part(name=n) for n in between]
 
 
 def _is_number(text: str | None) -> bool:

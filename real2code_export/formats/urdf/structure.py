@@ -14,7 +14,7 @@ from ...model import NAME_PATTERN, sanitize_name
 from .context import Context, label
 
 # URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
-# real2code:type="ball"); planar is not held.
+# real2code:type="ball"); planar is read as two slides and a hinge.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating")
 # Not URDF, but written by pybullet's files and read as a ball joint by MuJoCo and Bullet.
 BALL_TYPE = "spherical"
@@ -106,19 +106,19 @@ def link_elements(ctx: Context, robot: etree._Element) -> dict[str, etree._Eleme
     return links
 
 
+PLANAR = "planar"  # read as MuJoCo imports it: two slides and a hinge (``read._planar``)
+
+
 def joint_elements(ctx: Context, robot: etree._Element,
                     links: dict[str, etree._Element]) -> dict[str, etree._Element]:
     joints = _named(ctx, robot, "joint")
     for el in joints.values():
         owner = label(el)
         jtype = el.get("type")
-        if jtype == "planar":
-            raise ctx.error(owner, f"{jtype} joints are not supported (the model holds "
-                            f"{', '.join(JOINT_TYPES)} joints)", el.sourceline)
         if jtype == BALL_TYPE:
             ctx.warn(owner, f"type {jtype!r} is not URDF (urdfdom refuses it): read as a ball "
                      "joint, as MuJoCo and Bullet read it", el.sourceline)
-        elif jtype not in JOINT_TYPES:
+        elif jtype not in JOINT_TYPES and jtype != PLANAR:
             raise ctx.error(owner, f"unknown joint type {jtype!r} (expected one of "
                             f"{', '.join(JOINT_TYPES)})", el.sourceline)
         for role in ("parent", "child"):

@@ -1,0 +1,256 @@
+"""What a USD or glTF export states of its dynamics in its own schema, read as the format's
+consumers read it, not through our readers: per rigid body its mass, centre of mass and
+inertia in the world at rest (hinges and slides at 0, balls at their rest, a free body where
+the file puts it, as the kinematic probes pose them), the bodies welded to it (held by fixed
+joints), and per joint what the schema holds of its law and range. ``check --reference``
+compares them with the source's (``probes.dynamics.schema_differences``).
+
+- USD: UsdPhysics' own parse (rigid bodies, joints, limits, colliders); PhysicsMassAPI's
+  mass, centerOfMass, diagonalInertia and principalAxes (what PhysX reads); MjcJointAPI's
+  damping, frictionloss, armature, stiffness and ref (MuJoCo's USD importer) and
+  NewtonJointAPI's damping (per degree), friction and armature (Newton), each compared.
+- glTF: KHR_physics_rigid_bodies' ``motion`` (mass, centerOfMass, inertiaDiagonal,
+  inertiaOrientation), its joints' limits and force drives (stiffness, damping); friction
+  and armature, for which the extension has no place, from our extras on the joint node.
+
+A body whose mass or inertia the file leaves to the simulator (none stated, colliders to
+compute it from) is *unstated*: its group is not equal to anything.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import transforms as tf
+from ..inertia import combine_inertials
+from ..model import UNBOUNDED_LIMIT, Inertial
+
+WORLD = ""  # the world's group
+
+
+@dataclass
+class SchemaDynamics:
+    """One export's dynamics as its schema states them (module docstring)."""
+
+    file: str
+    # body name -> (mass, inertia about its centre of mass in world axes, centre of mass)
+    bodies: dict[str, tuple[float, np.ndarray, np.ndarray]] = field(default_factory=dict)
+    unstated: dict[str, str] = field(default_factory=dict)  # body name -> what is left open
+    group: dict[str, str] = field(default_factory=dict)  # body name -> its group's key
+    # joint name -> (what, quantity, value): quantity is damping, frictionloss, armature,
+    # stiffness, limited, range or ref, as MuJoCo names them; what says where it was read
+    joints: dict[str, list[tuple[str, str, object]]] = field(default_factory=dict)
+
+    def group_inertia(self, key: str) -> tuple[float, np.ndarray, np.ndarray] | str:
+        """(mass, principal moments, centre of mass) of the bodies of group ``key``, or what
+        the file leaves open of them."""
+        members = [b for b, k in self.group.items() if k == key]
+        open_ = [f"body {b!r}: {self.unstated[b]}" for b in members if b in self.unstated]
+        if open_:
+            return "; ".join(open_)
+        massive = [self.bodies[b] for b in members if self.bodies[b][0] > 0.0]
+        if not massive:
+            return 0.0, np.zeros(3), np.zeros(3)
+        total = combine_inertials([(Inertial(m, np.zeros(3), inertia), tf.make(translation=com))
+                                   for m, inertia, com in massive])
+        return total.mass, np.linalg.eigvalsh(total.inertia), total.com
+
+
+def _union(pairs, items) -> dict:
+    """Item -> the key of its connected group (``pairs`` connect two items; WORLD wins)."""
+    parent = {i: i for i in items}
+    parent.setdefault(WORLD, WORLD)
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b in pairs:
+        ra, rb = root(a), root(b)
+        if ra != rb:
+            parent[ra], parent[rb] = (rb, rb) if rb == WORLD else (ra, ra)
+    return {i: root(i) for i in items}
+
+
+# -- USD -----------------------------------------------------------------------------------
+MJC = (("mjc:damping", "damping"), ("mjc:frictionloss", "frictionloss"),
+       ("mjc:armature", "armature"), ("mjc:stiffness", "stiffness"))
+NEWTON = (("newton:damping", "damping"), ("newton:friction", "frictionloss"),
+          ("newton:armature", "armature"))
+
+
+def _authored(prim, name: str) -> float:
+    attr = prim.GetAttribute(name)
+    value = attr.Get() if attr and attr.HasAuthoredValue() else None
+    return 0.0 if value is None else float(value)  # (the importers' default)
+
+
+def usd_dynamics(probe) -> SchemaDynamics:
+    """A USD export's dynamics from the stage its probe (``probes.usd.UsdProbe``) opened."""
+    from pxr import UsdPhysics
+
+    stage, mpu = probe.stage, probe.meters_per_unit
+    kpu = float(UsdPhysics.GetStageKilogramsPerUnit(stage))
+    out = SchemaDynamics(str(probe.path))
+    rigid, joints = {}, []
+    for kind, (paths, descs) in probe.parsed.items():
+        for p, d in zip(paths, descs, strict=True):
+            if kind.name == "RigidBody":
+                rigid[str(p)] = d
+            elif kind.name.endswith("Joint"):
+                joints.append((str(p), kind.name, d))
+    poses = probe.body_poses(np.zeros((1, len(probe.joints))))
+    names = {p: stage.GetPrimAtPath(p).GetName() for p in rigid}
+    for path, desc in rigid.items():
+        name, prim = names[path], stage.GetPrimAtPath(path)
+        api = UsdPhysics.MassAPI(prim) if prim.HasAPI(UsdPhysics.MassAPI) else None
+        mass = float(api.GetMassAttr().Get() or 0.0) * kpu if api else 0.0
+        com = api.GetCenterOfMassAttr().Get() if api else None
+        diagonal = api.GetDiagonalInertiaAttr().Get() if api else None
+        if mass <= 0.0 or com is None or not np.all(np.isfinite(com)) or diagonal is None \
+                or not np.any(np.asarray(diagonal) > 0):
+            if desc.collisions:  # a simulator computes what is missing from the colliders
+                missing = "mass" if mass <= 0.0 else "centre of mass or inertia"
+                out.unstated[name] = (f"{missing} not stated (PhysicsMassAPI); a simulator "
+                                      f"computes it from its {len(desc.collisions)} "
+                                      "collider(s) at a density")
+            out.bodies[name] = (0.0, np.zeros((3, 3)), np.zeros(3))
+            continue
+        axes = api.GetPrincipalAxesAttr().Get()
+        pose = poses[path][0]
+        turn = pose[:3, :3] @ (tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()])
+                               if axes is not None else np.eye(3))
+        inertia = turn @ np.diag(np.asarray(diagonal, float) * kpu * mpu * mpu) @ turn.T
+        out.bodies[name] = (mass, inertia,
+                            pose[:3, :3] @ (np.asarray(com, float) * mpu) + pose[:3, 3])
+    fixed = [(str(d.body0) if str(d.body0) in rigid else WORLD,
+              str(d.body1) if str(d.body1) in rigid else WORLD)
+             for _, kind, d in joints if kind == "FixedJoint"]
+    out.group = {names[p]: (names[k] if k != WORLD else WORLD)
+                 for p, k in _union(fixed, list(rigid)).items() if p != WORLD}
+    for path, kind, d in joints:
+        if kind in ("RevoluteJoint", "PrismaticJoint", "SphericalJoint"):
+            out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(stage.GetPrimAtPath(path), kind,
+                                                             d, mpu)
+    return out
+
+
+def _usd_joint(prim, kind: str, desc, mpu: float) -> list[tuple[str, str, object]]:
+    angular = kind != "PrismaticJoint"
+    items: list[tuple[str, str, object]] = [(f"{q} ({a})", q, _authored(prim, a))
+                                            for a, q in MJC]
+    per_degree = math.pi / 180.0 if angular else 1.0
+    items += [(f"{q} ({a})", q, _authored(prim, a) / (per_degree if q == "damping" else 1.0))
+              for a, q in NEWTON]
+    if kind == "SphericalJoint":
+        return items
+    to_model = math.radians if angular else (lambda v: v * mpu)
+    lim = desc.limit
+    limited = bool(lim.enabled) and math.isfinite(lim.lower) and math.isfinite(lim.upper)
+    bounds = (to_model(float(lim.lower)), to_model(float(lim.upper))) if limited else None
+    items += _range("physics:lowerLimit, upperLimit", bounds)
+    if prim.GetAttribute("mjc:ref").HasAuthoredValue():
+        items.append(("ref (mjc:ref)", "ref", to_model(_authored(prim, "mjc:ref"))))
+    return items
+
+
+# -- glTF ----------------------------------------------------------------------------------
+def gltf_dynamics(probe) -> SchemaDynamics:
+    """A glb/gltf export's dynamics from the document its probe (``probes.gltf.GltfProbe``)
+    read, posed by the probe's node tree."""
+    from ..formats.gltf.conventions import EXTRAS_KEY, KHR_PHYSICS
+    from ..formats.gltf.physics import free_axis
+
+    doc = probe.document
+    nodes = doc["nodes"]
+    out = SchemaDynamics(str(probe.path))
+
+    def khr(node) -> dict:
+        ext = node.get("extensions") if isinstance(node.get("extensions"), dict) else {}
+        value = ext.get(KHR_PHYSICS)
+        return value if isinstance(value, dict) else {}
+
+    up = {c: i for i, n in enumerate(nodes) for c in (n.get("children") or [])}
+    moving = {i for i, n in enumerate(nodes) if "motion" in khr(n)}
+
+    def body_of(i: int) -> str:
+        while i is not None and i not in moving:
+            i = up.get(i)
+        return WORLD if i is None else str(i)
+
+    poses = probe.node_poses(np.zeros((1, len(probe.joints))))
+    name_of = {str(i): nodes[i].get("name") or f"node_{i}" for i in moving}
+    for i in moving:
+        motion, name = khr(nodes[i])["motion"], name_of[str(i)]
+        if "mass" not in motion or "inertiaDiagonal" not in motion:
+            missing = "mass" if "mass" not in motion else "inertia"
+            out.unstated[name] = (f"motion states no {missing} (KHR_physics_rigid_bodies "
+                                  "leaves it to the consumer)")
+            out.bodies[name] = (0.0, np.zeros((3, 3)), np.zeros(3))
+            continue
+        pose = poses[i][0] if i in poses else np.eye(4)
+        x, y, z, w = motion.get("inertiaOrientation", [0.0, 0.0, 0.0, 1.0])
+        turn = pose[:3, :3] @ tf.quat_to_matrix([w, x, y, z])
+        inertia = turn @ np.diag(np.asarray(motion["inertiaDiagonal"], float)) @ turn.T
+        com = pose[:3, :3] @ np.asarray(motion.get("centerOfMass", [0, 0, 0]), float) \
+            + pose[:3, 3]
+        out.bodies[name] = (float(motion["mass"]), inertia, com)
+    described = khr(doc).get("physicsJoints") or []  # (the document's own extensions)
+    extras = {}
+    for n in nodes:
+        data = (n.get("extras") or {}).get(EXTRAS_KEY) if isinstance(n.get("extras"), dict) \
+            else None
+        if isinstance(data, dict) and "joint" in data and "type" in data:
+            extras[data["joint"]] = data
+    fixed = []
+    for i, n in enumerate(nodes):
+        joint = khr(n).get("joint")
+        if not isinstance(joint, dict) or not isinstance(joint.get("joint"), int) \
+                or not 0 <= joint["joint"] < len(described):
+            continue
+        desc = described[joint["joint"]]
+        axis = free_axis(desc)
+        if axis is not None and axis.kind == "fixed":
+            fixed.append((body_of(i), body_of(joint.get("connectedNode"))))
+            continue
+        name = desc.get("name") or n.get("name") or f"node_{i}"
+        out.joints[name] = _gltf_joint(desc, axis, extras.get(name, {}))
+    out.group = {name_of[b]: (name_of[k] if k != WORLD else WORLD)
+                 for b, k in _union(fixed, list(name_of)).items() if b != WORLD}
+    return out
+
+
+def _gltf_joint(desc: dict, axis, extras: dict) -> list[tuple[str, str, object]]:
+    """What a joint's description states (``axis``: its one free axis, None for a ball), and
+    its friction and armature from our extras."""
+    items: list[tuple[str, str, object]] = []
+    for drive in desc.get("drives") or []:
+        on_axis = axis is None or (drive.get("type") == axis.kind
+                                   and int(drive.get("axis", -1)) == axis.axis)
+        if on_axis and drive.get("mode", "force") == "force":
+            items += [("damping (drive)", "damping", float(drive.get("damping", 0.0))),
+                      ("stiffness (drive)", "stiffness", float(drive.get("stiffness", 0.0)))]
+            break
+    else:
+        items += [("damping (drive)", "damping", 0.0), ("stiffness (drive)", "stiffness", 0.0)]
+    law = extras.get("dynamics") or {}
+    items += [("frictionloss (real2code extras)", "frictionloss", float(law.get("friction", 0.0))),
+              ("armature (real2code extras)", "armature", float(law.get("armature", 0.0)))]
+    if axis is not None:
+        limited = axis.lower is not None and axis.upper is not None
+        items += _range("limits", (axis.lower, axis.upper) if limited else None)
+    return items
+
+
+def _range(where: str, bounds: tuple[float, float] | None) -> list[tuple[str, str, object]]:
+    """Whether a joint is limited, and its range: one at SDF's "no limit" (+-1e16, a URDF's
+    unbounded rotor) is none, as ``probes.dynamics`` reads the source's."""
+    if bounds is not None and all(abs(b) >= UNBOUNDED_LIMIT * (1.0 - 1e-6) for b in bounds):
+        bounds = None
+    out: list[tuple[str, str, object]] = [(f"limited ({where})", "limited", bounds is not None)]
+    return out + ([(f"range ({where})", "range", bounds)] if bounds is not None else [])
