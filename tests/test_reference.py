@@ -24,6 +24,18 @@ STANDING = """<mujoco model="standing">
 </mujoco>
 """
 
+
+def _arm_with_wrist(finger: str = "") -> str:
+    """:data:`ARM` with a ball-jointed wrist on its link (``finger``: bodies inside the
+    wrist) and a mocap body, which moves on no joint."""
+    capsule = '<geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.4"/>'
+    return ARM.replace(capsule, capsule + f"""
+        <body name="wrist" pos="0.2 0 0">
+          <joint name="wrist" type="ball" damping="0.1"/>
+          <geom type="sphere" size="0.03" mass="0.2"/>{finger}
+        </body>""").replace("<worldbody>", """<worldbody>
+    <body name="target" mocap="true" pos="0.3 0 0.3"><geom type="sphere" size="0.02"/></body>""")
+
 URDF_WITH_PACKAGE = """<robot name="pkg">
   <link name="base">
     <inertial><mass value="1"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>
@@ -142,14 +154,8 @@ def test_an_mjcf_sources_urdf_export_is_compared_as_mujoco_imports_it(tmp_path, 
     friction and ranges (a ball joint, which a URDF has not, fixed at its rest with its mass
     counted in its parent's; a mocap body, which moves on no joint, fixed); its mass,
     damping or friction altered is a mismatch."""
-    capsule = '<geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.4"/>'
     source = tmp_path / "arm.xml"
-    source.write_text(ARM.replace(capsule, capsule + """
-        <body name="wrist" pos="0.2 0 0">
-          <joint name="wrist" type="ball" damping="0.1"/>
-          <geom type="sphere" size="0.03" mass="0.2"/>
-        </body>""").replace("<worldbody>", """<worldbody>
-    <body name="target" mocap="true" pos="0.3 0 0.3"><geom type="sphere" size="0.02"/></body>"""))
+    source.write_text(_arm_with_wrist())
     out = tmp_path / "out"
     assert run(["export", str(source), "--out", str(out), "--to", "urdf",
                 "--check", "--configurations", "5"]) == EXIT_OK
@@ -233,20 +239,14 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
     attributes; KHR_physics_rigid_bodies' motion, limits and drives): equal after an
     export, with a ball joint, a body of two joints and a mocap body; each altered is a
     mismatch, and check exits 1."""
-    capsule = '<geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.4"/>'
     source = tmp_path / "arm.xml"
-    source.write_text(ARM.replace(capsule, capsule + """
-        <body name="wrist" pos="0.2 0 0">
-          <joint name="wrist" type="ball" damping="0.1"/>
-          <geom type="sphere" size="0.03" mass="0.2"/>
+    source.write_text(_arm_with_wrist(finger="""
           <body name="finger" pos="0.05 0 0">
             <joint name="slide" type="slide" axis="1 0 0" range="0 0.1" damping="1"/>
             <joint name="spin" axis="0 0 1" armature="0.003"/>
             <geom type="box" size="0.01 0.01 0.02" mass="0.05" pos="0.01 0 0"/>
             <body name="tip" pos="0.02 0 0"><geom type="sphere" size="0.005" mass="0.01"/></body>
-          </body>
-        </body>""").replace("<worldbody>", """<worldbody>
-    <body name="target" mocap="true" pos="0.3 0 0.3"><geom type="sphere" size="0.02"/></body>"""))
+          </body>"""))
     out = tmp_path / "out"
     assert run(["export", str(source), "--out", str(out), "--to", "usd,gltf",
                 "--check", "--configurations", "5"]) == EXIT_OK
