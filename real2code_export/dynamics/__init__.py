@@ -122,7 +122,7 @@ def urdf_laws(path) -> dict[str, dict[str, float]]:
     engines whose URDF loaders leave those at their own defaults."""
     from lxml import etree
 
-    from ..formats.urdf.spec import NAMESPACE
+    from ..formats.urdf.conventions import NAMESPACE
 
     prefix = f"{{{NAMESPACE}}}"
     out: dict[str, dict[str, float]] = {}

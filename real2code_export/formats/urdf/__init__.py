@@ -6,8 +6,8 @@
 namespace ``urn:real2code-export:urdf:1`` (prefix ``real2code``), which other tools ignore.
 """
 
+from .conventions import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE
 from .read import load
-from .spec import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE
 from .write import save, to_bytes
 
 __all__ = ["DEFAULT_EFFORT", "DEFAULT_VELOCITY", "NAMESPACE", "load", "save",

@@ -12,7 +12,7 @@ from lxml import etree
 
 from ...errors import FormatError, warn
 from ...model import Mesh, Texture
-from .spec import NAMESPACE, PREFIX
+from .conventions import NAMESPACE, PREFIX
 
 
 def label(el: etree._Element) -> str:

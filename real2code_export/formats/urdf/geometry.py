@@ -25,7 +25,7 @@ from ...meshfiles import read_mesh_file
 from ...model import Mesh
 from ...primitives import SIZE_COUNT, Primitive, ShapeKind
 from .context import Context, label
-from .spec import PREFIX, ns
+from .conventions import PREFIX, ns
 
 RGBA = tuple[float, float, float, float]
 

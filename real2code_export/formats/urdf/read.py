@@ -53,6 +53,7 @@ from ...model import (
 )
 from ...repairs import balanced_inertia, massless_moving_parts, unusable_mimics
 from .context import Context, label
+from .conventions import ELEMENTS_KEY, UNKNOWN, ns
 from .geometry import (
     average_color,
     material_color,
@@ -62,7 +63,6 @@ from .geometry import (
     robot_materials,
     shape_mesh,
 )
-from .spec import ELEMENTS_KEY, UNKNOWN, ns
 from .structure import (
     BALL_TYPE,
     PLANAR,

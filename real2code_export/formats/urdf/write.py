@@ -5,7 +5,7 @@ Each link has its <inertial> (origin at the centre of mass, tensor in link axes)
 (meshes/<part>_collision_<k>.obj, marked ``real2code:convex="true"`` so our reader keeps them
 as they are); a shape is a <visual>/<collision> of its own (<box>, <cylinder>, <sphere>; a
 capsule or ellipsoid, which URDF lacks, its tessellation's mesh marked ``real2code:shape``). Numbers are Python's shortest exact text. What URDF cannot hold goes into
-attributes of the ``real2code`` namespace (see :mod:`.spec`); a <mujoco> block makes MuJoCo
+attributes of the ``real2code`` namespace (see :mod:`.conventions`); a <mujoco> block makes MuJoCo
 load every link as its own body, with its visual.
 """
 
@@ -42,7 +42,7 @@ from ...model import (
 )
 from ...primitives import Primitive, ShapeKind
 from .. import output_file
-from .spec import (
+from .conventions import (
     DEFAULT_EFFORT,
     DEFAULT_VELOCITY,
     ELEMENTS_KEY,
@@ -104,7 +104,7 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
 
 
 def _kept_elements(obj: ArticulatedObject) -> list[etree._Element]:
-    """The URDF elements a reader kept in the metadata (spec.ELEMENTS_KEY), parsed again."""
+    """The URDF elements a reader kept in the metadata (conventions.ELEMENTS_KEY), parsed again."""
     metadata_json(obj)  # the same error as every format for metadata that is not JSON
     texts = obj.metadata.get(ELEMENTS_KEY, [])
     where = f"object {obj.name!r} metadata {ELEMENTS_KEY!r}"
