@@ -10,6 +10,7 @@ together. Read with ``ast``, nothing is imported.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 from conftest import REPO
@@ -55,6 +56,7 @@ def _imports(name: str, path: Path, known: set[str]) -> set[str]:
     return out
 
 
+@functools.cache  # read once for every test here
 def _graph() -> dict[str, set[str]]:
     modules = _modules()
     return {name: _imports(name, path, set(modules)) for name, path in modules.items()}
@@ -97,4 +99,17 @@ def test_the_core_imports_the_pipeline_only_in_its_commands():
     wrong = sorted(f"{name} imports {t}" for name, targets in _graph().items()
                    if name.startswith("real2code_export") and not name.startswith(COMMANDS)
                    for t in targets if t.startswith("pipeline"))
+    assert not wrong, wrong
+
+
+def test_no_format_imports_another():
+    """Each format's modules import the core and the registry, never another format's: what
+    two formats share (object.json's and glTF's shape JSON) lives in the core."""
+    prefix = "real2code_export.formats."
+
+    def fmt(module: str) -> str | None:
+        return module[len(prefix):].split(".")[0] if module.startswith(prefix) else None
+
+    wrong = sorted(f"{name} imports {t}" for name, targets in _graph().items() if fmt(name)
+                   for t in targets if fmt(t) and fmt(t) != fmt(name))
     assert not wrong, wrong

@@ -9,12 +9,8 @@ load(save(obj)) reproduces ``obj`` bit for bit.
 from __future__ import annotations
 
 import json
-import math
-from enum import StrEnum
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from .. import atomic
 from ..errors import FormatError, ModelError
@@ -38,11 +34,20 @@ from ..model import (
     JointType,
     Limits,
     Mesh,
-    Mimic,
     Part,
     validate,
 )
-from ..primitives import Primitive, ShapeKind
+from ..model_json import (
+    choice,
+    member,
+    mimic_from_json,
+    mimic_json,
+    number,
+    shape_from_json,
+    shape_json,
+    transform,
+    vector,
+)
 
 SCHEMA = "real2code_export/object"
 SCHEMA_VERSION = 1
@@ -117,43 +122,6 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
     }
 
 
-def shape_json(shape: Primitive) -> dict[str, Any]:
-    return {"kind": shape.kind.value, "size": shape.size.tolist(),
-            "translation": shape.pose[:3, 3].tolist(), "rotation": shape.pose[:3, :3].tolist()}
-
-
-def _choice(d: Any, key: str, kinds: type[StrEnum], path: Path, el: str, what: str) -> str:
-    """``d[key]``, which must be one of the enumeration's values."""
-    value = _get(d, key, path, el)
-    if value not in {k.value for k in kinds}:
-        raise FormatError(path, el, f"unknown {what} {value!r} (expected one of "
-                          f"{[k.value for k in kinds]})")
-    return value
-
-
-def _transform(d: Any, path: Path, el: str, what: str) -> np.ndarray:
-    """A 4x4 transform from its ``translation`` (3) and row-major ``rotation`` (9)."""
-    out = np.eye(4)
-    out[:3, 3] = _vec(_get(d, "translation", path, el), 3, path, el, what + "translation")
-    out[:3, :3] = _vec(_get(d, "rotation", path, el), 9, path, el,
-                       what + "rotation").reshape(3, 3)
-    return out
-
-
-def shape_from_json(d: Any, path: Path, el: str) -> Primitive:
-    if not isinstance(d, dict):
-        raise FormatError(path, el, f"a shape must be an object, got {d!r}")
-    kind = _choice(d, "kind", ShapeKind, path, el, "shape kind")
-    size = _get(d, "size", path, el)
-    pose = _transform(d, path, el, "")
-    shape = Primitive(kind, _vec(size, len(size) if isinstance(size, list) else 1, path, el,
-                                 "size"), pose)
-    problem = shape.problem()
-    if problem is not None:
-        raise FormatError(path, el, problem)
-    return shape
-
-
 def dumps(obj: ArticulatedObject) -> str:
     # allow_nan=False: the model is validated finite; a NaN here is a bug, not data.
     return json.dumps(to_dict(obj), indent=1, allow_nan=False) + "\n"
@@ -170,29 +138,6 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
 
 
 # -- load ------------------------------------------------------------------------------------
-def _num(value, path: Path, element: str, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise FormatError(path, element, f"{what} must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise FormatError(path, element, f"{what} is not finite: {value!r}")
-    return float(value)
-
-
-def _vec(value, n: int, path: Path, element: str, what: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=object)
-    if arr.shape != (n,) and not (n == 9 and arr.shape == (3, 3)):
-        raise FormatError(path, element, f"{what} must have {n} numbers, got {value!r}")
-    return np.array([_num(v, path, element, what) for v in arr.reshape(-1)])
-
-
-def _get(d: dict, key: str, path: Path, element: str):
-    if not isinstance(d, dict):
-        raise FormatError(path, element, f"expected an object, got {type(d).__name__}")
-    if key not in d:
-        raise FormatError(path, element, f"missing key {key!r}")
-    return d[key]
-
-
 def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
     base = path.parent
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
@@ -202,9 +147,9 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         raise FormatError(path, "schema_version", f"unsupported version {version!r} "
                           f"(this release reads {SCHEMA_VERSION})")
     parts = []
-    for i, pd in enumerate(_get(data, "parts", path, "object")):
+    for i, pd in enumerate(member(data, "parts", path, "object")):
         el = f"parts[{i}]"
-        name = _get(pd, "name", path, el)
+        name = member(pd, "name", path, el)
         el = f"part {name!r}"
         visuals = []
         if pd.get("visual") is not None:
@@ -223,11 +168,11 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         if pd.get("inertial") is not None:
             ind = pd["inertial"]
             inertial = Inertial(
-                mass=_num(_get(ind, "mass", path, el), path, el, "mass"),
-                com=_vec(_get(ind, "com", path, el), 3, path, el, "com"),
-                inertia=_vec(_get(ind, "inertia", path, el), 9, path, el, "inertia").reshape(3, 3),
+                mass=number(member(ind, "mass", path, el), path, el, "mass"),
+                com=vector(member(ind, "com", path, el), 3, path, el, "com"),
+                inertia=vector(member(ind, "inertia", path, el), 9, path, el, "inertia").reshape(3, 3),
             )
-        color = tuple(_vec(pd.get("color", [0.7, 0.7, 0.7, 1.0]), 4, path, el, "color"))
+        color = tuple(vector(pd.get("color", [0.7, 0.7, 0.7, 1.0]), 4, path, el, "color"))
         images = {"texture": pd.get("texture")}
         maps = pd.get("maps") or {}
         if not isinstance(maps, dict) or not set(maps) <= set(PBR_MAPS):
@@ -249,41 +194,41 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         parts.append(Part(name=name, visual=visual, collision=collision, inertial=inertial,
                           color=color, texture=texture, maps=read))
     joints = []
-    for i, jd in enumerate(_get(data, "joints", path, "object")):
+    for i, jd in enumerate(member(data, "joints", path, "object")):
         el = f"joints[{i}]"
-        name = _get(jd, "name", path, el)
+        name = member(jd, "name", path, el)
         el = f"joint {name!r}"
-        jtype = _choice(jd, "type", JointType, path, el, "joint type")
-        od = _get(jd, "origin", path, el)
-        origin = _transform(od, path, el, "origin ")
+        jtype = choice(jd, "type", JointType, path, el, "joint type")
+        od = member(jd, "origin", path, el)
+        origin = transform(od, path, el, "origin ")
         limits = None
         if jd.get("limits") is not None:
             ld = jd["limits"]
             limits = Limits(
-                lower=_num(_get(ld, "lower", path, el), path, el, "lower limit"),
-                upper=_num(_get(ld, "upper", path, el), path, el, "upper limit"),
-                effort=None if ld.get("effort") is None else _num(ld["effort"], path, el, "effort"),
+                lower=number(member(ld, "lower", path, el), path, el, "lower limit"),
+                upper=number(member(ld, "upper", path, el), path, el, "upper limit"),
+                effort=None if ld.get("effort") is None else number(ld["effort"], path, el, "effort"),
                 velocity=None if ld.get("velocity") is None
-                else _num(ld["velocity"], path, el, "velocity"),
+                else number(ld["velocity"], path, el, "velocity"),
             )
         drive = jd.get("drive_limits")
         drive_limits = None if drive is None else DriveLimits(**{
-            k: None if drive.get(k) is None else _num(drive[k], path, el, f"{k} limit")
+            k: None if drive.get(k) is None else number(drive[k], path, el, f"{k} limit")
             for k in ("effort", "velocity")})
         dd = jd.get("dynamics") or {}
         dynamics = Dynamics(**{
-            k: _num(dd.get(k, 0.0), path, el, k)
+            k: number(dd.get(k, 0.0), path, el, k)
             for k in ("damping", "friction", "stiffness", "spring_ref", "armature")
         })
         joints.append(Joint(
-            name=name, type=JointType(jtype), parent=_get(jd, "parent", path, el),
-            child=_get(jd, "child", path, el), origin=origin,
-            axis=_vec(jd.get("axis", [0, 0, 1]), 3, path, el, "axis"), limits=limits,
-            dynamics=dynamics, state=_num(jd.get("state", 0.0), path, el, "state"),
+            name=name, type=JointType(jtype), parent=member(jd, "parent", path, el),
+            child=member(jd, "child", path, el), origin=origin,
+            axis=vector(jd.get("axis", [0, 0, 1]), 3, path, el, "axis"), limits=limits,
+            dynamics=dynamics, state=number(jd.get("state", 0.0), path, el, "state"),
             mimic=None if jd.get("mimic") is None else mimic_from_json(jd["mimic"], path, el),
             drive_limits=drive_limits,
         ))
-    obj = ArticulatedObject(name=_get(data, "name", path, "object"), parts=parts, joints=joints,
+    obj = ArticulatedObject(name=member(data, "name", path, "object"), parts=parts, joints=joints,
                             metadata=dict(data.get("metadata") or {}))
     try:
         return validate(obj)
@@ -303,14 +248,3 @@ def load(path: str | Path) -> ArticulatedObject:
     return from_dict(data, path)
 
 
-def mimic_json(mimic: Mimic) -> dict:
-    """A joint's mimic as JSON (object.json and glTF extras)."""
-    return {"joint": mimic.joint, "multiplier": mimic.multiplier, "offset": mimic.offset}
-
-
-def mimic_from_json(d, path, el: str) -> Mimic:
-    leader = _get(d, "joint", path, el)
-    if not isinstance(leader, str):
-        raise FormatError(path, el, f"mimic joint must be a name, got {leader!r}")
-    return Mimic(leader, _num(d.get("multiplier", 1.0), path, el, "mimic multiplier"),
-                 _num(d.get("offset", 0.0), path, el, "mimic offset"))

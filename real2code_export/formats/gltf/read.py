@@ -31,7 +31,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
-from ..object_json import mimic_from_json, shape_from_json
+from ...model_json import mimic_from_json, shape_from_json
 from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
 from .document import Document, rigid
 from .khr_physics import load_khr

@@ -45,8 +45,8 @@ from ...model import (
     metadata_json,
     validate,
 )
+from ...model_json import mimic_json, shape_json
 from .. import output_file
-from ..object_json import mimic_json, shape_json
 from . import physics
 from .conventions import (
     ARRAY_BUFFER,
