@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from real2code_export.errors import FormatError
-from real2code_export.meshfiles import read_mesh
+from real2code_export.formats import FORMATS, is_format
+from real2code_export.meshfiles import MESH_SUFFIXES, read_mesh
 from real2code_export.model import Mesh
 
-MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off")
 # glTF is Y up; the model is Z up: x stays, glTF y becomes z, glTF z becomes -y.
 Y_UP_TO_Z_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
 
@@ -52,7 +52,7 @@ def load_parts(path: str | Path) -> tuple[dict[str, Mesh], dict[str, tuple]]:
                     colors[f.stem] = c
             except Exception:  # colour is optional; the geometry was read above
                 pass
-    elif path.suffix.lower() in (".glb", ".gltf"):
+    elif is_format(path, "gltf"):
         try:
             scene = trimesh.load(str(path), force="scene", process=False)
         except Exception as e:
@@ -69,7 +69,8 @@ def load_parts(path: str | Path) -> tuple[dict[str, Mesh], dict[str, tuple]]:
         if not meshes:
             raise FormatError(path, None, "no mesh nodes in glTF")
     else:
-        raise FormatError(path, None, "expected a folder of part meshes or a .glb/.gltf file")
+        raise FormatError(path, None, "expected a folder of part meshes or a "
+                          f"{'/'.join(FORMATS['gltf'].suffixes)} file")
     if len(meshes) < 2:
         raise FormatError(path, None, f"found {len(meshes)} part mesh(es); need at least two "
                           "(one per rigid part)")

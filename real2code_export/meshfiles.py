@@ -166,6 +166,11 @@ def write_texture_images(obj: ArticulatedObject, out_dir: Path) -> dict[str, Pat
     return written
 
 
+# Mesh files read here as the tools that use them read them (MuJoCo, trimesh): a folder of
+# part meshes, an MJCF's mesh files.
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off")
+
+
 def read_mesh(path: str | Path, *, source: str | Path | None = None, element: str | None = None,
               line: int | None = None, scale=None) -> Mesh:
     """Load a mesh file (any format trimesh reads) as one :class:`Mesh`, all pieces merged.

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..formats import is_format
 from . import EngineUnavailable, Experiment, Recorder, Trajectory
 
 
@@ -25,7 +26,7 @@ def load_spec(path: Path):
             from e
     spec = mujoco.MjSpec.from_file(str(path))
     spec.compiler.discardvisual = True
-    if path.suffix.lower() == ".urdf":
+    if is_format(path, "urdf"):
         # URDF has no place for MuJoCo's constraint softness: the settings our MJCF authors
         # are what a user must set (docs/engines.md).
         from ..engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF

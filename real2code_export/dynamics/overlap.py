@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..formats import is_format
 from ..model import ArticulatedObject
 
 TOLERANCE = 1e-4  # m: shallower is touching
@@ -67,8 +68,8 @@ def file_overlaps(paths, tolerance: float = TOLERANCE, compiled=None) -> FileOve
     are exports of one object). ``compiled``: MuJoCo models of MJCF files among ``paths``
     already compiled without contact exclusions (check's probes), by path, used instead of
     compiling the file again."""
-    chosen = [Path(p) for p in paths if Path(p).suffix.lower() == ".xml"] or \
-        [Path(p) for p in paths if Path(p).suffix.lower() == ".urdf"]
+    chosen = [Path(p) for p in paths if is_format(p, "mjcf")] or \
+        [Path(p) for p in paths if is_format(p, "urdf")]
     if not chosen:
         return FileOverlaps(None, [], "no MJCF or URDF to measure")
     try:
@@ -76,7 +77,7 @@ def file_overlaps(paths, tolerance: float = TOLERANCE, compiled=None) -> FileOve
     except ImportError:
         return FileOverlaps(None, [], "MuJoCo is not installed")
     model = (compiled or {}).get(chosen[0])
-    if model is not None and chosen[0].suffix.lower() == ".xml" and \
+    if model is not None and is_format(chosen[0], "mjcf") and \
             not (model.exclude_signature >= 0).any():
         return FileOverlaps(str(chosen[0]), _overlaps_in(model, tolerance))
     try:

@@ -163,6 +163,11 @@ def suffixes(exported_only: bool = False) -> tuple[str, ...]:
                  for s in f.suffixes)
 
 
+def is_format(path: str | Path, name: str) -> bool:
+    """Whether ``path`` is named as a file of format ``name`` (one of its suffixes)."""
+    return Path(path).suffix.lower() in FORMATS[name].suffixes
+
+
 def format_for_path(path: str | Path) -> Format:
     suffix = Path(path).suffix.lower()
     for fmt in FORMATS.values():

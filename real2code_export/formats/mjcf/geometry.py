@@ -16,12 +16,12 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, NoTrianglesError, warn
-from ...meshfiles import read_mesh
+from ...meshfiles import MESH_SUFFIXES, read_mesh
 from ...model import Mesh
 from ...primitives import Primitive, ShapeKind
 
-# Formats trimesh reads as MuJoCo does; others (e.g. MuJoCo's own .msh) come from the model.
-_FILE_FORMATS = (".obj", ".stl", ".ply", ".off")
+# Mesh files (meshfiles.MESH_SUFFIXES) are read here as MuJoCo does; others (e.g. MuJoCo's
+# own .msh) come from the model.
 # Read here and given to MuJoCo as vertices and faces (MjSpec's uservert, userface), so each
 # file is read once: MuJoCo parsing an OBJ's text costs more than compiling the same numbers
 # given (the 25 Menagerie models' compile, kuka_iiwa_14 0.12 -> 0.04 s of CPU; every body's
@@ -162,7 +162,7 @@ def _file_mesh(model, mesh_id: int, source: Path, element: str,
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         return Mesh(mesh.vertices * scale, mesh.faces, mesh.uv)
     path = _mesh_path(model, mesh_id)
-    if path is not None and path.suffix.lower() in _FILE_FORMATS:
+    if path is not None and path.suffix.lower() in MESH_SUFFIXES:
         try:
             return read_mesh(path, source=source, element=element, scale=scale)
         except NoTrianglesError:
