@@ -300,3 +300,92 @@ def test_the_process_ends_after_its_exit_handlers_and_buffered_output():
                           env=env | {"OPENBLAS_NUM_THREADS": "2"}, cwd=REPO)
     assert done.returncode == 3, done.stderr
     assert done.stdout == "disable 2 handler ran\n" and done.stderr == "said"
+
+
+# -- every command: a library it needs failing is exit 2 naming it, nothing written --------------
+# Each case runs in a child forked from one process that imported the CLI and numpy only, the
+# library made unimportable in the child (None in sys.modules: "installed and broken"), so every
+# command imports its stage afresh and meets the broken library where a user's would.
+_BROKEN_LIBRARY_DRIVER = r"""
+import contextlib, io, json, os, sys
+import numpy  # noqa: F401 - shared by every case, never the one broken
+from real2code_export.cli import run
+results = {}
+for case in json.loads(sys.stdin.read()):
+    read, write = os.pipe()
+    if os.fork() == 0:
+        os.close(read)
+        broken = case["library"]
+        if broken == "three.js":  # the viewer's npm package
+            from real2code_export.viewer import server
+            server.THREE = server.THREE.parent / "absent"
+        else:
+            for name in [m for m in sys.modules if m.split(".")[0] == broken] or [broken]:
+                sys.modules[name] = None
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            status = run(case["argv"])
+        os.write(write, json.dumps([status, err.getvalue()]).encode())
+        os._exit(0)
+    os.close(write)
+    with os.fdopen(read) as f:
+        results[case["name"]] = json.loads(f.read() or "[null, \"the child died\"]")
+    os.wait()
+print(json.dumps(results))
+"""
+
+
+def test_every_command_names_a_library_it_cannot_import_with_exit_2(tmp_path):
+    from pipeline.capture import SAMPLE_CAPTURE
+
+    obj = small_cabinet()
+    src = tmp_path / "src"
+    files = formats.export(obj, src, ["json", "mjcf", "urdf", "usd", "gltf"])
+    parts = tmp_path / "parts"
+    parts.mkdir()
+    for name in ("body", "door"):
+        (parts / f"{name}.obj").write_bytes((src / "meshes" / f"{name}.obj").read_bytes())
+    csv = tmp_path / "door.csv"
+    csv.write_text("time,door_hinge\n" + "".join(f"{i / 100},{i / 1000}\n" for i in range(50)))
+    model, urdf = str(files["json"]), str(files["urdf"])
+    out = tmp_path / "o"
+    cases = {  # command: (the library it cannot do without here, its arguments)
+        "export": ("lxml", ["export", urdf, "--to", "urdf", "--out", str(out)]),
+        "export --to mjcf": ("mujoco", ["export", model, "--to", "mjcf", "--out", str(out)]),
+        "export --to usd": ("pxr", ["export", model, "--to", "usd", "--out", str(out)]),
+        "export --to gltf": ("pygltflib", ["export", model, "--to", "gltf", "--out", str(out)]),
+        "check (MJCF)": ("mujoco", ["check", str(files["mjcf"]), "--json", str(out)]),
+        "check (URDF)": ("pinocchio", ["check", urdf, "--json", str(out)]),
+        "check (USD)": ("pxr", ["check", str(files["usd"]), "--json", str(out)]),
+        "generate": ("trimesh", ["generate", "--category", "box", "--out", str(out)]),
+        "articulate": ("trimesh", ["articulate", str(parts), "--out", str(out)]),
+        "render": ("open3d", ["render", model, "--out", str(out)]),
+        "reconstruct": ("PIL", ["reconstruct", str(SAMPLE_CAPTURE), "--out", str(out)]),
+        "demo": ("PIL", ["demo", "--out", str(out)]),
+        "calibrate": ("scipy", ["calibrate", model, "--data", str(csv), "--out", str(out)]),
+        "simulate": ("mujoco", ["simulate", urdf, "--experiments", "swing",
+                                "--json", str(out)]),
+        "evaluate joints": ("scipy", ["evaluate", "joints", "--objects", "1",
+                                      "--json", str(out)]),
+        "evaluate completion": ("scipy", ["evaluate", "completion", "--out", str(out)]),
+        "evaluate reconstruction": ("scipy", ["evaluate", "reconstruction", "--objects", "1",
+                                               "--json", str(out)]),
+        "view": ("three.js", ["view", model, "--no-browser", "--port", "0"]),
+        "batch": ("mujoco", ["batch", "export", urdf, "--to", "mjcf", "--out", str(out)]),
+    }
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    evaluate = next(a for a in sub.choices["evaluate"]._actions if a.dest == "what")
+    names = set(sub.choices) - {"evaluate"} | {f"evaluate {w}" for w in evaluate.choices}
+    assert names <= {name.split(" (")[0].split(" --")[0] for name in cases}
+    done = subprocess.run(
+        [sys.executable, "-c", _BROKEN_LIBRARY_DRIVER], cwd=REPO, capture_output=True,
+        text=True, check=True, timeout=300,
+        input=json.dumps([{"name": name, "library": library, "argv": argv}
+                          for name, (library, argv) in cases.items()]))
+    results = json.loads(done.stdout.splitlines()[-1])
+    for name, (library, _) in cases.items():
+        status, err = results[name]
+        assert status == EXIT_ERROR, (name, status, err)
+        assert err.startswith(("error: ", "warning: ")) and library in err, (name, err)
+        assert "Traceback" not in err, (name, err)
+        assert not out.exists(), (name, list(out.iterdir()))

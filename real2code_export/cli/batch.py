@@ -64,7 +64,10 @@ def cmd_batch(args) -> int:
     from ..batch.progress import format_summary
     from ..batch.run import run_batch
     from ..batch.tasks import TaskOptions
+    from ..formats import FORMATS
 
+    for name in args.to or ():  # a format that cannot be written here: refused before any object
+        FORMATS[name].load_module(writing=True)
     options = TaskOptions(formats=tuple(args.to or ()), check=args.check,
                           configurations=args.configurations, seed=args.seed,
                           tol_position=args.tol_position, tol_rotation=args.tol_rotation)

@@ -1,6 +1,8 @@
 """The sealed error boundary every command runs inside: the project's errors are exit 2 with
-their message, anything else is exit 3 with a short message and the file the traceback was
-written to; never a bare traceback. Repair warnings are printed once each."""
+their message, and so is a library the command needs that cannot be imported here (not
+installed, or installed and broken: named, with its error); anything else is exit 3 with a
+short message and the file the traceback was written to; never a bare traceback. Repair
+warnings are printed once each."""
 
 from __future__ import annotations
 
@@ -24,14 +26,43 @@ def call(func, args) -> int:
             text = e.strerror or str(e)
             return _fail(caught, f"error: {where}: {text}" if where else f"error: {text}",
                          EXIT_ERROR)
+        except ImportError as e:
+            library = _library(e)
+            if library is None:  # one of our own modules: a bug
+                return _internal(caught, e)
+            return _fail(caught, f"error: this command needs {library}, which cannot be "
+                         f"imported here ({type(e).__name__}: {e})", EXIT_ERROR)
         except KeyboardInterrupt:
             return _fail(caught, "interrupted", EXIT_INTERRUPTED)
         except Exception as e:  # noqa: BLE001 - the boundary: a bug, reported, never raw
-            path = _write_traceback()
-            return _fail(caught, f"internal error: {type(e).__name__}: {e}\n"
-                         f"(a bug; the traceback is in {path})", EXIT_INTERNAL)
+            return _internal(caught, e)
     _print_warnings(caught)
     return status
+
+
+OURS = ("real2code_export", "pipeline", "blender_addon")
+
+
+def _library(e: ImportError) -> str | None:
+    """The third-party package whose import failed (its top-level name), or None when the
+    import that failed is one of ours or cannot be told."""
+    name = e.name
+    if name is None:  # raised by hand inside a package's import: the innermost package
+        tb, names = e.__traceback__, []
+        while tb is not None:
+            names.append(tb.tb_frame.f_globals.get("__name__") or "")
+            tb = tb.tb_next
+        outside = [n for n in names if n.split(".")[0] not in (*OURS, "importlib", "__main__")]
+        name = outside[0] if outside else None
+    if not name or name.split(".")[0] in OURS:
+        return None
+    return name.split(".")[0]
+
+
+def _internal(caught, e: BaseException) -> int:
+    path = _write_traceback()
+    return _fail(caught, f"internal error: {type(e).__name__}: {e}\n"
+                 f"(a bug; the traceback is in {path})", EXIT_INTERNAL)
 
 
 def _fail(caught, message: str, status: int) -> int:
