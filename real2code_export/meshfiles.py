@@ -119,6 +119,37 @@ def mtl_bytes(part: Part) -> bytes:
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
+def shared_mesh_files(obj: ArticulatedObject) -> dict[str, str]:
+    """Each mesh file an export writes (relpath) -> the first in part order holding the same
+    mesh, itself where none before it does: a format that may name one file for several
+    geometries (MJCF, URDF) names that one, so its tools read and compile each distinct mesh
+    once (a gripper's left and right fingers, a collision piece that is its part's visual)."""
+    first: dict[tuple, str] = {}
+    out = {}
+    for part in obj.parts:
+        items = []
+        visual = visual_file_mesh(part)
+        if visual is not None:  # a textured visual's file names its own material
+            items.append((visual_relpath(part.name), visual,
+                          part.name if part.texture is not None else None))
+        items += [(collision_relpath(part.name, k), m, None)
+                  for k, m in collision_file_meshes(part)]
+        for rel, mesh, material in items:
+            out[rel] = first.setdefault((material, _digest(mesh)), rel)
+    return out
+
+
+def _digest(mesh: Mesh) -> bytes:
+    """What tells two meshes' files apart: vertices, faces, texture coordinates."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    for array in (mesh.vertices, mesh.faces, mesh.uv):
+        h.update(b"-" if array is None else np.ascontiguousarray(array).tobytes())
+        h.update(b"|")
+    return h.digest()
+
+
 def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = False) -> dict[str, Path]:
     """Write every mesh of ``obj`` under ``out_dir`` (a textured part's visual with its MTL and
     image beside it); returns relpath -> absolute path."""

@@ -6,6 +6,7 @@ fromto, joint anchors and references, primitives) is read as MuJoCo itself reads
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -16,6 +17,7 @@ from real2code_export import transforms as tf
 from real2code_export.errors import ExportError, FormatError, Real2CodeWarning
 from real2code_export.formats import export, mjcf
 from real2code_export.formats import load as load_any
+from real2code_export.meshfiles import shared_mesh_files
 from real2code_export.model import (
     ArticulatedObject,
     Dynamics,
@@ -102,7 +104,8 @@ def exported(tmp_path_factory):
 
 
 def mesh_count(obj: ArticulatedObject) -> int:
-    return sum((p.visual is not None) + len(p.collision) for p in obj.parts)
+    """The MJCF's mesh assets: one per distinct mesh file."""
+    return len(set(shared_mesh_files(obj).values()))
 
 
 def qpos_for(model, q: dict[str, float]) -> np.ndarray:
@@ -219,7 +222,11 @@ def test_compiler_settings_and_mesh_references(exported):
     assert spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     assert spec.meshdir == "meshes"
     files = sorted(m.file for m in spec.meshes)
-    assert files == sorted(p.name for p in (path.parent / "meshes").iterdir())
+    shared = shared_mesh_files(exported[0])  # every file written; each distinct one referenced
+    assert sorted(Path(r).name for r in shared) == sorted(p.name for p in
+                                                         (path.parent / "meshes").iterdir())
+    assert files == sorted({Path(first).name for first in shared.values()})
+    assert len(files) < len(shared)  # (its collision pieces equal to visuals share them)
     assert "shelf.obj" in files and not any("shelf_collision" in f for f in files)
 
 

@@ -40,6 +40,7 @@ from ...meshfiles import (
     collision_relpath,
     image_textures,
     map_relpath,
+    shared_mesh_files,
     texture_relpath,
     visual_file_mesh,
     visual_relpath,
@@ -238,8 +239,15 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         spec.modelfiledir = str(model_dir) + "/"
 
     parts = obj.parts_in_tree_order()
+    # One asset per distinct mesh file: geoms whose meshes are equal share the first one's
+    # asset (meshfiles.shared_mesh_files), so MuJoCo compiles each once. The asset's inertia
+    # mode (a visual's shell) is the first's: with inertiafromgeom off it only places the
+    # mesh in its geom, and an equal mesh compiles under either.
+    shared = shared_mesh_files(obj)
     for part in parts:
         for rel, mesh, visual in _mesh_files(part):
+            if shared[rel] != rel:
+                continue
             if in_memory:  # user vertices: no file, no text to format and parse
                 asset = spec.add_mesh(name=_stem(rel))
                 asset.uservert = mesh.vertices.ravel()
@@ -269,6 +277,10 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
             chain = chains.get(joint.name, [joint])
             body = _add_body(bodies[joint.parent], obj.part(chain[-1].child), chain)
             bodies.update((j.child, body) for j in chain)
+    assets = {_stem(rel): _stem(first) for rel, first in shared.items()}
+    for geom in spec.geoms:
+        if geom.meshname in assets:
+            geom.meshname = assets[geom.meshname]
     for part in parts:
         if (part.texture is not None or part.maps) and not in_memory:
             spec.geom(f"{part.name}_visual").material = texture_name(part)

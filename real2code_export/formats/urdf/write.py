@@ -24,6 +24,7 @@ from ...meshfiles import (
     MESH_DIR,
     collision_relpath,
     obj_bytes,
+    shared_mesh_files,
     visual_file_mesh,
     visual_relpath,
     warn_maps_not_referenced,
@@ -89,8 +90,9 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
     compiler = etree.SubElement(etree.SubElement(robot, "mujoco"), "compiler")
     for key, value in MUJOCO_COMPILER:
         compiler.set(key, value)
+    shared = shared_mesh_files(obj)  # equal meshes: one file, read and compiled once
     for part in obj.parts:
-        robot.append(_link(part))
+        robot.append(_link(part, shared))
     as_meshes = shape_mesh_files(obj)
     if as_meshes:
         kinds = sorted({m.primitives[0].kind.value for m in as_meshes.values()})
@@ -180,7 +182,7 @@ def shape_relpath(part_name: str, role: str, k: int) -> str:
     return f"{MESH_DIR}/{part_name}_{role}_{k}_shape.obj"
 
 
-def _link(part: Part) -> etree._Element:
+def _link(part: Part, shared: dict[str, str]) -> etree._Element:
     link = etree.Element("link")
     link.set("name", part.name)
     # A part with a visual but deliberately no inertial or no collision: say so, or our reader
@@ -200,7 +202,7 @@ def _link(part: Part) -> etree._Element:
     visuals = []
     if visual_file_mesh(part) is not None:
         visuals.append(el := _sub(link, "visual", ("name", f"{part.name}_visual")))
-        _mesh_geometry(el, visual_relpath(part.name))
+        _mesh_geometry(el, shared[visual_relpath(part.name)])
     for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
         visuals.append(el := _sub(link, "visual", ("name", f"{part.name}_visual_{k}")))
         _shape_geometry(el, part, shape, shape_relpath(part.name, "visual", k))
@@ -212,7 +214,7 @@ def _link(part: Part) -> etree._Element:
         if piece.primitive is not None:
             _shape_geometry(el, part, piece.primitive, shape_relpath(part.name, "collision", k))
         else:
-            _mesh_geometry(el, collision_relpath(part.name, k))
+            _mesh_geometry(el, shared[collision_relpath(part.name, k)])
     return link
 
 
