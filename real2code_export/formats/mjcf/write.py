@@ -240,10 +240,13 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
 
     parts = obj.parts_in_tree_order()
     # One asset per distinct mesh file: geoms whose meshes are equal share the first one's
-    # asset (meshfiles.shared_mesh_files), so MuJoCo compiles each once. The asset's inertia
-    # mode (a visual's shell) is the first's: with inertiafromgeom off it only places the
-    # mesh in its geom, and an equal mesh compiles under either.
+    # asset (meshfiles.shared_mesh_files), so MuJoCo compiles each once. A visual's shell
+    # inertia only where no collision geom uses the asset: then the asset is what a URDF of
+    # the same meshes gives MuJoCo (its mesh cache serves both), and with inertiafromgeom
+    # off the mode only places the mesh in its geom.
     shared = shared_mesh_files(obj)
+    colliding = {shared[rel] for part in parts for rel, _, visual in _mesh_files(part)
+                 if not visual}
     for part in parts:
         for rel, mesh, visual in _mesh_files(part):
             if shared[rel] != rel:
@@ -254,7 +257,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
                 asset.userface = mesh.faces.astype(np.int32).ravel()
             else:
                 asset = spec.add_mesh(name=_stem(rel), file=rel.removeprefix(MESH_DIR + "/"))
-            if visual:  # scans are often open or flat: no volume, but an area
+            if visual and rel not in colliding:  # scans are often open or flat: an area
                 asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         # (in memory, for kinematics and dynamics only, no image is needed: none is added)
         if (part.texture is not None or part.maps) and not in_memory:
