@@ -13,7 +13,8 @@ from pipeline.capture import SAMPLE_CAPTURE, read_capture
 from pipeline.reconstruct import ReconstructionError, reconstruct, reconstruct_capture
 from pipeline.render import render_model
 from pipeline.segment.learned import WEIGHTS as SEGMENTER_WEIGHTS
-from real2code_export.cli.reconstruct import add_reconstruct_parser, run_demo
+from real2code_export.cli import EXIT_OK, run
+from real2code_export.cli.reconstruct import add_reconstruct_parser
 from real2code_export.formats import load, object_json
 from real2code_export.model import ArticulatedObject, Part
 
@@ -124,7 +125,8 @@ def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
 @pytest.mark.skipif(not SEGMENTER_WEIGHTS.is_file() or not _has_completion_weights(),
                     reason="needs the shipped segmentation and completion weights")
 def test_demo_reconstructs_the_shipped_capture(tmp_path, capsys):
-    assert run_demo(tmp_path / "demo") == 0
+    """``real2code demo`` as a user runs it (the command, its output folder, its status)."""
+    assert run(["demo", "--out", str(tmp_path / "demo")]) == EXIT_OK
     text = capsys.readouterr().out
     assert str(SAMPLE_CAPTURE) in text and "AGREE" in text
     truth = load(read_capture(SAMPLE_CAPTURE).ground_truth_path())
