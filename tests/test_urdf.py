@@ -631,6 +631,23 @@ def test_unread_elements_are_kept_and_written_back(tmp_path):
     assert "urdf_elements" not in out  # the elements themselves, not their text twice
 
 
+def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
+    """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
+    Bullet's) have no place in any format: the reader names each, never drops it silently."""
+    text = (FIXTURES / "floating_base.urdf").read_text().replace(
+        '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
+        '<safety_controller soft_lower_limit="-1" k_position="10"/><calibration rising="0"/>'
+        ).replace('<link name="arm">', '<link name="arm"><contact><lateral_friction '
+                  'value="1"/></contact>')
+    assert text.count("safety_controller") == 1 and text.count("<contact>") == 1
+    source = tmp_path / "extra.urdf"
+    source.write_text(text)
+    with pytest.warns(Real2CodeWarning, match=r"not read \(no format holds them\): "
+                      r"<contact> in <link name='arm'> \(line \d+\), <safety_controller> in "
+                      r"<joint name='elbow'> \(line \d+\), <calibration> in <joint name='elbow'>"):
+        urdf.load(source)
+
+
 def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
     """pybullet's URDFs: an XML declaration saying version "0.0" after a blank line, a
     <material> inside <geometry> after the shape, a zero-radius sphere (a contact point), NUL
