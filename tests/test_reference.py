@@ -299,7 +299,8 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
 
 # What other people's MJCF files are made of: an <include>, meshes found through assetdir and
 # meshdir, angles in degrees turned in "zyx" order, a childclass and nested default classes,
-# fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation.
+# fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation, a camera,
+# a light and a geom's own friction (not imported, said so).
 KINDS_MAIN = """<mujoco model="kinds">
   <compiler angle="degree" eulerseq="zyx" assetdir="assets" meshdir="assets/meshes"
             autolimits="true"/>
@@ -319,13 +320,14 @@ KINDS_MAIN = """<mujoco model="kinds">
 """
 KINDS_ARM = """<mujoco>
   <worldbody>
+    <light pos="0 0 2"/><camera name="view" pos="1 0 1"/>
     <frame pos="0 0 0.3" euler="0 0 20">
       <body name="upper" euler="90 0 30" childclass="arm" gravcomp="1">
         <joint name="shoulder" range="-45 90"/>
         <geom type="mesh" mesh="block"/>
         <body name="lower" pos="0.1 0 0" euler="0 30 45">
           <joint name="elbow" class="stiff" range="0 120"/>
-          <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02" friction="0.6"/>
           <geom type="cylinder" fromto="0 0 0 0 0 0.1" size="0.01" class="light"/>
         </body>
       </body>
@@ -354,6 +356,7 @@ def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsy
     assert said.out.rstrip().endswith("AGREE") and "differ" not in said.out, said.out
     assert "gravity compensation (gravcomp) not carried" in said.err
     assert "<body name='upper'> (1)" in said.err
+    assert "not imported: 1 camera, 1 light, 1 collision geom (its own friction" in said.err
 
 
 PLANAR = """<robot name="base_on_floor">
