@@ -413,7 +413,7 @@ class ArticulatedObject:
         while stack:
             joint = stack.pop()
             yield joint
-            stack.extend(reversed(children[joint.child]))
+            stack.extend(reversed(children.get(joint.child, ())))
 
     def parts_in_tree_order(self) -> list[Part]:
         parts = self.tree().parts
