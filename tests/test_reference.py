@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from real2code_export.check import check_files
 from real2code_export.cli import EXIT_DISAGREE, EXIT_OK, run
 
@@ -381,3 +383,50 @@ def test_a_urdf_planar_joint_is_read_as_mujoco_and_pinocchio_move_it(tmp_path, c
     said = capsys.readouterr()
     assert "<joint name='plane'>: a planar joint: read as MuJoCo imports it" in said.err
     assert "source Pinocchio (URDF)" in said.out and said.out.rstrip().endswith("AGREE")
+
+
+def _usd_body(path, *, axes, collider):
+    """A USD of one rigid body on a hinge, its PhysicsMassAPI with or without principal
+    axes, with or without a collider, opened by the USD probe."""
+    from pxr import Gf, Usd, UsdGeom, UsdPhysics
+
+    from real2code_export.probes.usd import UsdProbe
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    body = UsdGeom.Xform.Define(stage, "/robot/arm").GetPrim()
+    UsdPhysics.RigidBodyAPI.Apply(body)
+    mass = UsdPhysics.MassAPI.Apply(body)
+    mass.CreateMassAttr(2.0)
+    mass.CreateCenterOfMassAttr(Gf.Vec3f(0.1, 0.0, 0.0))
+    mass.CreateDiagonalInertiaAttr(Gf.Vec3f(0.01, 0.02, 0.03))
+    if axes:
+        mass.CreatePrincipalAxesAttr(Gf.Quatf(1.0, 0.0, 0.0, 0.0))
+    if collider:
+        cube = UsdGeom.Cube.Define(stage, "/robot/arm/box").GetPrim()
+        UsdPhysics.CollisionAPI.Apply(cube)
+    joint = UsdPhysics.RevoluteJoint.Define(stage, "/robot/hinge")
+    joint.CreateBody1Rel().SetTargets(["/robot/arm"])
+    joint.CreateAxisAttr("Z")
+    stage.Save()
+    return UsdProbe(path)
+
+
+def test_a_usd_mass_states_what_a_consumer_reads(tmp_path):
+    """PhysicsMassAPI's fallbacks mean "computed": principal axes (0, 0, 0, 0) leave the
+    inertia to the simulator when there are colliders; without colliders to compute from,
+    the stated mass stands (a point mass at its centre of mass), never read as none."""
+    from real2code_export.probes import schema_dynamics
+
+    read = schema_dynamics.usd_dynamics
+    stated = read(_usd_body(tmp_path / "a.usda", axes=True, collider=False))
+    mass, inertia, com = stated.bodies["arm"]
+    assert mass == 2.0 and np.allclose(np.diag(inertia), [0.01, 0.02, 0.03])
+    assert np.allclose(com, [0.1, 0, 0], atol=1e-7)
+    left = read(_usd_body(tmp_path / "b.usda", axes=False, collider=True))
+    assert "centre of mass or inertia not stated" in left.unstated["arm"]
+    point = read(_usd_body(tmp_path / "c.usda", axes=False, collider=False))
+    mass, inertia, com = point.bodies["arm"]
+    assert mass == 2.0 and not inertia.any() and np.allclose(com, [0.1, 0, 0], atol=1e-7)
+    assert not point.unstated
