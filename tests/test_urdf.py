@@ -3,6 +3,7 @@ and one small fixture per kind of broken input (message names file, element and 
 
 from __future__ import annotations
 
+import re
 import shutil
 import warnings
 from pathlib import Path
@@ -633,8 +634,11 @@ def test_unread_elements_are_kept_and_written_back(tmp_path):
 
 def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
-    Bullet's) have no place in any format: the reader names each, never drops it silently."""
+    Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
+    names each, never drops it silently."""
     text = (FIXTURES / "floating_base.urdf").read_text().replace(
+        "</robot>", '<material name="skin"><texture filename="skin.png"/></material></robot>'
+    ).replace(
         '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
         '<safety_controller soft_lower_limit="-1" k_position="10"/><calibration rising="0"/>'
         ).replace('<link name="arm">', '<link name="arm"><contact><lateral_friction '
@@ -642,10 +646,13 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     assert text.count("safety_controller") == 1 and text.count("<contact>") == 1
     source = tmp_path / "extra.urdf"
     source.write_text(text)
-    with pytest.warns(Real2CodeWarning, match=r"not read \(no format holds them\): "
-                      r"<contact> in <link name='arm'> \(line \d+\), <safety_controller> in "
-                      r"<joint name='elbow'> \(line \d+\), <calibration> in <joint name='elbow'>"):
+    with pytest.warns(Real2CodeWarning) as said:
         urdf.load(source)
+    said = " ".join(str(w.message) for w in said)
+    assert re.search(r"not read \(no format holds them\): <contact> in <link name='arm'> "
+                     r"\(line \d+\), <safety_controller> in <joint name='elbow'> \(line \d+\), "
+                     r"<calibration> in <joint name='elbow'>", said), said
+    assert "<material name='skin'>: <texture filename='skin.png'> not read" in said, said
 
 
 def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
