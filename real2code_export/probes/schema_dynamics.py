@@ -115,15 +115,12 @@ def usd_dynamics(probe) -> SchemaDynamics:
     names = {p: stage.GetPrimAtPath(p).GetName() for p in rigid}
     for path, desc in rigid.items():
         name = names[path]
-        stated = _usd_mass(stage.GetPrimAtPath(path), kpu, mpu)
-        if isinstance(stated, str) and desc.collisions:  # a simulator computes what is missing
-            out.unstated[name] = (f"{stated} not stated (PhysicsMassAPI); a simulator "
+        (mass, inertia, com), missing = _usd_mass(stage.GetPrimAtPath(path), kpu, mpu)
+        if missing is not None and desc.collisions:  # a simulator computes it from them
+            out.unstated[name] = (f"{missing} not stated (PhysicsMassAPI); a simulator "
                                   f"computes it from its {len(desc.collisions)} "
                                   "collider(s) at a density")
-            stated = 0.0, np.zeros((3, 3)), np.zeros(3)
-        elif isinstance(stated, str):  # nothing to compute it from: no mass, or a point mass
-            stated = _usd_point_mass(stage.GetPrimAtPath(path), kpu, mpu)
-        mass, inertia, com = stated
+        # (without colliders what is stated stands: no mass, or a point mass)
         pose = poses[path][0]
         out.bodies[name] = (mass, pose[:3, :3] @ inertia @ pose[:3, :3].T,
                             pose[:3, :3] @ com + pose[:3, 3])
@@ -139,42 +136,30 @@ def usd_dynamics(probe) -> SchemaDynamics:
     return out
 
 
-def _usd_mass(prim, kpu: float, mpu: float) -> tuple[float, np.ndarray, np.ndarray] | str:
-    """(mass, inertia about the centre of mass, centre of mass) in the body's frame in SI,
-    as PhysicsMassAPI states them, or which of them it leaves to the simulator (UsdPhysics'
-    fallbacks: mass 0, centre of mass -inf, diagonal inertia 0, principal axes (0, 0, 0, 0):
-    "computed")."""
+def _usd_mass(prim, kpu: float, mpu: float
+              ) -> tuple[tuple[float, np.ndarray, np.ndarray], str | None]:
+    """(mass, inertia about the centre of mass, centre of mass) in the body's frame in SI as
+    PhysicsMassAPI states them, and which of them it leaves to the simulator (None: none).
+    UsdPhysics' fallbacks mean "computed": mass 0, centre of mass -inf, diagonal inertia 0,
+    principal axes (0, 0, 0, 0); what is left open reads as 0 (the origin, no inertia)."""
     from pxr import UsdPhysics
 
-    if not prim.HasAPI(UsdPhysics.MassAPI):
-        return "mass"
-    api = UsdPhysics.MassAPI(prim)
-    mass = float(api.GetMassAttr().Get() or 0.0) * kpu
-    com, diagonal = api.GetCenterOfMassAttr().Get(), api.GetDiagonalInertiaAttr().Get()
-    axes = api.GetPrincipalAxesAttr().Get()
-    if mass <= 0.0:
-        return "mass"
-    if com is None or not np.all(np.isfinite(com)) or diagonal is None \
-            or not np.any(np.asarray(diagonal) > 0) or axes is None \
-            or axes.GetReal() == 0 and not any(axes.GetImaginary()):
-        return "centre of mass or inertia"
-    turn = tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()])
-    return (mass, turn @ np.diag(np.asarray(diagonal, float) * kpu * mpu * mpu) @ turn.T,
-            np.asarray(com, float) * mpu)
-
-
-def _usd_point_mass(prim, kpu: float, mpu: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """A body without colliders whose PhysicsMassAPI leaves its inertia open: its mass (0 if
-    none) at its centre of mass (the body's origin if none), no inertia."""
-    from pxr import UsdPhysics
-
-    if not prim.HasAPI(UsdPhysics.MassAPI):
-        return 0.0, np.zeros((3, 3)), np.zeros(3)
-    api = UsdPhysics.MassAPI(prim)
-    com = api.GetCenterOfMassAttr().Get()
+    api = UsdPhysics.MassAPI(prim) if prim.HasAPI(UsdPhysics.MassAPI) else None
+    mass = max(float(api.GetMassAttr().Get() or 0.0), 0.0) * kpu if api else 0.0
+    com = api.GetCenterOfMassAttr().Get() if api else None
     com = np.asarray(com, float) * mpu if com is not None and np.all(np.isfinite(com)) \
-        else np.zeros(3)
-    return max(float(api.GetMassAttr().Get() or 0.0) * kpu, 0.0), np.zeros((3, 3)), com
+        else None
+    diagonal = api.GetDiagonalInertiaAttr().Get() if api else None
+    axes = api.GetPrincipalAxesAttr().Get() if api else None
+    inertia = None
+    if diagonal is not None and np.any(np.asarray(diagonal) > 0) and axes is not None \
+            and (axes.GetReal() != 0 or any(axes.GetImaginary())):
+        turn = tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()])
+        inertia = turn @ np.diag(np.asarray(diagonal, float) * kpu * mpu * mpu) @ turn.T
+    missing = "mass" if mass <= 0.0 else "centre of mass or inertia" \
+        if com is None or inertia is None else None
+    return (mass, np.zeros((3, 3)) if inertia is None else inertia,
+            np.zeros(3) if com is None else com), missing
 
 
 def _usd_joint(prim, kind: str, desc, mpu: float) -> list[tuple[str, str, object]]:
@@ -216,9 +201,11 @@ def gltf_dynamics(probe) -> SchemaDynamics:
     poses = probe.node_poses(np.zeros((1, len(probe.joints))))  # the scene's nodes
     owner: dict[int, str] = {}  # node -> the rigid body it moves with (WORLD: none)
     for i in poses:  # (parents before their children)
+        if i in moving:
+            owner[i] = str(i)
         for c in nodes[i].get("children") or []:
-            owner[c] = str(c) if c in moving else owner.get(i, WORLD)
-    owner.update((i, str(i)) for i in moving)
+            owner[c] = owner.get(i, WORLD)
+    owner.update((i, str(i)) for i in moving)  # (bodies in no scene too)
 
     def body_of(i: int | None) -> str:
         return owner.get(i, WORLD)
