@@ -632,6 +632,18 @@ def test_unread_elements_are_kept_and_written_back(tmp_path):
     assert "urdf_elements" not in out  # the elements themselves, not their text twice
 
 
+def test_an_unexpanded_xacro_is_refused_saying_so(tmp_path):
+    """A .urdf that is still a xacro (``${...}``, ``$(arg ...)``): refused, naming the
+    element and what to do."""
+    source = tmp_path / "arm.urdf"
+    source.write_text((FIXTURES / "floating_base.urdf").read_text().replace(
+        '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
+        '<origin xyz="${arm_length} 0 0"/>', 1))
+    with pytest.raises(FormatError, match=r"<joint name='elbow'>: <origin> xyz='\$\{arm_length"
+                       r"\} 0 0' is not a list of numbers \(unexpanded xacro: expand"):
+        urdf.load(source)
+
+
 def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
     Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
