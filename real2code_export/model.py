@@ -362,7 +362,15 @@ class ArticulatedObject:
     joints: list[Joint] = field(default_factory=list)
     metadata: dict[str, Any] = field(default_factory=dict)
 
-    # -- lookups ---------------------------------------------------------------------------
+    # -- lookups (each scans a list; a walk over the whole tree takes ``tree()``) ----------
+    def tree(self) -> Tree:
+        """The parts and joints indexed by name once (:class:`Tree`)."""
+        children: dict[str, list[Joint]] = {p.name: [] for p in self.parts}
+        for j in self.joints:
+            children.setdefault(j.parent, []).append(j)
+        return Tree({p.name: p for p in self.parts}, {j.name: j for j in self.joints},
+                    {j.child: j for j in self.joints}, children)
+
     def part(self, name: str) -> Part:
         for p in self.parts:
             if p.name == name:
@@ -400,28 +408,44 @@ class ArticulatedObject:
     def joints_in_tree_order(self) -> Iterator[Joint]:
         """Joints in depth-first pre-order from the root (children in declaration order):
         every joint comes after its parent's joint, as in Pinocchio."""
-        stack = list(reversed(self.child_joints(self.root.name)))
+        children = self.tree().children
+        stack = list(reversed(children[self.root.name]))
         while stack:
             joint = stack.pop()
             yield joint
-            stack.extend(reversed(self.child_joints(joint.child)))
+            stack.extend(reversed(children.get(joint.child, ())))
 
     def parts_in_tree_order(self) -> list[Part]:
+        parts = self.tree().parts
         order = [self.root.name] + [j.child for j in self.joints_in_tree_order()]
-        return [self.part(n) for n in order]
+        return [parts[n] for n in order]
 
     def frame_parts(self) -> set[str]:
         """Frames: parts with no mass and no geometry, fixed to their parent, with no part
         hanging from them (an MJCF site, a URDF frame-only link, a USD Xform in a body)."""
+        tree = self.tree()
         return {j.child for j in self.joints
-                if j.type is JointType.FIXED and not self.child_joints(j.child)
-                and _is_frame(self.part(j.child))}
+                if j.type is JointType.FIXED and not tree.children[j.child]
+                and _is_frame(tree.parts[j.child])}
 
     def observed_configuration(self) -> dict[str, float]:
         return {j.name: j.state for j in self.movable_joints}
 
     def total_mass(self) -> float:
         return sum(p.inertial.mass for p in self.parts if p.inertial is not None)
+
+
+@dataclass(frozen=True)
+class Tree:
+    """An object's parts and joints indexed by name once (``ArticulatedObject.tree()``), for
+    work that walks the whole tree: the object's own lookups scan its lists, which over every
+    part grows with the square of the parts (a flex of 3881 parts). A snapshot: build it
+    again after changing the object's parts or joints."""
+
+    parts: dict[str, Part]
+    joints: dict[str, Joint]
+    parent: dict[str, Joint]  # part name -> its parent joint (the root has none)
+    children: dict[str, list[Joint]]  # part name -> its child joints, in declaration order
 
 
 def _is_frame(part: Part) -> bool:
@@ -622,12 +646,13 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
     if len(roots) != 1:
         detail = f"parts without a parent joint: {roots}" if roots else "every part has a parent (a cycle)"
         raise ModelError(f"object {obj.name!r}", f"expected exactly one root part; {detail}")
+    tree = obj.tree()
     reached = {roots[0]}
     frontier = [roots[0]]
     while frontier:
         name = frontier.pop()
-        for j in obj.joints:
-            if j.parent == name and j.child not in reached:
+        for j in tree.children[name]:
+            if j.child not in reached:
                 reached.add(j.child)
                 frontier.append(j.child)
     if reached != seen:
@@ -641,7 +666,7 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                              f"part {roots[0]!r} (the world), not from {j.parent!r}")
     # A joint that moves must move something with mass (MuJoCo and Pinocchio both need it).
     for j in obj.joints:
-        if j.type is not JointType.FIXED and _rigid_group_mass(obj, j.child) <= 0:
+        if j.type is not JointType.FIXED and rigid_group_mass(tree, j.child) <= 0:
             raise ModelError(
                 f"joint {j.name!r}",
                 f"child part {j.child!r} (with the parts fixed to it) has no mass",
@@ -664,12 +689,15 @@ def _validate_mimic(j: Joint, by_name: dict[str, Joint]) -> None:
         raise ModelError(el, f"mimics {m.joint!r}, which mimics another joint itself")
 
 
-def _rigid_group_mass(obj: ArticulatedObject, part_name: str) -> float:
-    part = obj.part(part_name)
-    mass = part.inertial.mass if part.inertial is not None else 0.0
-    for j in obj.child_joints(part_name):
-        if j.type is JointType.FIXED:
-            mass += _rigid_group_mass(obj, j.child)
+def rigid_group_mass(tree: Tree, part_name: str) -> float:
+    """The mass of a part and of every part fixed to it below it (``tree``: the object's
+    :class:`Tree`)."""
+    mass, stack = 0.0, [part_name]
+    while stack:
+        name = stack.pop()
+        inertial = tree.parts[name].inertial
+        mass += inertial.mass if inertial is not None else 0.0
+        stack += [j.child for j in tree.children[name] if j.type is JointType.FIXED]
     return mass
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import ArticulatedObject, Inertial, JointType
+from .model import ArticulatedObject, Inertial, JointType, rigid_group_mass
 
 # Principal moments below this fraction of the largest one are raised to it: far below any
 # physical body's anisotropy, enough to keep the tensor positive definite in float64.
@@ -91,11 +91,11 @@ def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
     fixed to it have no mass at all, the child gets a negligible mass (NEGLIGIBLE_MASS, a
     1 mm sphere's inertia at its frame origin). Changes ``obj`` in place; returns (joint name,
     message) for each part changed."""
-    changed = []
+    changed, tree = [], obj.tree()
     for joint in obj.joints:
-        if joint.type is JointType.FIXED or _rigid_mass(obj, joint.child) > 0:
+        if joint.type is JointType.FIXED or rigid_group_mass(tree, joint.child) > 0:
             continue
-        part = obj.part(joint.child)
+        part = tree.parts[joint.child]
         part.inertial = Inertial(NEGLIGIBLE_MASS, np.zeros(3), _sphere(NEGLIGIBLE_MASS))
         changed.append((joint.name, f"moves part {joint.child!r}, which has no mass (nor any "
                         f"part fixed to it): given {NEGLIGIBLE_MASS:g} kg (a "
@@ -128,9 +128,3 @@ def unusable_mimics(obj: ArticulatedObject) -> list[tuple[str, str]]:
                             "joint moves on its own"))
     return dropped
 
-
-def _rigid_mass(obj: ArticulatedObject, part_name: str) -> float:
-    part = obj.part(part_name)
-    mass = part.inertial.mass if part.inertial is not None else 0.0
-    return mass + sum(_rigid_mass(obj, j.child) for j in obj.child_joints(part_name)
-                      if j.type is JointType.FIXED)

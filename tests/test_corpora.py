@@ -47,7 +47,7 @@ REFUSED = {
     "pybullet/toys/concave_box.urdf": "unknown geometry <cdf>",
     "pybullet/torus_deform.urdf": "has no <link>",  # a deformable: <deformable>, no link
     "pybullet/bicycle/bike.urdf": "is not a list of numbers",  # "0.07, 0, -0.69": commas
-    "pybullet/husky/husky.urdf": "is not a list of numbers",  # unexpanded xacro: $(optenv ...)
+    "pybullet/husky/husky.urdf": "is not a list of numbers (unexpanded xacro",  # $(optenv ...)
     "pybullet/quadruped/microtaur/microtaur.urdf": "must have 3 number(s)",  # rpy of 4
     "pybullet/racecar/racecar_differential.urdf": "must have 1 or 3 number(s)",  # scale of 4
     "pybullet/differential/diff_ring.urdf": "mesh file not found",

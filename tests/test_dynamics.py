@@ -262,6 +262,26 @@ def test_overlapping_collision_pieces_are_reported(tmp_path):
     assert data["ok"] is False and data["overlaps_along_ranges"][0]["joint"] == joint.name
 
 
+def test_a_free_body_is_measured_where_the_file_puts_it(tmp_path):
+    """At q = 0 a free body stands where its file puts it (MuJoCo's qpos0), not at the
+    world's origin, where this cube would sink 10 cm into the block it rests above; moved
+    down into the block, it overlaps."""
+    from real2code_export.dynamics.overlap import overlaps
+
+    source = tmp_path / "free.xml"
+    body = """<mujoco model="free"><worldbody>
+      <geom type="box" size="0.1 0.1 0.05"/>
+      <body name="cube" pos="0 0 {z}" euler="0 0 30"><freejoint name="cube_free"/>
+        <geom type="box" size="0.05 0.05 0.05" mass="0.1"/></body>
+    </worldbody></mujoco>"""
+    source.write_text(body.format(z=0.5))
+    assert overlaps(source) == []
+    assert overlaps(export(load(source), tmp_path / "out", ["mjcf"])["mjcf"]) == []
+    source.write_text(body.format(z=0.09))
+    assert [(o.part_a, o.part_b, round(o.depth, 6)) for o in overlaps(source)] == \
+        [("cube", "world", 0.01)]
+
+
 def test_an_unknown_engine_is_bad_input(capsys):
     from real2code_export.cli import EXIT_ERROR, run
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from real2code_export.check import check_files
 from real2code_export.cli import EXIT_DISAGREE, EXIT_OK, run
 
@@ -299,7 +301,8 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
 
 # What other people's MJCF files are made of: an <include>, meshes found through assetdir and
 # meshdir, angles in degrees turned in "zyx" order, a childclass and nested default classes,
-# fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation.
+# fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation, a camera,
+# a light and a geom's own friction (not imported, said so).
 KINDS_MAIN = """<mujoco model="kinds">
   <compiler angle="degree" eulerseq="zyx" assetdir="assets" meshdir="assets/meshes"
             autolimits="true"/>
@@ -319,13 +322,14 @@ KINDS_MAIN = """<mujoco model="kinds">
 """
 KINDS_ARM = """<mujoco>
   <worldbody>
+    <light pos="0 0 2"/><camera name="view" pos="1 0 1"/>
     <frame pos="0 0 0.3" euler="0 0 20">
       <body name="upper" euler="90 0 30" childclass="arm" gravcomp="1">
         <joint name="shoulder" range="-45 90"/>
         <geom type="mesh" mesh="block"/>
         <body name="lower" pos="0.1 0 0" euler="0 30 45">
           <joint name="elbow" class="stiff" range="0 120"/>
-          <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02" friction="0.6"/>
           <geom type="cylinder" fromto="0 0 0 0 0 0.1" size="0.01" class="light"/>
         </body>
       </body>
@@ -354,6 +358,7 @@ def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsy
     assert said.out.rstrip().endswith("AGREE") and "differ" not in said.out, said.out
     assert "gravity compensation (gravcomp) not carried" in said.err
     assert "<body name='upper'> (1)" in said.err
+    assert "not imported: 1 camera, 1 light, 1 collision geom (its own friction" in said.err
 
 
 PLANAR = """<robot name="base_on_floor">
@@ -378,3 +383,50 @@ def test_a_urdf_planar_joint_is_read_as_mujoco_and_pinocchio_move_it(tmp_path, c
     said = capsys.readouterr()
     assert "<joint name='plane'>: a planar joint: read as MuJoCo imports it" in said.err
     assert "source Pinocchio (URDF)" in said.out and said.out.rstrip().endswith("AGREE")
+
+
+def _usd_body(path, *, axes, collider):
+    """A USD of one rigid body on a hinge, its PhysicsMassAPI with or without principal
+    axes, with or without a collider, opened by the USD probe."""
+    from pxr import Gf, Usd, UsdGeom, UsdPhysics
+
+    from real2code_export.probes.usd import UsdProbe
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    body = UsdGeom.Xform.Define(stage, "/robot/arm").GetPrim()
+    UsdPhysics.RigidBodyAPI.Apply(body)
+    mass = UsdPhysics.MassAPI.Apply(body)
+    mass.CreateMassAttr(2.0)
+    mass.CreateCenterOfMassAttr(Gf.Vec3f(0.1, 0.0, 0.0))
+    mass.CreateDiagonalInertiaAttr(Gf.Vec3f(0.01, 0.02, 0.03))
+    if axes:
+        mass.CreatePrincipalAxesAttr(Gf.Quatf(1.0, 0.0, 0.0, 0.0))
+    if collider:
+        cube = UsdGeom.Cube.Define(stage, "/robot/arm/box").GetPrim()
+        UsdPhysics.CollisionAPI.Apply(cube)
+    joint = UsdPhysics.RevoluteJoint.Define(stage, "/robot/hinge")
+    joint.CreateBody1Rel().SetTargets(["/robot/arm"])
+    joint.CreateAxisAttr("Z")
+    stage.Save()
+    return UsdProbe(path)
+
+
+def test_a_usd_mass_states_what_a_consumer_reads(tmp_path):
+    """PhysicsMassAPI's fallbacks mean "computed": principal axes (0, 0, 0, 0) leave the
+    inertia to the simulator when there are colliders; without colliders to compute from,
+    the stated mass stands (a point mass at its centre of mass), never read as none."""
+    from real2code_export.probes import schema_dynamics
+
+    read = schema_dynamics.usd_dynamics
+    stated = read(_usd_body(tmp_path / "a.usda", axes=True, collider=False))
+    mass, inertia, com = stated.bodies["arm"]
+    assert mass == 2.0 and np.allclose(np.diag(inertia), [0.01, 0.02, 0.03])
+    assert np.allclose(com, [0.1, 0, 0], atol=1e-7)
+    left = read(_usd_body(tmp_path / "b.usda", axes=False, collider=True))
+    assert "centre of mass or inertia not stated" in left.unstated["arm"]
+    point = read(_usd_body(tmp_path / "c.usda", axes=False, collider=False))
+    mass, inertia, com = point.bodies["arm"]
+    assert mass == 2.0 and not inertia.any() and np.allclose(com, [0.1, 0, 0], atol=1e-7)
+    assert not point.unstated

@@ -3,6 +3,7 @@ and one small fixture per kind of broken input (message names file, element and 
 
 from __future__ import annotations
 
+import re
 import shutil
 import warnings
 from pathlib import Path
@@ -629,6 +630,41 @@ def test_unread_elements_are_kept_and_written_back(tmp_path):
     out = (tmp_path / "xml" / "floating_base.urdf").read_text()
     assert "<hardwareInterface>EffortJointInterface</hardwareInterface>" in out
     assert "urdf_elements" not in out  # the elements themselves, not their text twice
+
+
+def test_an_unexpanded_xacro_is_refused_saying_so(tmp_path):
+    """A .urdf that is still a xacro (``${...}``, ``$(arg ...)``): refused, naming the
+    element and what to do."""
+    source = tmp_path / "arm.urdf"
+    source.write_text((FIXTURES / "floating_base.urdf").read_text().replace(
+        '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
+        '<origin xyz="${arm_length} 0 0"/>', 1))
+    with pytest.raises(FormatError, match=r"<joint name='elbow'>: <origin> xyz='\$\{arm_length"
+                       r"\} 0 0' is not a list of numbers \(unexpanded xacro: expand"):
+        urdf.load(source)
+
+
+def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
+    """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
+    Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
+    names each, never drops it silently."""
+    text = (FIXTURES / "floating_base.urdf").read_text().replace(
+        "</robot>", '<material name="skin"><texture filename="skin.png"/></material></robot>'
+    ).replace(
+        '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
+        '<safety_controller soft_lower_limit="-1" k_position="10"/><calibration rising="0"/>'
+        ).replace('<link name="arm">', '<link name="arm"><contact><lateral_friction '
+                  'value="1"/></contact>')
+    assert text.count("safety_controller") == 1 and text.count("<contact>") == 1
+    source = tmp_path / "extra.urdf"
+    source.write_text(text)
+    with pytest.warns(Real2CodeWarning) as said:
+        urdf.load(source)
+    said = " ".join(str(w.message) for w in said)
+    assert re.search(r"not read \(no format holds them\): <contact> in <link name='arm'> "
+                     r"\(line \d+\), <safety_controller> in <joint name='elbow'> \(line \d+\), "
+                     r"<calibration> in <joint name='elbow'>", said), said
+    assert "<material name='skin'>: <texture filename='skin.png'> not read" in said, said
 
 
 def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):

@@ -42,7 +42,8 @@ class RangeOverlap:
 def overlaps(mjcf: Path, q: dict[str, float] | None = None,
              tolerance: float = TOLERANCE) -> list[Overlap]:
     """Part pairs whose pieces overlap by more than ``tolerance`` (m) at joint values ``q``
-    (by joint name; the others at 0), deepest first."""
+    (by joint name; the other hinges and slides at 0, free bodies and balls where the file
+    puts them), deepest first."""
     model, data = _compiled(mjcf)
     return _overlaps(model, data, q or {}, tolerance)
 
@@ -146,6 +147,13 @@ def _overlaps(model, data, q: dict[str, float], tolerance: float) -> list[Overla
     import mujoco
 
     data.qpos[:] = 0.0
+    # a free body where the file puts it, a ball at its rest (their qpos0; a zero
+    # quaternion would put a free body at the world's origin)
+    free, ball = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL)
+    for j in np.flatnonzero(np.isin(model.jnt_type, (free, ball))):
+        start = model.jnt_qposadr[j]
+        end = start + (7 if model.jnt_type[j] == free else 4)
+        data.qpos[start:end] = model.qpos0[start:end]
     for name, value in q.items():
         data.qpos[model.joint(name).qposadr[0]] = value
     mujoco.mj_kinematics(model, data)

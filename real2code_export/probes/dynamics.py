@@ -210,7 +210,8 @@ def _welds(m, as_urdf: bool = False) -> dict[int, list[int]]:
     weld = [int(w) for w in m.body_weldid]
     ball = int(mujoco.mjtJoint.mjJNT_BALL)
     for b in range(1, m.nbody):  # (parents come before their children)
-        kinds = {int(m.jnt_type[j]) for j in range(m.njnt) if int(m.jnt_bodyid[j]) == b}
+        first = int(m.body_jntadr[b])  # (a body's joints are consecutive)
+        kinds = {int(t) for t in m.jnt_type[first:first + int(m.body_jntnum[b])]}
         if (as_urdf and kinds == {ball}) or m.body_mocapid[b] >= 0 or \
                 (not kinds and weld[b] != b):
             weld[b] = weld[int(m.body_parentid[b])]
@@ -295,7 +296,7 @@ def schema_differences(src, ds, view, tol: float) -> list[Difference]:
     import mujoco
 
     members = _welds(src)
-    out = []
+    out, inertias = [], view.group_inertias()
     for weld, group in _welded_groups(src, ds, members).items():
         if weld == 0:
             continue
@@ -306,7 +307,7 @@ def schema_differences(src, ds, view, tol: float) -> list[Difference]:
             out.append(Difference(names, f"body {name!r}: no moving body of that name in "
                                          "the export"))
             continue
-        theirs = view.group_inertia(key)
+        theirs = inertias[key]
         if isinstance(theirs, str):
             out.append(Difference(names, f"body {name!r}: {theirs}", MASS_WORDS))
             continue

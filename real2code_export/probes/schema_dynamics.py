@@ -44,14 +44,19 @@ class SchemaDynamics:
     # stiffness, limited, range or ref, as MuJoCo names them; what says where it was read
     joints: dict[str, list[tuple[str, str, object]]] = field(default_factory=dict)
 
-    def group_inertia(self, key: str) -> tuple[float, np.ndarray, np.ndarray] | str:
-        """(mass, principal moments, centre of mass) of the bodies of group ``key``, or what
-        the file leaves open of them."""
-        members = [b for b, k in self.group.items() if k == key]
-        open_ = [f"body {b!r}: {self.unstated[b]}" for b in members if b in self.unstated]
+    def group_inertias(self) -> dict[str, tuple[float, np.ndarray, np.ndarray] | str]:
+        """Group key -> (mass, principal moments, centre of mass) of the bodies of the group,
+        or what the file leaves open of them."""
+        members: dict[str, list[str]] = {}
+        for body, key in self.group.items():
+            members.setdefault(key, []).append(body)
+        return {key: self._inertia_of(bodies) for key, bodies in members.items()}
+
+    def _inertia_of(self, bodies: list[str]) -> tuple[float, np.ndarray, np.ndarray] | str:
+        open_ = [f"body {b!r}: {self.unstated[b]}" for b in bodies if b in self.unstated]
         if open_:
             return "; ".join(open_)
-        massive = [self.bodies[b] for b in members if self.bodies[b][0] > 0.0]
+        massive = [self.bodies[b] for b in bodies if self.bodies[b][0] > 0.0]
         if not massive:
             return 0.0, np.zeros(3), np.zeros(3)
         total = combine_inertials([(Inertial(m, np.zeros(3), inertia), tf.make(translation=com))
@@ -60,7 +65,8 @@ class SchemaDynamics:
 
 
 def _union(pairs, items) -> dict:
-    """Item -> the key of its connected group (``pairs`` connect two items; WORLD wins)."""
+    """Item -> the key of its connected group (``pairs`` connect two items): the world's
+    group is keyed WORLD; any other group by one of its items."""
     parent = {i: i for i in items}
     parent.setdefault(WORLD, WORLD)
 
@@ -72,8 +78,9 @@ def _union(pairs, items) -> dict:
 
     for a, b in pairs:
         ra, rb = root(a), root(b)
-        if ra != rb:
-            parent[ra], parent[rb] = (rb, rb) if rb == WORLD else (ra, ra)
+        if ra == WORLD:  # (the world's root stays the root)
+            ra, rb = rb, ra
+        parent[ra] = rb
     return {i: root(i) for i in items}
 
 
@@ -107,27 +114,16 @@ def usd_dynamics(probe) -> SchemaDynamics:
     poses = probe.body_poses(np.zeros((1, len(probe.joints))))
     names = {p: stage.GetPrimAtPath(p).GetName() for p in rigid}
     for path, desc in rigid.items():
-        name, prim = names[path], stage.GetPrimAtPath(path)
-        api = UsdPhysics.MassAPI(prim) if prim.HasAPI(UsdPhysics.MassAPI) else None
-        mass = float(api.GetMassAttr().Get() or 0.0) * kpu if api else 0.0
-        com = api.GetCenterOfMassAttr().Get() if api else None
-        diagonal = api.GetDiagonalInertiaAttr().Get() if api else None
-        if mass <= 0.0 or com is None or not np.all(np.isfinite(com)) or diagonal is None \
-                or not np.any(np.asarray(diagonal) > 0):
-            if desc.collisions:  # a simulator computes what is missing from the colliders
-                missing = "mass" if mass <= 0.0 else "centre of mass or inertia"
-                out.unstated[name] = (f"{missing} not stated (PhysicsMassAPI); a simulator "
-                                      f"computes it from its {len(desc.collisions)} "
-                                      "collider(s) at a density")
-            out.bodies[name] = (0.0, np.zeros((3, 3)), np.zeros(3))
-            continue
-        axes = api.GetPrincipalAxesAttr().Get()
+        name = names[path]
+        (mass, inertia, com), missing = _usd_mass(stage.GetPrimAtPath(path), kpu, mpu)
+        if missing is not None and desc.collisions:  # a simulator computes it from them
+            out.unstated[name] = (f"{missing} not stated (PhysicsMassAPI); a simulator "
+                                  f"computes it from its {len(desc.collisions)} "
+                                  "collider(s) at a density")
+        # (without colliders what is stated stands: no mass, or a point mass)
         pose = poses[path][0]
-        turn = pose[:3, :3] @ (tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()])
-                               if axes is not None else np.eye(3))
-        inertia = turn @ np.diag(np.asarray(diagonal, float) * kpu * mpu * mpu) @ turn.T
-        out.bodies[name] = (mass, inertia,
-                            pose[:3, :3] @ (np.asarray(com, float) * mpu) + pose[:3, 3])
+        out.bodies[name] = (mass, pose[:3, :3] @ inertia @ pose[:3, :3].T,
+                            pose[:3, :3] @ com + pose[:3, 3])
     fixed = [(str(d.body0) if str(d.body0) in rigid else WORLD,
               str(d.body1) if str(d.body1) in rigid else WORLD)
              for _, kind, d in joints if kind == "FixedJoint"]
@@ -138,6 +134,32 @@ def usd_dynamics(probe) -> SchemaDynamics:
             out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(stage.GetPrimAtPath(path), kind,
                                                              d, mpu)
     return out
+
+
+def _usd_mass(prim, kpu: float, mpu: float
+              ) -> tuple[tuple[float, np.ndarray, np.ndarray], str | None]:
+    """(mass, inertia about the centre of mass, centre of mass) in the body's frame in SI as
+    PhysicsMassAPI states them, and which of them it leaves to the simulator (None: none).
+    UsdPhysics' fallbacks mean "computed": mass 0, centre of mass -inf, diagonal inertia 0,
+    principal axes (0, 0, 0, 0); what is left open reads as 0 (the origin, no inertia)."""
+    from pxr import UsdPhysics
+
+    api = UsdPhysics.MassAPI(prim) if prim.HasAPI(UsdPhysics.MassAPI) else None
+    mass = max(float(api.GetMassAttr().Get() or 0.0), 0.0) * kpu if api else 0.0
+    com = api.GetCenterOfMassAttr().Get() if api else None
+    com = np.asarray(com, float) * mpu if com is not None and np.all(np.isfinite(com)) \
+        else None
+    diagonal = api.GetDiagonalInertiaAttr().Get() if api else None
+    axes = api.GetPrincipalAxesAttr().Get() if api else None
+    inertia = None
+    if diagonal is not None and np.any(np.asarray(diagonal) > 0) and axes is not None \
+            and (axes.GetReal() != 0 or any(axes.GetImaginary())):
+        turn = tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()])
+        inertia = turn @ np.diag(np.asarray(diagonal, float) * kpu * mpu * mpu) @ turn.T
+    missing = "mass" if mass <= 0.0 else "centre of mass or inertia" \
+        if com is None or inertia is None else None
+    return (mass, np.zeros((3, 3)) if inertia is None else inertia,
+            np.zeros(3) if com is None else com), missing
 
 
 def _usd_joint(prim, kind: str, desc, mpu: float) -> list[tuple[str, str, object]]:
@@ -175,25 +197,31 @@ def gltf_dynamics(probe) -> SchemaDynamics:
         value = ext.get(KHR_PHYSICS)
         return value if isinstance(value, dict) else {}
 
-    up = {c: i for i, n in enumerate(nodes) for c in (n.get("children") or [])}
     moving = {i for i, n in enumerate(nodes) if "motion" in khr(n)}
+    poses = probe.node_poses(np.zeros((1, len(probe.joints))))  # the scene's nodes
+    owner: dict[int, str] = {}  # node -> the rigid body it moves with (WORLD: none)
+    for i in poses:  # (parents before their children)
+        if i in moving:
+            owner[i] = str(i)
+        for c in nodes[i].get("children") or []:
+            owner[c] = owner.get(i, WORLD)
+    owner.update((i, str(i)) for i in moving)  # (bodies in no scene too)
 
-    def body_of(i: int) -> str:
-        while i is not None and i not in moving:
-            i = up.get(i)
-        return WORLD if i is None else str(i)
+    def body_of(i: int | None) -> str:
+        return owner.get(i, WORLD)
 
-    poses = probe.node_poses(np.zeros((1, len(probe.joints))))
     name_of = {str(i): nodes[i].get("name") or f"node_{i}" for i in moving}
     for i in moving:
         motion, name = khr(nodes[i])["motion"], name_of[str(i)]
-        if "mass" not in motion or "inertiaDiagonal" not in motion:
-            missing = "mass" if "mass" not in motion else "inertia"
+        missing = "mass" if "mass" not in motion else "inertia" \
+            if "inertiaDiagonal" not in motion else None
+        if missing is not None or i not in poses:
             out.unstated[name] = (f"motion states no {missing} (KHR_physics_rigid_bodies "
-                                  "leaves it to the consumer)")
+                                  "leaves it to the consumer)" if missing is not None else
+                                  "a rigid body in no scene")
             out.bodies[name] = (0.0, np.zeros((3, 3)), np.zeros(3))
             continue
-        pose = poses[i][0] if i in poses else np.eye(4)
+        pose = poses[i][0]
         x, y, z, w = motion.get("inertiaOrientation", [0.0, 0.0, 0.0, 1.0])
         turn = pose[:3, :3] @ tf.quat_to_matrix([w, x, y, z])
         inertia = turn @ np.diag(np.asarray(motion["inertiaDiagonal"], float)) @ turn.T

@@ -13,6 +13,7 @@ a body with nothing to draw below it is a frame, reported by its prim name.
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import math
 from dataclasses import dataclass
@@ -101,26 +102,35 @@ class UsdProbe:
         cache = UsdGeom.XformCache(Usd.TimeCode.Default())
         self._roots: dict[str, np.ndarray] = {}
         self._links: list[_Link] = []
-        pending, reached, frontier = list(joints), {WORLD}, [WORLD]
+        at: dict[str, list[int]] = {}  # body path -> its joints (indices into ``joints``)
+        for k, (_, _, d) in enumerate(joints):
+            for end in dict.fromkeys((str(d.body0), str(d.body1))):
+                at.setdefault(end, []).append(k)
+        walked, reached = set(), {WORLD}
+        frontier = collections.deque([WORLD])
+        unreached = iter(bodies)  # (in stage order: the first one not reached is a root)
         while True:
             while frontier:
-                body = frontier.pop(0)
-                for item in [j for j in pending if body in (str(j[2].body0), str(j[2].body1))]:
-                    pending.remove(item)
-                    link = self._link(item, body, mpu)
+                body = frontier.popleft()
+                for k in at.get(body, ()):
+                    if k in walked:
+                        continue
+                    walked.add(k)
+                    link = self._link(joints[k], body, mpu)
                     if link.child in reached:
-                        raise CheckError(f"{path}: joint <{item[0]}> closes a kinematic loop")
+                        raise CheckError(f"{path}: joint <{joints[k][0]}> closes a kinematic "
+                                         "loop")
                     reached.add(link.child)
                     frontier.append(link.child)
                     self._links.append(link)
-            floating = [b for b in bodies if b not in reached]
-            if not floating:
+            root = next((b for b in unreached if b not in reached), None)
+            if root is None:
                 break
-            m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(floating[0]))).T
+            m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(root))).T
             m[:3, 3] *= mpu
-            self._roots[floating[0]] = self._world @ m
-            reached.add(floating[0])
-            frontier.append(floating[0])
+            self._roots[root] = self._world @ m
+            reached.add(root)
+            frontier.append(root)
 
         self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links
                        if k.kind not in ("fixed", "ball")]

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import transforms as tf
-from ...model import ArticulatedObject, Dynamics, Joint, JointType, Mesh, Part
+from ...model import Dynamics, Joint, JointType, Mesh, Part
 from .conventions import quat_xyzw
 
 LOCK = 1e-9  # a limit with |min|, |max| below this locks its axes
@@ -73,10 +73,10 @@ def as_box(piece: Mesh) -> tuple[list[float], np.ndarray] | None:
     return [float(x) for x in size], pose
 
 
-def has_body(obj: ArticulatedObject, part: Part) -> bool:
-    """A non-root part is its own rigid body when it moves or has mass; a massless part on a
-    fixed joint simply belongs to its parent's body (the extension's node-tree rule)."""
-    joint = obj.parent_joint(part.name)
+def has_body(joint: Joint | None, part: Part) -> bool:
+    """A non-root part (``joint``: its parent joint, None for the root) is its own rigid body
+    when it moves or has mass; a massless part on a fixed joint simply belongs to its
+    parent's body (the extension's node-tree rule)."""
     if joint is None:
         return False
     return joint.type is not JointType.FIXED or part.inertial is not None

@@ -294,6 +294,7 @@ def _animations(b: _Builder, obj: ArticulatedObject, animated: list[tuple[Joint,
 def build(obj: ArticulatedObject) -> bytes:
     b = _Builder()
     g = b.g
+    tree = obj.tree()
     physics_joints: list[dict] = []
     shapes: list[dict] = []  # KHR_implicit_shapes, for box collision pieces
     animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
@@ -334,7 +335,7 @@ def build(obj: ArticulatedObject) -> bytes:
         node = b.node(part.name, mesh=mesh, extras=_part_extras(part), **fields)
         children = b.gltf.nodes[node].children
         attach = None
-        body = joint is not None and physics.has_body(obj, part)
+        body = physics.has_body(joint, part)
         if body:
             b.gltf.nodes[node].extensions = {KHR_PHYSICS: {"motion": physics.motion(part)}}
         for k, piece in enumerate(part.collision):
@@ -344,7 +345,7 @@ def build(obj: ArticulatedObject) -> bytes:
                             rotation=quat_xyzw(physics.attachment_rotation(joint)),
                             extras={EXTRAS_KEY: {"attachment": joint.name}})
             children.append(attach)
-        for child_joint in obj.child_joints(part.name):
+        for child_joint in tree.children[part.name]:
             children.append(add_joint(child_joint))
         return node, attach
 
@@ -372,10 +373,10 @@ def build(obj: ArticulatedObject) -> bytes:
     def add_joint(joint: Joint) -> int:
         node = b.node(joint.name, translation=_floats(joint.origin[:3, 3]),
                       rotation=quat_xyzw(joint.origin[:3, :3]), extras=_joint_extras(joint))
-        child = obj.part(joint.child)
+        child = tree.parts[joint.child]
         attach = joint_index = None
         # A floating part is a free body: a rigid body no physics joint holds.
-        if physics.has_body(obj, child) and joint.type is not JointType.FLOATING:
+        if physics.has_body(joint, child) and joint.type is not JointType.FLOATING:
             attach = b.node(f"{joint.name}_attach_parent",
                             rotation=quat_xyzw(physics.attachment_rotation(joint)),
                             extras={EXTRAS_KEY: {"attachment": joint.name}})

@@ -613,8 +613,11 @@ class _Reader:
         observed = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, KEYFRAME) >= 0
 
         def listed(counts: dict[str, int]) -> str:
-            return ", ".join(f"{n} {what}{'s' if n > 1 else ''}" for what, n in counts.items()
-                             if n)
+            """``{"sensor": 2, "geom (a note)": 1}`` -> "2 sensors, 1 geom (a note)"."""
+            def counted(what: str, n: int) -> str:
+                noun, note = what.split(" (", 1) if " (" in what else (what, "")
+                return f"{n} {noun}{'s' if n > 1 else ''}" + (f" ({note}" if note else "")
+            return ", ".join(counted(what, n) for what, n in counts.items() if n)
 
         kept = listed(self._unread_counts())
         if kept:
@@ -622,7 +625,11 @@ class _Reader:
                  f"{ELEMENTS_KEY!r} (the MJCF writer writes them back; no other format acts "
                  f"on them): {kept}")
         left = listed({"keyframe": m.nkey - int(observed), "flex": m.nflex, "skin": m.nskin,
-                       "custom tuple": m.ntuple})
+                       "custom tuple": m.ntuple, "camera": m.ncam, "light": m.nlight,
+                       "contact pair": m.npair,
+                       "contact exclusion (of bodies not joined)": _unjoined_exclusions(m),
+                       "collision geom (its own friction or condim: the model has no "
+                       "contact material)": _own_contact(m)})
         if left:
             warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
                  f"{left}")
@@ -634,6 +641,24 @@ class _Reader:
 
     def _has_unread(self) -> bool:
         return any(self._unread_counts().values())
+
+
+def _unjoined_exclusions(m) -> int:
+    """The file's ``<exclude>`` pairs other than of a body and its parent (the exports
+    exclude those themselves)."""
+    first, second = m.exclude_signature >> 16, m.exclude_signature & 0xFFFF
+    return int(np.sum((m.body_parentid[second] != first) & (m.body_parentid[first] != second)))
+
+
+# MuJoCo's defaults of a geom's contact: sliding, torsional and rolling friction; condim
+_FRICTION, _CONDIM = (1.0, 0.005, 0.0001), 3
+
+
+def _own_contact(m) -> int:
+    """Collision geoms whose friction or contact dimension is not MuJoCo's default."""
+    colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+    own = np.any(np.abs(m.geom_friction - _FRICTION) > 1e-12, axis=1) | (m.geom_condim != _CONDIM)
+    return int(np.sum(colliding & own))
 
 
 def world_part_name(custom: dict) -> str:

@@ -26,16 +26,16 @@ def body_chains(obj: ArticulatedObject) -> dict[str, list[Joint]]:
     negligible mass the reader's repair gives it, one joint in and one out (hinge, slide or
     ball; the one out only translates, as the reader makes it), and is named
     ``<last part>_<joint in>``."""
-    by_child = {j.child: j for j in obj.joints}
+    tree = obj.tree()
     final_of: dict[str, str | None] = {}  # part -> the chain's last part (None: not merged)
 
     def final(name: str) -> str | None:
         if name not in final_of:
             final_of[name] = None
-            out = obj.child_joints(name)
-            into = by_child.get(name)
+            out = tree.children[name]
+            into = tree.parent.get(name)
             if (into is not None and len(out) == 1 and _in_body(into) and _in_body(out[0])
-                    and _placeholder(obj.part(name))
+                    and _placeholder(tree.parts[name])
                     and np.allclose(out[0].origin[:3, :3], np.eye(3), rtol=0, atol=1e-12)):
                 last = final(out[0].child) or out[0].child
                 if name == f"{last}_{into.name}":
@@ -47,7 +47,7 @@ def body_chains(obj: ArticulatedObject) -> dict[str, list[Joint]]:
         if final(j.child) is not None and final(j.parent) is None:
             chain = [j]
             while final(chain[-1].child) is not None:
-                chain.append(obj.child_joints(chain[-1].child)[0])
+                chain.append(tree.children[chain[-1].child][0])
             chains[j.name] = chain
     return chains
 

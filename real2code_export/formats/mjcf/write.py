@@ -270,7 +270,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         _add_geoms(spec.worldbody, root)
     else:
         bodies = {root.name: _add_body(spec.worldbody, root, None)}
-    sites, chains = site_parts(obj), body_chains(obj)
+    sites, chains, parts_by_name = site_parts(obj), body_chains(obj), obj.tree().parts
     merged = {j.child for chain in chains.values() for j in chain[:-1]}
     refs = {j.name: j.state for j in joints if not j.type.multi_dof}  # a joint's ref
     for joint in joints:
@@ -278,7 +278,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
             _add_site(bodies[joint.parent], joint)
         elif joint.parent not in merged:  # (the rest of a chain is its first joint's body)
             chain = chains.get(joint.name, [joint])
-            body = _add_body(bodies[joint.parent], obj.part(chain[-1].child), chain)
+            body = _add_body(bodies[joint.parent], parts_by_name[chain[-1].child], chain)
             bodies.update((j.child, body) for j in chain)
     assets = {_stem(rel): _stem(first) for rel, first in shared.items()}
     for geom in spec.geoms:

@@ -57,7 +57,9 @@ class Context:
         try:
             values = [float(v) for v in text.split()]
         except ValueError as e:
-            raise self.error(owner, f"{where}={text!r} is not a list of numbers",
+            xacro = " (unexpanded xacro: expand the file with xacro first)" \
+                if "${" in text or "$(" in text else ""
+            raise self.error(owner, f"{where}={text!r} is not a list of numbers{xacro}",
                              el.sourceline) from e
         counts = (count,) if isinstance(count, int) else count
         if len(values) not in counts:

@@ -211,7 +211,18 @@ def robot_materials(ctx: Context, robot: etree._Element) -> dict[str, RGBA | Non
     for m in robot.iterchildren("material"):
         color = m.find("color")
         out[m.get("name", "")] = None if color is None else rgba(ctx, color, label(m))
+        _texture_not_read(ctx, m, label(m))
     return out
+
+
+def _texture_not_read(ctx: Context, material: etree._Element, owner: str) -> None:
+    """A <material>'s <texture> is not read (a part's image comes from its OBJ's MTL): said,
+    never dropped in silence."""
+    texture = material.find("texture")
+    if texture is not None:
+        ctx.warn(owner, f"<texture filename='{texture.get('filename')}'> not read (a part's "
+                 "image is taken from its OBJ's MTL only); the material's colour is",
+                 texture.sourceline)
 
 
 def material_color(ctx: Context, visual: etree._Element, materials: dict[str, RGBA | None],
@@ -222,6 +233,7 @@ def material_color(ctx: Context, visual: etree._Element, materials: dict[str, RG
         return None
     name = m.get("name")
     color = m.find("color")
+    _texture_not_read(ctx, m, owner)
     if color is not None:
         value = rgba(ctx, color, owner)
         if name:  # urdfdom lets later visuals refer to a material defined inline

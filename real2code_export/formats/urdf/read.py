@@ -73,6 +73,7 @@ from .structure import (
     link_elements,
     parse,
     unread_children,
+    unread_in,
 )
 
 # An axis this close to unit length is kept as written, so that what we write reads back
@@ -121,6 +122,11 @@ def load(path: str | Path, *, faithful_collision: bool = False,
         joint_list += chain
         joint_el.update((j.name, el) for j in chain)
     _report_notes(ctx)
+    unread = unread_in([*links.values(), *joints.values()])
+    if unread:  # (no format, ours included, has a place for them)
+        ctx.warn(None, "not read (no format holds them): " + ", ".join(
+            f"<{etree.QName(el).localname}> in {label(el.getparent())} (line {el.sourceline})"
+            for el in unread))
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
                             metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
     for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):

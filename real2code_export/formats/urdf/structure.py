@@ -21,6 +21,9 @@ BALL_TYPE = "spherical"
 # The children of <robot> the reader uses, and <mujoco>: MuJoCo's compiler hints for loading
 # the file (our writer emits one), which describe no part of the object.
 READ_TAGS = ("link", "joint", "material", "mujoco")
+# the children of <link> and <joint> the reader reads (URDF 1.0 and 1.1's capsule aside)
+LINK_TAGS = ("inertial", "visual", "collision")
+JOINT_TAGS = ("origin", "parent", "child", "axis", "limit", "dynamics", "mimic")
 
 
 def parse(ctx: Context) -> etree._Element:
@@ -84,6 +87,14 @@ def unread_children(robot: etree._Element) -> list[etree._Element]:
     """The children of <robot> the model has no place for: transmissions, Gazebo tags,
     Drake frames... (kept in the metadata by the reader, never dropped in silence)."""
     return [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
+
+
+def unread_in(elements) -> list[etree._Element]:
+    """The children of <link> and <joint> ``elements`` the model has no place for (a joint's
+    <safety_controller> and <calibration>, a link's <self_collision_checking>, ...)."""
+    known = {"link": LINK_TAGS, "joint": JOINT_TAGS}
+    return [child for el in elements for child in el.iterchildren(etree.Element)
+            if child.tag not in known[el.tag]]
 
 
 def _named(ctx: Context, robot: etree._Element, tag: str) -> dict[str, etree._Element]:
