@@ -131,12 +131,36 @@ def test_mujocos_limit_takes_the_whole_approach_velocity(tmp_path):
     """Our MJCF's limit has the same impedance at contact as deeper in: in the step it acts
     it stops the joint, as Bullet's stop does (both act once a joint is at or past its
     limit), and the two agree through both stops (3.8e-5 rad). With 0.99 at contact (0.999
-    deeper) MuJoCo let 1 % of the approach through each step: 9.3e-2 rad from Bullet."""
-    report = simulate_file(flap(tmp_path), ["bullet"], ["limit"])
-    run = next(r for r in report.runs if r.engine.startswith("Bullet"))
+    deeper) MuJoCo let 1 % of the approach through each step: 9.3e-2 rad from Bullet.
+    Pinocchio's stop acts in the step that would cross the limit: off MuJoCo's at 1 ms and
+    off the converged motion too (the flap grazes its stop and the kinds part: no step
+    agrees), so it disagrees."""
+    report = simulate_file(flap(tmp_path), ["bullet", "pinocchio"], ["limit"])
+    by = {r.engine: r for r in report.runs}
+    assert by["Pinocchio (URDF)"].status == "disagree"
+    assert by["Pinocchio (URDF)"].converged[0] > 0.01
+    run = by["Bullet (URDF)"]
     if run.status == "skipped":
         pytest.skip(run.message)
     assert run.max_angle < 1e-3, run.per_joint
+
+
+def test_a_stop_hit_at_speed_is_judged_against_the_converged_motion(tmp_path):
+    """A flap thrown into its open stop falls onto its closed one at speed, gravity pulling
+    it out of both: MuJoCo's stop (it acts once the joint is at or past it) lets it a part
+    of a step in, Pinocchio's stops it in the step that would cross, and at 1 ms the two are
+    1.3e-2 rad apart. Against the motion the file describes (MuJoCo at 1/64 step) Pinocchio
+    is the nearer (7.8e-3 rad, MuJoCo at 1 ms 1.3e-2): it agrees, and MuJoCo's own distance
+    from that motion is reported."""
+    obj = generate("laptop", seed=3)
+    (j,) = obj.movable_joints
+    j.limits.lower, j.limits.upper, j.state = -1.2, 1.2, 1.2
+    j.dynamics.damping = j.dynamics.friction = 0.0
+    report = simulate_file(object_json.save(obj, tmp_path), ["pinocchio"], ["limit"])
+    reference, run = report.runs
+    assert run.max_angle > 0.01 and run.converged[0] < 0.009, (run.max_angle, run.converged)
+    assert run.status == "ok" and "converged" in run.message
+    assert reference.converged[0] > 0.01 and report.ok
 
 
 def test_mujocos_limit_is_as_stiff_as_a_shorter_step_allows(tmp_path):
