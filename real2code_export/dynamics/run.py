@@ -17,6 +17,7 @@ import importlib
 import math
 import tempfile
 import time
+from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,7 @@ from . import EngineUnavailable, Experiment, Trajectory
 from .contacts import CONTACT_EXPERIMENTS, Judge
 from .experiments import EXPERIMENTS
 from .overlap import Overlap, RangeOverlap, overlaps, overlaps_along_ranges
+from .venv import Outcome, simulate_each
 
 TOL_ANGLE = 0.01  # rad
 TOL_DISTANCE = 0.001  # m
@@ -165,27 +167,84 @@ def simulate_file(source: str | Path, engines: list[str] | None = None,
             mjcf = write_formats(obj, folder, ["mjcf"])["mjcf"]
             report.overlaps = overlaps(mjcf)
             report.range_overlaps = overlaps_along_ranges(mjcf, obj)
-    for name in experiments or [*EXPERIMENTS, *CONTACT_EXPERIMENTS]:
-        if name in CONTACT_EXPERIMENTS:
-            _contact_runs(report, obj, name, chosen, formats)
-            continue
-        variant, experiment = EXPERIMENTS[name](obj)
-        if not experiment.joints:
-            continue
-        report.experiments.append(experiment)
-        with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
-            files = write_formats(variant, folder, formats)
-            mjcf = files[REFERENCE.format]
-            start = time.perf_counter()
-            reference = REFERENCE.simulate(mjcf, experiment)
-            reference_run = Run(name, REFERENCE.label, mjcf.name, "reference",
-                                seconds=time.perf_counter() - start)
-            runs = [_run(engine, files[engine.format], experiment, reference, tol_angle,
-                         tol_distance) for engine in chosen]
-            if any(run.status == "disagree" for run, _ in runs):
-                _judge_by_converged(report, mjcf, experiment, reference_run, reference, runs)
-            report.runs += [reference_run, *(run for run, _ in runs)]
+    with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
+        planned = _plan(report, obj, experiments or [*EXPERIMENTS, *CONTACT_EXPERIMENTS],
+                        Path(folder), formats)
+        results = _simulate_all([REFERENCE, *chosen], planned)
+        for experiment, files, judge in planned:
+            if judge is None:
+                _motion_runs(report, experiment, files, chosen, results)
+            else:
+                _contact_runs(report, experiment, files, judge, chosen, results)
     return report
+
+
+# (experiment, its files by format, the contact experiment's judge or None)
+Planned = tuple[Experiment, dict[str, Path], Judge | None]
+
+
+def _plan(report: DynamicsReport, obj, names: list[str], folder: Path, formats: list[str]
+          ) -> list[Planned]:
+    """Each experiment's variant written in every format the engines read."""
+    planned: list[Planned] = []
+    for name in dict.fromkeys(names):
+        judge = None
+        if name in CONTACT_EXPERIMENTS:
+            if not any(part.collision for part in obj.parts):
+                report.notes.append(f"{name}: no collision geometry, nothing to collide")
+                continue
+            variant, experiment, judge, notes = CONTACT_EXPERIMENTS[name](obj)
+            report.notes += [f"{name}: {n}" for n in notes]
+            if experiment is None:
+                continue
+        else:
+            variant, experiment = EXPERIMENTS[name](obj)
+            if not experiment.joints:
+                continue
+        report.experiments.append(experiment)
+        planned.append((experiment, write_formats(variant, folder / name, formats), judge))
+    return planned
+
+
+def _simulate_all(engines: list[Engine], planned: list[Planned]
+                  ) -> dict[tuple[str, str], Outcome]:
+    """Every engine's runs, those of engines sharing a module in one call (one process for
+    an engine in its own venv), by (engine name, experiment name)."""
+    groups: dict[str, list[tuple[Engine, Experiment, Path]]] = defaultdict(list)
+    for experiment, files, judge in planned:
+        for engine in engines:
+            if judge is None or engine.contacts:
+                groups[engine.module].append((engine, experiment, files[engine.format]))
+    results: dict[tuple[str, str], Outcome] = {}
+    for module, cases in groups.items():
+        imported = importlib.import_module(module)
+        many = getattr(imported, "simulate_many", None)
+        runs = [(path, experiment) for _, experiment, path in cases]
+        try:
+            outcomes = many(runs) if many else simulate_each(imported.simulate, runs)
+        except (EngineUnavailable, RuntimeError) as e:  # absent, or its process failed
+            outcomes = [(e, 0.0)] * len(cases)
+        for (engine, experiment, _), outcome in zip(cases, outcomes, strict=True):
+            results[engine.name, experiment.name] = outcome
+    return results
+
+
+def _motion_runs(report: DynamicsReport, experiment: Experiment, files: dict[str, Path],
+                 chosen: list[Engine], results: dict[tuple[str, str], Outcome]) -> None:
+    """Every chosen engine against MuJoCo at the step, and where one is beyond tolerance,
+    every one against the converged motion too."""
+    mjcf = files[REFERENCE.format]
+    reference, seconds = results[REFERENCE.name, experiment.name]
+    if isinstance(reference, Exception):
+        raise reference
+    reference_run = Run(experiment.name, REFERENCE.label, mjcf.name, "reference",
+                        seconds=seconds)
+    runs = [_run(engine, files[engine.format], experiment, reference,
+                 results[engine.name, experiment.name], report.tol_angle, report.tol_distance)
+            for engine in chosen]
+    if any(run.status == "disagree" for run, _ in runs):
+        _judge_by_converged(report, mjcf, experiment, reference_run, reference, runs)
+    report.runs += [reference_run, *(run for run, _ in runs)]
 
 
 def _tolerances(experiment: Experiment, tol_angle: float, tol_distance: float) -> np.ndarray:
@@ -222,59 +281,45 @@ def _judge_by_converged(report: DynamicsReport, mjcf: Path, experiment: Experime
                            "converged motion")
 
 
-def _contact_runs(report: DynamicsReport, obj, name: str, chosen: list[Engine],
-                  formats: list[str]) -> None:
-    """A contact experiment in the reference and every chosen engine that has contacts."""
-    if not any(part.collision for part in obj.parts):
-        report.notes.append(f"{name}: no collision geometry, nothing to collide")
-        return
-    variant, experiment, judge, notes = CONTACT_EXPERIMENTS[name](obj)
-    report.notes += [f"{name}: {n}" for n in notes]
-    if experiment is None:
-        return
-    report.experiments.append(experiment)
-    with tempfile.TemporaryDirectory(prefix="real2code-simulate-") as folder:
-        files = write_formats(variant, folder, formats)
-        for engine in [REFERENCE, *chosen]:
-            path = files[engine.format]
-            if not engine.contacts:
-                report.runs.append(Run(name, engine.label, path.name, "skipped",
-                                       "no contacts simulated here"))
-                continue
-            report.runs.append(_judged_run(engine, path, experiment, judge))
+def _contact_runs(report: DynamicsReport, experiment: Experiment, files: dict[str, Path],
+                  judge: Judge, chosen: list[Engine], results: dict[tuple[str, str], Outcome]
+                  ) -> None:
+    """A contact experiment in the reference and every chosen engine that has contacts,
+    each judged on its outcome."""
+    for engine in [REFERENCE, *chosen]:
+        path = files[engine.format]
+        if not engine.contacts:
+            report.runs.append(Run(experiment.name, engine.label, path.name, "skipped",
+                                   "no contacts simulated here"))
+            continue
+        run, trajectory = _outcome(engine, path, experiment,
+                                   results[engine.name, experiment.name])
+        if trajectory is not None:
+            verdict = judge(trajectory)
+            run.status = "ok" if verdict.ok else "disagree"
+            run.message, run.max_angle, run.max_distance = verdict.message, verdict.angle, \
+                verdict.distance
+        report.runs.append(run)
 
 
-def _judged_run(engine: Engine, path: Path, experiment: Experiment, judge: Judge) -> Run:
-    run, trajectory = _simulated(engine, path, experiment)
-    if trajectory is None:
-        return run
-    verdict = judge(trajectory)
-    run.status = "ok" if verdict.ok else "disagree"
-    run.message, run.max_angle, run.max_distance = verdict.message, verdict.angle, \
-        verdict.distance
-    return run
-
-
-def _simulated(engine: Engine, path: Path, experiment: Experiment
-               ) -> tuple[Run, Trajectory | None]:
+def _outcome(engine: Engine, path: Path, experiment: Experiment, outcome: Outcome
+             ) -> tuple[Run, Trajectory | None]:
     run = Run(experiment.name, engine.label, path.name, "ok")
-    start = time.perf_counter()
-    try:
-        trajectory = engine.simulate(path, experiment)
-    except EngineUnavailable as e:
-        run.status, run.message = "skipped", str(e)
-        return run, None
-    except (KeyError, ValueError, RuntimeError) as e:  # the engine refused the file
-        run.status, run.message = "failed", str(e)
-        return run, None
-    run.seconds = time.perf_counter() - start
-    run.notes = trajectory.notes
-    return run, trajectory
+    trajectory, run.seconds = outcome
+    if isinstance(trajectory, EngineUnavailable):
+        run.status, run.message = "skipped", str(trajectory)
+    elif isinstance(trajectory, Exception):  # the engine refused the file
+        run.status, run.message = "failed", str(trajectory)
+    else:
+        run.notes = trajectory.notes
+        return run, trajectory
+    return run, None
 
 
 def _run(engine: Engine, path: Path, experiment: Experiment, reference: Trajectory,
-         tol_angle: float, tol_distance: float) -> tuple[Run, Trajectory | None]:
-    run, trajectory = _simulated(engine, path, experiment)
+         outcome: Outcome, tol_angle: float, tol_distance: float
+         ) -> tuple[Run, Trajectory | None]:
+    run, trajectory = _outcome(engine, path, experiment, outcome)
     if trajectory is None:
         return run, None
     try:
