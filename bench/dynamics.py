@@ -74,7 +74,9 @@ def main() -> None:
         return
     print(f"machine: {describe()}")
     labels = [REFERENCE.label] + [ENGINES[e].label for e in engines if e != REFERENCE.name]
-    rows = []
+    # each object's row as soon as it is measured: a long run cut short keeps what it did
+    print("\n| object | joints | verdict | " + " | ".join(labels) + " |")
+    print("|---|---|---|" + "---|" * len(labels), flush=True)
     totals: dict[str, float] = defaultdict(float)
     failed = []
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
@@ -111,13 +113,8 @@ def main() -> None:
                     ratio = s / max(worst[REFERENCE.label][2], 1e-9)
                     cells.append(f"{a:.1e} rad / {m:.1e} m{against}, {s:.1f} s (x{ratio:.1f})"
                                  + ("" if st == "ok" else f" **{st}**"))
-            rows.append((name, str(joints), *cells))
-            print(f"{name}: {'ok' if report.ok else 'DISAGREE'}", flush=True)
-    print()
-    print("| object | joints | " + " | ".join(labels) + " |")
-    print("|---|---|" + "---|" * len(labels))
-    for row in rows:
-        print("| " + " | ".join(row) + " |")
+            verdict = "ok" if report.ok else "**disagree**"
+            print("| " + " | ".join((name, str(joints), verdict, *cells)) + " |", flush=True)
     print()
     print("total seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in totals.items()))
     for line in failed:
