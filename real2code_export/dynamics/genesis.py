@@ -25,11 +25,16 @@ import numpy as np
 
 from ..formats import format_for_path
 from . import Experiment, Recorder, Trajectory, urdf_laws
-from .venv import GENESIS_VENV, run_in_venv, serve
+from .venv import GENESIS_VENV, Outcome, run_in_venv, run_many_in_venv, serve
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "genesis", path, experiment, GENESIS_VENV)
+
+
+def simulate_many(cases: list[tuple[Path, Experiment]]) -> list[Outcome]:
+    """Every case in one process (venv.py)."""
+    return run_many_in_venv(__name__, "genesis", cases, GENESIS_VENV)
 
 
 def _mjcf_joints(path: Path) -> dict[str, tuple[float, float, float, float]]:

@@ -56,7 +56,28 @@ def _add_boxes(mujoco, spec, experiment: Experiment) -> list[str]:
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
+    return _simulate(path, experiment, *load_spec(path))
+
+
+def simulate_converged(path: Path, experiment: Experiment, refine: int) -> Trajectory:
+    """The experiment at 1/``refine`` of its step, sampled at the same times, each limit
+    whose time constant is below two of the experiment's steps (one that asks for the
+    stiffest stop a step takes: MuJoCo raises it to two steps) at two of these steps: the
+    motion the file describes, nearer its continuous limit than any engine at the
+    experiment's step (docs/engines.md, "Which motion is right")."""
+    import dataclasses
+
     mujoco, spec = load_spec(path)
+    fine = dataclasses.replace(experiment, dt=experiment.dt / refine,
+                               sample_every=experiment.sample_every * refine)
+    for joint in spec.joints:
+        timeconst, ratio = joint.solref_limit
+        if 0 < timeconst < 2 * experiment.dt:
+            joint.solref_limit = [2 * fine.dt, ratio]
+    return _simulate(path, fine, mujoco, spec)
+
+
+def _simulate(path: Path, experiment: Experiment, mujoco, spec) -> Trajectory:
     if experiment.self_contacts:
         for exclude in list(spec.excludes):
             spec.delete(exclude)

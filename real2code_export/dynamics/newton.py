@@ -27,11 +27,16 @@ import numpy as np
 from ..engine_settings import MULTICCD
 from ..formats import format_for_path
 from . import Experiment, Recorder, Trajectory
-from .venv import run_in_venv, serve
+from .venv import Outcome, run_in_venv, run_many_in_venv, serve
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "newton", path, experiment)
+
+
+def simulate_many(cases: list[tuple[Path, Experiment]]) -> list[Outcome]:
+    """Every case in one process (venv.py)."""
+    return run_many_in_venv(__name__, "newton", cases)
 
 
 def simulate_here(path: Path, experiment: Experiment, featherstone: bool = False

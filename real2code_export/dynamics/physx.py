@@ -17,11 +17,16 @@ from pathlib import Path
 import numpy as np
 
 from . import Experiment, Recorder, Trajectory
-from .venv import run_in_venv, serve
+from .venv import Outcome, run_in_venv, run_many_in_venv, serve
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "ovphysx", path, experiment)
+
+
+def simulate_many(cases: list[tuple[Path, Experiment]]) -> list[Outcome]:
+    """Every case in one process (venv.py)."""
+    return run_many_in_venv(__name__, "ovphysx", cases)
 
 
 def _attach(physx, ovphysx, path: Path):

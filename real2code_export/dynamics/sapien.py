@@ -20,13 +20,18 @@ from pathlib import Path
 import numpy as np
 
 from . import Experiment, Recorder, Trajectory, urdf_laws
-from .venv import run_in_venv, serve
+from .venv import Outcome, run_in_venv, run_many_in_venv, serve
 
 FRICTION_DRIVE_DAMPING = 1e4  # N m s/rad: the friction drive holds a joint still below it
 
 
 def simulate(path: Path, experiment: Experiment) -> Trajectory:
     return run_in_venv(__name__, "sapien", path, experiment)
+
+
+def simulate_many(cases: list[tuple[Path, Experiment]]) -> list[Outcome]:
+    """Every case in one process (venv.py)."""
+    return run_many_in_venv(__name__, "sapien", cases)
 
 
 def _without_visuals(path: Path) -> Path:
