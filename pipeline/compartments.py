@@ -232,11 +232,11 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     The carcass's walls are its points whose measured normals face along one of its box's
     axes (within ``panel_min_angle``, square as a carcass is built); along each axis its
     extent is that of the points facing along it, grown by ``wall_margin_voxels``
-    spacings (a side with no such wall in its half, an open front seen without its rim, is
-    not bounded). Past it, a piece (points joined through points this close:
-    ``panel_link_voxels`` spacings) of at most ``enclosed_share`` of the carcass's points,
-    more of which touch one moving part than touch the carcass inside its walls, is that
-    part's. On the demo capture 134 points of three
+    spacings; a side past which more than ``enclosed_share`` of the carcass's points lie is
+    not bounded (its bottom unseen and a shelf the lowest surface facing down, an open
+    front seen without its rim). Past it, a piece (points joined through points this
+    close: ``panel_link_voxels`` spacings) of at most that share, more of whose points
+    touch one moving part than touch the carcass inside its walls, is that part's. On the demo capture 134 points of three
     panels' handles and a top flap's side edge (facing along the hinge, so no panel claims
     it) stood up to 18 cm in front of the carcass; its box grew as far, and the flap, shut
     against that false face, read an opening of 0.001 rad for 0.98. A carcass's own
@@ -256,13 +256,17 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     margin = options.wall_margin_voxels * voxel
+    largest = options.enclosed_share * np.count_nonzero(carcass)
     past = np.zeros(len(cloud), dtype=bool)
-    for k in range(3):  # a side with no wall facing out along k in its half is not bounded
+    for k in range(3):
         wall = local[carcass & square[:, k], k]
-        if len(wall) and wall.max() > 0:
-            past |= local[:, k] > wall.max() + margin
-        if len(wall) and wall.min() < 0:
-            past |= local[:, k] < wall.min() - margin
+        if len(wall) == 0:
+            continue
+        for beyond in (local[:, k] > wall.max() + margin, local[:, k] < wall.min() - margin):
+            # more of the carcass than that past its walls: they do not close that side
+            # (its bottom unseen, a shelf the outermost wall facing that way)
+            if np.count_nonzero(carcass & beyond) <= largest:
+                past |= beyond
     standing = np.nonzero(carcass & past)[0]
     if len(standing) == 0:
         return out, moved
@@ -275,7 +279,6 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     def share_touching(tree, points: np.ndarray) -> float:
         return float(np.isfinite(tree.query(points, distance_upper_bound=link)[0]).mean())
 
-    largest = options.enclosed_share * np.count_nonzero(carcass)  # never a wall of it
     for p in range(int(piece.max()) + 1):
         members = standing[piece == p]
         if len(members) > largest:
