@@ -40,14 +40,17 @@ class CompartmentOptions:
     enclosed_inside: float = 0.98  # ... with this share of them inside the carcass's box ...
     enclosed_margin_voxels: float = 1.0  # ... (grown by this many spacings) is the carcass's
     wall_margin_voxels: float = 1.0  # the carcass's points this far past its walls stand out
+    nested_share: float = 0.9  # a moving part with this share of its points in a larger
+    nested_margin_voxels: float = 2.0  # one's box (grown by this), standing out of the
+    # carcass, is a piece of it (a drawer's side cut from its front)
 
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
     """``seg`` with open panels' points in other labels given to them, then the compartments
     behind open doors given back to the carcass, what of the carcass stands out past its
-    walls given to the parts it touches, and enclosed pieces given back to the carcass (its
-    cloud's labels and
+    walls given to the parts it touches, enclosed pieces given back to the carcass, and a
+    part lying in another's box merged into it (its cloud's labels and
     every view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
     if seg.spacing is None:
@@ -62,6 +65,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved = claimed + moved + protruding
     labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
     moved += enclosed
+    labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
+    moved += nested
     if not moved:  # the labels stand (already numbered by size): no views to redo
         return replace(seg, details={**seg.details, "returned_to_carcass": []})
     return replace(seg, labels=label_views(capture, seg.points, labels),
@@ -320,3 +325,50 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             out[index] = 1
             moved.append({"part": k, "points": len(index), "enclosed": True})
     return numbered_by_size(out), moved
+
+
+def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                 options: CompartmentOptions = CompartmentOptions(),
+                 ) -> tuple[np.ndarray, list[dict]]:
+    """A moving part lying in a larger moving part's box is a piece of it, when that one
+    stands out of the carcass's box: a drawer pulled out, cut by the masks into its front
+    and its side (on a phone-LiDAR ring a 4-part cabinet's drawer came out as a label of
+    2,193 of its points and one of 740, its side, wholly inside the first one's box, and
+    the side was given a joint of its own). Parts side by side (two doors, stacked drawers)
+    do not lie in each other's boxes; a part inside the carcass is left to
+    :func:`return_enclosed`. ``nested_share`` of the smaller part's points within the
+    larger's box grown by ``nested_margin_voxels`` spacings; standing out: less than
+    ``enclosed_inside`` of the larger's points in the carcass's box. Returns the labels,
+    renumbered by size, and what merged."""
+    out = labels.copy()
+    moved: list[dict] = []
+    if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = part_obb(cloud[labels == 1])
+    sizes = np.bincount(labels)
+    parts = [k for k in np.argsort(sizes, kind="stable") if k >= 2 and sizes[k] >= 4]
+    boxes = {k: _box(cloud[labels == k]) for k in parts}
+    out_of_place = {k: body.contains(cloud[labels == k], tol=options.enclosed_margin_voxels
+                                     * voxel).mean() < options.enclosed_inside for k in parts}
+    margin = options.nested_margin_voxels * voxel
+    for i, small in enumerate(parts):
+        points = cloud[labels == small]
+        for large in parts[i + 1:]:
+            if (out_of_place[large] and boxes[large] is not None and sizes[large] > sizes[small]
+                    and boxes[large].contains(points, tol=margin).mean() >= options.nested_share):
+                out[out == small] = large
+                moved.append({"part": int(small), "points": int(sizes[small]),
+                              "merged_into": int(large)})
+                break
+    return numbered_by_size(out), moved
+
+
+def _box(points: np.ndarray):
+    """The part's box, or None where its points span no volume (a flat panel's exact points:
+    nothing can lie inside it)."""
+    from scipy.spatial import QhullError
+
+    try:
+        return part_obb(points)
+    except (QhullError, ValueError):
+        return None

@@ -413,6 +413,38 @@ def test_a_handle_and_a_flaps_edge_standing_out_of_the_carcass_go_to_the_flap():
                             normals=normals[open_front])[1] == []
 
 
+def test_a_drawer_cut_into_its_front_and_its_side_is_one_part_again():
+    """A drawer pulled 15 cm out of a carcass, its side in a label of its own (inside the
+    front's box): merged into the front. Two doors side by side, and a patch of the carcass's
+    floor inside the carcass, keep their labels."""
+    from pipeline.compartments import merge_nested
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = np.concatenate([_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z),
+                              _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
+                              _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+                              _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
+                              _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)])
+    front = _grid(0.3, 0.2, (0.45, 0.05, -0.3), y, z)
+    bottom = _grid(0.5, 0.3, (-0.05, 0.05, -0.3), x, y)
+    side = _grid(0.5, 0.18, (-0.05, 0.05, -0.28), x, z)
+    doors = [np.concatenate([_grid(0.36, 0.3, (d, w, 0.05), y, z) for d in (0.32, 0.34)])
+             for w in (-0.38, 0.02)]  # each door's two faces, swung out square
+    cloud = np.concatenate([carcass, front, bottom, side, *doors])
+    n = np.cumsum([0, len(carcass), len(front), len(bottom), len(side), *map(len, doors)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[3]] = 2  # the drawer's front and bottom
+    labels[n[3]:n[4]] = 3  # its side, cut off
+    labels[n[4]:n[5]], labels[n[5]:n[6]] = 4, 5
+    out, moved = merge_nested(cloud, labels, 0.02)
+    assert (out[n[1]:n[4]] == out[n[1]]).all() and len(np.unique(out)) == 4
+    assert moved == [{"part": 3, "points": len(side), "merged_into": 2}]
+    # the doors beside each other, and a drawer left shut (inside the carcass), stay apart
+    shut = cloud.copy()
+    shut[n[1]:n[4], 0] -= 0.16
+    assert merge_nested(shut, labels, 0.02)[1] == []
+
+
 def test_a_turned_panel_is_found_the_same_every_time():
     """The plane of a noisy door swung 40 degrees is found, and found identically on a
     second call (open3d's segment_plane, seeded, returned other planes run to run)."""
