@@ -241,10 +241,11 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     not bounded (its bottom unseen and a shelf the lowest surface facing down, an open
     front seen without its rim). Past it, a piece (points joined through points this
     close: ``panel_link_voxels`` spacings) of at most that share, more of whose points
-    touch one moving part than touch the carcass inside its walls, is that part's. On the demo capture 134 points of three
-    panels' handles and a top flap's side edge (facing along the hinge, so no panel claims
-    it) stood up to 18 cm in front of the carcass; its box grew as far, and the flap, shut
-    against that false face, read an opening of 0.001 rad for 0.98. A carcass's own
+    touch one moving part than touch the carcass inside its walls, is that part's. On the
+    demo capture 128 points of three panels' handles and a top flap's side edge (facing
+    along the hinge, so no panel claims it) stood up to 18 cm in front of the carcass; its
+    box grew as far, and the flap, shut against that false face, read an opening of 0.001
+    rad for 0.98. A carcass's own
     overhang (a table top over its drawers) joins its walls along its whole inner edge and
     stays. Needs the measured ``normals``. Returns the labels, renumbered by size, and what
     moved, per piece."""
