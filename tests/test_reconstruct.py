@@ -19,8 +19,8 @@ from real2code_export.formats import load, object_json
 from real2code_export.model import ArticulatedObject, Part
 
 # Measured with the shipped weights: 0.986 on the small capture (every part at least
-# 0.978), 0.926 on the demo's (its top flap, seen nearly edge-on, at 0.81; 0.915 and 0.71
-# before compartments.claim_panels).
+# 0.978), 0.953 on the demo's (0.926 before compartments.give_protrusions, 0.915 before
+# compartments.claim_panels).
 MEAN_IOU_SMALL = 0.95
 MEAN_IOU_DEMO = 0.85
 
@@ -134,14 +134,17 @@ def test_demo_reconstructs_the_shipped_capture(tmp_path, capsys):
     assert len(model.parts) == len(truth.parts)
     mean, per_part = _segmentation_iou(tmp_path / "demo", SAMPLE_CAPTURE)
     assert mean > MEAN_IOU_DEMO, per_part
-    # every joint of its true type about its true axis (README: the top flap's hinge edge is
-    # still off, so position and state are not asserted here)
+    # every joint of its true type about its true axis, opened as far as it was captured
+    # (measured: at most 0.062 rad and 7 mm off; the top flap read 0.001 rad for 0.981 while
+    # its handle and side edge, in the carcass's label, grew the carcass's box 18 cm
+    # forward). The hinges' lines (0 to 1.6 % of the diagonal off) are not asserted here
     from pipeline.evaluate_joints import Scores, score_object
 
     scores = Scores()
     score_object(truth, read_capture(SAMPLE_CAPTURE).object_pose(), model, scores)
     assert len(scores.joints) == len(truth.movable_joints)
     assert all(j.type_ok and j.axis_deg < 2.0 for j in scores.joints), scores.joints
+    assert all(j.state_error < 0.15 for j in scores.joints), scores.joints
     # no two parts' pieces in each other at q = 0 (two flaps on one rail shut onto one place
     # 51 mm deep before closing.place_taken)
     checked = json.loads((tmp_path / "demo" / "check.json").read_text())

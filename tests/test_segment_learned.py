@@ -54,8 +54,10 @@ def test_training_script_writes_loadable_weights(tmp_path):
     from pipeline.segment.train import train
 
     out = tmp_path / "segmenter.pt"
+    # two validation objects, not the default 40: rendering them was most of this test's time
     record = train(2, 1, 0, out, images_per_batch=4, prompts_per_image=4, workers=1,
-                   views_per_object=2, network_config={"dim": 16, "widths": [8, 12, 16, 24, 32]})
+                   views_per_object=2, network_config={"dim": 16, "widths": [8, 12, 16, 24, 32]},
+                   validation_objects=2)
     assert record["parameters"] > 0 and record["epochs"] == 1
     segmenter = LearnedSegmenter.load(out)
     assert segmenter is not None
@@ -63,7 +65,7 @@ def test_training_script_writes_loadable_weights(tmp_path):
     # their own first object (seed 0), and every epoch but the last leaves a checkpoint
     more = tmp_path / "more.pt"
     again = train(2, 2, 5, more, images_per_batch=4, prompts_per_image=4, workers=1,
-                  views_per_object=2, lr=1e-3, init=out, rehearse=1)
+                  views_per_object=2, lr=1e-3, init=out, rehearse=1, validation_objects=2)
     assert again["previous"]["seed"] == 0 and again["seed"] == 5 and again["lr"] == 1e-3
     assert again["rehearsal"]["seed"] == 0 and again["views"] == 2 * 2 + 1 * 2
     assert LearnedSegmenter.load(tmp_path / "more.epoch1.pt").config["training"]["epochs"] == 1

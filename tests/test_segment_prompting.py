@@ -364,6 +364,87 @@ def test_an_open_panels_strip_in_other_labels_goes_to_the_panel():
     assert claim_panels(cloud, labels, 0.02)[1] == []
 
 
+def test_a_handle_and_a_flaps_edge_standing_out_of_the_carcass_go_to_the_flap():
+    """A flap tipped 40 degrees forward about its bottom edge on a carcass's front: its
+    handle (a bar in front of it) and its side edge (facing along the hinge, a carcass axis)
+    went to the carcass's label and stand past its front frame; both go to the flap. A table
+    top overhanging the front by 4 cm, above a drawer pulled out beneath it, is the
+    carcass's and stays; without the frame (nothing faces out of the front) nothing moves."""
+    from pipeline.compartments import give_protrusions
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    step = 0.02
+    carcass = [_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
+               _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
+               _grid(0.64, 0.8, (-0.3, -0.4, 0.4), x, y),  # the top, 4 cm over the front
+               _grid(0.8, 0.04, (0.3, -0.4, -0.4), y, z)]  # the front frame's bottom rail
+    carcass_normals = [x, y, y, z, z, x]
+    a = np.radians(40)
+    up, out = np.array((np.sin(a), 0, np.cos(a))), np.array((np.cos(a), 0, -np.sin(a)))
+    flap = _grid(0.5, 0.3, (0.3, -0.4, 0.0), y, up)
+    edge = _grid(0.3, 0.02, (0.3, -0.4, 0.0), up, out)  # its side, facing -y
+    handle = _grid(0.2, 0.04, (0.3, -0.25, 0.0) + 0.25 * up + 0.03 * out, y, up)
+    drawer = _grid(0.4, 0.1, (0.45, -0.1, 0.28), y, z)  # its front, 15 cm out, under the top
+    cloud = np.concatenate([*carcass, flap, edge, handle, drawer])
+    n = np.cumsum([0, *map(len, carcass), len(flap), len(edge), len(handle), len(drawer)])
+    truth = np.concatenate([np.ones(n[6], int), np.full(n[9] - n[6], 2),
+                            np.full(n[10] - n[9], 3)])
+    normals = np.concatenate([np.tile(v, (len(c), 1))
+                              for v, c in zip(carcass_normals, carcass, strict=True)]
+                             + [np.tile(out, (len(flap), 1)), np.tile(y, (len(edge), 1)),
+                                np.tile(up, (len(handle), 1)), np.tile(x, (len(drawer), 1))])
+    labels = truth.copy()
+    # the edge and the handle in the carcass's label, past its frame (the edge's first
+    # spacing, where it meets the frame, is the carcass's to the masks and to this rule)
+    taken = np.zeros(len(cloud), bool)
+    taken[n[7]:n[9]] = cloud[n[7]:n[9], 0] > 0.3 + step
+    labels[taken] = 1
+    normals = normals.astype(float)
+    moved_labels, moved = give_protrusions(cloud, labels, step, normals=normals)
+    assert np.array_equal(moved_labels, truth)
+    assert sorted(m["points"] for m in moved) == sorted(
+        [taken[n[7]:n[8]].sum(), taken[n[8]:n[9]].sum()])
+    # exact labels are left alone; without measured normals nothing moves
+    assert give_protrusions(cloud, truth, step, normals=normals)[1] == []
+    assert give_protrusions(cloud, labels, step)[1] == []
+    rail = np.arange(n[5], n[6])
+    open_front = np.delete(np.arange(len(cloud)), rail)
+    assert give_protrusions(cloud[open_front], labels[open_front], step,
+                            normals=normals[open_front])[1] == []
+
+
+def test_a_drawer_cut_into_its_front_and_its_side_is_one_part_again():
+    """A drawer pulled 15 cm out of a carcass, its side in a label of its own (inside the
+    front's box): merged into the front. Two doors side by side, and a patch of the carcass's
+    floor inside the carcass, keep their labels."""
+    from pipeline.compartments import merge_nested
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = np.concatenate([_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z),
+                              _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
+                              _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+                              _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
+                              _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)])
+    front = _grid(0.3, 0.2, (0.45, 0.05, -0.3), y, z)
+    bottom = _grid(0.5, 0.3, (-0.05, 0.05, -0.3), x, y)
+    side = _grid(0.5, 0.18, (-0.05, 0.05, -0.28), x, z)
+    doors = [np.concatenate([_grid(0.36, 0.3, (d, w, 0.05), y, z) for d in (0.32, 0.34)])
+             for w in (-0.38, 0.02)]  # each door's two faces, swung out square
+    cloud = np.concatenate([carcass, front, bottom, side, *doors])
+    n = np.cumsum([0, len(carcass), len(front), len(bottom), len(side), *map(len, doors)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[3]] = 2  # the drawer's front and bottom
+    labels[n[3]:n[4]] = 3  # its side, cut off
+    labels[n[4]:n[5]], labels[n[5]:n[6]] = 4, 5
+    out, moved = merge_nested(cloud, labels, 0.02)
+    assert (out[n[1]:n[4]] == out[n[1]]).all() and len(np.unique(out)) == 4
+    assert moved == [{"part": 3, "points": len(side), "merged_into": 2}]
+    # the doors beside each other, and a drawer left shut (inside the carcass), stay apart
+    shut = cloud.copy()
+    shut[n[1]:n[4], 0] -= 0.16
+    assert merge_nested(shut, labels, 0.02)[1] == []
+
+
 def test_a_turned_panel_is_found_the_same_every_time():
     """The plane of a noisy door swung 40 degrees is found, and found identically on a
     second call (open3d's segment_plane, seeded, returned other planes run to run)."""

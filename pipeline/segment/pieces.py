@@ -32,7 +32,7 @@ class PieceOptions:
     min_points: int = 5  # a piece of fewer points tells nothing of where it belongs
 
 
-def _components(points: np.ndarray, radius: float) -> np.ndarray:
+def linked_components(points: np.ndarray, radius: float) -> np.ndarray:
     """Connected-component index of every point, points within ``radius`` linked."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -68,7 +68,7 @@ def reassign_detached(cloud: np.ndarray, labels: np.ndarray, spacing: float,
         index = np.nonzero(labels == label)[0]
         if len(index) < 2:
             continue
-        piece = _components(cloud[index], radius)
+        piece = linked_components(cloud[index], radius)
         sizes = np.bincount(piece)
         if len(sizes) < 2:
             continue

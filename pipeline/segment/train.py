@@ -234,7 +234,8 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
           network_config: dict | None = None, lr: float = 3e-3,
           cache_dir: Path | None = None, init: Path | None = None,
           cameras: tuple[str, ...] = SHIPPED_CAMERAS,
-          sensors: tuple[str, ...] = SHIPPED_SENSORS, rehearse: int = 0) -> dict:
+          sensors: tuple[str, ...] = SHIPPED_SENSORS, rehearse: int = 0,
+          validation_objects: int | None = None) -> dict:
     """Train (or, with ``init``, go on training) and save to ``out``; after every epoch but
     the last the weights so far go beside it (``NAME.epochK.pt``), to compare or resume.
 
@@ -242,7 +243,8 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
     theirs were (their record's seed, cameras and sensors), to the new views: fine-tuning on
     other paths and sensors alone makes the network forget what it did well (issue 20's
     first fine-tuning lost 0.035 mask IoU on the clean front arc with 1/16 of its views
-    drawn so)."""
+    drawn so). ``validation_objects``: how many held-out objects the validation renders
+    (default 40, or 1 in 20 of the training objects where that is more)."""
     import torch
 
     from .network import build_network
@@ -263,7 +265,7 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
     views = _cached(cache_dir, f"train_{n_objects}_{seed}_{views_per_object}{mix}",
                     lambda: make_views(n_objects, seed, views_per_object, workers, cameras,
                                        sensors))
-    n_val = max(40, n_objects // 20)
+    n_val = validation_objects or max(40, n_objects // 20)
     val = _cached(cache_dir, f"val_{n_val}_{seed + 7919}{mix}",
                   lambda: make_views(n_val, seed + 7919, 2, workers, cameras, sensors))
     rehearsal = None
@@ -374,6 +376,9 @@ def main(argv=None) -> None:
     p.add_argument("--rehearse", type=int, default=0,
                    help="with --init: also train on this many of the initial weights' own "
                         "training objects, drawn as theirs were (so it does not forget them)")
+    p.add_argument("--validation-objects", type=int, default=None,
+                   help="held-out objects to validate on (default 40, or 1 in 20 of "
+                        "--objects where that is more)")
     args = p.parse_args(argv)
     if args.rehearse and args.init is None:
         p.error("--rehearse needs --init: it replays the initial weights' own data")
@@ -381,6 +386,7 @@ def main(argv=None) -> None:
                    cache_dir=args.cache_dir, lr=args.lr, init=args.init,
                    cameras=tuple(args.cameras.split(",")),
                    sensors=tuple(args.sensors.split(",")), rehearse=args.rehearse,
+                   validation_objects=args.validation_objects,
                    network_config={"dim": args.dim,
                                    "widths": [int(w) for w in args.widths.split(",")],
                                    "fine": args.fine})
