@@ -393,9 +393,9 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
         with_stop = [] if has_stop else [p for p in scored if any(e.name == "limit" for e in p)]
         chosen = [p for p in scored if p not in with_stop][:SCREEN_BLIND if blind
                                                             else screen_top]
-        for base in chosen[:1] + [current.effects]:  # each with each possible stop
-            chosen += [q for q in with_stop if set(_key(base)) <= set(_key(q))
-                       and len(q) == len(base) + 1 and q not in chosen]
+        for without in chosen[:1] + [current.effects]:  # each with each possible stop
+            chosen += [q for q in with_stop if set(_key(without)) <= set(_key(q))
+                       and len(q) == len(without) + 1 and q not in chosen]
         new = []
         warm = _warm_start(current)
         lost = not _follows(problem, current)
