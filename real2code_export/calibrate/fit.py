@@ -120,11 +120,13 @@ class Fit:
 
 
 def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int = 20,
-                  refine: bool = True, warm: dict[str, float] | None = None) -> Fit:
+                  refine: bool = True, warm: dict[str, float] | None = None,
+                  second_start: bool = True) -> Fit:
     """Fit one candidate structure (an empty tuple: the nominal model, initial state only);
     ``refine``: also measure the replay's numerical error (:func:`refine_fit`); ``warm``:
     start values (by parameter key) from a fit already made, the inverse dynamics
-    starting the rest."""
+    starting the rest; ``second_start``: a stop's fit that leaves more than the noise is
+    started again from its approach (:func:`_second_start`)."""
     effects = tuple(sorted(effects, key=lambda e: (e.joint, e.name)))
     start = equation_fit(problem, effects) if effects else None
     params = [p for e in effects for p in e.params]
@@ -176,7 +178,7 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
     if len(x0):
         n = int(ev.offsets[-1]) + len(problem.links) * len(problem.joints)
         res = _solve(fun, jac, x0, lb_a, ub_a, max_nfev, n)
-        if 2 * res.cost / n > SECOND_START:
+        if second_start and 2 * res.cost / n > SECOND_START:
             res = _second_start(ev, params, res, fun, jac, lb_a, ub_a, max_nfev, n)
         x_star = res.x
         jmat = res.jac
@@ -309,12 +311,13 @@ def _before_impact(ev: Evaluator, params, x: np.ndarray) -> np.ndarray | None:
 def _start_limit_softness(ev: Evaluator, params, x0: np.ndarray, scales: np.ndarray
                           ) -> np.ndarray:
     """An end stop's softness has local minima: start from the best of a small grid of
-    time constants and damping ratios (one rollout each, in one batch)."""
+    time constants and damping ratios and the given start (a fit continued from its own
+    values must not lose them; one rollout each, in one batch)."""
     idx_tc = [i for i, p in enumerate(params) if p.name == "limit_timeconst"]
     idx_dr = [i for i, p in enumerate(params) if p.name == "limit_dampratio"]
     if not idx_tc:
         return x0
-    points = []
+    points = [x0.copy()]
     for tc in SOFTNESS_TIMECONSTS:
         for dr in SOFTNESS_DAMPRATIOS:
             x = x0.copy()

@@ -12,7 +12,10 @@ are tried together. A structure with an effect that is not there beside the othe
 tried without it (the search only adds: a refinement may make an earlier effect redundant);
 where no structure of a step passes, the best is fitted once more from its own
 inverse-dynamics start (from the current model's values it may stop in that model's
-minimum), and the next best-screened are fitted too. An effect whose interval reaches
+minimum), and the next best-screened are fitted too, those the screen prefers to the
+current model. A structure with an end stop is started from the same structure without
+it and fitted on only if the stop pays for itself within a few evaluations (each replay
+of a stop steps through its impacts). An effect whose interval reaches
 absence is still there where the structure fitted without it is worse by BIC. The search
 stops when no extension earns its parameters: nothing is forced onto
 the data; and where no structure's replay follows every run (a person moves the joint),
@@ -269,6 +272,24 @@ def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
     return best
 
 
+def _with_stop(problem: Problem, p: tuple[Effect, ...], base: Fit, warm: dict[str, float],
+               fits: dict, log: list[str]) -> Fit:
+    """Structure ``p``, ``base`` with a stop: started from ``base``'s values (the stop at
+    the edge of the data changes its replay little at first) and looked at for LOOK_NFEV
+    evaluations; fitted to the end only if the stop already pays for its parameters by BIC
+    there. A stop the data show explains its impacts at once; one they do not show costs
+    a dozen fits of a structure without it to find so (each replay steps through the
+    impacts with the stop's softness from a grid)."""
+    look = fit_candidate(problem, p, refine=False, warm={**warm, **base.values},
+                         max_nfev=LOOK_NFEV, second_start=False)
+    n_ref = _n_ref([*fits.values(), look])
+    if look.bic(n_ref) < base.bic(n_ref):
+        return fit_candidate(problem, p, refine=False, warm=dict(look.values))
+    log.append(f"{'+'.join(look.names)}: the stop does not pay within {LOOK_NFEV} "
+               f"evaluations from {'+'.join(base.names) or 'the nominal model'}, not fitted on")
+    return look
+
+
 def _warm_start(current: Fit) -> dict[str, float]:
     """Start values from the current model: its parameters, and direction-dependent
     friction started from the symmetric friction it refines. (Initial states start from
@@ -364,22 +385,28 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                            f"replay decides among the {SCREEN_BLIND} best-screened at each step")
         # Structures with an end stop cannot be scored by the inverse dynamics (it leaves
         # the impacts out), and while a detected stop is not modelled every other
-        # structure misses it: fit the best-screened ones with and without the stop.
+        # structure misses it: fit the best-screened ones with and without the stop, and
+        # the current model with each stop. (Not every structure one richer with a stop:
+        # one that swaps an effect and adds a stop makes two changes at once, and is
+        # reached in two steps if the stop is there; each stop fit costs ten others.)
         has_stop = any(e.name == "limit" for e in current.effects)
         with_stop = [] if has_stop else [p for p in scored if any(e.name == "limit" for e in p)]
         chosen = [p for p in scored if p not in with_stop][:SCREEN_BLIND if blind
                                                             else screen_top]
-        if chosen:  # the best-screened structure, with each possible stop
-            chosen += [q for q in with_stop if set(_key(chosen[0])) <= set(_key(q))
-                       and len(q) == len(chosen[0]) + 1]
-        chosen += [q for q in with_stop if len(q) == len(current.effects) + 1
-                   and q not in chosen]
+        for without in chosen[:1] + [current.effects]:  # each with each possible stop
+            chosen += [q for q in with_stop if set(_key(without)) <= set(_key(q))
+                       and len(q) == len(without) + 1 and q not in chosen]
         new = []
         warm = _warm_start(current)
         lost = not _follows(problem, current)
         for p in chosen:
-            f = fit_candidate(problem, p, refine=False, warm=warm,
-                              **({"max_nfev": LOOK_NFEV} if lost else {}))
+            base = None if lost else fits.get(_key(tuple(e for e in p if e.name != "limit")))
+            if base is not None and len(base.effects) < len(p):
+                f = _with_stop(problem, p, base, warm, fits, log)
+            else:
+                f = fit_candidate(problem, p, refine=False, warm=warm,
+                                  **({"max_nfev": LOOK_NFEV, "second_start": False}
+                                     if lost else {}))
             if lost and _follows(problem, f):  # back on the data: fitted to the end
                 f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
             fits[_key(p)] = f
@@ -420,11 +447,18 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             # the screen's best may all miss where the residual is far above the noise (a
             # damping the equation error ranks below two offsets whose own replays stay
             # where the nominal one was): the next best-screened are fitted too, as where
-            # the screen is blind, before the search gives up on this step
-            more = [p for p in scored if p not in with_stop and _key(p) not in fits]
+            # the screen is blind, before the search gives up on this step; only those the
+            # screen prefers to the current model (the rest the screen itself rejects)
+            here = _key(current.effects)
+            if here not in screened:
+                screened[here] = equation_fit(problem, current.effects)
+            screen_ref = _n_ref(screened.values())
+            more = [p for p in scored if p not in with_stop and _key(p) not in fits
+                    and screened[_key(p)].bic(screen_ref) < screened[here].bic(screen_ref)]
             for p in more[:SCREEN_BLIND - screen_top]:
                 f = fit_candidate(problem, p, refine=False, warm=warm,
-                                  **({"max_nfev": LOOK_NFEV} if lost else {}))
+                                  **({"max_nfev": LOOK_NFEV, "second_start": False}
+                                     if lost else {}))
                 if lost and _follows(problem, f):
                     f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
                 fits[_key(p)] = f
