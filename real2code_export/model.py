@@ -405,10 +405,11 @@ class ArticulatedObject:
         """The joints posed by one value (ball and floating joints are not among them)."""
         return [j for j in self.joints if j.type.movable]
 
-    def joints_in_tree_order(self) -> Iterator[Joint]:
+    def joints_in_tree_order(self, tree: Tree | None = None) -> Iterator[Joint]:
         """Joints in depth-first pre-order from the root (children in declaration order):
-        every joint comes after its parent's joint, as in Pinocchio."""
-        children = self.tree().children
+        every joint comes after its parent's joint, as in Pinocchio (``tree``: the object's
+        :class:`Tree` where the caller has built it)."""
+        children = (tree or self.tree()).children
         stack = list(reversed(children[self.root.name]))
         while stack:
             joint = stack.pop()
@@ -416,9 +417,9 @@ class ArticulatedObject:
             stack.extend(reversed(children.get(joint.child, ())))
 
     def parts_in_tree_order(self) -> list[Part]:
-        parts = self.tree().parts
-        order = [self.root.name] + [j.child for j in self.joints_in_tree_order()]
-        return [parts[n] for n in order]
+        tree = self.tree()  # one index for both walks
+        order = [self.root.name] + [j.child for j in self.joints_in_tree_order(tree)]
+        return [tree.parts[n] for n in order]
 
     def frame_parts(self) -> set[str]:
         """Frames: parts with no mass and no geometry, fixed to their parent, with no part
