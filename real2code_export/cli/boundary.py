@@ -6,6 +6,7 @@ warnings are printed once each."""
 
 from __future__ import annotations
 
+import re
 import sys
 import warnings
 
@@ -26,16 +27,17 @@ def call(func, args) -> int:
             text = e.strerror or str(e)
             return _fail(caught, f"error: {where}: {text}" if where else f"error: {text}",
                          EXIT_ERROR)
-        except ImportError as e:
-            library = _library(e)
-            if library is None:  # one of our own modules: a bug
-                return _internal(caught, e)
-            return _fail(caught, f"error: this command needs {library}, which cannot be "
-                         f"imported here ({type(e).__name__}: {e})", EXIT_ERROR)
         except KeyboardInterrupt:
             return _fail(caught, "interrupted", EXIT_INTERRUPTED)
         except Exception as e:  # noqa: BLE001 - the boundary: a bug, reported, never raw
-            return _internal(caught, e)
+            # A library that cannot be imported, raised as such or while a library handled
+            # it (trimesh takes scipy's absence for a degenerate input and fails on that).
+            failed = _failed_import(e)
+            library = _library(failed) if failed is not None else None
+            if library is None:  # none, or one of our own modules: a bug
+                return _internal(caught, e)
+            return _fail(caught, f"error: this command needs {library}, which cannot be "
+                         f"imported here ({type(failed).__name__}: {failed})", EXIT_ERROR)
     _print_warnings(caught)
     return status
 
@@ -43,10 +45,25 @@ def call(func, args) -> int:
 OURS = ("real2code_export", "pipeline", "blender_addon")
 
 
+def _failed_import(e: BaseException) -> ImportError | None:
+    """``e`` if it is an ImportError, else the first one it was raised from or while
+    handling, or None."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, ImportError):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
+
+
 def _library(e: ImportError) -> str | None:
     """The third-party package whose import failed (its top-level name), or None when the
     import that failed is one of ours or cannot be told."""
     name = e.name
+    if name is None:  # re-raised by a library from its arguments (trimesh): the message
+        said = re.match(r"No module named '([^']+)'", str(e))
+        name = said.group(1) if said else None
     if name is None:  # raised by hand inside a package's import: the innermost package
         tb, names = e.__traceback__, []
         while tb is not None:
