@@ -6,9 +6,12 @@ against this one's, alternating run by run so a busy machine slows both alike; t
                                                 # its gltf_validator/node_modules for check)
     .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] check DIR [DIR ...]
     .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] export FILE [FILE ...]
+    .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] export-check FILE [FILE ...]
 
 ``check DIR``: ``real2code check`` of every file in DIR (an export's folder); ``export
-FILE``: ``real2code export FILE --to usd`` into a temporary folder. Both checkouts run in the
+FILE``: ``real2code export FILE --to usd`` into a temporary folder; ``export-check FILE``:
+each side exports FILE (every default format) with its own code once, then ``real2code
+check`` of its own export is timed (a change to what the export writes). Both checkouts run in the
 same console script and interpreter, each chosen by ``PYTHONPATH``; both are byte-compiled
 first, as ``pip install`` does (a stale ``__pycache__`` would make one of them compile its
 modules from source on every run).
@@ -42,11 +45,15 @@ def _cpu(command: list[str], tree: Path) -> float:
     return after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
 
 
+def _files(folder: Path) -> list[str]:
+    return sorted(str(f) for f in folder.iterdir() if f.is_file())
+
+
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--before", required=True, type=Path, help="the other checkout")
     p.add_argument("--repeat", type=int, default=5)
-    p.add_argument("command", choices=["check", "export"])
+    p.add_argument("command", choices=["check", "export", "export-check"])
     p.add_argument("inputs", nargs="+", type=Path)
     args = p.parse_args()
     ours = shutil.which("real2code", path=str(Path(sys.executable).parent)) or "real2code"
@@ -57,16 +64,23 @@ def main() -> None:
     print(f"| {args.command} | before ({trees['before']}) | after ({REPO}) |")
     print("|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for item in args.inputs:
+        for k, item in enumerate(args.inputs):
             if args.command == "check":
-                command = [ours, "check", *sorted(str(f) for f in item.iterdir() if f.is_file())]
+                commands = dict.fromkeys(trees, [ours, "check", *_files(item)])
+            elif args.command == "export":
+                commands = dict.fromkeys(trees, [ours, "export", str(item), "--to", "usd",
+                                                 "--out", f"{tmp}/out"])
             else:
-                command = [ours, "export", str(item), "--to", "usd", "--out", f"{tmp}/out"]
+                commands = {}
+                for name, tree in trees.items():
+                    out = Path(tmp) / name / str(k)
+                    _cpu([ours, "export", str(item), "--out", str(out)], tree)
+                    commands[name] = [ours, "check", *_files(out)]
             cpu: dict[str, list[float]] = {name: [] for name in trees}
             for _ in range(args.repeat):
                 for name, tree in trees.items():
                     shutil.rmtree(f"{tmp}/out", ignore_errors=True)
-                    cpu[name].append(_cpu(command, tree))
+                    cpu[name].append(_cpu(commands[name], tree))
             print(f"| `{item.name}` | " + " | ".join(
                 f"{statistics.median(v):.3f} ({min(v):.3f})" for v in cpu.values()) + " |",
                 flush=True)
