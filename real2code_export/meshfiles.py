@@ -406,8 +406,8 @@ def _welded(corners: np.ndarray) -> Mesh:
     """Triangles given corner by corner as a mesh whose equal corners are one vertex, in the
     order first met: MuJoCo's reading of an STL. An STL holds every vertex once per triangle
     that uses it (about 6 times); kept so, every file written from it (OBJ, USD, glTF) held
-    them all and every tool that reads those read them all: MuJoCo's compile and hull of
-    robotiq_2f85's export took twice as long."""
+    them all and every tool that reads those read them all (MuJoCo compiling such an export
+    took twice as long; docs/benchmarks.md)."""
     order = np.lexsort(corners.T[::-1])  # stable: a run of equal corners in file order
     ordered = corners[order]
     starts = np.ones(len(order), dtype=bool)
