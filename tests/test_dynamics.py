@@ -19,18 +19,12 @@ from real2code_export.dynamics.run import ENGINES, REFERENCE, compare, simulate_
 from real2code_export.formats import export, load, object_json
 
 from conftest import REPO
+from helpers import laptop_with_laws
 
 
 @pytest.fixture(scope="module")
 def laptop(tmp_path_factory):
-    """A small object: a hinge under gravity, light to simulate, observed part open (our MJCF
-    then writes ref = the state, which engines must not take for the joint value)."""
-    folder = tmp_path_factory.mktemp("laptop")
-    obj = generate("laptop", seed=3)
-    for j in obj.movable_joints:  # the laws experiment must have laws to apply
-        j.dynamics.damping, j.dynamics.friction = 0.05, 0.02
-        j.state = j.limits.lower + 0.3 * (j.limits.upper - j.limits.lower)
-    return object_json.save(obj, folder)
+    return object_json.save(laptop_with_laws(), tmp_path_factory.mktemp("laptop"))
 
 
 # The engines that agree with MuJoCo in every experiment (docs/engines.md); PhysX and Newton
@@ -84,21 +78,6 @@ def test_newton_featherstone_swings_and_stops_as_mujoco(tmp_path):
     assert runs["swing"].max_angle < 1e-3
     assert runs["limit"].status == "ok", runs["limit"].per_joint
     assert runs["limit"].max_angle < 3e-3
-
-
-def test_genesis_agrees_with_mujoco(laptop):
-    """Genesis (.venv-genesis, scripts/setup_genesis.sh): an armature of 0 kept 0, MuJoCo's
-    Euler, the joint values of the step just taken. From the MJCF its free swing is MuJoCo's
-    to 1e-9 (a one-step lag would be 1e-3); from the URDF, its laws, armature and limit
-    softness set, it stops as MuJoCo. Every run in one Genesis process (importing it alone
-    is ~18 s of CPU)."""
-    report = simulate_file(laptop, ["genesis-mjcf", "genesis-urdf"], ["swing", "limit"])
-    by = {(r.experiment, r.engine): r for r in report.runs if r.engine.startswith("Genesis")}
-    if any(r.status == "skipped" for r in by.values()):
-        pytest.skip(next(iter(by.values())).message)
-    assert len(by) == 4 and all(r.status == "ok" for r in by.values()), by
-    assert by["swing", "Genesis (MJCF)"].max_angle < 1e-9
-    assert by["limit", "Genesis (URDF)"].max_angle < 1e-3
 
 
 @pytest.mark.parametrize("end", ["lower", "upper"])
