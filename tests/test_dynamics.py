@@ -114,15 +114,18 @@ def test_mujocos_limit_takes_the_whole_approach_velocity(tmp_path):
     deeper) MuJoCo let 1 % of the approach through each step: 9.3e-2 rad from Bullet.
     Pinocchio's stop acts in the step that would cross the limit: off MuJoCo's at 1 ms and
     off the converged motion too (the flap grazes its stop and the kinds part: no step
-    agrees), so it disagrees."""
+    agrees), so it disagrees. That motion is uncertain by more than the tolerance here (its
+    run at 1/16 step ends elsewhere): it decides nothing, MuJoCo at the step stays the
+    reference, and Bullet agrees."""
     report = simulate_file(flap(tmp_path), ["bullet", "pinocchio"], ["limit"])
     by = {r.engine: r for r in report.runs}
     assert by["Pinocchio (URDF)"].status == "disagree"
     assert by["Pinocchio (URDF)"].converged[0] > 0.01
+    assert "judged by the converged motion" not in by["MuJoCo (MJCF)"].message
     run = by["Bullet (URDF)"]
     if run.status == "skipped":
         pytest.skip(run.message)
-    assert run.max_angle < 1e-3, run.per_joint
+    assert run.max_angle < 1e-3 and run.status == "ok", (run.per_joint, run.status)
 
 
 def test_a_stop_hit_at_speed_is_judged_against_the_converged_motion(tmp_path):
