@@ -45,21 +45,6 @@ def test_every_engine_agrees_with_mujoco(laptop):
     assert report.ok
 
 
-def test_newton_agrees_at_a_limit(laptop):
-    """Newton (its MuJoCo solver) reads our MJCF's and USD's limit softness (the URDF's is
-    set as MuJoCo's is), and its USD limits are not shifted by mjc:ref: a joint thrown into
-    its limit stops as in MuJoCo, not on Newton's default spring. The three files in one
-    Newton process (its start-up is most of a run's cost)."""
-    report = simulate_file(laptop, ["newton-mjcf", "newton-usd", "newton-urdf"], ["limit"])
-    runs = [r for r in report.runs if r.engine.startswith("Newton")]
-    if runs[0].status == "skipped":
-        pytest.skip(runs[0].message)
-    assert len(runs) == 3
-    for newton in runs:
-        assert newton.status == "ok", (newton.engine, newton.message)
-        assert newton.max_angle < 1e-3, newton.engine
-
-
 def test_newton_featherstone_swings_and_stops_as_mujoco(tmp_path):
     """Newton's own solver from the USD, its body damping off: rigid-body dynamics alone
     agree; its limit, a spring, told a stiffness and damping from each joint's effective
