@@ -7,8 +7,9 @@ Objects: the shipped cabinet (pipeline/samples/cabinet, the demo's ground truth)
 given (--demo DIR/object.json), one generated object of each of 5 categories, and the first
 5 dev PartNet-Mobility objects (../shared/data; skipped when absent). For every object and
 engine: the worst joint error against MuJoCo's MJCF over the three experiments (swing, laws,
-limit; 2 s at 1 ms), where it was needed the worst against the converged motion (MuJoCo at
-1/64 step: `real2code simulate`'s second arm), and the engine's wall time beside MuJoCo's
+limit; 2 s at 1 ms), the worst against the converged motion in `limit` (MuJoCo at 1/64
+step: `real2code simulate`'s reference where MuJoCo at the step has not converged), the
+verdict as `simulate` gives it, and the engine's wall time beside MuJoCo's
 (a ratio from one run; an engine's start-up counts once per object: one process a module).
 With the contact experiments (drop, shut) each engine is judged alone, MuJoCo included: a
 cell says whether every box stayed in its drawer and every door stopped at its frame.

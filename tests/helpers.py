@@ -63,3 +63,16 @@ def small_cabinet() -> ArticulatedObject:
     ]
     return ArticulatedObject("small_cabinet", [body, door, drawer, handle, knob], joints,
                              metadata={"category": "storage_furniture", "source": "tests"})
+
+
+def laptop_with_laws() -> ArticulatedObject:
+    """A small object for the dynamic check: one hinge under gravity, light to simulate,
+    observed part open (our MJCF then writes ref = the state, which engines must not take
+    for the joint value), with damping and dry friction for the laws experiment."""
+    from pipeline.procedural import generate
+
+    obj = generate("laptop", seed=3)
+    for j in obj.movable_joints:
+        j.dynamics.damping, j.dynamics.friction = 0.05, 0.02
+        j.state = j.limits.lower + 0.3 * (j.limits.upper - j.limits.lower)
+    return obj

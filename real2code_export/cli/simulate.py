@@ -1,6 +1,6 @@
 """``simulate``: the same experiments in every engine, each from its native file, compared
-with MuJoCo at the step and, where beyond tolerance of it, with the converged motion (the
-dynamic check)."""
+with MuJoCo at the step or, at a stop where that has not converged, with the converged
+motion (the dynamic check)."""
 
 from __future__ import annotations
 
@@ -19,8 +19,8 @@ def _names(text: str | None) -> list[str] | None:
 def add_parsers(sub) -> None:
     s = sub.add_parser(
         "simulate", help="the same experiments in every engine, each from its native file, "
-        "compared with MuJoCo at the step and, where beyond tolerance of it, with the "
-        "converged motion (exit 1 beyond tolerance of both)")
+        "compared with MuJoCo at the step or, at a stop where that has not converged, with "
+        "the converged motion (exit 1 beyond tolerance)")
     s.add_argument("input", help=model_help("the object's model file"))
     s.add_argument("--engines", help="comma-separated engines (default: all; those not "
                    "installed are skipped; the list: docs/engines.md)")

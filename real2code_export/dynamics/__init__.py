@@ -48,6 +48,9 @@ class Experiment:
     boxes: tuple[tuple[float, float, float], ...] = ()
     box_size: float = 0.05
     box_mass: float = 0.1
+    # its joints meet their limits: engines whose stops look a step ahead and those whose
+    # act once a joint is past its limit part there (run.py judges it by the converged motion)
+    stops: bool = False
 
     @property
     def steps(self) -> int:

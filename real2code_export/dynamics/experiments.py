@@ -100,7 +100,7 @@ def limit(obj: ArticulatedObject) -> tuple[ArticulatedObject, Experiment]:
         distance, sign = (up, 1.0) if up <= down else (down, -1.0)
         v0.append(sign * max(LIMIT_MIN_SPEED[j.type.angular], distance / LIMIT_REACH_TIME))
     variant = _without_collision(obj)
-    return variant, _experiment("limit", variant, v0)
+    return variant, _experiment("limit", variant, v0, stops=True)
 
 
 EXPERIMENTS = {"swing": swing, "laws": laws, "limit": limit}
