@@ -20,6 +20,7 @@ from real2code_export.model import (
     Dynamics,
     Joint,
     Limits,
+    Mesh,
     Part,
     differences,
     forward_kinematics,
@@ -329,6 +330,45 @@ def test_the_mesh_arrays_are_a_binary_layer_beside_the_text(tmp_path):
     mesh_layer.unlink()
     with pytest.raises(FormatError, match=f"sublayers.*{obj.name}.usdc"):
         usd.load(path)
+
+
+def test_a_box_shades_flat_and_a_cylinder_smooth(tmp_path):
+    """A visual mesh's normals are split along creases (indexed, face-varying), as glTF's:
+    a box's 8 shared corners shade flat, each corner with its face's normal, where a
+    renderer given no normals (Storm, Blender's importer) would smooth them into a blob; a
+    finely tessellated cylinder's side stays smooth."""
+    import trimesh
+    from pxr import UsdGeom
+
+    cylinder = trimesh.creation.cylinder(radius=0.05, height=0.2, sections=48)
+    obj = ArticulatedObject("shading", [
+        Part("box", visual=box_mesh([0.3, 0.2, 0.1]), inertial=box_inertial([0.3, 0.2, 0.1], 1.0)),
+        Part("drum", visual=Mesh(cylinder.vertices, cylinder.faces),
+             inertial=box_inertial([0.1, 0.1, 0.2], 1.0))],
+        [Joint("j", "fixed", "box", "drum", origin=tf.make(None, [0.0, 0.5, 0.0]))])
+    stage = Usd.Stage.Open(str(usd.save(obj, tmp_path, write_meshes=False)))
+    corner_normals = {}
+    for name in ("box", "drum"):
+        prim = stage.GetPrimAtPath(f"/shading/Geometry/{name}/{name}")
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
+        assert primvar.GetInterpolation() == "faceVarying" and primvar.IsIndexed()
+        corner_normals[name] = np.asarray(primvar.ComputeFlattened()).reshape(-1, 3, 3)
+    box = obj.part("box").visual
+    tri = box.vertices[box.faces]
+    face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    face /= np.linalg.norm(face, axis=1, keepdims=True)
+    np.testing.assert_allclose(corner_normals["box"], np.repeat(face[:, None], 3, axis=1),
+                               atol=1e-6)
+    side = np.abs(corner_normals["drum"][..., 2]) < 0.5  # corners on the side, not the caps
+    assert side.sum() > 100
+    assert np.abs(np.linalg.norm(corner_normals["drum"][side][:, :2], axis=1) - 1).max() < 1e-5
+    # smooth: each corner's normal near the radius through it (within 2 degrees, where a
+    # face's flat normal is 3.75 degrees from its corners' radii with 48 sections)
+    radial = cylinder.vertices[cylinder.faces][side][:, :2]
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    cosine = np.einsum("ij,ij->i", radial, corner_normals["drum"][side][:, :2])
+    assert np.degrees(np.arccos(np.clip(cosine, -1, 1))).max() < 2.0
+    assert _validation_errors(stage) == []
 
 
 @pytest.mark.partnet

@@ -1,5 +1,5 @@
 """Meshes and materials: a part's visual mesh (UsdGeom.Mesh bound to a UsdPreviewSurface
-with the part's linear colour) and its convex collision pieces (UsdGeom.Mesh with
+with the part's linear colour, its normals split along creases) and its convex collision pieces (UsdGeom.Mesh with
 PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
 renderers skip them). Geometry is in the part frame.
 Shapes (box, sphere, ellipsoid, cylinder, capsule) are UsdGeom Cube / Sphere / Cylinder /
@@ -34,6 +34,7 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import DEFAULT_COLOR, Mesh, Part, Texture
+from ...normals import creased_normals
 from ...primitives import Primitive, ShapeKind
 from .conventions import NAMESPACE
 from .layer import apply, attribute, connect, define, extent, place, relationship
@@ -66,7 +67,8 @@ def _define_mesh(layer, path: str, mesh: Mesh, *schemas: str):
 
 
 # what UsdGeom.Mesh holds per vertex or face, the bulk of a file: the binary layer's
-MESH_ARRAYS = ("points", "faceVertexCounts", "faceVertexIndices", f"primvars:{ST}")
+MESH_ARRAYS = ("points", "faceVertexCounts", "faceVertexIndices", f"primvars:{ST}",
+               "primvars:normals", "primvars:normals:indices")
 
 
 def move_mesh_arrays(layer):
@@ -194,6 +196,7 @@ def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, M
         return prim
     prim = _define_mesh(layer, path, mesh, *schemas)
     if visual:
+        _creased_normals(prim, mesh)
         if mesh.uv is not None:
             _texture_coordinates(prim, mesh.uv)
         visuals_written[path] = mesh
@@ -211,6 +214,21 @@ def _same_data(a: Mesh, b: Mesh, *, uv: bool) -> bool:
         return True
     return a.uv is not None and b.uv is not None and a.uv.shape == b.uv.shape \
         and np.array_equal(a.uv.astype(np.float32), b.uv.astype(np.float32))
+
+
+def _creased_normals(prim, mesh: Mesh) -> None:
+    """Normals split along creases, as glTF's (:mod:`real2code_export.normals`), as an
+    indexed face-varying primvar: one value per (vertex, smoothing group), one index per corner. Without them a
+    renderer smooths every shared vertex (Storm, Blender's importer): a box would shade as a
+    blob. Colliders get none: they are guides, never rendered."""
+    from pxr import Vt
+
+    split = creased_normals(mesh)
+    normals = attribute(prim, "primvars:normals", "Normal3fArray",
+                        Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(split.normals)))
+    normals.SetInfo("interpolation", "faceVarying")
+    attribute(prim, "primvars:normals:indices", "IntArray",
+              Vt.IntArray.FromNumpy(np.ascontiguousarray(split.indices.reshape(-1), dtype=np.int32)))
 
 
 def _texture_coordinates(prim, uv: np.ndarray) -> None:
