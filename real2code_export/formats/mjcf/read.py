@@ -188,6 +188,9 @@ class _Reader:
             if m.body_gravcomp[b]:  # a force MuJoCo applies, no law of the model's
                 self.note("gravity compensation (gravcomp) not carried: the model has no "
                           "place for it", f"{self._body_label(b)} ({float(m.body_gravcomp[b]):g})")
+            if m.body_mocapid[b] >= 0:  # moved by the user, not by the simulation
+                self.note("mocap bodies read as parts fixed where they stand (the model has "
+                          "no mocap bodies)", self._body_label(b))
             parent = int(m.body_parentid[b])
             body_pose = pose(m.body_pos[b], m.body_quat[b])
             if parent == 0 and not world_used:  # the root: its part frame is the world
@@ -633,6 +636,10 @@ class _Reader:
         if left:
             warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
                  f"{left}")
+        options = _own_options(m)
+        if options:
+            warn(f"{self.path}: <option> settings not carried (the model holds no simulation "
+                 f"options; every export leaves its tool's defaults): {', '.join(options)}")
 
     def _unread_counts(self) -> dict[str, int]:
         m = self.model
@@ -648,6 +655,37 @@ def _unjoined_exclusions(m) -> int:
     exclude those themselves)."""
     first, second = m.exclude_signature >> 16, m.exclude_signature & 0xFFFF
     return int(np.sum((m.body_parentid[second] != first) & (m.body_parentid[first] != second)))
+
+
+def _own_options(m) -> list[str]:
+    """The model's ``<option>`` values that are not MuJoCo's defaults, as ``name=value``
+    (flags as MJCF writes them: ``flag gravity=disable``)."""
+    import mujoco
+
+    default = mujoco.MjModel.from_xml_string("<mujoco/>").opt
+    enums = {"integrator": mujoco.mjtIntegrator, "cone": mujoco.mjtCone,
+             "jacobian": mujoco.mjtJacobian, "solver": mujoco.mjtSolver}
+    out = []
+    for name in dir(default):
+        value = getattr(m.opt, name)
+        if name.startswith("_") or callable(value) or \
+                np.array_equal(np.asarray(value), np.asarray(getattr(default, name))):
+            continue
+        if name in ("disableflags", "enableflags"):  # as <flag NAME="enable|disable"/>
+            bits = (mujoco.mjtDisableBit if name == "disableflags" else mujoco.mjtEnableBit)
+            said = ("disable", "enable") if name == "disableflags" else ("enable", "disable")
+            changed = int(value) ^ int(getattr(default, name))
+            out += [f"flag {key.split('_', 1)[1].lower()}="
+                    f"{said[0] if int(value) & int(bit) else said[1]}"
+                    for key, bit in bits.__members__.items()
+                    if not key.startswith("mjN") and changed & int(bit)]  # (mjN...: a count)
+        elif name in enums:  # by the keyword MJCF writes
+            keyword = next((k for k, v in enums[name].__members__.items() if int(v) == value),
+                           str(value))
+            out.append(f"{name}={keyword.split('_', 1)[-1].lower()}")
+        else:
+            out.append(f"{name}={' '.join(f'{v:g}' for v in np.atleast_1d(value))}")
+    return out
 
 
 # MuJoCo's defaults of a geom's contact: sliding, torsional and rolling friction; condim
