@@ -302,7 +302,8 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
 # What other people's MJCF files are made of: an <include>, meshes found through assetdir and
 # meshdir, angles in degrees turned in "zyx" order, a childclass and nested default classes,
 # fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation, a camera,
-# a light, a geom's own friction, simulation options and a mocap body (not imported, said so).
+# a light, a geom's own friction, a joint's own limit softness, simulation options and a
+# mocap body (not imported, said so).
 KINDS_MAIN = """<mujoco model="kinds">
   <compiler angle="degree" eulerseq="zyx" assetdir="assets" meshdir="assets/meshes"
             autolimits="true"/>
@@ -330,7 +331,7 @@ KINDS_ARM = """<mujoco>
         <joint name="shoulder" range="-45 90"/>
         <geom type="mesh" mesh="block"/>
         <body name="lower" pos="0.1 0 0" euler="0 30 45">
-          <joint name="elbow" class="stiff" range="0 120"/>
+          <joint name="elbow" class="stiff" range="0 120" solreflimit="0.05 1"/>
           <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02" friction="0.6"/>
           <geom type="cylinder" fromto="0 0 0 0 0 0.1" size="0.01" class="light"/>
         </body>
@@ -365,6 +366,7 @@ def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsy
             "export leaves its tool's defaults): flag gravity=disable, integrator=implicitfast, "
             "timestep=0.001") in said.err
     assert "mocap bodies read as parts fixed where they stand" in said.err
+    assert "1 joint (its own limit or friction softness" in said.err
 
 
 PLANAR = """<robot name="base_on_floor">

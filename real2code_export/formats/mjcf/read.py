@@ -631,8 +631,12 @@ class _Reader:
                        "custom tuple": m.ntuple, "camera": m.ncam, "light": m.nlight,
                        "contact pair": m.npair,
                        "contact exclusion (of bodies not joined)": _unjoined_exclusions(m),
-                       "collision geom (its own friction or condim: the model has no "
-                       "contact material)": _own_contact(m)})
+                       "collision geom (its own friction, condim, solref, solimp, margin, "
+                       "gap, priority or solmix: the model has no contact material)":
+                       _own_contact(m),
+                       "joint (its own limit or friction softness: solreflimit, solimplimit, "
+                       "margin, solreffriction or solimpfriction; the exports write the "
+                       "engines' common one, engine_settings)": _own_softness(m)})
         if left:
             warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
                  f"{left}")
@@ -688,15 +692,48 @@ def _own_options(m) -> list[str]:
     return out
 
 
-# MuJoCo's defaults of a geom's contact: sliding, torsional and rolling friction; condim
-_FRICTION, _CONDIM = (1.0, 0.005, 0.0001), 3
+def _defaults():
+    """A model of one body with one joint and one geom, each with MuJoCo's defaults."""
+    import mujoco
+
+    return mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><joint/><geom size="1"/></body></worldbody></mujoco>')
+
+
+def _differ(values: np.ndarray, *allowed) -> np.ndarray:
+    """Rows of ``values`` equal to none of ``allowed`` (each one row)."""
+    rows = np.asarray(values, dtype=float).reshape(len(values), -1)
+    return np.all([np.any(np.abs(rows - np.ravel(a)) > 1e-12, axis=1) for a in allowed], axis=0)
 
 
 def _own_contact(m) -> int:
-    """Collision geoms whose friction or contact dimension is not MuJoCo's default."""
+    """Collision geoms whose contact parameters (friction, condim, solref, solimp, margin,
+    gap, priority, solmix) are not MuJoCo's defaults."""
+    d = _defaults()
     colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
-    own = np.any(np.abs(m.geom_friction - _FRICTION) > 1e-12, axis=1) | (m.geom_condim != _CONDIM)
+    own = np.any([_differ(getattr(m, f), getattr(d, f)[0]) for f in
+                  ("geom_friction", "geom_condim", "geom_solref", "geom_solimp", "geom_margin",
+                   "geom_gap", "geom_priority", "geom_solmix")], axis=0)
     return int(np.sum(colliding & own))
+
+
+def _own_softness(m) -> int:
+    """Limited joints whose limit softness, and joints with dry friction whose friction
+    softness, is neither MuJoCo's default nor the one the exports write (engine_settings)."""
+    from ...engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
+
+    d = _defaults()
+    if m.njnt == 0:
+        return 0
+    limit = np.any([_differ(m.jnt_solref, d.jnt_solref[0], LIMIT_SOLREF),
+                    _differ(m.jnt_solimp, d.jnt_solimp[0], LIMIT_SOLIMP),
+                    _differ(m.jnt_margin, d.jnt_margin[0], LIMIT_MARGIN)], axis=0)
+    friction = np.zeros(m.njnt, dtype=bool)
+    rubbing = m.dof_frictionloss > 0
+    own = _differ(m.dof_solref, d.dof_solref[0], FRICTION_SOLREF) | \
+        _differ(m.dof_solimp, d.dof_solimp[0])
+    friction[m.dof_jntid[rubbing & own]] = True
+    return int(np.sum((limit & (m.jnt_limited != 0)) | friction))
 
 
 def world_part_name(custom: dict) -> str:
