@@ -303,10 +303,10 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
 # meshdir, angles in degrees turned in "zyx" order, a childclass and nested default classes,
 # fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation, a camera,
 # a light, a geom's own friction, a joint's own limit softness, simulation options and a
-# mocap body (not imported, said so).
+# mocap body (not imported, said so), a body without joints under fusestatic (kept).
 KINDS_MAIN = """<mujoco model="kinds">
   <compiler angle="degree" eulerseq="zyx" assetdir="assets" meshdir="assets/meshes"
-            autolimits="true"/>
+            autolimits="true" fusestatic="true"/>
   <option timestep="0.001" integrator="implicitfast"><flag gravity="disable"/></option>
   <default>
     <default class="arm">
@@ -334,6 +334,7 @@ KINDS_ARM = """<mujoco>
           <joint name="elbow" class="stiff" range="0 120" solreflimit="0.05 1"/>
           <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02" friction="0.6"/>
           <geom type="cylinder" fromto="0 0 0 0 0 0.1" size="0.01" class="light"/>
+          <body name="tool" pos="0.2 0.05 0"><geom type="box" size="0.01 0.01 0.01"/></body>
         </body>
       </body>
     </frame>
@@ -367,6 +368,7 @@ def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsy
             "timestep=0.001") in said.err
     assert "mocap bodies read as parts fixed where they stand" in said.err
     assert "1 joint (its own limit or friction softness" in said.err
+    assert "<compiler fusestatic='true'> (MuJoCo merges" in said.err
 
 
 PLANAR = """<robot name="base_on_floor">

@@ -76,6 +76,12 @@ def _compile(path: Path):
         raise _error(path, str(e)) from e
     given = give_meshes(spec, {mesh: _mesh_file(spec, mesh, path)
                                for mesh in spec.meshes if mesh.file})
+    if spec.compiler.fusestatic:  # a compile-time speed-up: the bodies stay as written
+        spec.compiler.fusestatic = False
+        warn(f"{path}: <compiler fusestatic='true'> (MuJoCo merges each body without joints "
+             "into its parent when it compiles): read without it, such bodies kept as parts "
+             "fixed to their parents, as the file writes them and the check compiles it; the "
+             "MJCF export does not set it")
     try:
         model = spec.compile()
     except ValueError as e:
