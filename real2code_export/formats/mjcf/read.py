@@ -728,9 +728,9 @@ def _own_softness(m) -> int:
     softness, is neither MuJoCo's default nor the one the exports write (engine_settings)."""
     from ...engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
 
-    d = _defaults()
     if m.njnt == 0:
         return 0
+    d = _defaults()
     limit = np.any([_differ(m.jnt_solref, d.jnt_solref[0], LIMIT_SOLREF),
                     _differ(m.jnt_solimp, d.jnt_solimp[0], LIMIT_SOLIMP),
                     _differ(m.jnt_margin, d.jnt_margin[0], LIMIT_MARGIN)], axis=0)
