@@ -649,7 +649,8 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
     names each, never drops it silently."""
     text = (FIXTURES / "floating_base.urdf").read_text().replace(
-        "</robot>", '<material name="skin"><texture filename="skin.png"/></material></robot>'
+        "</robot>", '<material name="skin"><texture filename="skin.png"/></material>'
+        '<material name="bare"><color rgba="1 0 0 1"/><texture/></material></robot>'
     ).replace(
         '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
         '<safety_controller soft_lower_limit="-1" k_position="10"/><calibration rising="0"/>'
@@ -665,6 +666,7 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
                      r"\(line \d+\), <safety_controller> in <joint name='elbow'> \(line \d+\), "
                      r"<calibration> in <joint name='elbow'>", said), said
     assert "<material name='skin'>: <texture filename='skin.png'> not read" in said, said
+    assert "<material name='bare'>" not in said  # an empty <texture/> holds nothing to read
 
 
 def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
