@@ -463,6 +463,20 @@ def test_free_joint_below_the_top_level_is_refused(tmp_path):
         mjcf.load(path)
 
 
+def test_a_model_without_geoms_loads(tmp_path):
+    """Nothing to draw or collide (a body of an inertial, a joint and a site): the reader's
+    count of geoms with their own contact parameters is zero, not an error."""
+    path = write(tmp_path / "bare.xml", """<mujoco>
+  <worldbody>
+    <body name="arm"><inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
+      <joint name="hinge" axis="0 0 1"/><site name="tip"/></body>
+  </worldbody>
+</mujoco>
+""")
+    obj = mjcf.load(path)
+    assert [j.name for j in obj.joints if j.type.movable] == ["hinge"]
+
+
 def test_unlimited_slide_is_kept_in_every_format(tmp_path):
     """An MJCF slide without a range (a planar walker's root) is a prismatic joint without
     limits: unlimited in MJCF, USD and glTF, SDF's +-1e16 in URDF, read back without limits,

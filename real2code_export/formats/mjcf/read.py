@@ -708,7 +708,8 @@ def _defaults():
 
 def _differ(values: np.ndarray, *allowed) -> np.ndarray:
     """Rows of ``values`` equal to none of ``allowed`` (each one row)."""
-    rows = np.asarray(values, dtype=float).reshape(len(values), -1)
+    rows = np.asarray(values, dtype=float)
+    rows = rows.reshape(len(rows), -1) if rows.size else np.zeros((len(rows), 1))  # (no geoms)
     return np.all([np.any(np.abs(rows - np.ravel(a)) > 1e-12, axis=1) for a in allowed], axis=0)
 
 
