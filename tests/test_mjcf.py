@@ -477,6 +477,23 @@ def test_a_model_without_geoms_loads(tmp_path):
     assert [j.name for j in obj.joints if j.type.movable] == ["hinge"]
 
 
+def test_geoms_of_several_colours_in_one_body_are_said(tmp_path):
+    """A part holds one colour: a body whose visual geoms differ keeps the first geom's, and
+    the reader says which bodies lost theirs."""
+    path = write(tmp_path / "two.xml", """<mujoco>
+  <worldbody>
+    <body name="arm"><joint name="hinge" axis="0 0 1"/>
+      <geom size="0.1" rgba="1 0 0 1" mass="1"/><geom size="0.05" pos="0 0 0.2" rgba="0 0 1 1"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.warns(Real2CodeWarning, match=r"visual geoms of several colours in one body.*"
+                      r"the first geom's.*<body name='arm'> \(2\)"):
+        obj = mjcf.load(path)
+    assert obj.parts[-1].color == (1.0, 0.0, 0.0, 1.0)
+
+
 def test_unlimited_slide_is_kept_in_every_format(tmp_path):
     """An MJCF slide without a range (a planar walker's root) is a prismatic joint without
     limits: unlimited in MJCF, USD and glTF, SDF's +-1e16 in URDF, read back without limits,

@@ -669,6 +669,20 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     assert "<material name='bare'>" not in said  # an empty <texture/> holds nothing to read
 
 
+def test_visuals_of_several_colours_in_one_link_are_said(tmp_path):
+    """A part holds one colour: a link whose visuals differ gets their area-weighted mean,
+    and the reader says which links lost theirs."""
+    source = tmp_path / "two.urdf"
+    source.write_text('<robot name="two"><link name="base"><visual><geometry><box size="1 1 1"/>'
+                      '</geometry><material name="red"><color rgba="1 0 0 1"/></material></visual>'
+                      '<visual><geometry><box size="1 1 1"/></geometry><material name="blue">'
+                      '<color rgba="0 0 1 1"/></material></visual></link></robot>')
+    with pytest.warns(Real2CodeWarning, match=r"visuals of several colours in links 'base' "
+                      r"\(2\): a part holds one colour, their area-weighted mean"):
+        obj = urdf.load(source)
+    assert np.allclose(obj.parts[0].color, (0.5, 0.0, 0.5, 1.0))
+
+
 def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
     """pybullet's URDFs: an XML declaration saying version "0.0" after a blank line, a
     <material> inside <geometry> after the shape, a zero-radius sphere (a contact point), NUL
