@@ -82,6 +82,11 @@ def _compile(path: Path):
              "into its parent when it compiles): read without it, such bodies kept as parts "
              "fixed to their parents, as the file writes them and the check compiles it; the "
              "MJCF export does not set it")
+    if spec.compiler.discardvisual:  # MuJoCo's run-time saving: the file still holds them
+        spec.compiler.discardvisual = False
+        warn(f"{path}: <compiler discardvisual='true'> (MuJoCo drops the geoms that neither "
+             "collide nor weigh when it compiles): read without it, the visual geoms kept; "
+             "the MJCF export does not set it")
     try:
         model = spec.compile()
     except ValueError as e:
