@@ -7,7 +7,10 @@ UsdPhysics probes, the source as reference and the dynamics comparison on).
     .venv/bin/python bench/scaling.py [--bodies 125,250,500,1000]
 
 Work that grows linearly doubles from one N to the next; a stage whose time quadruples grows
-with the square of the parts (issue 18: a 3881-part flex took 910 s).
+with the square of the parts (issue 18: a 3881-part flex took 910 s). The last column is
+MuJoCo alone loading the MJCF export (``MjSpec.from_file`` and compile): the MJCF export and
+the check build MuJoCo specs of the same size (the source's, the exports'), so that much of
+their growth is MuJoCo's.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import warnings
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import mujoco  # noqa: E402
 from _machine import describe  # noqa: E402
 
 from real2code_export.check import check_files  # noqa: E402
@@ -61,6 +65,12 @@ def stages(n: int, tmp: Path) -> dict[str, float]:
         start = time.process_time()
         report = check_files(written, source=src, validate=False)
         seconds["check"] = time.process_time() - start
+        # MuJoCo's own load of the MJCF export: what any MJCF work here pays MuJoCo, whose
+        # spec grows with the square of the bodies (each added element re-hashes the whole
+        # model: google-deepmind/mujoco#3397)
+        start = time.process_time()
+        mujoco.MjSpec.from_file(str(written[0])).compile()
+        seconds["MuJoCo load"] = time.process_time() - start
     if not report.ok:
         raise SystemExit(f"N={n}: the check disagrees: {report.mismatches[:2]}")
     seconds["parts"] = len(obj.parts)

@@ -345,15 +345,14 @@ def _pick_reference(probes: list[Probe], names: list[str], reference: str | Path
 def _union_joints(probes, names, ref, tol_position, tol_rotation, mismatches) -> list[JointInfo]:
     """The movable joints of all probes by name (the reference's first), each with the range
     every probe admits; records missing joints and differing kinds or limits."""
-    order: list[str] = []
     by_probe = [{j.name: j for j in p.joints} for p in probes]
     # The source's other tools may read its joints differently from the reference tool
     # (MuJoCo loads an empty revolute range unlimited, Pinocchio keeps it): their poses are
     # compared, their joint kinds and ranges are the tools' business, not the export's.
     tools_of_source = {i for i, p in enumerate(probes)
                        if i != ref and p.label.startswith(SOURCE_LABEL)}
-    for i in [ref] + [k for k in range(len(probes)) if k != ref]:
-        order.extend(j.name for j in probes[i].joints if j.name not in order)
+    order = list(dict.fromkeys(j.name for i in [ref] + [k for k in range(len(probes)) if k != ref]
+                               for j in probes[i].joints))  # (a dict: no list search per joint)
 
     union = []
     for name in order:

@@ -12,6 +12,7 @@ through trimesh (STL, glTF, PLY, ...).
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
@@ -216,10 +217,86 @@ def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
                    scale=None) -> MeshFile:
     """:func:`read_mesh` and the file's own colour: for an OBJ the area-weighted diffuse
     colour (``Kd``) of its MTL materials, None when it names none (or other formats), and its
-    texture (``map_Kd``) where its faces have texture coordinates."""
+    texture (``map_Kd``) where its faces have texture coordinates. A file read before with
+    the same bytes is not parsed again (:class:`_ReadMeshes`); its warnings are said again."""
     path = Path(path)
     if not path.is_file():
         raise FormatError(source or path, element, f"mesh file not found: {path}", line)
+    key = _READ.key(path)
+    read = _READ.get(key)
+    if read is None:
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            read = _read_unscaled(path, source, element, line)
+        read = _READ.put(key, read, [(w.message, w.category) for w in said])
+    mesh_file, said = read
+    for message, category in said:  # each read says what reading the file says
+        warnings.warn(message, category, stacklevel=2)
+    mesh = Mesh(mesh_file.mesh.vertices, mesh_file.mesh.faces, mesh_file.mesh.uv)
+    if scale is not None:
+        mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces, mesh.uv)
+    return MeshFile(mesh, mesh_file.color, mesh_file.texture)
+
+
+class _ReadMeshes:
+    """The meshes read lately, by what they were read from, as MuJoCo keeps a mesh cache: the
+    MJCF and URDF of one export name the same files, a model may name one file twice (a
+    mirrored scale), and a process that reads both (a check, a read back, a survey) parses
+    each once. The key is the file's bytes and, for an OBJ, its MTL files' bytes and their
+    images' sizes and times (a file rewritten in place within the clock's tick is still
+    seen). Arrays are kept read-only (every reader gets its own :class:`Mesh` of them); the
+    least recently used go first past ``limit`` bytes of arrays."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit, self.used = limit, 0
+        self.entries: dict[tuple, tuple[MeshFile, list, int]] = {}
+
+    @staticmethod
+    def key(path: Path) -> tuple:
+        import hashlib
+
+        data = path.read_bytes()
+        h = hashlib.blake2b(data, digest_size=16)
+        if path.suffix.lower() == ".obj":  # what the colour and texture are read from
+            for name in _MTLLIB.findall(b"\n" + data):
+                mtl = path.parent / name.decode("utf-8", "replace").strip()
+                text = mtl.read_bytes() if mtl.is_file() else b""
+                h.update(b"|" + text)
+                for image in _MAP_LINE.findall(b"\n" + text):
+                    image = mtl.parent / image.decode("utf-8", "replace").strip()
+                    if image.is_file():
+                        stat = image.stat()
+                        h.update(f"|{stat.st_size} {stat.st_mtime_ns}".encode())
+        return str(path.resolve()), h.digest()
+
+    def get(self, key: tuple) -> tuple[MeshFile, list] | None:
+        entry = self.entries.pop(key, None)
+        if entry is None:
+            return None
+        self.entries[key] = entry  # most recently used last
+        return entry[0], entry[1]
+
+    def put(self, key: tuple, mesh_file: MeshFile, said: list) -> tuple[MeshFile, list]:
+        arrays = [a for a in (mesh_file.mesh.vertices, mesh_file.mesh.faces,
+                              mesh_file.mesh.uv) if a is not None]
+        for a in arrays:
+            a.flags.writeable = False
+        size = sum(a.nbytes for a in arrays)
+        if size <= self.limit:
+            while self.entries and self.used + size > self.limit:
+                self.used -= self.entries.pop(next(iter(self.entries)))[2]
+            self.entries[key] = (mesh_file, said, size)
+            self.used += size
+        return mesh_file, said
+
+
+_READ = _ReadMeshes(512 << 20)
+_MTLLIB = re.compile(rb"\nmtllib[ \t]+([^\r\n]+)")
+_MAP_LINE = re.compile(rb"\n[ \t]*map_\w+[ \t]+(?:-\S+[ \t]+\S+[ \t]+)*([^\r\n]+)")
+
+
+def _read_unscaled(path: Path, source, element, line) -> MeshFile:
+    """The file's mesh as :func:`read_mesh_file` reads it, before any scale."""
     color = texture = None
     if path.suffix.lower() == ".obj":
         mesh, color, texture = _read_obj(path, source, element, line)
@@ -239,8 +316,6 @@ def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
             raise NoTrianglesError(source or path, element,
                                    f"mesh {path} has no triangles", line)
         mesh = Mesh.from_trimesh(loaded)
-    if scale is not None:
-        mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces, mesh.uv)
     return MeshFile(mesh, color, texture)
 
 

@@ -18,8 +18,9 @@ def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
 
     keep_of: dict[str, str] = {}  # part -> the kept part it is merged into
     offset: dict[str, np.ndarray] = {}  # part frame in the kept part's frame
+    parent = obj.tree().parent
     for part in obj.parts_in_tree_order():
-        j = obj.parent_joint(part.name)
+        j = parent.get(part.name)
         if j is not None and j.type is JointType.FIXED:
             keep_of[part.name] = keep_of[j.parent]
             offset[part.name] = offset[j.parent] @ j.origin
@@ -27,9 +28,12 @@ def merge_fixed_joints(obj: ArticulatedObject) -> ArticulatedObject:
             keep_of[part.name] = part.name
             offset[part.name] = np.eye(4)
 
+    members_of: dict[str, list[Part]] = {}  # kept part -> the parts merged into it, in order
+    for p in obj.parts:
+        members_of.setdefault(keep_of[p.name], []).append(p)
     parts = []
     for kept in (p for p in obj.parts if keep_of[p.name] == p.name):
-        members = [p for p in obj.parts if keep_of[p.name] == kept.name]
+        members = members_of[kept.name]
         visuals = [p.visual.transformed(offset[p.name]) for p in members if p.visual is not None]
         collision = [m.transformed(offset[p.name]) for p in members for m in p.collision]
         inertials = [(p.inertial, offset[p.name]) for p in members if p.inertial is not None]

@@ -74,6 +74,27 @@ def test_obj_numbers_read_back_exactly(tmp_path):
     assert np.array_equal(back.vertices, mesh.vertices[np.unique(mesh.faces)])
 
 
+def test_a_mesh_file_read_again_is_parsed_once_with_its_warnings(tmp_path, monkeypatch):
+    from real2code_export import meshfiles
+
+    parsed = []
+    parse = meshfiles._read_unscaled
+    monkeypatch.setattr(meshfiles, "_read_unscaled", lambda *a: parsed.append(1) or parse(*a))
+    path = _cube(tmp_path, mtl="newmtl red\nKd 1 0 0\nmap_Kd gone.png\n")
+    first = read_mesh_file(path)
+    with pytest.warns(Real2CodeWarning, match="gone.png"):  # said again on every read
+        again = read_mesh_file(path, scale=[2.0, 1.0, 1.0])
+    assert len(parsed) == 1 and again.color == first.color
+    assert np.array_equal(again.mesh.vertices, first.mesh.vertices * [2.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="read-only"):  # one reader cannot change another's
+        first.mesh.vertices[0, 0] = 9.0
+    # the file changed in place, its size the same: read again; so when its MTL changes
+    path.write_text(CUBE.replace("v 1 1 1", "v 1 1 2"))
+    assert read_mesh(path).vertices[:, 2].max() == 2.0 and len(parsed) == 2
+    (tmp_path / "cube.mtl").write_text("newmtl red\nKd 0 1 0\n")
+    assert read_mesh_file(path).color[:3] == (0.0, 1.0, 0.0) and len(parsed) == 3
+
+
 def test_cache_returns_the_stored_result_and_keeps_warnings(tmp_path, monkeypatch):
     monkeypatch.setenv("REAL2CODE_CACHE", str(tmp_path / "cache"))
     mesh = Mesh(np.eye(3), [[0, 1, 2]])

@@ -463,6 +463,56 @@ def test_free_joint_below_the_top_level_is_refused(tmp_path):
         mjcf.load(path)
 
 
+def test_a_model_without_geoms_loads(tmp_path):
+    """Nothing to draw or collide (a body of an inertial, a joint and a site): the reader's
+    count of geoms with their own contact parameters is zero, not an error."""
+    path = write(tmp_path / "bare.xml", """<mujoco>
+  <worldbody>
+    <body name="arm"><inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/>
+      <joint name="hinge" axis="0 0 1"/><site name="tip"/></body>
+  </worldbody>
+</mujoco>
+""")
+    obj = mjcf.load(path)
+    assert [j.name for j in obj.joints if j.type.movable] == ["hinge"]
+
+
+def test_visual_geoms_under_discardvisual_are_kept(tmp_path):
+    """``discardvisual`` is MuJoCo's run-time saving, not the file's content: the visual
+    geoms it would drop are read (said), so every export shows them."""
+    path = write(tmp_path / "dv.xml", """<mujoco>
+  <compiler discardvisual="true"/>
+  <worldbody>
+    <body name="arm"><joint name="hinge" axis="0 0 1"/><geom size="0.1" mass="1"/>
+      <geom type="box" size="0.3 0.01 0.01" contype="0" conaffinity="0" group="1" mass="0"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.warns(Real2CodeWarning, match=r"discardvisual='true'.*the visual geoms kept"):
+        obj = mjcf.load(path)
+    arm = next(p for p in obj.parts if p.name == "arm")
+    assert np.isclose(np.ptp(arm.visual.vertices[:, 0]), 0.6)  # the box, 0.6 m long
+    assert np.isclose(arm.inertial.mass, 1.0)
+
+
+def test_geoms_of_several_colours_in_one_body_are_said(tmp_path):
+    """A part holds one colour: a body whose visual geoms differ keeps the first geom's, and
+    the reader says which bodies lost theirs."""
+    path = write(tmp_path / "two.xml", """<mujoco>
+  <worldbody>
+    <body name="arm"><joint name="hinge" axis="0 0 1"/>
+      <geom size="0.1" rgba="1 0 0 1" mass="1"/><geom size="0.05" pos="0 0 0.2" rgba="0 0 1 1"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.warns(Real2CodeWarning, match=r"visual geoms of several colours in one body.*"
+                      r"the first geom's.*<body name='arm'> \(2\)"):
+        obj = mjcf.load(path)
+    assert obj.parts[-1].color == (1.0, 0.0, 0.0, 1.0)
+
+
 def test_unlimited_slide_is_kept_in_every_format(tmp_path):
     """An MJCF slide without a range (a planar walker's root) is a prismatic joint without
     limits: unlimited in MJCF, USD and glTF, SDF's +-1e16 in URDF, read back without limits,

@@ -302,10 +302,12 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
 # What other people's MJCF files are made of: an <include>, meshes found through assetdir and
 # meshdir, angles in degrees turned in "zyx" order, a childclass and nested default classes,
 # fromto capsules and cylinders, a <frame>, a <replicate>, gravity compensation, a camera,
-# a light and a geom's own friction (not imported, said so).
+# a light, a geom's own friction, a joint's own limit softness, simulation options and a
+# mocap body (not imported, said so), a body without joints under fusestatic (kept).
 KINDS_MAIN = """<mujoco model="kinds">
   <compiler angle="degree" eulerseq="zyx" assetdir="assets" meshdir="assets/meshes"
-            autolimits="true"/>
+            autolimits="true" fusestatic="true"/>
+  <option timestep="0.001" integrator="implicitfast"><flag gravity="disable"/></option>
   <default>
     <default class="arm">
       <joint damping="0.3" armature="0.01" axis="0 0 1"/>
@@ -323,14 +325,16 @@ KINDS_MAIN = """<mujoco model="kinds">
 KINDS_ARM = """<mujoco>
   <worldbody>
     <light pos="0 0 2"/><camera name="view" pos="1 0 1"/>
+    <body name="target" mocap="true" pos="0.5 0 0.5"><geom size="0.01" contype="0"/></body>
     <frame pos="0 0 0.3" euler="0 0 20">
       <body name="upper" euler="90 0 30" childclass="arm" gravcomp="1">
         <joint name="shoulder" range="-45 90"/>
         <geom type="mesh" mesh="block"/>
         <body name="lower" pos="0.1 0 0" euler="0 30 45">
-          <joint name="elbow" class="stiff" range="0 120"/>
+          <joint name="elbow" class="stiff" range="0 120" solreflimit="0.05 1"/>
           <geom type="capsule" fromto="0 0 0 0.2 0.05 0" size="0.02" friction="0.6"/>
           <geom type="cylinder" fromto="0 0 0 0 0 0.1" size="0.01" class="light"/>
+          <body name="tool" pos="0.2 0.05 0"><geom type="box" size="0.01 0.01 0.01"/></body>
         </body>
       </body>
     </frame>
@@ -359,6 +363,12 @@ def test_mjcf_files_as_people_write_them_agree_with_their_source(tmp_path, capsy
     assert "gravity compensation (gravcomp) not carried" in said.err
     assert "<body name='upper'> (1)" in said.err
     assert "not imported: 1 camera, 1 light, 1 collision geom (its own friction" in said.err
+    assert ("<option> settings not carried (the model holds no simulation options; every "
+            "export leaves its tool's defaults): flag gravity=disable, integrator=implicitfast, "
+            "timestep=0.001") in said.err
+    assert "mocap bodies read as parts fixed where they stand" in said.err
+    assert "1 joint (its own limit or friction softness" in said.err
+    assert "<compiler fusestatic='true'> (MuJoCo merges" in said.err
 
 
 PLANAR = """<robot name="base_on_floor">

@@ -654,7 +654,8 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
     names each, never drops it silently."""
     text = (FIXTURES / "floating_base.urdf").read_text().replace(
-        "</robot>", '<material name="skin"><texture filename="skin.png"/></material></robot>'
+        "</robot>", '<material name="skin"><texture filename="skin.png"/></material>'
+        '<material name="bare"><color rgba="1 0 0 1"/><texture/></material></robot>'
     ).replace(
         '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
         '<safety_controller soft_lower_limit="-1" k_position="10"/><calibration rising="0"/>'
@@ -670,6 +671,21 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
                      r"\(line \d+\), <safety_controller> in <joint name='elbow'> \(line \d+\), "
                      r"<calibration> in <joint name='elbow'>", said), said
     assert "<material name='skin'>: <texture filename='skin.png'> not read" in said, said
+    assert "<material name='bare'>" not in said  # an empty <texture/> holds nothing to read
+
+
+def test_visuals_of_several_colours_in_one_link_are_said(tmp_path):
+    """A part holds one colour: a link whose visuals differ gets their area-weighted mean,
+    and the reader says which links lost theirs."""
+    source = tmp_path / "two.urdf"
+    source.write_text('<robot name="two"><link name="base"><visual><geometry><box size="1 1 1"/>'
+                      '</geometry><material name="red"><color rgba="1 0 0 1"/></material></visual>'
+                      '<visual><geometry><box size="1 1 1"/></geometry><material name="blue">'
+                      '<color rgba="0 0 1 1"/></material></visual></link></robot>')
+    with pytest.warns(Real2CodeWarning, match=r"visuals of several colours in links 'base' "
+                      r"\(2\): a part holds one colour, their area-weighted mean"):
+        obj = urdf.load(source)
+    assert np.allclose(obj.parts[0].color, (0.5, 0.0, 0.5, 1.0))
 
 
 def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):

@@ -57,12 +57,12 @@ def replay_spec(obj: ArticulatedObject, measured: Sequence[str]):
 
 def subtree_bodies(obj: ArticulatedObject, joint: str) -> list[str]:
     """Parts that move with ``joint`` (its child and everything below it)."""
-    start = obj.joint(joint).child
-    out, stack = [], [start]
+    children = obj.tree().children
+    out, stack = [], [obj.joint(joint).child]
     while stack:
         name = stack.pop()
         out.append(name)
-        stack.extend(j.child for j in obj.child_joints(name))
+        stack.extend(j.child for j in children.get(name, ()))
     return out
 
 

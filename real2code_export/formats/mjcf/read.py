@@ -76,6 +76,17 @@ def _compile(path: Path):
         raise _error(path, str(e)) from e
     given = give_meshes(spec, {mesh: _mesh_file(spec, mesh, path)
                                for mesh in spec.meshes if mesh.file})
+    if spec.compiler.fusestatic:  # a compile-time speed-up: the bodies stay as written
+        spec.compiler.fusestatic = False
+        warn(f"{path}: <compiler fusestatic='true'> (MuJoCo merges each body without joints "
+             "into its parent when it compiles): read without it, such bodies kept as parts "
+             "fixed to their parents, as the file writes them and the check compiles it; the "
+             "MJCF export does not set it")
+    if spec.compiler.discardvisual:  # MuJoCo's run-time saving: the file still holds them
+        spec.compiler.discardvisual = False
+        warn(f"{path}: <compiler discardvisual='true'> (MuJoCo drops the geoms that neither "
+             "collide nor weigh when it compiles): read without it, the visual geoms kept; "
+             "the MJCF export does not set it")
     try:
         model = spec.compile()
     except ValueError as e:
@@ -188,6 +199,9 @@ class _Reader:
             if m.body_gravcomp[b]:  # a force MuJoCo applies, no law of the model's
                 self.note("gravity compensation (gravcomp) not carried: the model has no "
                           "place for it", f"{self._body_label(b)} ({float(m.body_gravcomp[b]):g})")
+            if m.body_mocapid[b] >= 0:  # moved by the user, not by the simulation
+                self.note("mocap bodies read as parts fixed where they stand (the model has "
+                          "no mocap bodies)", self._body_label(b))
             parent = int(m.body_parentid[b])
             body_pose = pose(m.body_pos[b], m.body_quat[b])
             if parent == 0 and not world_used:  # the root: its part frame is the world
@@ -438,6 +452,11 @@ class _Reader:
                 hidden.append((g, mesh))
         visual = shown or hidden
         colours = [self._rgba(g) for g, _ in visual + colliding]
+        shown_colours = {tuple(colours[k]) for k in range(len(visual))}
+        if len(shown_colours) > 1:
+            self.note("visual geoms of several colours in one body: a part holds one colour, "
+                      "the first geom's (the meshes are kept; the colours per geom are not)",
+                      f"{self._body_label(b)} ({len(shown_colours)})")
         colour = colours[0] if colours else self.custom.get((m.body(b).name, "color"))
         if colour is not None and (not isinstance(colour, list | tuple) or len(colour) != 4):
             self.note("malformed real2code custom data ignored", f"{m.body(b).name}:color")
@@ -628,11 +647,19 @@ class _Reader:
                        "custom tuple": m.ntuple, "camera": m.ncam, "light": m.nlight,
                        "contact pair": m.npair,
                        "contact exclusion (of bodies not joined)": _unjoined_exclusions(m),
-                       "collision geom (its own friction or condim: the model has no "
-                       "contact material)": _own_contact(m)})
+                       "collision geom (its own friction, condim, solref, solimp, margin, "
+                       "gap, priority or solmix: the model has no contact material)":
+                       _own_contact(m),
+                       "joint (its own limit or friction softness: solreflimit, solimplimit, "
+                       "margin, solreffriction or solimpfriction; the exports write the "
+                       "engines' common one, engine_settings)": _own_softness(m)})
         if left:
             warn(f"{self.path}: MJCF elements with no place in the model were not imported: "
                  f"{left}")
+        options = _own_options(m)
+        if options:
+            warn(f"{self.path}: <option> settings not carried (the model holds no simulation "
+                 f"options; every export leaves its tool's defaults): {', '.join(options)}")
 
     def _unread_counts(self) -> dict[str, int]:
         m = self.model
@@ -650,15 +677,80 @@ def _unjoined_exclusions(m) -> int:
     return int(np.sum((m.body_parentid[second] != first) & (m.body_parentid[first] != second)))
 
 
-# MuJoCo's defaults of a geom's contact: sliding, torsional and rolling friction; condim
-_FRICTION, _CONDIM = (1.0, 0.005, 0.0001), 3
+def _own_options(m) -> list[str]:
+    """The model's ``<option>`` values that are not MuJoCo's defaults, as ``name=value``
+    (flags as MJCF writes them: ``flag gravity=disable``)."""
+    import mujoco
+
+    default = mujoco.MjModel.from_xml_string("<mujoco/>").opt
+    enums = {"integrator": mujoco.mjtIntegrator, "cone": mujoco.mjtCone,
+             "jacobian": mujoco.mjtJacobian, "solver": mujoco.mjtSolver}
+    out = []
+    for name in dir(default):
+        value = getattr(m.opt, name)
+        if name.startswith("_") or callable(value) or \
+                np.array_equal(np.asarray(value), np.asarray(getattr(default, name))):
+            continue
+        if name in ("disableflags", "enableflags"):  # as <flag NAME="enable|disable"/>
+            bits = (mujoco.mjtDisableBit if name == "disableflags" else mujoco.mjtEnableBit)
+            said = ("disable", "enable") if name == "disableflags" else ("enable", "disable")
+            changed = int(value) ^ int(getattr(default, name))
+            out += [f"flag {key.split('_', 1)[1].lower()}="
+                    f"{said[0] if int(value) & int(bit) else said[1]}"
+                    for key, bit in bits.__members__.items()
+                    if not key.startswith("mjN") and changed & int(bit)]  # (mjN...: a count)
+        elif name in enums:  # by the keyword MJCF writes
+            keyword = next((k for k, v in enums[name].__members__.items() if int(v) == value),
+                           str(value))
+            out.append(f"{name}={keyword.split('_', 1)[-1].lower()}")
+        else:
+            out.append(f"{name}={' '.join(f'{v:g}' for v in np.atleast_1d(value))}")
+    return out
+
+
+def _defaults():
+    """A model of one body with one joint and one geom, each with MuJoCo's defaults."""
+    import mujoco
+
+    return mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><joint/><geom size="1"/></body></worldbody></mujoco>')
+
+
+def _differ(values: np.ndarray, *allowed) -> np.ndarray:
+    """Rows of ``values`` equal to none of ``allowed`` (each one row)."""
+    rows = np.asarray(values, dtype=float)
+    rows = rows.reshape(len(rows), -1) if rows.size else np.zeros((len(rows), 1))  # (no geoms)
+    return np.all([np.any(np.abs(rows - np.ravel(a)) > 1e-12, axis=1) for a in allowed], axis=0)
 
 
 def _own_contact(m) -> int:
-    """Collision geoms whose friction or contact dimension is not MuJoCo's default."""
+    """Collision geoms whose contact parameters (friction, condim, solref, solimp, margin,
+    gap, priority, solmix) are not MuJoCo's defaults."""
+    d = _defaults()
     colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
-    own = np.any(np.abs(m.geom_friction - _FRICTION) > 1e-12, axis=1) | (m.geom_condim != _CONDIM)
+    own = np.any([_differ(getattr(m, f), getattr(d, f)[0]) for f in
+                  ("geom_friction", "geom_condim", "geom_solref", "geom_solimp", "geom_margin",
+                   "geom_gap", "geom_priority", "geom_solmix")], axis=0)
     return int(np.sum(colliding & own))
+
+
+def _own_softness(m) -> int:
+    """Limited joints whose limit softness, and joints with dry friction whose friction
+    softness, is neither MuJoCo's default nor the one the exports write (engine_settings)."""
+    from ...engine_settings import FRICTION_SOLREF, LIMIT_MARGIN, LIMIT_SOLIMP, LIMIT_SOLREF
+
+    if m.njnt == 0:
+        return 0
+    d = _defaults()
+    limit = np.any([_differ(m.jnt_solref, d.jnt_solref[0], LIMIT_SOLREF),
+                    _differ(m.jnt_solimp, d.jnt_solimp[0], LIMIT_SOLIMP),
+                    _differ(m.jnt_margin, d.jnt_margin[0], LIMIT_MARGIN)], axis=0)
+    friction = np.zeros(m.njnt, dtype=bool)
+    rubbing = m.dof_frictionloss > 0
+    own = _differ(m.dof_solref, d.dof_solref[0], FRICTION_SOLREF) | \
+        _differ(m.dof_solimp, d.dof_solimp[0])
+    friction[m.dof_jntid[rubbing & own]] = True
+    return int(np.sum((limit & (m.jnt_limited != 0)) | friction))
 
 
 def world_part_name(custom: dict) -> str:

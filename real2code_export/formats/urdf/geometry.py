@@ -219,7 +219,7 @@ def _texture_not_read(ctx: Context, material: etree._Element, owner: str) -> Non
     """A <material>'s <texture> is not read (a part's image comes from its OBJ's MTL): said,
     never dropped in silence."""
     texture = material.find("texture")
-    if texture is not None:
+    if texture is not None and texture.get("filename"):  # (an empty <texture/> holds nothing)
         ctx.warn(owner, f"<texture filename='{texture.get('filename')}'> not read (a part's "
                  "image is taken from its OBJ's MTL only); the material's colour is",
                  texture.sourceline)

@@ -258,6 +258,8 @@ def _report_notes(ctx: Context) -> None:
                      "visual meshes",
         "meshdir": f"<mujoco><compiler meshdir={ctx.meshdir!r}>: mesh files {{}} found in that "
                    "folder, where MuJoCo looks for them, not beside the URDF",
+        "colours": "visuals of several colours in links {}: a part holds one colour, their "
+                   "area-weighted mean (the meshes are kept; the colours per visual are not)",
     }
     for kind, names in ctx.notes.items():
         ctx.warn(None, messages[kind].format(", ".join(names)))
@@ -297,6 +299,8 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
                  "one image on one textured mesh; the textures are not kept, the colour is")
         texture = None
         visual = Mesh(visual.vertices, visual.faces)
+    if len({c for c, _ in colored}) > 1:
+        ctx.note("colours", f"{name!r} ({len({c for c, _ in colored})})")
     return Part(name=name, visual=visual, collision=collision, inertial=inertial,
                 color=average_color(colored) or DEFAULT_COLOR, texture=texture)
 
