@@ -3,8 +3,7 @@
 Real depth has noise that grows with range, pixels missing alone and in holes, pixels flying
 between a silhouette and what lies behind it, and camera poses a little off. Each frame's
 depth is cleaned on its own, at the noise level it shows (estimated from the frame, never
-told: a clean capture passes through unchanged), then (once the object is found in the
-room, :mod:`pipeline.isolate`) the poses are refined across views:
+told: a clean capture passes through unchanged), then the poses are refined across views:
 
 1. outliers: a pixel far (in the frame's own noise) from the median of its neighbours, or
    with too few neighbours, is dropped: flying pixels and specks;

@@ -1,4 +1,4 @@
-"""Find the object in a capture of a room: the stage after each frame's depth is cleaned.
+"""Find the object in a capture of a room: the first reconstruction stage.
 
 A real capture holds the floor the object stands on, a wall behind it and things nearby;
 every later stage takes the pixels with depth for the object, so this stage leaves depth on

@@ -1,9 +1,9 @@
 """``real2code reconstruct``: a posed RGB-D capture in, an articulated object and every
 export out — the whole Real2Code pipeline.
 
-Stages, each one's output kept in the output folder for inspection (the first ones, the
-depth cleanup (:mod:`pipeline.depth_cleanup`) and finding the object in the room
-(:mod:`pipeline.isolate`) between its two steps, are summarised in report.json)::
+Stages, each one's output kept in the output folder for inspection (the first two, finding
+the object in the room (:mod:`pipeline.isolate`) and the depth cleanup
+(:mod:`pipeline.depth_cleanup`), are summarised in report.json)::
 
     segmentation/  per-view part labels (16-bit PNG) and colour overlays, summary.json
     clouds/        the fused foreground and one point cloud per part (PLY)
