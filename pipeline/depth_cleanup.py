@@ -198,14 +198,15 @@ def _anchored(refined: list[np.ndarray], recorded: list[np.ndarray]) -> list[np.
     return [undo @ r for r in refined]
 
 
-def clean_depths(capture: Capture, options: CleanupOptions = CleanupOptions()) -> Capture:
-    """``capture`` with every frame's depth cleaned (a new capture; the frames' images and
-    masks are shared), what changed in its ``extra["depth_cleanup"]``. A capture cleaned
-    already is returned as it is. Before the object is looked for in a room
-    (:mod:`pipeline.isolate`): the room's planes are then found at the noise the cleanup
-    leaves, so their tolerance takes less of the object's foot."""
+def clean_capture(capture: Capture, options: CleanupOptions = CleanupOptions(),
+                  ) -> tuple[Capture, dict]:
+    """``capture`` with every frame's depth cleaned and the poses refined across views (a
+    new capture; the frames' images and masks are shared), and a summary of what changed.
+    A capture cleaned already (its ``extra`` holds the summary) is returned as it is."""
+    from .fuse import object_diagonal
+
     if "depth_cleanup" in capture.extra:
-        return capture
+        return capture, capture.extra["depth_cleanup"]
     depths, notes = [], []
     for frame in capture.frames:
         depth, note = clean_depth(frame.depth, options)
@@ -213,37 +214,16 @@ def clean_depths(capture: Capture, options: CleanupOptions = CleanupOptions()) -
         notes.append(note)
     cleaned = [Frame(f.camera, f.camera_to_world, f.rgb, d, f.mask, f.name)
                for f, d in zip(capture.frames, depths, strict=True)]
+    noisy = any(n["noise_rel"] >= options.min_noise_rel for n in notes)
+    moves = [0.0] * len(cleaned)
+    if noisy:  # an exact capture's poses are taken as they are
+        draft = Capture(cleaned, capture.parts, capture.extra, capture.path)
+        poses, moves = refine_poses(cleaned, object_diagonal(draft), options)
+        cleaned = [Frame(f.camera, p, f.rgb, f.depth, f.mask, f.name)
+                   for f, p in zip(cleaned, poses, strict=True)]
     summary = {"noise_rel": [round(n["noise_rel"], 5) for n in notes],
                "dropped": sum(n["dropped"] for n in notes),
-               "filled": sum(n["filled"] for n in notes)}
-    return Capture(cleaned, list(capture.parts), dict(capture.extra) | {"depth_cleanup": summary},
-                   capture.path)
-
-
-def register_views(capture: Capture, options: CleanupOptions = CleanupOptions()) -> Capture:
-    """``capture`` (its depth cleaned, :func:`clean_depths`) with the poses refined across
-    views where the depth is noisy (an exact capture's poses are taken as they are), how far
-    each camera moved added to ``extra["depth_cleanup"]``. After the room is left out: the
-    views are registered on the object, not on the floor. Registered already: as it is."""
-    from .fuse import object_diagonal
-
-    summary = capture.extra["depth_cleanup"]
-    if "pose_moves_m" in summary:
-        return capture
-    frames = capture.frames
-    moves = [0.0] * len(frames)
-    if max(summary["noise_rel"], default=0.0) >= options.min_noise_rel:
-        poses, moves = refine_poses(frames, object_diagonal(capture), options)
-        frames = [Frame(f.camera, p, f.rgb, f.depth, f.mask, f.name)
-                  for f, p in zip(frames, poses, strict=True)]
-    summary = summary | {"pose_moves_m": [round(m, 4) for m in moves]}
-    return Capture(frames, list(capture.parts), dict(capture.extra) | {"depth_cleanup": summary},
-                   capture.path)
-
-
-def clean_capture(capture: Capture, options: CleanupOptions = CleanupOptions(),
-                  ) -> tuple[Capture, dict]:
-    """``capture`` with every frame's depth cleaned and the poses refined across views, and a
-    summary of what changed (both steps at once: a capture of the object alone)."""
-    cleaned = register_views(clean_depths(capture, options), options)
-    return cleaned, cleaned.extra["depth_cleanup"]
+               "filled": sum(n["filled"] for n in notes),
+               "pose_moves_m": [round(m, 4) for m in moves]}
+    extra = dict(capture.extra) | {"depth_cleanup": summary}
+    return Capture(cleaned, list(capture.parts), extra, capture.path), summary

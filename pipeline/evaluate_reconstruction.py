@@ -106,7 +106,9 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them, ``room`` puts the
     object in a room (:mod:`pipeline.room`) that the pipeline must find it in."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
-    from .reconstruct import prepare_capture, reconstruct_capture
+    from .depth_cleanup import clean_capture
+    from .isolate import isolate_object
+    from .reconstruct import reconstruct_capture
     from .render import render_object
     from .segment import get_segmenter
     from .segment.metrics import matched_part_iou
@@ -125,7 +127,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
         capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
                                 seed=seed + k, cameras=cameras, distance=distance, room=room)
         capture = degrade(capture, sensor_model, seed + k)
-        capture = prepare_capture(capture)[0]  # once, not once per setting
+        capture, _ = clean_capture(isolate_object(capture)[0])  # once, not once per setting
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:

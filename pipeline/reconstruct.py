@@ -101,29 +101,6 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
     return meshes
 
 
-def prepare_capture(capture: Capture, box=None, timings: dict[str, float] | None = None,
-                    ) -> tuple[Capture, dict, dict]:
-    """The stages before segmentation, in their order: each frame's depth cleaned, the
-    object found in the room (its planes fitted on cleaned depth, so their tolerance takes
-    less of the object's foot), the views registered on the object alone; the capture and
-    the isolation's and the cleanup's summaries. Each stage is done once per capture,
-    whoever asks again. ``timings`` gets "cleanup" and "isolation" seconds."""
-    from .depth_cleanup import clean_depths, register_views
-    from .isolate import isolate_object
-
-    timings = {} if timings is None else timings
-    t = time.perf_counter()
-    capture = clean_depths(capture)
-    cleaning = time.perf_counter() - t
-    t = time.perf_counter()
-    capture, isolation = isolate_object(capture, box)
-    timings["isolation"] = time.perf_counter() - t
-    t = time.perf_counter()
-    capture = register_views(capture)
-    timings["cleanup"] = cleaning + time.perf_counter() - t
-    return capture, isolation, capture.extra["depth_cleanup"]
-
-
 def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                         completion: str = "learned", predictor: str = "learned",
                         segmenter=None, completion_model=None,
@@ -146,16 +123,23 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     from .articulate import articulate
     from .compartments import return_to_carcass
     from .complete.data import MIN_POINTS  # the fewest points completion takes
+    from .depth_cleanup import clean_capture
     from .fuse import oriented_part_clouds
+    from .isolate import isolate_object
     from .predictors import get_predictor
 
     say = progress or (lambda _msg: None)
     timings: dict[str, float] = {}
-    capture, isolation, cleanup = prepare_capture(capture, box, timings)
+    t = time.perf_counter()
+    capture, isolation = isolate_object(capture, box)
+    timings["isolation"] = time.perf_counter() - t
     if isolation["plane_pixels_dropped"] or isolation["other_pixels_dropped"]:
         say(f"the object found: {isolation['plane_pixels_dropped']} pixels of the room's "
             f"planes and {isolation['other_pixels_dropped']} of other things left out "
             f"({timings['isolation']:.1f} s)")
+    t = time.perf_counter()
+    capture, cleanup = clean_capture(capture)
+    timings["cleanup"] = time.perf_counter() - t
     if cleanup["dropped"] or cleanup["filled"]:
         say(f"depth cleanup: {cleanup['dropped']} pixels dropped, {cleanup['filled']} filled, "
             f"poses moved up to {max(cleanup['pose_moves_m']):.3f} m "
