@@ -141,7 +141,9 @@ def _cloud(frame: Frame, depth: np.ndarray, voxel: float):
 def refine_poses(frames: list[Frame], diagonal: float,
                  options: CleanupOptions = CleanupOptions()) -> tuple[list[np.ndarray], list]:
     """Every frame's camera-to-world pose registered to the other frames' points (point to
-    plane ICP), ``icp_rounds`` times round; a pose moves only when the fit gets better."""
+    plane ICP), ``icp_rounds`` times round; a pose moves only when the fit gets better. Also
+    how far each camera moved, refined against recorded (not the rounds' steps summed: a
+    view's steps go back and forth, and the whole's drift is undone at the end)."""
     import open3d as o3d
 
     reg = o3d.pipelines.registration
@@ -154,9 +156,8 @@ def refine_poses(frames: list[Frame], diagonal: float,
         pcd.orient_normals_towards_camera_location(np.zeros(3))
     poses = [f.camera_to_world.copy() for f in frames]
     distance = options.icp_distance * diagonal
-    moves = [0.0] * len(frames)
     if len(frames) < 2:
-        return poses, moves
+        return poses, [0.0] * len(frames)
     for _ in range(options.icp_rounds):
         for k in range(len(frames)):
             others = o3d.geometry.PointCloud()
@@ -174,10 +175,10 @@ def refine_poses(frames: list[Frame], diagonal: float,
                 reg.ICPConvergenceCriteria(max_iteration=30))
             if result.fitness >= before.fitness and \
                     result.inlier_rmse <= before.inlier_rmse:
-                moved = np.asarray(result.transformation)
-                moves[k] += float(np.linalg.norm(moved[:3, 3] - poses[k][:3, 3]))
-                poses[k] = moved
-    return _anchored(poses, [f.camera_to_world for f in frames]), moves
+                poses[k] = np.asarray(result.transformation)
+    poses = _anchored(poses, [f.camera_to_world for f in frames])
+    return poses, [float(np.linalg.norm(p[:3, 3] - f.camera_to_world[:3, 3]))
+                   for p, f in zip(poses, frames, strict=True)]
 
 
 def _anchored(refined: list[np.ndarray], recorded: list[np.ndarray]) -> list[np.ndarray]:

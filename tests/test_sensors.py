@@ -92,6 +92,9 @@ def test_cleanup_leaves_an_exact_capture_alone_and_undoes_noise():
     cleaned, summary = clean_capture(noisy)
     assert summary["dropped"] > 0 and summary["filled"] > 0
     assert clean_capture(cleaned)[0] is cleaned  # cleaned once, whoever asks again
+    moved = [np.linalg.norm(a.camera_to_world[:3, 3] - b.camera_to_world[:3, 3])
+             for a, b in zip(noisy.frames, cleaned.frames, strict=True)]
+    assert summary["pose_moves_m"] == pytest.approx(moved, abs=1e-4)  # what the poses moved
 
     def depth_error(capture):
         errors = [np.abs(a.depth - b.depth)[(a.depth > 0) & (b.depth > 0)]
