@@ -55,11 +55,19 @@ class CalibrationResult:
         return self.report["causes"]
 
 
-def replay(obj: ArticulatedObject, trajectories: Sequence[Trajectory]) -> Fit:
+def replay(obj: ArticulatedObject, trajectories: Sequence[Trajectory],
+           warm: Fit | None = None) -> Fit:
     """The model exactly as it is (its dynamics and metadata extras) replayed under each
-    trajectory's conditions; only the initial velocities of runs that start moving are
-    fitted."""
-    return fit_candidate(build_problem(obj, list(trajectories)), ())
+    trajectory's conditions; only the initial states are fitted (started from ``warm``'s,
+    where given: the fit the model was made from already found them)."""
+    return fit_candidate(build_problem(obj, list(trajectories)), (), warm=_initial(warm))
+
+
+def _initial(fit: Fit | None) -> dict[str, float]:
+    """``fit``'s initial states as start values for a fit of the same runs."""
+    return {} if fit is None else {
+        f"initial:{t}:{k}:{c}": float(x[k, c]) for t, x in enumerate(fit.initial)
+        for k in range(x.shape[0]) for c in (0, 1)}
 
 
 def predict(obj: ArticulatedObject, trajectories: Sequence[Trajectory],
@@ -71,11 +79,8 @@ def predict(obj: ArticulatedObject, trajectories: Sequence[Trajectory],
     whole held-out run, the initial state would take up what the model gets wrong (and on
     a replay that diverges, cost every evaluation on the whole run)."""
     trajectories = list(trajectories)
-    start = {} if warm is None else {
-        f"initial:{t}:{k}:{c}": float(x[k, c]) for t, x in enumerate(warm.initial)
-        for k in range(x.shape[0]) for c in (0, 1)}
     opened = fit_candidate(build_problem(obj, [_opening(tr) for tr in trajectories]), (),
-                           max_nfev=PREDICT_NFEV, warm=start)
+                           max_nfev=PREDICT_NFEV, warm=_initial(warm))
     problem = build_problem(obj, trajectories)
     problem.initial = [x.copy() for x in opened.initial]
     problem.initial_free = [np.zeros_like(free) for free in problem.initial_free]
@@ -263,7 +268,8 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     calibrated = calibrated_object(model, selection.chosen)
     # the calibrated model replayed as it will be exported: the gain is measured on it (the
     # nominal model's replay is the selection's own nominal fit: not made twice)
-    after = replay(calibrated, trajectories) if selection.chosen.effects else selection.nominal
+    after = replay(calibrated, trajectories, selection.chosen) if selection.chosen.effects \
+        else selection.nominal
     fits = _replays("fitted", trajectories, selection.nominal, after)
     if rejected is None and selection.chosen.effects and \
             _total_rmse(fits, "calibrated") > _total_rmse(fits, "nominal"):
