@@ -48,7 +48,16 @@ def main() -> int:
     seeds = args.cases or (ci_seeds(args.rounds) if args.rounds else list(range(N_CASES)))
     print(f"machine      {describe()}, load average {os.getloadavg()[0]:.1f}")
     t0 = time.perf_counter()
-    results = run_cases(seeds, args.workers)
+    done = []
+
+    def progress(r: dict) -> None:  # one line a case: a run of hours shows how far it got
+        done.append(r)
+        print(f"[{len(done)}/{len(seeds)}] seed {r['seed']} {r['scenario']}: named "
+              f"{r['named']} (expected {r['expected']}, {'right' if r['right'] else 'WRONG'}), "
+              f"held out {r['holdout_before']:.4g} -> {r['holdout_after']:.4g}, "
+              f"{r['cpu']:.0f} s CPU", file=sys.stderr, flush=True)
+
+    results = run_cases(seeds, args.workers, progress)
     wall = time.perf_counter() - t0
     s = score(results)
     print(markdown(results))

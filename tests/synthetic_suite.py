@@ -20,7 +20,8 @@ import multiprocessing
 import os
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from synthetic_scenarios import NAMES, make, scenario_for
@@ -76,13 +77,20 @@ def run_case(seed: int) -> dict:
             "cpu": cpu}
 
 
-def run_cases(seeds: list[int], workers: int | None = None) -> list[dict]:
+def run_cases(seeds: list[int], workers: int | None = None,
+              on_result: Callable[[dict], None] | None = None) -> list[dict]:
+    """Every case's result, in the order of ``seeds``; ``on_result`` sees each as it ends
+    (a long run's progress)."""
     workers = max(1, min(len(seeds), workers or os.cpu_count() or 1))
     # Fresh interpreters: forking a pytest process whose earlier tests started threads
     # (torch, open3d, tqdm) can deadlock the children on a lock held at the fork.
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        return list(pool.map(run_case, seeds))
+        futures = [pool.submit(run_case, seed) for seed in seeds]
+        for future in as_completed(futures):
+            if on_result is not None:
+                on_result(future.result())
+        return [future.result() for future in futures]
 
 
 def ci_seeds(rounds: int) -> list[int]:

@@ -12,7 +12,14 @@ entry points). Real data sets reach it through the general command: their conver
 CSV + experiment file are scripts in ``bench/``.
 """
 
-from .run import CalibrationResult, calibrate, calibrate_trajectories, replay, run_calibrate
+from .run import (
+    CalibrationResult,
+    calibrate,
+    calibrate_trajectories,
+    predict,
+    replay,
+    run_calibrate,
+)
 from .trajectory import Trajectory, read_csv
 
 __all__ = [
@@ -20,6 +27,7 @@ __all__ = [
     "Trajectory",
     "calibrate",
     "calibrate_trajectories",
+    "predict",
     "read_csv",
     "replay",
     "run_calibrate",

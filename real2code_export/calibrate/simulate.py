@@ -297,9 +297,19 @@ class _LoopTerms:
         return f.gain * u
 
 
+def irregular_input(time: np.ndarray, samples: np.ndarray, h: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Irregular samples as steps of ``h``: each interval's effort held at the mean of its
+    two samples for as many whole steps as the interval holds (at least one), and the step
+    count after which each sample after the first is read (:func:`rollout`'s stepping)."""
+    steps = np.maximum(1, np.round(np.diff(time) / h).astype(int))
+    return np.repeat(0.5 * (samples[:-1] + samples[1:]), steps, axis=0), np.cumsum(steps)
+
+
 class BatchRunner:
     """Open-loop replays of one trajectory for several models at once (``mujoco.rollout``
-    on all cores); falls back to Python stepping for a feedback law or irregular samples."""
+    on all cores, irregular samples too); falls back to Python stepping for a feedback
+    law."""
 
     def __init__(self, traj: Trajectory, joints: Sequence[str]):
         self.traj = traj
@@ -316,8 +326,7 @@ class BatchRunner:
         traj = self.traj
         if traj.feedback and traj.controller is None and _uniform(traj):
             return declared_loop(models, traj, initials, laws, fine, refine)
-        needs_state = traj.law() is not None or not _uniform(traj)
-        if needs_state:
+        if traj.law() is not None:
             data = mujoco.MjData(models[0])
             return [rollout(m, traj, x0, lw, data, fine, refine)
                     for m, x0, lw in zip(models, initials, laws, strict=True)]
@@ -325,13 +334,17 @@ class BatchRunner:
         qadr, dadr = joint_addresses(m0, self.joints)
         period = traj.sample_period
         nsub = substeps_for(period, fine) * refine
-        per_step = step_input(self._input, nsub, cubic=refine > 1)
+        if _uniform(traj):
+            per_step = step_input(self._input, nsub, cubic=refine > 1)
+            ends = nsub * np.arange(1, traj.n)
+        else:
+            per_step, ends = irregular_input(traj.time, self._input, period / nsub)
         if self._datas is None or self._datas[0].model.nq != m0.nq:
             self._datas = [mujoco.MjData(m0) for _ in range(THREADS)]
         spec_full = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
         nstate = mujoco.mj_stateSize(m0, spec_full)
         init = np.empty((len(models), nstate))
-        ctrl = np.zeros((len(models), (traj.n - 1) * nsub, m0.nv))
+        ctrl = np.zeros((len(models), len(per_step), m0.nv))
         for b, (m, x0, lw) in enumerate(zip(models, initials, laws, strict=True)):
             m.opt.timestep = period / nsub
             d = self._datas[0]
@@ -346,6 +359,6 @@ class BatchRunner:
         for b in range(len(models)):
             q = np.empty((traj.n, len(self.joints)))
             q[0] = init[b, 1 + qadr]
-            q[1:] = state[b, nsub - 1::nsub][:, 1 + qadr]
+            q[1:] = state[b, ends - 1][:, 1 + qadr]
             out.append(Rollout(q, self._input.copy()))
         return out
