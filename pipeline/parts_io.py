@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from real2code_export.errors import FormatError
+from real2code_export.errors import FormatError, warn
 from real2code_export.formats import FORMATS, is_format
 from real2code_export.meshfiles import MESH_SUFFIXES, read_mesh
 from real2code_export.model import Mesh
@@ -57,15 +57,20 @@ def load_parts(path: str | Path) -> tuple[dict[str, Mesh], dict[str, tuple]]:
             scene = trimesh.load(str(path), force="scene", process=False)
         except Exception as e:
             raise FormatError(path, None, f"cannot read glTF: {e}") from e
+        skipped = []
         for node in sorted(scene.graph.nodes_geometry):
             transform, geometry = scene.graph[node]
             tm = scene.geometry[geometry]
             if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+                skipped.append(node)
                 continue
             mesh = Mesh.from_trimesh(tm).transformed(Y_UP_TO_Z_UP @ transform)
             meshes[node] = mesh
             if (c := _color(tm)) is not None:
                 colors[node] = c
+        if skipped:  # a scan's points or a rig's lines beside the parts: said, not parts
+            warn(f"{path}: node(s) {', '.join(skipped)} hold no triangles (points, lines or "
+                 "an empty mesh): not read as parts")
         if not meshes:
             raise FormatError(path, None, "no mesh nodes in glTF")
     else:

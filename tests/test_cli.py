@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -136,10 +137,14 @@ def test_articulate_a_glb(tmp_path, capsys):
     to_y_up = np.linalg.inv(Y_UP_TO_Z_UP)
     for name, mesh in meshes.items():
         scene.add_geometry(mesh.transformed(to_y_up).to_trimesh(), node_name=name, geom_name=name)
+    # a scan's points beside the parts: not a part, and said
+    scene.add_geometry(trimesh.PointCloud(np.random.default_rng(0).random((50, 3))),
+                       node_name="scan_points", geom_name="scan_points")
     glb = tmp_path / "parts.glb"
     glb.write_bytes(scene.export(file_type="glb"))
     out = tmp_path / "out"
     assert run(["articulate", str(glb), "--out", str(out), "--to", "mjcf"]) == EXIT_OK
+    assert re.search(r"scan_points hold no triangles.*not read as parts", capsys.readouterr().err)
     from real2code_export.formats import load
 
     result = load(out / "object.json")
