@@ -19,6 +19,7 @@ while our own files keep their visual (group 2, non-colliding) and collision (gr
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -682,7 +683,7 @@ def _own_options(m) -> list[str]:
     (flags as MJCF writes them: ``flag gravity=disable``)."""
     import mujoco
 
-    default = mujoco.MjModel.from_xml_string("<mujoco/>").opt
+    default = _defaults().opt
     enums = {"integrator": mujoco.mjtIntegrator, "cone": mujoco.mjtCone,
              "jacobian": mujoco.mjtJacobian, "solver": mujoco.mjtSolver}
     out = []
@@ -708,8 +709,10 @@ def _own_options(m) -> list[str]:
     return out
 
 
+@functools.cache
 def _defaults():
-    """A model of one body with one joint and one geom, each with MuJoCo's defaults."""
+    """A model of one body with one joint and one geom, each with MuJoCo's defaults (and
+    its options); compiled once a process, every MJCF read compares with it."""
     import mujoco
 
     return mujoco.MjModel.from_xml_string(
