@@ -17,6 +17,7 @@ from .from_blender import compare_with_viewport, find_rig, read_rig, read_rig_ob
 
 # every format the registry knows (a format's label and description are the registry's)
 FORMAT_ITEMS = tuple((f.name, f.label, f.description) for f in FORMATS.values())
+EXPORTED = ", ".join(f.label for f in FORMATS.values() if f.exported)  # MJCF, URDF, USD, glTF
 
 
 def export_rig(root: bpy.types.Object, out: Path, formats, view_layer=None) -> dict[str, Path]:
@@ -51,9 +52,8 @@ def check_exported(files: list[Path], executable: str, configurations: int):
 
 
 class EXPORT_SCENE_OT_real2code(bpy.types.Operator):
-    """Export the active articulated object to MJCF, URDF, USD and glTF, then check the files"""
-
     bl_idname = "export_scene.real2code"
+    bl_description = f"Export the active articulated object ({EXPORTED}), then check the files"
     bl_label = "Export Articulated Object"
     bl_options = {"REGISTER"}
 
@@ -119,7 +119,7 @@ class EXPORT_SCENE_OT_real2code(bpy.types.Operator):
 
 def menu_export(self, context):
     self.layout.operator(EXPORT_SCENE_OT_real2code.bl_idname,
-                         text="Articulated Object (MJCF, URDF, USD, glTF)")
+                         text=f"Articulated Object ({EXPORTED})")
 
 
 CLASSES = (EXPORT_SCENE_OT_real2code,)

@@ -13,6 +13,8 @@ from bpy_extras.io_utils import ImportHelper, poll_file_object_drop
 from real2code_export.formats import FORMATS, suffixes
 
 EXTENSIONS = suffixes()  # every format the project reads (the registry's list)
+# the menu entry names each format by its first suffix: (.json, .xml, .urdf, .usda, .glb)
+MENU_TEXT = f"Articulated Object ({', '.join(f.suffixes[0] for f in FORMATS.values())})"
 MAX_WARNINGS_SHOWN = 5
 
 
@@ -44,9 +46,9 @@ def import_file(context, path: Path):
 
 
 class IMPORT_SCENE_OT_real2code(bpy.types.Operator, ImportHelper):
-    """Import an articulated object (object.json, URDF, MJCF, glTF, USD) as a posable rig"""
-
     bl_idname = "import_scene.real2code"
+    bl_description = (f"Import an articulated object "
+                      f"({', '.join(f.label for f in FORMATS.values())}) as a posable rig")
     bl_label = "Import Articulated Object"
     bl_options = {"REGISTER", "UNDO", "PRESET"}
 
@@ -114,8 +116,7 @@ class IMPORT_SCENE_FH_real2code(bpy.types.FileHandler):
 
 
 def menu_import(self, context):
-    self.layout.operator(IMPORT_SCENE_OT_real2code.bl_idname,
-                         text="Articulated Object (.json, .urdf, .xml, .glb, .usd)")
+    self.layout.operator(IMPORT_SCENE_OT_real2code.bl_idname, text=MENU_TEXT)
 
 
 CLASSES = (IMPORT_SCENE_OT_real2code, IMPORT_SCENE_FH_real2code)

@@ -100,8 +100,9 @@ def test_a_registered_format_is_offered_by_the_blender_addon(toy_format, monkeyp
     monkeypatch.syspath_prepend(str(REPO))
     from blender_addon import ops_export, ops_import
 
-    assert ".toy" in ops_import.EXTENSIONS
+    assert ".toy" in ops_import.EXTENSIONS and ".toy" in ops_import.MENU_TEXT
     assert ("toy", "Toy", "A toy format for tests") in ops_export.FORMAT_ITEMS
+    assert "Toy" in ops_export.EXPORTED and "Toy" in ops_import.IMPORT_SCENE_OT_real2code.bl_description
     for name in [m for m in sys.modules if m.split(".")[0] == "blender_addon"]:
         monkeypatch.delitem(sys.modules, name)
 
