@@ -10,7 +10,6 @@ under 300 ms each.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import statistics
 import sys
 import tempfile
@@ -20,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe, timeit  # noqa: E402
 
 from pipeline.procedural import generate  # noqa: E402
-from real2code_export.formats import FORMATS, export  # noqa: E402
+from real2code_export.formats import export, unavailable_reason  # noqa: E402
 
 
 def main() -> None:
@@ -38,7 +37,7 @@ def main() -> None:
     print(f"{'formats':12s} {'median ms':>10s} {'min ms':>8s} {'max ms':>8s}")
     with tempfile.TemporaryDirectory() as tmp:
         for label, formats in cases:
-            if any(importlib.util.find_spec(FORMATS[f].module) is None for f in formats):
+            if any(unavailable_reason(f, writing=True) for f in formats):
                 print(f"{label:12s} (format not available)")
                 continue
             export(obj, Path(tmp) / "warm", formats)  # imports and first-call costs
