@@ -47,7 +47,7 @@ def main() -> None:
             check_files(files, **options)  # warm: imports, MuJoCo's mesh cache
             whole = cpu(check_files, files, **options)
             part = cpu(dynamics.against_source, source, files)
-            schemas = [f for f in files if f.suffix in (".usda", ".glb")]
+            schemas = [written[name] for name in ("usd", "gltf") if name in written]
             opened = {f: open_probes(f)[0] for f in schemas}
             schema = cpu(dynamics.against_source, source, schemas, opened=opened)
         print(f"| {source.name} | {whole:.2f} | {part:.2f} | {100 * part / whole:.0f} % | "

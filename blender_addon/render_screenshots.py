@@ -148,15 +148,17 @@ def _publish(image, out: Path) -> None:
     os.replace(staged, out)  # never a half-written picture in docs/
 
 
-def _export(source: Path, formats: str, out: Path) -> Path:
-    """The main venv's ``real2code export`` (what a user runs)."""
+def _export(source: Path, fmt: str, out: Path) -> Path:
+    """The main venv's ``real2code export`` (what a user runs) to one format: the file it
+    wrote, as it prints it (``<format> <path>``; the registry names the file, not this script)."""
     if not REAL2CODE.is_file():
         sys.exit(f"{REAL2CODE} is missing: run scripts/setup.sh first")
-    done = subprocess.run([str(REAL2CODE), "export", str(source), "--to", formats, "--out",
+    done = subprocess.run([str(REAL2CODE), "export", str(source), "--to", fmt, "--out",
                            str(out)], capture_output=True, text=True, check=False)
     if done.returncode != 0:
         sys.exit(f"real2code export {source} failed:\n{done.stderr}")
-    return out
+    written = dict(line.split(maxsplit=1) for line in done.stdout.splitlines() if line.strip())
+    return Path(written[fmt])
 
 
 # -- shots ----------------------------------------------------------------------------------
@@ -276,7 +278,7 @@ def shot_artist(work: Path, samples: int) -> None:
 def shot_gltf_importer(work: Path, samples: int) -> None:
     import bpy
 
-    glb = next(_export(SAMPLE, "gltf", work / "gltf").glob("*.glb"))
+    glb = _export(SAMPLE, "gltf", work / "gltf")
     scene = _empty_scene()
     assert bpy.ops.import_scene.gltf(filepath=str(glb)) == {"FINISHED"}
     orphans = bpy.data.collections.get("Orphan Nodes")
@@ -307,7 +309,7 @@ def shot_usd_importer(work: Path, samples: int) -> None:
     from mathutils import Vector
     from PIL import Image, ImageDraw, ImageFont
 
-    usd = next(_export(SAMPLE, "usd", work / "usd").glob("*.usda"))
+    usd = _export(SAMPLE, "usd", work / "usd")
     scene = _empty_scene()
     assert bpy.ops.wm.usd_import(filepath=str(usd)) == {"FINISHED"}
     bpy.context.view_layer.update()

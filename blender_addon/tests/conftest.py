@@ -32,7 +32,7 @@ MODULE = "bl_ext.user_default.real2code"
 CATEGORIES = {"storage_furniture": (6, 3), "table": (4, 1), "refrigerator": (3, 2),
               "laptop": (2, 0), "box": (2, 5)}
 INPUT_FORMATS = ("json", "urdf", "mjcf", "gltf")
-SUFFIX = {"urdf": ".urdf", "mjcf": ".xml", "gltf": ".glb", "usd": ".usda"}
+EXPORTED = ("urdf", "mjcf", "gltf", "usd")
 
 # Blender reads its user folder when bpy is first imported: point it at a fresh one first.
 os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp(prefix="real2code-blender-user-")
@@ -147,12 +147,11 @@ def generated(tmp_path_factory) -> dict[str, dict[str, Path]]:
         out = root / category
         run_main([str(bin_dir / "real2code"), "generate", "--category", category,
                   "--parts", str(parts), "--seed", str(seed), "--out", str(out)])
-        run_main([str(bin_dir / "real2code"), "export", str(out / "object.json"),
-                  "--to", "urdf,mjcf,gltf,usd", "--out", str(out / "export")])
-        name = f"{category}_{seed}"
-        files = {"json": out / "object.json"}
-        files |= {f: out / "export" / f"{name}{SUFFIX[f]}" for f in SUFFIX}
-        return files
+        said = run_main([str(bin_dir / "real2code"), "export", str(out / "object.json"),
+                         "--to", ",".join(EXPORTED), "--out", str(out / "export")])
+        # the files as the export names them (``<format> <path>``: the registry's names)
+        written = dict(line.split(maxsplit=1) for line in said.splitlines() if line.strip())
+        return {"json": out / "object.json"} | {f: Path(written[f]) for f in EXPORTED}
 
     with ThreadPoolExecutor(max_workers=2) as pool:
         return dict(zip(CATEGORIES, pool.map(make, CATEGORIES), strict=True))
