@@ -265,6 +265,19 @@ def test_building_the_parser_imports_no_stage():
     assert done.stdout.strip() == "", done.stdout
 
 
+def test_an_export_imports_no_reader_of_the_format_it_writes(cabinet_json, tmp_path):
+    """``export --to usd`` reads object.json and writes USD: USD's reader (its parsed tree,
+    pxr.Usd and the schema modules) is not imported, as ``Format.read_requires`` says."""
+    code = ("import sys; from real2code_export.cli import run; "
+            f"status = run(['export', {str(cabinet_json)!r}, '--to', 'usd', '--out', "
+            f"{str(tmp_path / 'out')!r}]); "
+            "print(status, sorted(m for m in sys.modules if m in ('pxr.Usd', 'pxr.UsdPhysics') "
+            "or m.startswith('real2code_export.formats.usd.read')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=REPO)
+    assert done.stdout.split("\n")[-2] == "0 []", done.stdout
+
+
 def test_the_parser_restates_no_stage_fact_wrongly():
     """The few facts the parser carries so as not to import a stage match the stage's own."""
     from pipeline.render import DEFAULT_SIZE, DEFAULT_VIEWS

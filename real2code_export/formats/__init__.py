@@ -131,6 +131,12 @@ def _import_problem(fmt: Format, writing: bool) -> str | None:
             importlib.import_module(module)
         except Exception as e:  # noqa: BLE001 - a broken package fails in any way it likes
             return f"cannot import {module} ({type(e).__name__}: {e})"
+    # a package that imports its writer and reader when first asked (USD's): import them
+    for name in ("save",) if writing else ("save", "load"):
+        try:
+            getattr(importlib.import_module(fmt.module), name, None)
+        except Exception as e:  # noqa: BLE001
+            return f"cannot import {fmt.module}.{name} ({type(e).__name__}: {e})"
     return None
 
 

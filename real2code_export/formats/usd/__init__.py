@@ -11,7 +11,19 @@ value conversions); and the concepts both directions share: geometry (meshes, ma
 body (rigid bodies, mass), joint (joints, units), articulation (the parsed tree).
 """
 
-from .read import load
-from .write import mesh_layer_path, save
-
 __all__ = ["load", "mesh_layer_path", "save"]
+
+
+def __getattr__(name: str):
+    """``load`` from ``read``, ``save`` and ``mesh_layer_path`` from ``write``, each imported
+    when first asked for: an export to USD imports no reader (its parsed-tree and schema
+    code), a read no writer."""
+    if name == "load":
+        from .read import load
+
+        return load
+    if name in ("save", "mesh_layer_path"):
+        from . import write
+
+        return getattr(write, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
