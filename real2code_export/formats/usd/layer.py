@@ -26,9 +26,11 @@ def new_layer(name: str, scene: str):
     from pxr import Gf, Sdf
 
     from ...engine_settings import MULTICCD, PHYSX_SOLVER
+    from .. import FORMATS
     from .conventions import GEOMETRY, LOOKS, PHYSICS
 
-    layer = Sdf.Layer.CreateAnonymous(f"{name}.usda")
+    # (the tag's suffix picks the layer's file format: the one the export writes)
+    layer = Sdf.Layer.CreateAnonymous(f"{name}{FORMATS['usd'].output_suffix}")
     info = layer.pseudoRoot
     info.SetInfo("upAxis", "Z")
     info.SetInfo("metersPerUnit", 1.0)
