@@ -307,7 +307,7 @@ def matrix_to_rpy(r: np.ndarray) -> np.ndarray:
     """URDF roll-pitch-yaw (R = Rz(yaw) Ry(pitch) Rx(roll)) that reproduces ``r`` to
     round-off everywhere, gimbal lock included.
 
-    transforms.matrix_to_rpy switches to yaw only when |sin(pitch)| > 1 - 1e-12, that is
+    The textbook conversion switches to yaw only when |sin(pitch)| > 1 - 1e-12, that is
     within 1.4e-6 rad of pitch = +-pi/2, and there loses up to that much; and it takes roll
     and yaw independently, which near that point costs eps / cos(pitch). Here (as in
     Eigen's eulerAngles) pitch comes from atan2(-r20, hypot(r00, r10)) and roll is solved
