@@ -22,8 +22,8 @@ from real2code_export.markdown import table as markdown_table
 from real2code_export.model import ArticulatedObject
 
 from .articulate import articulate
-from .evaluate_joints import BUCKETS, PAPER_FULL, PAPER_GT_BOXES, Scores, score_object
 from .predictors.data import ajar_configuration, random_placement
+from .predictors.evaluate import BUCKETS, PAPER_FULL, PAPER_GT_BOXES, Scores, score_object
 
 TEST_SEED_OFFSET = 50_000_000  # training uses seeds below this: the test set is disjoint
 

@@ -10,7 +10,7 @@ Scores, by the paper's buckets of part count:
 
 - chamfer distance (``pipeline.chamfer``: 10,000 surface points, squared L2, x 1000 in the
   tables) of the whole object and per part, parts matched optimally;
-- the joint metrics of ``pipeline.evaluate_joints`` (type accuracy, axis error, axis
+- the joint metrics of ``pipeline.predictors.evaluate`` (type accuracy, axis error, axis
   position) on the reconstructed object, and the stricter precision and recall of its
   movable joints (extra parts and joints count against it);
 - for predicted masks, the matched per-part IoU of the segmentation over all views.
@@ -27,7 +27,7 @@ from real2code_export.markdown import table as markdown_table
 
 from .camera_paths import DEFAULT_DISTANCE, DEFAULT_PATH
 from .evaluate_articulation import Case
-from .evaluate_joints import (
+from .predictors.evaluate import (
     BUCKETS,
     MATCH_AXIS_DEG,
     MATCH_POSITION_REL,
@@ -111,7 +111,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     from .reconstruct import reconstruct_capture
     from .render import render_object
     from .segment import get_segmenter
-    from .segment.metrics import matched_part_iou
+    from .segment.evaluate import matched_part_iou
     from .sensors import degrade, load_sensor
 
     sensor_model = load_sensor(sensor)  # a bad preset fails before any work

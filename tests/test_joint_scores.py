@@ -7,7 +7,7 @@ import copy
 
 import numpy as np
 
-from pipeline.evaluate_joints import Scores, score_object
+from pipeline.predictors.evaluate import Scores, score_object
 from pipeline.procedural import generate
 from real2code_export.model import Joint, JointType, Limits, Part
 

@@ -88,7 +88,7 @@ def _segmentation_iou(out, capture_dir):
     """Matched per-part IoU of the written label images against the capture's masks."""
     from PIL import Image
 
-    from pipeline.segment.metrics import matched_part_iou
+    from pipeline.segment.evaluate import matched_part_iou
 
     capture = read_capture(capture_dir)
     predicted = [np.asarray(Image.open(out / "segmentation" / f"{f.name}.png"))
@@ -113,7 +113,7 @@ def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
     mean, per_part = _segmentation_iou(tmp_path / "o", capture_dir)
     assert mean > MEAN_IOU_SMALL and min(per_part.values()) > 0.9, per_part
     # the joints: every true one found on its part, of its type, about its axis
-    from pipeline.evaluate_joints import Scores, score_object
+    from pipeline.predictors.evaluate import Scores, score_object
 
     scores = Scores()
     score_object(truth, read_capture(capture_dir).object_pose(), model, scores)
@@ -138,7 +138,7 @@ def test_demo_reconstructs_the_shipped_capture(tmp_path, capsys):
     # (measured: at most 0.062 rad and 7 mm off; the top flap read 0.001 rad for 0.981 while
     # its handle and side edge, in the carcass's label, grew the carcass's box 18 cm
     # forward). The hinges' lines (0 to 1.6 % of the diagonal off) are not asserted here
-    from pipeline.evaluate_joints import Scores, score_object
+    from pipeline.predictors.evaluate import Scores, score_object
 
     scores = Scores()
     score_object(truth, read_capture(SAMPLE_CAPTURE).object_pose(), model, scores)

@@ -13,8 +13,8 @@ from pipeline.evaluate_articulation import procedural_cases  # noqa: E402
 from pipeline.render import render_object  # noqa: E402
 from pipeline.segment import segment  # noqa: E402
 from pipeline.segment.data import make_views  # noqa: E402
+from pipeline.segment.evaluate import matched_part_iou  # noqa: E402
 from pipeline.segment.learned import LearnedSegmenter  # noqa: E402
-from pipeline.segment.metrics import matched_part_iou  # noqa: E402
 from pipeline.segment.network import build_network  # noqa: E402
 from pipeline.segment.train import WEIGHTS, batch, centre_loss, losses, sample_prompts  # noqa: E402
 from real2code_export.errors import FormatError  # noqa: E402

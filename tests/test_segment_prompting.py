@@ -11,6 +11,7 @@ from pipeline.predictors.data import ajar_configuration
 from pipeline.procedural import generate
 from pipeline.render import render_object
 from pipeline.segment import segment
+from pipeline.segment.evaluate import matched_part_iou
 from pipeline.segment.features import (
     SIZE,
     frame_features,
@@ -18,7 +19,6 @@ from pipeline.segment.features import (
     sample_nearest,
     whole_view,
 )
-from pipeline.segment.metrics import matched_part_iou
 from pipeline.segment.prompting import segment_capture
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from real2code_export.markdown import table as markdown_table
 
 from ..chamfer import REPORT_SCALE, chamfer_distance, object_chamfer
-from ..evaluate_joints import BUCKETS, bucket_of
+from ..predictors.evaluate import BUCKETS, bucket_of
 from .baseline import segment_only_mesh
 from .data import MIN_POINTS
 from .learned import complete_part, load_model

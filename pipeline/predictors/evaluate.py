@@ -24,7 +24,7 @@ from scipy.optimize import linear_sum_assignment
 
 from real2code_export.model import ArticulatedObject, JointType, forward_kinematics
 
-from .joint_code import line_distance
+from ..joint_code import line_distance
 
 BUCKETS = (("2", 2, 2), ("3", 3, 3), ("4-5", 4, 5), ("6-15", 6, 15))
 PAPER_GT_BOXES = {  # Real2Code + ground-truth boxes (Table 3): rot deg, pos, type accuracy
