@@ -26,6 +26,7 @@ from _data import SHARED_DATA  # noqa: E402
 from _machine import describe  # noqa: E402
 
 from real2code_export.batch import TaskOptions, TaskResult, TaskSpec, run_batch  # noqa: E402
+from real2code_export.formats import FORMATS  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 PARTNET = SHARED_DATA / "partnet_mobility"
@@ -103,7 +104,7 @@ def main() -> None:
             folder = Path(tmp) / "noop_inputs"
             folder.mkdir()
             for k in range(args.noop):
-                (folder / f"o{k:04d}.urdf").write_text(str(k))
+                (folder / f"o{k:04d}{FORMATS['urdf'].output_suffix}").write_text(str(k))
             print(f"overhead: a task that does nothing, {args.noop} objects, "
                   f"{min(2, cpus)} workers")
             for engine in engines:

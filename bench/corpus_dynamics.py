@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from corpus_survey import erd_files, files_under, menagerie_files, pybullet_files  # noqa: E402
 
 from real2code_export.errors import Real2CodeError  # noqa: E402
-from real2code_export.formats import export, hulls_collision, load  # noqa: E402
+from real2code_export.formats import export, hulls_collision, is_format, load  # noqa: E402
 from real2code_export.probes import dynamics  # noqa: E402
 
 FORMATS = ["urdf", "mjcf"]
@@ -63,7 +63,7 @@ def compared(path: Path) -> list[str]:
         tools = (by_tool.get("Pinocchio"), by_tool["MuJoCo"])
         for found in tools:
             if found is None:
-                cells.append("does not load it" if path.suffix == ".urdf" else "")
+                cells.append("does not load it" if is_format(path, "urdf") else "")
                 continue
             left = dynamics.unexplained(found, said)
             _explained(found, said)

@@ -28,7 +28,7 @@ from _data import SHARED_DATA
 
 from real2code_export.check import check_files
 from real2code_export.errors import Real2CodeError
-from real2code_export.formats import export, load
+from real2code_export.formats import export, is_format, load
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -54,8 +54,9 @@ def files_under(paths: list[str]) -> list[Path]:
     """Robot description files named, or found under the folders named."""
     out: list[Path] = []
     for p in map(Path, paths):
-        found = [p] if p.is_file() else sorted([*p.rglob("*.urdf"), *p.rglob("*.xml")])
-        out += [f for f in found if f.suffix == ".urdf" or _is_mjcf(f)]
+        found = [p] if p.is_file() else sorted(
+            f for f in p.rglob("*") if any(is_format(f, n) for n in ("urdf", "mjcf")))
+        out += [f for f in found if is_format(f, "urdf") or _is_mjcf(f)]
     return out
 
 

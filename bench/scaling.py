@@ -27,7 +27,7 @@ import mujoco  # noqa: E402
 from _machine import describe  # noqa: E402
 
 from real2code_export.check import check_files  # noqa: E402
-from real2code_export.formats import export, load  # noqa: E402
+from real2code_export.formats import FORMATS, export, load  # noqa: E402
 
 CHAIN = 40
 
@@ -49,7 +49,7 @@ def source(n: int) -> str:
 
 
 def stages(n: int, tmp: Path) -> dict[str, float]:
-    src = tmp / f"scaling{n}.xml"
+    src = tmp / f"scaling{n}{FORMATS['mjcf'].output_suffix}"
     src.write_text(source(n))
     seconds = {}
     with warnings.catch_warnings():
