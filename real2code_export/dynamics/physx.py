@@ -50,9 +50,11 @@ def _layer_over(path: Path, experiment: Experiment) -> tuple[Path, float]:
     unit."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
+    from ..formats import FORMATS
+
     source = Usd.Stage.Open(str(path))
     units = UsdGeom.GetStageMetersPerUnit(source)
-    over = path.with_name(f"{path.stem}.contacts.usda")
+    over = path.with_name(f"{path.stem}.contacts{FORMATS['usd'].output_suffix}")
     layer = Sdf.Layer.CreateNew(str(over))
     layer.subLayerPaths.append(path.name)
     layer.defaultPrim = source.GetRootLayer().defaultPrim

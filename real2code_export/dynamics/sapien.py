@@ -37,10 +37,12 @@ def simulate_many(cases: list[tuple[Path, Experiment]]) -> list[Outcome]:
 def _without_visuals(path: Path) -> Path:
     from lxml import etree
 
+    from ..formats import FORMATS
+
     tree = etree.parse(str(path))
     for visual in tree.getroot().findall("link/visual"):
         visual.getparent().remove(visual)
-    out = path.with_name(f"{path.stem}.sapien.urdf")
+    out = path.with_name(f"{path.stem}.sapien{FORMATS['urdf'].output_suffix}")
     tree.write(str(out))
     return out
 
