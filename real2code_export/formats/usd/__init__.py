@@ -16,8 +16,8 @@ __all__ = ["load", "mesh_layer_path", "save"]
 
 def __getattr__(name: str):
     """``load`` from ``read``, ``save`` and ``mesh_layer_path`` from ``write``, each imported
-    when first asked for: an export to USD imports no reader (its parsed-tree and schema
-    code), a read no writer."""
+    when first asked for: an export to USD imports no reader (its parsed tree, and through
+    the registry's ``read_requires`` pxr.Usd and the schema modules)."""
     if name == "load":
         from .read import load
 
