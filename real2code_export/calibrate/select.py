@@ -291,6 +291,34 @@ def _with_stop(problem: Problem, p: tuple[Effect, ...], base: Fit, warm: dict[st
     return look
 
 
+def _closest_extended(problem: Problem, closest: Fit, fits: dict, screened: dict,
+                      log: list[str]) -> list[Fit]:
+    """Where no replay follows the data: the SCREEN_TOP best-screened structures one effect
+    richer than the closest (no stop), each looked at from its values and fitted to the end
+    if its replay comes back onto the data, up to the first that does."""
+    richer = [p for p in _proposals(problem, closest.effects)
+              if _key(p) not in fits and all(e.name != "limit" for e in p)
+              and len(p) == len(closest.effects) + 1]
+    for p in richer:
+        if _key(p) not in screened:
+            screened[_key(p)] = equation_fit(problem, p)
+    screen_ref = _n_ref(screened.values())
+    out = []
+    for p in sorted(richer, key=lambda p: screened[_key(p)].bic(screen_ref))[:SCREEN_TOP]:
+        f = fit_candidate(problem, p, refine=False, warm=dict(closest.values),
+                          max_nfev=LOOK_NFEV, second_start=False)
+        follows = _follows(problem, f)
+        if follows:
+            f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
+        fits[_key(p)] = f
+        out.append(f)
+        log.append(f"{'+'.join(f.names)} looked at from the closest, "
+                   f"{'+'.join(closest.names)}: {'follows' if follows else 'off the data'}")
+        if follows:
+            break
+    return out
+
+
 def _warm_start(current: Fit) -> dict[str, float]:
     """Start values from the current model: its parameters, and direction-dependent
     friction started from the symmetric friction it refines. (Initial states start from
@@ -441,6 +469,11 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             best = min(new, key=lambda f: f.rss)
             f = fit_candidate(problem, best.effects, refine=False, warm=dict(best.values))
             fits[_key(f.effects)] = new[new.index(best)] = f
+            if not _follows(problem, f):
+                # two effects that each halve the miss may be needed together (a constant
+                # force and damping on an open-loop integrator): the closest's best-screened
+                # extensions are looked at from its values
+                new += _closest_extended(problem, f, fits, screened, log)
         n_ref = _n_ref(fits.values())
         if lost and not any(_follows(problem, f) for f in new):
             log.append("no replay follows the data (each predicts a run worse than the "
