@@ -303,17 +303,26 @@ def _closest_extended(problem: Problem, closest: Fit, fits: dict, screened: dict
         if _key(p) not in screened:
             screened[_key(p)] = equation_fit(problem, p)
     screen_ref = _n_ref(screened.values())
+    ranked = sorted(richer, key=lambda p: screened[_key(p)].bic(screen_ref))[:SCREEN_TOP]
+    return _look_until_one_follows(problem, ranked, dict(closest.values), fits, log,
+                                   f"from the closest, {'+'.join(closest.names)}")
+
+
+def _look_until_one_follows(problem: Problem, structures: list, warm: dict[str, float],
+                            fits: dict, log: list[str], why: str) -> list[Fit]:
+    """Each structure looked at (LOOK_NFEV evaluations from ``warm``) in turn, the first
+    whose replay comes back onto the data fitted to the end; the fits, in order."""
     out = []
-    for p in sorted(richer, key=lambda p: screened[_key(p)].bic(screen_ref))[:SCREEN_TOP]:
-        f = fit_candidate(problem, p, refine=False, warm=dict(closest.values),
-                          max_nfev=LOOK_NFEV, second_start=False)
+    for p in structures:
+        f = fit_candidate(problem, p, refine=False, warm=warm, max_nfev=LOOK_NFEV,
+                          second_start=False)
         follows = _follows(problem, f)
         if follows:
             f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
         fits[_key(p)] = f
         out.append(f)
-        log.append(f"{'+'.join(f.names)} looked at from the closest, "
-                   f"{'+'.join(closest.names)}: {'follows' if follows else 'off the data'}")
+        log.append(f"{'+'.join(f.names)} looked at {why}: "
+                   f"{'follows' if follows else 'off the data'}")
         if follows:
             break
     return out
@@ -451,19 +460,10 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             # replay back (an encoder's zero error on a lid ranked above the dry friction
             # that holds it): the next best-screened are looked at too, up to the first
             # that follows
-            for p in [p for p in scored if p not in with_stop and _key(p) not in fits][
-                    :max(SCREEN_BLIND - len(chosen), 0)]:
-                f = fit_candidate(problem, p, refine=False, warm=warm, max_nfev=LOOK_NFEV,
-                                  second_start=False)
-                follows = _follows(problem, f)
-                if follows:
-                    f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
-                fits[_key(p)] = f
-                new.append(f)
-                log.append(f"{'+'.join(f.names)} looked at too (the best-screened all "
-                           f"stay off the data): {'follows' if follows else 'off the data'}")
-                if follows:
-                    break
+            more = [p for p in scored if p not in with_stop and _key(p) not in fits][
+                :max(SCREEN_BLIND - len(chosen), 0)]
+            new += _look_until_one_follows(problem, more, warm, fits, log,
+                                           "too (the best-screened all stay off the data)")
         if lost and new and not any(_follows(problem, f) for f in new):
             # four evaluations may not have been enough: the closest look to the end
             best = min(new, key=lambda f: f.rss)
