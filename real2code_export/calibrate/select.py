@@ -469,10 +469,11 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             best = min(new, key=lambda f: f.rss)
             f = fit_candidate(problem, best.effects, refine=False, warm=dict(best.values))
             fits[_key(f.effects)] = new[new.index(best)] = f
-            if not _follows(problem, f):
-                # two effects that each halve the miss may be needed together (a constant
-                # force and damping on an open-loop integrator): the closest's best-screened
-                # extensions are looked at from its values
+            if not _follows(problem, f) and f.rss <= 0.5 * current.rss:
+                # two effects may be needed together (a constant force and damping on an
+                # open-loop integrator): where the closest takes up at least half of the
+                # current model's miss, its best-screened extensions are looked at from its
+                # values (where none does, a person moves the joint more likely than not)
                 new += _closest_extended(problem, f, fits, screened, log)
         n_ref = _n_ref(fits.values())
         if lost and not any(_follows(problem, f) for f in new):
