@@ -293,11 +293,12 @@ def _with_stop(problem: Problem, p: tuple[Effect, ...], base: Fit, warm: dict[st
 
 def _closest_extended(problem: Problem, closest: Fit, fits: dict, screened: dict,
                       log: list[str]) -> list[Fit]:
-    """Where no replay follows the data: the SCREEN_TOP best-screened structures one effect
-    richer than the closest (no stop), each looked at from its values and fitted to the end
+    """Where no replay follows the data: the SCREEN_TOP best-screened structures that add
+    one effect to the closest (no stop), each looked at from its values and fitted to the end
     if its replay comes back onto the data, up to the first that does."""
     richer = [p for p in _proposals(problem, closest.effects)
               if _key(p) not in fits and all(e.name != "limit" for e in p)
+              and set(_key(closest.effects)) < set(_key(p))
               and len(p) == len(closest.effects) + 1]
     for p in richer:
         if _key(p) not in screened:
