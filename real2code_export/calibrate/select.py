@@ -20,7 +20,9 @@ absence is still there where the structure fitted without it is worse by BIC and
 explains materially more than that structure. The search
 stops when no extension earns its parameters: nothing is forced onto
 the data; and where no structure's replay follows every run (a person moves the joint),
-since the output error then measures a divergence, not an effect.
+since the output error then measures a divergence, not an effect (first the next
+best-screened are looked at, and where the closest takes up half the miss, its
+extensions: two effects may be needed before a replay follows).
 """
 
 from __future__ import annotations
