@@ -66,7 +66,7 @@ def run_case(seed: int) -> dict:
             continue
         hw = p["halfwidth95"]
         inside = hw is not None and math.isfinite(hw) and abs(p["value"] - truth) <= hw
-        checks.append((key, p["value"], hw, float(truth), inside))
+        checks.append((key, float(p["value"]), hw, float(truth), bool(inside)))
     before, after = report["holdout_rmse_before"], report["holdout_rmse_after"]
     return {"seed": seed, "scenario": case.scenario, "kind": case.kind,
             "truth": sorted(case.truth), "expected": sorted(case.expected_causes()),

@@ -71,3 +71,23 @@ def test_effort_lag_is_a_delay_not_a_force(tmp_path, seed, kind, lag):
     assert report["causes"] == ["effort_delay"], report["selection_log"]
     p = report["parameters"][f"{case.joint}.effort_delay"]
     assert abs(p["value"] - lag) <= p["halfwidth95"], p
+
+
+def test_effort_held_between_samples_is_not_a_delay(tmp_path):
+    """A position loop's command, held over each sample interval as a digital controller
+    holds it (the suite's effect-free drift case at 250 Hz; the replay interpolates the
+    effort linearly, so the held command is felt half a sample late): no cause is named;
+    the lag is reported as the record's hold and stays in the model."""
+    from synthetic_scenarios import make
+
+    case = make(123, "drift", clean=True)
+    period = float(case.fit.time[1] - case.fit.time[0])
+    fit, held = case.write(tmp_path)
+    result = calibrate(case.obj, [fit], [held])
+    report = result.report
+    assert report["causes"] == [], report["selection_log"]
+    lag = report["effort_hold"][case.joint]
+    assert 0.25 * period < lag < period, (lag, period)
+    extras = result.model.metadata["real2code:dynamics"][case.joint]
+    assert extras["effort_delay"]["seconds"] == pytest.approx(lag)
+    assert report["holdout_rmse_after"] < report["holdout_rmse_before"]

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..jsonsafe import finite_or_null as _num
-from .effects import SENSOR, VOCABULARY
+from .effects import SENSOR, VOCABULARY, Effect
 from .fit import Fit
 from .select import Selection
 
@@ -63,6 +63,17 @@ def parameters_json(fit: Fit) -> dict[str, Any]:
     return out
 
 
+def _effort_holds(problem, chosen: Fit) -> dict[int, Effect]:
+    """The chosen effort lags of at most one sample interval: below the record's time
+    resolution, they are how the effort was held between samples, not a cause. The replay
+    interpolates the effort linearly between samples; a digital controller's command is
+    held over each interval, which the replay sees as the effort felt half a sample late.
+    The lag stays in the model (its replay follows the data better), reported apart."""
+    period = max(tr.sample_period for tr in problem.trajectories)
+    return {id(e): e for e in chosen.effects if e.name == "effort_delay"
+            and abs(chosen.values[e.params[0].key]) <= period}
+
+
 def build_report(problem, selection: Selection, fits: list[Replay], holdouts: list[Replay],
                  features: list[dict], sources: list[str], holdout_sources: list[str],
                  model_name: str) -> dict[str, Any]:
@@ -70,12 +81,14 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
     residual_to_noise = math.sqrt(chosen.rss / chosen.n)
     unexplained = residual_to_noise > UNEXPLAINED_RATIO
     order = {name: i for i, name in enumerate(VOCABULARY)}
-    causes = sorted({e.name for e in chosen.effects}, key=order.get)
+    held = _effort_holds(problem, chosen)
+    causes = sorted({e.name for e in chosen.effects if id(e) not in held}, key=order.get)
     details = []
     for e in sorted(chosen.effects, key=lambda e: (e.joint, order[e.name])):
         strength, se = e.strength(chosen.effect_values(e), chosen.effect_cov(e))
         details.append({"effect": e.name, "joint": e.joint, "aliases": list(e.aliases),
-                        "side": "sensor" if e.name in SENSOR else "dynamics",
+                        "side": "recording" if id(e) in held else
+                        "sensor" if e.name in SENSOR else "dynamics",
                         "indistinguishable_from": list(e.aliases), "choice": e.choice,
                         "motion_change_rms_noise": _num(chosen.material.get(e.name)),
                         "departure_from_absence": _num(strength),
@@ -108,6 +121,7 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
         "joints": list(problem.joints), "data": sources, "holdout": holdout_sources,
         "causes": causes,
         "cause_details": details,
+        "effort_hold": {e.joint: chosen.values[e.params[0].key] for e in held.values()},
         "parameters": parameters_json(chosen),
         "rmse_before": _rmse(fits, "nominal"), "rmse_after": _rmse(fits, "calibrated"),
         "holdout_rmse_before": _rmse(holdouts, "nominal"),
@@ -213,6 +227,10 @@ def markdown(report: dict[str, Any], images: dict[str, str]) -> str:
     else:
         lines.append(f"Joint(s) {joints}: the nominal model already explains the measurements;"
                      " no effect earns its parameters.")
+    for joint, lag in report["effort_hold"].items():
+        lines.append(f"- The effort on `{joint}` is replayed {lag * 1e3:.3g} ms late: within one "
+                     "sample interval, how the record held it between samples (a digital "
+                     "controller holds its command), not a cause.")
     for d in report["cause_details"]:
         if d["aliases"]:
             lines.append(f"- `{d['effect']}` on `{d['joint']}` is indistinguishable here from "

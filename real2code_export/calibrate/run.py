@@ -386,6 +386,8 @@ def run_calibrate(model_path: Path, data: Sequence[Path], holdout: Sequence[Path
     r = result.report
     causes = ", ".join(r["causes"]) or "none (the nominal model explains the data)"
     print(f"causes      {causes}")
+    for joint, lag in r["effort_hold"].items():
+        print(f"  effort on {joint} held between samples: replayed {lag * 1e3:.3g} ms late")
     for key, p in r["parameters"].items():
         hw = p["halfwidth95"]
         print(f"  {key:28s} {p['value']:.6g} ± {hw:.2g} {p['unit']}" if hw is not None

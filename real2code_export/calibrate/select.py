@@ -20,7 +20,9 @@ absence is still there where the structure fitted without it is worse by BIC and
 explains materially more than that structure. The search
 stops when no extension earns its parameters: nothing is forced onto
 the data; and where no structure's replay follows every run (a person moves the joint),
-since the output error then measures a divergence, not an effect.
+since the output error then measures a divergence, not an effect (first the next
+best-screened are looked at, and where the closest takes up half the miss, its
+extensions: two effects may be needed before a replay follows).
 """
 
 from __future__ import annotations
@@ -291,6 +293,44 @@ def _with_stop(problem: Problem, p: tuple[Effect, ...], base: Fit, warm: dict[st
     return look
 
 
+def _closest_extended(problem: Problem, closest: Fit, fits: dict, screened: dict,
+                      log: list[str]) -> list[Fit]:
+    """Where no replay follows the data: the SCREEN_TOP best-screened structures that add
+    one effect to the closest (no stop), each looked at from its values and fitted to the end
+    if its replay comes back onto the data, up to the first that does."""
+    richer = [p for p in _proposals(problem, closest.effects)
+              if _key(p) not in fits and all(e.name != "limit" for e in p)
+              and set(_key(closest.effects)) < set(_key(p))
+              and len(p) == len(closest.effects) + 1]
+    for p in richer:
+        if _key(p) not in screened:
+            screened[_key(p)] = equation_fit(problem, p)
+    screen_ref = _n_ref(screened.values())
+    ranked = sorted(richer, key=lambda p: screened[_key(p)].bic(screen_ref))[:SCREEN_TOP]
+    return _look_until_one_follows(problem, ranked, dict(closest.values), fits, log,
+                                   f"from the closest, {'+'.join(closest.names)}")
+
+
+def _look_until_one_follows(problem: Problem, structures: list, warm: dict[str, float],
+                            fits: dict, log: list[str], why: str) -> list[Fit]:
+    """Each structure looked at (LOOK_NFEV evaluations from ``warm``) in turn, the first
+    whose replay comes back onto the data fitted to the end; the fits, in order."""
+    out = []
+    for p in structures:
+        f = fit_candidate(problem, p, refine=False, warm=warm, max_nfev=LOOK_NFEV,
+                          second_start=False)
+        follows = _follows(problem, f)
+        if follows:
+            f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
+        fits[_key(p)] = f
+        out.append(f)
+        log.append(f"{'+'.join(f.names)} looked at {why}: "
+                   f"{'follows' if follows else 'off the data'}")
+        if follows:
+            break
+    return out
+
+
 def _warm_start(current: Fit) -> dict[str, float]:
     """Start values from the current model: its parameters, and direction-dependent
     friction started from the symmetric friction it refines. (Initial states start from
@@ -419,10 +459,25 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
             fits[_key(p)] = f
             new.append(f)
         if lost and new and not any(_follows(problem, f) for f in new):
+            # the screen's best may all stay off the data where another effect brings the
+            # replay back (an encoder's zero error on a lid ranked above the dry friction
+            # that holds it): the next best-screened are looked at too, up to the first
+            # that follows
+            more = [p for p in scored if p not in with_stop and _key(p) not in fits][
+                :max(SCREEN_BLIND - len(chosen), 0)]
+            new += _look_until_one_follows(problem, more, warm, fits, log,
+                                           "too (the best-screened all stay off the data)")
+        if lost and new and not any(_follows(problem, f) for f in new):
             # four evaluations may not have been enough: the closest look to the end
             best = min(new, key=lambda f: f.rss)
             f = fit_candidate(problem, best.effects, refine=False, warm=dict(best.values))
             fits[_key(f.effects)] = new[new.index(best)] = f
+            if not _follows(problem, f) and f.rss <= 0.5 * current.rss:
+                # two effects may be needed together (a constant force and damping on an
+                # open-loop integrator): where the closest takes up at least half of the
+                # current model's miss, its best-screened extensions are looked at from its
+                # values (where none does, a person moves the joint more likely than not)
+                new += _closest_extended(problem, f, fits, screened, log)
         n_ref = _n_ref(fits.values())
         if lost and not any(_follows(problem, f) for f in new):
             log.append("no replay follows the data (each predicts a run worse than the "
