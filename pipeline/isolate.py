@@ -251,8 +251,8 @@ def views_up(frames: list[Frame], options: IsolationOptions = IsolationOptions()
 
 
 def _outline(points: np.ndarray, up: np.ndarray):
-    """The points' outline seen from above: (a function from points to whether each lies
-    above or below the outline, i.e. inside it in the plane across ``up``)."""
+    """A test of whether points lie above or below ``points`` (inside their convex outline
+    seen from above, in the plane across ``up``)."""
     from scipy.spatial import ConvexHull, Delaunay, QhullError
 
     across = np.linalg.svd(np.eye(3) - np.outer(up, up))[0][:, :2]  # the plane across up
