@@ -36,10 +36,9 @@ class CompartmentOptions:
     panel_link_voxels: float = 2.5  # other labels' points on an open panel's plane, joined
     # to it through points this close, are the panel's (the strip beside a flap's hinge) ...
     claim_share: float = 0.1  # ... when they are at least this share of its plane's points
-    enclosed_share: float = 0.03  # at most this share of the carcass's points stands past a
-    # wall that bounds it, and a piece past it of at most this share may be a moving part's
-    enclosed_inside: float = 0.98  # a part with this share of its points inside the
-    enclosed_margin_voxels: float = 1.0  # carcass's box (grown by this) is the carcass's
+    enclosed_share: float = 0.03  # a part of at most this share of the carcass's points ...
+    enclosed_inside: float = 0.98  # ... with this share of them inside the carcass's box ...
+    enclosed_margin_voxels: float = 1.0  # ... (grown by this many spacings) is the carcass's
     wall_margin_voxels: float = 1.0  # the carcass's points this far past its walls stand out
     nested_share: float = 0.9  # a moving part with this share of its points in a larger
     nested_margin_voxels: float = 2.0  # one's box (grown by this), standing out of the
@@ -301,8 +300,8 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
 def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     options: CompartmentOptions = CompartmentOptions(),
                     ) -> tuple[np.ndarray, list[dict]]:
-    """Parts lying wholly inside the carcass's box (label 1, the largest part) go back to it:
-    pieces of its shell that the masks cut out as parts of their own.
+    """Small parts lying wholly inside the carcass's box (label 1, the largest part) go back
+    to it: pieces of its shell that the masks cut out as parts of their own.
 
     A part is only seen to move when it is seen out of place: a drawer pulled out stands
     out of the carcass's box, a door swung open leaves it (the pipeline, like the paper's,
@@ -310,12 +309,8 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     the mask network, on noisy depth, gave a label of its own lies inside the box, and
     the joint predictor makes a drawer or a door of it (on phone-LiDAR rings of the
     procedural test set, one or two such patches of 1 to 2 % of the carcass's points per
-    object, each given a joint; on real shapes with clean depth, larger ones: a
-    refrigerator's inner walls and shelves seen past its open door, four pieces of 5 to 9
-    % of its body, and a fifth of a cabinet's carcass). Whatever its size: the true moving
-    parts of the procedural dev objects and PartNet-Mobility dev, seen partly open, have at
-    most 66 % of their points in the carcass's box. Returns the labels, renumbered by size,
-    and what was moved."""
+    object, each given a joint). Parts of more than ``enclosed_share`` of the carcass's
+    points are left alone. Returns the labels, renumbered by size, and what was moved."""
     out = labels.copy()
     moved = []
     carcass = labels == 1
@@ -324,7 +319,7 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     body = part_obb(cloud[carcass])
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
-        if len(index) == 0:
+        if len(index) == 0 or len(index) > options.enclosed_share * carcass.sum():
             continue
         inside = body.contains(cloud[index], tol=options.enclosed_margin_voxels * voxel)
         if inside.mean() >= options.enclosed_inside:
