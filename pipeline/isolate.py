@@ -15,7 +15,8 @@ the object's pixels alone (a capture of the object alone passes through unchange
 3. what is left, fused over the views, falls into clusters (points in touching grid cells
    a few voxels wide, :func:`grid_clusters`): the object is the cluster with most points in
    its region, with any small cluster mostly inside the object's box (a piece cut off by a
-   gap); clutter and the rest go.
+   gap) and any cluster mostly above or below it (a table's body under its top, seen apart
+   from it past the top's overhang); clutter and the rest go.
 """
 
 from __future__ import annotations
@@ -52,6 +53,10 @@ class IsolationOptions:
     box_margin: float = 0.05  # a given box grows by this share of its diagonal
     broad_rel: float = 0.1  # a room plane's points outside the region spread this much (of
     # the region's size, standard deviation across its narrower direction)
+    stacked_share: float = 0.5  # a cluster with this share of its points above or below the
+    stacked_min: float = 0.005  # object (inside its outline seen from above), and at least
+    # this share of the object's size (not a speck of the floor's noise), is the object's
+    upright: float = 0.5  # the views' mean up axis at least this long: they agree on up
 
 
 @dataclass(frozen=True)
@@ -235,11 +240,40 @@ def grid_clusters(points: np.ndarray, cell: float) -> np.ndarray:
     return connected_components(graph, directed=False)[1][inverse]
 
 
+def views_up(frames: list[Frame], options: IsolationOptions = IsolationOptions(),
+             ) -> np.ndarray | None:
+    """Which way is up, from how people hold a camera: upright, give or take a few degrees
+    of roll (the mean of the views' up axes), or None where the views disagree (a camera
+    held flat over the object, turned as it went round)."""
+    up = np.mean([f.camera_to_world[:3, 1] for f in frames], axis=0)  # OpenGL: y up
+    length = float(np.linalg.norm(up))
+    return up / length if length >= options.upright else None
+
+
+def _outline(points: np.ndarray, up: np.ndarray):
+    """A test of whether points lie above or below ``points`` (inside their convex outline
+    seen from above, in the plane across ``up``)."""
+    from scipy.spatial import ConvexHull, Delaunay, QhullError
+
+    across = np.linalg.svd(np.eye(3) - np.outer(up, up))[0][:, :2]  # the plane across up
+    flat = points @ across
+    try:
+        hull = Delaunay(flat[ConvexHull(flat).vertices])
+    except QhullError:  # the object seen edge-on from above (a thin wall): no outline
+        return lambda q: np.zeros(len(q), bool)
+    return lambda q: hull.find_simplex(q @ across) >= 0
+
+
 def object_points(points: np.ndarray, region: Region, boxed: bool, footprint: float,
-                  options: IsolationOptions = IsolationOptions()) -> np.ndarray:
+                  options: IsolationOptions = IsolationOptions(),
+                  up: np.ndarray | None = None) -> np.ndarray:
     """Which of the fused ``points`` (off the room's planes) are the object: those in the
-    given box, or the cluster with most points in the region and the small clusters mostly
-    inside its box (a piece cut off by a gap, a speck seen through a slit). ``footprint``: a pixel's width on the object (in a
+    given box, or the cluster with most points in the region, the small clusters mostly
+    inside its box (a piece cut off by a gap, a speck seen through a slit) and, given ``up``,
+    the clusters mostly above or below it: a table's top and its body are seen apart where
+    the top overhangs (from above, the gap under the overhang is hidden; on a 7-drawer
+    table 8 cm between the nearest points, the body 48 % of the object's pixels), while
+    clutter stands beside the object. ``footprint``: a pixel's width on the object (in a
     small image its points lie further apart than the voxel)."""
     inside = region.contains(points)
     if boxed:
@@ -257,6 +291,10 @@ def object_points(points: np.ndarray, region: Region, boxed: bool, footprint: fl
     sizes = np.bincount(labels)
     piece = (np.bincount(labels, weights=within) >= 0.5 * sizes) & \
         (sizes <= options.piece_share * keep.sum())
+    if up is not None:
+        stacked = _outline(points[keep], up)(points)
+        piece |= (np.bincount(labels, weights=stacked) >= options.stacked_share * sizes) & \
+            (sizes >= options.stacked_min * keep.sum())
     return keep | piece[labels]
 
 
@@ -296,7 +334,8 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
         raise InputError("the capture has no depth off the room's planes: no object in it")
     footprint = float(np.median([np.median(f.depth[f.depth > 0]) / f.camera.fl_x
                                  for f in capture.frames if (f.depth > 0).any()]))
-    is_object = object_points(everything, region, box is not None, footprint, options)
+    is_object = object_points(everything, region, box is not None, footprint, options,
+                              views_up(capture.frames, options))
     if not is_object.any():
         raise InputError("found no object in the capture: nothing off the room's planes "
                          "inside the given --box")

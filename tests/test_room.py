@@ -9,7 +9,14 @@ import pytest
 
 from pipeline.capture import read_capture
 from pipeline.fuse import point_map
-from pipeline.isolate import grid_clusters, isolate_object, look_at_point, parse_box
+from pipeline.isolate import (
+    Region,
+    grid_clusters,
+    isolate_object,
+    look_at_point,
+    object_points,
+    parse_box,
+)
 from pipeline.procedural import generate
 from pipeline.render import render_object
 from pipeline.sensors import degrade, load_sensor
@@ -95,6 +102,23 @@ def test_grid_clusters_link_touching_cells_only():
     assert labels[0] != labels[-1]
     labels = grid_clusters(np.concatenate([a, c]), 0.05)
     assert len(set(labels)) == 1
+
+
+def test_a_body_seen_apart_under_its_top_is_the_objects_and_clutter_beside_it_is_not():
+    """A table's top over its body, 10 cm apart where the overhang hides the gap, and a box of
+    clutter beside it: with up known the body is the object's, the clutter is not; without
+    up (views that disagree on it) only the larger of the two is."""
+    rng = np.random.default_rng(0)
+    top = rng.uniform([-0.8, -0.4, 0.70], [0.8, 0.4, 0.74], (4000, 3))
+    body = rng.uniform([-0.6, -0.3, 0.0], [0.6, 0.3, 0.60], (20000, 3))
+    clutter = rng.uniform([1.0, -0.2, 0.0], [1.3, 0.2, 0.3], (800, 3))
+    speck = np.array([[0.1, 0.1, -0.15]])  # the floor's noise under the body
+    points = np.concatenate([top, body, clutter, speck])
+    region = Region(np.array([0.0, 0.0, 0.4]), 1.0)  # cells of 3.6 cm
+    kept = object_points(points, region, False, 0.004, up=np.array([0.0, 0.0, 1.0]))
+    assert kept[:24000].all() and not kept[24000:].any()
+    kept = object_points(points, region, False, 0.004)
+    assert kept[4000:24000].all() and not kept[:4000].any() and not kept[24000:].any()
 
 
 def test_the_box_option_is_checked():
