@@ -304,7 +304,7 @@ class _LoopTerms:
                u: list[float], nsub: int) -> None:
         """One model's replay of a one-joint loop: :meth:`effort` inlined into the stepping
         loop (its arithmetic in its order, the same floats), a function call and a dozen
-        attribute reads a sample fewer, about a third of a replay's time."""
+        attribute reads a sample fewer: a fifth of a replay's time (0.51 -> 0.42 s CPU, EMPS)."""
         f = self.f
         kp, kd, gain, vt, period = f.kp, f.kd, f.gain, f.velocity_taps, self.period
         ref, added, lo, hi = self.ref, self.added, self.lo, self.hi
