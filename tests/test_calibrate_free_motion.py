@@ -234,3 +234,29 @@ def test_unmeasured_push_is_not_hidden_in_a_vanishing_mass(tmp_path, seed):
     start, end = case.notes["push_window"]
     middle = 0.5 * (start + end)
     assert any(e.start < middle < e.end for e in found), (found, start, end)
+
+
+def test_friction_one_way_only_is_not_direction_dependent_friction(tmp_path):
+    """Direction-dependent friction whose one direction dissipates nothing (its friction
+    and damping both within their intervals of zero: what the free-swing pendulum's fit
+    gave) is not there; unequal friction that rubs both ways is (EMPS's carriage)."""
+    from real2code_export.calibrate.problem import build_problem
+
+    obj, joint = nominal_object("door", np.random.default_rng(0))
+    physics = physics_for(obj, joint)
+    tr, = read_all([_run(tmp_path / "run.csv", joint, physics, 0.2, 0.5)], obj, None)
+    asym = build_problem(obj, [tr]).effects[joint]["asymmetric_friction"]
+    both = {"friction_pos": 19.8, "friction_neg": 20.3, "damping_pos": 171.0,
+            "damping_neg": 245.0}
+    wide = {"friction_pos": 0.66, "friction_neg": 0.66, "damping_pos": 7.4,
+            "damping_neg": 7.5}
+    assert not asym.one_way(both, wide)
+    one = {"friction_pos": 3.1e-4, "friction_neg": 1e-13, "damping_pos": 3.0e-5,
+           "damping_neg": 7.6e-6}
+    hw = {"friction_pos": 1.3e-4, "friction_neg": 1.7e-4, "damping_pos": 8.9e-6,
+          "damping_neg": 1.4e-5}
+    assert asym.one_way(one, hw)
+    # damping one way only (a soft-close damper) with friction both ways rubs both ways
+    assert not asym.one_way({**one, "friction_neg": 2e-4}, {**hw, "friction_neg": 5e-5})
+    # no interval (not identifiable): not shown to rub both ways
+    assert asym.one_way(both, {})

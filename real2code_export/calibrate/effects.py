@@ -260,6 +260,18 @@ class Effect:
             return None
         return {p.name: p.null for p in self.params if p.null is not None}
 
+    def one_way(self, v: dict[str, float], halfwidth: dict[str, float]) -> bool:
+        """Direction-dependent friction that dissipates nothing in one direction: that
+        direction's friction and damping both within their 95 % intervals of zero. No
+        bearing or slide rubs one way only; such a fit has put a constant force into the
+        Coulomb asymmetry (friction one way only is symmetric friction plus a constant
+        force) beside whatever else holds the rest position, and names a direction
+        dependence the joint does not have."""
+        if self.name != "asymmetric_friction":
+            return False
+        return any(all(v[f"{kind}_{side}"] <= halfwidth.get(f"{kind}_{side}", math.inf)
+                       for kind in ("friction", "damping")) for side in ("pos", "neg"))
+
     # -- the model ---------------------------------------------------------------------------
     def apply_to_model(self, obj: ArticulatedObject, v: dict[str, float],
                        extras: dict[str, dict]) -> None:

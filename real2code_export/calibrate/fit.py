@@ -113,10 +113,13 @@ class Fit:
 
     def present(self, e: Effect) -> bool:
         """The effect is there: its departure from absence exceeds the 95 % interval, and
-        it moves the simulated motion by more than the sensor noise."""
+        it moves the simulated motion by more than the sensor noise (and direction-dependent
+        friction dissipates both ways: :meth:`Effect.one_way`)."""
         strength, se = e.strength(self.effect_values(e), self.effect_cov(e))
         z = 1.96 if math.isfinite(se) else math.inf
-        return bool(strength > z * se) and self.material.get(e.name, math.inf) >= MATERIAL
+        return bool(strength > z * se) and self.material.get(e.name, math.inf) >= MATERIAL \
+            and not e.one_way(self.effect_values(e),
+                              {p.name: self.halfwidth.get(p.key, math.inf) for p in e.params})
 
 
 def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int = 20,

@@ -38,6 +38,11 @@ MIN_SHOOTING = 1.0  # s: a piece holds enough samples past its smoothing's edges
 # A held-out run is predicted from its opening: this share of it fits its initial state ...
 PREDICT_SHARE = 0.25
 PREDICT_NFEV = 8  # ... in at most this many evaluations (two values a run, started near)
+# The calibrated model's replay of the fitted runs starts from the chosen fit's initial
+# states, already that model's optimum but for the refinement's small step: this many
+# evaluations move them the rest of the way (a closed loop barely tells an initial
+# velocity, and a fit left to its end wandered a dozen replays along it for nothing)
+REPLAY_NFEV = 3
 ROUNDOFF = 1e-9  # relative: RMS errors closer than this are the same motion's
 
 
@@ -60,8 +65,10 @@ def replay(obj: ArticulatedObject, trajectories: Sequence[Trajectory],
            warm: Fit | None = None) -> Fit:
     """The model exactly as it is (its dynamics and metadata extras) replayed under each
     trajectory's conditions; only the initial states are fitted (started from ``warm``'s,
-    where given: the fit the model was made from already found them)."""
-    return fit_candidate(build_problem(obj, list(trajectories)), (), warm=_initial(warm))
+    where given, in at most REPLAY_NFEV evaluations: the fit the model was made from
+    already found them)."""
+    return fit_candidate(build_problem(obj, list(trajectories)), (), warm=_initial(warm),
+                         **({} if warm is None else {"max_nfev": REPLAY_NFEV}))
 
 
 def _initial(fit: Fit | None) -> dict[str, float]:

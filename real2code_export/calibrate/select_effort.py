@@ -60,7 +60,9 @@ def select_by_effort(problem: Problem, max_effects: int = MAX_EFFECTS) -> Select
         # smoothing and may buy a small term with it): the chosen structure and the one
         # before it are fitted by simulation, and the last effect kept only if the BIC of
         # the replay prefers it
-        chosen = fit_candidate(problem, path[-1])
+        # (refined, its numerical error measured, only once it is kept: refining leaves
+        # the residual the BIC compares alone)
+        chosen = fit_candidate(problem, path[-1], refine=False)
         fits.append(chosen)
         before = nominal if len(path) == 1 else fit_candidate(
             problem, path[-2], refine=False, warm=dict(chosen.values), max_nfev=BEFORE_NFEV)
@@ -73,6 +75,8 @@ def select_by_effort(problem: Problem, max_effects: int = MAX_EFFECTS) -> Select
                        f"(BIC {before.bic(n_ref):.1f}): the last effect is not kept")
             chosen = refine_fit(before)
             fits[-1 if before is not nominal else 0] = chosen
+        else:
+            chosen = fits[1] = refine_fit(chosen)
         # an effect the replay's estimate puts within its interval of absence is left out
         # (the effort equation's smoothing bias can make a small term look real)
         held = tuple(e for e in chosen.effects if _departs(chosen, e))
