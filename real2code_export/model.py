@@ -288,6 +288,9 @@ class Joint:
     mimic: Mimic | None = None
     # effort and velocity limits where ``limits`` is None (a joint without a range)
     drive_limits: DriveLimits | None = None
+    # a ball joint's cone (rad): the largest rotation from its rest, about any axis (MuJoCo's
+    # ball range); None: free
+    cone_limit: float | None = None
 
     @property
     def effort_limit(self) -> float | None:
@@ -626,6 +629,12 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                 )
         elif j.limits is not None:
             raise ModelError(el, f"a {j.type.value} joint takes no limits")
+        if j.cone_limit is not None:
+            if j.type is not JointType.BALL:
+                raise ModelError(el, f"a {j.type.value} joint takes no cone limit (a ball's)")
+            _finite(j.cone_limit, el, "cone limit")
+            if j.cone_limit <= 0:
+                raise ModelError(el, f"cone limit must be > 0 rad, got {j.cone_limit}")
         if j.drive_limits is not None:
             if j.limits is not None or j.type not in (JointType.CONTINUOUS,
                                                       JointType.PRISMATIC):
@@ -795,6 +804,9 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
                 u, v = getattr(x.limits, attr), getattr(y.limits, attr)
                 if (u is None) != (v is None) or (u is not None and not close(u, v)):
                     out.append(f"{el}: {attr} limit {u} != {v}")
+        if (x.cone_limit is None) != (y.cone_limit is None) or (
+                x.cone_limit is not None and not close(x.cone_limit, y.cone_limit)):
+            out.append(f"{el}: cone limit {x.cone_limit} != {y.cone_limit}")
         if x.limits is None and y.limits is None:  # a joint without a range: drive_limits
             for attr in ("effort", "velocity"):
                 u, v = getattr(x, f"{attr}_limit"), getattr(y, f"{attr}_limit")

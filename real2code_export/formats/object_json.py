@@ -110,6 +110,7 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                 **({} if j.mimic is None else {"mimic": mimic_json(j.mimic)}),
                 **({} if j.drive_limits is None else {"drive_limits": {
                     "effort": j.drive_limits.effort, "velocity": j.drive_limits.velocity}}),
+                **({} if j.cone_limit is None else {"cone_limit": j.cone_limit}),
             }
         )
     return {
@@ -227,6 +228,8 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
             dynamics=dynamics, state=number(jd.get("state", 0.0), path, el, "state"),
             mimic=None if jd.get("mimic") is None else mimic_from_json(jd["mimic"], path, el),
             drive_limits=drive_limits,
+            cone_limit=None if jd.get("cone_limit") is None
+            else number(jd["cone_limit"], path, el, "cone limit"),
         ))
     obj = ArticulatedObject(name=member(data, "name", path, "object"), parts=parts, joints=joints,
                             metadata=dict(data.get("metadata") or {}))

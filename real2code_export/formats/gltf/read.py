@@ -213,7 +213,8 @@ def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
         return Joint(name=name, type=JointType(d["type"]), parent=d["parent"], child=d["child"],
                      origin=origin, axis=_vector(d.get("axis", [0, 0, 1]), 3, doc, el, "axis"),
                      limits=limits, dynamics=dynamics, state=float(d.get("state", 0.0)),
-                     mimic=mimic, drive_limits=drive_limits)
+                     mimic=mimic, drive_limits=drive_limits,
+                     cone_limit=None if d.get("cone_limit") is None else float(d["cone_limit"]))
     except (KeyError, TypeError, ValueError, AttributeError) as e:
         raise FormatError(doc.path, el, f"bad joint metadata ({type(e).__name__}: {e})") from e
 

@@ -223,6 +223,8 @@ def _joint_extras(joint: Joint) -> dict:
     if joint.drive_limits is not None:  # a joint without a range: effort and velocity
         out["drive_limits"] = {k: float(v) for k in ("effort", "velocity")
                                if (v := getattr(joint.drive_limits, k)) is not None}
+    if joint.cone_limit is not None:
+        out["cone_limit"] = float(joint.cone_limit)
     return {EXTRAS_KEY: out}
 
 

@@ -334,11 +334,10 @@ class _Reader:
             return Joint(name, JointType.FLOATING, parent_name, child, origin=base,
                          dynamics=dynamics)
         if jtype == mujoco.mjtJoint.mjJNT_BALL:  # qpos0 is the identity rotation
-            if limited:
-                self.note("ball joint cone limits dropped (the model's ball joints are free)",
-                          name)
+            # a limited ball's range is [0, the largest rotation] (MuJoCo refuses another)
             return Joint(name, JointType.BALL, parent_name, child,
-                         origin=base @ tf.make(translation=anchor), dynamics=dynamics)
+                         origin=base @ tf.make(translation=anchor), dynamics=dynamics,
+                         cone_limit=float(m.jnt_range[j][1]) if limited else None)
         ref = float(m.qpos0[qadr])
         if hinge:
             kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS

@@ -503,6 +503,9 @@ def _add_joint(body, joint: Joint, anchor: np.ndarray, axis: np.ndarray) -> None
     if joint.type.multi_dof:
         kind = mujoco.mjtJoint.mjJNT_BALL if joint.type is JointType.BALL else \
             mujoco.mjtJoint.mjJNT_FREE
+        if joint.cone_limit is not None:  # a ball's range: [0, the largest rotation]
+            options.update(limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+                           range=[0.0, joint.cone_limit])
         body.add_joint(type=kind, **options)
         return
     kind = mujoco.mjtJoint.mjJNT_HINGE if joint.type.angular else mujoco.mjtJoint.mjJNT_SLIDE

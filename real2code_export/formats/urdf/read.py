@@ -403,6 +403,8 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
                   mimic=_mimic(ctx, el, owner, joint_names))
     if jtype.multi_dof:
         joint.dynamics = _dynamics(ctx, el, owner)
+    if jtype is JointType.BALL and el.get(ns("cone_limit")) is not None:
+        joint.cone_limit = ctx.number(el, ns("cone_limit"), owner)
     if jtype.movable:
         joint.axis = _axis(ctx, el, owner)
         joint.dynamics = _dynamics(ctx, el, owner)

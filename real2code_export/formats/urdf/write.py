@@ -224,9 +224,13 @@ def _joint(joint: Joint) -> etree._Element:
     el.set("type", joint.type.value)
     if joint.type is JointType.BALL:
         warn(f"URDF: joint {joint.name!r}: URDF has no ball joint; written as fixed at its "
-             f"reference pose, marked {PREFIX}:type=\"ball\" for our reader")
+             f"reference pose, marked {PREFIX}:type=\"ball\" for our reader"
+             + ("" if joint.cone_limit is None else
+                f" (its cone limit in {PREFIX}:cone_limit)"))
         el.set("type", JointType.FIXED.value)
         el.set(ns("type"), joint.type.value)
+        if joint.cone_limit is not None:
+            el.set(ns("cone_limit"), number(joint.cone_limit))
     if joint.type.movable and joint.state != 0.0:
         el.set(ns("state"), number(joint.state))
     _sub(el, "origin", ("xyz", numbers(joint.origin[:3, 3])),

@@ -41,6 +41,7 @@ from .joint import (
     STATE,
     authored_value,
     axis_in_body1,
+    read_cone_limit,
     read_dynamics,
     read_free_dynamics,
     read_limits,
@@ -250,7 +251,9 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     if not kind.movable:
         dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.multi_dof else None
         return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent],
-                     names[e.child], origin=origin, dynamics=dynamics or Dynamics())
+                     names[e.child], origin=origin, dynamics=dynamics or Dynamics(),
+                     cone_limit=read_cone_limit(e.desc, where) if kind is JointType.BALL
+                     else None)
     token = str(e.desc.axis)
     axis = axis_in_body1(child_quat, token) * (-1.0 if e.reversed else 1.0)
     motion = tf.inverse(world[e.body0] @ t0) @ (world[e.body1] @ t1)
