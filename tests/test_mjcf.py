@@ -528,9 +528,9 @@ def test_visual_geoms_under_discardvisual_are_kept(tmp_path):
     assert np.isclose(arm.inertial.mass, 1.0)
 
 
-def test_geoms_of_several_colours_in_one_body_are_said(tmp_path):
-    """A part holds one colour: a body whose visual geoms differ keeps the first geom's, and
-    the reader says which bodies lost theirs."""
+def test_geoms_of_several_colours_in_one_body_are_kept(tmp_path):
+    """A body whose visual geoms differ in colour keeps each geom's colour per face (the
+    part's is the first's), and the MJCF export writes a geom per colour."""
     path = write(tmp_path / "two.xml", """<mujoco>
   <worldbody>
     <body name="arm"><joint name="hinge" axis="0 0 1"/>
@@ -539,10 +539,13 @@ def test_geoms_of_several_colours_in_one_body_are_said(tmp_path):
   </worldbody>
 </mujoco>
 """)
-    with pytest.warns(Real2CodeWarning, match=r"visual geoms of several colours in one body.*"
-                      r"the first geom's.*<body name='arm'> \(2\)"):
-        obj = mjcf.load(path)
-    assert obj.parts[-1].color == (1.0, 0.0, 0.0, 1.0)
+    obj = mjcf.load(path)
+    arm = obj.parts[-1]
+    assert arm.color == (1.0, 0.0, 0.0, 1.0)
+    assert [c for _, c in arm.visual.colors] == [(1.0, 0.0, 0.0, 1.0), (0.0, 0.0, 1.0, 1.0)]
+    written = export(obj, tmp_path / "out", formats=["mjcf"])
+    back = mjcf.load(written["mjcf"])
+    assert differences(obj, back) == []
 
 
 def test_unlimited_slide_is_kept_in_every_format(tmp_path):
@@ -696,7 +699,10 @@ def test_third_party_structure_names_and_repairs(third_party):
     lid_part = obj.part("lid")
     assert len(lid_part.collision) == 1
     assert len(lid_part.visual.vertices) == 8 + len(lid_part.collision[0].vertices) + 6
-    assert obj.part("lid").color == pytest.approx((0.2, 0.4, 0.6, 1.0))
+    # its colours per face: the steel prism's (meshes first: the part's colour), the panel's
+    assert [c for _, c in lid_part.visual.colors] == [pytest.approx((0.9, 0.1, 0.1, 1.0)),
+                                                       pytest.approx((0.2, 0.4, 0.6, 1.0))]
+    assert lid_part.color == pytest.approx((0.9, 0.1, 0.1, 1.0))
     # The base's one box collides and shows: it serves as both.
     base = obj.part("base_frame")
     assert len(base.collision) == 1 and base.visual is not None

@@ -176,8 +176,11 @@ def _with_shapes(mesh: Mesh, shapes: list) -> Mesh:
     shapes' tessellations exactly (our writer puts them at the end)."""
     own = Mesh(mesh.vertices, mesh.faces, mesh.uv, tuple(shapes)).remainder() \
         if len(mesh.vertices) >= sum(s.counts()[0] for s in shapes) else None
-    return Mesh.concatenate(([own] if own is not None else []) +
-                            [Mesh.of_primitive(s) for s in shapes])
+    out = Mesh.concatenate(([own] if own is not None else []) +
+                           [Mesh.of_primitive(s) for s in shapes])
+    if mesh.colors and len(out.faces) == len(mesh.faces):  # (the faces in the same order)
+        out = Mesh(out.vertices, out.faces, out.uv, out.primitives, mesh.colors)
+    return out
 
 
 def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:

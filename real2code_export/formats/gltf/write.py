@@ -110,7 +110,11 @@ class _Builder:
         self._written[key] = len(self.gltf.accessors) - 1
         return self._written[key]
 
-    def mesh(self, name: str, data: VertexData, material: int | None) -> int:
+    def mesh(self, name: str, data: VertexData, material: int | None,
+             runs: list[tuple[int, int]] | None = None) -> int:
+        """A mesh of one primitive, or (``runs``: (face count, material) over the faces) one
+        primitive per run, all reading the same vertex accessors (a visual of several
+        colours: glTF's material per primitive)."""
         g = self.g
         attributes = g.Attributes(POSITION=self.accessor(data.positions, FLOAT, "VEC3",
                                                          target=ARRAY_BUFFER, bounds=True))
@@ -120,14 +124,16 @@ class _Builder:
             attributes.TEXCOORD_0 = self.accessor(data.texcoords, FLOAT, "VEC2",
                                                   target=ARRAY_BUFFER)
         component = UNSIGNED_SHORT if data.indices.dtype == np.uint16 else UNSIGNED_INT
-        indices = self.accessor(data.indices.reshape(-1), component, "SCALAR",
-                                target=ELEMENT_ARRAY_BUFFER)
-        primitive = g.Primitive(attributes=attributes, indices=indices, mode=TRIANGLES,
-                                material=material)
-        if data.source is not None:
-            primitive.extras = {EXTRAS_KEY: {"source_vertex": self.accessor(data.source, UNSIGNED_INT,
-                                                                            "SCALAR")}}
-        self.gltf.meshes.append(g.Mesh(name=name, primitives=[primitive]))
+        source = None if data.source is None else \
+            {EXTRAS_KEY: {"source_vertex": self.accessor(data.source, UNSIGNED_INT, "SCALAR")}}
+        primitives, start = [], 0
+        for count, mat in runs or [(len(data.indices), material)]:
+            indices = self.accessor(data.indices[start:start + count].reshape(-1), component,
+                                    "SCALAR", target=ELEMENT_ARRAY_BUFFER)
+            primitives.append(g.Primitive(attributes=attributes, indices=indices,
+                                          mode=TRIANGLES, material=mat, extras=source))
+            start += count
+        self.gltf.meshes.append(g.Mesh(name=name, primitives=primitives))
         return len(self.gltf.meshes) - 1
 
     def texture(self, texture: Texture) -> int:
@@ -301,8 +307,8 @@ def build(obj: ArticulatedObject) -> bytes:
     shapes: list[dict] = []  # KHR_implicit_shapes, for box collision pieces
     animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
 
-    def material(part: Part) -> int:
-        color = _floats(part.color)
+    def material(part: Part, rgba=None) -> int:
+        color = _floats(part.color if rgba is None else rgba)
         maps = part.maps
         # the factors multiply the maps: 1 where a map gives the values
         pbr = g.PbrMetallicRoughness(baseColorFactor=color,
@@ -332,7 +338,12 @@ def build(obj: ArticulatedObject) -> bytes:
         """The part's node and, if it is its own rigid body, its joint attachment node."""
         mesh = None
         if part.visual is not None:  # shapes tessellated (glTF has none), kept in extras
-            mesh = b.mesh(part.name, encode_visual(part.visual), material(part))
+            colours = {rgba: None for _, rgba in part.visual.colors}  # a material per colour
+            for rgba in colours:
+                colours[rgba] = material(part, rgba)
+            runs = [(n, colours[rgba]) for n, rgba in part.visual.colors] or None
+            mesh = b.mesh(part.name, encode_visual(part.visual),
+                          None if runs else material(part), runs)
         fields = motion_trs(joint, joint.state) if joint is not None else {}
         node = b.node(part.name, mesh=mesh, extras=_part_extras(part), **fields)
         children = b.gltf.nodes[node].children

@@ -136,30 +136,36 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
     from pxr import Gf
 
     visuals_written = {} if visuals_written is None else visuals_written
-    r, g, b, a = (float(c) for c in part.color)
-    material = define(layer, material_path, "Material")
-    surface = f"{material_path}/PreviewSurface"
-    shader = define(layer, surface, "Shader")
-    attribute(shader, "info:id", "Token", "UsdPreviewSurface", uniform=True)
-    attribute(shader, "inputs:diffuseColor", "Color3f", Gf.Vec3f(r, g, b))
-    attribute(shader, "inputs:opacity", "Float", a)
-    attribute(shader, "inputs:roughness", "Float", 0.6)
-    if part.texture is not None or part.maps:
-        _texture_network(layer, material, material_path, shader, part)
-    attribute(shader, "outputs:surface", "Token")
-    connect(material, "outputs:surface", "Token", f"{surface}.outputs:surface")
+    _material(layer, material_path, part.color, part)
     body = layer.GetPrimAtPath(body_path)
-    apply(body, "MaterialBindingAPI")
-    relationship(body, "material:binding", material_path)
+    bind(body, material_path)
+    # a visual of several colours: a material per other colour, bound to the shapes and to
+    # GeomSubsets of the mesh's faces (UsdShade's material per face set)
+    colours: dict[tuple, str] = {tuple(part.color): material_path}
+    runs = part.visual.colors if part.visual is not None else ()
+    for rgba in dict.fromkeys(rgba for _, rgba in runs):
+        if rgba not in colours:
+            colours[rgba] = f"{material_path}_colour_{len(colours)}"
+            _material(layer, colours[rgba], rgba, None)
 
-    visuals = []
+    visuals = []  # (prim, its colour: None for the part's) of one colour each
     own = part.visual.remainder() if part.visual is not None else None
     if own is not None:
-        visuals.append(_define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
-                                         visuals_written, visual=True))
-    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
-        visuals.append(define_shape(layer, f"{body_path}/{part.name}_visual_{k}", shape))
-    for visual in visuals:  # displayColor too, for viewers and importers (MuJoCo's) that
+        prim = _define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
+                                 visuals_written, visual=True)
+        if own.colors:
+            _face_subsets(layer, prim, own, colours)
+        else:
+            visuals.append((prim, None))
+    shapes = part.visual.primitives if part.visual is not None else ()
+    for k, (shape, rgba) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
+                                          else (), strict=True)):
+        prim = define_shape(layer, f"{body_path}/{part.name}_visual_{k}", shape)
+        visuals.append((prim, rgba))
+        if rgba is not None and colours[rgba] != material_path:
+            bind(prim, colours[rgba])
+    for visual, rgba in visuals:  # displayColor too, for viewers and importers (MuJoCo's)
+        r, g, b, a = (float(c) for c in (part.color if rgba is None else rgba))
         attribute(visual, "primvars:displayColor", "Color3fArray", [Gf.Vec3f(r, g, b)])
         attribute(visual, "primvars:displayOpacity", "FloatArray", [a])  # read no materials
     for k, piece in enumerate(part.collision):
@@ -172,6 +178,55 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
             geom = _define_mesh_once(layer, where, piece, visuals_written, visual=False)
             attribute(geom, "physics:approximation", "Token", "convexHull", uniform=True)
         attribute(geom, "purpose", "Token", "guide", uniform=True)
+
+
+def _material(layer, material_path: str, rgba, part: Part | None) -> None:
+    """A UsdPreviewSurface material of colour ``rgba`` (``part``: with its images)."""
+    from pxr import Gf
+
+    r, g, b, a = (float(c) for c in rgba)
+    material = define(layer, material_path, "Material")
+    surface = f"{material_path}/PreviewSurface"
+    shader = define(layer, surface, "Shader")
+    attribute(shader, "info:id", "Token", "UsdPreviewSurface", uniform=True)
+    attribute(shader, "inputs:diffuseColor", "Color3f", Gf.Vec3f(r, g, b))
+    attribute(shader, "inputs:opacity", "Float", a)
+    attribute(shader, "inputs:roughness", "Float", 0.6)
+    if part is not None and (part.texture is not None or part.maps):
+        _texture_network(layer, material, material_path, shader, part)
+    attribute(shader, "outputs:surface", "Token")
+    connect(material, "outputs:surface", "Token", f"{surface}.outputs:surface")
+
+
+def bind(prim, material_path: str) -> None:
+    apply(prim, "MaterialBindingAPI")
+    relationship(prim, "material:binding", material_path)
+
+
+def _face_subsets(layer, prim, mesh: Mesh, materials: dict[tuple, str]) -> None:
+    """A mesh of several colours: a GeomSubset of its faces per colour bound to that
+    colour's material (family materialBind, a partition), and displayColor per face."""
+    from pxr import Vt
+
+    faces_of: dict[tuple, list[int]] = {}
+    for start, end, rgba in mesh.face_color_runs():
+        faces_of.setdefault(rgba, []).extend(range(start, end))
+    attribute(prim, "subsetFamily:materialBind:familyType", "Token", "partition",
+              uniform=True)
+    for k, (rgba, faces) in enumerate(faces_of.items()):
+        subset = define(layer, f"{prim.path}/colour_{k}", "GeomSubset")
+        attribute(subset, "elementType", "Token", "face", uniform=True)
+        attribute(subset, "familyName", "Token", "materialBind", uniform=True)
+        attribute(subset, "indices", "IntArray", Vt.IntArray(faces))
+        bind(subset, materials[rgba])
+    colours = np.concatenate([np.tile(np.asarray(rgba, np.float32), (end - start, 1))
+                              for start, end, rgba in mesh.face_color_runs()])
+    for name, type_name, value in (
+            ("primvars:displayColor", "Color3fArray",
+             Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(colours[:, :3]))),
+            ("primvars:displayOpacity", "FloatArray",
+             Vt.FloatArray.FromNumpy(np.ascontiguousarray(colours[:, 3])))):
+        attribute(prim, name, type_name, value).SetInfo("interpolation", "uniform")
 
 
 def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, Mesh], *,
@@ -498,20 +553,12 @@ def define_shape(layer, path: str, shape: Primitive, *schemas: str):
 def read_color(prim, mesh_prims, path) -> tuple[float, float, float, float]:
     """The part colour: diffuseColor/opacity of the material bound to the part prim or its
     first visual mesh (constant inputs only), else displayColor, else the default."""
-    from pxr import UsdGeom, UsdShade
+    from pxr import UsdGeom
 
     for p in [prim, *mesh_prims]:
-        material, _ = UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()
-        if not material:
-            continue
-        shader = material.ComputeSurfaceSource()[0]
-        if not shader:
-            continue
-        diffuse, opacity = shader.GetInput("diffuseColor"), shader.GetInput("opacity")
-        rgb = diffuse.Get() if diffuse else None
-        if rgb is not None:
-            alpha = opacity.Get() if opacity and opacity.Get() is not None else 1.0
-            return _clamped((*rgb, alpha), path, str(p.GetPath()))
+        rgba = _bound_color(p, path)
+        if rgba is not None:
+            return rgba
     for p in mesh_prims:
         gprim = UsdGeom.Gprim(p)
         colors = gprim.GetDisplayColorAttr().Get()
@@ -519,6 +566,57 @@ def read_color(prim, mesh_prims, path) -> tuple[float, float, float, float]:
             opacity = gprim.GetDisplayOpacityAttr().Get()
             return _clamped((*colors[0], opacity[0] if opacity else 1.0), path, str(p.GetPath()))
     return DEFAULT_COLOR
+
+
+def _bound_color(p, path) -> tuple[float, float, float, float] | None:
+    """diffuseColor/opacity (constant inputs) of the material bound to prim ``p``."""
+    from pxr import UsdShade
+
+    material, _ = UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()
+    shader = material.ComputeSurfaceSource()[0] if material else None
+    if not shader:
+        return None
+    diffuse, opacity = shader.GetInput("diffuseColor"), shader.GetInput("opacity")
+    rgb = diffuse.Get() if diffuse else None
+    if rgb is None:
+        return None
+    alpha = opacity.Get() if opacity and opacity.Get() is not None else 1.0
+    return _clamped((*rgb, alpha), path, str(p.GetPath()))
+
+
+def color_runs(prim, n_faces: int, path) -> list[tuple[int, tuple | None]]:
+    """A visual prim's colours over its ``n_faces`` triangles as runs (face count, RGBA;
+    None where it states none): its bound material's colour, else a constant displayColor,
+    per face where GeomSubsets of the materialBind family bind materials to its faces (a
+    mesh of triangles only: the subsets index its faces)."""
+    from pxr import UsdGeom, UsdShade
+
+    own = _bound_color(prim, path)
+    if own is None:
+        gprim = UsdGeom.Gprim(prim)
+        colors = gprim.GetDisplayColorAttr().Get()
+        if colors is not None and len(colors) == 1:
+            opacity = gprim.GetDisplayOpacityAttr().Get()
+            own = _clamped((*colors[0], opacity[0] if opacity else 1.0), path,
+                           str(prim.GetPath()))
+    subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets() \
+        if prim.IsA(UsdGeom.Mesh) else []
+    counts = UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get() if subsets else None
+    if not subsets or counts is None or len(counts) != n_faces or any(c != 3 for c in counts):
+        return [(n_faces, own)]
+    per_face: list = [own] * n_faces
+    for subset in subsets:
+        rgba = _bound_color(subset.GetPrim(), path)
+        for f in subset.GetIndicesAttr().Get() or []:
+            if 0 <= f < n_faces:
+                per_face[f] = rgba
+    runs: list[tuple[int, tuple | None]] = []
+    for rgba in per_face:
+        if runs and runs[-1][1] == rgba:
+            runs[-1] = (runs[-1][0] + 1, rgba)
+        else:
+            runs.append((1, rgba))
+    return runs
 
 
 def _clamped(rgba, path, where: str) -> tuple[float, float, float, float]:

@@ -36,7 +36,14 @@ from .conventions import (
     stage_units,
     world_transforms,
 )
-from .geometry import ellipsoid_collider, read_color, read_images, read_mesh, shape_mesh
+from .geometry import (
+    color_runs,
+    ellipsoid_collider,
+    read_color,
+    read_images,
+    read_mesh,
+    shape_mesh,
+)
 from .joint import (
     STATE,
     authored_value,
@@ -169,7 +176,7 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
                     if p.IsA(UsdGeom.Gprim) and not p.HasAPI(UsdPhysics.CollisionAPI)
                     and UsdGeom.Imageable(p).ComputePurpose() in shown
                     and UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible]
-    visuals = []
+    visuals, runs = [], []  # runs: each visual's colours (geometry.color_runs)
     for p in visual_prims:
         where_p = f"prim <{p.GetPath()}>"
         mesh = read_mesh(p, placed(p), path, where_p) if p.IsA(UsdGeom.Mesh) else \
@@ -179,7 +186,11 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
                  "(box, sphere, cylinder, capsule and meshes are read); not shown")
             continue
         visuals.append(mesh)
-    visual = (visuals[0] if len(visuals) == 1 else Mesh.concatenate(visuals)) if visuals else None
+        runs.append(color_runs(p, len(mesh.faces), path))
+    visual = None  # (visuals of several colours: kept per face)
+    if visuals:
+        visual = Mesh.join_colored(visuals, runs) if len(visuals) > 1 or len(runs[0]) > 1 \
+            else visuals[0]
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
                              f"{path}: {where}")
     images = read_images(prim, visual_prims, path)
