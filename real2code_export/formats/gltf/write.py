@@ -159,14 +159,18 @@ class _Builder:
         """The GLB bytes pygltflib's ``save_to_bytes`` gives, without its cost: it deep-copies
         every value while converting to JSON, which took ~85% of an export's time. Same
         JSON (its ``delete_empty_keys`` on a plain copy), same chunk layout (GLB 2.0 spec)."""
-        self.gltf.buffers = [self.g.Buffer(byteLength=len(self.blob))]
+        # (no buffer and no binary chunk for an object of no meshes: glTF refuses an empty
+        # buffer, byteLength >= 1)
+        self.gltf.buffers = [self.g.Buffer(byteLength=len(self.blob))] if self.blob else []
         data = self.g.delete_empty_keys(_plain(self.gltf, self.g.Attributes))
         text = json.dumps(data, allow_nan=False, separators=(",", ":")).encode("utf-8")
         text += b" " * (-(12 + len(text)) % 4)  # the binary chunk starts 4-aligned
         blob = bytes(self.blob)
-        return b"".join([b"glTF", struct.pack("<II", 2, 28 + len(text) + len(blob)),
-                         struct.pack("<I", len(text)), b"JSON", text,
-                         struct.pack("<I", len(blob)), b"BIN\0", blob])
+        chunks = [struct.pack("<I", len(text)), b"JSON", text]
+        if blob:
+            chunks += [struct.pack("<I", len(blob)), b"BIN\0", blob]
+        body = b"".join(chunks)
+        return b"".join([b"glTF", struct.pack("<II", 2, 12 + len(body)), body])
 
 
 _LEAVES = frozenset({int, float, str, bool, type(None)})
