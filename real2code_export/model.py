@@ -145,17 +145,21 @@ class Mesh:
         """The mesh's own faces (its shapes left out) cut at its colour runs, each with the
         vertices its faces use, in order: [(the remainder, None)] for a mesh of one colour
         (None: the part's colour), [] when only shapes are left."""
+        cached = self.__dict__.get("_color_pieces")  # (every writer asks, some per part)
+        if cached is not None:
+            return list(cached)
         own = self.remainder()
-        if own is None:
-            return []
-        if not own.colors:
-            return [(own, None)]
-        out = []
-        for start, end, rgba in own.face_color_runs():
+        out = [] if own is None else [(own, None)] if not own.colors else []
+        for start, end, rgba in own.face_color_runs() if own is not None else ():
             faces = own.faces[start:end]
-            used, inverse = np.unique(faces, return_inverse=True)
-            out.append((Mesh(own.vertices[used], inverse.reshape(-1, 3),
-                             None if own.uv is None else own.uv[used]), rgba))
+            low, high = int(faces.min()), int(faces.max()) + 1
+            used = np.zeros(high - low, dtype=bool)
+            used[(faces - low).ravel()] = True
+            index = np.flatnonzero(used) + low  # the vertices its faces use, in order
+            remap = np.cumsum(used) - 1
+            out.append((Mesh(own.vertices[index], remap[faces - low],
+                             None if own.uv is None else own.uv[index]), rgba))
+        self.__dict__["_color_pieces"] = tuple(out)
         return out
 
     def shape_colors(self) -> list[RGBA | None]:

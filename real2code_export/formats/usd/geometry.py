@@ -1,7 +1,10 @@
 """Meshes and materials: a part's visual mesh (UsdGeom.Mesh bound to a UsdPreviewSurface
 with the part's linear colour, its normals split along creases) and its convex collision pieces (UsdGeom.Mesh with
 PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
-renderers skip them). Geometry is in the part frame.
+renderers skip them). Geometry is in the part frame. A visual of several colours binds a
+material per colour: to GeomSubsets of the mesh's triangles (family materialBind) and to
+its shapes; the reader takes colours from materials bound to the visual prims and their
+subsets, else from a constant displayColor.
 Shapes (box, sphere, ellipsoid, cylinder, capsule) are UsdGeom Cube / Sphere / Cylinder /
 Capsule prims, placed by double-precision xformOps (a box is a unit cube scaled, an ellipsoid
 a unit sphere scaled); as colliders they have the CollisionAPI alone (analytic shapes), except
@@ -68,7 +71,8 @@ def _define_mesh(layer, path: str, mesh: Mesh, *schemas: str):
 
 # what UsdGeom.Mesh holds per vertex or face, the bulk of a file: the binary layer's
 MESH_ARRAYS = ("points", "faceVertexCounts", "faceVertexIndices", f"primvars:{ST}",
-               "primvars:normals", "primvars:normals:indices")
+               "primvars:normals", "primvars:normals:indices",
+               "indices")  # (a GeomSubset's faces)
 
 
 def move_mesh_arrays(layer):
@@ -148,15 +152,14 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
             colours[rgba] = f"{material_path}_colour_{len(colours)}"
             _material(layer, colours[rgba], rgba, None)
 
-    visuals = []  # (prim, its colour: None for the part's) of one colour each
+    visuals = []  # (prim, its colour: None for the part's)
     own = part.visual.remainder() if part.visual is not None else None
     if own is not None:
         prim = _define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
                                  visuals_written, visual=True)
-        if own.colors:
+        if own.colors:  # (its displayColor, for importers that read no material: the part's)
             _face_subsets(layer, prim, own, colours)
-        else:
-            visuals.append((prim, None))
+        visuals.append((prim, None))
     shapes = part.visual.primitives if part.visual is not None else ()
     for k, (shape, rgba) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
                                           else (), strict=True)):
@@ -205,28 +208,20 @@ def bind(prim, material_path: str) -> None:
 
 def _face_subsets(layer, prim, mesh: Mesh, materials: dict[tuple, str]) -> None:
     """A mesh of several colours: a GeomSubset of its faces per colour bound to that
-    colour's material (family materialBind, a partition), and displayColor per face."""
+    colour's material (family materialBind, a partition)."""
     from pxr import Vt
 
-    faces_of: dict[tuple, list[int]] = {}
+    faces_of: dict[tuple, list[np.ndarray]] = {}
     for start, end, rgba in mesh.face_color_runs():
-        faces_of.setdefault(rgba, []).extend(range(start, end))
+        faces_of.setdefault(rgba, []).append(np.arange(start, end, dtype=np.int32))
     attribute(prim, "subsetFamily:materialBind:familyType", "Token", "partition",
               uniform=True)
     for k, (rgba, faces) in enumerate(faces_of.items()):
         subset = define(layer, f"{prim.path}/colour_{k}", "GeomSubset")
         attribute(subset, "elementType", "Token", "face", uniform=True)
         attribute(subset, "familyName", "Token", "materialBind", uniform=True)
-        attribute(subset, "indices", "IntArray", Vt.IntArray(faces))
+        attribute(subset, "indices", "IntArray", Vt.IntArray.FromNumpy(np.concatenate(faces)))
         bind(subset, materials[rgba])
-    colours = np.concatenate([np.tile(np.asarray(rgba, np.float32), (end - start, 1))
-                              for start, end, rgba in mesh.face_color_runs()])
-    for name, type_name, value in (
-            ("primvars:displayColor", "Color3fArray",
-             Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(colours[:, :3]))),
-            ("primvars:displayOpacity", "FloatArray",
-             Vt.FloatArray.FromNumpy(np.ascontiguousarray(colours[:, 3])))):
-        attribute(prim, name, type_name, value).SetInfo("interpolation", "uniform")
 
 
 def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, Mesh], *,
@@ -602,21 +597,17 @@ def color_runs(prim, n_faces: int, path) -> list[tuple[int, tuple | None]]:
     subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets() \
         if prim.IsA(UsdGeom.Mesh) else []
     counts = UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get() if subsets else None
-    if not subsets or counts is None or len(counts) != n_faces or any(c != 3 for c in counts):
+    if not subsets or counts is None or len(counts) != n_faces or np.any(np.asarray(counts) != 3):
         return [(n_faces, own)]
-    per_face: list = [own] * n_faces
+    colours = [own]  # per face, as an index in this list
+    label = np.zeros(n_faces, dtype=np.int64)
     for subset in subsets:
-        rgba = _bound_color(subset.GetPrim(), path)
-        for f in subset.GetIndicesAttr().Get() or []:
-            if 0 <= f < n_faces:
-                per_face[f] = rgba
-    runs: list[tuple[int, tuple | None]] = []
-    for rgba in per_face:
-        if runs and runs[-1][1] == rgba:
-            runs[-1] = (runs[-1][0] + 1, rgba)
-        else:
-            runs.append((1, rgba))
-    return runs
+        faces = np.asarray(subset.GetIndicesAttr().Get() or [], dtype=np.int64)
+        colours.append(_bound_color(subset.GetPrim(), path))
+        label[faces[(faces >= 0) & (faces < n_faces)]] = len(colours) - 1
+    starts = np.flatnonzero(np.r_[True, label[1:] != label[:-1]]) if n_faces else []
+    ends = np.r_[starts[1:], n_faces] if n_faces else []
+    return [(int(e - b), colours[label[b]]) for b, e in zip(starts, ends, strict=True)]
 
 
 def _clamped(rgba, path, where: str) -> tuple[float, float, float, float]:
