@@ -20,9 +20,7 @@ import numpy as np
 
 from .errors import FormatError, NoTrianglesError, warn
 from .meshtopology import used_indices
-from .model import ArticulatedObject, Mesh, Part, Texture
-
-RGBA = tuple[float, float, float, float]
+from .model import RGBA, ArticulatedObject, Mesh, Part, Texture
 
 
 class MeshFile(NamedTuple):
@@ -44,10 +42,17 @@ def collision_relpath(part_name: str, k: int) -> str:
     return f"{MESH_DIR}/{part_name}_collision_{k}.obj"
 
 
-def visual_file_mesh(part: Part) -> Mesh | None:
-    """What of the part's visual goes into its mesh file: the visual without its shapes
-    (box, cylinder, ...: formats write those as shapes), or None when nothing is left."""
-    return None if part.visual is None else part.visual.remainder()
+def visual_color_files(part: Part) -> list[tuple[str, Mesh, RGBA]]:
+    """The visual's mesh files, (relpath, mesh, colour): what of the visual goes into a mesh
+    file (its own triangles: formats write its shapes, box, cylinder..., as shapes) in the
+    part's colour, or, for a visual of several colours, a file per colour
+    (``<part>_colour_<k>.obj``, each a geometry of that colour in MJCF and URDF); [] when
+    nothing is left."""
+    pieces = [] if part.visual is None else part.visual.color_pieces()
+    if len(pieces) == 1 and pieces[0][1] is None:
+        return [(visual_relpath(part.name), pieces[0][0], part.color)]
+    return [(f"{MESH_DIR}/{part.name}_colour_{k}.obj", mesh, rgba)
+            for k, (mesh, rgba) in enumerate(pieces)]
 
 
 def collision_file_meshes(part: Part) -> list[tuple[int, Mesh]]:
@@ -129,10 +134,9 @@ def shared_mesh_files(obj: ArticulatedObject) -> dict[str, str]:
     out = {}
     for part in obj.parts:
         items = []
-        visual = visual_file_mesh(part)
-        if visual is not None:  # a textured visual's file names its own material
-            items.append((visual_relpath(part.name), visual,
-                          part.name if part.texture is not None else None))
+        material = part.name if part.texture is not None else None
+        # (a textured visual's file names its own material)
+        items += [(rel, mesh, material) for rel, mesh, _ in visual_color_files(part)]
         items += [(collision_relpath(part.name, k), m, None)
                   for k, m in collision_file_meshes(part)]
         for rel, mesh, material in items:
@@ -163,12 +167,12 @@ def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = Fal
         written[rel] = path
 
     for part in obj.parts:
-        visual = visual_file_mesh(part)
-        if visual is not None:
-            material = part.name if part.texture is not None else None
-            put(visual_relpath(part.name), obj_bytes(visual, exact, material))
-            if material is not None:
-                put(material_relpath(part.name), mtl_bytes(part))
+        files = visual_color_files(part)
+        material = part.name if part.texture is not None else None
+        for rel, mesh, _ in files:
+            put(rel, obj_bytes(mesh, exact, material))
+        if files and material is not None:
+            put(material_relpath(part.name), mtl_bytes(part))
         for k, mesh in collision_file_meshes(part):
             put(collision_relpath(part.name, k), obj_bytes(mesh, exact))
     written.update(write_texture_images(obj, out_dir))

@@ -37,6 +37,7 @@ UNBOUNDED_LIMIT = 1e16
 # over a span where a wrong axis or origin shows.
 UNBOUNDED_SLIDE_SPAN = 1.0
 DEFAULT_COLOR = (0.7, 0.7, 0.7, 1.0)
+RGBA = tuple[float, float, float, float]
 
 
 class JointType(StrEnum):
@@ -72,17 +73,30 @@ class Mesh:
 
     ``primitives``: the shapes (box, cylinder, ...) whose fixed tessellations end the mesh,
     in order (:mod:`.primitives`); the vertices and faces before them are the mesh's own
-    (:meth:`remainder`). Writers whose format has the shape write the shape."""
+    (:meth:`remainder`). Writers whose format has the shape write the shape.
+
+    ``colors``: a visual of several colours (a robot link's visuals each with its own
+    material) as runs (face count, RGBA) over the faces in order, summing to their number;
+    empty: one colour, the part's (:meth:`color_pieces`)."""
 
     vertices: np.ndarray
     faces: np.ndarray
     uv: np.ndarray | None = None
     primitives: tuple[Primitive, ...] = ()
+    colors: tuple[tuple[int, RGBA], ...] = ()
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
         self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
         self.primitives = tuple(self.primitives)
+        self.colors = tuple((int(n), tuple(float(c) for c in rgba)) for n, rgba in self.colors)
+        if self.colors and (sum(n for n, _ in self.colors) != len(self.faces)
+                            or any(n <= 0 or len(rgba) != 4 or not all(0.0 <= c <= 1.0
+                                                                       for c in rgba)
+                                   for n, rgba in self.colors)):
+            raise ModelError("mesh", f"colour runs {[n for n, _ in self.colors]} must be "
+                             f"positive face counts summing to {len(self.faces)} faces, "
+                             "each with an RGBA in [0, 1]")
         if self.uv is not None:
             self.uv = np.ascontiguousarray(self.uv, dtype=np.float64).reshape(-1, 2)
             if len(self.uv) != len(self.vertices):
@@ -116,7 +130,48 @@ class Mesh:
         if kept_f <= 0:
             return None
         uv = None if self.uv is None else self.uv[:kept_v]
-        return Mesh(self.vertices[:kept_v], self.faces[:kept_f], uv)
+        return Mesh(self.vertices[:kept_v], self.faces[:kept_f], uv,
+                    colors=_runs_upto(self.colors, kept_f))
+
+    def face_color_runs(self) -> list[tuple[int, int, RGBA]]:
+        """(first face, end face, RGBA) of each colour run ([] for a mesh of one colour)."""
+        out, start = [], 0
+        for n, rgba in self.colors:
+            out.append((start, start + n, rgba))
+            start += n
+        return out
+
+    def color_pieces(self) -> list[tuple[Mesh, RGBA | None]]:
+        """The mesh's own faces (its shapes left out) cut at its colour runs, each with the
+        vertices its faces use, in order: [(the remainder, None)] for a mesh of one colour
+        (None: the part's colour), [] when only shapes are left."""
+        cached = self.__dict__.get("_color_pieces")  # (every writer asks, some per part)
+        if cached is not None:
+            return list(cached)
+        own = self.remainder()
+        out = [] if own is None else [(own, None)] if not own.colors else []
+        for start, end, rgba in own.face_color_runs() if own is not None else ():
+            faces = own.faces[start:end]
+            low, high = int(faces.min()), int(faces.max()) + 1
+            used = np.zeros(high - low, dtype=bool)
+            used[(faces - low).ravel()] = True
+            index = np.flatnonzero(used) + low  # the vertices its faces use, in order
+            remap = np.cumsum(used) - 1
+            out.append((Mesh(own.vertices[index], remap[faces - low],
+                             None if own.uv is None else own.uv[index]), rgba))
+        self.__dict__["_color_pieces"] = tuple(out)
+        return out
+
+    def shape_colors(self) -> list[RGBA | None]:
+        """Each shape's colour (its tessellation's run), None for a mesh of one colour."""
+        if not self.colors:
+            return [None] * len(self.primitives)
+        runs, out = self.face_color_runs(), []
+        first = len(self.faces) - self._primitive_counts()[1]
+        for p in self.primitives:
+            out.append(next(rgba for start, end, rgba in runs if start <= first < end))
+            first += p.counts()[1]
+        return out
 
     def digest(self) -> str:
         """A content hash (used for caching collision decompositions and naming files)."""
@@ -132,7 +187,8 @@ class Mesh:
         v = self.vertices @ transform[:3, :3].T + transform[:3, 3]
         rigid = np.linalg.det(transform[:3, :3]) > 0
         shapes = tuple(p.transformed(transform) for p in self.primitives) if rigid else ()
-        return Mesh(v, self.faces.copy(), None if self.uv is None else self.uv.copy(), shapes)
+        return Mesh(v, self.faces.copy(), None if self.uv is None else self.uv.copy(), shapes,
+                    self.colors)
 
     def bounds(self) -> np.ndarray:
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
@@ -147,10 +203,23 @@ class Mesh:
         return cls(np.asarray(mesh.vertices), np.asarray(mesh.faces))
 
     @staticmethod
-    def concatenate(meshes: list[Mesh]) -> Mesh:
+    def join_colored(pieces: list[Mesh], runs: list[list[tuple[int, RGBA | None]]]) -> Mesh:
+        """The pieces of a visual read from a file (each with its colour runs over its
+        faces, a colour None where it has none) as one mesh (:meth:`concatenate`): with
+        colour runs where every face has a colour and they differ; one piece keeps its
+        faces' order, of several a piece of several colours is cut into one per run."""
+        return _join_colored(pieces, runs)
+
+    @staticmethod
+    def concatenate(meshes: list[Mesh], colors: list[RGBA] | None = None) -> Mesh:
         """One mesh of all; texture coordinates kept only when every mesh has them. The
         meshes' own triangles come first, then every shape's tessellation in order, so the
-        same meshes and shapes give the same mesh whatever order a file lists them in."""
+        same meshes and shapes give the same mesh whatever order a file lists them in.
+        ``colors``: one per mesh; where they differ the result has colour runs, its own
+        triangles grouped by colour (in the order the colours first come), so a file that
+        writes one piece per colour reads back the same mesh."""
+        if colors is not None and len({tuple(c) for c in colors}) > 1:
+            return _concatenate_colored(meshes, [tuple(float(x) for x in c) for c in colors])
         own = [m.remainder() for m in meshes]
         own = [m for m in own if m is not None]
         shapes = tuple(p for m in meshes for p in m.primitives)
@@ -166,6 +235,66 @@ class Mesh:
         if all(m.uv is not None for m in pieces):
             uv = np.concatenate([m.uv for m in pieces])
         return Mesh(np.concatenate(verts), np.concatenate(faces), uv, shapes)
+
+
+def _join_colored(pieces: list[Mesh], runs: list[list[tuple[int, RGBA | None]]]) -> Mesh:
+    """:meth:`Mesh.join_colored`."""
+    colours = [c for piece in runs for _, c in piece]
+    if None in colours or len(set(colours)) < 2:
+        return Mesh.concatenate(pieces)
+    if len(pieces) == 1:  # its faces in their order, the runs over them
+        one = pieces[0]
+        return Mesh(one.vertices, one.faces, one.uv, one.primitives,
+                    _runs_upto(runs[0], len(one.faces)))
+    flat: list[tuple[Mesh, RGBA]] = []
+    for piece, piece_runs in zip(pieces, runs, strict=True):
+        if len(piece_runs) == 1:
+            flat.append((piece, piece_runs[0][1]))
+        else:  # (its faces' own vertices each: a file written a piece per colour)
+            flat += Mesh(piece.vertices, piece.faces, piece.uv,
+                         colors=piece_runs).color_pieces()
+    return Mesh.concatenate([m for m, _ in flat], [c for _, c in flat])
+
+
+def _runs_upto(runs, n_faces: int) -> tuple[tuple[int, RGBA], ...]:
+    """Colour runs cut to the first ``n_faces`` faces (neighbouring runs of one colour
+    merged)."""
+    out: list[tuple[int, RGBA]] = []
+    left = n_faces
+    for n, rgba in runs:
+        take = min(n, left)
+        if take <= 0:
+            break
+        if out and out[-1][1] == rgba:
+            out[-1] = (out[-1][0] + take, rgba)
+        else:
+            out.append((take, rgba))
+        left -= take
+    return tuple(out) if len(out) > 1 else ()
+
+
+def _concatenate_colored(meshes: list[Mesh], colors: list[RGBA]) -> Mesh:
+    """:meth:`Mesh.concatenate` of meshes of several colours, each mesh one colour."""
+    order: dict[RGBA, int] = {}
+    for c in colors:
+        order.setdefault(c, len(order))
+    own = sorted(((m.remainder(), c) for m, c in zip(meshes, colors, strict=True)),
+                 key=lambda mc: order[mc[1]])  # stable: a colour's pieces in file order
+    own = [(m, c) for m, c in own if m is not None]
+    shaped = [(p, c) for m, c in zip(meshes, colors, strict=True) for p in m.primitives]
+    pieces = own + [(Mesh(*p.tessellation()), c) for p, c in shaped]
+    joined = Mesh.concatenate([m for m, _ in pieces])
+    runs: list[tuple[int, RGBA]] = []
+    for m, c in pieces:
+        if len(m.faces) == 0:
+            continue
+        if runs and runs[-1][1] == c:
+            runs[-1] = (runs[-1][0] + len(m.faces), c)
+        else:
+            runs.append((len(m.faces), c))
+    shapes = tuple(p for p, _ in shaped)
+    return Mesh(joined.vertices, joined.faces, joined.uv, shapes,
+                tuple(runs) if len(runs) > 1 else ())
 
 
 IMAGE_SUFFIXES = {"image/png": ".png", "image/jpeg": ".jpg"}
@@ -288,6 +417,9 @@ class Joint:
     mimic: Mimic | None = None
     # effort and velocity limits where ``limits`` is None (a joint without a range)
     drive_limits: DriveLimits | None = None
+    # a ball joint's cone (rad): the largest rotation from its rest, about any axis (MuJoCo's
+    # ball range); None: free
+    cone_limit: float | None = None
 
     @property
     def effort_limit(self) -> float | None:
@@ -626,6 +758,12 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                 )
         elif j.limits is not None:
             raise ModelError(el, f"a {j.type.value} joint takes no limits")
+        if j.cone_limit is not None:
+            if j.type is not JointType.BALL:
+                raise ModelError(el, f"a {j.type.value} joint takes no cone limit (a ball's)")
+            _finite(j.cone_limit, el, "cone limit")
+            if j.cone_limit <= 0:
+                raise ModelError(el, f"cone limit must be > 0 rad, got {j.cone_limit}")
         if j.drive_limits is not None:
             if j.limits is not None or j.type not in (JointType.CONTINUOUS,
                                                       JointType.PRISMATIC):
@@ -795,6 +933,9 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
                 u, v = getattr(x.limits, attr), getattr(y.limits, attr)
                 if (u is None) != (v is None) or (u is not None and not close(u, v)):
                     out.append(f"{el}: {attr} limit {u} != {v}")
+        if (x.cone_limit is None) != (y.cone_limit is None) or (
+                x.cone_limit is not None and not close(x.cone_limit, y.cone_limit)):
+            out.append(f"{el}: cone limit {x.cone_limit} != {y.cone_limit}")
         if x.limits is None and y.limits is None:  # a joint without a range: drive_limits
             for attr in ("effort", "velocity"):
                 u, v = getattr(x, f"{attr}_limit"), getattr(y, f"{attr}_limit")
@@ -834,6 +975,11 @@ def _mesh_differences(el: str, x: Mesh | None, y: Mesh | None, tol: float) -> li
     if x.uv is not None and not np.allclose(x.uv, y.uv, atol=tol, rtol=0):
         return [f"{el}: texture coordinates differ by up to "
                 f"{float(np.abs(x.uv - y.uv).max()):.3g}"]
+    if [n for n, _ in x.colors] != [n for n, _ in y.colors] or not all(
+            np.allclose(a, b, atol=tol, rtol=0)
+            for (_, a), (_, b) in zip(x.colors, y.colors, strict=True)):
+        return [f"{el}: colours per face differ ({[(n, c) for n, c in x.colors]} vs "
+                f"{[(n, c) for n, c in y.colors]})"]
     return []
 
 

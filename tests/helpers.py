@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import trimesh
 
@@ -76,3 +78,19 @@ def laptop_with_laws() -> ArticulatedObject:
         j.dynamics.damping, j.dynamics.friction = 0.05, 0.02
         j.state = j.limits.lower + 0.3 * (j.limits.upper - j.limits.lower)
     return obj
+
+
+def edit_glb(path: Path, edit) -> None:
+    """Rewrite a .glb's JSON chunk through ``edit(document)``, its binary chunk kept."""
+    import json
+    import struct
+
+    data = path.read_bytes()
+    size = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + size])
+    edit(doc)
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    rest = data[20 + size:]
+    body = struct.pack("<I", len(text)) + b"JSON" + text + rest
+    path.write_bytes(data[:8] + struct.pack("<I", 12 + len(body)) + body)

@@ -232,6 +232,16 @@ def test_khronos_validator_reports_zero_errors(exported, capsys):
         assert report["report"]["uri"] == path.name  # it really read our file
 
 
+def test_an_object_without_meshes_is_a_valid_glb(tmp_path):
+    """A URDF of one empty link (MuJoCo's test model "tool") has no mesh: its glb has no
+    buffer and no binary chunk (glTF refuses a buffer of 0 bytes), passes the validator and
+    reads back equal."""
+    obj = validate(ArticulatedObject("tool", [Part("tool")]))
+    path = gltf.save(obj, tmp_path / "tool", write_meshes=False)
+    assert gltf.validate_gltf(path)["errors"] == 0
+    assert differences(obj, gltf.load(path)) == []
+
+
 def test_validator_rejects_a_broken_file(exported, tmp_path):
     data = exported["door"].read_bytes()
     broken = tmp_path / "broken.glb"

@@ -33,6 +33,7 @@ from real2code_export.model import (
 )
 
 from conftest import partnet_dir
+from helpers import edit_glb
 
 
 # -- objects built here ----------------------------------------------------------------------
@@ -399,7 +400,8 @@ BALL_AND_FREE = """<mujoco model="rod">
       <freejoint name="base_free"/>
       <geom size="0.1" mass="2"/>
       <body name="arm" pos="0 0 -0.2">
-        <joint name="shoulder" type="ball" pos="0 0 0.05" damping="0.01" armature="0.002"/>
+        <joint name="shoulder" type="ball" pos="0 0 0.05" damping="0.01" armature="0.002"
+               range="0 45"/>
         <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.02"/>
         <body name="hand" pos="0 0 -0.3">
           <joint name="wrist_bend" axis="0 1 0" range="-1 1"/>
@@ -415,8 +417,10 @@ BALL_AND_FREE = """<mujoco model="rod">
 
 def test_ball_and_free_joints_through_every_format(tmp_path):
     """A free body and ball joints (one alone, one after a hinge in the same body) read as
-    floating and ball joints, held at their reference pose; every export reads back equal and
-    agrees with the source in its own tools; URDF, which has no ball joint, says so."""
+    floating and ball joints, held at their reference pose, a limited ball with its cone
+    (MuJoCo's range, degrees here); every export reads back equal and agrees with the source
+    in its own tools; URDF, which has no ball joint, says so; a cone altered in the USD or the
+    glTF is a mismatch with the source."""
     source = write(tmp_path / "rod.xml", BALL_AND_FREE)
     obj, _ = load_with_warnings(source)
     kinds = {j.name: j.type.value for j in obj.joints}
@@ -425,6 +429,8 @@ def test_ball_and_free_joints_through_every_format(tmp_path):
     assert obj.root.name == "world" and obj.joint("base_free").parent == "world"
     assert obj.joint("shoulder").dynamics.damping == pytest.approx(0.01)
     assert obj.joint("shoulder").dynamics.armature == pytest.approx(0.002)
+    assert obj.joint("shoulder").cone_limit == pytest.approx(np.pi / 4)
+    assert obj.joint("wrist_ball").cone_limit is None
     poses = forward_kinematics(obj)
     np.testing.assert_allclose(poses["base"][:3, 3], [0.1, 0.2, 0.9], atol=1e-12)
     with warnings.catch_warnings(record=True) as caught:
@@ -448,6 +454,32 @@ def test_ball_and_free_joints_through_every_format(tmp_path):
     kinds = {model.joint(i).name: int(model.jnt_type[i]) for i in range(model.njnt)}
     assert kinds["base_free"] == mujoco.mjtJoint.mjJNT_FREE
     assert kinds["shoulder"] == kinds["wrist_ball"] == mujoco.mjtJoint.mjJNT_BALL
+    np.testing.assert_allclose(model.joint("shoulder").range, [0, np.pi / 4])
+    assert model.joint("shoulder").limited and not model.joint("wrist_ball").limited
+    usda = written["usd"].read_text()
+    assert usda.count("physics:coneAngle0Limit = 45") == 1, usda
+    altered = tmp_path / "out" / "cone.usda"  # each cone altered: a mismatch in each file
+    altered.write_text(usda.replace("coneAngle0Limit = 45", "coneAngle0Limit = 30").replace(
+        "coneAngle1Limit = 45", "coneAngle1Limit = 30"))
+    edit_glb(written["gltf"], _cone(0.5))
+    report = check_files([altered, written["gltf"]], source=source, n_configurations=5,
+                         validate=False)
+    found = [m.message for m in report.mismatches
+             if m.kind == "dynamics" and "joint 'shoulder': range" in m.message]
+    assert len(found) == 2 and any("coneAngle0Limit" in m for m in found) \
+        and any("2-D angular limit" in m for m in found), found
+
+
+
+def _cone(value: float):
+    """An edit of a glTF document setting every 2-D angular limit (a ball's cone) to
+    ``value``."""
+    def edit(doc):
+        for joint in doc["extensions"]["KHR_physics_rigid_bodies"]["physicsJoints"]:
+            for limit in joint["limits"]:
+                if len(limit.get("angularAxes", [])) == 2:
+                    limit["max"] = value
+    return edit
 
 
 def test_free_joint_below_the_top_level_is_refused(tmp_path):
@@ -496,9 +528,9 @@ def test_visual_geoms_under_discardvisual_are_kept(tmp_path):
     assert np.isclose(arm.inertial.mass, 1.0)
 
 
-def test_geoms_of_several_colours_in_one_body_are_said(tmp_path):
-    """A part holds one colour: a body whose visual geoms differ keeps the first geom's, and
-    the reader says which bodies lost theirs."""
+def test_geoms_of_several_colours_in_one_body_are_kept(tmp_path):
+    """A body whose visual geoms differ in colour keeps each geom's colour per face (the
+    part's is the first's), and the MJCF export writes a geom per colour."""
     path = write(tmp_path / "two.xml", """<mujoco>
   <worldbody>
     <body name="arm"><joint name="hinge" axis="0 0 1"/>
@@ -507,10 +539,13 @@ def test_geoms_of_several_colours_in_one_body_are_said(tmp_path):
   </worldbody>
 </mujoco>
 """)
-    with pytest.warns(Real2CodeWarning, match=r"visual geoms of several colours in one body.*"
-                      r"the first geom's.*<body name='arm'> \(2\)"):
-        obj = mjcf.load(path)
-    assert obj.parts[-1].color == (1.0, 0.0, 0.0, 1.0)
+    obj = mjcf.load(path)
+    arm = obj.parts[-1]
+    assert arm.color == (1.0, 0.0, 0.0, 1.0)
+    assert [c for _, c in arm.visual.colors] == [(1.0, 0.0, 0.0, 1.0), (0.0, 0.0, 1.0, 1.0)]
+    written = export(obj, tmp_path / "out", formats=["mjcf"])
+    back = mjcf.load(written["mjcf"])
+    assert differences(obj, back) == []
 
 
 def test_unlimited_slide_is_kept_in_every_format(tmp_path):
@@ -664,7 +699,10 @@ def test_third_party_structure_names_and_repairs(third_party):
     lid_part = obj.part("lid")
     assert len(lid_part.collision) == 1
     assert len(lid_part.visual.vertices) == 8 + len(lid_part.collision[0].vertices) + 6
-    assert obj.part("lid").color == pytest.approx((0.2, 0.4, 0.6, 1.0))
+    # its colours per face: the steel prism's (meshes first: the part's colour), the panel's
+    assert [c for _, c in lid_part.visual.colors] == [pytest.approx((0.9, 0.1, 0.1, 1.0)),
+                                                       pytest.approx((0.2, 0.4, 0.6, 1.0))]
+    assert lid_part.color == pytest.approx((0.9, 0.1, 0.1, 1.0))
     # The base's one box collides and shows: it serves as both.
     base = obj.part("base_frame")
     assert len(base.collision) == 1 and base.visual is not None

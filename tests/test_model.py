@@ -227,10 +227,16 @@ def test_ball_and_floating_joints_are_held_at_their_origin_and_validated():
     ball.limits = Limits(-1, 1)
     with pytest.raises(ModelError, match="'shoulder'.*ball joint takes no limits"):
         validate(obj)
-    ball.limits, ball.state = None, 0.3
+    ball.limits, ball.cone_limit = None, 0.0
+    with pytest.raises(ModelError, match="'shoulder'.*cone limit must be > 0"):
+        validate(obj)
+    ball.cone_limit, free.cone_limit = 0.5, 0.5
+    with pytest.raises(ModelError, match="'free'.*floating joint takes no cone limit"):
+        validate(obj)
+    free.cone_limit, ball.state = None, 0.3
     with pytest.raises(ModelError, match="'shoulder'.*ball joint has no state"):
         validate(obj)
-    ball.state, ball.type = 0.0, JointType.FLOATING
+    ball.state, ball.cone_limit, ball.type = 0.0, None, JointType.FLOATING
     with pytest.raises(ModelError, match="floating joint must hang from the root part 'base'"):
         validate(obj)
 

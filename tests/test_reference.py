@@ -10,6 +10,8 @@ import numpy as np
 from real2code_export.check import check_files
 from real2code_export.cli import EXIT_DISAGREE, EXIT_OK, run
 
+from helpers import edit_glb
+
 # A robot standing 0.4 m up, turned a quarter turn (as Menagerie robots are placed), with a
 # free joint, a named hinge and a name that is not an identifier.
 STANDING = """<mujoco model="standing">
@@ -219,22 +221,6 @@ def test_a_urdf_source_repaired_by_the_reader_is_told_from_a_loss(tmp_path, caps
         "Pinocchio: joint 'shoulder': damping [0.3] != [0.7] (the source's, then the export's)"]
 
 
-def _edit_glb(path: Path, edit) -> None:
-    """Rewrite a .glb's JSON chunk through ``edit(document)``, its binary chunk kept."""
-    import json
-    import struct
-
-    data = path.read_bytes()
-    size = struct.unpack_from("<I", data, 12)[0]
-    doc = json.loads(data[20:20 + size])
-    edit(doc)
-    text = json.dumps(doc).encode()
-    text += b" " * (-len(text) % 4)
-    rest = data[20 + size:]
-    body = struct.pack("<I", len(text)) + b"JSON" + text + rest
-    path.write_bytes(data[:8] + struct.pack("<I", 12 + len(body)) + body)
-
-
 def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, capsys):
     """An MJCF source's USD and glTF exports state its masses, damping, friction, armature
     and ranges in their schemas (UsdPhysics' mass and limits, MuJoCo's and Newton's joint
@@ -290,7 +276,7 @@ def test_usd_and_gltf_exports_are_compared_with_the_sources_dynamics(tmp_path, c
                            (stiffer, "joint 'spin': armature (real2code extras) 0.003 != 0.01")]:
         altered = out / "altered.glb"
         altered.write_bytes((out / "arm.glb").read_bytes())
-        _edit_glb(altered, edit)
+        edit_glb(altered, edit)
         report = check_files([altered], source=source, n_configurations=5, validate=False)
         found = [m.message for m in report.mismatches if m.kind == "dynamics"]
         assert any(expected in m for m in found), (expected, found)

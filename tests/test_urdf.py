@@ -16,7 +16,7 @@ from real2code_export import transforms as tf
 from real2code_export.errors import FormatError, Real2CodeWarning
 from real2code_export.formats import urdf
 from real2code_export.formats.urdf.write import stable_rpy
-from real2code_export.meshfiles import obj_bytes
+from real2code_export.meshfiles import obj_bytes, visual_color_files
 from real2code_export.model import (
     ArticulatedObject,
     DriveLimits,
@@ -124,7 +124,9 @@ def mujoco_matches(obj: ArticulatedObject, path: Path, rng, samples: int = 4) ->
     model = mujoco.MjSpec.from_file(str(path)).compile()
     data = mujoco.MjData(model)
     assert model.nbody == len(obj.parts) + 1  # fusestatic="false": one body per part
-    geoms = sum((p.visual is not None) + len(p.collision) for p in obj.parts)
+    # a visual is a geom per colour and per shape
+    geoms = sum(len(visual_color_files(p)) + len(p.visual.primitives if p.visual else ())
+                + len(p.collision) for p in obj.parts)
     assert model.ngeom == geoms  # discardvisual="false": the visuals are there too
     for part in obj.parts:  # mass properties as MuJoCo read them (principal axes in body)
         if part.inertial is not None:
@@ -674,18 +676,65 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     assert "<material name='bare'>" not in said  # an empty <texture/> holds nothing to read
 
 
-def test_visuals_of_several_colours_in_one_link_are_said(tmp_path):
-    """A part holds one colour: a link whose visuals differ gets their area-weighted mean,
-    and the reader says which links lost theirs."""
-    source = tmp_path / "two.urdf"
-    source.write_text('<robot name="two"><link name="base"><visual><geometry><box size="1 1 1"/>'
-                      '</geometry><material name="red"><color rgba="1 0 0 1"/></material></visual>'
-                      '<visual><geometry><box size="1 1 1"/></geometry><material name="blue">'
-                      '<color rgba="0 0 1 1"/></material></visual></link></robot>')
-    with pytest.warns(Real2CodeWarning, match=r"visuals of several colours in links 'base' "
-                      r"\(2\): a part holds one colour, their area-weighted mean"):
+def test_visuals_of_several_colours_are_kept_in_every_format(tmp_path):
+    """A link whose visuals differ in colour (a box, two meshes) keeps each visual's colour
+    per face, its own triangles grouped by colour: MJCF a geom per colour, URDF a <visual>
+    per colour, USD GeomSubsets bound to a material per colour, glTF a primitive per
+    colour; every export reads back equal. Where one visual has no colour, the part's is the
+    coloured ones' area-weighted mean, said (as where a colour comes from a mesh file's
+    own materials)."""
+    import json
+    import struct
+
+    from real2code_export.formats import export
+    from real2code_export.formats import load as load_any
+    from real2code_export.model import differences
+
+    tetra = trimesh.Trimesh([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]],
+                            [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], process=False)
+    tetra.export(tmp_path / "tetra.obj")
+
+    def visual(geometry, colour, z):
+        material = "" if colour is None else f'<material name="m{z}"><color rgba="{colour}"/>' \
+                                                 '</material>'
+        return f'<visual><origin xyz="0 0 {z}"/><geometry>{geometry}</geometry>{material}</visual>'
+
+    mesh = '<mesh filename="tetra.obj"/>'
+    links = (visual(mesh, "1 0 0 1", 0) + visual('<box size="0.1 0.1 0.1"/>', "0 0 1 1", 1)
+             + visual(mesh, "0 1 0 1", 2) + visual(mesh, "1 0 0 1", 3))
+    source = tmp_path / "three.urdf"
+    source.write_text(f'<robot name="three"><link name="base">{links}</link></robot>')
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
         obj = urdf.load(source)
-    assert np.allclose(obj.parts[0].color, (0.5, 0.0, 0.5, 1.0))
+    assert not [w for w in said if "several colours" in str(w.message)], [str(w.message) for w in said]
+    base = obj.parts[0]
+    red, green, blue = (1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0), (0.0, 0.0, 1.0, 1.0)
+    assert base.color == red
+    assert base.visual.colors == ((8, red), (4, green), (12, blue))  # the box last: a shape
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf", "json"])
+    for fmt, path in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            back = load_any(path)
+        assert [d for d in differences(obj, back) if "collision" not in d] == [], fmt
+    xml = written["mjcf"].read_text()
+    assert xml.count('rgba="1 0 0 1"') >= 1 and 'rgba="0 1 0 1"' in xml \
+        and 'rgba="0 0 1 1"' in xml, xml
+    assert written["urdf"].read_text().count("<visual") == 3
+    usda = written["usd"].read_text()
+    assert usda.count('def GeomSubset "colour_') == 2 and "base_colour_1" in usda
+    data = written["gltf"].read_bytes()
+    doc = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
+    assert [len(m["primitives"]) for m in doc["meshes"] if m["name"] == "base"] == [3]
+
+    source.write_text('<robot name="three"><link name="base">' + links.replace(
+        '<material name="m2"><color rgba="0 1 0 1"/></material>', "") + "</link></robot>")
+    with pytest.warns(Real2CodeWarning, match=r"visuals of several colours, not each from its "
+                      r"<material>, in links 'base' \(2\): the part's colour is their "
+                      r"area-weighted mean"):
+        obj = urdf.load(source)
+    assert obj.parts[0].visual.colors == () and obj.parts[0].color != red
 
 
 def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):

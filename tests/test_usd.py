@@ -623,13 +623,22 @@ def test_unsupported_joint_type_is_refused(tmp_path):
         usd.load(path)
 
 
-def test_spherical_joint_is_a_ball_joint_its_cone_limit_warned(tmp_path):
+def test_spherical_joint_is_a_ball_joint_with_its_cone_limit(tmp_path):
+    """A spherical joint's cone (both angles, degrees) is the ball's cone limit; an elliptic
+    one keeps its smaller angle, warned; a negative angle (UsdPhysics' "no limit") none."""
     path = usd.save(small_cabinet(), tmp_path, write_meshes=False)
     text = path.read_text().replace('def PhysicsRevoluteJoint "knob_turn"',
                                     'def PhysicsSphericalJoint "knob_turn"')
     body = text.index("{", text.index('"knob_turn"')) + 1
-    path.write_text(text[:body] + "\n float physics:coneAngle0Limit = 30\n"
-                    " float physics:coneAngle1Limit = 30\n" + text[body:])
-    with pytest.warns(Real2CodeWarning, match="knob_turn.*cone limit is dropped"):
-        obj = usd.load(path)
-    assert obj.joint("knob_turn").type.value == "ball"
+    for cones, expected in [((30, 30), math.radians(30)), ((30, 20), math.radians(20)),
+                            ((-1, -1), None)]:
+        path.write_text(text[:body] + f"\n float physics:coneAngle0Limit = {cones[0]}\n"
+                        f" float physics:coneAngle1Limit = {cones[1]}\n" + text[body:])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            obj = usd.load(path)
+        ball = obj.joint("knob_turn")
+        assert ball.type.value == "ball"
+        assert ball.cone_limit == (None if expected is None else pytest.approx(expected))
+        elliptic = [w for w in caught if "elliptic cone" in str(w.message)]
+        assert len(elliptic) == (cones[0] != cones[1]), [str(w.message) for w in caught]

@@ -20,8 +20,7 @@ from ..meshfiles import (
     read_mesh,
     texture_from_file,
     texture_relpath,
-    visual_file_mesh,
-    visual_relpath,
+    visual_color_files,
     write_object_meshes,
 )
 from ..model import (
@@ -54,6 +53,14 @@ SCHEMA_VERSION = 1
 FILENAME = "object.json"
 
 
+def _visual_files(part: Part) -> str | list[dict] | None:
+    """The visual's mesh file, or for a visual of several colours each colour's file."""
+    files = visual_color_files(part)
+    if part.visual is None or not part.visual.colors:
+        return files[0][0] if files else None
+    return [{"mesh": rel, "color": list(rgba)} for rel, _, rgba in files]
+
+
 def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
     parts = []
     for p in obj.parts:
@@ -61,9 +68,14 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
             {
                 "name": p.name,
                 "color": list(p.color),
-                "visual": visual_relpath(p.name) if visual_file_mesh(p) is not None else None,
+                # a visual of several colours: a file per colour ({"mesh", "color"}), its
+                # shapes' colours beside them
+                "visual": _visual_files(p),
                 **({"visual_shapes": [shape_json(s) for s in p.visual.primitives]}
                    if p.visual is not None and p.visual.primitives else {}),
+                **({"visual_shape_colors": [list(c) for c in p.visual.shape_colors()]}
+                   if p.visual is not None and p.visual.colors and p.visual.primitives
+                   else {}),
                 "texture": texture_relpath(p) if p.texture is not None else None,
                 **({"maps": {role: map_relpath(p, role) for role in p.maps}} if p.maps else {}),
                 "collision": [collision_relpath(p.name, k) if m.primitive is None
@@ -110,6 +122,7 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                 **({} if j.mimic is None else {"mimic": mimic_json(j.mimic)}),
                 **({} if j.drive_limits is None else {"drive_limits": {
                     "effort": j.drive_limits.effort, "velocity": j.drive_limits.velocity}}),
+                **({} if j.cone_limit is None else {"cone_limit": j.cone_limit}),
             }
         )
     return {
@@ -151,13 +164,22 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         el = f"parts[{i}]"
         name = member(pd, "name", path, el)
         el = f"part {name!r}"
-        visuals = []
-        if pd.get("visual") is not None:
-            visuals.append(read_mesh(base / pd["visual"], source=path, element=el + " visual"))
+        visuals, colours = [], []
+        files = pd.get("visual")
+        for k, item in enumerate(files if isinstance(files, list) else
+                                 [] if files is None else [{"mesh": files}]):
+            rel = member(item, "mesh", path, f"{el} visual[{k}]")
+            visuals.append(read_mesh(base / rel, source=path, element=el + " visual"))
+            colours.append(item.get("color"))
         visuals += [Mesh.of_primitive(shape_from_json(d, path, f"{el} visual_shapes[{k}]"))
                     for k, d in enumerate(pd.get("visual_shapes", []))]
-        visual = (visuals[0] if len(visuals) == 1 else Mesh.concatenate(visuals)) if visuals \
-            else None
+        colours += pd.get("visual_shape_colors") or [None] * (len(visuals) - len(colours))
+        if not visuals or None in colours or len(colours) != len(visuals):
+            visual = (visuals[0] if len(visuals) == 1 else Mesh.concatenate(visuals)) \
+                if visuals else None
+        else:  # a visual of several colours
+            visual = Mesh.concatenate(visuals, [tuple(vector(c, 4, path, el, "visual color"))
+                                                for c in colours])
         collision = [
             Mesh.of_primitive(shape_from_json(rel["shape"], path, f"{el} collision[{k}]"))
             if isinstance(rel, dict) and "shape" in rel
@@ -227,6 +249,8 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
             dynamics=dynamics, state=number(jd.get("state", 0.0), path, el, "state"),
             mimic=None if jd.get("mimic") is None else mimic_from_json(jd["mimic"], path, el),
             drive_limits=drive_limits,
+            cone_limit=None if jd.get("cone_limit") is None
+            else number(jd["cone_limit"], path, el, "cone limit"),
         ))
     obj = ArticulatedObject(name=member(data, "name", path, "object"), parts=parts, joints=joints,
                             metadata=dict(data.get("metadata") or {}))

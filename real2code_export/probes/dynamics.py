@@ -339,7 +339,7 @@ QUANTITY_WORDS = {"damping": ("damping",), "frictionloss": ("friction",),
 
 def _joint_quantities(m, j: int) -> dict[str, object]:
     """Joint ``j``'s damping, frictionloss, armature, stiffness, limited, range (a limited
-    hinge or slide) and ref (qpos0 of a hinge or slide, where inside its range: a start
+    hinge or slide; a limited ball's [0, cone]) and ref (qpos0 of a hinge or slide, where inside its range: a start
     outside is the nearest limit in the model, warned by the reader)."""
     import mujoco
 
@@ -347,6 +347,8 @@ def _joint_quantities(m, j: int) -> dict[str, object]:
     out: dict[str, object] = {"damping": m.dof_damping[d], "frictionloss": m.dof_frictionloss[d],
                               "armature": m.dof_armature[d], "stiffness": m.jnt_stiffness[j],
                               "limited": _limited(m, j)}
+    if int(m.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_BALL) and out["limited"]:
+        out["range"] = m.jnt_range[j]  # [0, the largest rotation]
     if int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
         if out["limited"]:
             out["range"] = m.jnt_range[j]

@@ -169,8 +169,12 @@ def _usd_joint(prim, kind: str, desc, mpu: float) -> list[tuple[str, str, object
     per_degree = math.pi / 180.0 if angular else 1.0
     items += [(f"{q} ({a})", q, _authored(prim, a) / (per_degree if q == "damping" else 1.0))
               for a, q in NEWTON]
-    if kind == "SphericalJoint":
-        return items
+    if kind == "SphericalJoint":  # its cone: the smaller cone angle, as the reader keeps it
+        lim = desc.limit
+        cones = (float(lim.lower), float(lim.upper))
+        limited = bool(lim.enabled) and all(math.isfinite(a) and a > 0.0 for a in cones)
+        return items + _range("physics:coneAngle0Limit, coneAngle1Limit",
+                              (0.0, math.radians(min(cones))) if limited else None)
     to_model = math.radians if angular else (lambda v: v * mpu)
     lim = desc.limit
     limited = bool(lim.enabled) and math.isfinite(lim.lower) and math.isfinite(lim.upper)
@@ -272,6 +276,10 @@ def _gltf_joint(desc: dict, axis, extras: dict) -> list[tuple[str, str, object]]
     if axis is not None:
         limited = axis.lower is not None and axis.upper is not None
         items += _range("limits", (axis.lower, axis.upper) if limited else None)
+    else:  # a ball: its cone, a 2-D angular limit
+        cones = [float(lim["max"]) for lim in desc.get("limits") or []
+                 if len(lim.get("angularAxes") or []) == 2 and "max" in lim]
+        items += _range("2-D angular limit", (0.0, min(cones)) if cones else None)
     return items
 
 

@@ -181,11 +181,14 @@ class Document:
 
     def mesh(self, index: int, element: str, transform: np.ndarray | None = None) -> Mesh:
         """glTF mesh ``index`` (its triangle primitives merged) as a model mesh, optionally
-        transformed (a mirroring transform flips the winding back)."""
+        transformed (a mirroring transform flips the winding back). Primitives of several
+        base colours give a mesh with colour runs; consecutive primitives reading the same
+        vertex accessors (our writer's colours on one visual) are one piece of their
+        triangles in turn."""
         meshes = self.gltf.meshes or []
         if not 0 <= index < len(meshes):
             raise FormatError(self.path, element, f"mesh {index} does not exist")
-        pieces = []
+        pieces, keys, runs = [], [], []  # runs: each piece's (face count, colour) in order
         for k, prim in enumerate(meshes[index].primitives or []):
             el = f"meshes[{index}].primitives[{k}]"
             if (prim.mode if prim.mode is not None else TRIANGLES) != TRIANGLES:
@@ -211,13 +214,33 @@ class Document:
                 texcoords = self.accessors.read(texcoords)
                 if texcoords.shape != (len(positions), 2):
                     raise FormatError(self.path, el, "TEXCOORD_0 does not match POSITION")
-            pieces.append(decode(positions, indices, source, texcoords))
-        mesh = Mesh.concatenate(pieces)
+            key = (prim.attributes.POSITION, ours(prim.extras).get("source_vertex"),
+                   getattr(prim.attributes, "TEXCOORD_0", None))
+            run = (len(indices) // 3, self.material_color(prim.material))
+            if pieces and keys[-1] == key:  # the same vertices: one piece
+                indices = np.concatenate([pieces[-1][1], indices])
+                pieces[-1], runs[-1] = (positions, indices, source, texcoords), \
+                    runs[-1] + [run]
+            else:
+                pieces.append((positions, indices, source, texcoords))
+                keys.append(key)
+                runs.append([run])
+        mesh = Mesh.join_colored([decode(*piece) for piece in pieces], runs)
         if transform is not None:
             mesh = mesh.transformed(transform)
             if np.linalg.det(transform[:3, :3]) < 0:
-                mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1])
+                mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1], colors=mesh.colors)
         return mesh
+
+    def material_color(self, material: int | None) -> tuple[float, float, float, float] | None:
+        """A material's base colour factor (None: no material, or none stated)."""
+        if material is None or not 0 <= material < len(self.gltf.materials or []):
+            return None
+        pbr = self.gltf.materials[material].pbrMetallicRoughness
+        factor = getattr(pbr, "baseColorFactor", None) if pbr is not None else None
+        if not factor or len(factor) != 4:
+            return None
+        return tuple(float(np.clip(v, 0.0, 1.0)) for v in factor)
 
     def texture(self, mesh_index: int | None) -> Texture | None:
         """The base colour image of the first primitive's material (PNG or JPEG, from the
@@ -305,13 +328,7 @@ class Document:
         if mesh_index is None:
             return None
         prims = self.gltf.meshes[mesh_index].primitives or []
-        if not prims or prims[0].material is None:
-            return None
-        pbr = self.gltf.materials[prims[0].material].pbrMetallicRoughness
-        factor = getattr(pbr, "baseColorFactor", None) if pbr is not None else None
-        if not factor or len(factor) != 4:
-            return None
-        return tuple(float(np.clip(v, 0.0, 1.0)) for v in factor)
+        return self.material_color(prims[0].material) if prims else None
 
 
 def rigid(t: np.ndarray) -> np.ndarray:

@@ -12,7 +12,8 @@ Written (following the extension's current draft and its reference Blender expor
 - each joint is a ``joint`` on an attachment node in the parent body whose ``connectedNode``
   is an attachment node in the child body. Both attachment frames have their X axis along
   the joint axis, so the joint is a 1-D angular or linear limit about/along X with every
-  other degree of freedom locked (the extension's own hinged-door recipe). Limits are in
+  other degree of freedom locked (the extension's own hinged-door recipe); a ball's cone
+  limit is a 2-D angular limit on Y and Z (the extension's cone about X). Limits are in
   radians / metres; the joint value is the twist of the child frame relative to the parent
   frame, as in the extension's joint-limit metrics.
 - the model's spring and damping become a ``force`` drive (stiffness toward spring_ref,
@@ -29,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import transforms as tf
+from ...errors import warn
 from ...model import Dynamics, Joint, JointType, Mesh, Part
 from .conventions import quat_xyzw
 
@@ -109,8 +111,14 @@ def joint_description(joint: Joint) -> dict:
     t = joint.type
     if t is JointType.FIXED:
         limits = [{"linearAxes": [0, 1, 2], **lock}, {"angularAxes": [0, 1, 2], **lock}]
-    elif t is JointType.BALL:  # every rotation free
+    elif t is JointType.BALL:  # every rotation free, or the X axis within a cone
         limits = [{"linearAxes": [0, 1, 2], **lock}]
+        if joint.cone_limit is not None:  # the extension's 2-D angular limit: a cone about X
+            warn(f"glTF: joint {joint.name!r}: the ball's cone limit is written as "
+                 "KHR_physics_rigid_bodies' cone about X, which bounds X's swing, not the "
+                 "twist about it that the limit (MuJoCo's range: the whole rotation) bounds "
+                 "too; exact in our extras")
+            limits.append({"angularAxes": [1, 2], "min": 0.0, "max": joint.cone_limit})
     elif t.angular:
         limits = [{"linearAxes": [0, 1, 2], **lock}, {"angularAxes": [1, 2], **lock}]
     else:

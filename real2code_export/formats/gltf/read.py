@@ -176,8 +176,11 @@ def _with_shapes(mesh: Mesh, shapes: list) -> Mesh:
     shapes' tessellations exactly (our writer puts them at the end)."""
     own = Mesh(mesh.vertices, mesh.faces, mesh.uv, tuple(shapes)).remainder() \
         if len(mesh.vertices) >= sum(s.counts()[0] for s in shapes) else None
-    return Mesh.concatenate(([own] if own is not None else []) +
-                            [Mesh.of_primitive(s) for s in shapes])
+    out = Mesh.concatenate(([own] if own is not None else []) +
+                           [Mesh.of_primitive(s) for s in shapes])
+    if mesh.colors and len(out.faces) == len(mesh.faces):  # (the faces in the same order)
+        out = Mesh(out.vertices, out.faces, out.uv, out.primitives, mesh.colors)
+    return out
 
 
 def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
@@ -213,7 +216,8 @@ def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
         return Joint(name=name, type=JointType(d["type"]), parent=d["parent"], child=d["child"],
                      origin=origin, axis=_vector(d.get("axis", [0, 0, 1]), 3, doc, el, "axis"),
                      limits=limits, dynamics=dynamics, state=float(d.get("state", 0.0)),
-                     mimic=mimic, drive_limits=drive_limits)
+                     mimic=mimic, drive_limits=drive_limits,
+                     cone_limit=None if d.get("cone_limit") is None else float(d["cone_limit"]))
     except (KeyError, TypeError, ValueError, AttributeError) as e:
         raise FormatError(doc.path, el, f"bad joint metadata ({type(e).__name__}: {e})") from e
 

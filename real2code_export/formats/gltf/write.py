@@ -110,7 +110,11 @@ class _Builder:
         self._written[key] = len(self.gltf.accessors) - 1
         return self._written[key]
 
-    def mesh(self, name: str, data: VertexData, material: int | None) -> int:
+    def mesh(self, name: str, data: VertexData, material: int | None,
+             runs: list[tuple[int, int]] | None = None) -> int:
+        """A mesh of one primitive, or (``runs``: (face count, material) over the faces) one
+        primitive per run, all reading the same vertex accessors (a visual of several
+        colours: glTF's material per primitive)."""
         g = self.g
         attributes = g.Attributes(POSITION=self.accessor(data.positions, FLOAT, "VEC3",
                                                          target=ARRAY_BUFFER, bounds=True))
@@ -120,14 +124,16 @@ class _Builder:
             attributes.TEXCOORD_0 = self.accessor(data.texcoords, FLOAT, "VEC2",
                                                   target=ARRAY_BUFFER)
         component = UNSIGNED_SHORT if data.indices.dtype == np.uint16 else UNSIGNED_INT
-        indices = self.accessor(data.indices.reshape(-1), component, "SCALAR",
-                                target=ELEMENT_ARRAY_BUFFER)
-        primitive = g.Primitive(attributes=attributes, indices=indices, mode=TRIANGLES,
-                                material=material)
-        if data.source is not None:
-            primitive.extras = {EXTRAS_KEY: {"source_vertex": self.accessor(data.source, UNSIGNED_INT,
-                                                                            "SCALAR")}}
-        self.gltf.meshes.append(g.Mesh(name=name, primitives=[primitive]))
+        source = None if data.source is None else \
+            {EXTRAS_KEY: {"source_vertex": self.accessor(data.source, UNSIGNED_INT, "SCALAR")}}
+        primitives, start = [], 0
+        for count, mat in runs or [(len(data.indices), material)]:
+            indices = self.accessor(data.indices[start:start + count].reshape(-1), component,
+                                    "SCALAR", target=ELEMENT_ARRAY_BUFFER)
+            primitives.append(g.Primitive(attributes=attributes, indices=indices,
+                                          mode=TRIANGLES, material=mat, extras=source))
+            start += count
+        self.gltf.meshes.append(g.Mesh(name=name, primitives=primitives))
         return len(self.gltf.meshes) - 1
 
     def texture(self, texture: Texture) -> int:
@@ -153,14 +159,18 @@ class _Builder:
         """The GLB bytes pygltflib's ``save_to_bytes`` gives, without its cost: it deep-copies
         every value while converting to JSON, which took ~85% of an export's time. Same
         JSON (its ``delete_empty_keys`` on a plain copy), same chunk layout (GLB 2.0 spec)."""
-        self.gltf.buffers = [self.g.Buffer(byteLength=len(self.blob))]
+        # (no buffer and no binary chunk for an object of no meshes: glTF refuses an empty
+        # buffer, byteLength >= 1)
+        self.gltf.buffers = [self.g.Buffer(byteLength=len(self.blob))] if self.blob else []
         data = self.g.delete_empty_keys(_plain(self.gltf, self.g.Attributes))
         text = json.dumps(data, allow_nan=False, separators=(",", ":")).encode("utf-8")
         text += b" " * (-(12 + len(text)) % 4)  # the binary chunk starts 4-aligned
         blob = bytes(self.blob)
-        return b"".join([b"glTF", struct.pack("<II", 2, 28 + len(text) + len(blob)),
-                         struct.pack("<I", len(text)), b"JSON", text,
-                         struct.pack("<I", len(blob)), b"BIN\0", blob])
+        chunks = [struct.pack("<I", len(text)), b"JSON", text]
+        if blob:
+            chunks += [struct.pack("<I", len(blob)), b"BIN\0", blob]
+        body = b"".join(chunks)
+        return b"".join([b"glTF", struct.pack("<II", 2, 12 + len(body)), body])
 
 
 _LEAVES = frozenset({int, float, str, bool, type(None)})
@@ -223,6 +233,8 @@ def _joint_extras(joint: Joint) -> dict:
     if joint.drive_limits is not None:  # a joint without a range: effort and velocity
         out["drive_limits"] = {k: float(v) for k in ("effort", "velocity")
                                if (v := getattr(joint.drive_limits, k)) is not None}
+    if joint.cone_limit is not None:
+        out["cone_limit"] = float(joint.cone_limit)
     return {EXTRAS_KEY: out}
 
 
@@ -299,8 +311,8 @@ def build(obj: ArticulatedObject) -> bytes:
     shapes: list[dict] = []  # KHR_implicit_shapes, for box collision pieces
     animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
 
-    def material(part: Part) -> int:
-        color = _floats(part.color)
+    def material(part: Part, rgba=None) -> int:
+        color = _floats(part.color if rgba is None else rgba)
         maps = part.maps
         # the factors multiply the maps: 1 where a map gives the values
         pbr = g.PbrMetallicRoughness(baseColorFactor=color,
@@ -330,7 +342,12 @@ def build(obj: ArticulatedObject) -> bytes:
         """The part's node and, if it is its own rigid body, its joint attachment node."""
         mesh = None
         if part.visual is not None:  # shapes tessellated (glTF has none), kept in extras
-            mesh = b.mesh(part.name, encode_visual(part.visual), material(part))
+            colours = {rgba: None for _, rgba in part.visual.colors}  # a material per colour
+            for rgba in colours:
+                colours[rgba] = material(part, rgba)
+            runs = [(n, colours[rgba]) for n, rgba in part.visual.colors] or None
+            mesh = b.mesh(part.name, encode_visual(part.visual),
+                          None if runs else material(part), runs)
         fields = motion_trs(joint, joint.state) if joint is not None else {}
         node = b.node(part.name, mesh=mesh, extras=_part_extras(part), **fields)
         children = b.gltf.nodes[node].children

@@ -334,11 +334,10 @@ class _Reader:
             return Joint(name, JointType.FLOATING, parent_name, child, origin=base,
                          dynamics=dynamics)
         if jtype == mujoco.mjtJoint.mjJNT_BALL:  # qpos0 is the identity rotation
-            if limited:
-                self.note("ball joint cone limits dropped (the model's ball joints are free)",
-                          name)
+            # a limited ball's range is [0, the largest rotation] (MuJoCo refuses another)
             return Joint(name, JointType.BALL, parent_name, child,
-                         origin=base @ tf.make(translation=anchor), dynamics=dynamics)
+                         origin=base @ tf.make(translation=anchor), dynamics=dynamics,
+                         cone_limit=float(m.jnt_range[j][1]) if limited else None)
         ref = float(m.qpos0[qadr])
         if hinge:
             kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
@@ -453,16 +452,16 @@ class _Reader:
                 hidden.append((g, mesh))
         visual = shown or hidden
         colours = [self._rgba(g) for g, _ in visual + colliding]
-        shown_colours = {tuple(colours[k]) for k in range(len(visual))}
-        if len(shown_colours) > 1:
-            self.note("visual geoms of several colours in one body: a part holds one colour, "
-                      "the first geom's (the meshes are kept; the colours per geom are not)",
-                      f"{self._body_label(b)} ({len(shown_colours)})")
+        shown_colours = [tuple(float(c) for c in colours[k]) for k in range(len(visual))]
         colour = colours[0] if colours else self.custom.get((m.body(b).name, "color"))
         if colour is not None and (not isinstance(colour, list | tuple) or len(colour) != 4):
             self.note("malformed real2code custom data ignored", f"{m.body(b).name}:color")
             colour = None
-        visual_mesh = Mesh.concatenate([mesh for _, mesh in visual]) if visual else None
+        # several colours: kept per face, the part's the first run's
+        visual_mesh = Mesh.concatenate([mesh for _, mesh in visual], shown_colours) \
+            if visual else None
+        if visual_mesh is not None and visual_mesh.colors:
+            colour = visual_mesh.colors[0][1]
         return Part(
             name,
             visual=visual_mesh,

@@ -42,8 +42,7 @@ from ...meshfiles import (
     map_relpath,
     shared_mesh_files,
     texture_relpath,
-    visual_file_mesh,
-    visual_relpath,
+    visual_color_files,
     write_object_meshes,
 )
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
@@ -400,10 +399,14 @@ def texture_name(part: Part) -> str:
 
 def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:
     """The mesh assets: the visual's own mesh and the collision pieces that are not shapes."""
-    visual = visual_file_mesh(part)
-    items = [(visual_relpath(part.name), visual, True)] if visual is not None else []
+    items = [(rel, mesh, True) for rel, mesh, _ in visual_color_files(part)]
     items += [(collision_relpath(part.name, k), m, False) for k, m in collision_file_meshes(part)]
     return items
+
+
+def visual_geom_name(part_name: str, k: int) -> str:
+    """The visual mesh geom of colour ``k`` (0 for a visual of one colour)."""
+    return f"{part_name}_visual" if k == 0 else f"{part_name}_visual_colour_{k}"
 
 
 def _stem(relpath: str) -> str:
@@ -444,12 +447,16 @@ def _add_geoms(body, part: Part) -> None:
 
     mesh_geom = mujoco.mjtGeom.mjGEOM_MESH
     rgba = float32(part.color)
-    visual_only = dict(contype=0, conaffinity=0, group=VISUAL_GROUP, rgba=rgba)
-    if visual_file_mesh(part) is not None:
-        body.add_geom(name=f"{part.name}_visual", type=mesh_geom,
-                      meshname=_stem(visual_relpath(part.name)), **visual_only)
-    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
-        body.add_geom(name=f"{part.name}_visual_{k}", **_shape_geom(shape), **visual_only)
+    visual_only = dict(contype=0, conaffinity=0, group=VISUAL_GROUP)
+    # a visual of several colours: a geom per colour, the first named as a visual of one
+    for k, (rel, _, colour) in enumerate(visual_color_files(part)):
+        body.add_geom(name=visual_geom_name(part.name, k), type=mesh_geom, meshname=_stem(rel),
+                      rgba=float32(colour), **visual_only)
+    shapes = part.visual.primitives if part.visual is not None else ()
+    for k, (shape, colour) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
+                                            else (), strict=True)):
+        body.add_geom(name=f"{part.name}_visual_{k}", **_shape_geom(shape),
+                      rgba=rgba if colour is None else float32(colour), **visual_only)
     for k, piece in enumerate(part.collision):
         name = f"{part.name}_collision_{k}"
         if piece.primitive is not None:
@@ -503,6 +510,9 @@ def _add_joint(body, joint: Joint, anchor: np.ndarray, axis: np.ndarray) -> None
     if joint.type.multi_dof:
         kind = mujoco.mjtJoint.mjJNT_BALL if joint.type is JointType.BALL else \
             mujoco.mjtJoint.mjJNT_FREE
+        if joint.cone_limit is not None:  # a ball's range: [0, the largest rotation]
+            options.update(limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+                           range=[0.0, joint.cone_limit])
         body.add_joint(type=kind, **options)
         return
     kind = mujoco.mjtJoint.mjJNT_HINGE if joint.type.angular else mujoco.mjtJoint.mjJNT_SLIDE
@@ -555,7 +565,8 @@ def _element_owner(obj: ArticulatedObject, name: str) -> str:
     owners = []
     for part in obj.parts:
         shapes = len(part.visual.primitives) if part.visual is not None else 0
-        names = {part.name, f"{part.name}_visual"} | {
+        names = {part.name} | {visual_geom_name(part.name, k)
+                               for k in range(len(visual_color_files(part)) or 1)} | {
             f"{part.name}_collision_{k}" for k in range(len(part.collision))} | {
             f"{part.name}_visual_{k}" for k in range(shapes)}
         if name in names:

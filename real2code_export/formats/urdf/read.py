@@ -250,6 +250,8 @@ def _report_notes(ctx: Context) -> None:
         "limit": "<limit> without effort and/or velocity (urdfdom refuses that) in joints {}: "
                  "kept as unknown",
         "limit_dropped": "<limit> ignored on fixed joints {}",
+        "swing_dropped": "<limit> ignored on spherical joints {} (Bullet's swing spans and "
+                         "twist: no format holds them, the ball is free)",
         "range_dropped": "<limit> lower and upper ignored on continuous joints {} (as urdfdom "
                          "ignores them; effort and velocity kept)",
         "inertial": "no <inertial> in links {}: mass properties computed from their visual "
@@ -258,8 +260,9 @@ def _report_notes(ctx: Context) -> None:
                      "visual meshes",
         "meshdir": f"<mujoco><compiler meshdir={ctx.meshdir!r}>: mesh files {{}} found in that "
                    "folder, where MuJoCo looks for them, not beside the URDF",
-        "colours": "visuals of several colours in links {}: a part holds one colour, their "
-                   "area-weighted mean (the meshes are kept; the colours per visual are not)",
+        "colours": "visuals of several colours, not each from its <material>, in links {}: "
+                   "the part's colour is their area-weighted mean (the meshes are kept; the "
+                   "colours per visual are not)",
     }
     for kind, names in ctx.notes.items():
         ctx.warn(None, messages[kind].format(", ".join(names)))
@@ -275,6 +278,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
     owner = label(el)
     visuals: list[Mesh] = []
     colored = []
+    each: list = []  # each visual's <material> colour (None: it states none)
     textures = []
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
@@ -283,6 +287,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         mesh = _placed(mesh, origin_matrix(ctx, v, owner))
         visuals.append(mesh)
         color = material_color(ctx, v, materials, owner)
+        each.append(None if color is None else tuple(float(c) for c in color))
         if color is None and file is not None:
             color = mtl_color(ctx, file)
         if color is not None:
@@ -292,17 +297,22 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
     collision = _collision(ctx, el, name, visuals, faithful_collision and _from_visual(el),
                            hull_collision)
     inertial = _link_inertial(ctx, el, name, visuals)
-    visual = Mesh.concatenate(visuals) if visuals else None
+    # visuals each of a colour its <material> states: kept per face, the part's the first
+    # run's (a mesh file's own materials, an OBJ's MTL, stay averaged into the part colour)
+    per_visual = None not in each and len(set(each)) > 1
+    visual = (Mesh.concatenate(visuals, each if per_visual else None)) if visuals else None
     texture = textures[0] if textures else None
     if texture is not None and (len(textures) > 1 or visual.uv is None):
         ctx.warn(owner, f"{len(textures)} textured visuals among {len(visuals)}: a part holds "
                  "one image on one textured mesh; the textures are not kept, the colour is")
         texture = None
-        visual = Mesh(visual.vertices, visual.faces)
-    if len({c for c, _ in colored}) > 1:
+        visual = Mesh(visual.vertices, visual.faces, colors=visual.colors)
+    if len({c for c, _ in colored}) > 1 and not per_visual:
         ctx.note("colours", f"{name!r} ({len({c for c, _ in colored})})")
+    color = visual.colors[0][1] if visual is not None and visual.colors \
+        else average_color(colored)
     return Part(name=name, visual=visual, collision=collision, inertial=inertial,
-                color=average_color(colored) or DEFAULT_COLOR, texture=texture)
+                color=color or DEFAULT_COLOR, texture=texture)
 
 
 def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
@@ -403,6 +413,8 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
                   mimic=_mimic(ctx, el, owner, joint_names))
     if jtype.multi_dof:
         joint.dynamics = _dynamics(ctx, el, owner)
+    if jtype is JointType.BALL and el.get(ns("cone_limit")) is not None:
+        joint.cone_limit = ctx.number(el, ns("cone_limit"), owner)
     if jtype.movable:
         joint.axis = _axis(ctx, el, owner)
         joint.dynamics = _dynamics(ctx, el, owner)
@@ -436,7 +448,7 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
             ctx.note("range_dropped", repr(name))
         joint.drive_limits = _drive_limits(ctx, limit, owner, name)
     elif limit is not None:
-        ctx.note("limit_dropped", repr(name))
+        ctx.note("swing_dropped" if jtype is JointType.BALL else "limit_dropped", repr(name))
     return joint
 
 

@@ -25,8 +25,7 @@ from ...meshfiles import (
     collision_relpath,
     obj_bytes,
     shared_mesh_files,
-    visual_file_mesh,
-    visual_relpath,
+    visual_color_files,
     warn_maps_not_referenced,
     write_object_meshes,
 )
@@ -199,16 +198,23 @@ def _link(part: Part, shared: dict[str, str]) -> etree._Element:
         _sub(el, "inertia", *((k, number(v)) for k, v in (
             ("ixx", i[0, 0]), ("ixy", i[0, 1]), ("ixz", i[0, 2]),
             ("iyy", i[1, 1]), ("iyz", i[1, 2]), ("izz", i[2, 2]))))
-    visuals = []
-    if visual_file_mesh(part) is not None:
-        visuals.append(el := _sub(link, "visual", ("name", f"{part.name}_visual")))
-        _mesh_geometry(el, shared[visual_relpath(part.name)])
-    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
-        visuals.append(el := _sub(link, "visual", ("name", f"{part.name}_visual_{k}")))
+    visuals = []  # (element, colour): a visual of several colours is one <visual> per colour
+    for k, (rel, _, colour) in enumerate(visual_color_files(part)):
+        name = f"{part.name}_visual" if k == 0 else f"{part.name}_visual_colour_{k}"
+        visuals.append((el := _sub(link, "visual", ("name", name)), colour))
+        _mesh_geometry(el, shared[rel])
+    shapes = part.visual.primitives if part.visual is not None else ()
+    for k, (shape, colour) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
+                                            else (), strict=True)):
+        visuals.append((el := _sub(link, "visual", ("name", f"{part.name}_visual_{k}")),
+                        part.color if colour is None else colour))
         _shape_geometry(el, part, shape, shape_relpath(part.name, "visual", k))
-    for el in visuals:
-        material = _sub(el, "material", ("name", f"{part.name}_material"))
-        _sub(material, "color", ("rgba", numbers(part.color)))
+    colours = list(dict.fromkeys(colour for _, colour in visuals))
+    for el, colour in visuals:  # one named material per colour
+        k = colours.index(colour)
+        material = _sub(el, "material", ("name", f"{part.name}_material"
+                                         + (f"_{k}" if k else "")))
+        _sub(material, "color", ("rgba", numbers(colour)))
     for k, piece in enumerate(part.collision):
         el = _sub(link, "collision", ("name", f"{part.name}_collision_{k}"), (ns("convex"), "true"))
         if piece.primitive is not None:
@@ -224,9 +230,13 @@ def _joint(joint: Joint) -> etree._Element:
     el.set("type", joint.type.value)
     if joint.type is JointType.BALL:
         warn(f"URDF: joint {joint.name!r}: URDF has no ball joint; written as fixed at its "
-             f"reference pose, marked {PREFIX}:type=\"ball\" for our reader")
+             f"reference pose, marked {PREFIX}:type=\"ball\" for our reader"
+             + ("" if joint.cone_limit is None else
+                f" (its cone limit in {PREFIX}:cone_limit)"))
         el.set("type", JointType.FIXED.value)
         el.set(ns("type"), joint.type.value)
+        if joint.cone_limit is not None:
+            el.set(ns("cone_limit"), number(joint.cone_limit))
     if joint.type.movable and joint.state != 0.0:
         el.set(ns("state"), number(joint.state))
     _sub(el, "origin", ("xyz", numbers(joint.origin[:3, 3])),

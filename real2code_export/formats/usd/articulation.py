@@ -110,9 +110,6 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
         lim = desc.limit
         limited = lim.enabled and np.isfinite(lim.lower) and np.isfinite(lim.upper)
         kind = JointType.REVOLUTE if limited else JointType.CONTINUOUS
-    elif kind is JointType.BALL and desc.limit.enabled:
-        warn(f"{path}: {element}: the spherical joint's cone limit is dropped (the model's ball "
-             "joints are free)")
     return Edge(prim_path, desc, kind, sides[0], sides[1])
 
 

@@ -1,7 +1,10 @@
 """Meshes and materials: a part's visual mesh (UsdGeom.Mesh bound to a UsdPreviewSurface
 with the part's linear colour, its normals split along creases) and its convex collision pieces (UsdGeom.Mesh with
 PhysicsCollisionAPI + PhysicsMeshCollisionAPI, approximation convexHull, purpose guide so
-renderers skip them). Geometry is in the part frame.
+renderers skip them). Geometry is in the part frame. A visual of several colours binds a
+material per colour: to GeomSubsets of the mesh's triangles (family materialBind) and to
+its shapes; the reader takes colours from materials bound to the visual prims and their
+subsets, else from a constant displayColor.
 Shapes (box, sphere, ellipsoid, cylinder, capsule) are UsdGeom Cube / Sphere / Cylinder /
 Capsule prims, placed by double-precision xformOps (a box is a unit cube scaled, an ellipsoid
 a unit sphere scaled); as colliders they have the CollisionAPI alone (analytic shapes), except
@@ -68,7 +71,8 @@ def _define_mesh(layer, path: str, mesh: Mesh, *schemas: str):
 
 # what UsdGeom.Mesh holds per vertex or face, the bulk of a file: the binary layer's
 MESH_ARRAYS = ("points", "faceVertexCounts", "faceVertexIndices", f"primvars:{ST}",
-               "primvars:normals", "primvars:normals:indices")
+               "primvars:normals", "primvars:normals:indices",
+               "indices")  # (a GeomSubset's faces)
 
 
 def move_mesh_arrays(layer):
@@ -136,30 +140,35 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
     from pxr import Gf
 
     visuals_written = {} if visuals_written is None else visuals_written
-    r, g, b, a = (float(c) for c in part.color)
-    material = define(layer, material_path, "Material")
-    surface = f"{material_path}/PreviewSurface"
-    shader = define(layer, surface, "Shader")
-    attribute(shader, "info:id", "Token", "UsdPreviewSurface", uniform=True)
-    attribute(shader, "inputs:diffuseColor", "Color3f", Gf.Vec3f(r, g, b))
-    attribute(shader, "inputs:opacity", "Float", a)
-    attribute(shader, "inputs:roughness", "Float", 0.6)
-    if part.texture is not None or part.maps:
-        _texture_network(layer, material, material_path, shader, part)
-    attribute(shader, "outputs:surface", "Token")
-    connect(material, "outputs:surface", "Token", f"{surface}.outputs:surface")
+    _material(layer, material_path, part.color, part)
     body = layer.GetPrimAtPath(body_path)
-    apply(body, "MaterialBindingAPI")
-    relationship(body, "material:binding", material_path)
+    bind(body, material_path)
+    # a visual of several colours: a material per other colour, bound to the shapes and to
+    # GeomSubsets of the mesh's faces (UsdShade's material per face set)
+    colours: dict[tuple, str] = {tuple(part.color): material_path}
+    runs = part.visual.colors if part.visual is not None else ()
+    for rgba in dict.fromkeys(rgba for _, rgba in runs):
+        if rgba not in colours:
+            colours[rgba] = f"{material_path}_colour_{len(colours)}"
+            _material(layer, colours[rgba], rgba, None)
 
-    visuals = []
+    visuals = []  # (prim, its colour: None for the part's)
     own = part.visual.remainder() if part.visual is not None else None
     if own is not None:
-        visuals.append(_define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
-                                         visuals_written, visual=True))
-    for k, shape in enumerate(part.visual.primitives if part.visual is not None else ()):
-        visuals.append(define_shape(layer, f"{body_path}/{part.name}_visual_{k}", shape))
-    for visual in visuals:  # displayColor too, for viewers and importers (MuJoCo's) that
+        prim = _define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
+                                 visuals_written, visual=True)
+        if own.colors:  # (its displayColor, for importers that read no material: the part's)
+            _face_subsets(layer, prim, own, colours)
+        visuals.append((prim, None))
+    shapes = part.visual.primitives if part.visual is not None else ()
+    for k, (shape, rgba) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
+                                          else (), strict=True)):
+        prim = define_shape(layer, f"{body_path}/{part.name}_visual_{k}", shape)
+        visuals.append((prim, rgba))
+        if rgba is not None and colours[rgba] != material_path:
+            bind(prim, colours[rgba])
+    for visual, rgba in visuals:  # displayColor too, for viewers and importers (MuJoCo's)
+        r, g, b, a = (float(c) for c in (part.color if rgba is None else rgba))
         attribute(visual, "primvars:displayColor", "Color3fArray", [Gf.Vec3f(r, g, b)])
         attribute(visual, "primvars:displayOpacity", "FloatArray", [a])  # read no materials
     for k, piece in enumerate(part.collision):
@@ -172,6 +181,47 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
             geom = _define_mesh_once(layer, where, piece, visuals_written, visual=False)
             attribute(geom, "physics:approximation", "Token", "convexHull", uniform=True)
         attribute(geom, "purpose", "Token", "guide", uniform=True)
+
+
+def _material(layer, material_path: str, rgba, part: Part | None) -> None:
+    """A UsdPreviewSurface material of colour ``rgba`` (``part``: with its images)."""
+    from pxr import Gf
+
+    r, g, b, a = (float(c) for c in rgba)
+    material = define(layer, material_path, "Material")
+    surface = f"{material_path}/PreviewSurface"
+    shader = define(layer, surface, "Shader")
+    attribute(shader, "info:id", "Token", "UsdPreviewSurface", uniform=True)
+    attribute(shader, "inputs:diffuseColor", "Color3f", Gf.Vec3f(r, g, b))
+    attribute(shader, "inputs:opacity", "Float", a)
+    attribute(shader, "inputs:roughness", "Float", 0.6)
+    if part is not None and (part.texture is not None or part.maps):
+        _texture_network(layer, material, material_path, shader, part)
+    attribute(shader, "outputs:surface", "Token")
+    connect(material, "outputs:surface", "Token", f"{surface}.outputs:surface")
+
+
+def bind(prim, material_path: str) -> None:
+    apply(prim, "MaterialBindingAPI")
+    relationship(prim, "material:binding", material_path)
+
+
+def _face_subsets(layer, prim, mesh: Mesh, materials: dict[tuple, str]) -> None:
+    """A mesh of several colours: a GeomSubset of its faces per colour bound to that
+    colour's material (family materialBind, a partition)."""
+    from pxr import Vt
+
+    faces_of: dict[tuple, list[np.ndarray]] = {}
+    for start, end, rgba in mesh.face_color_runs():
+        faces_of.setdefault(rgba, []).append(np.arange(start, end, dtype=np.int32))
+    attribute(prim, "subsetFamily:materialBind:familyType", "Token", "partition",
+              uniform=True)
+    for k, (rgba, faces) in enumerate(faces_of.items()):
+        subset = define(layer, f"{prim.path}/colour_{k}", "GeomSubset")
+        attribute(subset, "elementType", "Token", "face", uniform=True)
+        attribute(subset, "familyName", "Token", "materialBind", uniform=True)
+        attribute(subset, "indices", "IntArray", Vt.IntArray.FromNumpy(np.concatenate(faces)))
+        bind(subset, materials[rgba])
 
 
 def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, Mesh], *,
@@ -498,20 +548,12 @@ def define_shape(layer, path: str, shape: Primitive, *schemas: str):
 def read_color(prim, mesh_prims, path) -> tuple[float, float, float, float]:
     """The part colour: diffuseColor/opacity of the material bound to the part prim or its
     first visual mesh (constant inputs only), else displayColor, else the default."""
-    from pxr import UsdGeom, UsdShade
+    from pxr import UsdGeom
 
     for p in [prim, *mesh_prims]:
-        material, _ = UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()
-        if not material:
-            continue
-        shader = material.ComputeSurfaceSource()[0]
-        if not shader:
-            continue
-        diffuse, opacity = shader.GetInput("diffuseColor"), shader.GetInput("opacity")
-        rgb = diffuse.Get() if diffuse else None
-        if rgb is not None:
-            alpha = opacity.Get() if opacity and opacity.Get() is not None else 1.0
-            return _clamped((*rgb, alpha), path, str(p.GetPath()))
+        rgba = _bound_color(p, path)
+        if rgba is not None:
+            return rgba
     for p in mesh_prims:
         gprim = UsdGeom.Gprim(p)
         colors = gprim.GetDisplayColorAttr().Get()
@@ -519,6 +561,53 @@ def read_color(prim, mesh_prims, path) -> tuple[float, float, float, float]:
             opacity = gprim.GetDisplayOpacityAttr().Get()
             return _clamped((*colors[0], opacity[0] if opacity else 1.0), path, str(p.GetPath()))
     return DEFAULT_COLOR
+
+
+def _bound_color(p, path) -> tuple[float, float, float, float] | None:
+    """diffuseColor/opacity (constant inputs) of the material bound to prim ``p``."""
+    from pxr import UsdShade
+
+    material, _ = UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()
+    shader = material.ComputeSurfaceSource()[0] if material else None
+    if not shader:
+        return None
+    diffuse, opacity = shader.GetInput("diffuseColor"), shader.GetInput("opacity")
+    rgb = diffuse.Get() if diffuse else None
+    if rgb is None:
+        return None
+    alpha = opacity.Get() if opacity and opacity.Get() is not None else 1.0
+    return _clamped((*rgb, alpha), path, str(p.GetPath()))
+
+
+def color_runs(prim, n_faces: int, path) -> list[tuple[int, tuple | None]]:
+    """A visual prim's colours over its ``n_faces`` triangles as runs (face count, RGBA;
+    None where it states none): its bound material's colour, else a constant displayColor,
+    per face where GeomSubsets of the materialBind family bind materials to its faces (a
+    mesh of triangles only: the subsets index its faces)."""
+    from pxr import UsdGeom, UsdShade
+
+    own = _bound_color(prim, path)
+    if own is None:
+        gprim = UsdGeom.Gprim(prim)
+        colors = gprim.GetDisplayColorAttr().Get()
+        if colors is not None and len(colors) == 1:
+            opacity = gprim.GetDisplayOpacityAttr().Get()
+            own = _clamped((*colors[0], opacity[0] if opacity else 1.0), path,
+                           str(prim.GetPath()))
+    subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets() \
+        if prim.IsA(UsdGeom.Mesh) else []
+    counts = UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get() if subsets else None
+    if not subsets or counts is None or len(counts) != n_faces or np.any(np.asarray(counts) != 3):
+        return [(n_faces, own)]
+    colours = [own]  # per face, as an index in this list
+    label = np.zeros(n_faces, dtype=np.int64)
+    for subset in subsets:
+        faces = np.asarray(subset.GetIndicesAttr().Get() or [], dtype=np.int64)
+        colours.append(_bound_color(subset.GetPrim(), path))
+        label[faces[(faces >= 0) & (faces < n_faces)]] = len(colours) - 1
+    starts = np.flatnonzero(np.r_[True, label[1:] != label[:-1]]) if n_faces else []
+    ends = np.r_[starts[1:], n_faces] if n_faces else []
+    return [(int(e - b), colours[label[b]]) for b, e in zip(starts, ends, strict=True)]
 
 
 def _clamped(rgba, path, where: str) -> tuple[float, float, float, float]:

@@ -1,5 +1,5 @@
 """Joints: PhysicsRevoluteJoint (continuous = revolute without limits), PhysicsPrismaticJoint,
-PhysicsSphericalJoint (ball, no cone limit) and PhysicsFixedJoint with body0 = parent, body1 =
+PhysicsSphericalJoint (ball; its cone limit as both cone angles) and PhysicsFixedJoint with body0 = parent, body1 =
 child. A floating joint is no joint prim: UsdPhysics' free body is a rigid body no joint
 holds (convert.py).
 
@@ -98,6 +98,7 @@ def as_written(joint: Joint) -> Joint:
 
 
 # -- writing ---------------------------------------------------------------------------------
+CONE_ATTRS = ("physics:coneAngle0Limit", "physics:coneAngle1Limit")  # degrees
 _JOINT_TYPES = {JointType.FIXED: "PhysicsFixedJoint", JointType.BALL: "PhysicsSphericalJoint",
                 JointType.PRISMATIC: "PhysicsPrismaticJoint"}  # else PhysicsRevoluteJoint
 
@@ -117,6 +118,13 @@ def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
     attribute(prim, "physics:localRot1", "Quatf", Gf.Quatf(*f.rot1.tolist()))
     if kind is JointType.BALL:
         _write_dynamics(prim, joint.dynamics, angular=True)
+        if joint.cone_limit is not None:  # about X, as mujoco-usd-converter writes a range
+            warn(f"USD: joint {joint.name!r}: the ball's cone limit is written as both cone "
+                 "angles about X, which bound X's swing, not the twist about it that the "
+                 "limit (MuJoCo's range: the whole rotation) bounds too")
+            cone = float_outward(math.degrees(joint.cone_limit), upward=True)
+            for name in CONE_ATTRS:
+                attribute(prim, name, "Float", cone)
     if not kind.movable:
         return prim
     angular = kind.angular
@@ -262,6 +270,20 @@ def read_dynamics(prim, angular: bool, mpu: float, kpu: float, where: str) -> Dy
     spring_ref = authored_value(prim, "mjc:springref") or 0.0
     spring_ref = math.radians(spring_ref) if angular else spring_ref * mpu
     return Dynamics(spring_ref=spring_ref, **out)
+
+
+def read_cone_limit(desc, where: str) -> float | None:
+    """A spherical joint's cone (rad) from its parsed limit (cone angles 0 and 1 in
+    degrees; off or negative: free); two different angles, an elliptic cone, are warned
+    and the smaller kept (the model's ball has one angle)."""
+    lim = desc.limit
+    angles = (float(lim.lower), float(lim.upper))
+    if not lim.enabled or not all(math.isfinite(a) and a > 0.0 for a in angles):
+        return None
+    if angles[0] != angles[1]:
+        warn(f"{where}: an elliptic cone ({CONE_ATTRS[0]} {angles[0]}, {CONE_ATTRS[1]} "
+             f"{angles[1]} degrees): the smaller kept as the ball's cone limit")
+    return math.radians(min(angles))
 
 
 def read_limits(desc, kind: JointType, prim, mpu: float, kpu: float,

@@ -36,11 +36,19 @@ from .conventions import (
     stage_units,
     world_transforms,
 )
-from .geometry import ellipsoid_collider, read_color, read_images, read_mesh, shape_mesh
+from .geometry import (
+    color_runs,
+    ellipsoid_collider,
+    read_color,
+    read_images,
+    read_mesh,
+    shape_mesh,
+)
 from .joint import (
     STATE,
     authored_value,
     axis_in_body1,
+    read_cone_limit,
     read_dynamics,
     read_free_dynamics,
     read_limits,
@@ -168,7 +176,7 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
                     if p.IsA(UsdGeom.Gprim) and not p.HasAPI(UsdPhysics.CollisionAPI)
                     and UsdGeom.Imageable(p).ComputePurpose() in shown
                     and UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible]
-    visuals = []
+    visuals, runs = [], []  # runs: each visual's colours (geometry.color_runs)
     for p in visual_prims:
         where_p = f"prim <{p.GetPath()}>"
         mesh = read_mesh(p, placed(p), path, where_p) if p.IsA(UsdGeom.Mesh) else \
@@ -178,7 +186,11 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
                  "(box, sphere, cylinder, capsule and meshes are read); not shown")
             continue
         visuals.append(mesh)
-    visual = (visuals[0] if len(visuals) == 1 else Mesh.concatenate(visuals)) if visuals else None
+        runs.append(color_runs(p, len(mesh.faces), path))
+    visual = None  # (visuals of several colours: kept per face)
+    if visuals:
+        visual = Mesh.join_colored(visuals, runs) if len(visuals) > 1 or len(runs[0]) > 1 \
+            else visuals[0]
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
                              f"{path}: {where}")
     images = read_images(prim, visual_prims, path)
@@ -250,7 +262,9 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     if not kind.movable:
         dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.multi_dof else None
         return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent],
-                     names[e.child], origin=origin, dynamics=dynamics or Dynamics())
+                     names[e.child], origin=origin, dynamics=dynamics or Dynamics(),
+                     cone_limit=read_cone_limit(e.desc, where) if kind is JointType.BALL
+                     else None)
     token = str(e.desc.axis)
     axis = axis_in_body1(child_quat, token) * (-1.0 if e.reversed else 1.0)
     motion = tf.inverse(world[e.body0] @ t0) @ (world[e.body1] @ t1)
