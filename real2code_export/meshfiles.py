@@ -55,6 +55,12 @@ def visual_color_files(part: Part) -> list[tuple[str, Mesh, RGBA]]:
             for k, (mesh, rgba) in enumerate(pieces)]
 
 
+def visual_element_name(part_name: str, k: int) -> str:
+    """The name of the MJCF geom or URDF <visual> that holds :func:`visual_color_files`'s
+    file ``k`` (0: named as a visual of one colour)."""
+    return f"{part_name}_visual" if k == 0 else f"{part_name}_visual_colour_{k}"
+
+
 def collision_file_meshes(part: Part) -> list[tuple[int, Mesh]]:
     """The collision pieces (index, mesh) that are mesh files: every piece but the shapes."""
     return [(k, m) for k, m in enumerate(part.collision) if m.primitive is None]

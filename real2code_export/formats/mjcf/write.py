@@ -43,6 +43,7 @@ from ...meshfiles import (
     shared_mesh_files,
     texture_relpath,
     visual_color_files,
+    visual_element_name,
     write_object_meshes,
 )
 from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
@@ -404,11 +405,6 @@ def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:
     return items
 
 
-def visual_geom_name(part_name: str, k: int) -> str:
-    """The visual mesh geom of colour ``k`` (0 for a visual of one colour)."""
-    return f"{part_name}_visual" if k == 0 else f"{part_name}_visual_colour_{k}"
-
-
 def _stem(relpath: str) -> str:
     """The mesh asset's name: its file name without folder and extension."""
     return relpath.rpartition("/")[2].rpartition(".")[0]
@@ -450,7 +446,7 @@ def _add_geoms(body, part: Part) -> None:
     visual_only = dict(contype=0, conaffinity=0, group=VISUAL_GROUP)
     # a visual of several colours: a geom per colour, the first named as a visual of one
     for k, (rel, _, colour) in enumerate(visual_color_files(part)):
-        body.add_geom(name=visual_geom_name(part.name, k), type=mesh_geom, meshname=_stem(rel),
+        body.add_geom(name=visual_element_name(part.name, k), type=mesh_geom, meshname=_stem(rel),
                       rgba=float32(colour), **visual_only)
     shapes = part.visual.primitives if part.visual is not None else ()
     for k, (shape, colour) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
@@ -565,7 +561,7 @@ def _element_owner(obj: ArticulatedObject, name: str) -> str:
     owners = []
     for part in obj.parts:
         shapes = len(part.visual.primitives) if part.visual is not None else 0
-        names = {part.name} | {visual_geom_name(part.name, k)
+        names = {part.name} | {visual_element_name(part.name, k)
                                for k in range(len(visual_color_files(part)) or 1)} | {
             f"{part.name}_collision_{k}" for k in range(len(part.collision))} | {
             f"{part.name}_visual_{k}" for k in range(shapes)}

@@ -26,6 +26,7 @@ from ...meshfiles import (
     obj_bytes,
     shared_mesh_files,
     visual_color_files,
+    visual_element_name,
     warn_maps_not_referenced,
     write_object_meshes,
 )
@@ -200,8 +201,8 @@ def _link(part: Part, shared: dict[str, str]) -> etree._Element:
             ("iyy", i[1, 1]), ("iyz", i[1, 2]), ("izz", i[2, 2]))))
     visuals = []  # (element, colour): a visual of several colours is one <visual> per colour
     for k, (rel, _, colour) in enumerate(visual_color_files(part)):
-        name = f"{part.name}_visual" if k == 0 else f"{part.name}_visual_colour_{k}"
-        visuals.append((el := _sub(link, "visual", ("name", name)), colour))
+        visuals.append((el := _sub(link, "visual", ("name", visual_element_name(part.name, k))),
+                        colour))
         _mesh_geometry(el, shared[rel])
     shapes = part.visual.primitives if part.visual is not None else ()
     for k, (shape, colour) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
