@@ -39,6 +39,8 @@ class CompartmentOptions:
     enclosed_share: float = 0.03  # a part of at most this share of the carcass's points ...
     enclosed_inside: float = 0.98  # ... with this share of them inside the carcass's box ...
     enclosed_margin_voxels: float = 1.0  # ... (grown by this many spacings) is the carcass's
+    enclosed_thick: float = 0.5  # so is a larger one wholly inside spanning at least this
+    # share of the carcass's box along each of its axes (no door or drawer front is)
     wall_margin_voxels: float = 1.0  # the carcass's points this far past its walls stand out
     nested_share: float = 0.9  # a moving part with this share of its points in a larger
     nested_margin_voxels: float = 2.0  # one's box (grown by this), standing out of the
@@ -309,8 +311,14 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     the mask network, on noisy depth, gave a label of its own lies inside the box, and
     the joint predictor makes a drawer or a door of it (on phone-LiDAR rings of the
     procedural test set, one or two such patches of 1 to 2 % of the carcass's points per
-    object, each given a joint). Parts of more than ``enclosed_share`` of the carcass's
-    points are left alone. Returns the labels, renumbered by size, and what was moved."""
+    object, each given a joint). A larger part wholly inside is the carcass's too when it is
+    thick along every axis of the carcass's box (``enclosed_thick`` of its extent): a door
+    or drawer seen closed shows its front, thin across the box, and seen open it stands out
+    of the box, while the mask network on real shapes cuts carcasses in two (a cabinet's
+    right half, 20 % of its points, spanning its depth and height) and labels the inside
+    seen past open doors. Other parts of more than ``enclosed_share`` of the carcass's points
+    (a whole side wall, a shelf) are left alone. Returns the labels, renumbered by size, and
+    what was moved."""
     out = labels.copy()
     moved = []
     carcass = labels == 1
@@ -319,12 +327,19 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     body = part_obb(cloud[carcass])
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
-        if len(index) == 0 or len(index) > options.enclosed_share * carcass.sum():
+        if len(index) == 0:
             continue
-        inside = body.contains(cloud[index], tol=options.enclosed_margin_voxels * voxel)
-        if inside.mean() >= options.enclosed_inside:
+        points = cloud[index]
+        inside = body.contains(points, tol=options.enclosed_margin_voxels * voxel)
+        if inside.mean() < options.enclosed_inside:
+            continue
+        small = len(index) <= options.enclosed_share * carcass.sum()
+        local = (points - body.center) @ body.R
+        thick = bool(np.all(np.ptp(local, axis=0) >= options.enclosed_thick * 2 * body.extent))
+        if small or thick:
             out[index] = 1
-            moved.append({"part": k, "points": len(index), "enclosed": True})
+            moved.append({"part": k, "points": len(index), "enclosed": True,
+                          **({} if small else {"thick": True})})
     return numbered_by_size(out), moved
 
 

@@ -322,6 +322,14 @@ def test_a_small_part_inside_the_carcass_box_is_the_carcass():
     whole = truth.copy()
     whole[side] = 3
     assert return_enclosed(cloud, whole, voxel=0.02)[1] == []
+    # the carcass cut in two (as the masks cut real cabinets): a side with the floor under
+    # it, thick along every axis of the box, goes back; the side wall above, thin across
+    # it, stayed
+    cut = truth.copy()
+    cut[(truth == 1) & (cloud[:, 1] > -0.1) & (cloud[:, 2] < 0.4) & (cloud[:, 0] > -0.3)] = 3
+    out, moved = return_enclosed(cloud, cut, voxel=0.02)
+    assert np.array_equal(out, truth)
+    assert [m.get("thick") for m in moved] == [True]
 
 
 def test_an_open_panels_strip_in_other_labels_goes_to_the_panel():
