@@ -30,7 +30,15 @@ class CreasedNormals:
 def creased_normals(mesh: Mesh) -> CreasedNormals:
     """The mesh's vertices split along creases, with their area-weighted normals, from the
     float32 positions the files store (re-exporting what was read back then gives the same
-    bytes). Vertices no face uses are kept, one split vertex each."""
+    bytes). Vertices no face uses are kept, one split vertex each. Computed once per mesh
+    (cached on it, read-only): an export to USD and glTF asks for each visual's in both."""
+    cached = mesh.__dict__.get("_creased_normals")
+    if cached is None:
+        cached = mesh.__dict__["_creased_normals"] = _creased_normals(mesh)
+    return cached
+
+
+def _creased_normals(mesh: Mesh) -> CreasedNormals:
     vertices = mesh.vertices.astype(np.float32).astype(np.float64)
     faces = mesh.faces
     n_faces = len(faces)
@@ -57,7 +65,10 @@ def creased_normals(mesh: Mesh) -> CreasedNormals:
     normals[~bad] /= length[~bad, None]
     normals = normals.astype(np.float32)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)  # unit in float32 too
-    return CreasedNormals(keys // n_groups, indices, normals)
+    split = CreasedNormals(keys // n_groups, indices, normals)
+    for array in (split.source, split.indices, split.normals):
+        array.flags.writeable = False
+    return split
 
 
 def smoothing_groups(mesh: Mesh) -> np.ndarray:
