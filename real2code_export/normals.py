@@ -44,7 +44,7 @@ def _creased_normals(mesh: Mesh) -> CreasedNormals:
     n_faces = len(faces)
     tri = vertices[faces]
     face_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted
-    group = _smoothing_groups(faces, face_normals)
+    group = smoothing_groups(faces, face_normals)
     # one split vertex per (model vertex, smoothing group); unreferenced vertices kept too
     n_groups = int(group.max()) + 2 if n_faces else 1
     corner_key = faces * n_groups + group[:, None]
@@ -74,18 +74,12 @@ def _creased_normals(mesh: Mesh) -> CreasedNormals:
     return split
 
 
-def smoothing_groups(mesh: Mesh) -> np.ndarray:
+def smoothing_groups(faces: np.ndarray, cross: np.ndarray) -> np.ndarray:
     """Per face, its smoothing group: the connected components of the faces over the edges
     that exactly two faces share at a dihedral angle under CREASE_ANGLE (as trimesh's
     ``face_adjacency`` and ``face_adjacency_angles`` give them, with numpy alone: trimesh
-    and scipy cost more to import than the export)."""
-    tri = mesh.vertices.astype(np.float64)[mesh.faces]
-    return _smoothing_groups(mesh.faces, np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
-
-
-def _smoothing_groups(faces: np.ndarray, cross: np.ndarray) -> np.ndarray:
-    """:func:`smoothing_groups` from the faces and their (area-weighted) normals, which
-    :func:`creased_normals` has computed already."""
+    and scipy cost more to import than the export), from the faces and their area-weighted
+    normals ``cross`` (which :func:`creased_normals` has computed already)."""
     pairs = Edges(faces).face_adjacency()
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]  # a degenerate face touching itself
     norm = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
