@@ -493,7 +493,7 @@ def _welded(corners: np.ndarray) -> Mesh:
     that uses it (about 6 times); kept so, every file written from it (OBJ, USD, glTF) held
     them all and every tool that reads those read them all (MuJoCo compiling such an export
     took twice as long; docs/benchmarks.md)."""
-    order = np.lexsort(corners.T[::-1])  # stable: a run of equal corners in file order
+    order = np.lexsort(_sort_keys(corners))  # stable: a run of equal corners in file order
     ordered = corners[order]
     starts = np.ones(len(order), dtype=bool)
     starts[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
@@ -503,6 +503,20 @@ def _welded(corners: np.ndarray) -> Mesh:
     number = np.empty(len(first), dtype=np.int64)
     number[np.argsort(first)] = np.arange(len(first))
     return Mesh(corners[np.sort(first)], number[run].reshape(-1, 3))
+
+
+def _sort_keys(corners: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Integer keys for ``np.lexsort`` (last key first) under which equal corners are
+    neighbours, as under their values (the order between unequal ones does not matter):
+    the coordinates' bits, -0.0 folded into 0.0 (``+ 0.0``), the two that compare equal;
+    packed two to an integer where every value is a float32 (a binary STL's). Twice as
+    quick as sorting the float64 values."""
+    single = (corners + 0.0).astype(np.float32)
+    if np.array_equal(single, corners):
+        bits = single.view(np.uint32).astype(np.uint64)
+        return bits[:, 2], (bits[:, 0] << np.uint64(32)) | bits[:, 1]
+    bits = (corners + 0.0).view(np.uint64)
+    return bits[:, 2], bits[:, 1], bits[:, 0]
 
 
 def _read_collada(path: Path, source, element, line) -> Mesh:

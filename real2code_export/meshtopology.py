@@ -70,7 +70,8 @@ class Edges:
         self.faces = faces
         self.directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
         n = np.int64(int(faces.max()) + 1 if len(faces) else 1)
-        lo, hi = self.directed.min(axis=1), self.directed.max(axis=1)
+        a, b = self.directed[:, 0], self.directed[:, 1]
+        lo, hi = np.minimum(a, b), np.maximum(a, b)  # (min(axis=1) on pairs: 30x slower)
         keys = lo * n + hi
         self.order = np.argsort(keys)
         sorted_keys = keys[self.order]

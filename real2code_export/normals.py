@@ -30,46 +30,62 @@ class CreasedNormals:
 def creased_normals(mesh: Mesh) -> CreasedNormals:
     """The mesh's vertices split along creases, with their area-weighted normals, from the
     float32 positions the files store (re-exporting what was read back then gives the same
-    bytes). Vertices no face uses are kept, one split vertex each."""
-    mesh = Mesh(mesh.vertices.astype(np.float32), mesh.faces)  # back in float64, rounded
-    vertices, faces = mesh.vertices, mesh.faces
+    bytes). Vertices no face uses are kept, one split vertex each. Computed once per mesh
+    (cached on it, read-only): an export to USD and glTF asks for each visual's in both."""
+    cached = mesh.__dict__.get("_creased_normals")
+    if cached is None:
+        cached = mesh.__dict__["_creased_normals"] = _creased_normals(mesh)
+    return cached
+
+
+def _creased_normals(mesh: Mesh) -> CreasedNormals:
+    vertices = mesh.vertices.astype(np.float32).astype(np.float64)
+    faces = mesh.faces
     n_faces = len(faces)
-    face_normals = np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]],
-                            vertices[faces[:, 2]] - vertices[faces[:, 0]])  # area-weighted
-    group = smoothing_groups(mesh)
+    tri = vertices[faces]
+    face_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted
+    group = smoothing_groups(faces, face_normals)
     # one split vertex per (model vertex, smoothing group); unreferenced vertices kept too
     n_groups = int(group.max()) + 2 if n_faces else 1
     corner_key = faces * n_groups + group[:, None]
     used = np.zeros(len(vertices), dtype=bool)
     used[faces] = True
     unused = np.flatnonzero(~used)  # (np.setdiff1d: the same, hashing every corner, 20x slower)
-    keys, inverse = np.unique(np.concatenate([corner_key.reshape(-1), unused * n_groups + n_groups - 1]),
-                              return_inverse=True)
+    all_keys = np.concatenate([corner_key.reshape(-1), unused * n_groups + n_groups - 1])
+    if len(vertices) * n_groups < 2**31:  # int32 keys sort in half the time, same answer
+        all_keys = all_keys.astype(np.int32)
+    keys, inverse = np.unique(all_keys, return_inverse=True)
+    keys = keys.astype(np.int64)
     indices = inverse[: faces.size].reshape(-1, 3)
-    normals = np.zeros((len(keys), 3))
-    np.add.at(normals, indices.reshape(-1), np.repeat(face_normals, 3, axis=0))
+    # each split vertex's sum of its corners' face normals, added in corner order (what
+    # np.add.at adds, the same floats; bincount is a tenth of its time)
+    corners = indices.reshape(-1)
+    normals = np.column_stack([np.bincount(corners, np.repeat(face_normals[:, k], 3),
+                                           minlength=len(keys)) for k in range(3)])
     length = np.linalg.norm(normals, axis=1)
     bad = length < 1e-20
     normals[bad] = (0.0, 0.0, 1.0)  # only degenerate faces touch it: any unit vector will do
     normals[~bad] /= length[~bad, None]
     normals = normals.astype(np.float32)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)  # unit in float32 too
-    return CreasedNormals(keys // n_groups, indices, normals)
+    split = CreasedNormals(keys // n_groups, indices, normals)
+    for array in (split.source, split.indices, split.normals):
+        array.flags.writeable = False
+    return split
 
 
-def smoothing_groups(mesh: Mesh) -> np.ndarray:
+def smoothing_groups(faces: np.ndarray, cross: np.ndarray) -> np.ndarray:
     """Per face, its smoothing group: the connected components of the faces over the edges
     that exactly two faces share at a dihedral angle under CREASE_ANGLE (as trimesh's
     ``face_adjacency`` and ``face_adjacency_angles`` give them, with numpy alone: trimesh
-    and scipy cost more to import than the export)."""
-    pairs = Edges(mesh.faces).face_adjacency()
+    and scipy cost more to import than the export), from the faces and their area-weighted
+    normals ``cross`` (which :func:`creased_normals` has computed already)."""
+    pairs = Edges(faces).face_adjacency()
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]  # a degenerate face touching itself
-    tri = mesh.vertices.astype(np.float64)[mesh.faces]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     norm = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
     valid = norm > 1e-13  # trimesh's zero: a degenerate face's normal is 0, never smooth
     unit = np.zeros_like(cross)
     unit[valid] = cross[valid] / norm[valid, None]
     dots = np.dot(unit[pairs[:, 0]] * unit[pairs[:, 1]], [1.0, 1.0, 1.0])
     smooth = pairs[np.abs(np.arccos(np.clip(dots, -1.0, 1.0))) < CREASE_ANGLE]
-    return component_labels(len(mesh.faces), smooth)
+    return component_labels(len(faces), smooth)

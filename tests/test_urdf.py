@@ -425,6 +425,32 @@ def test_stl_is_read_as_trimesh_reads_it(tmp_path, kind):
         read_mesh(path, source=tmp_path / "robot.urdf", element="<link name='base'>")
 
 
+@pytest.mark.parametrize("kind", ["binary", "ascii"])
+def test_stl_corners_equal_in_value_are_one_vertex(tmp_path, kind):
+    """Corners are welded by value, as MuJoCo and float comparison see them, in the order
+    first met: -0.0 and 0.0 are one vertex (the sort runs on the coordinates' bits), in a
+    binary STL's float32 and in ASCII numbers no float32 holds."""
+    from real2code_export.meshfiles import read_mesh
+
+    c = 0.1 if kind == "ascii" else 0.5  # 0.1: not a float32, the other sorting keys
+    triangles = [[[0.0, 0.0, 0.0], [c, 0.0, 0.0], [0.0, c, 0.0]],
+                 [[c, 0.0, -0.0], [c, c, 0.0], [-0.0, c, 0.0]]]
+    path = tmp_path / "part.stl"
+    if kind == "binary":
+        path.write_bytes(trimesh.exchange.stl.export_stl(
+            trimesh.Trimesh(np.reshape(triangles, (-1, 3)), np.arange(6).reshape(2, 3),
+                            process=False)))
+    else:
+        path.write_text("solid s\n" + "".join(
+            "facet normal 0 0 1\nouter loop\n" + "".join(f"vertex {x} {y} {z}\n"
+                                                         for x, y, z in t)
+            + "endloop\nendfacet\n" for t in triangles) + "endsolid s\n")
+    got = read_mesh(path)
+    np.testing.assert_array_equal(got.vertices, [[0, 0, 0], [c, 0, 0], [0, c, 0], [c, c, 0]])
+    assert not np.signbit(got.vertices).any()  # each vertex as first met
+    np.testing.assert_array_equal(got.faces, [[0, 1, 2], [1, 3, 2]])
+
+
 def test_obj_vertices_are_the_numbers_written(tmp_path):
     """An OBJ's vertices are the nearest float64 to each number in its ``v`` lines (the file's
     first line a ``v`` line, tabs, a w component, many digits), whatever tinyobjloader's own
