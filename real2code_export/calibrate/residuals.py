@@ -3,7 +3,8 @@ the candidate compiled into MuJoCo (its effects written into the nominal replay 
 ``mujoco.sysid`` parameter modifiers), replayed under each run's conditions from a
 parameter vector (effect values, then the fitted initial states), the positions compared
 in noise units; multiple shooting's continuity between pieces of one run; forward
-differences in which an initial state moves only its own run.
+differences in which an initial state moves only its own run (and a closed loop's replay
+from a moved start only until the loop has forgotten the move).
 """
 
 from __future__ import annotations
