@@ -225,6 +225,38 @@ def test_declared_loop_replays_are_the_stepwise_replay(tmp_path):
     assert np.ptp(together[0].positions - together[1].positions) > 1e-3  # they differ
 
 
+def test_a_loop_that_forgets_its_start_ends_on_its_base(tmp_path):
+    """A Jacobian's initial-state column: the same model replayed from a moved start. The
+    loop forgets the move within its time constants; from there the replay is its base's
+    (a base whose last efforts are marked shows that they were taken), and the whole is
+    what replaying to the end gives."""
+    import dataclasses
+
+    from real2code_export.calibrate.problem import build_problem
+    from real2code_export.calibrate.residuals import build_model
+    from real2code_export.calibrate.simulate import declared_loop
+    from real2code_export.calibrate.trajectory import read_all
+
+    obj, joint, t, q, ref, u, law = _pd_drawer(5, damping=4.0, duration=5.0)
+    tr, = read_all([_write_loop(tmp_path, joint, t, q, ref, u, law)], obj)
+    problem = build_problem(obj, [tr])
+    damping = problem.effects[joint]["damping"]
+    m = build_model(problem, (damping,), {f"{joint}.damping": 4.0})
+    base, = declared_loop([m], tr, [{joint: (0.2, 0.0)}], [{}])
+    moved = {joint: (0.2 + 1e-7, 1e-6)}
+    whole, = declared_loop([m], tr, [moved], [{}])
+    marked = dataclasses.replace(base, efforts=base.efforts.copy())
+    marked.efforts[-5:] = 123.0
+    ended, = declared_loop([m], tr, [moved], [{}], bases=[marked])
+    assert np.all(ended.efforts[-5:] == 123.0)  # the tail is the base's
+    np.testing.assert_allclose(ended.positions, whole.positions, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ended.efforts[:-5], whole.efforts[:-5], rtol=0, atol=1e-12)
+    assert np.abs(whole.positions[:50] - base.positions[:50]).max() > 1e-8  # it moved
+    assert np.abs(whole.positions - base.positions)[-100:].max() == 0.0  # and came back
+    # a start the loop does not forget (a different model: no base) is replayed to the end
+    other = build_model(problem, (damping,), {f"{joint}.damping": 6.0})
+    kept, = declared_loop([other], tr, [moved], [{}], bases=[marked])
+    assert np.all(kept.efforts[-5:] != 123.0)
 def test_irregular_samples_replay_in_batch_as_stepped(tmp_path):
     """A measured effort on irregular time stamps (a logger's jitter, a dropped sample)
     replayed by ``mujoco.rollout`` gives what stepping sample by sample in Python gives."""

@@ -176,7 +176,7 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
     def jac(x):
         if last.get("x") is None or not np.array_equal(last["x"], x):
             fun(x)
-        return ev.jacobian(x, last["r"], ub_a)
+        return ev.jacobian(x, last["r"], ub_a, last["ros"])
 
     if len(x0):
         n = int(ev.offsets[-1]) + len(problem.links) * len(problem.joints)

@@ -3,7 +3,8 @@ the candidate compiled into MuJoCo (its effects written into the nominal replay 
 ``mujoco.sysid`` parameter modifiers), replayed under each run's conditions from a
 parameter vector (effect values, then the fitted initial states), the positions compared
 in noise units; multiple shooting's continuity between pieces of one run; forward
-differences in which an initial state moves only its own run.
+differences in which an initial state moves only its own run (and a closed loop's replay
+from a moved start only until the loop has forgotten the move).
 """
 
 from __future__ import annotations
@@ -124,10 +125,12 @@ class Evaluator:
             parts.append((ro.positions[:, k] - tr.positions[j]) / sigma)
         return np.concatenate(parts)
 
-    def run(self, t: int, points: list[np.ndarray], runner: BatchRunner | None = None
-            ) -> list[tuple[np.ndarray, Rollout]]:
+    def run(self, t: int, points: list[np.ndarray], runner: BatchRunner | None = None,
+            bases: list[Rollout | None] | None = None) -> list[tuple[np.ndarray, Rollout]]:
         """Residual block of trajectory ``t`` and its rollout at each point (``runner``:
-        another replay of the same trajectory, e.g. with a perturbed input)."""
+        another replay of the same trajectory, e.g. with a perturbed input; ``bases``: per
+        point, the replay of a point that differs from it in the initial state only, or
+        None: :meth:`BatchRunner.run`)."""
         if not points:
             return []
         models, initials, laws, zeros = [], [], [], []
@@ -142,6 +145,10 @@ class Evaluator:
                              for k, j in enumerate(self.problem.joints)})
             laws.append(laws_for(self.effects, values, self.problem.base_laws))
         self.count += len(points)
+        if bases is not None:  # a base as replayed, before the encoder's zero error
+            bases = [b if b is None or not np.any(zero) else
+                     dataclasses.replace(b, positions=b.positions - zero)
+                     for b, zero in zip(bases, zeros, strict=True)]
         ros: list = [None] * len(points)
         groups: dict[tuple, list[int]] = {}
         for i, x in enumerate(points):  # points with one lag replay one input
@@ -149,7 +156,8 @@ class Evaluator:
         for lag, idx in groups.items():
             use = self._runner(t, lag, runner)
             out = use.run([models[i] for i in idx], [initials[i] for i in idx],
-                          [laws[i] for i in idx], self.fine, self.refine)
+                          [laws[i] for i in idx], self.fine, self.refine,
+                          [bases[i] for i in idx] if bases is not None else None)
             for i, ro in zip(idx, out, strict=True):
                 ros[i] = ro
         for zero, ro in zip(zeros, ros, strict=True):
@@ -204,8 +212,12 @@ class Evaluator:
             out[k] = CONTINUITY * (ro_prev.positions[-1, k] - x0[nxt][k, 0]) / sigma
         return out
 
-    def jacobian(self, x: np.ndarray, r0: np.ndarray, ub: np.ndarray) -> np.ndarray:
-        """Forward differences; an initial velocity moves only its own trajectory."""
+    def jacobian(self, x: np.ndarray, r0: np.ndarray, ub: np.ndarray,
+                 ros0: list[Rollout] | None = None) -> np.ndarray:
+        """Forward differences; an initial velocity moves only its own trajectory.
+        ``ros0``: the rollouts at ``x`` (``r0``'s): an initial state's column replays the
+        same model from a moved start, and a closed loop that forgets the move ends it
+        there (:func:`simulate.declared_loop`)."""
         p = len(self.params)
         steps = []
         for i in range(len(x)):
@@ -220,7 +232,9 @@ class Evaluator:
                 x1[c] += steps[c]
                 points.append(x1)
             a, b = self.offsets[t], self.offsets[t + 1]
-            for c, x1, (r1, ro) in zip(cols, points, self.run(t, points), strict=True):
+            bases = [ros0[t] if ros0 is not None and c >= p else None for c in cols]
+            for c, x1, (r1, ro) in zip(cols, points, self.run(t, points, bases=bases),
+                                       strict=True):
                 jmat[a:b, c] = (r1 - r0[a:b]) / steps[c]
                 for n, (prev, nxt) in enumerate(self.problem.links):
                     if prev == t:
