@@ -341,12 +341,17 @@ def scenario_for(seed: int) -> tuple[str, bool]:
 
 def make(seed: int, name: str | None = None, clean: bool | None = None) -> ScenarioCase:
     """The case for ``seed`` (redrawn while the motion would leave the nominal range, which
-    the generator does not model)."""
+    the generator does not model, or while the fitted run never meets the stop the case
+    hides: a stop the fitted data do not reach is not in them, and no method names it)."""
     if name is None:
         name, default_clean = scenario_for(seed)
         clean = default_clean if clean is None else clean
     for attempt in range(30):
         case = _make(seed, attempt, name, bool(clean))
+        p, q_fit = case.physics, case.fit.true_position
+        if p.stop is not None and not (q_fit.max() >= p.stop if p.stop_side > 0
+                                       else q_fit.min() <= p.stop):
+            continue
         lim = case.obj.joint(case.joint).limits
         if lim is None:
             return case
