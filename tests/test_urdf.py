@@ -779,6 +779,45 @@ def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
     assert mujoco_matches(obj, path, rng) < 1e-6
 
 
+def test_an_undeclared_namespace_prefix_is_declared_and_loads_in_the_tools(tmp_path):
+    """Old Gazebo extensions (``<sensor:camera>``) use XML prefixes they never declare:
+    libxml2 refuses the file, urdfdom (Pinocchio) and MuJoCo read past it. So do we, warned
+    with the prefix and line; the <gazebo> element is kept as any unread tag, written back
+    declared, and the source is compared in both its tools."""
+    import mujoco
+    import pinocchio
+
+    from real2code_export.probes.mujoco import urdf_kinematics
+
+    path = tmp_path / "gazebo.urdf"
+    path.write_text(f"""<robot name="gazebo">
+  <link name="base">{INERTIAL}</link>
+  <link name="head">{INERTIAL}</link>
+  <joint name="pan" type="revolute"><parent link="base"/><child link="head"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <gazebo reference="head">
+    <sensor:camera name="rgb"><controller:plugin name="p"/></sensor:camera>
+  </gazebo>
+</robot>
+""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    messages = "\n".join(str(w.message) for w in record)
+    for prefix in ("sensor", "controller"):
+        assert f"gazebo.urdf:7: the XML namespace prefix '{prefix}'" in messages, messages
+    assert [j.name for j in obj.joints] == ["pan"]
+    pinocchio.buildModelFromUrdf(str(path))
+    assert mujoco.MjSpec.from_string(urdf_kinematics(path)).compile().njnt == 1
+    path = urdf.save(obj, tmp_path / "export")  # the <gazebo> written back, declared
+    with pytest.warns(Real2CodeWarning) as record:
+        back = urdf.load(path)
+    assert "namespace prefix" not in "\n".join(str(w.message) for w in record)
+    assert differences(obj, back) == [] and back.metadata == obj.metadata
+    rng = np.random.default_rng(0)
+    assert pinocchio_matches(obj, path, rng) < 1e-6
+    assert mujoco_matches(obj, path, rng) < 1e-6
+
+
 def test_continuous_joints_keep_their_effort_and_velocity_in_every_format(tmp_path):
     """A continuous joint's <limit effort velocity> (its range ignored, as urdfdom does) and
     a slide without a range's effort and velocity: carried by every format (URDF <limit> on
