@@ -31,6 +31,10 @@ NEGLIGIBLE_MASS = 1e-6  # kg
 # No principal moment below this (kg m^2): MuJoCo refuses moments under its mjMINVAL (1e-15)
 # once rotated and written as text; a 1e-9 kg "virtual" link would get 4e-16.
 MIN_MOMENT = 1e-12
+# A raised moment is at least this (kg m^2): MuJoCo's diagonalisation of a rotated
+# fullinertia is exact to about mjMINVAL (1e-15) absolute, so a 6e-15 moment (1e-6 of a
+# 4 g finger's 6e-9) can come back not positive; 100 mjMINVAL comes back positive.
+ROTATED_MIN_MOMENT = 1e-13
 
 
 def _sphere(mass: float) -> np.ndarray:
@@ -64,7 +68,7 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     if largest <= 0:
         raise ValueError(f"inertia tensor has no positive principal moment "
                          f"({_fmt(moments)}): not a rounding error")
-    new = np.maximum(moments, RELATIVE_MOMENT_FLOOR * largest)
+    new = np.maximum(moments, max(RELATIVE_MOMENT_FLOOR * largest, ROTATED_MIN_MOMENT))
     # Raise the two smaller moments evenly until A + B = C, with a margin so that the
     # tensor still passes once rotated and written as text (MuJoCo checks it strictly).
     deficit = new[2] * (1 + TRIANGLE_MARGIN) - new[0] - new[1]

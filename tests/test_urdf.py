@@ -779,6 +779,28 @@ def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
     assert mujoco_matches(obj, path, rng) < 1e-6
 
 
+def test_a_tiny_links_singular_tensor_is_raised_enough_for_mujoco(tmp_path):
+    """A 4 g finger's CAD tensor, singular (one moment -2e-24 beside 6e-9): raised by 1e-6 of
+    its largest moment alone (6e-15), MuJoCo's diagonalisation of the rotated fullinertia
+    found it not positive and refused the MJCF export; the raise now keeps it positive."""
+    mujoco = pytest.importorskip("mujoco")
+    from real2code_export.formats import mjcf
+
+    path = tmp_path / "finger.urdf"
+    path.write_text(f"""<robot name="finger"><link name="base">{INERTIAL}</link>
+  <link name="tip"><inertial><mass value="0.00402906255365732"/>
+    <inertia ixx="5.16879700036578E-09" ixy="5.29580863145471E-10" ixz="-1.8902693040652E-09"
+      iyy="5.53816725297636E-09" iyz="1.3427085224947E-09" izz="1.12172097508837E-09"/>
+  </inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="tip"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning, match="<link name='tip'>: inertia tensor is not "
+                      "positive definite"):
+        obj = urdf.load(path)
+    assert mujoco.MjSpec.from_file(str(mjcf.save(obj, tmp_path / "out"))).compile().nbody == 3
+
+
 def test_an_undeclared_namespace_prefix_is_declared_and_loads_in_the_tools(tmp_path):
     """Old Gazebo extensions (``<sensor:camera>``) use XML prefixes they never declare:
     libxml2 refuses the file, urdfdom (Pinocchio) and MuJoCo read past it. So do we, warned
