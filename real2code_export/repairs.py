@@ -54,7 +54,9 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     scale = max(float(np.abs(moments).max()), 1e-300)
     # A smallest moment of zero up to rounding (1e-17 beside 0.2: a rod's tensor rotated and
     # written to 4 digits) is below what MuJoCo accepts (mjMINVAL, absolute) as well.
-    floor = min(MIN_MOMENT, RELATIVE_MOMENT_FLOOR * largest)
+    # Nor may any moment be under ROTATED_MIN_MOMENT: MuJoCo refuses a fullinertia it finds
+    # under mjMINVAL (a 1e-7 kg "virtual" link's 3e-22).
+    floor = min(MIN_MOMENT, max(RELATIVE_MOMENT_FLOOR * largest, ROTATED_MIN_MOMENT))
     ok = moments[0] > 0 and moments[0] >= floor and \
         moments[0] + moments[1] >= moments[2] * (1 - 1e-9) - 1e-9 * scale
     if ok:

@@ -782,7 +782,8 @@ def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
 def test_a_tiny_links_singular_tensor_is_raised_enough_for_mujoco(tmp_path):
     """A 4 g finger's CAD tensor, singular (one moment -2e-24 beside 6e-9): raised by 1e-6 of
     its largest moment alone (6e-15), MuJoCo's diagonalisation of the rotated fullinertia
-    found it not positive and refused the MJCF export; the raise now keeps it positive."""
+    found it not positive and refused the MJCF export; the raise now keeps it positive. A
+    1e-7 kg "virtual" link's 3e-22, under mjMINVAL, is raised too."""
     mujoco = pytest.importorskip("mujoco")
     from real2code_export.formats import mjcf
 
@@ -794,11 +795,17 @@ def test_a_tiny_links_singular_tensor_is_raised_enough_for_mujoco(tmp_path):
   </inertial></link>
   <joint name="j" type="revolute"><parent link="base"/><child link="tip"/><axis xyz="0 0 1"/>
     <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="virtual"><inertial><mass value="1e-07"/>
+    <inertia ixx="3.3e-22" ixy="0" ixz="0" iyy="3.3e-22" iyz="0" izz="5e-22"/></inertial></link>
+  <joint name="mount" type="fixed"><parent link="base"/><child link="virtual"/></joint>
 </robot>""")
-    with pytest.warns(Real2CodeWarning, match="<link name='tip'>: inertia tensor is not "
-                      "positive definite"):
+    with pytest.warns(Real2CodeWarning) as record:
         obj = urdf.load(path)
-    assert mujoco.MjSpec.from_file(str(mjcf.save(obj, tmp_path / "out"))).compile().nbody == 3
+    messages = "\n".join(str(w.message) for w in record)
+    for needle in ("<link name='tip'>: inertia tensor is not positive definite",
+                   "<link name='virtual'>: inertia tensor is zero"):  # under mjMINVAL
+        assert needle in messages, messages
+    assert mujoco.MjSpec.from_file(str(mjcf.save(obj, tmp_path / "out"))).compile().nbody == 4
 
 
 def test_an_undeclared_namespace_prefix_is_declared_and_loads_in_the_tools(tmp_path):
