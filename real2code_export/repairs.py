@@ -31,6 +31,10 @@ NEGLIGIBLE_MASS = 1e-6  # kg
 # No principal moment below this (kg m^2): MuJoCo refuses moments under its mjMINVAL (1e-15)
 # once rotated and written as text; a 1e-9 kg "virtual" link would get 4e-16.
 MIN_MOMENT = 1e-12
+# A raised moment is at least this (kg m^2): MuJoCo's diagonalisation of a rotated
+# fullinertia is exact to about mjMINVAL (1e-15) absolute, so a 6e-15 moment (1e-6 of a
+# 4 g finger's 6e-9) can come back not positive; 100 mjMINVAL comes back positive.
+ROTATED_MIN_MOMENT = 1e-13
 
 
 def _sphere(mass: float) -> np.ndarray:
@@ -50,7 +54,9 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     scale = max(float(np.abs(moments).max()), 1e-300)
     # A smallest moment of zero up to rounding (1e-17 beside 0.2: a rod's tensor rotated and
     # written to 4 digits) is below what MuJoCo accepts (mjMINVAL, absolute) as well.
-    floor = min(MIN_MOMENT, RELATIVE_MOMENT_FLOOR * largest)
+    # Nor may any moment be under ROTATED_MIN_MOMENT: MuJoCo refuses a fullinertia it finds
+    # under mjMINVAL (a 1e-7 kg "virtual" link's 3e-22).
+    floor = min(MIN_MOMENT, max(RELATIVE_MOMENT_FLOOR * largest, ROTATED_MIN_MOMENT))
     ok = moments[0] > 0 and moments[0] >= floor and \
         moments[0] + moments[1] >= moments[2] * (1 - 1e-9) - 1e-9 * scale
     if ok:
@@ -64,7 +70,7 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     if largest <= 0:
         raise ValueError(f"inertia tensor has no positive principal moment "
                          f"({_fmt(moments)}): not a rounding error")
-    new = np.maximum(moments, RELATIVE_MOMENT_FLOOR * largest)
+    new = np.maximum(moments, max(RELATIVE_MOMENT_FLOOR * largest, ROTATED_MIN_MOMENT))
     # Raise the two smaller moments evenly until A + B = C, with a margin so that the
     # tensor still passes once rotated and written as text (MuJoCo checks it strictly).
     deficit = new[2] * (1 + TRIANGLE_MARGIN) - new[0] - new[1]

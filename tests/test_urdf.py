@@ -805,6 +805,74 @@ def test_what_urdfdom_reads_past_is_repaired_and_loads_in_the_tools(tmp_path):
     assert mujoco_matches(obj, path, rng) < 1e-6
 
 
+def test_a_tiny_links_singular_tensor_is_raised_enough_for_mujoco(tmp_path):
+    """A 4 g finger's CAD tensor, singular (one moment -2e-24 beside 6e-9): raised by 1e-6 of
+    its largest moment alone (6e-15), MuJoCo's diagonalisation of the rotated fullinertia
+    found it not positive and refused the MJCF export; the raise now keeps it positive. A
+    1e-7 kg "virtual" link's 3e-22, under mjMINVAL, is raised too."""
+    mujoco = pytest.importorskip("mujoco")
+    from real2code_export.formats import mjcf
+
+    path = tmp_path / "finger.urdf"
+    path.write_text(f"""<robot name="finger"><link name="base">{INERTIAL}</link>
+  <link name="tip"><inertial><mass value="0.00402906255365732"/>
+    <inertia ixx="5.16879700036578E-09" ixy="5.29580863145471E-10" ixz="-1.8902693040652E-09"
+      iyy="5.53816725297636E-09" iyz="1.3427085224947E-09" izz="1.12172097508837E-09"/>
+  </inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="tip"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="virtual"><inertial><mass value="1e-07"/>
+    <inertia ixx="3.3e-22" ixy="0" ixz="0" iyy="3.3e-22" iyz="0" izz="5e-22"/></inertial></link>
+  <joint name="mount" type="fixed"><parent link="base"/><child link="virtual"/></joint>
+</robot>""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    messages = "\n".join(str(w.message) for w in record)
+    for needle in ("<link name='tip'>: inertia tensor is not positive definite",
+                   "<link name='virtual'>: inertia tensor is zero"):  # under mjMINVAL
+        assert needle in messages, messages
+    assert mujoco.MjSpec.from_file(str(mjcf.save(obj, tmp_path / "out"))).compile().nbody == 4
+
+
+def test_an_undeclared_namespace_prefix_is_declared_and_loads_in_the_tools(tmp_path):
+    """Old Gazebo extensions (``<sensor:camera>``) use XML prefixes they never declare:
+    libxml2 refuses the file, urdfdom (Pinocchio) and MuJoCo read past it. So do we, warned
+    with the prefix and line; the <gazebo> element is kept as any unread tag, written back
+    declared, and the source is compared in both its tools."""
+    import mujoco
+    import pinocchio
+
+    from real2code_export.probes.mujoco import urdf_kinematics
+
+    path = tmp_path / "gazebo.urdf"
+    path.write_text(f"""<robot name="gazebo">
+  <link name="base">{INERTIAL}</link>
+  <link name="head">{INERTIAL}</link>
+  <joint name="pan" type="revolute"><parent link="base"/><child link="head"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <gazebo reference="head">
+    <sensor:camera name="rgb"><controller:plugin name="p"/></sensor:camera>
+  </gazebo>
+</robot>
+""")
+    with pytest.warns(Real2CodeWarning) as record:
+        obj = urdf.load(path)
+    messages = "\n".join(str(w.message) for w in record)
+    for prefix in ("sensor", "controller"):
+        assert f"gazebo.urdf:7: the XML namespace prefix '{prefix}'" in messages, messages
+    assert [j.name for j in obj.joints] == ["pan"]
+    pinocchio.buildModelFromUrdf(str(path))
+    assert mujoco.MjSpec.from_string(urdf_kinematics(path)).compile().njnt == 1
+    path = urdf.save(obj, tmp_path / "export")  # the <gazebo> written back, declared
+    with pytest.warns(Real2CodeWarning) as record:
+        back = urdf.load(path)
+    assert "namespace prefix" not in "\n".join(str(w.message) for w in record)
+    assert differences(obj, back) == [] and back.metadata == obj.metadata
+    rng = np.random.default_rng(0)
+    assert pinocchio_matches(obj, path, rng) < 1e-6
+    assert mujoco_matches(obj, path, rng) < 1e-6
+
+
 def test_continuous_joints_keep_their_effort_and_velocity_in_every_format(tmp_path):
     """A continuous joint's <limit effort velocity> (its range ignored, as urdfdom does) and
     a slide without a range's effort and velocity: carried by every format (URDF <limit> on

@@ -132,10 +132,10 @@ def urdf_kinematics(path: Path) -> str:
     all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada)."""
     from lxml import etree
 
-    from ..formats.urdf.structure import tolerated_prologue
+    from ..formats.urdf.structure import read_past
 
     try:  # what MuJoCo's own XML parser reads past, as the URDF reader does
-        root = etree.fromstring(tolerated_prologue(path.read_bytes())[0])
+        root = read_past(path.read_bytes())[0]
     except etree.XMLSyntaxError as e:
         raise CheckError(f"{path}: MuJoCo refused it: malformed XML: {e}") from e
     for el in root.findall("link/visual") + root.findall("link/collision"):

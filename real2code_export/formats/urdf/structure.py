@@ -32,18 +32,12 @@ def parse(ctx: Context) -> etree._Element:
     lxml keeps every element's source line for our messages."""
     parser = etree.XMLParser(remove_comments=True, remove_pis=True, resolve_entities=False,
                              no_network=True)
-    data = ctx.path.read_bytes()
     try:
-        robot = etree.fromstring(data, parser, base_url=str(ctx.path))
+        robot, repairs = read_past(ctx.path.read_bytes(), parser, base_url=str(ctx.path))
     except etree.XMLSyntaxError as e:
-        repaired, what = tolerated_prologue(data)
-        if not what:
-            raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
-        ctx.warn(None, "; ".join(what) + ", as urdfdom (TinyXML2) and MuJoCo ignore it")
-        try:
-            robot = etree.fromstring(repaired, parser, base_url=str(ctx.path))
-        except etree.XMLSyntaxError as e2:
-            raise ctx.error(None, f"malformed XML: {e2.msg}", e2.lineno) from e2
+        raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
+    for message, line in repairs:
+        ctx.warn(None, message, line)
     namespace = etree.QName(robot).namespace
     if namespace is not None and etree.QName(robot).localname == "robot":
         # urdfdom (TinyXML) reads tags without namespaces, so ROS and Pinocchio load a
@@ -56,6 +50,44 @@ def parse(ctx: Context) -> etree._Element:
     if robot.tag != "robot":
         raise ctx.error(label(robot), "the root element must be <robot>", robot.sourceline)
     return robot
+
+
+_UNDECLARED = re.compile(r"Namespace prefix (\S+) (?:on|for) (\S+) is not defined")
+_ROOT_TAG = re.compile(rb"<robot(?=[\s/>])")
+
+
+def read_past(data: bytes, parser=None, base_url: str | None = None
+              ) -> tuple[etree._Element, list[tuple[str, int | None]]]:
+    """The root element of ``data`` parsed past what urdfdom's TinyXML2 (ROS, Pinocchio) and
+    MuJoCo read past and libxml2 refuses, and each such repair as (message, line): the
+    prologue's (:func:`tolerated_prologue`), and a namespace prefix used but never declared
+    (``<sensor:camera>`` in old Gazebo extensions), declared on <robot> (the elements stay
+    unread, as any Gazebo tag). Any other syntax error is raised."""
+    repairs: list[tuple[str, int | None]] = []
+    try:
+        return etree.fromstring(data, parser, base_url=base_url), repairs
+    except etree.XMLSyntaxError:
+        data, what = tolerated_prologue(data)
+        if what:
+            repairs.append(("; ".join(what) + ", as urdfdom (TinyXML2) and MuJoCo ignore it",
+                            None))
+    declared: set[str] = set()
+    while True:
+        try:
+            return etree.fromstring(data, parser, base_url=base_url), repairs
+        except etree.XMLSyntaxError as e:
+            match = _UNDECLARED.search(e.msg or "")
+            root = _ROOT_TAG.search(data)
+            if match is None or root is None or match.group(1) in declared:
+                raise
+            prefix, name = match.groups()
+            repairs.append((f"the XML namespace prefix {prefix!r} (of {prefix}:{name}) is "
+                            "not declared: declared on <robot> to read the file, as urdfdom "
+                            "(TinyXML2) and MuJoCo read past it", e.lineno))
+            declared.add(prefix)
+            # On the <robot> tag's own line, so every element keeps its line number.
+            declaration = f' xmlns:{prefix}="urn:real2code:undeclared:{prefix}"'.encode()
+            data = data[:root.end()] + declaration + data[root.end():]
 
 
 _DECLARATION = re.compile(rb"<\?xml\s[^?]*\?>")
