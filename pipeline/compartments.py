@@ -314,9 +314,9 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     object, each given a joint). A larger part wholly inside is the carcass's too when it is
     thick along every axis of the carcass's box (``enclosed_thick`` of its extent): a door
     or drawer seen closed shows its front, thin across the box, and seen open it stands out
-    of the box, while the mask network on real shapes cuts carcasses in two (a cabinet's
-    right half, 20 % of its points, spanning its depth and height) and labels the inside
-    seen past open doors. Other parts of more than ``enclosed_share`` of the carcass's points
+    of the box, while the mask network on real shapes cuts carcasses in two (one side of a
+    cabinet, 20 % of its points, spanning its depth and height) and gives pieces wholly
+    inside them labels of their own. Other parts of more than ``enclosed_share`` of the carcass's points
     (a whole side wall, a shelf) are left alone. Returns the labels, renumbered by size, and
     what was moved."""
     out = labels.copy()
