@@ -3,6 +3,7 @@ them back in their own tools."""
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 from pathlib import Path
 
@@ -66,16 +67,18 @@ def _use_package_path(args) -> None:
 
 
 def cmd_export(args) -> int:
-    from ..formats import export, format_for_path, hulls_collision, load
+    from .. import forked
+    from ..formats import export, format_for_path, hulls_collision
 
-    formats = chosen_formats(args)
     _use_package_path(args)
-    # USD (and glTF) consumers hull each collision mesh themselves: an export to those alone
-    # computes no hulls (docs/formats.md, "Collision"). The reader's warnings (its repairs)
-    # are kept for --check: a repaired mass or limit differs from the source's, warned.
-    with warnings.catch_warnings(record=True) as said:
-        warnings.simplefilter("always", Real2CodeWarning)
-        obj = load(args.input, hull_collision=not hulls_collision(formats))
+    if args.to:  # the formats known unread: the input is read while their writers import
+        _import_reader(args.input)
+        with forked.start(_read, args.input, hulls_collision(args.to)) as reading:
+            formats = chosen_formats(args)
+            obj, said = reading.result()
+    else:
+        formats = chosen_formats(args)
+        obj, said = _read(args.input, hulls_collision(formats))
     for w in said:  # on to the command's boundary, which prints them
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     written = export(obj, args.out, formats)
@@ -97,6 +100,30 @@ def cmd_export(args) -> int:
                          warned=[str(w.message) for w in said])
     print(format_table(report))
     return EXIT_OK if report.ok else EXIT_DISAGREE
+
+
+def _import_reader(path: str) -> None:
+    """Import the reader of ``path``'s format (and so numpy and the model), where it has one
+    that imports, before a forked copy reads it: imported once, for both processes. What
+    fails here fails again, with its message, when the file is read."""
+    from ..formats import format_for_path
+
+    with contextlib.suppress(Real2CodeError):
+        format_for_path(path).load_module()
+
+
+def _read(path: str, hulls_collision: bool):
+    """The model in file ``path`` and the warnings reading it gave (its repairs), to be
+    given again by the command (and kept for --check: a repaired mass or limit differs from
+    the source's). USD (and glTF) consumers hull each collision mesh themselves: an export
+    to those alone computes no hulls (docs/formats.md, "Collision")."""
+    from ..formats import load
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always", Real2CodeWarning)
+        obj = load(path, hull_collision=not hulls_collision)
+    return obj, [warnings.WarningMessage(str(w.message), w.category, w.filename, w.lineno)
+                 for w in said]
 
 
 def cmd_check(args) -> int:
