@@ -109,6 +109,19 @@ for _fmt in (
     register(_fmt)
 
 
+def names_from_modules(package: str, modules: dict[str, str]):
+    """A format package's module ``__getattr__``: each public name (``load``, ``save``, ...)
+    imported from its module (``modules``: name -> module in ``package``) when first asked
+    for, so that a command imports only the direction and the parts it uses (an export to
+    USD no reader; a check of a .glb or an MJCF file not the format's reader and writer)."""
+    def __getattr__(name: str):
+        if name not in modules:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        return getattr(importlib.import_module(f"{package}.{modules[name]}"), name)
+
+    return __getattr__
+
+
 # -- availability --------------------------------------------------------------------------------
 
 

@@ -8,8 +8,9 @@ states are the keyframe "observed", what MJCF has no place for is ``<custom>`` d
 ``real2code:<element>:<field>``.
 """
 
-from .conventions import CUSTOM_PREFIX, KEYFRAME
-from .read import load
-from .write import build_spec, save, to_xml
+from .. import names_from_modules
 
 __all__ = ["CUSTOM_PREFIX", "KEYFRAME", "build_spec", "load", "save", "to_xml"]
+__getattr__ = names_from_modules(__name__, {
+    "CUSTOM_PREFIX": "conventions", "KEYFRAME": "conventions", "load": "read",
+    "build_spec": "write", "save": "write", "to_xml": "write"})

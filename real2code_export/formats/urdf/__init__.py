@@ -6,9 +6,10 @@
 namespace ``urn:real2code-export:urdf:1`` (prefix ``real2code``), which other tools ignore.
 """
 
-from .conventions import DEFAULT_EFFORT, DEFAULT_VELOCITY, NAMESPACE
-from .read import load
-from .write import save, to_bytes
+from .. import names_from_modules
 
 __all__ = ["DEFAULT_EFFORT", "DEFAULT_VELOCITY", "NAMESPACE", "load", "save",
            "to_bytes"]
+__getattr__ = names_from_modules(__name__, {
+    "DEFAULT_EFFORT": "conventions", "DEFAULT_VELOCITY": "conventions",
+    "NAMESPACE": "conventions", "load": "read", "save": "write", "to_bytes": "write"})

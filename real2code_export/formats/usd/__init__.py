@@ -11,19 +11,10 @@ value conversions); and the concepts both directions share: geometry (meshes, ma
 body (rigid bodies, mass), joint (joints, units), articulation (the parsed tree).
 """
 
+from .. import names_from_modules
+
 __all__ = ["load", "mesh_layer_path", "save"]
-
-
-def __getattr__(name: str):
-    """``load`` from ``read``, ``save`` and ``mesh_layer_path`` from ``write``, each imported
-    when first asked for: an export to USD imports no reader (its parsed tree, and through
-    the registry's ``read_requires`` pxr.Usd and the schema modules)."""
-    if name == "load":
-        from .read import load
-
-        return load
-    if name in ("save", "mesh_layer_path"):
-        from . import write
-
-        return getattr(write, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# (an export to USD imports no reader: its parsed tree, and through the registry's
+# ``read_requires`` pxr.Usd and the schema modules)
+__getattr__ = names_from_modules(__name__, {
+    "load": "read", "save": "write", "mesh_layer_path": "write"})
