@@ -278,6 +278,21 @@ def test_an_export_imports_no_reader_of_the_format_it_writes(cabinet_json, tmp_p
     assert done.stdout.split("\n")[-2] == "0 []", done.stdout
 
 
+def test_a_format_package_imports_its_reader_and_writer_when_asked():
+    """What check's probes and validators reach (a format's conventions, glTF's validator)
+    imports no reader or writer (glTF's would import pygltflib); asking the package for a
+    reader's or writer's name imports that module."""
+    code = ("import sys, importlib; "
+            "[importlib.import_module(f'real2code_export.formats.{m}') for m in "
+            "('gltf.validator', 'mjcf.conventions', 'urdf.conventions')]; "
+            "print(sorted(m for m in sys.modules if m.startswith('real2code_export.formats.') "
+            "and m.endswith(('.read', '.write')) or m == 'pygltflib')); "
+            "from real2code_export.formats.gltf import load; print(load.__module__)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, cwd=REPO)
+    assert done.stdout.split() == ["[]", "real2code_export.formats.gltf.read"], done.stdout
+
+
 def test_the_parser_restates_no_stage_fact_wrongly():
     """The few facts the parser carries so as not to import a stage match the stage's own."""
     from pipeline.render import DEFAULT_SIZE, DEFAULT_VIEWS
