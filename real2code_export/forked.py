@@ -43,7 +43,12 @@ class Pending:
         if not can_fork():
             return
         read_end, write_end = os.pipe()
-        pid = os.fork()
+        try:
+            pid = os.fork()
+        except OSError:  # no memory or process left for a copy: run it here when asked
+            os.close(read_end)
+            os.close(write_end)
+            return
         if pid == 0:  # the copy: run, send, end without this process's exit handlers
             os.close(read_end)
             _run_and_send(function, args, write_end)

@@ -88,3 +88,13 @@ def test_export_reads_in_the_copy_and_writes_the_same_files(tmp_path, monkeypatc
     for rel in a:
         if (tmp_path / "a" / rel).is_file():
             assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes()
+
+
+def test_a_fork_that_fails_leaves_the_function_to_run_here(monkeypatch):
+    def no_fork():
+        raise BlockingIOError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(os, "fork", no_fork)
+    with forked.start(_pid_and_array, 3) as pending:
+        pid, _ = pending.result()
+    assert pid == os.getpid() and not pending.forked
