@@ -15,8 +15,12 @@ from real2code_export.formats import urdf
 
 from helpers import small_cabinet
 
-pytestmark = pytest.mark.skipif(not forked.can_fork(), reason="no fork here (not Linux, or "
-                                "another thread alive in the test process)")
+
+@pytest.fixture(autouse=True)
+def _forking_here():
+    """Asked as each test runs: a thread an earlier test left alive turns forking off."""
+    if not forked.can_fork():
+        pytest.skip("no fork here (not Linux, or another thread alive in the test process)")
 
 
 def _pid_and_array(n: int):
