@@ -87,11 +87,7 @@ def test_export_reads_in_the_copy_and_writes_the_same_files(tmp_path, monkeypatc
     assert run(["export", str(source), "--to", "usd", "--out",
                 str(tmp_path / "b")]) == EXIT_OK
     assert taken == [True, False]
-    a = sorted(p.relative_to(tmp_path / "a") for p in (tmp_path / "a").rglob("*"))
-    assert a == sorted(p.relative_to(tmp_path / "b") for p in (tmp_path / "b").rglob("*"))
-    for rel in a:
-        if (tmp_path / "a" / rel).is_file():
-            assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes()
+    _same_files(tmp_path / "a", tmp_path / "b")
 
 
 def test_a_fork_that_fails_leaves_the_function_to_run_here(monkeypatch):
@@ -102,3 +98,28 @@ def test_a_fork_that_fails_leaves_the_function_to_run_here(monkeypatch):
     with forked.start(_pid_and_array, 3) as pending:
         pid, _ = pending.result()
     assert pid == os.getpid() and not pending.forked
+
+
+def test_the_default_export_reads_as_the_formats_that_work_here_want(tmp_path, monkeypatch):
+    """Without --to the copy reads for every exported format (hulls, for MJCF and URDF);
+    where only USD and glTF can be written here, the export is the same as ``--to usd,gltf``
+    (read again here, without hulls)."""
+    from real2code_export import formats
+
+    source = urdf.save(small_cabinet(), tmp_path / "source")
+    for name in ("mjcf", "urdf"):
+        monkeypatch.setitem(formats._PROBLEMS, (name, True), "made unavailable by the test")
+    assert run(["export", str(source), "--out", str(tmp_path / "a")]) == EXIT_OK
+    assert run(["export", str(source), "--to", "usd,gltf", "--out", str(tmp_path / "b")]) == 0
+    suffixes = {p.suffix for p in _same_files(tmp_path / "a", tmp_path / "b")}
+    assert suffixes >= {".usda", ".glb"} and ".urdf" not in suffixes
+
+
+def _same_files(a, b) -> list:
+    """The files of folders ``a`` and ``b``, the same names and bytes (relative paths)."""
+    names = sorted(p.relative_to(a) for p in a.rglob("*"))
+    assert names == sorted(p.relative_to(b) for p in b.rglob("*"))
+    for rel in names:
+        if (a / rel).is_file():
+            assert (a / rel).read_bytes() == (b / rel).read_bytes(), rel
+    return names

@@ -68,17 +68,19 @@ def _use_package_path(args) -> None:
 
 def cmd_export(args) -> int:
     from .. import forked
-    from ..formats import export, format_for_path, hulls_collision
+    from ..formats import FORMATS, export, format_for_path, hulls_collision
 
     _use_package_path(args)
-    if args.to:  # the formats known unread: the input is read while their writers import
-        _import_reader(args.input)
-        with forked.start(_read, args.input, hulls_collision(args.to)) as reading:
-            formats = chosen_formats(args)
-            obj, said = reading.result()
-    else:
+    # The input is read in a forked copy while the writers' libraries import (which also
+    # tells which of the default formats work here): the reader's own imports first, once.
+    # Its option is the formats' (USD and glTF alone: no hulls); should the formats that
+    # work here want the other, it is read again here.
+    named = args.to or [f.name for f in FORMATS.values() if f.exported]
+    _import_reader(args.input)
+    with forked.start(_read, args.input, hulls_collision(named)) as reading:
         formats = chosen_formats(args)
-        obj, said = _read(args.input, hulls_collision(formats))
+        obj, said = reading.result() if hulls_collision(formats) == hulls_collision(named) \
+            else _read(args.input, hulls_collision(formats))
     for w in said:  # on to the command's boundary, which prints them
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     written = export(obj, args.out, formats)
