@@ -43,7 +43,9 @@ CONVERTER = converters_bin() / "urdf_usd_converter"
 
 def _run(command: list[str]) -> tuple[float, float]:
     """Wall seconds and CPU seconds (user + system) of one run of ``command``: on a shared
-    machine the CPU time is what the command itself costs, the wall time what a user waits."""
+    machine the CPU time is what the command itself costs, the wall time what a user waits.
+    (The CPU includes every process the command waited for: our export's forked reader, as
+    the converter's worker threads are in its own.)"""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
