@@ -6,8 +6,8 @@ of a PartNet-Mobility object to USD; docs/benchmarks.md).
 The copy starts with everything this process has imported, so what both halves need is
 imported once, before :func:`start`. Its result comes back pickled through a pipe. Where
 forking is not safe or not possible (not Linux: macOS's system libraries and Windows do not
-survive a fork; another thread alive, whose locks the copy would inherit held; a profiler or
-tracer watching, which would not see the copy) or where the copy fails in any way (an
+survive a fork; another thread alive, native ones included, whose locks the copy would
+inherit held; a profiler or tracer watching, which would not see the copy) or where the copy fails in any way (an
 error, a result that does not pickle, a crash), the function runs here instead when its
 result is asked for: its errors are raised here as if nothing had been forked, and its
 result is the same either way.
@@ -25,10 +25,19 @@ from typing import Any
 
 def can_fork() -> bool:
     """Whether :func:`start` forks here (see the module's docstring)."""
-    import threading
+    return (sys.platform.startswith("linux") and hasattr(os, "fork") and _threads() == 1
+            and not sys.getprofile() and not sys.gettrace())
 
-    return (sys.platform.startswith("linux") and hasattr(os, "fork")
-            and threading.active_count() == 1 and not sys.getprofile() and not sys.gettrace())
+
+def _threads() -> int:
+    """This process's threads, native ones included (a library's pool: OpenBLAS's unless
+    ``OPENBLAS_NUM_THREADS=1``, as the console script sets it; USD's TBB workers once it has
+    worked), which the threading module does not see and whose locks a copy would inherit
+    held; 0 when that cannot be told."""
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:
+        return 0
 
 
 class Pending:
