@@ -280,7 +280,7 @@ def test_an_export_imports_no_reader_of_the_format_it_writes(cabinet_json, tmp_p
 
 def test_a_format_package_imports_its_reader_and_writer_when_asked():
     """What check's probes and validators reach (a format's conventions, glTF's validator)
-    imports no reader or writer (glTF's would import pygltflib); asking the package for a
+    imports no reader or writer; asking the package for a
     reader's or writer's name imports that module."""
     code = ("import sys, importlib; "
             "[importlib.import_module(f'real2code_export.formats.{m}') for m in "
