@@ -463,9 +463,12 @@ def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
         tri = mesh.vertices[mesh.faces[known]]
         area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
                                     axis=1)
-        if area.sum() > 0:  # (round-off can pass 1)
-            color = tuple(float(v) for v in np.clip(area @ colours[index[known]] / area.sum(),
-                                                    0.0, 1.0))
+        if area.sum() > 0:
+            used = colours[index[known]]
+            mean = np.clip(area @ used / area.sum(), 0.0, 1.0)  # (round-off can pass 1)
+            # a channel all faces agree on is that value (an alpha of 1 stays opaque)
+            mean = np.where(np.all(used == used[0], axis=0), used[0], mean)
+            color = tuple(float(v) for v in mean)
     # runs of equal colour (materials of one colour are one run)
     key = np.array([-1 if k < 0 else palette.index(palette[k]) for k in range(len(palette))]
                    + [-1])[index]
