@@ -21,7 +21,8 @@ import numpy as np
 from .model import RGBA
 
 
-def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float, list[RGBA | None]]:
+def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float,
+                                       list[tuple[int, RGBA | None]]]:
     """Vertices (metres, scene-graph transforms applied), triangles, the file's unit (metres
     per unit, already applied) and the triangles' colours, as runs: one (number of triangles,
     diffuse RGBA or None) per primitive placed, in the triangles' order. Raises ValueError
