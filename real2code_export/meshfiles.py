@@ -105,6 +105,8 @@ def obj_bytes(mesh: Mesh, exact: bool = False, material: str | None = None) -> b
     Written directly rather than with trimesh's exporter, whose header and number
     formatting change between releases and would break byte-identical outputs.
     """
+    if len(mesh.vertices) < 4:  # MuJoCo refuses a mesh of fewer (a one-triangle decal)
+        mesh = _padded(mesh)
     # one %-format per block, not an f-string per line: the same text, 2.5x quicker
     number = "%r" if exact else "%.9f"
     lines = ["# real2code_export mesh\n"]
@@ -121,6 +123,18 @@ def obj_bytes(mesh: Mesh, exact: bool = False, material: str | None = None) -> b
         faces = np.repeat(faces, 2, axis=1)
     lines.append(_block(f"f {corner} {corner} {corner}\n", faces))
     return "".join(lines).encode("ascii")
+
+
+def _padded(mesh: Mesh) -> Mesh:
+    """A mesh of fewer than 4 vertices with its centroid added, used by no face, so that
+    MuJoCo, which refuses such a mesh, loads the file; the readers that keep only the
+    vertices faces use (ours, MuJoCo's shell inertia, the viewers) see the same triangles."""
+    def with_means(rows: np.ndarray) -> np.ndarray:
+        return np.vstack([rows, np.repeat(rows.mean(axis=0, keepdims=True),
+                                          4 - len(mesh.vertices), axis=0)])
+
+    return Mesh(with_means(mesh.vertices), mesh.faces,
+                None if mesh.uv is None else with_means(mesh.uv))
 
 
 def _block(line: str, rows: np.ndarray) -> str:

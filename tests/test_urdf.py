@@ -552,15 +552,15 @@ COLLADA_TWO_COLOURS = """<?xml version="1.0" encoding="utf-8"?>
     <material id="blue"><instance_effect url="#blue-fx"/></material>
   </library_materials>
   <library_geometries><geometry id="g"><mesh>
-    <source id="pos"><float_array id="pos-array" count="18">0 0 0 2 0 0 2 1 0 0 1 0 3 0 0 3 1 0
-      </float_array><technique_common><accessor source="#pos-array" count="6" stride="3">
+    <source id="pos"><float_array id="pos-array" count="15">0 0 0 2 0 0 2 1 0 0 1 0 4 0 0
+      </float_array><technique_common><accessor source="#pos-array" count="5" stride="3">
         <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
       </accessor></technique_common></source>
     <vertices id="verts"><input semantic="POSITION" source="#pos"/></vertices>
     <triangles count="2" material="r"><input semantic="VERTEX" source="#verts" offset="0"/>
       <p>0 1 2 0 2 3</p></triangles>
-    <triangles count="2" material="b"><input semantic="VERTEX" source="#verts" offset="0"/>
-      <p>1 4 5 1 5 2</p></triangles>
+    <triangles count="1" material="b"><input semantic="VERTEX" source="#verts" offset="0"/>
+      <p>1 4 2</p></triangles>
   </mesh></geometry></library_geometries>
   <library_visual_scenes><visual_scene id="scene"><node id="n">
     <instance_geometry url="#g"><bind_material><technique_common>
@@ -577,21 +577,22 @@ def test_a_mesh_files_colours_are_kept_per_face_in_every_format(tmp_path, suffix
     """A visual without a <material> shows its mesh file's own colours (an OBJ's MTL ``Kd``,
     a Collada material's diffuse, read by tinyobjloader and pycollada): each triangle keeps
     its own, the part's colour the first, their area-weighted mean said by the file's
-    reader; every format's export reads back the same colours."""
+    reader; every format's export reads back the same colours (the blue piece, one
+    triangle, a mesh file MuJoCo loads: it refuses fewer than 4 vertices)."""
     from real2code_export import formats
     from real2code_export.meshfiles import read_mesh_file
 
-    # Red: a 2 x 1 rectangle (area 2); blue: a 1 x 1 square (area 1), side by side.
+    # Red: a 2 x 1 rectangle (area 2); blue: a triangle of area 1 beside it.
     if suffix == ".obj":
         (tmp_path / "two.mtl").write_text("newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n")
         (tmp_path / "two.obj").write_text(
-            "mtllib two.mtl\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 3 0 0\nv 3 1 0\n"
-            "usemtl red\nf 1 2 3\nf 1 3 4\nusemtl blue\nf 2 5 6\nf 2 6 3\n")
+            "mtllib two.mtl\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 4 0 0\n"
+            "usemtl red\nf 1 2 3\nf 1 3 4\nusemtl blue\nf 2 5 3\n")
     else:
         (tmp_path / "two.dae").write_text(COLLADA_TWO_COLOURS)
     red, blue = (1.0, 0.0, 0.0, 1.0), (0.0, 0.0, 1.0, 1.0)
     read = read_mesh_file(tmp_path / f"two{suffix}")
-    assert read.runs == ((2, red), (2, blue))
+    assert read.runs == ((2, red), (1, blue))
     np.testing.assert_allclose(read.color, [2 / 3, 0.0, 1 / 3, 1.0], atol=1e-9)
     (tmp_path / "lamp.urdf").write_text(f"""<robot name="lamp">
   <link name="shade">{INERTIAL}
@@ -601,7 +602,7 @@ def test_a_mesh_files_colours_are_kept_per_face_in_every_format(tmp_path, suffix
 </robot>""")
     obj = urdf.load(tmp_path / "lamp.urdf")
     shade = obj.part("shade")
-    assert shade.visual.colors == ((2, red), (2, blue)) and shade.color == red
+    assert shade.visual.colors == ((2, red), (1, blue)) and shade.color == red
     exported = formats.export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
     for name, path in exported.items():
         back = formats.load(path)
