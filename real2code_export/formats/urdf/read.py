@@ -261,7 +261,8 @@ def _report_notes(ctx: Context) -> None:
                      "visual meshes",
         "meshdir": f"<mujoco><compiler meshdir={ctx.meshdir!r}>: mesh files {{}} found in that "
                    "folder, where MuJoCo looks for them, not beside the URDF",
-        "colours": "visuals of several colours, not each from its <material>, in links {}: "
+        "colours": "visuals of several colours, some faces of no stated colour (no <material>, "
+                   "none in the mesh file), in links {}: "
                    "the part's colour is their area-weighted mean (the meshes are kept; the "
                    "colours per visual are not)",
     }
