@@ -834,6 +834,32 @@ def test_a_tiny_links_singular_tensor_is_raised_enough_for_mujoco(tmp_path):
     assert mujoco.MjSpec.from_file(str(mjcf.save(obj, tmp_path / "out"))).compile().nbody == 4
 
 
+def test_a_plate_on_the_triangle_boundary_by_rounding_is_balanced_for_mujoco(tmp_path):
+    """A CAD exporter's thin plate: A + B = C up to 6e-16 of C, with products of inertia.
+    Pinocchio loads it, MuJoCo refuses it ("inertia must satisfy A + B >= C"), and so it
+    refused our URDF and MJCF exports while our looser test let it through: it is balanced,
+    warned, and both exports load in MuJoCo."""
+    mujoco = pytest.importorskip("mujoco")
+    from real2code_export.formats import mjcf
+
+    path = tmp_path / "plate.urdf"
+    path.write_text(f"""<robot name="plate"><link name="base">{INERTIAL}</link>
+  <link name="knee"><inertial><mass value="37.4804521490049"/>
+    <inertia ixx="0.211387187948835" ixy="0.00352813969999868" ixz="-0.000112168416437373"
+      iyy="0.000322803193524901" iyz="0.00721821701372064" izz="0.211201747394794"/>
+  </inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="knee"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>""")
+    with pytest.raises(ValueError, match="A [+] B >= C"):
+        mujoco.MjSpec.from_file(str(path)).compile()
+    with pytest.warns(Real2CodeWarning, match="<link name='knee'>: inertia tensor violates the "
+                      "triangle inequality"):
+        obj = urdf.load(path)
+    for exported in (urdf.save(obj, tmp_path / "urdf"), mjcf.save(obj, tmp_path / "mjcf")):
+        assert mujoco.MjSpec.from_file(str(exported)).compile().nbody == 3
+
+
 def test_an_undeclared_namespace_prefix_is_declared_and_loads_in_the_tools(tmp_path):
     """Old Gazebo extensions (``<sensor:camera>``) use XML prefixes they never declare:
     libxml2 refuses the file, urdfdom (Pinocchio) and MuJoCo read past it. So do we, warned
