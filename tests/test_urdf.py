@@ -677,6 +677,20 @@ def test_an_unexpanded_xacro_is_refused_saying_so(tmp_path):
         urdf.load(source)
 
 
+@pytest.mark.parametrize("declared", [True, False])
+def test_a_robot_of_xacro_macro_calls_is_refused_saying_so(tmp_path, declared):
+    """A .xacro saved as .urdf whose links all come from macros (``<xacro:make_pelvis/>``):
+    urdfdom and MuJoCo refuse a robot without links; so do we, saying what it holds."""
+    xmlns = ' xmlns:xacro="http://ros.org/wiki/xacro"' if declared else ""
+    source = tmp_path / "pelvis.urdf"
+    source.write_text(f'<robot name="val"{xmlns}>\n  <!-- yaw -->\n  <xacro:make_pelvis/>\n'
+                      '  <xacro:include_sensors port="/dev/usb0"/>\n</robot>\n')
+    with pytest.raises(FormatError, match=r"pelvis.urdf:1: <robot name='val'>: has no <link> "
+                       r"\(it holds 2 unexpanded xacro element\(s\), the first "
+                       r"<xacro:make_pelvis> at line 3: expand the file with xacro first\)"):
+        urdf.load(source)
+
+
 def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
     Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
