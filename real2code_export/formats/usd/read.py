@@ -106,16 +106,19 @@ def load(path: str | Path) -> ArticulatedObject:
     if art.root == art_.WORLD:
         ctx.names[art_.WORLD] = sanitize_name("world", taken)
         parts.append(Part(ctx.names[art_.WORLD]))
+    in_frame: dict[str, list[str]] = {}  # our frame's path -> the colliders below it
     for body in art.bodies:
         ctx.names[body] = sanitize_name(prims[body].GetName(), taken)
-        shapes = [s for s in art.shapes.get(body, []) if _frame_of(ctx, s) is None]
+        shapes = []
+        for s in art.shapes.get(body, []):
+            frame = _frame_of(ctx, s)
+            (shapes if frame is None else in_frame.setdefault(frame, [])).append(s)
         parts.append(_part(ctx, ctx.names[body], prims[body], shapes, ctx.to_part[body]))
 
     joint_names: set[str] = set()
     joints = [_joint(ctx, e, joint_names) for e in art.edges]
     frames = [found for body in art.bodies
-              for found in _frames(ctx, body, prims[body], taken, joint_names,
-                                   art.shapes.get(body, []))]
+              for found in _frames(ctx, body, prims[body], taken, joint_names, in_frame)]
     joint_at = {e.path: j.name for e, j in zip(art.edges, joints, strict=True)}
     for j in joints:  # a mimic's leader: from its prim path to its joint's name
         if j.mimic is not None:
@@ -206,11 +209,11 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
 
 
 def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str],
-            shapes: list[str]):
+            in_frame: dict[str, list[str]]):
     """The frames in a body, each a part fixed to the body's part (joint named by
     ``real2code:fixedJoint``, else ``<body>_to_<frame>``): Xforms with nothing to draw below
     them, and ours (``real2code:fixedJoint``) with the geometry below them (a massless part
-    the writer put in its parent's body; ``shapes``: the body's colliders)."""
+    the writer put in its parent's body; ``in_frame``: its colliders by frame path)."""
     from pxr import UsdGeom
 
     scale = np.diag([ctx.mpu, ctx.mpu, ctx.mpu, 1.0])
@@ -229,8 +232,8 @@ def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str
         kept = p.GetAttribute(FRAME_JOINT).Get() if p.HasAttribute(FRAME_JOINT) else None
         joint = sanitize_name(kept if isinstance(kept, str) and kept else
                               f"{ctx.names[body]}_to_{name}", joint_names)
-        part = _part(ctx, name, p, [s for s in shapes if _frame_of(ctx, s) == p.GetPath()],
-                     np.eye(4)) if ours else Part(name, color=read_color(p, [], ctx.path))
+        part = _part(ctx, name, p, in_frame.get(str(p.GetPath()), []), np.eye(4)) if ours \
+            else Part(name, color=read_color(p, [], ctx.path))
         yield part, Joint(joint, JointType.FIXED, ctx.names[body], name, origin=origin)
 
 
@@ -247,14 +250,14 @@ def _own_descendants(prim):
             yield from _own_descendants(child)
 
 
-def _frame_of(ctx: Context, shape_path: str):
+def _frame_of(ctx: Context, shape_path: str) -> str | None:
     """The path of our frame a collider lies in (None: it is its body's own)."""
     from pxr import UsdPhysics
 
     prim = ctx.stage.GetPrimAtPath(shape_path).GetParent()
     while prim and not prim.IsPseudoRoot() and not prim.HasAPI(UsdPhysics.RigidBodyAPI):
         if prim.HasAttribute(FRAME_JOINT):
-            return prim.GetPath()
+            return str(prim.GetPath())
         prim = prim.GetParent()
     return None
 
