@@ -21,6 +21,11 @@ from .model import ArticulatedObject, Inertial, JointType, rigid_group_mass
 # physical body's anisotropy, enough to keep the tensor positive definite in float64.
 RELATIVE_MOMENT_FLOOR = 1e-6
 TRIANGLE_MARGIN = 1e-6
+# A tensor with products of inertia has its principal moments computed, by numpy here and by
+# MuJoCo's own eigen solver there, to about 1e-16 of the largest: one this close to A + B = C
+# (a CAD exporter's thin plate, 6e-16 short) may pass here and be refused there ("inertia
+# must satisfy A + B >= C"), so it is balanced too. A diagonal tensor's moments are exact.
+EIGEN_ROUNDING = 1e-12
 # A point mass (an all-zero tensor) gets the inertia of a solid sphere this wide.
 POINT_MASS_RADIUS = 1e-3  # m
 # A movable part without mass gets this mass and the inertia of a POINT_MASS_RADIUS sphere
@@ -57,8 +62,9 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     # Nor may any moment be under ROTATED_MIN_MOMENT: MuJoCo refuses a fullinertia it finds
     # under mjMINVAL (a 1e-7 kg "virtual" link's 3e-22).
     floor = min(MIN_MOMENT, max(RELATIVE_MOMENT_FLOOR * largest, ROTATED_MIN_MOMENT))
-    ok = moments[0] > 0 and moments[0] >= floor and \
-        moments[0] + moments[1] >= moments[2] * (1 - 1e-9) - 1e-9 * scale
+    diagonal = not np.any(tensor - np.diag(np.diag(tensor)))
+    slack = 0.0 if diagonal else EIGEN_ROUNDING * scale
+    ok = moments[0] > 0 and moments[0] >= floor and moments[0] + moments[1] >= moments[2] + slack
     if ok:
         return inertial, None
     if scale <= 1e-12 * inertial.mass:  # zero, or zero up to rounding: a point mass

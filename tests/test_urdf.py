@@ -738,6 +738,20 @@ def test_an_unexpanded_xacro_is_refused_saying_so(tmp_path):
         urdf.load(source)
 
 
+@pytest.mark.parametrize("declared", [True, False])
+def test_a_robot_of_xacro_macro_calls_is_refused_saying_so(tmp_path, declared):
+    """A .xacro saved as .urdf whose links all come from macros (``<xacro:make_pelvis/>``):
+    urdfdom and MuJoCo refuse a robot without links; so do we, saying what it holds."""
+    xmlns = ' xmlns:xacro="http://ros.org/wiki/xacro"' if declared else ""
+    source = tmp_path / "pelvis.urdf"
+    source.write_text(f'<robot name="val"{xmlns}>\n  <!-- yaw -->\n  <xacro:make_pelvis/>\n'
+                      '  <xacro:include_sensors port="/dev/usb0"/>\n</robot>\n')
+    with pytest.raises(FormatError, match=r"pelvis.urdf:1: <robot name='val'>: has no <link> "
+                       r"\(it holds 2 unexpanded xacro element\(s\), the first "
+                       r"<xacro:make_pelvis> at line 3: expand the file with xacro first\)"):
+        urdf.load(source)
+
+
 def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
     Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
@@ -893,6 +907,32 @@ def test_a_tiny_links_singular_tensor_is_raised_enough_for_mujoco(tmp_path):
                    "<link name='virtual'>: inertia tensor is zero"):  # under mjMINVAL
         assert needle in messages, messages
     assert mujoco.MjSpec.from_file(str(mjcf.save(obj, tmp_path / "out"))).compile().nbody == 4
+
+
+def test_a_plate_on_the_triangle_boundary_by_rounding_is_balanced_for_mujoco(tmp_path):
+    """A CAD exporter's thin plate: A + B = C up to 6e-16 of C, with products of inertia.
+    Pinocchio loads it, MuJoCo refuses it ("inertia must satisfy A + B >= C"), and so it
+    refused our URDF and MJCF exports while our looser test let it through: it is balanced,
+    warned, and both exports load in MuJoCo."""
+    mujoco = pytest.importorskip("mujoco")
+    from real2code_export.formats import mjcf
+
+    path = tmp_path / "plate.urdf"
+    path.write_text(f"""<robot name="plate"><link name="base">{INERTIAL}</link>
+  <link name="knee"><inertial><mass value="37.4804521490049"/>
+    <inertia ixx="0.211387187948835" ixy="0.00352813969999868" ixz="-0.000112168416437373"
+      iyy="0.000322803193524901" iyz="0.00721821701372064" izz="0.211201747394794"/>
+  </inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="knee"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>""")
+    with pytest.raises(ValueError, match="A [+] B >= C"):
+        mujoco.MjSpec.from_file(str(path)).compile()
+    with pytest.warns(Real2CodeWarning, match="<link name='knee'>: inertia tensor violates the "
+                      "triangle inequality"):
+        obj = urdf.load(path)
+    for exported in (urdf.save(obj, tmp_path / "urdf"), mjcf.save(obj, tmp_path / "mjcf")):
+        assert mujoco.MjSpec.from_file(str(exported)).compile().nbody == 3
 
 
 def test_an_undeclared_namespace_prefix_is_declared_and_loads_in_the_tools(tmp_path):

@@ -267,6 +267,37 @@ def test_import_export_import_is_lossless_and_byte_stable(written, tmp_path):
     assert again.read_bytes() == path.read_bytes()
 
 
+def test_a_massless_fixed_part_with_geometry_belongs_to_its_parents_body(tmp_path):
+    """A URDF ``ee_link`` with only a collision box (no mass), fixed to a moving link: USD
+    cannot say "no mass" (0 means "computed"), so as a rigid body of its own a simulator
+    would give it its colliders' mass. It is an Xform in its parent's body, its box the
+    parent's collider; the probe poses it, the schema states every mass, and it reads back
+    as the same part."""
+    from real2code_export.probes.schema_dynamics import usd_dynamics
+
+    arm = Part("arm", visual=box_mesh([0.3, 0.05, 0.05]), collision=[box_mesh([0.3, 0.05, 0.05])],
+               inertial=box_inertial([0.3, 0.05, 0.05], 1.0))
+    ee = Part("ee", visual=box_mesh([0.02, 0.02, 0.02]), collision=[box_mesh([0.01, 0.01, 0.01])],
+              color=(0.9, 0.1, 0.1, 1.0))
+    obj = ArticulatedObject("tool", [Part("base"), arm, ee], [
+        Joint("yaw", "revolute", "base", "arm", axis=[0.0, 0.0, 1.0], limits=Limits(-1.0, 1.0)),
+        Joint("ee_fixed", "fixed", "arm", "ee",
+              origin=tf.make(tf.rpy_to_matrix([0.0, 0.0, 1.5]), [0.15, 0.0, 0.0]))])
+    path = usd.save(obj, tmp_path, write_meshes=False)
+    _, parsed = _parsed(path)
+    assert sorted(p.rsplit("/", 1)[1] for p in parsed["RigidBody"]) == ["arm", "base"]
+    colliders = [str(s) for s in parsed["RigidBody"]["/tool/Geometry/arm"].collisions]
+    assert any(c.startswith("/tool/Geometry/arm/ee/") for c in colliders), colliders
+    probe = open_probes(path)[0]
+    assert "ee" in probe.parts
+    dynamics = usd_dynamics(probe)
+    assert dynamics.unstated == {}
+    assert dynamics.group_inertias()[dynamics.group["arm"]][0] == pytest.approx(1.0)
+    back = usd.load(path)
+    assert differences(obj, back, TOL) == []
+    assert back.part("ee").color == pytest.approx(obj.part("ee").color, abs=1e-6)
+
+
 def test_a_mesh_is_written_once(tmp_path):
     """A collider with its part's visual mesh data, and a part whose visual mesh another
     part's already holds, refer to the mesh written first (an internal reference): the data

@@ -55,8 +55,11 @@ class Difference:
 
 def explaining(difference: Difference, warned: list[str]) -> list[str]:
     """The warnings that explain ``difference``: a reader's repair names the element it
-    changed (``'NAME'``) and says what of it (mass, inertia; a limit, the joint type)."""
-    return [w for w in warned if any(f"'{n}'" in w for n in difference.names)
+    changed (``'NAME'``, as the source spells it or as our importers name it: a link
+    ``fl.hip`` is part ``fl_hip``) and says what of it (mass, inertia; a limit, the joint
+    type)."""
+    names = {f"'{m}'" for n in difference.names for m in (n, sanitize_name(n))}
+    return [w for w in warned if any(n in w for n in names)
             and any(word in w for word in difference.words)]
 
 

@@ -8,7 +8,9 @@ path to the world, which stands where the file puts it).
 
 A body's reported pose is its frame moved to its parent joint's frame origin (localPos on
 the body's side; zero in files we write), the model's "part frame = joint frame". An Xform in
-a body with nothing to draw below it is a frame, reported by its prim name.
+a body with nothing to draw below it is a frame, reported by its prim name; so is one naming
+its fixed joint (``real2code:fixedJoint``), where our writer puts a massless part's geometry
+in its parent's body.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 
 from .. import transforms as tf
 from ..errors import CheckError
-from ..formats.usd.conventions import load_physics
+from ..formats.usd.conventions import FRAME_JOINT, load_physics
 from . import JointInfo, joint_motions
 
 WORLD = ""
@@ -193,8 +195,8 @@ class UsdProbe:
 
 
 def _frames(body, mpu: float):
-    """(name, pose in the body in metres) of the empty Xforms in a body prim, not entering
-    nested rigid bodies."""
+    """(name, pose in the body in metres) of the empty Xforms in a body prim and those naming
+    their fixed joint, not entering nested rigid bodies."""
     from pxr import Usd, UsdGeom, UsdPhysics
 
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
@@ -206,7 +208,8 @@ def _frames(body, mpu: float):
                 yield from own(child)
 
     for p in own(body):
-        if p.GetTypeName() != "Xform" or any(d.IsA(UsdGeom.Gprim) for d in own(p)):
+        if p.GetTypeName() != "Xform" or not p.HasAttribute(FRAME_JOINT) and any(
+                d.IsA(UsdGeom.Gprim) for d in own(p)):
             continue
         local = np.array(cache.ComputeRelativeTransform(p, body)[0], dtype=float).T
         if tf.is_rotation(local[:3, :3], tol=1e-5):

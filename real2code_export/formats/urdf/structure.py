@@ -145,8 +145,24 @@ def _named(ctx: Context, robot: etree._Element, tag: str) -> dict[str, etree._El
 def link_elements(ctx: Context, robot: etree._Element) -> dict[str, etree._Element]:
     links = _named(ctx, robot, "link")
     if not links:
-        raise ctx.error(label(robot), "has no <link>", robot.sourceline)
+        raise ctx.error(label(robot), "has no <link>" + _xacro_calls(robot), robot.sourceline)
     return links
+
+
+XACRO_NAMESPACE = "http://ros.org/wiki/xacro"
+
+
+def _xacro_calls(robot: etree._Element) -> str:
+    """What a URDF without links holds in their place: xacro macro calls left unexpanded
+    (a .xacro saved as .urdf; urdfdom and MuJoCo refuse it as a robot without links)."""
+    calls = [el for el in robot.iter(etree.Element)  # (declared or not: ``read_past``)
+             if etree.QName(el).namespace == XACRO_NAMESPACE or el.prefix == "xacro"]
+    if not calls:
+        return ""
+    first = calls[0]
+    return (f" (it holds {len(calls)} unexpanded xacro element(s), the first "
+            f"<xacro:{etree.QName(first).localname}> at line {first.sourceline}: expand the "
+            "file with xacro first)")
 
 
 PLANAR = "planar"  # read as MuJoCo imports it: two slides and a hinge (``read._planar``)

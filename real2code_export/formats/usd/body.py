@@ -13,7 +13,7 @@ import numpy as np
 from ... import transforms as tf
 from ...engine_settings import LINK_DAMPING
 from ...errors import warn
-from ...model import Inertial, Mesh, Part
+from ...model import ArticulatedObject, Inertial, JointType, Mesh, Part
 from .conventions import as_float32, quatf
 from .layer import apply, attribute, define, place
 
@@ -46,6 +46,16 @@ def write_body(layer, path: str, part: Part, world: np.ndarray):
               [float(i[0, 0]), float(i[1, 1]), float(i[2, 2]), float(i[0, 1]), float(i[0, 2]),
                float(i[1, 2])])
     return prim
+
+
+def in_parent_body(obj: ArticulatedObject) -> set[str]:
+    """The parts written as an Xform in their parent's body: fixed, massless, nothing hanging
+    from them (a frame, or a link with only geometry). Their geometry is the parent body's
+    in every simulator; the Xform keeps their name, frame and look for the round trip."""
+    tree = obj.tree()
+    return {j.child for j in obj.joints
+            if j.type is JointType.FIXED and not tree.children[j.child]
+            and tree.parts[j.child].inertial is None}
 
 
 def write_frame(layer, path: str, joint):

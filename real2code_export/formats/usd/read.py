@@ -106,14 +106,19 @@ def load(path: str | Path) -> ArticulatedObject:
     if art.root == art_.WORLD:
         ctx.names[art_.WORLD] = sanitize_name("world", taken)
         parts.append(Part(ctx.names[art_.WORLD]))
+    in_frame: dict[str, list[str]] = {}  # our frame's path -> the colliders below it
     for body in art.bodies:
         ctx.names[body] = sanitize_name(prims[body].GetName(), taken)
-        parts.append(_part(ctx, body, prims[body], art.shapes.get(body, [])))
+        shapes = []
+        for s in art.shapes.get(body, []):
+            frame = _frame_of(ctx, s)
+            (shapes if frame is None else in_frame.setdefault(frame, [])).append(s)
+        parts.append(_part(ctx, ctx.names[body], prims[body], shapes, ctx.to_part[body]))
 
     joint_names: set[str] = set()
     joints = [_joint(ctx, e, joint_names) for e in art.edges]
     frames = [found for body in art.bodies
-              for found in _frames(ctx, body, prims[body], taken, joint_names)]
+              for found in _frames(ctx, body, prims[body], taken, joint_names, in_frame)]
     joint_at = {e.path: j.name for e, j in zip(art.edges, joints, strict=True)}
     for j in joints:  # a mimic's leader: from its prim path to its joint's name
         if j.mimic is not None:
@@ -146,13 +151,13 @@ def _rigid(m: np.ndarray, path, prim_path: str) -> np.ndarray:
     return m
 
 
-def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
-    """The part of ``body`` (its path; ``prim`` the body prim): its collision shapes, visual
-    meshes, mass and colour."""
+def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.ndarray) -> Part:
+    """The part ``name`` of a body prim, or of a frame in one (``prim``): its collision shapes,
+    visual meshes, mass and colour; ``to_part`` maps the prim's frame (metres) to the part's."""
     from pxr import UsdGeom, UsdPhysics
 
-    path, to_part = ctx.path, ctx.to_part[body]
-    where = f"prim <{body}>"
+    path = ctx.path
+    where = f"prim <{prim.GetPath()}>"
     units = np.diag([ctx.mpu, ctx.mpu, ctx.mpu, 1.0])
 
     def placed(p) -> np.ndarray:
@@ -199,19 +204,23 @@ def _part(ctx: Context, body: str, prim, shape_paths: list[str]) -> Part:
              "texture coordinates; they are not kept, the colour is")
         images = {}
     texture = images.pop("texture", None)
-    return Part(ctx.names[body], visual=visual, collision=collision, inertial=inertial,
+    return Part(name, visual=visual, collision=collision, inertial=inertial,
                 color=read_color(prim, visual_prims, path), texture=texture, maps=images)
 
 
-def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str]):
-    """The frames in a body: Xforms with nothing to draw below them (no geometry), each a
-    part fixed to the body's part (joint named by ``real2code:fixedJoint``, else
-    ``<body>_to_<frame>``)."""
+def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str],
+            in_frame: dict[str, list[str]]):
+    """The frames in a body, each a part fixed to the body's part (joint named by
+    ``real2code:fixedJoint``, else ``<body>_to_<frame>``): Xforms with nothing to draw below
+    them, and ours (``real2code:fixedJoint``) with the geometry below them (a massless part
+    the writer put in its parent's body; ``in_frame``: its colliders by frame path)."""
     from pxr import UsdGeom
 
     scale = np.diag([ctx.mpu, ctx.mpu, ctx.mpu, 1.0])
     for p in _own_descendants(prim):
-        if p.GetTypeName() != "Xform" or any(d.IsA(UsdGeom.Gprim) for d in _own_descendants(p)):
+        ours = p.HasAttribute(FRAME_JOINT)
+        if p.GetTypeName() != "Xform" or not ours and any(
+                d.IsA(UsdGeom.Gprim) for d in _own_descendants(p)):
             continue
         where = f"prim <{p.GetPath()}>"
         local = relative_transform(ctx.xforms, p, prim)
@@ -223,19 +232,34 @@ def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str
         kept = p.GetAttribute(FRAME_JOINT).Get() if p.HasAttribute(FRAME_JOINT) else None
         joint = sanitize_name(kept if isinstance(kept, str) and kept else
                               f"{ctx.names[body]}_to_{name}", joint_names)
-        yield (Part(name, color=read_color(p, [], ctx.path)),
-               Joint(joint, JointType.FIXED, ctx.names[body], name, origin=origin))
+        part = _part(ctx, name, p, in_frame.get(str(p.GetPath()), []), np.eye(4)) if ours \
+            else Part(name, color=read_color(p, [], ctx.path))
+        yield part, Joint(joint, JointType.FIXED, ctx.names[body], name, origin=origin)
 
 
 def _own_descendants(prim):
-    """Descendants of a body prim, not entering nested rigid bodies (they are parts)."""
+    """Descendants of a body prim, not entering nested rigid bodies (they are parts) nor
+    our frames (their geometry is theirs)."""
     from pxr import UsdPhysics
 
     for child in prim.GetChildren():
         if child.HasAPI(UsdPhysics.RigidBodyAPI):
             continue
         yield child
-        yield from _own_descendants(child)
+        if not child.HasAttribute(FRAME_JOINT):
+            yield from _own_descendants(child)
+
+
+def _frame_of(ctx: Context, shape_path: str) -> str | None:
+    """The path of our frame a collider lies in (None: it is its body's own)."""
+    from pxr import UsdPhysics
+
+    prim = ctx.stage.GetPrimAtPath(shape_path).GetParent()
+    while prim and not prim.IsPseudoRoot() and not prim.HasAPI(UsdPhysics.RigidBodyAPI):
+        if prim.HasAttribute(FRAME_JOINT):
+            return str(prim.GetPath())
+        prim = prim.GetParent()
+    return None
 
 
 def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:

@@ -1,9 +1,11 @@
 """USD save: the object at q = state (bodies where the capture saw them), UsdPhysics joints,
 mass, collision and looks, through the concept modules (body, geometry, joint) in the layout
 of ``conventions``, authored through Sdf (``layer``); deterministic text (.usda) over a binary
-layer of the mesh arrays (``meshes/<name>.usdc``), each written atomically. A frame (a part
-with no mass or geometry, fixed, nothing hanging from it) is an Xform in its parent's body,
-no rigid body of its own (PhysX would give it a default mass)."""
+layer of the mesh arrays (``meshes/<name>.usdc``), each written atomically. A massless part
+fixed to its parent with nothing hanging from it (a frame; a URDF ``ee_link`` with only a
+collision box) is an Xform in its parent's body, its geometry below it, no rigid body of its
+own: UsdPhysics has no way to say "no mass" (0 means "compute it"), and PhysX would give it
+a mass from its colliders' density or a default one (:func:`.body.in_parent_body`)."""
 
 from __future__ import annotations
 
@@ -21,7 +23,7 @@ from ...model import (
     validate,
 )
 from .. import output_file
-from .body import write_body, write_frame
+from .body import in_parent_body, write_body, write_frame
 from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
 from .geometry import move_mesh_arrays, write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
@@ -47,7 +49,7 @@ def _author(obj: ArticulatedObject):
     base = f"/{obj.name}"
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
     world = forward_kinematics(written, obj.observed_configuration())
-    frames = obj.frame_parts()
+    frames = in_parent_body(obj)
     visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
     for part in obj.parts:
         if part.name in frames:
