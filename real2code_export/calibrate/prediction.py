@@ -1,7 +1,7 @@
-"""A model as it is (only the initial states fitted) replayed under measured runs: as a
-prediction of runs it was not fitted on (held-out runs, cross-validation's left-out
-pieces), each from its own opening, and as the replay of runs whose initial states a fit
-already found."""
+"""A model as it is predicting runs it was not fitted on (held-out runs, cross-validation's
+left-out parts): each run's initial state fitted on its own opening, the whole run then
+replayed once from it; and the nominal model's prediction beside the calibrated one's at
+one step."""
 
 from __future__ import annotations
 
