@@ -113,8 +113,9 @@ def test_run_too_short_to_fit_its_initial_state(lid, tmp_path):
     assert cli_run(["calibrate", str(model), "--data", str(csv), "--start", "1.0",
                     "--end", "1.02", "--out", str(out)]) == 2
     assert not out.exists()
-    with pytest.raises(FormatError, match="at least"):
+    with pytest.raises(FormatError, match="at least") as info:
         calibrate(lid.obj, [csv], start=1.0, end=1.02)
+    assert (info.value.path, info.value.element) == (str(csv), "window"), str(info.value)
 
 
 # -- a closed loop, declared ------------------------------------------------------------------

@@ -6,17 +6,18 @@ Modules: ``trajectory`` (the CSV contract), ``spec`` / ``simulate`` (the replay)
 ``experiment`` / ``feedback`` (the experiment file and a declared closed loop),
 ``windows`` (the window, unmeasured pushes left out), ``features`` (what points at
 causes), ``effects`` (the candidate library), ``inverse`` and ``fit`` (fitting), ``select``
-(model selection), ``validate`` (cross-validation: no false causes), ``inertial`` (base
+(model selection), ``prediction`` (a model predicting runs from their opening),
+``validate`` (cross-validation: no false causes), ``inertial`` (base
 inertial parameters), ``apply`` / ``extras`` (into the model), ``report``, ``run`` (the
 entry points). Real data sets reach it through the general command: their converters to
 CSV + experiment file are scripts in ``bench/``.
 """
 
+from .prediction import predict
 from .run import (
     CalibrationResult,
     calibrate,
     calibrate_trajectories,
-    predict,
     replay,
     run_calibrate,
 )

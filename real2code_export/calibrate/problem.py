@@ -148,7 +148,14 @@ def _actuated(joint, trajectories: list[Trajectory]) -> bool:
                            for tr in trajectories)
 
 
-def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Problem:
+def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
+                  inverse: bool = True) -> Problem:
+    """The calibration problem of ``obj`` on ``trajectories``. ``inverse``: also the
+    smoothed signals, the nominal inverse dynamics, the stops the data show and the
+    candidate effects, which fitting effects needs; a replay of the model as it is (only
+    the initial states fitted: a prediction, the calibrated model's replay) needs none of
+    them, and on long runs the inverse dynamics are most of the problem's cost (its
+    ``signals`` and ``effects`` are then empty, every effort scale NaN)."""
     joints = trajectories[0].joints
     for name in joints:
         try:
@@ -178,6 +185,26 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
         taus = np.column_stack([tr.efforts.get(j, np.zeros(tr.n)) for j in joints])
         eff_noise.append(np.array([features.noise_level(taus[:, k]) if j in tr.efforts
                                    else 0.0 for k, j in enumerate(joints)]))
+        x0s.append(np.zeros((len(joints), 2)))
+        x0_free.append(np.zeros((len(joints), 2), bool))
+        x0_se.append(np.zeros((len(joints), 2)))
+        for k in range(len(joints)):
+            (q0, v0), (sq, sv) = _initial_state(tr.time, qs[:, k], sig_q[k])
+            x0s[-1][k] = (q0, v0)
+            x0_se[-1][k] = (sq, sv)
+            moving = abs(v0) > 4 * sv
+            if not moving:
+                # a slow creep hides in 40 ms of noise but drifts a replay away over
+                # seconds (a piece that starts where a push was left out): a longer look
+                (_, v_long), (_, sv_long) = _initial_state(tr.time, qs[:, k], sig_q[k],
+                                                           CREEP_SECONDS)
+                if abs(v_long) > 4 * sv_long:
+                    moving, x0s[-1][k, 1] = True, v_long
+            x0_free[-1][k] = (True, moving)
+            if not moving:
+                x0s[-1][k, 1] = 0.0
+        if not inverse:
+            continue
         smoothed = [features.derivatives(qs[:, k], period) for k in range(len(joints))]
         q_s = np.column_stack([s[0] for s in smoothed])
         dq = np.column_stack([s[1] for s in smoothed])
@@ -205,27 +232,6 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             for side in sides:
                 if side not in stops[j]:
                     stops[j].append(side)
-        x0 = np.zeros((len(joints), 2))
-        free = np.zeros((len(joints), 2), bool)
-        se = np.zeros((len(joints), 2))
-        for k in range(len(joints)):
-            (q0, v0), (sq, sv) = _initial_state(tr.time, qs[:, k], sig_q[k])
-            x0[k] = (q0, v0)
-            se[k] = (sq, sv)
-            moving = abs(v0) > 4 * sv
-            if not moving:
-                # a slow creep hides in 40 ms of noise but drifts a replay away over
-                # seconds (a piece that starts where a push was left out): a longer look
-                (_, v_long), (_, sv_long) = _initial_state(tr.time, qs[:, k], sig_q[k],
-                                                           CREEP_SECONDS)
-                if abs(v_long) > 4 * sv_long:
-                    moving, x0[k, 1] = True, v_long
-            free[k] = (True, moving)
-            if not free[k, 1]:
-                x0[k, 1] = 0.0
-        x0s.append(x0)
-        x0_free.append(free)
-        x0_se.append(se)
         signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, tau_dq, tau_dt,
                                dq_noise, usable))
 
@@ -245,12 +251,14 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
     for k, name in enumerate(joints):
         j = obj.joint(name)
         q_all = np.concatenate([tr.positions[name] for tr in trajectories])
-        tau_all = np.concatenate([np.abs(s.tau[:, k]) for s in signals] +
-                                 [np.abs(s.tau_rb[:, k]) for s in signals])
-        scale = float(np.percentile(tau_all, 95)) if tau_all.size else 1.0
         inertia = float(nominal.dof_M0[dadr[k]]) if hasattr(nominal, "dof_M0") else 1.0
-        if scale <= 0:
-            scale = inertia * 1.0
+        scale = float("nan")  # from the inverse dynamics, where computed
+        if inverse:
+            tau_all = np.concatenate([np.abs(s.tau[:, k]) for s in signals] +
+                                     [np.abs(s.tau_rb[:, k]) for s in signals])
+            scale = float(np.percentile(tau_all, 95)) if tau_all.size else 1.0
+            if scale <= 0:
+                scale = inertia * 1.0
         ctx = JointContext(
             joint=name, angular=j.type.angular, dynamics=j.dynamics, limits=j.limits,
             bodies=tuple(subtree_bodies(obj, name)),
@@ -267,7 +275,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory]) -> Pro
             effort_delay=effort_delay(obj, name),
         )
         contexts[name] = ctx
-        effects[name] = {e.variant: e for e in library(ctx)}
+        effects[name] = {e.variant: e for e in library(ctx)} if inverse else {}
     nonsmooth = False
     for name in joints:
         j, ctx = obj.joint(name), contexts[name]

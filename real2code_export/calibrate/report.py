@@ -298,10 +298,11 @@ def _checks_markdown(report: dict[str, Any]) -> list[str]:
     if report.get("rejected"):
         lines += ["## Rejected", "", f"{report['rejected']}: the nominal model is kept.", ""]
     elif cv and cv["folds"]:
+        each = " (each part from its own opening)" if cv["error"] == "position" else ""
         lines += ["## Cross-validation", "", f"Refitted without each of {cv['folds']} "
-                  f"{cv['by']}, the calibrated structure predicts the left-out data with "
-                  f"squared error {cv['sse_calibrated']:.4g} against the nominal model's "
-                  f"{cv['sse_nominal']:.4g} (noise units).", ""]
+                  f"{cv['by']}, the calibrated structure predicts the left-out data{each} "
+                  f"with squared error {cv['sse_calibrated']:.4g} against the nominal "
+                  f"model's {cv['sse_nominal']:.4g} (noise units).", ""]
     eq = report.get("equation_error")
     if eq and eq.get("parameters"):
         lines += ["## Inverse dynamics (equation error)", "",

@@ -3,7 +3,6 @@ and the report out (atomically: all of it or nothing)."""
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +19,8 @@ from .experiment import read_experiment
 from .fit import Fit, fit_candidate
 from .inertial import compared
 from .inverse import _nominal_effort
-from .problem import CREEP_SECONDS, Problem, build_problem, calibration_spec
+from .prediction import initial_values, predict, predict_beside
+from .problem import Problem, build_problem, calibration_spec
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
 from .select_effort import effort_decides, select_by_effort
@@ -35,9 +35,6 @@ SHOOTING_SECONDS = 5.0
 # ... and a free swing over many periods in pieces of this many of its periods
 SHOOTING_PERIODS = 4
 MIN_SHOOTING = 1.0  # s: a piece holds enough samples past its smoothing's edges to fit
-# A held-out run is predicted from its opening: this share of it fits its initial state ...
-PREDICT_SHARE = 0.25
-PREDICT_NFEV = 8  # ... in at most this many evaluations (two values a run, started near)
 # The calibrated model's replay of the fitted runs starts from the chosen fit's initial
 # states, already that model's optimum but for the refinement's small step: this many
 # evaluations move them the rest of the way (a closed loop barely tells an initial
@@ -67,50 +64,9 @@ def replay(obj: ArticulatedObject, trajectories: Sequence[Trajectory],
     trajectory's conditions; only the initial states are fitted (started from ``warm``'s,
     where given, in at most REPLAY_NFEV evaluations: the fit the model was made from
     already found them)."""
-    return fit_candidate(build_problem(obj, list(trajectories)), (), warm=_initial(warm),
+    return fit_candidate(build_problem(obj, list(trajectories), inverse=False), (),
+                         warm=initial_values(warm),
                          **({} if warm is None else {"max_nfev": REPLAY_NFEV}))
-
-
-def _initial(fit: Fit | None) -> dict[str, float]:
-    """``fit``'s initial states as start values for a fit of the same runs."""
-    return {} if fit is None else {
-        f"initial:{t}:{k}:{c}": float(x[k, c]) for t, x in enumerate(fit.initial)
-        for k in range(x.shape[0]) for c in (0, 1)}
-
-
-def predict(obj: ArticulatedObject, trajectories: Sequence[Trajectory],
-            warm: Fit | None = None) -> Fit:
-    """The model as a prediction of runs it was not fitted on: each run's initial state
-    fitted on its opening only (PREDICT_SHARE of it, at least CREEP_SECONDS: the look that
-    tells a start from rest; at most PREDICT_NFEV evaluations, started from ``warm``'s
-    initial states where given), then the whole run replayed once from it. Fitted on a
-    whole held-out run, the initial state would take up what the model gets wrong (and on
-    a replay that diverges, cost every evaluation on the whole run)."""
-    trajectories = list(trajectories)
-    opened = fit_candidate(build_problem(obj, [_opening(tr) for tr in trajectories]), (),
-                           max_nfev=PREDICT_NFEV, warm=_initial(warm))
-    whole = _replay_from(obj, trajectories, opened.initial)
-    return dataclasses.replace(whole, rollouts=opened.rollouts + whole.rollouts)
-
-
-def _replay_from(obj: ArticulatedObject, trajectories: list[Trajectory],
-                 initial: list[np.ndarray], fine: bool = False) -> Fit:
-    """One replay of each run from the given initial states (no value left free);
-    ``fine``: stepped as non-smooth dynamics are, whatever the model has."""
-    problem = build_problem(obj, trajectories)
-    problem.initial = [x.copy() for x in initial]
-    problem.initial_free = [np.zeros_like(free) for free in problem.initial_free]
-    problem.nonsmooth |= fine
-    return fit_candidate(problem, ())
-
-
-def _opening(tr: Trajectory) -> Trajectory:
-    """The start of ``tr`` its initial state is fitted on (the whole of a short run, or of
-    one a coded law drives: that law indexes the whole run's samples)."""
-    end = tr.time[0] + max(PREDICT_SHARE * tr.duration, CREEP_SECONDS)
-    if tr.controller is not None or np.searchsorted(tr.time, end) < 2 * MIN_SAMPLES:
-        return tr
-    return window(tr, None, end)
 
 
 def _replays(label: str, trajectories, nominal: Fit, calibrated: Fit) -> list[Replay]:
@@ -296,15 +252,9 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     held_nominal = predict(model, held) if held else None
     holdouts = []
     if held and rejected is None:
-        held_after = predict(calibrated, held, held_nominal) if selection.chosen.effects \
-            else held_nominal
-        if held_after.solution.ev.fine and not held_nominal.solution.ev.fine:
-            # both replayed at one step, so that what the model changes is compared, not two
-            # steps' errors (a stop the held-out runs come near but never reach makes the
-            # calibrated replay step finely and changes nothing else)
-            again = _replay_from(model, list(held), held_nominal.initial, fine=True)
-            held_nominal = dataclasses.replace(again, rollouts=held_nominal.rollouts
-                                               + again.rollouts)
+        held_after = held_nominal
+        if selection.chosen.effects:
+            held_nominal, held_after = predict_beside(model, calibrated, held, held_nominal)
         holdouts = _replays("held out", held, held_nominal, held_after)
         if _worse(holdouts):
             rejected = (f"{'+'.join(selection.chosen.names)} predicts the held-out data "

@@ -1,12 +1,14 @@
 """No false causes: a chosen structure is kept only if it also predicts data it was not
 fitted on better than the nominal model does.
 
-Cross-validation across the fit runs (leave one run out); with a single run, across its two
-halves (each its own initial state). Each fold refits the chosen structure on the rest
-(started from the full fit's values: a parameter the rest cannot inform stays where the
-full fit put it, and one the rest does not identify is reset there) and replays the
-left-out piece; the nominal model replays it too (its
-initial state fitted alike). The sums of squared position errors, in noise units, decide.
+Cross-validation across the fit runs (leave one run out; a run fitted in pieces, each
+piece); with a single run, across its two halves. Each fold refits the chosen structure on
+the rest (started from the full fit's values: a parameter the rest cannot inform stays
+where the full fit put it, and one the rest does not identify is reset there) and
+predicts the left-out piece as a held-out run is predicted: its initial state fitted on
+the piece's own opening, then the whole piece replayed from it (fitted on the whole
+piece, the initial state would take up what the model gets wrong there). The nominal
+model predicts it alike. The sums of squared position errors, in noise units, decide.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 from .fit import Fit, fit_candidate
 from .inverse import design, fold_errors
+from .prediction import predict, predict_beside
 from .problem import Problem, build_problem
 from .trajectory import MIN_SAMPLES, Trajectory
 from .windows import window
@@ -46,8 +49,8 @@ class CrossValidation:
 
 def _folds(trajectories: list[Trajectory]) -> tuple[str, list[tuple[list, Trajectory]]]:
     if len(trajectories) >= 2:
-        return "runs", [([t for t in trajectories if t is not left], left)
-                        for left in trajectories]
+        return "runs", [(_without(trajectories, i), left)
+                        for i, left in enumerate(trajectories)]
     tr = trajectories[0]
     if tr.duration < 2 * MIN_HALF or tr.n < 4 * MIN_SAMPLES or tr.controller is not None:
         return "none", []  # too short to halve, or a coded law indexed by the whole run
@@ -56,6 +59,13 @@ def _folds(trajectories: list[Trajectory]) -> tuple[str, list[tuple[list, Trajec
     second = window(tr, mid, None)
     first.source, second.source = f"{tr.source} [first half]", f"{tr.source} [second half]"
     return "halves", [([first], second), ([second], first)]
+
+
+def _without(trajectories: list[Trajectory], i: int) -> list[Trajectory]:
+    """The runs but the ``i``-th; the piece after it no longer continues the one before it
+    (multiple shooting's continuity holds only between pieces that meet)."""
+    return [dataclasses.replace(tr, continues=False) if n == i + 1 and tr.continues else tr
+            for n, tr in enumerate(trajectories) if n != i]
 
 
 def _sse(fit: Fit) -> float:
@@ -80,10 +90,12 @@ def cross_validate(obj, trajectories: list[Trajectory], chosen: Fit) -> CrossVal
         fold = dataclasses.replace(fold, values={
             k: v if fold.identifiable.get(k, False) else chosen.values[k]
             for k, v in fold.values.items()})
-        sse_nom += _sse(fit_candidate(build_problem(obj, [left]), (), refine=False))
-        # the fold's model as it would be exported, only the initial state fitted
-        predicted = build_problem(calibrated_object(obj, fold), [left])
-        sse_cal += _sse(fit_candidate(predicted, (), refine=False))
+        # the fold's model as it would be exported and the nominal one, each predicting
+        # the left-out piece from its opening
+        nominal, predicted = predict_beside(obj, calibrated_object(obj, fold), [left],
+                                            predict(obj, [left]))
+        sse_nom += _sse(nominal)
+        sse_cal += _sse(predicted)
     return CrossValidation(len(folds), sse_nom, sse_cal, kind)
 
 
