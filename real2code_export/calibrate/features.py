@@ -26,6 +26,14 @@ def smoothing_gain(period: float) -> float:
     return float(np.sqrt(np.sum(savgol_coeffs(w, min(4, w - 1)) ** 2)))
 
 
+def derivative_gain(period: float) -> float:
+    """The factor by which :func:`derivatives`' smoothed first derivative scales white
+    position noise (its standard deviation)."""
+    w = smoothing_window(period)
+    return float(np.sqrt(np.sum(savgol_coeffs(w, min(4, w - 1), deriv=1, delta=period)
+                                ** 2)))
+
+
 def derivatives(x: np.ndarray, period: float, window: int | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Savitzky-Golay smoothed value, first and second derivative."""
