@@ -205,9 +205,15 @@ def sudden_stops(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, noise: float) -
     if span < 20 * noise:
         return []
     a = np.abs(ddq)
-    typical = float(np.percentile(a, 90)) + 1e-12
+    edges = (("lower", q.min()), ("upper", q.max()))
+    # the rest of the motion: away from both edges (a run that rests against a stop for a
+    # tenth of its samples would otherwise put the impact in its own yardstick)
+    away = np.ones(len(q), bool)
+    for _, edge in edges:
+        away &= np.abs(q - edge) >= 0.03 * span
+    typical = float(np.percentile(a[away] if away.sum() > 10 else a, 90)) + 1e-12
     out = []
-    for side, edge in (("lower", q.min()), ("upper", q.max())):
+    for side, edge in edges:
         near = np.abs(q - edge) < 0.03 * span
         if not near.any():
             continue
