@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .effects import Effect, extensions
+from .effects import Effect, extensions, valid
 from .fit import MATERIAL, Fit, fit_candidate, refine_fit
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
@@ -318,6 +318,33 @@ def _closest_extended(problem: Problem, closest: Fit, fits: dict, screened: dict
                                    f"from the closest, {'+'.join(closest.names)}")
 
 
+def _stops_added(problem: Problem, looked: list[Fit], fits: dict, log: list[str]
+                 ) -> list[Fit]:
+    """Where no replay follows the data and a stop is seen in them: the stop-free structures
+    looked at, closest first, each with the stop (up to SCREEN_BLIND not yet tried), looked
+    at from its values up to the first that follows. While the stop is not
+    modelled every replay misses its impacts, and one with the stop follows only where its
+    other effects are right too (a drawer's spring and its stop): two effects needed
+    together, one of them the stop, which the screen cannot rank (its impacts are left
+    out of the inverse dynamics)."""
+    pairs: list[tuple[tuple[Effect, ...], Fit]] = []  # (structure, the look it extends)
+    for f in sorted((f for f in looked if all(e.name != "limit" for e in f.effects)),
+                    key=lambda f: f.rss):
+        for joint in problem.joints:
+            for stop in (e for e in problem.effects[joint].values() if e.name == "limit"):
+                p = (*f.effects, stop)
+                if _key(p) not in fits and _key(p) not in {_key(q) for q, _ in pairs} \
+                        and valid({x.variant for x in p if x.joint == joint}):
+                    pairs.append((p, f))
+    out: list[Fit] = []
+    for p, f in pairs[:SCREEN_BLIND]:
+        out += _look_until_one_follows(problem, [p], dict(f.values), fits, log,
+                                       "with the stop seen in the data")
+        if _follows(problem, out[-1]):
+            break
+    return out
+
+
 def _look_until_one_follows(problem: Problem, structures: list, warm: dict[str, float],
                             fits: dict, log: list[str], why: str) -> list[Fit]:
     """Each structure looked at (LOOK_NFEV evaluations from ``warm``) in turn, the first
@@ -461,8 +488,12 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                 f = fit_candidate(problem, p, refine=False, warm=warm,
                                   **({"max_nfev": LOOK_NFEV, "second_start": False}
                                      if lost else {}))
-            if lost and _follows(problem, f):  # back on the data: fitted to the end
-                f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
+            if lost:
+                follows = _follows(problem, f)
+                log.append(f"{'+'.join(f.names)} looked at: "
+                           f"{'follows' if follows else 'off the data'}")
+                if follows:  # back on the data: fitted to the end
+                    f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
             fits[_key(p)] = f
             new.append(f)
         if lost and new and not any(_follows(problem, f) for f in new):
@@ -485,6 +516,8 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                 # current model's miss, its best-screened extensions are looked at from its
                 # values (where none does, a person moves the joint more likely than not)
                 new += _closest_extended(problem, f, fits, screened, log)
+                if not any(_follows(problem, g) for g in new):
+                    new += _stops_added(problem, new, fits, log)
         n_ref = _n_ref(fits.values())
         if lost and not any(_follows(problem, f) for f in new):
             log.append("no replay follows the data (each predicts a run worse than the "
