@@ -174,7 +174,15 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
     there. (A structure is never reached otherwise: the search only adds.)"""
     rest = tuple(e for e in f.effects if _there(f, e, fits, _n_ref(fits.values())))
-    if not rest or len(rest) == len(f.effects) or _key(rest) == _key(current.effects):
+    warm = dict(f.values)
+    for e in f.effects:
+        if e.name == "asymmetric_friction" and e not in rest:
+            # its absence is symmetric friction, not no friction: what it refines (damping,
+            # friction, and the Coulomb asymmetry's constant force where nothing else holds
+            # one) takes its place, from its values
+            rest += _symmetric_counterpart(problem, e, rest, warm)
+    if not rest or len(rest) == len(f.effects) and all(e in f.effects for e in rest) \
+            or _key(rest) == _key(current.effects):
         return None
     earlier = fits.get(_key(rest))
     if earlier is not None and earlier.bic(_n_ref(fits.values())) < current.bic(
@@ -182,7 +190,7 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
         return None  # already tried on its merits
     # (re)fitted from the richer fit's values: fitted earlier from a poorer model, it may
     # have stopped in another minimum (a spring's rest position far from the data's)
-    g = fit_candidate(problem, rest, refine=False, warm=dict(f.values))
+    g = fit_candidate(problem, rest, refine=False, warm=warm)
     if earlier is not None and earlier.rss <= g.rss:
         return None
     fits[_key(rest)] = g
@@ -199,6 +207,26 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
         return None
     log.append(f"tried {'+'.join(g.names)} (less what was not there): BIC {g.bic(n_ref):.1f}")
     return g
+
+
+def _symmetric_counterpart(problem: Problem, e: Effect, rest: tuple[Effect, ...],
+                           warm: dict[str, float]) -> tuple[Effect, ...]:
+    """The symmetric effects direction-dependent friction ``e`` refines (damping, friction,
+    a constant force), those that go beside ``rest``; their start values, the means and
+    the Coulomb asymmetry of ``e``'s, written into ``warm``."""
+    j, lib = e.joint, problem.effects[e.joint]
+    cp, cn = warm[f"{j}.friction_pos"], warm[f"{j}.friction_neg"]
+    bp, bn = warm[f"{j}.damping_pos"], warm[f"{j}.damping_neg"]
+    start = {"friction": 0.5 * (cp + cn), "offset": 0.5 * (cn - cp),
+             "damping": 0.5 * (bp + bn)}
+    have = {x.variant for x in rest if x.joint == j}
+    out = []
+    for name in ("damping", "friction", "offset"):
+        if name in lib and valid(have | {name}):
+            have.add(name)
+            out.append(lib[name])
+            warm.setdefault(f"{j}.{name}", start[name])
+    return tuple(out)
 
 
 def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
