@@ -14,15 +14,18 @@ where no structure of a step passes, the best is fitted once more from its own
 inverse-dynamics start (from the current model's values it may stop in that model's
 minimum), and the next best-screened are fitted too, those the screen prefers to the
 current model. A structure with an end stop is started from the same structure without
-it and fitted on only if the stop pays for itself within a few evaluations (each replay
-of a stop steps through its impacts). An effect whose interval reaches
+it (and, where that does not pay, from its own inverse-dynamics start) and fitted on only
+if the stop pays for itself within a few evaluations (each replay of a stop steps through
+its impacts). An effect whose interval reaches
 absence is still there where the structure fitted without it is worse by BIC and it
 explains materially more than that structure. The search
 stops when no extension earns its parameters: nothing is forced onto
 the data; and where no structure's replay follows every run (a person moves the joint),
 since the output error then measures a divergence, not an effect (first the next
 best-screened are looked at, and where the closest takes up half the miss, its
-extensions: two effects may be needed before a replay follows).
+extensions, then those looked at with a stop seen in the data: two effects may be needed
+before a replay follows). Direction-dependent friction found not there gives way to its
+symmetric counterpart (damping, friction, a constant force), not to nothing.
 """
 
 from __future__ import annotations
@@ -311,9 +314,10 @@ def _with_stop(problem: Problem, p: tuple[Effect, ...], base: Fit, warm: dict[st
     samples at the stop left out): a replay without the stop bends its values to stand in
     for it (direction-dependent friction that halts the door where the stop does), and a
     look from them starts in that model's valley. Fitted to the end only if the stop
-    already pays for its parameters by BIC there. A stop the data show explains its impacts at once; one they do not show costs
-    a dozen fits of a structure without it to find so (each replay steps through the
-    impacts with the stop's softness from a grid)."""
+    already pays for its parameters by BIC there. A stop the data show explains its
+    impacts at once; one they do not show costs a dozen fits of a structure without it to
+    find so (each replay steps through the impacts with the stop's softness from a
+    grid)."""
     look = None
     for start in ({**warm, **base.values}, None):
         other = fit_candidate(problem, p, refine=False, warm=start, max_nfev=LOOK_NFEV,
