@@ -49,6 +49,23 @@ def truth_params(case) -> dict[str, float]:
     return out
 
 
+def right_causes(report: dict, expected: set[str]) -> bool:
+    """Whether the named causes are the hidden ones, or a reading the data cannot tell from
+    them that the report names as such (issue 16, rule 6): direction-dependent friction
+    whose viscous part does not show with the direction is symmetric damping and friction
+    plus a constant force, accepted only where the report's ``indistinguishable_from``
+    says that constant force is direction-dependent friction."""
+    named = set(report["causes"])
+    if named == expected:
+        return True
+    if "asymmetric_friction" not in expected:
+        return False
+    reading = expected - {"asymmetric_friction"} | {"damping", "friction", "offset"}
+    return named == reading and any(
+        d["effect"] == "offset" and "asymmetric_friction" in d["indistinguishable_from"]
+        for d in report["cause_details"])
+
+
 def run_case(seed: int) -> dict:
     """Calibrate one case; what the judge needs, as plain data (for a process pool)."""
     from real2code_export.calibrate import calibrate
@@ -71,7 +88,11 @@ def run_case(seed: int) -> dict:
     return {"seed": seed, "scenario": case.scenario, "kind": case.kind,
             "truth": sorted(case.truth), "expected": sorted(case.expected_causes()),
             "named": list(report["causes"]), "clean": not case.truth,
-            "right": set(report["causes"]) == case.expected_causes(), "checks": checks,
+            "right": right_causes(report, case.expected_causes()),
+            # right as a reading the data cannot tell from the truth (said so)
+            "indistinguishable": set(report["causes"]) != case.expected_causes()
+            and right_causes(report, case.expected_causes()),
+            "checks": checks,
             "unexplained": bool(report["unexplained"]), "holdout_before": before,
             "holdout_after": after, "worse": after > before * (1 + 1e-9), "seconds": seconds,
             "cpu": cpu}
@@ -150,5 +171,5 @@ def markdown(results: list[dict]) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["N_CASES", "ci_seeds", "markdown", "run_case", "run_cases", "scenario_for",
-           "score", "truth_params"]
+__all__ = ["N_CASES", "ci_seeds", "markdown", "right_causes", "run_case", "run_cases",
+           "scenario_for", "score", "truth_params"]

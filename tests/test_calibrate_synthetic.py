@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from synthetic_scenarios import NAMES, SCENARIOS, make
-from synthetic_suite import ci_seeds, run_case, run_cases, score
+from synthetic_suite import ci_seeds, right_causes, run_case, run_cases, score
 
 CI_ROUNDS = 3  # 30 cases, 6 effect-free: about 4 minutes on CI's two cores
 # cases this module has calibrated already, by seed: the suite does not run them twice
@@ -60,6 +60,27 @@ def test_a_stop_case_meets_its_stop_in_the_fitted_run():
         p, q = case.physics, case.fit.true_position
         assert case.scenario == "stop"
         assert q.max() >= p.stop if p.stop_side > 0 else q.min() <= p.stop
+
+
+def test_an_indistinguishable_reading_is_right_only_where_the_report_says_so():
+    """Direction-dependent friction whose viscous part does not show is symmetric damping
+    and friction plus a constant force (issue 16, rule 6): the judge accepts that reading
+    only where the report names the constant force as indistinguishable from it."""
+    from real2code_export.calibrate.effects import Effect, readings
+
+    offset = Effect("offset", "hinge", ())
+    aliases, choice = readings(offset, {"damping", "friction"})
+    assert "asymmetric_friction" in aliases and "direction-dependent" in choice
+    assert readings(offset, {"damping"})[0] == ()  # no friction beside it: a force alone
+    expected = {"asymmetric_friction", "effort_delay"}
+    named = ["damping", "friction", "offset", "effort_delay"]
+    said = {"causes": named, "cause_details": [
+        {"effect": "offset", "indistinguishable_from": list(aliases)}]}
+    silent = {"causes": named, "cause_details": [
+        {"effect": "offset", "indistinguishable_from": []}]}
+    assert right_causes(said, expected) and not right_causes(silent, expected)
+    assert not right_causes({**said, "causes": ["friction", "offset", "effort_delay"]},
+                            expected)
 
 
 def test_declared_loop_reproduces_its_effort():

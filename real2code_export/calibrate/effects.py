@@ -449,6 +449,22 @@ def library(ctx: JointContext) -> list[Effect]:
     return out
 
 
+def readings(e: Effect, beside: set[str]) -> tuple[tuple[str, ...], str]:
+    """What the data cannot tell effect ``e`` from, given the names of the effects chosen
+    beside it on its joint, and why this name was chosen: ``e``'s aliases, and a constant
+    force named beside symmetric friction, which together are direction-dependent Coulomb
+    friction (c+ = c - f, c- = c + f, in slip and in stick alike: no data tell them
+    apart)."""
+    if e.name == "offset" and "friction" in beside and "asymmetric_friction" not in beside:
+        return (*e.aliases, "asymmetric_friction"), (
+            (e.choice + "; " if e.choice else "") +
+            "symmetric friction and a constant force are exactly direction-dependent "
+            "Coulomb friction; named as symmetric friction and a force because the "
+            "viscous part shows no direction dependence (which no constant force "
+            "explains), so the reading with fewer parameters is kept")
+    return e.aliases, e.choice
+
+
 def _zero_shows(ctx: JointContext) -> bool:
     """Whether an encoder's zero error shows in the motion (the dynamics depend on where
     the joint is: gravity, a spring)."""

@@ -26,6 +26,14 @@ def smoothing_gain(period: float) -> float:
     return float(np.sqrt(np.sum(savgol_coeffs(w, min(4, w - 1)) ** 2)))
 
 
+def derivative_gain(period: float) -> float:
+    """The factor by which :func:`derivatives`' smoothed first derivative scales white
+    position noise (its standard deviation)."""
+    w = smoothing_window(period)
+    return float(np.sqrt(np.sum(savgol_coeffs(w, min(4, w - 1), deriv=1, delta=period)
+                                ** 2)))
+
+
 def derivatives(x: np.ndarray, period: float, window: int | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Savitzky-Golay smoothed value, first and second derivative."""
@@ -197,9 +205,15 @@ def sudden_stops(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, noise: float) -
     if span < 20 * noise:
         return []
     a = np.abs(ddq)
-    typical = float(np.percentile(a, 90)) + 1e-12
+    edges = (("lower", q.min()), ("upper", q.max()))
+    # the rest of the motion: away from both edges (a run that rests against a stop for a
+    # tenth of its samples would otherwise put the impact in its own yardstick)
+    away = np.ones(len(q), bool)
+    for _, edge in edges:
+        away &= np.abs(q - edge) >= 0.03 * span
+    typical = float(np.percentile(a[away] if away.sum() > 10 else a, 90)) + 1e-12
     out = []
-    for side, edge in (("lower", q.min()), ("upper", q.max())):
+    for side, edge in edges:
         near = np.abs(q - edge) < 0.03 * span
         if not near.any():
             continue

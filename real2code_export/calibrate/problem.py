@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import savgol_coeffs
 
 from ..errors import FormatError, ModelError
 from ..model import ArticulatedObject
@@ -219,8 +218,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
         tau_dq = (rigid_effort(spec, joints, q_s + eps, dq, ddq) - tau_rb) / eps
         tau_dq += np.array([obj.joint(j).dynamics.stiffness for j in joints])
         w = features.smoothing_window(period)
-        c1 = savgol_coeffs(max(w, 5), min(4, w - 1), deriv=1, delta=period)
-        dq_noise = sig_q * float(np.sqrt(np.sum(c1**2)))
+        dq_noise = sig_q * features.derivative_gain(period)
         usable = np.ones(tr.n, bool)
         usable[: w // 2 + 1] = False
         usable[-(w // 2 + 1):] = False

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..jsonsafe import finite_or_null as _num
-from .effects import SENSOR, VOCABULARY, Effect
+from .effects import SENSOR, VOCABULARY, Effect, readings
 from .fit import Fit
 from .select import Selection
 
@@ -86,10 +86,12 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
     details = []
     for e in sorted(chosen.effects, key=lambda e: (e.joint, order[e.name])):
         strength, se = e.strength(chosen.effect_values(e), chosen.effect_cov(e))
-        details.append({"effect": e.name, "joint": e.joint, "aliases": list(e.aliases),
+        aliases, choice = readings(e, {x.name for x in chosen.effects
+                                       if x.joint == e.joint and x is not e})
+        details.append({"effect": e.name, "joint": e.joint, "aliases": list(aliases),
                         "side": "recording" if id(e) in held else
                         "sensor" if e.name in SENSOR else "dynamics",
-                        "indistinguishable_from": list(e.aliases), "choice": e.choice,
+                        "indistinguishable_from": list(aliases), "choice": choice,
                         "motion_change_rms_noise": _num(chosen.material.get(e.name)),
                         "departure_from_absence": _num(strength),
                         "departure_stderr": _num(se)})

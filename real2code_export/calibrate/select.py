@@ -14,15 +14,18 @@ where no structure of a step passes, the best is fitted once more from its own
 inverse-dynamics start (from the current model's values it may stop in that model's
 minimum), and the next best-screened are fitted too, those the screen prefers to the
 current model. A structure with an end stop is started from the same structure without
-it and fitted on only if the stop pays for itself within a few evaluations (each replay
-of a stop steps through its impacts). An effect whose interval reaches
+it (and, where that does not pay, from its own inverse-dynamics start) and fitted on only
+if the stop pays for itself within a few evaluations (each replay of a stop steps through
+its impacts). An effect whose interval reaches
 absence is still there where the structure fitted without it is worse by BIC and it
 explains materially more than that structure. The search
 stops when no extension earns its parameters: nothing is forced onto
 the data; and where no structure's replay follows every run (a person moves the joint),
 since the output error then measures a divergence, not an effect (first the next
 best-screened are looked at, and where the closest takes up half the miss, its
-extensions: two effects may be needed before a replay follows).
+extensions, then those looked at with a stop seen in the data: two effects may be needed
+before a replay follows). Direction-dependent friction found not there gives way to its
+symmetric counterpart (damping, friction, a constant force), not to nothing.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .effects import Effect, extensions
+from .effects import Effect, extensions, valid
 from .fit import MATERIAL, Fit, fit_candidate, refine_fit
 from .inverse import EquationFit, equation_fit
 from .problem import Problem
@@ -174,7 +177,15 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
     there. (A structure is never reached otherwise: the search only adds.)"""
     rest = tuple(e for e in f.effects if _there(f, e, fits, _n_ref(fits.values())))
-    if not rest or len(rest) == len(f.effects) or _key(rest) == _key(current.effects):
+    warm = dict(f.values)
+    for e in f.effects:
+        if e.name == "asymmetric_friction" and e not in rest:
+            # its absence is symmetric friction, not no friction: what it refines (damping,
+            # friction, and the Coulomb asymmetry's constant force where nothing else holds
+            # one) takes its place, from its values
+            rest += _symmetric_counterpart(problem, e, rest, warm)
+    if not rest or len(rest) == len(f.effects) and all(e in f.effects for e in rest) \
+            or _key(rest) == _key(current.effects):
         return None
     earlier = fits.get(_key(rest))
     if earlier is not None and earlier.bic(_n_ref(fits.values())) < current.bic(
@@ -182,7 +193,7 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
         return None  # already tried on its merits
     # (re)fitted from the richer fit's values: fitted earlier from a poorer model, it may
     # have stopped in another minimum (a spring's rest position far from the data's)
-    g = fit_candidate(problem, rest, refine=False, warm=dict(f.values))
+    g = fit_candidate(problem, rest, refine=False, warm=warm)
     if earlier is not None and earlier.rss <= g.rss:
         return None
     fits[_key(rest)] = g
@@ -199,6 +210,26 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
         return None
     log.append(f"tried {'+'.join(g.names)} (less what was not there): BIC {g.bic(n_ref):.1f}")
     return g
+
+
+def _symmetric_counterpart(problem: Problem, e: Effect, rest: tuple[Effect, ...],
+                           warm: dict[str, float]) -> tuple[Effect, ...]:
+    """The symmetric effects direction-dependent friction ``e`` refines (damping, friction,
+    a constant force), those that go beside ``rest``; their start values, the means and
+    the Coulomb asymmetry of ``e``'s, written into ``warm``."""
+    j, lib = e.joint, problem.effects[e.joint]
+    cp, cn = warm[f"{j}.friction_pos"], warm[f"{j}.friction_neg"]
+    bp, bn = warm[f"{j}.damping_pos"], warm[f"{j}.damping_neg"]
+    start = {"friction": 0.5 * (cp + cn), "offset": 0.5 * (cn - cp),
+             "damping": 0.5 * (bp + bn)}
+    have = {x.variant for x in rest if x.joint == j}
+    out = []
+    for name in ("damping", "friction", "offset"):
+        if name in lib and valid(have | {name}):
+            have.add(name)
+            out.append(lib[name])
+            warm.setdefault(f"{j}.{name}", start[name])
+    return tuple(out)
 
 
 def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
@@ -279,17 +310,25 @@ def _with_stop(problem: Problem, p: tuple[Effect, ...], base: Fit, warm: dict[st
                fits: dict, log: list[str]) -> Fit:
     """Structure ``p``, ``base`` with a stop: started from ``base``'s values (the stop at
     the edge of the data changes its replay little at first) and looked at for LOOK_NFEV
-    evaluations; fitted to the end only if the stop already pays for its parameters by BIC
-    there. A stop the data show explains its impacts at once; one they do not show costs
-    a dozen fits of a structure without it to find so (each replay steps through the
-    impacts with the stop's softness from a grid)."""
-    look = fit_candidate(problem, p, refine=False, warm={**warm, **base.values},
-                         max_nfev=LOOK_NFEV, second_start=False)
-    n_ref = _n_ref([*fits.values(), look])
-    if look.bic(n_ref) < base.bic(n_ref):
-        return fit_candidate(problem, p, refine=False, warm=dict(look.values))
+    evaluations, and where that does not pay, from its own inverse-dynamics start (the
+    samples at the stop left out): a replay without the stop bends its values to stand in
+    for it (direction-dependent friction that halts the door where the stop does), and a
+    look from them starts in that model's valley. Fitted to the end only if the stop
+    already pays for its parameters by BIC there. A stop the data show explains its
+    impacts at once; one they do not show costs a dozen fits of a structure without it to
+    find so (each replay steps through the impacts with the stop's softness from a
+    grid)."""
+    look = None
+    for start in ({**warm, **base.values}, None):
+        other = fit_candidate(problem, p, refine=False, warm=start, max_nfev=LOOK_NFEV,
+                              second_start=False)
+        look = other if look is None or other.rss < look.rss else look
+        n_ref = _n_ref([*fits.values(), look])
+        if look.bic(n_ref) < base.bic(n_ref):
+            return fit_candidate(problem, p, refine=False, warm=dict(look.values))
     log.append(f"{'+'.join(look.names)}: the stop does not pay within {LOOK_NFEV} "
-               f"evaluations from {'+'.join(base.names) or 'the nominal model'}, not fitted on")
+               f"evaluations from {'+'.join(base.names) or 'the nominal model'} or from its "
+               "own start, not fitted on")
     return look
 
 
@@ -309,6 +348,33 @@ def _closest_extended(problem: Problem, closest: Fit, fits: dict, screened: dict
     ranked = sorted(richer, key=lambda p: screened[_key(p)].bic(screen_ref))[:SCREEN_TOP]
     return _look_until_one_follows(problem, ranked, dict(closest.values), fits, log,
                                    f"from the closest, {'+'.join(closest.names)}")
+
+
+def _stops_added(problem: Problem, looked: list[Fit], fits: dict, log: list[str]
+                 ) -> list[Fit]:
+    """Where no replay follows the data and a stop is seen in them: the stop-free structures
+    looked at, closest first, each with the stop (up to SCREEN_BLIND not yet tried), looked
+    at from its values up to the first that follows. While the stop is not
+    modelled every replay misses its impacts, and one with the stop follows only where its
+    other effects are right too (a drawer's spring and its stop): two effects needed
+    together, one of them the stop, which the screen cannot rank (its impacts are left
+    out of the inverse dynamics)."""
+    pairs: list[tuple[tuple[Effect, ...], Fit]] = []  # (structure, the look it extends)
+    for f in sorted((f for f in looked if all(e.name != "limit" for e in f.effects)),
+                    key=lambda f: f.rss):
+        for joint in problem.joints:
+            for stop in (e for e in problem.effects[joint].values() if e.name == "limit"):
+                p = (*f.effects, stop)
+                if _key(p) not in fits and _key(p) not in {_key(q) for q, _ in pairs} \
+                        and valid({x.variant for x in p if x.joint == joint}):
+                    pairs.append((p, f))
+    out: list[Fit] = []
+    for p, f in pairs[:SCREEN_BLIND]:
+        out += _look_until_one_follows(problem, [p], dict(f.values), fits, log,
+                                       "with the stop seen in the data")
+        if _follows(problem, out[-1]):
+            break
+    return out
 
 
 def _look_until_one_follows(problem: Problem, structures: list, warm: dict[str, float],
@@ -454,8 +520,12 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                 f = fit_candidate(problem, p, refine=False, warm=warm,
                                   **({"max_nfev": LOOK_NFEV, "second_start": False}
                                      if lost else {}))
-            if lost and _follows(problem, f):  # back on the data: fitted to the end
-                f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
+            if lost:
+                follows = _follows(problem, f)
+                log.append(f"{'+'.join(f.names)} looked at: "
+                           f"{'follows' if follows else 'off the data'}")
+                if follows:  # back on the data: fitted to the end
+                    f = fit_candidate(problem, p, refine=False, warm=dict(f.values))
             fits[_key(p)] = f
             new.append(f)
         if lost and new and not any(_follows(problem, f) for f in new):
@@ -478,6 +548,8 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                 # current model's miss, its best-screened extensions are looked at from its
                 # values (where none does, a person moves the joint more likely than not)
                 new += _closest_extended(problem, f, fits, screened, log)
+                if not any(_follows(problem, g) for g in new):
+                    new += _stops_added(problem, new, fits, log)
         n_ref = _n_ref(fits.values())
         if lost and not any(_follows(problem, f) for f in new):
             log.append("no replay follows the data (each predicts a run worse than the "
