@@ -69,6 +69,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
     moved += nested
+    labels, behind = merge_behind(seg.points, labels, seg.spacing, options)
+    moved += behind
     if not moved:  # the labels stand (already numbered by size): no views to redo
         return replace(seg, details={**seg.details, "returned_to_carcass": []})
     return replace(seg, labels=label_views(capture, seg.points, labels),
@@ -325,22 +327,58 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     if labels.max() < 2 or np.count_nonzero(carcass) < 4:
         return out, moved
     body = part_obb(cloud[carcass])
-    for k in range(2, int(labels.max()) + 1):
+    margin = options.enclosed_margin_voxels * voxel
+    local = (cloud - body.center) @ body.R
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.any(labels == k)]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    faces = open_faces(local, labels, body.extent, margin,
+                       [k for k in parts if inside[k] < options.enclosed_inside])
+    for k in parts:
+        if inside[k] < options.enclosed_inside:
+            continue
         index = np.nonzero(labels == k)[0]
-        if len(index) == 0:
-            continue
-        points = cloud[index]
-        inside = body.contains(points, tol=options.enclosed_margin_voxels * voxel)
-        if inside.mean() < options.enclosed_inside:
-            continue
         small = len(index) <= options.enclosed_share * carcass.sum()
-        local = (points - body.center) @ body.R
-        thick = bool(np.all(np.ptp(local, axis=0) >= options.enclosed_thick * 2 * body.extent))
-        if small or thick:
+        thick = bool(np.all(np.ptp(local[index], axis=0)
+                            >= options.enclosed_thick * 2 * body.extent))
+        # how far behind each open face the part's front lies (its points but the strays
+        # enclosed_inside leaves out)
+        depth = min((float(np.quantile(body.extent[a] - sign * local[index, a],
+                                       1.0 - options.enclosed_inside))
+                     for a, sign in faces), default=0.0)
+        deep = depth > options.behind_voxels * voxel
+        if small or thick or deep:
             out[index] = 1
-            moved.append({"part": k, "points": len(index), "enclosed": True,
-                          **({} if small else {"thick": True})})
+            stray = index[~body.contains(cloud[index], tol=margin)]
+            if len(stray):  # they would stretch the carcass's box: to the nearest other part
+                out[stray] = _nearest_label(cloud, out, stray, index)
+            kind = {} if small else {"thick": True} if thick else {"deep_m": round(depth, 3)}
+            moved.append({"part": k, "points": len(index), "enclosed": True, **kind})
     return numbered_by_size(out), moved
+
+
+def _nearest_label(cloud: np.ndarray, labels: np.ndarray, points: np.ndarray,
+                   exclude: np.ndarray) -> np.ndarray:
+    """The label of the nearest point to each of ``points`` (indices) not in ``exclude``."""
+    from scipy.spatial import cKDTree
+
+    others = np.setdiff1d(np.arange(len(cloud)), exclude)
+    return labels[others[cKDTree(cloud[others]).query(cloud[points])[1]]]
+
+
+def open_faces(local: np.ndarray, labels: np.ndarray, extent: np.ndarray, margin: float,
+               standing: list[int]) -> list[tuple[int, int]]:
+    """The sides of the carcass's box (axis, sign) that the parts ``standing`` out of it
+    stand out past: for each, the side most of its points beyond the box lie past. ``local``:
+    every point in the box's frame; ``extent``: its half-lengths."""
+    faces = set()
+    for k in standing:
+        points = local[labels == k]
+        beyond = [(np.count_nonzero(sign * points[:, a] > extent[a] + margin), a, sign)
+                  for a in range(3) for sign in (1, -1)]
+        count, a, sign = max(beyond)
+        if count:
+            faces.add((a, sign))
+    return sorted(faces)
 
 
 def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -375,6 +413,53 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 out[out == small] = large
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "merged_into": int(large)})
+                break
+    return numbered_by_size(out), moved
+
+
+def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                 options: CompartmentOptions = CompartmentOptions(),
+                 ) -> tuple[np.ndarray, list[dict]]:
+    """A part lying in the carcass's box right behind a part that stands out past one of the
+    box's faces, within that part's outline on the face, is a piece of it: a drawer pulled
+    out, cut by the masks into its front (out of the box) and its body behind (in it). On
+    PartNet-Mobility a cabinet's two drawers came out so, each body a label of its own given
+    a slide of its own. Within the outline: ``nested_share`` of the part's points, across
+    the face, inside the standing part's extent grown by ``nested_margin_voxels`` spacings;
+    right behind: its front (the points but the ``1 - enclosed_inside`` foremost) no more
+    than ``behind_voxels`` spacings behind the face (what lies deeper is the carcass's
+    inside, :func:`return_enclosed`); in the box: at least half its points. A closed part
+    beside an open one is not in its outline; the carcass's rim around an opening holds the
+    outline's edge, not its inside. Returns the labels, renumbered by size, and what merged."""
+    out = labels.copy()
+    moved: list[dict] = []
+    if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = part_obb(cloud[labels == 1])
+    local = (cloud - body.center) @ body.R
+    margin = options.enclosed_margin_voxels * voxel
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    standing = [k for k in parts if inside[k] < options.enclosed_inside]
+    grow = options.nested_margin_voxels * voxel
+    for k in parts:
+        if inside[k] < 0.5:
+            continue
+        points = local[labels == k]
+        for front in (f for f in standing if inside[f] < inside[k]):
+            faces = open_faces(local, labels, body.extent, margin, [front])
+            if not faces:
+                continue
+            a, sign = faces[0]
+            across = [b for b in range(3) if b != a]
+            theirs = local[labels == front][:, across]
+            within = np.all((points[:, across] >= theirs.min(0) - grow)
+                            & (points[:, across] <= theirs.max(0) + grow), axis=1)
+            depth = float(np.quantile(body.extent[a] - sign * points[:, a],
+                                      1.0 - options.enclosed_inside))
+            if within.mean() >= options.nested_share and depth <= options.behind_voxels * voxel:
+                out[labels == k] = front
+                moved.append({"part": k, "points": len(points), "behind": front})
                 break
     return numbered_by_size(out), moved
 
