@@ -346,12 +346,18 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                                        1.0 - options.enclosed_inside))
                      for a, sign in faces), default=0.0)
         deep = depth > options.behind_voxels * voxel
-        if small or thick or deep:
+        # from the open face to the back: no front seen shut reaches so far in
+        lo, hi = np.quantile(local[index], [1.0 - options.enclosed_inside,
+                                            options.enclosed_inside], axis=0)
+        through = bool(faces) and all(hi[a] - lo[a] >= options.enclosed_thick * 2
+                                      * body.extent[a] for a, _ in faces)
+        if small or thick or deep or through:
             out[index] = 1
             stray = index[~body.contains(cloud[index], tol=margin)]
             if len(stray):  # they would stretch the carcass's box: to the nearest other part
                 out[stray] = _nearest_label(cloud, out, stray, index)
-            kind = {} if small else {"thick": True} if thick else {"deep_m": round(depth, 3)}
+            kind = ({} if small else {"thick": True} if thick
+                    else {"deep_m": round(depth, 3)} if deep else {"through": True})
             moved.append({"part": k, "points": len(index), "enclosed": True, **kind})
     return numbered_by_size(out), moved
 

@@ -466,8 +466,9 @@ def _open_box():
 def test_a_piece_deep_behind_the_open_face_is_the_carcass_at_any_size():
     """A door swung open past the carcass's front; a piece of its inside near the back, in
     a label of its own (5 % of the carcass, thin across the box), goes back, and its few
-    strays in front of the box go to the part nearest them; a drawer seen shut, its front
-    flush with the opening (as large and as thin), stays."""
+    strays in front of the box go to the part nearest them; so does a shelf reaching from
+    the opening to the back; a drawer seen shut, its front flush with the opening (as large
+    and as thin as the piece), stays."""
     from pipeline.compartments import return_enclosed
 
     x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
@@ -476,16 +477,19 @@ def test_a_piece_deep_behind_the_open_face_is_the_carcass_at_any_size():
     inner = _grid(0.4, 0.3, (-0.28, -0.2, -0.1), y, z)  # 2 cm in front of the back wall
     strays = np.array([[0.6, -0.41, 0.0], [0.62, -0.41, 0.02], [0.64, -0.41, 0.04]])
     shut = _grid(0.34, 0.3, (0.29, 0.02, -0.36), y, z)  # flush with the opening
-    cloud = np.concatenate([carcass, door, inner, strays, shut])
-    n = np.cumsum([0, len(carcass), len(door), len(inner), len(strays), len(shut)])
+    shelf = _grid(0.56, 0.6, (-0.28, -0.3, 0.2), x, y)  # from the opening to the back
+    cloud = np.concatenate([carcass, door, inner, strays, shut, shelf])
+    n = np.cumsum([0, len(carcass), len(door), len(inner), len(strays), len(shut), len(shelf)])
     labels = np.ones(len(cloud), int)
-    labels[n[1]:n[2]], labels[n[2]:n[4]], labels[n[4]:] = 2, 3, 4
+    labels[n[1]:n[2]], labels[n[2]:n[4]], labels[n[4]:n[5]], labels[n[5]:] = 2, 3, 4, 5
     assert len(inner) > 0.03 * len(carcass) and len(shut) > 0.03 * len(carcass)
     out, moved = return_enclosed(cloud, labels, voxel=0.02)
     assert (out[n[2]:n[3]] == 1).all()  # the inside, deep behind the front
     assert (out[n[3]:n[4]] == out[n[1]]).all()  # its strays: the door's
-    assert len(np.unique(out[n[4]:])) == 1 and out[n[4]] not in (1, out[n[1]])
-    assert [m["part"] for m in moved] == [3] and moved[0]["deep_m"] > 0.5
+    assert len(np.unique(out[n[4]:n[5]])) == 1 and out[n[4]] not in (1, out[n[1]])
+    assert (out[n[5]:] == 1).all()  # the shelf, reaching through the box
+    assert [m["part"] for m in moved] == [3, 5] and moved[0]["deep_m"] > 0.5
+    assert moved[1]["through"]
     # with no part standing out there is no open face: nothing is deep
     closed = np.concatenate([carcass, inner, shut])
     kept = np.concatenate([np.ones(len(carcass), int), np.full(len(inner), 2),
