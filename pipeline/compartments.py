@@ -69,7 +69,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
     moved += nested
-    labels, behind = merge_behind(seg.points, labels, seg.spacing, options)
+    labels, behind = merge_behind(seg.points, labels, seg.spacing, options, normals)
     moved += behind
     if not moved:  # the labels stand (already numbered by size): no views to redo
         return replace(seg, details={**seg.details, "returned_to_carcass": []})
@@ -425,7 +425,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
 
 def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                  options: CompartmentOptions = CompartmentOptions(),
-                 ) -> tuple[np.ndarray, list[dict]]:
+                 normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
     """A part lying in the carcass's box right behind a part that stands out past one of the
     box's faces, within that part's outline on the face, is a piece of it: a drawer pulled
     out, cut by the masks into its front (out of the box) and its body behind (in it). On
@@ -434,9 +434,12 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     the face, inside the standing part's extent grown by ``nested_margin_voxels`` spacings;
     right behind: its front (the points but the ``1 - enclosed_inside`` foremost) no more
     than ``behind_voxels`` spacings behind the face (what lies deeper is the carcass's
-    inside, :func:`return_enclosed`); in the box: at least half its points. A closed part
-    beside an open one is not in its outline; the carcass's rim around an opening holds the
-    outline's edge, not its inside. Returns the labels, renumbered by size, and what merged."""
+    inside, :func:`return_enclosed`); in the box: at least half its points. A front is no
+    swung panel (:func:`turned_panel`, with the measured ``normals`` where given): a drawer
+    barely open below a door swung 40 degrees lay within the door's outline (45332). A
+    closed part beside an open one is not in its outline; the carcass's rim around an
+    opening holds the outline's edge, not its inside. Returns the labels, renumbered by
+    size, and what merged."""
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
@@ -446,7 +449,9 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     margin = options.enclosed_margin_voxels * voxel
     parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
     inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
-    standing = [k for k in parts if inside[k] < options.enclosed_inside]
+    standing = [k for k in parts if inside[k] < options.enclosed_inside
+                and turned_panel(cloud[labels == k], body, voxel, options,
+                                 None if normals is None else normals[labels == k]) is None]
     grow = options.nested_margin_voxels * voxel
     for k in parts:
         if inside[k] < 0.5:
