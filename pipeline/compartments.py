@@ -30,7 +30,8 @@ class CompartmentOptions:
     panel_fraction: float = 0.3  # the carcass's axes (and holds this share of its points,
     panel_voxels: float = 1.5  # within this many spacings) is a door swung open; its points
     behind_voxels: float = 3.0  # farther than this from that plane, inside the carcass's box,
-    # are the compartment seen through the opening and go back to the carcass
+    # are the compartment seen through the opening and go back to the carcass (so does a
+    # part inside the box whose front lies this far behind the faces open parts stand out past)
     panel_normal_deg: float = 20.0  # a plane counts as a panel by its points whose measured
     # normals lie within this of its own (RANSAC also fits planes across a box's edges)
     panel_link_voxels: float = 2.5  # other labels' points on an open panel's plane, joined
@@ -318,9 +319,14 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     or drawer seen closed shows its front, thin across the box, and seen open it stands out
     of the box, while the mask network on real shapes cuts carcasses in two (one side of a
     cabinet, 20 % of its points, spanning its depth and height) and gives pieces wholly
-    inside them labels of their own. Other parts of more than ``enclosed_share`` of the carcass's points
-    (a whole side wall, a shelf) are left alone. Returns the labels, renumbered by size, and
-    what was moved."""
+    inside them labels of their own. So is one whose front lies more than ``behind_voxels``
+    spacings behind every face parts stand out past (:func:`open_faces`; the inside of a
+    fridge seen past its open door, where a drawer or door seen shut is flush with the
+    opening), or that reaches ``enclosed_thick`` of the box's depth behind each of them (no
+    front seen shut reaches in so far). A returned part's points outside the box go to the
+    part nearest them (given to the carcass, they stretch its box). Other parts of more
+    than ``enclosed_share`` of the carcass's points (a whole side wall) are left alone.
+    Returns the labels, renumbered by size, and what was moved."""
     out = labels.copy()
     moved = []
     carcass = labels == 1
