@@ -1,7 +1,8 @@
 """The compartment seen past a swung-open door, and pieces of the carcass cut out as parts of
 their own, go back to the carcass, an open panel's points in other labels go to it, and what
-of the carcass's label stands out past its walls goes to the part it hangs on: repairs of a
-part segmentation by what a carcass is, their own stage between segmentation and fusion.
+of the carcass's label stands out past its walls goes to the part it hangs on, and a
+drawer's body cut from its pulled-out front joins it again: repairs of a part segmentation
+by what a carcass is, their own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
 compartment the door reveals, which the carcass's own masks leave out, so no vote gives those
