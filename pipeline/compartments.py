@@ -437,8 +437,10 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     box's faces, within that part's outline on the face, is a piece of it: a drawer pulled
     out, cut by the masks into its front (out of the box) and its body behind (in it). On
     PartNet-Mobility a cabinet's two drawers came out so, each body a label of its own given
-    a slide of its own. Within the outline: ``nested_share`` of the part's points, across
-    the face, inside the standing part's extent grown by ``nested_margin_voxels`` spacings;
+    a slide of its own. Within the outline: ``nested_share`` of the part's points, seen
+    across the face, within ``nested_margin_voxels`` spacings of the standing part's points
+    (not of their extent: on the table 32052 a label of 133 strays spread across the whole
+    box took a drawer that way);
     right behind: its front (the points but the ``1 - enclosed_inside`` foremost) no more
     than ``behind_voxels`` spacings behind the face (what lies deeper is the carcass's
     inside, :func:`return_enclosed`); in the box: at least half its points. A front is no
@@ -447,6 +449,8 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     closed part beside an open one is not in its outline; the carcass's rim around an
     opening holds the outline's edge, not its inside. Returns the labels, renumbered by
     size, and what merged."""
+    from scipy.spatial import cKDTree
+
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
@@ -470,9 +474,11 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 continue
             a, sign = faces[0]
             across = [b for b in range(3) if b != a]
-            theirs = local[labels == front][:, across]
-            within = np.all((points[:, across] >= theirs.min(0) - grow)
-                            & (points[:, across] <= theirs.max(0) + grow), axis=1)
+            # in its shadow on the face: near its points there, not only in their extent
+            # (a label of a few strays across the whole box has an extent too)
+            shadow = cKDTree(local[labels == front][:, across])
+            within = np.isfinite(shadow.query(points[:, across],
+                                              distance_upper_bound=grow)[0])
             depth = float(np.quantile(body.extent[a] - sign * points[:, a],
                                       1.0 - options.enclosed_inside))
             if within.mean() >= options.nested_share and depth <= options.behind_voxels * voxel:
