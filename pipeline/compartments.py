@@ -1,7 +1,8 @@
 """The compartment seen past a swung-open door, and pieces of the carcass cut out as parts of
 their own, go back to the carcass, an open panel's points in other labels go to it, and what
-of the carcass's label stands out past its walls goes to the part it hangs on: repairs of a
-part segmentation by what a carcass is, their own stage between segmentation and fusion.
+of the carcass's label stands out past its walls goes to the part it hangs on, and a
+drawer's body cut from its pulled-out front joins it again: repairs of a part segmentation
+by what a carcass is, their own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
 compartment the door reveals, which the carcass's own masks leave out, so no vote gives those
@@ -30,7 +31,8 @@ class CompartmentOptions:
     panel_fraction: float = 0.3  # the carcass's axes (and holds this share of its points,
     panel_voxels: float = 1.5  # within this many spacings) is a door swung open; its points
     behind_voxels: float = 3.0  # farther than this from that plane, inside the carcass's box,
-    # are the compartment seen through the opening and go back to the carcass
+    # are the compartment seen through the opening and go back to the carcass (so does a
+    # part inside the box whose front lies this far behind the faces open parts stand out past)
     panel_normal_deg: float = 20.0  # a plane counts as a panel by its points whose measured
     # normals lie within this of its own (RANSAC also fits planes across a box's edges)
     panel_link_voxels: float = 2.5  # other labels' points on an open panel's plane, joined
@@ -69,6 +71,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
     moved += nested
+    labels, behind = merge_behind(seg.points, labels, seg.spacing, options, normals)
+    moved += behind
     if not moved:  # the labels stand (already numbered by size): no views to redo
         return replace(seg, details={**seg.details, "returned_to_carcass": []})
     return replace(seg, labels=label_views(capture, seg.points, labels),
@@ -316,31 +320,78 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     or drawer seen closed shows its front, thin across the box, and seen open it stands out
     of the box, while the mask network on real shapes cuts carcasses in two (one side of a
     cabinet, 20 % of its points, spanning its depth and height) and gives pieces wholly
-    inside them labels of their own. Other parts of more than ``enclosed_share`` of the carcass's points
-    (a whole side wall, a shelf) are left alone. Returns the labels, renumbered by size, and
-    what was moved."""
+    inside them labels of their own. So is one whose front lies more than ``behind_voxels``
+    spacings behind every face parts stand out past (:func:`open_faces`; the inside of a
+    fridge seen past its open door, where a drawer or door seen shut is flush with the
+    opening), or that reaches ``enclosed_thick`` of the box's depth behind each of them (no
+    front seen shut reaches in so far). A returned part's points outside the box go to the
+    part nearest them (given to the carcass, they stretch its box). Other parts of more
+    than ``enclosed_share`` of the carcass's points (a whole side wall) are left alone.
+    Returns the labels, renumbered by size, and what was moved."""
     out = labels.copy()
     moved = []
     carcass = labels == 1
     if labels.max() < 2 or np.count_nonzero(carcass) < 4:
         return out, moved
     body = part_obb(cloud[carcass])
-    for k in range(2, int(labels.max()) + 1):
+    margin = options.enclosed_margin_voxels * voxel
+    local = (cloud - body.center) @ body.R
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.any(labels == k)]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    faces = open_faces(local, labels, body.extent, margin,
+                       [k for k in parts if inside[k] < options.enclosed_inside])
+    for k in parts:
+        if inside[k] < options.enclosed_inside:
+            continue
         index = np.nonzero(labels == k)[0]
-        if len(index) == 0:
-            continue
-        points = cloud[index]
-        inside = body.contains(points, tol=options.enclosed_margin_voxels * voxel)
-        if inside.mean() < options.enclosed_inside:
-            continue
         small = len(index) <= options.enclosed_share * carcass.sum()
-        local = (points - body.center) @ body.R
-        thick = bool(np.all(np.ptp(local, axis=0) >= options.enclosed_thick * 2 * body.extent))
-        if small or thick:
+        thick = bool(np.all(np.ptp(local[index], axis=0)
+                            >= options.enclosed_thick * 2 * body.extent))
+        # how far behind each open face the part's front lies (its points but the strays
+        # enclosed_inside leaves out)
+        depth = min((float(np.quantile(body.extent[a] - sign * local[index, a],
+                                       1.0 - options.enclosed_inside))
+                     for a, sign in faces), default=0.0)
+        deep = depth > options.behind_voxels * voxel
+        # from the open face to the back: no front seen shut reaches so far in
+        lo, hi = np.quantile(local[index], [1.0 - options.enclosed_inside,
+                                            options.enclosed_inside], axis=0)
+        through = bool(faces) and all(hi[a] - lo[a] >= options.enclosed_thick * 2
+                                      * body.extent[a] for a, _ in faces)
+        if small or thick or deep or through:
             out[index] = 1
-            moved.append({"part": k, "points": len(index), "enclosed": True,
-                          **({} if small else {"thick": True})})
+            stray = index[~body.contains(cloud[index], tol=margin)]
+            if len(stray):  # they would stretch the carcass's box: to the nearest other part
+                out[stray] = _nearest_label(cloud, out, stray, index)
+            kind = ({} if small else {"thick": True} if thick
+                    else {"deep_m": round(depth, 3)} if deep else {"through": True})
+            moved.append({"part": k, "points": len(index), "enclosed": True, **kind})
     return numbered_by_size(out), moved
+
+
+def _nearest_label(cloud: np.ndarray, labels: np.ndarray, points: np.ndarray,
+                   exclude: np.ndarray) -> np.ndarray:
+    """The label of the nearest point to each of ``points`` (indices) not in ``exclude``."""
+    from scipy.spatial import cKDTree
+
+    others = np.setdiff1d(np.arange(len(cloud)), exclude)
+    return labels[others[cKDTree(cloud[others]).query(cloud[points])[1]]]
+
+
+def open_faces(local: np.ndarray, labels: np.ndarray, extent: np.ndarray, margin: float,
+               standing: list[int]) -> list[tuple[int, int]]:
+    """The sides of the carcass's box (axis, sign) that the parts ``standing`` out of it
+    stand out past: for each, the side most of its points beyond the box lie past. ``local``:
+    every point in the box's frame; ``extent``: its half-lengths."""
+    faces = set()
+    for k in standing:
+        points = local[labels == k]
+        beyond = [(np.count_nonzero(sign * points[:, a] > extent[a] + margin), a, sign)
+                  for a in range(3) for sign in (1, -1)]
+        count, a, sign = max(beyond)
+        if count:
+            faces.add((a, sign))
+    return sorted(faces)
 
 
 def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -375,6 +426,64 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 out[out == small] = large
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "merged_into": int(large)})
+                break
+    return numbered_by_size(out), moved
+
+
+def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                 options: CompartmentOptions = CompartmentOptions(),
+                 normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A part lying in the carcass's box right behind a part that stands out past one of the
+    box's faces, within that part's outline on the face, is a piece of it: a drawer pulled
+    out, cut by the masks into its front (out of the box) and its body behind (in it). On
+    PartNet-Mobility a cabinet's two drawers came out so, each body a label of its own given
+    a slide of its own. Within the outline: ``nested_share`` of the part's points, seen
+    across the face, within ``nested_margin_voxels`` spacings of the standing part's points
+    (not of their extent: on the table 32052 a label of 133 strays spread across the whole
+    box took a drawer that way);
+    right behind: its front (the points but the ``1 - enclosed_inside`` foremost) no more
+    than ``behind_voxels`` spacings behind the face (what lies deeper is the carcass's
+    inside, :func:`return_enclosed`); in the box: at least half its points. A front is no
+    swung panel (:func:`turned_panel`, with the measured ``normals`` where given): a drawer
+    barely open below a door swung 40 degrees lay within the door's outline (45332). A
+    closed part beside an open one is not in its outline; the carcass's rim around an
+    opening holds the outline's edge, not its inside. Returns the labels, renumbered by
+    size, and what merged."""
+    from scipy.spatial import cKDTree
+
+    out = labels.copy()
+    moved: list[dict] = []
+    if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = part_obb(cloud[labels == 1])
+    local = (cloud - body.center) @ body.R
+    margin = options.enclosed_margin_voxels * voxel
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    standing = [k for k in parts if inside[k] < options.enclosed_inside
+                and turned_panel(cloud[labels == k], body, voxel, options,
+                                 None if normals is None else normals[labels == k]) is None]
+    grow = options.nested_margin_voxels * voxel
+    for k in parts:
+        if inside[k] < 0.5:
+            continue
+        points = local[labels == k]
+        for front in (f for f in standing if inside[f] < inside[k]):
+            faces = open_faces(local, labels, body.extent, margin, [front])
+            if not faces:
+                continue
+            a, sign = faces[0]
+            across = [b for b in range(3) if b != a]
+            # in its shadow on the face: near its points there, not only in their extent
+            # (a label of a few strays across the whole box has an extent too)
+            shadow = cKDTree(local[labels == front][:, across])
+            within = np.isfinite(shadow.query(points[:, across],
+                                              distance_upper_bound=grow)[0])
+            depth = float(np.quantile(body.extent[a] - sign * points[:, a],
+                                      1.0 - options.enclosed_inside))
+            if within.mean() >= options.nested_share and depth <= options.behind_voxels * voxel:
+                out[labels == k] = front
+                moved.append({"part": k, "points": len(points), "behind": front})
                 break
     return numbered_by_size(out), moved
 

@@ -453,6 +453,76 @@ def test_a_drawer_cut_into_its_front_and_its_side_is_one_part_again():
     assert merge_nested(shut, labels, 0.02)[1] == []
 
 
+def _open_box():
+    """A carcass's shell open at the front (x = 0.3): back, sides, floor and top."""
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    return np.concatenate([_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z),
+                           _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
+                           _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+                           _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
+                           _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)])
+
+
+def test_a_piece_deep_behind_the_open_face_is_the_carcass_at_any_size():
+    """A door swung open past the carcass's front; a piece of its inside near the back, in
+    a label of its own (5 % of the carcass, thin across the box), goes back, and its few
+    strays in front of the box go to the part nearest them; so does a shelf reaching from
+    the opening to the back; a drawer seen shut, its front flush with the opening (as large
+    and as thin as the piece), stays."""
+    from pipeline.compartments import return_enclosed
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    door = _grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z)  # hinged at the front, swung 90 deg
+    inner = _grid(0.4, 0.3, (-0.28, -0.2, -0.1), y, z)  # 2 cm in front of the back wall
+    strays = np.array([[0.6, -0.41, 0.0], [0.62, -0.41, 0.02], [0.64, -0.41, 0.04]])
+    shut = _grid(0.34, 0.3, (0.29, 0.02, -0.36), y, z)  # flush with the opening
+    shelf = _grid(0.56, 0.6, (-0.28, -0.3, 0.2), x, y)  # from the opening to the back
+    cloud = np.concatenate([carcass, door, inner, strays, shut, shelf])
+    n = np.cumsum([0, len(carcass), len(door), len(inner), len(strays), len(shut), len(shelf)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[4]], labels[n[4]:n[5]], labels[n[5]:] = 2, 3, 4, 5
+    assert len(inner) > 0.03 * len(carcass) and len(shut) > 0.03 * len(carcass)
+    out, moved = return_enclosed(cloud, labels, voxel=0.02)
+    assert (out[n[2]:n[3]] == 1).all()  # the inside, deep behind the front
+    assert (out[n[3]:n[4]] == out[n[1]]).all()  # its strays: the door's
+    assert len(np.unique(out[n[4]:n[5]])) == 1 and out[n[4]] not in (1, out[n[1]])
+    assert (out[n[5]:] == 1).all()  # the shelf, reaching through the box
+    assert [m["part"] for m in moved] == [3, 5] and moved[0]["deep_m"] > 0.5
+    assert moved[1]["through"]
+    # with no part standing out there is no open face: nothing is deep
+    closed = np.concatenate([carcass, inner, shut])
+    kept = np.concatenate([np.ones(len(carcass), int), np.full(len(inner), 2),
+                           np.full(len(shut), 3)])
+    assert return_enclosed(closed, kept, voxel=0.02)[1] == []
+
+
+def test_a_drawers_body_behind_its_pulled_out_front_is_one_part_again():
+    """A drawer pulled 15 cm out of a carcass, its body (bottom and side, in the box behind
+    the front's outline) in a label of its own: merged into the front. A drawer seen shut
+    beside it, out of that outline, keeps its label."""
+    from pipeline.compartments import merge_behind
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    front = _grid(0.3, 0.2, (0.45, 0.05, -0.3), y, z)
+    body = np.concatenate([_grid(0.45, 0.3, (-0.1, 0.05, -0.3), x, y),
+                           _grid(0.45, 0.18, (-0.1, 0.05, -0.28), x, z)])
+    shut = _grid(0.3, 0.2, (0.29, -0.35, -0.3), y, z)
+    cloud = np.concatenate([carcass, front, body, shut])
+    n = np.cumsum([0, len(carcass), len(front), len(body), len(shut)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]], labels[n[3]:] = 3, 2, 4
+    out, moved = merge_behind(cloud, labels, 0.02)
+    assert (out[n[1]:n[3]] == out[n[1]]).all() and len(np.unique(out)) == 3
+    assert (out[n[3]:] != out[n[1]]).all() and (out[:n[1]] == 1).all()
+    assert moved == [{"part": 2, "points": len(body), "behind": 3}]
+    # pushed shut, the front stands out no more: nothing to merge into
+    pushed = cloud.copy()
+    pushed[n[1]:n[3], 0] -= 0.16
+    assert merge_behind(pushed, labels, 0.02)[1] == []
+
+
 def test_a_turned_panel_is_found_the_same_every_time():
     """The plane of a noisy door swung 40 degrees is found, and found identically on a
     second call (open3d's segment_plane, seeded, returned other planes run to run)."""
