@@ -46,7 +46,6 @@ GUARD = 0.15
 MIN_PIECE = 0.25  # s: a piece shorter than this is dropped with the push
 INERTIA_RANGE = (0.25, 4.0)  # the inertia's scale the push search allows, x nominal
 ACTING = 0.2  # the measured effort acts where above this share of its 95th percentile
-MOVING_SIGMAS = 5.0  # the joint moves where its speed is this many noise deviations
 
 
 @dataclass(frozen=True)
@@ -114,18 +113,9 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     found = []
     edge = features.smoothing_window(period) // 2 + 1
     window = features.smoothing_window(period)
-    gain = features.derivative_gain(period)  # white position noise -> the speed's noise
     for k, j in enumerate(joints):
         d = dynamics[j]
-        # where the joint moves: its speed stands out of the smoothed derivative's noise.
-        # The energy scale and the regression are taken there: at rest a joint shows no
-        # speed, and its friction, held static, could be anything below the breakaway
-        # (a drawer that stops in a fifth of a second and rests for three would give a
-        # scale of nothing and a residual spread of nothing, and its whole motion would
-        # pass for a push)
-        moving = np.abs(dq[:, k]) > MOVING_SIGMAS * features.noise_level(qs[:, k]) * gain
-        v95 = float(np.percentile(np.abs(dq[moving, k] if moving.sum() >= MIN_SAMPLES
-                                         else dq[:, k]), 95))
+        v95 = float(np.percentile(np.abs(dq[:, k]), 95))
         if v95 <= 0:
             continue
         sgn = np.tanh(dq[:, k] / max(0.05 * v95, 1e-12))
@@ -150,9 +140,8 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         use[edge:-edge] = True
         if use.sum() < MIN_SAMPLES:
             continue
-        fit = use & moving if (use & moving).sum() >= MIN_SAMPLES else use
-        scale = np.maximum(np.linalg.norm(x[fit], axis=0), 1e-12)
-        ys = max(float(np.std(y[fit])), 1e-12)
+        scale = np.maximum(np.linalg.norm(x[use], axis=0), 1e-12)
+        ys = max(float(np.std(y[use])), 1e-12)
         # damping and friction only take energy out: a push cannot hide in them
         lower = np.array([0.0, 0.0] + [-np.inf] * (x.shape[1] - 2))
         upper = np.full(x.shape[1], np.inf)
@@ -164,7 +153,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
             nominal = float(np.median(mass[:, k])) + d.armature
             lower[3], upper[3] = ((s - 1.0) * nominal * scale[3] / ys for s in INERTIA_RANGE)
             lower[4], upper[4] = (s * MAX_DELAY * scale[4] / ys for s in (-1.0, 1.0))
-        a_use, y_use = x[fit] / scale, y[fit] / ys
+        a_use, y_use = x[use] / scale, y[use] / ys
 
         def resid(b, a=a_use, yy=y_use):
             r = a @ b - yy
@@ -200,8 +189,8 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
             rr = resid(coef)
             f_scale = max(2.0 * 1.4826 * float(np.median(np.abs(rr))), 1e-9)
         r = y - (x / scale) @ coef * ys
-        r -= np.median(r[fit])
-        core = r[fit]
+        r -= np.median(r[use])
+        core = r[use]
         sigma = 1.4826 * float(np.median(np.abs(core - np.median(core))))
         if sigma <= 0:
             continue
