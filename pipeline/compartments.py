@@ -435,17 +435,15 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                  normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
     """A part lying in the carcass's box right behind a part that stands out past one of the
     box's faces, within that part's outline on the face, is a piece of it: a drawer pulled
-    out, cut by the masks into its front (out of the box) and its body behind (in it). On
-    PartNet-Mobility a cabinet's two drawers came out so, each body a label of its own given
-    a slide of its own. Within the outline: ``nested_share`` of the part's points, seen
+    out, cut by the masks into its front (out of the box) and its body behind (in it), each
+    body then a label of its own given a slide of its own. Within the outline: ``nested_share`` of the part's points, seen
     across the face, within ``nested_margin_voxels`` spacings of the standing part's points
-    (not of their extent: on the table 32052 a label of 133 strays spread across the whole
-    box took a drawer that way);
-    right behind: its front (the points but the ``1 - enclosed_inside`` foremost) no more
+    (not of their extent: a label of a few strays spread across the whole box has an
+    extent that takes in any drawer); right behind: its front (the points but the ``1 - enclosed_inside`` foremost) no more
     than ``behind_voxels`` spacings behind the face (what lies deeper is the carcass's
     inside, :func:`return_enclosed`); in the box: at least half its points. A front is no
     swung panel (:func:`turned_panel`, with the measured ``normals`` where given): a drawer
-    barely open below a door swung 40 degrees lay within the door's outline (45332). A
+    barely open below a door swung 40 degrees lies within the door's outline. A
     closed part beside an open one is not in its outline; the carcass's rim around an
     opening holds the outline's edge, not its inside. Returns the labels, renumbered by
     size, and what merged."""
