@@ -119,23 +119,6 @@ class Raycaster:
         return rgb, depth, mask
 
 
-def _albedo(part) -> tuple:
-    """A part's one colour for the renderer: where its visual has several (a PartNet part's
-    OBJ materials, a robot link's visuals), their mean weighted by area (the colour the URDF
-    reader gave such a part before it kept them per face); else the part's colour."""
-    mesh = part.visual
-    if mesh is None or not mesh.colors:
-        return part.color
-    tri = mesh.vertices[mesh.faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    runs = mesh.face_color_runs()
-    weights = np.array([area[start:end].sum() for start, end, _ in runs])
-    if weights.sum() <= 0:
-        return part.color
-    mean = weights @ np.array([rgba for _, _, rgba in runs]) / weights.sum()
-    return tuple(float(c) for c in np.clip(mean, 0.0, 1.0))
-
-
 def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
                   base: np.ndarray | None = None, views: int = DEFAULT_VIEWS,
                   width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
@@ -163,7 +146,7 @@ def render_object(obj: ArticulatedObject, *, q: dict[str, float] | None = None,
     names = [p.name for p in obj.parts if p.name in meshes]
     if not names:
         raise InputError(f"object {obj.name!r} has no visual meshes to render")
-    palette = {p.name: _albedo(p) for p in obj.parts} | (colors or {})
+    palette = {p.name: p.color for p in obj.parts} | (colors or {})
     points = np.concatenate([meshes[n].vertices for n in names])
     lo, hi = points.min(0), points.max(0)
     center = 0.5 * (lo + hi)

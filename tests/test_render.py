@@ -187,19 +187,3 @@ def test_render_command_takes_a_camera_path_and_a_sensor(tmp_path):
     with pytest.raises(FormatError, match="noise_a"):
         _run_render([model, "--out", str(tmp_path / "c2"), "--capture", str(bad)])
     assert not (tmp_path / "c2").exists()
-
-
-def test_a_part_of_several_colours_renders_in_their_mean_by_area():
-    """A part whose visual keeps several colours per face (a mesh file's materials) is one
-    albedo: their mean weighted by area, the colour such a part had before it kept them."""
-    from pipeline.render import _albedo
-    from real2code_export.model import Mesh, Part
-
-    square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
-    faces = np.array([[0, 1, 2], [0, 2, 3]])
-    red, blue = (1.0, 0.0, 0.0, 1.0), (0.0, 0.0, 1.0, 1.0)
-    visual = Mesh.concatenate([Mesh(square * [2, 1, 1], faces), Mesh(square + [2, 0, 0], faces)],
-                              [red, blue])  # red: area 2, blue: area 1
-    part = Part("lamp", visual=visual, color=red)
-    np.testing.assert_allclose(_albedo(part), [2 / 3, 0.0, 1 / 3, 1.0], atol=1e-12)
-    assert _albedo(Part("plain", visual=Mesh(square, faces), color=blue)) == blue
