@@ -8,13 +8,11 @@ the nominal rigid-body dynamics) is fitted with every linear candidate term at o
 effort is measured, else gravity's load scaled against the inertia, where gravity loads the
 joint (a first moment off: a free swing's frequency); a constant force as the residual's
 median) under a redescending
-(Cauchy) loss over the samples where the joint moves (at rest its static friction is
-anything below the breakaway), so the effects the calibration may still name are absorbed and a short
+(Cauchy) loss, so the effects the calibration may still name are absorbed and a short
 foreign force is left as an outlier. A stretch of outliers (one that reaches the
 smoothing's edge runs on to the record's end: a hand that lets go at the start of the
 record acts from its first sample) counts as a push when
-the work it does on the joint is large against the joint's kinetic energy (at the speed
-it moves with), put in or taken
+the work it does on the joint is large against the joint's kinetic energy, put in or taken
 out (a hand that brakes a moving lid): an unmodelled effect of the state (inertia, a spring)
 only moves energy back and forth, friction's share is in the regression, and a stretch at a
 stop (its impact takes energy out, its rebound gives it back) is not counted. The run is
