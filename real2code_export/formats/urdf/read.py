@@ -36,7 +36,6 @@ from ...inertia import DEFAULT_DENSITY, inertial_from_meshes
 from ...model import (
     AXIS_UNIT_TOLERANCE,
     DEFAULT_COLOR,
-    RGBA,
     UNBOUNDED_LIMIT,
     ArticulatedObject,
     DriveLimits,
@@ -281,6 +280,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
     visuals: list[Mesh] = []
     colored = []
     runs: list[list] = []  # each visual's colours over its faces (None: it states none)
+    stated = []  # each visual's <material> colour (None: it states none)
     textures = []
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
@@ -290,6 +290,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         visuals.append(mesh)
         color = material_color(ctx, v, materials, owner)
         color = None if color is None else tuple(float(c) for c in color)
+        stated.append(color)
         if color is None and file is not None and ctx.files[file].texture is None:
             runs.append(file_colors(ctx, file, len(mesh.faces)))  # as viewers show the file
         else:  # (a textured file: its image and its mean colour, in the part's colour)
@@ -304,11 +305,16 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
                            hull_collision)
     inertial = _link_inertial(ctx, el, name, visuals)
     # colours that differ, each face's stated (by its visual's <material>, or its untextured
-    # mesh file's MTL or Collada materials): kept per face, the part's the first run's
+    # mesh file's MTL or Collada materials): kept per face
     colours = {c for piece in runs for _, c in piece}
     per_face = None not in colours and len(colours) > 1
-    visual = (_per_colour(visuals, runs) if per_face else Mesh.concatenate(visuals)) \
-        if visuals else None
+    if per_face and len(visuals) == 1 and len(runs[0]) > 1:  # one file of several colours:
+        # cut at its runs, as the URDF writer's file per colour reads back (join_colored
+        # keeps one visual whole, as USD's and glTF's subsets of one mesh hold it)
+        one = visuals[0]
+        cut = Mesh(one.vertices, one.faces, one.uv, colors=runs[0]).color_pieces()
+        visuals, runs = [m for m, _ in cut], [[(len(m.faces), c)] for m, c in cut]
+    visual = Mesh.join_colored(visuals, runs) if visuals else None
     texture = textures[0] if textures else None
     if texture is not None and (len(textures) > 1 or visual.uv is None):
         ctx.warn(owner, f"{len(textures)} textured visuals among {len(visuals)}: a part holds "
@@ -317,21 +323,16 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         visual = Mesh(visual.vertices, visual.faces, colors=visual.colors)
     if len({c for c, _ in colored}) > 1 and not per_face:
         ctx.note("colours", f"{name!r} ({len({c for c, _ in colored})})")
-    color = visual.colors[0][1] if visual is not None and visual.colors \
-        else average_color(colored)
+    # The part's one colour (what a renderer of one colour per part draws) as before mesh
+    # files' colours were kept per face: the first run's where the <material>s alone differ,
+    # else the area-weighted mean of the visuals' colours (a file's: its faces' mean).
+    by_material = None not in stated and len(set(stated)) > 1
+    color = visual.colors[0][1] if by_material and visual.colors else average_color(colored)
+    if el.get(ns("color")) is not None and visual is not None and visual.colors:
+        color = tuple(float(c) for c in np.clip(  # ours, beside the runs (the URDF writer)
+            ctx.floats(el, ns("color"), owner, count=4), 0.0, 1.0))
     return Part(name=name, visual=visual, collision=collision, inertial=inertial,
                 color=color or DEFAULT_COLOR, texture=texture)
-
-
-def _per_colour(visuals: list[Mesh], runs: list[list[tuple[int, RGBA]]]) -> Mesh:
-    """Visuals of several colours as one mesh whose faces are grouped by colour, a visual of
-    several (a mesh file's materials) cut at its runs first: the mesh the URDF writer's file
-    per colour reads back as (:meth:`Mesh.concatenate`)."""
-    flat: list[tuple[Mesh, RGBA]] = []
-    for mesh, piece in zip(visuals, runs, strict=True):
-        flat += [(mesh, piece[0][1])] if len(piece) == 1 else \
-            Mesh(mesh.vertices, mesh.faces, mesh.uv, colors=piece).color_pieces()
-    return Mesh.concatenate([m for m, _ in flat], [c for _, c in flat])
 
 
 def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
