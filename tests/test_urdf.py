@@ -579,7 +579,7 @@ def test_a_mesh_files_colours_are_kept_per_face_in_every_format(tmp_path, suffix
     its own, and the part's one colour (what the renderer draws) is their area-weighted
     mean, as before the file's colours were kept; every format's export reads back the same
     colours, per face and the part's (the blue piece, one triangle, a mesh file MuJoCo
-    loads: it refuses fewer than 4 vertices)."""
+    loads: it refuses fewer than 4 vertices; exported from the OBJ only)."""
     from real2code_export import formats
     from real2code_export.meshfiles import read_mesh_file
 
@@ -605,6 +605,8 @@ def test_a_mesh_files_colours_are_kept_per_face_in_every_format(tmp_path, suffix
     shade = obj.part("shade")
     assert shade.visual.colors == ((2, red), (1, blue))
     assert shade.color == read.color
+    if suffix == ".dae":
+        return  # (the exports hold the same runs and colour whichever reader made them)
     exported = formats.export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
     for name, path in exported.items():
         back = formats.load(path)
