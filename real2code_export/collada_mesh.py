@@ -3,9 +3,12 @@
 The visual scene is walked as ROS tools show it: every ``<instance_geometry>`` (also through
 ``<instance_node>``) placed by the product of its nodes' transforms, in metres by the file's
 ``<unit meter>``. ``<up_axis>`` is not applied: URDF meshes are in their link frame, whatever
-the exporter recorded. Materials are not read: their bindings are removed before pycollada
-sees the file, so a missing texture (pycollada drops the whole node) cannot lose geometry.
-(trimesh's own Collada loader ignores the unit and loses such nodes.)
+the exporter recorded. Each triangle's colour is its material's diffuse colour (pycollada's
+material library; a texture, or no material, gives none). The bindings of materials to an
+instance are taken out before pycollada reads the scene and kept aside, so a binding pycollada
+cannot resolve (a material whose effect refers to a missing image: pycollada drops the whole
+node) costs the colour only, never geometry. (trimesh's own Collada loader ignores the unit
+and loses such nodes.)
 """
 
 from __future__ import annotations
@@ -15,10 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
+from .model import RGBA
 
-def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float]:
-    """Vertices (metres, scene-graph transforms applied), triangles and the file's unit
-    (metres per unit, already applied). Raises ValueError saying what is wrong."""
+
+def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float,
+                                       list[tuple[int, RGBA | None]]]:
+    """Vertices (metres, scene-graph transforms applied), triangles, the file's unit (metres
+    per unit, already applied) and the triangles' colours, as runs: one (number of triangles,
+    diffuse RGBA or None) per primitive placed, in the triangles' order. Raises ValueError
+    saying what is wrong."""
     import collada
     from lxml import etree
 
@@ -28,8 +36,14 @@ def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float]:
         raise ValueError(f"not a Collada file (not XML: {e})") from e
     if etree.QName(root).localname != "COLLADA":
         raise ValueError(f"not a Collada file (root element <{etree.QName(root).localname}>)")
+    tree = root.getroottree()
+    bindings: dict[str, dict[str, str]] = {}  # instance's path -> {symbol: material id}
     for binding in list(root.iter("{*}bind_material")):
-        binding.getparent().remove(binding)
+        instance = binding.getparent()
+        bindings[tree.getpath(instance)] = {
+            m.get("symbol"): m.get("target", "").removeprefix("#")
+            for m in binding.iter("{*}instance_material")}
+        instance.remove(binding)
     try:
         doc = collada.Collada(io.BytesIO(etree.tostring(root)),
                               ignore=[collada.common.DaeUnsupportedError,
@@ -39,36 +53,61 @@ def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float]:
     unit = float(doc.assetInfo.unitmeter or 1.0) if doc.assetInfo is not None else 1.0
     if not np.isfinite(unit) or unit <= 0:
         raise ValueError(f"invalid <unit meter='{unit}'>")
-    pieces: list[tuple[np.ndarray, np.ndarray]] = []
+    pieces: list[tuple[np.ndarray, np.ndarray, RGBA | None]] = []
     if doc.scene is not None:
+        colour = _Colours(doc, bindings)
         for node in doc.scene.nodes:
-            _walk(node, np.eye(4), pieces, collada)
-    else:  # no <scene>: the geometry library as it is
+            _walk(node, np.eye(4), pieces, collada, colour)
+    else:  # no <scene>: the geometry library as it is (no instance binds a material)
         for geometry in doc.geometries:
-            pieces += [p for p in map(_triangles, geometry.primitives) if p is not None]
+            pieces += [(*p, None) for p in map(_triangles, geometry.primitives)
+                       if p is not None]
     if not pieces:
         raise ValueError("no triangles in its scene")
-    vertices, faces, offset = [], [], 0
-    for v, f in pieces:
+    vertices, faces, runs, offset = [], [], [], 0
+    for v, f, rgba in pieces:
         vertices.append(v)
         faces.append(f + offset)
+        runs.append((len(f), rgba))
         offset += len(v)
-    return np.concatenate(vertices) * unit, np.concatenate(faces), unit
+    return np.concatenate(vertices) * unit, np.concatenate(faces), unit, runs
 
 
-def _walk(node, parent: np.ndarray, pieces: list, collada) -> None:
+class _Colours:
+    """A placed primitive's diffuse colour: its material symbol, bound by the instance that
+    places it to a material of pycollada's library, whose effect's diffuse is a colour (not a
+    texture)."""
+
+    def __init__(self, doc, bindings: dict[str, dict[str, str]]) -> None:
+        self.doc, self.bindings = doc, bindings
+
+    def __call__(self, instance, symbol) -> RGBA | None:
+        path = self.doc.xmlnode.getpath(instance.xmlnode) if instance.xmlnode is not None \
+            else None
+        target = self.bindings.get(path, {}).get(symbol) if isinstance(symbol, str) else None
+        material = self.doc.materials.get(target) if target else None
+        diffuse = None if material is None or material.effect is None \
+            else material.effect.diffuse
+        if not isinstance(diffuse, tuple) or len(diffuse) not in (3, 4):
+            return None  # a texture (collada.material.Map), or no diffuse
+        rgba = np.clip(np.array([*diffuse, 1.0][:4], dtype=np.float64), 0.0, 1.0)
+        return tuple(float(c) for c in rgba)
+
+
+def _walk(node, parent: np.ndarray, pieces: list, collada, colour: _Colours) -> None:
     if isinstance(node, collada.scene.GeometryNode):
         for primitive in node.geometry.primitives:
             piece = _triangles(primitive)
             if piece is not None:
                 v, f = piece
-                pieces.append((v @ parent[:3, :3].T + parent[:3, 3], f))
+                pieces.append((v @ parent[:3, :3].T + parent[:3, 3], f,
+                               colour(node, primitive.material)))
     elif isinstance(node, collada.scene.NodeNode):
-        _walk(node.node, parent, pieces, collada)
+        _walk(node.node, parent, pieces, collada, colour)
     elif isinstance(node, collada.scene.Node):
         matrix = parent @ np.asarray(node.matrix, dtype=np.float64)
         for child in node.children or ():
-            _walk(child, matrix, pieces, collada)
+            _walk(child, matrix, pieces, collada, colour)
 
 
 def _triangles(primitive) -> tuple[np.ndarray, np.ndarray] | None:

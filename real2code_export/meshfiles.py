@@ -5,7 +5,8 @@ Every format references the same files (``meshes/<part>.obj``,
 same model gives byte-identical files. Reading: OBJ through tinyobjloader (the geometry and
 its MTL colours in one pass, without importing trimesh and scipy: a PartNet object is ~100
 OBJ files and the export of one is a command a user waits on), Collada through
-``collada_mesh`` (pycollada: scene-graph transforms and unit applied), everything else
+``collada_mesh`` (pycollada: scene-graph transforms, unit and materials' diffuse colours
+applied), everything else
 through trimesh (STL, glTF, PLY, ...).
 """
 
@@ -25,11 +26,15 @@ from .model import RGBA, ArticulatedObject, Mesh, Part, Texture
 
 class MeshFile(NamedTuple):
     """What a mesh file holds for a part: its triangles (with UVs where it has them), its own
-    colour (an OBJ's MTL ``Kd``) and its colour image (the MTL's ``map_Kd``)."""
+    colour (an OBJ's MTL ``Kd``, a Collada material's diffuse colour; the area-weighted mean
+    where its triangles have several), its colour image (the MTL's ``map_Kd``) and, for a
+    file of several colours, its triangles' colours as runs (number of triangles, RGBA, or
+    None where a triangle has none) in their order, () otherwise."""
 
     mesh: Mesh
     color: RGBA | None = None
     texture: Texture | None = None
+    runs: tuple[tuple[int, RGBA | None], ...] = ()
 
 MESH_DIR = "meshes"
 
@@ -100,6 +105,8 @@ def obj_bytes(mesh: Mesh, exact: bool = False, material: str | None = None) -> b
     Written directly rather than with trimesh's exporter, whose header and number
     formatting change between releases and would break byte-identical outputs.
     """
+    if len(mesh.vertices) < 4:  # MuJoCo refuses a mesh of fewer (a one-triangle decal)
+        mesh = _padded(mesh)
     # one %-format per block, not an f-string per line: the same text, 2.5x quicker
     number = "%r" if exact else "%.9f"
     lines = ["# real2code_export mesh\n"]
@@ -116,6 +123,18 @@ def obj_bytes(mesh: Mesh, exact: bool = False, material: str | None = None) -> b
         faces = np.repeat(faces, 2, axis=1)
     lines.append(_block(f"f {corner} {corner} {corner}\n", faces))
     return "".join(lines).encode("ascii")
+
+
+def _padded(mesh: Mesh) -> Mesh:
+    """A mesh of fewer than 4 vertices with its centroid added, used by no face, so that
+    MuJoCo, which refuses such a mesh, loads the file; the readers that keep only the
+    vertices faces use (ours, MuJoCo's shell inertia, the viewers) see the same triangles."""
+    def with_means(rows: np.ndarray) -> np.ndarray:
+        return np.vstack([rows, np.repeat(rows.mean(axis=0, keepdims=True),
+                                          4 - len(mesh.vertices), axis=0)])
+
+    return Mesh(with_means(mesh.vertices), mesh.faces,
+                None if mesh.uv is None else with_means(mesh.uv))
 
 
 def _block(line: str, rows: np.ndarray) -> str:
@@ -245,7 +264,7 @@ def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
     mesh = Mesh(mesh_file.mesh.vertices, mesh_file.mesh.faces, mesh_file.mesh.uv)
     if scale is not None:
         mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces, mesh.uv)
-    return MeshFile(mesh, mesh_file.color, mesh_file.texture)
+    return MeshFile(mesh, mesh_file.color, mesh_file.texture, mesh_file.runs)
 
 
 class _ReadMeshes:
@@ -307,32 +326,29 @@ _MAP_LINE = re.compile(rb"\n[ \t]*map_\w+[ \t]+(?:-\S+[ \t]+\S+[ \t]+)*([^\r\n]+
 
 def _read_unscaled(path: Path, source, element, line) -> MeshFile:
     """The file's mesh as :func:`read_mesh_file` reads it, before any scale."""
-    color = texture = None
     if path.suffix.lower() == ".obj":
-        mesh, color, texture = _read_obj(path, source, element, line)
-    elif path.suffix.lower() == ".dae":
-        mesh = _read_collada(path, source, element, line)
-    elif path.suffix.lower() == ".stl":
-        mesh = _read_stl(path, source, element, line)
-    else:
-        import trimesh
+        return _read_obj(path, source, element, line)
+    if path.suffix.lower() == ".dae":
+        return _read_collada(path, source, element, line)
+    if path.suffix.lower() == ".stl":
+        return MeshFile(_read_stl(path, source, element, line))
+    import trimesh
 
-        try:
-            loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
-        except Exception as e:  # trimesh raises many types for broken files
-            raise FormatError(source or path, element,
-                              f"cannot read mesh {path}: {type(e).__name__}: {e}", line) from e
-        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-            raise NoTrianglesError(source or path, element,
-                                   f"mesh {path} has no triangles", line)
-        mesh = Mesh.from_trimesh(loaded)
-    return MeshFile(mesh, color, texture)
+    try:
+        loaded = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
+    except Exception as e:  # trimesh raises many types for broken files
+        raise FormatError(source or path, element,
+                          f"cannot read mesh {path}: {type(e).__name__}: {e}", line) from e
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise NoTrianglesError(source or path, element, f"mesh {path} has no triangles", line)
+    return MeshFile(Mesh.from_trimesh(loaded))
 
 
 def _read_obj(path: Path, source, element, line) -> MeshFile:
     """An OBJ's triangles (polygons fanned by tinyobjloader; only the vertices the faces use,
-    in file order, as trimesh keeps them) and its MTL colour. A missing MTL or texture costs
-    the colour only, as in trimesh and the viewers."""
+    in file order, as trimesh keeps them) and its MTL colours (``Kd``, alpha 1, as trimesh
+    reads MTLs). A missing MTL or texture costs the colour only, as in trimesh and the
+    viewers."""
     import tinyobjloader
 
     reader, config = tinyobjloader.ObjReader(), tinyobjloader.ObjReaderConfig()
@@ -371,7 +387,11 @@ def _read_obj(path: Path, source, element, line) -> MeshFile:
         mesh = Mesh(vertices[used], renumber[faces].reshape(-1, 3))
     materials = reader.GetMaterials()
     texture = _obj_texture(path, mesh, material, materials)
-    return MeshFile(mesh, _area_weighted_color(mesh, material, materials), texture)
+    palette = [(*(float(c) for c in np.clip(list(m.diffuse)[:3], 0.0, 1.0)), 1.0)
+               for m in materials]
+    known = (material >= 0) & (material < len(materials))
+    return MeshFile(mesh, None, texture)._replace(
+        **_face_colours(mesh, np.where(known, material, -1), palette))
 
 
 _MTL_MAPS = ("normal_texname", "bump_texname", "roughness_texname", "metallic_texname",
@@ -446,18 +466,33 @@ def _exact_vertices(path: Path, parsed: np.ndarray) -> np.ndarray:
     return parsed.reshape(-1, 3)
 
 
-def _area_weighted_color(mesh: Mesh, material: np.ndarray, materials) -> RGBA | None:
-    """The faces' diffuse colours weighted by face area (alpha 1, as trimesh reads MTLs)."""
-    known = (material >= 0) & (material < len(materials))
-    if not known.any():
-        return None
-    diffuse = np.array([list(m.diffuse)[:3] for m in materials], dtype=np.float64)
-    tri = mesh.vertices[mesh.faces[known]]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    if area.sum() <= 0:
-        return None
-    rgb = np.clip(area @ diffuse[material[known]] / area.sum(), 0.0, 1.0)
-    return (*(float(v) for v in rgb), 1.0)
+def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
+    """A file's ``color`` (its faces' colours weighted by face area, None when none has one
+    or they have no area) and ``runs`` (:class:`MeshFile`), from each face's colour as an
+    index into ``palette`` (-1: none)."""
+    colours = np.array(palette, dtype=np.float64).reshape(-1, 4)
+    known = index >= 0
+    color = None
+    if known.any():
+        tri = mesh.vertices[mesh.faces[known]]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                    axis=1)
+        if area.sum() > 0:
+            used = colours[index[known]]
+            mean = np.clip(area @ used / area.sum(), 0.0, 1.0)  # (round-off can pass 1)
+            # a channel all faces agree on is that value (an alpha of 1 stays opaque)
+            mean = np.where(np.all(used == used[0], axis=0), used[0], mean)
+            color = tuple(float(v) for v in mean)
+    # runs of equal colour (materials of one colour are one run)
+    key = np.array([-1 if k < 0 else palette.index(palette[k]) for k in range(len(palette))]
+                   + [-1])[index]
+    if len(set(key.tolist())) < 2:
+        return {"color": color, "runs": ()}
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    lengths = np.diff(np.r_[starts, len(key)])
+    runs = tuple((int(n), None if key[s] < 0 else palette[key[s]])
+                 for s, n in zip(starts, lengths, strict=True))
+    return {"color": color, "runs": runs}
 
 
 _STL_RECORD = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
@@ -519,7 +554,7 @@ def _sort_keys(corners: np.ndarray) -> tuple[np.ndarray, ...]:
     return bits[:, 2], bits[:, 1], bits[:, 0]
 
 
-def _read_collada(path: Path, source, element, line) -> Mesh:
+def _read_collada(path: Path, source, element, line) -> MeshFile:
     try:
         import collada  # noqa: F401 - pycollada reads the file
     except ImportError as e:
@@ -528,8 +563,12 @@ def _read_collada(path: Path, source, element, line) -> Mesh:
     from .collada_mesh import read_collada
 
     try:
-        vertices, faces, _ = read_collada(path)
+        vertices, faces, _, runs = read_collada(path)
     except ValueError as e:
         raise FormatError(source or path, element,
                           f"cannot read Collada (.dae) mesh {path}: {e}", line) from e
-    return Mesh(vertices, faces)
+    mesh = Mesh(vertices, faces)
+    palette = list(dict.fromkeys(rgba for _, rgba in runs if rgba is not None))
+    index = np.repeat([-1 if rgba is None else palette.index(rgba) for _, rgba in runs],
+                      [n for n, _ in runs]).astype(np.int64)
+    return MeshFile(mesh)._replace(**_face_colours(mesh, index, palette))

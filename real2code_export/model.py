@@ -479,6 +479,15 @@ class Part:
             raise ModelError(f"part {self.name!r}", "a texture needs a visual mesh with "
                              "texture coordinates")
 
+    @property
+    def color_not_first_run(self) -> bool:
+        """Whether the part's one colour (what a renderer of one colour per part draws: for a
+        mesh file's colours, their mean) is not its visual's first colour run, which is the
+        colour a reader of a format of colours per geometry gives the part: such a format
+        carries it beside the runs."""
+        return self.visual is not None and bool(self.visual.colors) \
+            and self.color != self.visual.colors[0][1]
+
 
 @dataclass(eq=False)
 class ArticulatedObject:

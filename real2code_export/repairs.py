@@ -70,8 +70,8 @@ def balanced_inertia(inertial: Inertial) -> tuple[Inertial, str | None]:
     if scale <= 1e-12 * inertial.mass:  # zero, or zero up to rounding: a point mass
         repaired = _sphere(inertial.mass)
         return (Inertial(inertial.mass, inertial.com, repaired),
-                f"inertia tensor is zero (principal moments {_fmt(moments)}; a point mass of "
-                f"{inertial.mass:g} kg): given the inertia of a solid sphere "
+                f"inertia tensor is zero (principal moments {_fmt(moments)}; "
+                f"{inertial.mass:g} kg at a point): given the inertia of a solid sphere "
                 f"{2 * POINT_MASS_RADIUS * 1e3:g} mm wide")
     if largest <= 0:
         raise ValueError(f"inertia tensor has no positive principal moment "

@@ -44,13 +44,14 @@ def _cube(tmp_path, mtl: str | None = "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0
 
 
 def test_obj_geometry_and_mtl_colour_in_one_read(tmp_path):
-    mesh, color, texture = read_mesh_file(_cube(tmp_path))
+    mesh, color, texture, runs = read_mesh_file(_cube(tmp_path))
     assert texture is None  # its MTL names no image
     assert mesh.vertices.shape == (8, 3)  # the unused vertex 9 is dropped, as trimesh does
     assert mesh.faces.shape == (12, 3)  # quads fanned into triangles
     assert np.isclose(abs(mesh.to_trimesh().volume), 1.0)
-    # two faces red, four blue, all of area 1: weighted by area
+    # two faces red, four blue, all of area 1: weighted by area; and each triangle's own
     assert np.allclose(color, (1 / 3, 0.0, 2 / 3, 1.0))
+    assert runs == ((4, (1.0, 0.0, 0.0, 1.0)), (8, (0.0, 0.0, 1.0, 1.0)))
 
 
 def test_obj_without_its_mtl_has_no_colour_and_a_broken_obj_is_an_error(tmp_path):

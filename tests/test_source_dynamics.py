@@ -81,6 +81,33 @@ def test_a_changed_mass_damping_or_limit_is_found_and_named(exported, tmp_path):
     assert dynamics.unexplained(found, []) == found
 
 
+def test_a_warning_explains_only_the_quantity_it_says_changed(exported, tmp_path):
+    """A warning naming the element explains a difference only in what it says, in its own
+    words, it changed: a link read as massless (its <mass value='0'> quoted) explains its
+    group's moments and centre of mass, not its mass (which a USD export left to the
+    simulator once, hidden so); a joint's limit repair explains no damping or effort."""
+    source, _ = exported
+    changed = tmp_path / "changed.urdf"
+    changed.write_text(URDF.replace('<mass value="0.2"/>', '<mass value="0.25"/>')
+                       .replace('damping="2"', 'damping="1"')
+                       .replace('effort="50"', 'effort="10"'))
+    found = dynamics.urdf_differences(source, changed)
+    mass = [d for d in found if "tool" in d.names]
+    assert any(": mass " in str(d) for d in mass)
+    massless = "<link name='tool'>: <mass value='0'>: the link is treated as massless (no inertial)"
+    assert [str(d) for d in dynamics.unexplained(mass, [massless])] == [
+        str(d) for d in mass if ": mass " in str(d)]
+    assert dynamics.unexplained(mass, ["<link name='tool'>: no <inertial>: mass properties "
+                                       "computed from its visuals"]) == []
+    elbow = [d for d in found if d.names == ("elbow",)]
+    assert {str(d).split(":")[1].split()[0] for d in elbow} == {"damping", "effortLimit"}
+    limit = "<joint name='elbow'>: <limit> lower == upper: an empty range, imported as continuous"
+    assert dynamics.unexplained(elbow, [limit]) == elbow
+    damping = "<joint name='elbow'>: <dynamics damping='-1'> is negative: 0 used"
+    assert [str(d) for d in dynamics.unexplained(elbow, [damping])] == [
+        str(d) for d in elbow if "effortLimit" in str(d)]
+
+
 def test_mujoco_where_it_loads_the_urdf_as_it_is(tmp_path):
     """MuJoCo refuses a moving link without mass as it is: nothing to compare there (None);
     Pinocchio loads it and compares."""
@@ -127,7 +154,7 @@ def test_a_warning_naming_the_part_as_our_importer_names_it_explains():
     names it so, and explains the source tool's difference for ``fl.hip``; a warning about
     another part does not."""
     found = [dynamics.Difference(("fl.hx", "fl.hip"), "the links of joint 'fl.hx': mass 0.0 "
-                                 "!= 0.32", dynamics.MASS_WORDS)]
+                                 "!= 0.32", dynamics.MASS_WORDS["mass"], prose=True)]
     computed = "no <inertial> in links 'fl_hip': mass properties computed from their visuals"
     assert dynamics.unexplained(found, [computed]) == []
     assert dynamics.unexplained(found, [computed.replace("fl_hip", "fl_uleg")]) == found

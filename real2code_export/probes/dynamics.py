@@ -27,6 +27,7 @@ list means equal.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,9 +39,13 @@ from ..inertia import combine_inertials
 from ..model import UNBOUNDED_LIMIT, Inertial, sanitize_name
 from ._stdio import captured_c_output
 
-# What a warning that explains a difference speaks of: mass properties, or a joint's law.
-MASS_WORDS = ("mass", "inertia")
+# What a warning that explains a joint missing from the export says: any change of the joint.
 JOINT_WORDS = ("limit", "range", "joint", "damping", "friction", "armature")
+# What a warning that explains a difference in one mass property of a rigid group says, as
+# a word of its own (the mass changes all three; a tensor repaired, the moments; an
+# inertial dropped or computed, the moments and the centre of mass).
+MASS_WORDS = {"mass": ("mass",), "principal moments": ("mass", "inertia", "inertial", "moments"),
+              "centre of mass": ("mass", "inertial")}
 
 
 @dataclass(frozen=True)
@@ -48,19 +53,31 @@ class Difference:
     names: tuple[str, ...]  # the source's links, bodies or joint it concerns
     message: str
     words: tuple[str, ...] = JOINT_WORDS  # one of which a warning explaining it says
+    # the words count only as whole words of the warning's own prose, not inside the file's
+    # elements it quotes: "<mass value='0'>: treated as massless" changed no mass
+    prose: bool = False
 
     def __str__(self) -> str:
         return self.message
 
 
+_QUOTED_ELEMENT = re.compile(r"<[^<>]*>")
+
+
 def explaining(difference: Difference, warned: list[str]) -> list[str]:
     """The warnings that explain ``difference``: a reader's repair names the element it
     changed (``'NAME'``, as the source spells it or as our importers name it: a link
-    ``fl.hip`` is part ``fl_hip``) and says what of it (mass, inertia; a limit, the joint
-    type)."""
+    ``fl.hip`` is part ``fl_hip``) and says what of it changed, the quantity that differs
+    (its mass, its tensor; its damping, its limit: :attr:`Difference.words`), not another."""
     names = {f"'{m}'" for n in difference.names for m in (n, sanitize_name(n))}
-    return [w for w in warned if any(n in w for n in names)
-            and any(word in w for word in difference.words)]
+    return [w for w in warned if any(n in w for n in names) and _says(w, difference)]
+
+
+def _says(warning: str, difference: Difference) -> bool:
+    if not difference.prose:
+        return any(word in warning for word in difference.words)
+    prose = _QUOTED_ELEMENT.sub(" ", warning)
+    return any(re.search(rf"\b{re.escape(word)}s?\b", prose) for word in difference.words)
 
 
 def unexplained(differences: list[Difference], warned: list[str]) -> list[Difference]:
@@ -134,7 +151,8 @@ def _mujoco_joint_differences(src, exp, tol: float, held: tuple[str, ...] | None
         ours, theirs = _joint_quantities(src, j), _joint_quantities(exp, e)
         theirs["ref"] = exp.qpos0[exp.jnt_qposadr[e]]
         theirs.setdefault("range", exp.jnt_range[e])
-        out += [Difference((name,), f"joint {name!r}: {_LABELS.get(q, q)} {a} != {theirs[q]}")
+        out += [Difference((name,), f"joint {name!r}: {_LABELS.get(q, q)} {a} != {theirs[q]}",
+                           QUANTITY_WORDS[q])
                 for q, a in ours.items()
                 if (held is None or q in held) and not _close(a, theirs[q], tol)]
     return out
@@ -178,7 +196,7 @@ def _mass_differences(element: str, names: tuple[str, ...], a, b,
              ("centre of mass", a[2], b[2]))
     if _close(a[0], 0.0, tol) and _close(b[0], 0.0, tol):
         pairs = pairs[:1]
-    return [Difference(names, f"{element}: {what} {x} != {y}", MASS_WORDS)
+    return [Difference(names, f"{element}: {what} {x} != {y}", MASS_WORDS[what], prose=True)
             for what, x, y in pairs if not _close(x, y, tol)]
 
 
@@ -312,7 +330,8 @@ def schema_differences(src, ds, view, tol: float) -> list[Difference]:
             continue
         theirs = inertias[key]
         if isinstance(theirs, str):
-            out.append(Difference(names, f"body {name!r}: {theirs}", MASS_WORDS))
+            out.append(Difference(names, f"body {name!r}: {theirs}",  # (left unstated)
+                                  ("mass", "inertia"), prose=True))
             continue
         out += _mass_differences(f"body {name!r} and the bodies fixed to it", names, group,
                                  theirs, tol)
@@ -410,8 +429,16 @@ def _pinocchio_joint_differences(src, exp, j: int, e: int, tol: float) -> list[D
         for what in ("lowerPositionLimit", "upperPositionLimit"):
             theirs = getattr(exp, what)[je.idx_q] if je.nq == 1 else f"none ({je.shortname()})"
             pairs.append((what, getattr(src, what)[js.idx_q], theirs))
-    return [Difference((name,), f"joint {name!r}: {what} {x} != {y}") for what, x, y in pairs
+    return [Difference((name,), f"joint {name!r}: {what} {x} != {y}", PINOCCHIO_WORDS[what])
+            for what, x, y in pairs
             if isinstance(y, str) or np.shape(x) != np.shape(y) or not _close(x, y, tol)]
+
+
+# The same for Pinocchio's joint quantities.
+PINOCCHIO_WORDS = {"damping": ("damping",), "friction": ("friction",),
+                   "armature": ("armature",), "effortLimit": ("effort",),
+                   "velocityLimit": ("velocity",), "lowerPositionLimit": ("limit", "range"),
+                   "upperPositionLimit": ("limit", "range")}
 
 
 def _world_inertia(model, data, j: int) -> tuple[float, np.ndarray, np.ndarray]:

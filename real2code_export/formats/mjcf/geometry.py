@@ -35,7 +35,8 @@ def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
     their vertices and faces into the spec in place of the file, before it is compiled: the
     spec mesh, the mesh as the file has it (unscaled: MuJoCo applies the mesh's ``scale``),
     and the warnings reading it gave (said when a geom uses the mesh, as before). A file
-    this reader refuses is left to MuJoCo, which then reads it or names it."""
+    this reader refuses, or whose faces use fewer than 4 vertices, is left to MuJoCo, which
+    then reads it or names it."""
     import warnings
 
     from ...errors import Real2CodeError
@@ -50,6 +51,8 @@ def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
                 mesh = read_mesh(path)
             except Real2CodeError:
                 continue
+        if len(mesh.vertices) < 4:  # MuJoCo counts the file's unused vertices too
+            continue  # (meshfiles.obj_bytes pads a one-triangle mesh so): left to it
         spec_mesh.uservert = mesh.vertices.reshape(-1)
         spec_mesh.userface = mesh.faces.reshape(-1)
         spec_mesh.file = ""

@@ -457,11 +457,11 @@ class _Reader:
         if colour is not None and (not isinstance(colour, list | tuple) or len(colour) != 4):
             self.note("malformed real2code custom data ignored", f"{m.body(b).name}:color")
             colour = None
-        # several colours: kept per face, the part's the first run's
+        # several colours: kept per face, the part's the first run's unless we wrote its own
         visual_mesh = Mesh.concatenate([mesh for _, mesh in visual], shown_colours) \
             if visual else None
         if visual_mesh is not None and visual_mesh.colors:
-            colour = visual_mesh.colors[0][1]
+            colour = self.custom.get((m.body(b).name, "color"), visual_mesh.colors[0][1])
         return Part(
             name,
             visual=visual_mesh,

@@ -538,7 +538,9 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
         if joint.effort_limit is not None and not joint.effort_limit > 0:
             spec.add_numeric(name=custom_name(joint.name, "effort"), data=[joint.effort_limit])
     for part in parts:
-        if part.visual is None and not part.collision:  # no geom to carry its colour
+        # no geom to carry its colour, or geoms of several colours none of which is the
+        # part's own (a mesh file's colours: the part's is their mean)
+        if (part.visual is None and not part.collision) or part.color_not_first_run:
             spec.add_numeric(name=custom_name(part.name, "color"), data=list(part.color))
     root = parts[0]
     if root_is_world(obj):

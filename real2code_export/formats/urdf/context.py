@@ -11,7 +11,8 @@ import numpy as np
 from lxml import etree
 
 from ...errors import FormatError, warn
-from ...model import Mesh, Texture
+from ...meshfiles import MeshFile
+from ...model import Mesh
 from .conventions import NAMESPACE, PREFIX
 
 
@@ -26,8 +27,7 @@ class Context:
     path: Path
     # Mesh files are often referenced twice (visual and collision): read each once.
     meshes: dict[tuple, Mesh] = field(default_factory=dict)
-    colors: dict[Path, tuple | None] = field(default_factory=dict)
-    textures: dict[Path, Texture | None] = field(default_factory=dict)  # each file's map_Kd
+    files: dict[Path, MeshFile] = field(default_factory=dict)  # each file's colours, map_Kd
     # Repairs reported once per file (listing the links or joints), not once per element.
     notes: dict[str, list[str]] = field(default_factory=dict)
     # A <mujoco><compiler meshdir|assetdir> extension: the folder (relative to the URDF) in

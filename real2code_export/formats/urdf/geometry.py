@@ -186,9 +186,10 @@ def _file_mesh(ctx: Context, shape: etree._Element, owner: str) -> tuple[Mesh, P
         raise ctx.error(owner, f"<mesh> scale {shape.get('scale')!r} has a zero", shape.sourceline)
     key = (path, tuple(scale.tolist()))
     if key not in ctx.meshes:
-        mesh, ctx.colors[path], ctx.textures[path] = read_mesh_file(
-            path, source=ctx.path, element=owner, line=shape.sourceline,
-            scale=None if np.all(scale == 1.0) else scale)
+        ctx.files[path] = read_mesh_file(path, source=ctx.path, element=owner,
+                                         line=shape.sourceline,
+                                         scale=None if np.all(scale == 1.0) else scale)
+        mesh = ctx.files[path].mesh
         if np.prod(scale) < 0:  # a mirroring scale turns the faces inside out: turn them back
             mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1], mesh.uv)
         ctx.meshes[key] = mesh
@@ -245,10 +246,12 @@ def material_color(ctx: Context, visual: etree._Element, materials: dict[str, RG
     return materials.get(name) if name else None
 
 
-def mtl_color(ctx: Context, path: Path) -> RGBA | None:
-    """Area-weighted diffuse colour of an OBJ's MTL materials (None when it has none), as
-    read with the file's geometry (:func:`_file_mesh`: each file is read once)."""
-    return ctx.colors.get(path)
+def file_colors(ctx: Context, path: Path, n_faces: int) -> list[tuple[int, RGBA | None]]:
+    """A mesh file's own colours (an OBJ's MTL ``Kd``, a Collada material's diffuse) as
+    runs over its ``n_faces`` triangles, the colour None where it has none, as read with the
+    file's geometry (:func:`_file_mesh`: each file is read once)."""
+    read = ctx.files[path]
+    return list(read.runs) or [(n_faces, read.color)]
 
 
 def average_color(colored: list[tuple[RGBA, float]]) -> RGBA | None:

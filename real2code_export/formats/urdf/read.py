@@ -56,9 +56,9 @@ from .context import Context, label
 from .conventions import ELEMENTS_KEY, UNKNOWN, ns
 from .geometry import (
     average_color,
+    file_colors,
     material_color,
     mesh_area,
-    mtl_color,
     origin_matrix,
     robot_materials,
     shape_mesh,
@@ -260,7 +260,8 @@ def _report_notes(ctx: Context) -> None:
                      "visual meshes",
         "meshdir": f"<mujoco><compiler meshdir={ctx.meshdir!r}>: mesh files {{}} found in that "
                    "folder, where MuJoCo looks for them, not beside the URDF",
-        "colours": "visuals of several colours, not each from its <material>, in links {}: "
+        "colours": "visuals of several colours, some faces of no stated colour (no <material>, "
+                   "none in the mesh file), in links {}: "
                    "the part's colour is their area-weighted mean (the meshes are kept; the "
                    "colours per visual are not)",
     }
@@ -278,7 +279,8 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
     owner = label(el)
     visuals: list[Mesh] = []
     colored = []
-    each: list = []  # each visual's <material> colour (None: it states none)
+    runs: list[list] = []  # each visual's colours over its faces (None: it states none)
+    stated = []  # each visual's <material> colour (None: it states none)
     textures = []
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
@@ -287,30 +289,48 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         mesh = _placed(mesh, origin_matrix(ctx, v, owner))
         visuals.append(mesh)
         color = material_color(ctx, v, materials, owner)
-        each.append(None if color is None else tuple(float(c) for c in color))
+        color = None if color is None else tuple(float(c) for c in color)
+        stated.append(color)
+        if color is None and file is not None and ctx.files[file].texture is None:
+            runs.append(file_colors(ctx, file, len(mesh.faces)))  # as viewers show the file
+        else:  # (a textured file: its image and its mean colour, in the part's colour)
+            runs.append([(len(mesh.faces), color)])
         if color is None and file is not None:
-            color = mtl_color(ctx, file)
+            color = ctx.files[file].color
         if color is not None:
             colored.append((color, mesh_area(mesh)))
-        if file is not None and ctx.textures.get(file) is not None:
-            textures.append(ctx.textures[file])
+        if file is not None and ctx.files[file].texture is not None:
+            textures.append(ctx.files[file].texture)
     collision = _collision(ctx, el, name, visuals, faithful_collision and _from_visual(el),
                            hull_collision)
     inertial = _link_inertial(ctx, el, name, visuals)
-    # visuals each of a colour its <material> states: kept per face, the part's the first
-    # run's (a mesh file's own materials, an OBJ's MTL, stay averaged into the part colour)
-    per_visual = None not in each and len(set(each)) > 1
-    visual = (Mesh.concatenate(visuals, each if per_visual else None)) if visuals else None
+    # colours that differ, each face's stated (by its visual's <material>, or its untextured
+    # mesh file's MTL or Collada materials): kept per face
+    colours = {c for piece in runs for _, c in piece}
+    per_face = None not in colours and len(colours) > 1
+    if per_face and len(visuals) == 1 and len(runs[0]) > 1:  # one file of several colours:
+        # cut at its runs, as the URDF writer's file per colour reads back (join_colored
+        # keeps one visual whole, as USD's and glTF's subsets of one mesh hold it)
+        one = visuals[0]
+        cut = Mesh(one.vertices, one.faces, one.uv, colors=runs[0]).color_pieces()
+        visuals, runs = [m for m, _ in cut], [[(len(m.faces), c)] for m, c in cut]
+    visual = Mesh.join_colored(visuals, runs) if visuals else None
     texture = textures[0] if textures else None
     if texture is not None and (len(textures) > 1 or visual.uv is None):
         ctx.warn(owner, f"{len(textures)} textured visuals among {len(visuals)}: a part holds "
                  "one image on one textured mesh; the textures are not kept, the colour is")
         texture = None
         visual = Mesh(visual.vertices, visual.faces, colors=visual.colors)
-    if len({c for c, _ in colored}) > 1 and not per_visual:
+    if len({c for c, _ in colored}) > 1 and not per_face:
         ctx.note("colours", f"{name!r} ({len({c for c, _ in colored})})")
-    color = visual.colors[0][1] if visual is not None and visual.colors \
-        else average_color(colored)
+    # The part's one colour (what a renderer of one colour per part draws) as before mesh
+    # files' colours were kept per face: the first run's where the <material>s alone differ,
+    # else the area-weighted mean of the visuals' colours (a file's: its faces' mean).
+    by_material = None not in stated and len(set(stated)) > 1
+    color = visual.colors[0][1] if by_material and visual.colors else average_color(colored)
+    if el.get(ns("color")) is not None and visual is not None and visual.colors:
+        color = tuple(float(c) for c in np.clip(  # ours, beside the runs (the URDF writer)
+            ctx.floats(el, ns("color"), owner, count=4), 0.0, 1.0))
     return Part(name=name, visual=visual, collision=collision, inertial=inertial,
                 color=color or DEFAULT_COLOR, texture=texture)
 

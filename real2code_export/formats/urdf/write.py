@@ -191,6 +191,8 @@ def _link(part: Part, shared: dict[str, str]) -> etree._Element:
         link.set(ns("inertial"), UNKNOWN)
     if part.visual is not None and not part.collision:
         link.set(ns("collision"), UNKNOWN)
+    if part.color_not_first_run:  # (the reader gives a part of several colours the first)
+        link.set(ns("color"), numbers(part.color))
     if part.inertial is not None:
         i = part.inertial.inertia
         el = _sub(link, "inertial")
