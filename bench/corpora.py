@@ -81,7 +81,7 @@ def floors(path: Path) -> dict:
     out = {}
     for tool, python, env in (("ours", sys.executable, ours),
                               ("converter", str(CONVERTERS / "python"), None)):
-        _, cpu, rc, said = timed([python, "-c", _FLOOR_CODE.format(FLOOR[tool]), str(path)],
+        _, cpu, rc, _ = timed([python, "-c", _FLOOR_CODE.format(FLOOR[tool]), str(path)],
                                  env)
         out[f"floor_{tool}_cpu"] = cpu if rc == 0 else float("nan")
     return out
