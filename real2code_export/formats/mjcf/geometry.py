@@ -16,7 +16,7 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, NoTrianglesError, warn
-from ...meshfiles import MESH_SUFFIXES, read_mesh
+from ...meshfiles import MESH_SUFFIXES, STL_HEADER, binary_stl_triangles, read_mesh
 from ...model import Mesh
 from ...primitives import Primitive, ShapeKind
 
@@ -35,15 +35,11 @@ _MUJOCO_STL_FACES = 200_000  # MuJoCo's STL decoder refuses more faces (and ASCI
 
 
 def _mujoco_reads_stl(path: Path) -> bool:
-    """Whether MuJoCo reads the STL ``path`` itself: binary (its length what its triangle
-    count says) with 1 to :data:`_MUJOCO_STL_FACES` triangles."""
-    size = path.stat().st_size
-    if size < 84:
-        return False
+    """Whether MuJoCo reads the STL ``path`` itself: binary, with 1 to
+    :data:`_MUJOCO_STL_FACES` triangles."""
     with path.open("rb") as f:
-        f.seek(80)
-        count = int.from_bytes(f.read(4), "little")
-    return size == 84 + 50 * count and 1 <= count <= _MUJOCO_STL_FACES
+        count = binary_stl_triangles(f.read(STL_HEADER), path.stat().st_size)
+    return count is not None and 1 <= count <= _MUJOCO_STL_FACES
 
 
 def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
