@@ -11,7 +11,9 @@ FILE --to usd`` (what the converter writes) and the converter (``urdf_usd_conver
 / ``mujoco_usd_converter FILE D``, USD only). Prints the per-file seconds (wall, and the
 CPU the command used), the medians and totals per corpus and the ratios converter / ours.
 ``--usd-only``: the USD export and the converter alone (a quarter of the run's CPU), for the
-one ratio the converter can be compared on.
+one ratio the converter can be compared on; with ``--floor`` also, per file, each tool's floor
+(:data:`FLOOR`: its interpreter importing what it writes USD with and MuJoCo compiling the
+file, nothing written), the CPU no export of that file by either tool can go below.
 """
 
 from __future__ import annotations
@@ -46,18 +48,50 @@ def mjcf_files() -> list[Path]:
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
 
 
-def timed(cmd: list[str]) -> tuple[float, float, int, str]:
+def timed(cmd: list[str], env: dict | None = None) -> tuple[float, float, int, str]:
     """Wall seconds, CPU seconds (user + system: what the command itself used, which a busy
     machine inflates less than the wall time), exit status and last line said."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     # (the environment as the user's shell has it: no MUJOCO_GL forced on either tool)
-    done = subprocess.run(cmd, capture_output=True, text=True)
+    done = subprocess.run(cmd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
     last = (done.stderr.strip() or done.stdout.strip()).splitlines()[-1:] or [""]
     return wall, cpu, done.returncode, last[0][:160]
+
+
+# What each tool cannot do without before it writes a prim of an MJCF file: start its
+# interpreter, import numpy, MuJoCo and the USD modules it writes with (ours: Sdf, Gf, Vt,
+# formats/usd/layer.py; the converter: the schema modules too) and compile the file (MuJoCo
+# reading its meshes itself). Ours runs in the environment our command sets
+# (cli.process_defaults), the converter's as the shell has it, as each tool runs.
+FLOOR = {"ours": "from pxr import Sdf, Gf, Vt",
+         "converter": "from pxr import Usd, UsdGeom, UsdPhysics, UsdShade, Sdf, Gf, Vt"}
+_FLOOR_CODE = "import sys, numpy, mujoco; {}; mujoco.MjSpec.from_file(sys.argv[1]).compile()"
+
+
+def floors(path: Path) -> dict:
+    """CPU seconds of :data:`FLOOR` for ``path`` in each tool's venv."""
+    import os
+
+    ours = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "disable"),
+            "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
+    out = {}
+    for tool, python, env in (("ours", sys.executable, ours),
+                              ("converter", str(CONVERTERS / "python"), None)):
+        _, cpu, rc, _ = timed([python, "-c", _FLOOR_CODE.format(FLOOR[tool]), str(path)],
+                                 env)
+        out[f"floor_{tool}_cpu"] = cpu if rc == 0 else float("nan")
+    return out
+
+
+def _floor_cells(r: dict) -> str:
+    """The two ``--floor`` cells of a row (or of the medians): the floors, and each tool's
+    CPU above its own."""
+    return (f"{r['floor_ours_cpu']:.2f} / {r['floor_converter_cpu']:.2f} | "
+            f"{r['above_ours_cpu']:.2f} / {r['above_converter_cpu']:.2f} |")
 
 
 def run_file(path: Path, converter: str, usd_only: bool = False) -> dict:
@@ -121,6 +155,8 @@ def main() -> None:
     p.add_argument("--corpus", choices=["urdf", "mjcf", "both"], default="both")
     p.add_argument("--limit", type=int, default=None, help="first N files of each corpus")
     p.add_argument("--markdown", help="also write the tables to this file")
+    p.add_argument("--floor", action="store_true",
+                   help="with --usd-only: each tool's floor per file (FLOOR)")
     p.add_argument("--usd-only", action="store_true",
                    help="only `real2code export --to usd` and the converter")
     args = p.parse_args()
@@ -132,12 +168,16 @@ def main() -> None:
     lines = [f"machine: {describe()}; load average at start {load_average()}", "",
              "seconds: wall (CPU, user + system)", ""]
     if args.usd_only:
+        floor = (" floor, ours / converter's (CPU) | above it, ours / converter (CPU) |"
+                 if args.floor else "")
         lines += ["| file | ours: export --to usd | converter (USD) | converter / ours "
-                  "(wall, CPU) | exit ours / converter |", "|---|---|---|---|---|"]
+                  "(wall, CPU) | exit ours / converter |" + floor,
+                  "|---|---|---|---|---|" + "---|---|" * args.floor]
         totals = ["| corpus | files | we export | converter exits clean | median export --to "
                   "usd | median converter | converter / ours (medians) | total ours / "
-                  "converter (wall s) | files faster (CPU) / 2x faster (CPU) |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  "converter (wall s) | files faster (CPU) / 2x faster (CPU) |"
+                  + floor.replace(" floor", " median floor").replace(" above", " median above"),
+                  "|---|---|---|---|---|---|---|---|---|" + "---|---|" * args.floor]
     else:
         lines += ["| file | ours: export, 4 formats | ours: check | ours: export --to usd | "
                   "converter (USD) | converter / ours (4 formats) | converter / ours (USD) | "
@@ -152,6 +192,10 @@ def main() -> None:
         rows = []
         for path in files()[: args.limit]:
             r = run_file(path, converter, args.usd_only)
+            if args.usd_only and args.floor:
+                r.update(floors(path))
+                r["above_ours_cpu"] = r["usd_cpu"] - r["floor_ours_cpu"]
+                r["above_converter_cpu"] = r["converter_cpu"] - r["floor_converter_cpu"]
             rows.append(r)
             line = (f"| {r['file']} | {r['usd_s']:.2f} ({r['usd_cpu']:.2f}) | "
                     f"{r['converter_s']:.2f} ({r['converter_cpu']:.2f}) | "
@@ -163,9 +207,15 @@ def main() -> None:
                     f"({r['converter_cpu']:.2f}) | {r['converter_s'] / r['export_s']:.2f} | "
                     f"{r['converter_s'] / r['usd_s']:.2f} | {r['export_rc']} / "
                     f"{r['converter_rc']} |")
+            if args.usd_only and args.floor:
+                line += " " + _floor_cells(r)
             print(line, flush=True)
             lines.append(line)
         totals.append(usd_summary(name, rows) if args.usd_only else summary(name, rows))
+        if args.usd_only and args.floor:
+            totals[-1] += " " + _floor_cells({k: _median(rows, k) for k in (
+                "floor_ours_cpu", "floor_converter_cpu", "above_ours_cpu",
+                "above_converter_cpu")})
     lines[0] += f"; at end {load_average()}"
     text = "\n".join(lines + [""] + totals) + "\n"
     print("\n".join(totals))

@@ -496,6 +496,19 @@ def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
 
 
 _STL_RECORD = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
+STL_HEADER = 84  # 80 bytes of text, then the triangle count (uint32)
+
+
+def binary_stl_triangles(head: bytes, size: int) -> int | None:
+    """The triangle count of a binary STL of ``size`` bytes whose first bytes are ``head`` (84
+    at least), or None where the file is no binary STL (its length is not what the count
+    says: an ASCII one)."""
+    if size < STL_HEADER or len(head) < STL_HEADER:
+        return None
+    count = int(np.frombuffer(head, "<u4", 1, STL_HEADER - 4)[0])
+    return count if size == STL_HEADER + count * _STL_RECORD.itemsize else None
+
+
 _STL_VERTEX = re.compile(rb"vertex\s+(\S+)\s+(\S+)\s+(\S+)", re.IGNORECASE)
 
 
@@ -507,9 +520,10 @@ def _read_stl(path: Path, source, element, line) -> Mesh:
     example-robot-data), and importing trimesh (with scipy) costs more than the rest of
     their USD export."""
     data = path.read_bytes()
-    count = int(np.frombuffer(data, "<u4", 1, 80)[0]) if len(data) >= 84 else -1
-    if count >= 0 and len(data) == 84 + count * _STL_RECORD.itemsize:
-        corners = np.frombuffer(data, _STL_RECORD, count, 84)["vertices"].reshape(-1, 3)
+    count = binary_stl_triangles(data[:STL_HEADER], len(data))
+    if count is not None:
+        corners = np.frombuffer(data, _STL_RECORD, count, STL_HEADER)["vertices"]
+        corners = corners.reshape(-1, 3)
     else:
         try:
             corners = np.array(_STL_VERTEX.findall(data), dtype=np.float64).reshape(-1, 3)

@@ -342,21 +342,23 @@ def test_missing_mesh_file_names_file_and_mesh(tmp_path):
         mjcf.load(path)
 
 
-def test_obj_meshes_read_once_compile_as_mujoco_compiles_the_file(tmp_path):
-    """The reader reads an OBJ once and gives MuJoCo its vertices (``give_meshes``): the model
-    it reads compiles as MuJoCo compiles the file itself (the mesh's scale, its centring into
-    the geom pose, the mass from the geom), and keeps the file's own float64 vertices."""
+@pytest.mark.parametrize("suffix", ["obj", "stl"])
+def test_meshes_read_once_compile_as_mujoco_compiles_the_file(tmp_path, suffix):
+    """The reader reads an OBJ or STL once and gives MuJoCo its vertices (``give_meshes``): the
+    model it reads compiles as MuJoCo compiles the file itself (the mesh's vertices and faces
+    bit for bit, its scale, its centring into the geom pose, the mass from the geom), and
+    keeps the file's own float64 vertices."""
     from real2code_export.formats.mjcf.read import _compile
 
     mesh = trimesh.creation.box(extents=(0.3, 0.2, 0.1))
     mesh.apply_translation((0.1, -0.05, 0.02))
     (tmp_path / "meshes").mkdir()
-    mesh.export(tmp_path / "meshes" / "lid.obj")
-    path = write(tmp_path / "lid.xml", """<mujoco>
+    mesh.export(tmp_path / "meshes" / f"lid.{suffix}")
+    path = write(tmp_path / "lid.xml", f"""<mujoco>
   <compiler meshdir="meshes"/>
   <asset>
-    <mesh name="lid" file="lid.obj" scale="1 2 0.5"/>
-    <mesh name="unused" file="lid.obj"/>
+    <mesh name="lid" file="lid.{suffix}" scale="1 2 0.5"/>
+    <mesh name="unused" file="lid.{suffix}"/>
   </asset>
   <worldbody>
     <body name="base"><geom size="0.1"/>
@@ -369,13 +371,28 @@ def test_obj_meshes_read_once_compile_as_mujoco_compiles_the_file(tmp_path):
     assert len(given) == 2  # read here, not by MuJoCo
     direct = mujoco.MjModel.from_xml_path(str(path))
     for field in ("body_mass", "body_inertia", "body_ipos", "body_iquat", "geom_pos",
-                  "geom_quat", "geom_size"):
+                  "geom_quat", "geom_size", "mesh_vert", "mesh_face", "mesh_normal"):
         assert np.array_equal(getattr(model, field), getattr(direct, field)), field
     obj = mjcf.load(path)
     lid = next(p for p in obj.parts if p.name == "lid")
-    expected = np.asarray(mesh.vertices) * [1.0, 2.0, 0.5]
+    written = np.asarray(mesh.vertices, dtype=np.float32 if suffix == "stl" else np.float64)
+    expected = written.astype(np.float64) * [1.0, 2.0, 0.5]  # (an STL's numbers are float32)
     assert np.allclose(np.sort(lid.visual.vertices, axis=0), np.sort(expected, axis=0),
                        rtol=0, atol=1e-12)
+
+
+def test_stl_mujoco_refuses_is_refused_as_before(tmp_path):
+    """An ASCII STL, which MuJoCo's decoder refuses, is not given to MuJoCo read by ours (which
+    reads ASCII for URDF files): the MJCF is refused with MuJoCo's message, naming the mesh."""
+    (tmp_path / "lid.stl").write_text(
+        trimesh.exchange.stl.export_stl_ascii(trimesh.creation.box(extents=(0.3, 0.2, 0.1))))
+    path = write(tmp_path / "lid.xml", """<mujoco>
+  <asset><mesh name="shell" file="lid.stl"/></asset>
+  <worldbody><body name="lid"><freejoint/><geom type="mesh" mesh="shell"/></body></worldbody>
+</mujoco>
+""")
+    with pytest.raises(FormatError, match=r"lid\.xml:2: <mesh name='shell'>: .*ASCII"):
+        mjcf.load(path)
 
 
 def test_compile_error_names_file_element_and_line(tmp_path):

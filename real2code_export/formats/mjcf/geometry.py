@@ -1,8 +1,8 @@
 """Geoms of a compiled MuJoCo model as triangle meshes in their body's frame.
 
 Mesh geoms are read from their files (float64, faces as written) where trimesh reads the
-format, else taken from the compiled model (float32); OBJ files are read once, before MuJoCo
-compiles, and MuJoCo is given their vertices (:func:`give_meshes`). Primitives are kept as
+format, else taken from the compiled model (float32); OBJ and STL files are read once, before
+MuJoCo compiles, and MuJoCo is given their vertices (:func:`give_meshes`). Primitives are kept as
 the model's shapes (box, sphere, ellipsoid, capsule, cylinder), with their fixed
 tessellation. MuJoCo moves a mesh to its own inertial frame when it compiles and folds that
 move into the geom pose; it is undone here, so a file mesh keeps its own coordinates.
@@ -16,7 +16,7 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, NoTrianglesError, warn
-from ...meshfiles import MESH_SUFFIXES, read_mesh
+from ...meshfiles import MESH_SUFFIXES, STL_HEADER, binary_stl_triangles, read_mesh
 from ...model import Mesh
 from ...primitives import Primitive, ShapeKind
 
@@ -25,25 +25,39 @@ from ...primitives import Primitive, ShapeKind
 # Read here and given to MuJoCo as vertices and faces (MjSpec's uservert, userface), so each
 # file is read once: MuJoCo parsing an OBJ's text costs more than compiling the same numbers
 # given (the 25 Menagerie models' compile, kuka_iiwa_14 0.12 -> 0.04 s of CPU; every body's
-# mass, inertia and frame and every geom's pose and size compile bit-identical). Binary STL
-# MuJoCo reads quicker than it merges the same triangles given vertex by vertex: left to it.
-_GIVEN_FORMATS = (".obj",)
+# mass, inertia and frame and every geom's pose and size compile bit-identical). An STL is
+# given welded, its equal corners one vertex in the order MuJoCo's own reading keeps them
+# (meshfiles._welded), so the compiled meshes are MuJoCo's bit for bit; read by MuJoCo too,
+# it was read twice (docs/benchmarks.md, session 19). Only an STL MuJoCo reads itself is
+# given (:func:`_mujoco_reads_stl`): a file it refuses stays refused, with its message.
+_GIVEN_FORMATS = (".obj", ".stl")
+_MUJOCO_STL_FACES = 200_000  # MuJoCo's STL decoder refuses more faces (and ASCII files)
+
+
+def _mujoco_reads_stl(path: Path) -> bool:
+    """Whether MuJoCo reads the STL ``path`` itself: binary, with 1 to
+    :data:`_MUJOCO_STL_FACES` triangles."""
+    with path.open("rb") as f:
+        count = binary_stl_triangles(f.read(STL_HEADER), path.stat().st_size)
+    return count is not None and 1 <= count <= _MUJOCO_STL_FACES
 
 
 def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
-    """Read the OBJ files of ``spec``'s meshes (``files``: spec mesh -> resolved path) and put
-    their vertices and faces into the spec in place of the file, before it is compiled: the
-    spec mesh, the mesh as the file has it (unscaled: MuJoCo applies the mesh's ``scale``),
-    and the warnings reading it gave (said when a geom uses the mesh, as before). A file
-    this reader refuses, or whose faces use fewer than 4 vertices, is left to MuJoCo, which
-    then reads it or names it."""
+    """Read the OBJ and STL files of ``spec``'s meshes (``files``: spec mesh -> resolved path)
+    and put their vertices and faces into the spec in place of the file, before it is
+    compiled: the spec mesh, the mesh as the file has it (unscaled: MuJoCo applies the mesh's
+    ``scale``), and the warnings reading it gave (said when a geom uses the mesh, as before).
+    A file this reader refuses, a mesh of fewer than 4 vertices, or an STL MuJoCo would
+    refuse, is left to MuJoCo, which then reads it or names it."""
     import warnings
 
     from ...errors import Real2CodeError
 
     given = []
     for spec_mesh, path in files.items():
-        if path.suffix.lower() not in _GIVEN_FORMATS or not path.is_file():
+        suffix = path.suffix.lower()
+        if suffix not in _GIVEN_FORMATS or not path.is_file() \
+                or (suffix == ".stl" and not _mujoco_reads_stl(path)):
             continue
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
