@@ -93,7 +93,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list[Excluded]:
     """Stretches of ``tr`` where a joint gains energy no candidate effect explains.
     ``spec``: the nominal replay spec; ``dynamics``: joint -> its model ``Dynamics``."""
-    from .problem import rigid_effort
+    from .problem import rigid_effort, stops_seen
 
     if tr.law() is not None:
         return []  # a closed loop drives the joint by design
@@ -108,6 +108,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     zero = np.zeros_like(q)
     weight = rigid_effort(spec, joints, q, zero, zero)  # gravity's load at each sample
     mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - weight
+    seen = stops_seen(spec, joints, tr, {j: dynamics[j].armature for j in joints})
     found = []
     edge = features.smoothing_window(period) // 2 + 1
     window = features.smoothing_window(period)
@@ -161,7 +162,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # whose scale follows the residual's own spread leaves it out of the fit
         coef = np.array([1e-6, 1e-6] + [0.0] * (x.shape[1] - 2))
         f_scale = 0.1
-        at_stop = _at_stops(qs[:, k], period)
+        at_stop = _at_stops(qs[:, k], seen[k])
         if j in tr.efforts:
             # the inertia is what the measured effort says: fitted (least squares) where
             # the effort acts, then held. A robust loss left free would find a minimum for
@@ -231,12 +232,10 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     return found
 
 
-def _at_stops(q: np.ndarray, period: float) -> np.ndarray:
-    """Samples near an end of the motion where the joint is stopped hard (a stop's rebound
-    returns the energy its compression took: positive work, but no push)."""
-    short = features.smoothing_window(period, seconds=0.08)
-    qq, dq, ddq = features.derivatives(q, period, short)
-    sides = features.sudden_stops(qq, dq, ddq, features.noise_level(q))
+def _at_stops(q: np.ndarray, sides: list[str]) -> np.ndarray:
+    """Samples near an end of the motion where the joint is stopped hard (``sides``: where
+    :func:`problem.stops_seen` sees it; a stop's rebound returns the energy its compression
+    took: positive work, but no push)."""
     span = float(np.ptp(q))
     near = np.zeros(len(q), bool)
     if "upper" in sides:
