@@ -11,12 +11,12 @@ median) under a redescending
 (Cauchy) loss, so the effects the calibration may still name are absorbed and a short
 foreign force is left as an outlier. A stretch of outliers (one that reaches the
 smoothing's edge runs on to the record's end: a hand that lets go at the start of the
-record acts from its first sample) counts as a push when
-the work it does on the joint is large against the joint's kinetic energy, put in or taken
-out (a hand that brakes a moving lid): an unmodelled effect of the state (inertia, a spring)
-only moves energy back and forth, friction's share is in the regression, and a stretch at a
-stop (its impact takes energy out, its rebound gives it back) is not counted. The run is
-cut there; each piece keeps its own initial state (multiple shooting across the push).
+record acts from its first sample) counts as a push when the work it does on the joint is
+large against the joint's kinetic energy where it moves, put in or taken out (a hand that
+brakes a moving lid): an unmodelled effect of the state (inertia, a spring) only moves
+energy back and forth, friction's share is in the regression, and a stretch at a stop (its
+impact takes energy out, its rebound gives it back) is not counted. The run is cut there;
+each piece keeps its own initial state (multiple shooting across the push).
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ GUARD = 0.15
 MIN_PIECE = 0.25  # s: a piece shorter than this is dropped with the push
 INERTIA_RANGE = (0.25, 4.0)  # the inertia's scale the push search allows, x nominal
 ACTING = 0.2  # the measured effort acts where above this share of its 95th percentile
+MOVING_SIGMAS = 5.0  # the joint moves where its speed is this many noise deviations
 
 
 @dataclass(frozen=True)
@@ -112,9 +113,20 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     found = []
     edge = features.smoothing_window(period) // 2 + 1
     window = features.smoothing_window(period)
+    gain = features.derivative_gain(period)  # white position noise -> the speed's noise
     for k, j in enumerate(joints):
         d = dynamics[j]
-        v95 = float(np.percentile(np.abs(dq[:, k]), 95))
+        # the joint's speed where it moves (its smoothed speed stands MOVING_SIGMAS noise
+        # deviations out): the energy scale a push is judged against and the width of
+        # friction's sign. Over a whole record a drawer that slides for a fifth of a second
+        # and rests for three has a 95th-percentile speed of nearly nothing, and its whole
+        # slide passed for a push. (The regression keeps every sample: at rest the joint
+        # shows which force is no push, and a door that coasts at one speed cannot tell
+        # damping from a constant force.)
+        speed = np.abs(dq[:, k])
+        moving = speed > MOVING_SIGMAS * features.noise_level(qs[:, k]) * gain
+        v95 = float(np.percentile(speed[moving] if moving.sum() >= MIN_SAMPLES else speed,
+                                  95))
         if v95 <= 0:
             continue
         sgn = np.tanh(dq[:, k] / max(0.05 * v95, 1e-12))
