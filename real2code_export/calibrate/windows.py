@@ -129,7 +129,11 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
                                   95))
         if v95 <= 0:
             continue
-        sgn = np.tanh(dq[:, k] / max(0.05 * v95, 1e-12))
+        # friction's direction is the velocity's where the joint moves; where it rests,
+        # static friction holds whatever else acts, so its column is zero there, not the
+        # sign of the speed's noise (which kept friction out of the fit: a random force
+        # of its full size on every resting sample)
+        sgn = np.where(moving, np.tanh(dq[:, k] / max(0.05 * v95, 1e-12)), 0.0)
         required = (tau_rb[:, k] + d.armature * ddq[:, k] + d.damping * dq[:, k]
                     + d.friction * sgn + d.stiffness * (q[:, k] - d.spring_ref))
         # minus the unmeasured force, less what candidate effects explain (a constant force
