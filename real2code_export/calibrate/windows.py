@@ -125,8 +125,9 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # damping from a constant force.)
         speed = np.abs(dq[:, k])
         moving = speed > MOVING_SIGMAS * features.noise_level(qs[:, k]) * gain
-        v95 = float(np.percentile(speed[moving] if moving.sum() >= MIN_SAMPLES else speed,
-                                  95))
+        if moving.sum() < MIN_SAMPLES:  # too few to say: the whole record
+            moving[:] = True
+        v95 = float(np.percentile(speed[moving], 95))
         if v95 <= 0:
             continue
         # friction's direction is the velocity's where the joint moves; where it rests,
