@@ -17,6 +17,7 @@ import pytest
 from real2code_export.calibrate import calibrate, predict, replay
 from real2code_export.calibrate.fit import fit_candidate
 from real2code_export.calibrate.problem import build_problem
+from real2code_export.calibrate.run import leave_out_pushes
 from real2code_export.calibrate.trajectory import read_all
 from real2code_export.calibrate.validate import cross_validate
 
@@ -79,6 +80,18 @@ def test_push_in_the_middle_is_left_out(tmp_path):
     assert pushes[0]["start"] < 1.35 and pushes[0]["end"] > 1.3, pushes
     assert not [e for e in report["excluded"] if e["file"] == str(fit[1])]
     assert report["rmse_after"] < 3 * NOISE
+
+
+def test_a_short_slide_then_a_long_rest_is_no_push(tmp_path):
+    """A door let go that friction and damping stop within a fifth of a second and that
+    rests for three: its slide is its own motion, not a push (the energy scale is the
+    joint's speed where it moves, and resting samples do not hold friction's sign), while
+    the push into a resting door is still found (the test above). No calibration."""
+    obj, joint, p = _door()
+    p = dataclasses.replace(p, friction_pos=1.5 * p.inertia, friction_neg=1.5 * p.inertia,
+                            damping_pos=p.inertia, damping_neg=p.inertia)
+    run = _run(tmp_path / "a.csv", joint, p, 0.5, 0.3, duration=3.5, seed=4)
+    assert leave_out_pushes(obj, read_all([run], obj, None))[1] == []
 
 
 def test_hand_at_the_start_is_left_out(tmp_path):

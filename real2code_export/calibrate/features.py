@@ -198,9 +198,14 @@ def swing_period(t: np.ndarray, q: np.ndarray) -> float | None:
     return 2.0 * float(t[turns[-1]] - t[turns[0]]) / (len(turns) - 1)
 
 
-def sudden_stops(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, noise: float) -> list[str]:
+def sudden_stops(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, noise: float,
+                 margin: int = 0) -> list[str]:
     """Sides ('lower', 'upper') where the joint is stopped hard: at the extreme of the
-    motion, the deceleration peaks far above what the rest of the motion shows."""
+    motion, while the joint still moves into it, the deceleration peaks far above what the
+    rest of the motion shows. ``ddq``: the acceleration nothing measured drives (a measured
+    push that turns the joint back at the far end of its travel is no stop); ``margin``:
+    samples at each end of the record, where a smoothed derivative is an extrapolation and
+    is not judged."""
     span = float(np.ptp(q))
     if span < 20 * noise:
         return []
@@ -212,12 +217,19 @@ def sudden_stops(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, noise: float) -
     for _, edge in edges:
         away &= np.abs(q - edge) >= 0.03 * span
     typical = float(np.percentile(a[away] if away.sum() > 10 else a, 90)) + 1e-12
+    judged = np.ones(len(q), bool)
+    if margin:
+        judged[:margin] = judged[-margin:] = False
     out = []
     for side, edge in edges:
         near = np.abs(q - edge) < 0.03 * span
         if not near.any():
             continue
-        peak = float(a[near].max())
+        # the stopping deceleration, where the joint still moves into the edge: a joint
+        # that rests there and is pushed away accelerates the same way, but from rest
+        into = 1.0 if side == "upper" else -1.0
+        stopping = near & judged & (into * dq > 0)
+        peak = float(np.max(-into * ddq[stopping])) if stopping.any() else 0.0
         # approached with speed: the velocity before reaching the edge is not small
         moving = float(np.percentile(np.abs(dq), 75))
         idx = np.flatnonzero(near)

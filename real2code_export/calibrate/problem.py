@@ -32,6 +32,7 @@ class Signals:
     tau_dt: np.ndarray  # the measured effort's time derivative: what a lag moves
     dq_noise: np.ndarray  # per joint: noise of the smoothed velocity
     usable: np.ndarray  # (n,) samples away from impacts and the ends
+    stops: list[list[str]]  # per joint: the sides this run shows the joint stopped hard
 
 
 @dataclass
@@ -108,6 +109,37 @@ def rigid_effort(spec, joints: list[str], traj_q: np.ndarray, dq: np.ndarray,
         mujoco.mj_inverse(m, d)
         out[i] = d.qfrc_inverse[dadr]
     return out
+
+
+IMPACT_SECONDS = 0.08  # impacts are short: looked for with a shorter smoothing window
+
+
+def stops_seen(spec, joints: list[str], tr: Trajectory, armature: dict[str, float]
+               ) -> list[list[str]]:
+    """Per joint, the sides where ``tr`` shows a joint stopped hard
+    (:func:`features.sudden_stops`), judged on the acceleration no measured effort drives:
+    the effort over the joint-space inertia (the nominal model's, with ``armature``)."""
+    period = tr.sample_period
+    short = features.smoothing_window(period, seconds=IMPACT_SECONDS)
+    qs = np.column_stack([tr.positions[j] for j in joints])
+    smooth = [features.derivatives(qs[:, k], period, short) for k in range(len(joints))]
+    q = np.column_stack([s[0] for s in smooth])
+    ddq = np.column_stack([s[2] for s in smooth])
+    measured = [k for k, j in enumerate(joints) if j in tr.efforts]
+    if measured:
+        zero = np.zeros_like(q)
+        weight = rigid_effort(spec, joints, q, zero, zero)
+        for k in measured:
+            unit = zero.copy()
+            unit[:, k] = 1.0
+            inertia = rigid_effort(spec, joints, q, zero, unit)[:, k] - weight[:, k] \
+                + armature[joints[k]]
+            effort = features.derivatives(features.despike(tr.efforts[joints[k]])[0],
+                                          period, short)[0]
+            ddq[:, k] = ddq[:, k] - effort / np.maximum(inertia, 1e-12)
+    return [features.sudden_stops(q[:, k], smooth[k][1], ddq[:, k],
+                                  features.noise_level(qs[:, k]), short // 2 + 1)
+            for k in range(len(joints))]
 
 
 def _initial_state(t: np.ndarray, q: np.ndarray, noise: float, seconds: float = 0.04
@@ -222,16 +254,14 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
         usable = np.ones(tr.n, bool)
         usable[: w // 2 + 1] = False
         usable[-(w // 2 + 1):] = False
-        for k, j in enumerate(joints):
-            # impacts are short: looked for with a shorter smoothing window
-            short = features.smoothing_window(period, seconds=0.08)
-            qk, dqk, ddqk = features.derivatives(qs[:, k], period, short)
-            sides = features.sudden_stops(qk, dqk, ddqk, sig_q[k])
+        seen = stops_seen(spec, joints, tr, {j: obj.joint(j).dynamics.armature
+                                             for j in joints})
+        for j, sides in zip(joints, seen, strict=True):
             for side in sides:
                 if side not in stops[j]:
                     stops[j].append(side)
         signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, tau_dq, tau_dt,
-                               dq_noise, usable))
+                               dq_noise, usable, seen))
 
     # samples near an end stop are left out of the inverse-dynamics start (impacts)
     for sig in signals:

@@ -95,7 +95,7 @@ def _features(problem: Problem, nominal: Fit) -> list[dict]:
             force = sig.tau[:, k] - _nominal_effort(problem, j, k, sig, set())
             missing = ft.missing_force(dq[sig.usable], sig.ddq[sig.usable, k],
                                        force[sig.usable])
-            stops = ft.sudden_stops(q, dq, sig.ddq[:, k], noise)
+            stops = sig.stops[k]
             summary = [f"noise {noise:.3g}"]
             if env["kind"] != "n/a":
                 summary.append(f"swing amplitude decays {env['kind']}ly"

@@ -11,12 +11,12 @@ median) under a redescending
 (Cauchy) loss, so the effects the calibration may still name are absorbed and a short
 foreign force is left as an outlier. A stretch of outliers (one that reaches the
 smoothing's edge runs on to the record's end: a hand that lets go at the start of the
-record acts from its first sample) counts as a push when
-the work it does on the joint is large against the joint's kinetic energy, put in or taken
-out (a hand that brakes a moving lid): an unmodelled effect of the state (inertia, a spring)
-only moves energy back and forth, friction's share is in the regression, and a stretch at a
-stop (its impact takes energy out, its rebound gives it back) is not counted. The run is
-cut there; each piece keeps its own initial state (multiple shooting across the push).
+record acts from its first sample) counts as a push when the work it does on the joint is
+large against the joint's kinetic energy where it moves, put in or taken out (a hand that
+brakes a moving lid): an unmodelled effect of the state (inertia, a spring) only moves
+energy back and forth, friction's share is in the regression, and a stretch at a stop (its
+impact takes energy out, its rebound gives it back) is not counted. The run is cut there;
+each piece keeps its own initial state (multiple shooting across the push).
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ GUARD = 0.15
 MIN_PIECE = 0.25  # s: a piece shorter than this is dropped with the push
 INERTIA_RANGE = (0.25, 4.0)  # the inertia's scale the push search allows, x nominal
 ACTING = 0.2  # the measured effort acts where above this share of its 95th percentile
+MOVING_SIGMAS = 5.0  # the joint moves where its speed is this many noise deviations
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list[Excluded]:
     """Stretches of ``tr`` where a joint gains energy no candidate effect explains.
     ``spec``: the nominal replay spec; ``dynamics``: joint -> its model ``Dynamics``."""
-    from .problem import rigid_effort
+    from .problem import rigid_effort, stops_seen
 
     if tr.law() is not None:
         return []  # a closed loop drives the joint by design
@@ -108,15 +109,32 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     zero = np.zeros_like(q)
     weight = rigid_effort(spec, joints, q, zero, zero)  # gravity's load at each sample
     mass = rigid_effort(spec, joints, q, zero, zero + 1.0) - weight
+    seen = stops_seen(spec, joints, tr, {j: dynamics[j].armature for j in joints})
     found = []
     edge = features.smoothing_window(period) // 2 + 1
     window = features.smoothing_window(period)
+    gain = features.derivative_gain(period)  # white position noise -> the speed's noise
     for k, j in enumerate(joints):
         d = dynamics[j]
-        v95 = float(np.percentile(np.abs(dq[:, k]), 95))
+        # the joint's speed where it moves (its smoothed speed stands MOVING_SIGMAS noise
+        # deviations out): the energy scale a push is judged against and the width of
+        # friction's sign. Over a whole record a drawer that slides for a fifth of a second
+        # and rests for three has a 95th-percentile speed of nearly nothing, and its whole
+        # slide passed for a push. (The regression keeps every sample: at rest the joint
+        # shows which force is no push, and a door that coasts at one speed cannot tell
+        # damping from a constant force.)
+        speed = np.abs(dq[:, k])
+        moving = speed > MOVING_SIGMAS * features.noise_level(qs[:, k]) * gain
+        if moving.sum() < MIN_SAMPLES:  # too few to say: the whole record
+            moving[:] = True
+        v95 = float(np.percentile(speed[moving], 95))
         if v95 <= 0:
             continue
-        sgn = np.tanh(dq[:, k] / max(0.05 * v95, 1e-12))
+        # friction's direction is the velocity's where the joint moves; where it rests,
+        # static friction holds whatever else acts, so its column is zero there, not the
+        # sign of the speed's noise (which kept friction out of the fit: a random force
+        # of its full size on every resting sample)
+        sgn = np.where(moving, np.tanh(dq[:, k] / max(0.05 * v95, 1e-12)), 0.0)
         required = (tau_rb[:, k] + d.armature * ddq[:, k] + d.damping * dq[:, k]
                     + d.friction * sgn + d.stiffness * (q[:, k] - d.spring_ref))
         # minus the unmeasured force, less what candidate effects explain (a constant force
@@ -161,7 +179,7 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
         # whose scale follows the residual's own spread leaves it out of the fit
         coef = np.array([1e-6, 1e-6] + [0.0] * (x.shape[1] - 2))
         f_scale = 0.1
-        at_stop = _at_stops(qs[:, k], period)
+        at_stop = _at_stops(qs[:, k], seen[k])
         if j in tr.efforts:
             # the inertia is what the measured effort says: fitted (least squares) where
             # the effort acts, then held. A robust loss left free would find a minimum for
@@ -231,12 +249,10 @@ def find_pushes(tr: Trajectory, joints: list[str], spec, dynamics: dict) -> list
     return found
 
 
-def _at_stops(q: np.ndarray, period: float) -> np.ndarray:
-    """Samples near an end of the motion where the joint is stopped hard (a stop's rebound
-    returns the energy its compression took: positive work, but no push)."""
-    short = features.smoothing_window(period, seconds=0.08)
-    qq, dq, ddq = features.derivatives(q, period, short)
-    sides = features.sudden_stops(qq, dq, ddq, features.noise_level(q))
+def _at_stops(q: np.ndarray, sides: list[str]) -> np.ndarray:
+    """Samples near an end of the motion where the joint is stopped hard (``sides``: where
+    :func:`problem.stops_seen` sees it; a stop's rebound returns the energy its compression
+    took: positive work, but no push)."""
     span = float(np.ptp(q))
     near = np.zeros(len(q), bool)
     if "upper" in sides:
