@@ -177,6 +177,16 @@ def test_emps_through_calibrate(emps, tmp_path):
     mass = r["base_parameters"][convert_emps.JOINT]["calibrated"]["moving_mass"]
     assert mass == pytest.approx(convert_emps.PUBLISHED["M"], rel=0.03)
     assert r["holdout_rmse_after"] <= r["holdout_rmse_before"]
+    # the symmetric model the direction dependence refines, fitted beside it: the
+    # published (symmetric) M, Fv and Fc within 3 %, and worse by BIC than the chosen one
+    sym = r["symmetric_alternative"]
+    value = {k.split(".", 1)[1]: v["value"] for k, v in sym["parameters"].items()}
+    moving = r["base_parameters"][convert_emps.JOINT]["nominal"]["moving_mass"]
+    assert moving * value["inertia_scale"] == pytest.approx(convert_emps.PUBLISHED["M"],
+                                                            rel=0.03)
+    assert value["damping"] == pytest.approx(convert_emps.PUBLISHED["Fv"], rel=0.03)
+    assert value["friction"] == pytest.approx(convert_emps.PUBLISHED["Fc"], rel=0.03)
+    assert sym["delta_bic"] > 0, sym
 
 
 @pytest.mark.slow
@@ -186,4 +196,8 @@ def test_dfki_identification_run_never_worse_on_other_controllers(dfki, tmp_path
     r = calibrate(dfki / "object.json", [dfki / "pd_system_identification.csv"],
                   [dfki / f"{n}.csv" for n in ("energy_shaping", "ilqr", "sac")],
                   tmp_path / "out")
-    assert r["holdout_rmse_after"] <= r["holdout_rmse_before"], r
+    held = r["holdout_effort"]
+    if held:  # no replay follows these runs: the effort each model predicts judged them
+        assert sum(e["sse_calibrated"] for e in held) <= sum(e["sse_nominal"] for e in held)
+    else:
+        assert r["holdout_rmse_after"] <= r["holdout_rmse_before"], r
