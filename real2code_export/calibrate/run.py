@@ -319,7 +319,9 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     report["cross_validation"] = cv.as_json()
     report["holdout_effort"] = held_effort
     report["residual_error"] = "effort" if effort_only and rejected is None else "position"
-    report["symmetric_alternative"] = symmetric_alternative(problem, selection.chosen)
+    # (fitted by simulation as the chosen structure was: not where no replay can judge)
+    report["symmetric_alternative"] = None if effort_only else \
+        symmetric_alternative(problem, selection.chosen)
     report["rejected"] = rejected
     if rejected is not None:
         report["unexplained"] = True
