@@ -184,6 +184,7 @@ def section_emps(data: Path, work: Path) -> list[str]:
               "|---|---|---|---|"]
     lines += [f"| {name} | {ref:.4f} | {ours:.4f} | {_pct((ours - ref) / ref)} |"
               for name, ours, ref in rows]
+    lines += symmetric_table(report, fitted["armature"], pub)
     # the benchmark's cross-validation figure, with the calibrated model's terms
     if "damping_pos" in params:
         damping = (params["damping_pos"], params["damping_neg"])
@@ -200,6 +201,37 @@ def section_emps(data: Path, work: Path) -> list[str]:
         lines += ["", "The calibrated model holds no friction terms, so the benchmark's "
                   "cross-validation force error is not computed for it."]
     return lines + [""]
+
+
+def symmetric_table(report: dict, armature: float, pub: dict) -> list[str]:
+    """The report's symmetric alternative (the model the chosen direction-dependent
+    friction refines, fitted by the command beside it) set beside the published symmetric
+    model."""
+    sym = report.get("symmetric_alternative")
+    if not sym:
+        return []
+    joint = emps.JOINT
+    moving = report["base_parameters"][joint]["nominal"]["moving_mass"]
+    eq = (sym.get("equation_error") or {}).get("parameters") or {}
+
+    def terms(values: dict) -> list[tuple[str, float, float]]:
+        get = {k.split(".", 1)[1]: v["value"] for k, v in values.items()}
+        return [("M [kg]", moving * get.get("inertia_scale", 1.0) + armature, pub["M"]),
+                ("Fv [N s/m]", get["damping"], pub["Fv"]), ("Fc [N]", get["friction"], pub["Fc"]),
+                ("offset [N]", -get["offset"], pub["OF"])]
+
+    rows = terms(sym["parameters"])
+    inverse = terms(eq) if eq else [(n, math.nan, r) for n, _, r in rows]
+    return ["", f"The symmetric model the command fitted beside the chosen one "
+            f"({' + '.join(sym['causes'])}; report.json `symmetric_alternative`; BIC "
+            f"{sym['delta_bic']:+.0f} against {' + '.join(sym['refined_by'])}, residual "
+            f"{sym['residual_to_noise']:.2f} against {sym['residual_to_noise_refined']:.2f} "
+            "x noise):", "",
+            "| published term | published (IDIM-LS) | symmetric, simulation fit | difference "
+            "| symmetric, inverse dynamics | difference |", "|---|---|---|---|---|---|",
+            *(f"| {name} | {ref:.4f} | {ours:.4f} | {_pct((ours - ref) / ref)} | {inv:.4f} | "
+              f"{_pct((inv - ref) / ref)} |"
+              for (name, ours, ref), (_, inv, _) in zip(rows, inverse, strict=True))]
 
 
 def section_free_swing(data: Path, work: Path) -> list[str]:
@@ -232,6 +264,9 @@ def section_dfki(data: Path, work: Path) -> list[str]:
     cmds.append(shown_hand)
     fitted = joint_terms(folder / "calibrated" / "object.json", dfki.JOINT)
     rig, pub = dfki.stated_rig(), dfki.PUBLISHED
+    half = report["base_parameters"][dfki.JOINT].get("halfwidth95") or {}
+    eq = report.get("equation_error") or {}
+    inverse = _inverse_terms(eq, fitted["armature"]) or fitted
     return ["## DFKI torque-limited pendulum", "",
             "dfki-ric-underactuated-lab/torque_limited_simple_pendulum. The converter writes "
             "position and the motor's current-derived torque per run and the rig as its "
@@ -239,20 +274,66 @@ def section_dfki(data: Path, work: Path) -> list[str]:
             "0.45 m, the AK80-6 rotor reflected through 6:1 as armature). The identification "
             "run is fitted, the other controllers' runs are held out.", "", "```", *cmds,
             "```", "", *summary(report, seconds), "", *parameters_table(report), "",
-            "| term | stated rig | authors' published fit | calibrated |", "|---|---|---|---|",
-            f"| J, inertia about the axis [kg m^2] | {rig['J']:.4f} | {pub['J']:.4f} | "
-            f"{fitted['J']:.4f} |",
+            *judged_by(report), "",
+            "| term | stated rig | authors' published fit | calibrated (written) | "
+            f"the command's inverse dynamics{' (rejected)' if eq.get('rejected') else ''} |",
+            "|---|---|---|---|---|",
+            f"| J, inertia about the axis, armature included [kg m^2] | {rig['J']:.4f} | "
+            f"{pub['J']:.4f} | {fitted['J']:.4f} {_pm(half.get('inertia_about_axis'))} | "
+            f"{inverse['J']:.4f} {_pm(inverse['J_half'])} |",
             f"| m cx, first moment [kg m] | {rig['m_cx']:.4f} | {pub['m_cx']:.4f} | "
-            f"{fitted['m_cx']:.4f} |", "",
+            f"{fitted['m_cx']:.4f} {_pm((half.get('first_moment') or [None])[0])} | "
+            f"{inverse['m_cx']:.4f} {_pm(inverse['m_cx_half'])} |",
+            f"| sqrt(g m cx / J) [rad/s] | {_omega(rig):.3f} | {_omega(pub):.3f} | "
+            f"{_omega(fitted):.3f} | {_omega(inverse):.3f} |", "",
             "The evidence (bench/calibrate_measured.py, from the converted CSVs): the "
             "measured torque predicted from the measured motion by the authors' model "
             "structure with each set of inertial terms, its friction and offset fitted on "
             "the identification run:", "",
             *torque_evidence(folder, {"stated rig": (rig["J"], rig["m_cx"]),
                                       "published fit": (pub["J"], pub["m_cx"]),
-                                      "calibrated": (fitted["J"], fitted["m_cx"])}), "",
+                                      "calibrated": (fitted["J"], fitted["m_cx"]),
+                                      "the command's inverse dynamics":
+                                      (inverse["J"], inverse["m_cx"])}), "",
             "The gravity-compensation run (a person moves the arm):", "",
             *summary(hand, hand_seconds), ""]
+
+
+def _inverse_terms(eq: dict, armature: float) -> dict | None:
+    """J (with the joint's armature) and m cx the command's inverse-dynamics estimate
+    gives (report.json ``equation_error``), with their 95 % half-widths."""
+    base = (eq.get("base_parameters") or {}).get(dfki.JOINT)
+    if not base:
+        return None
+    half = base.get("halfwidth95") or {}
+    return {"J": base["inertia_about_axis"] + armature, "m_cx": base["first_moment"][0],
+            "J_half": half.get("inertia_about_axis"),
+            "m_cx_half": (half.get("first_moment") or [None])[0]}
+
+
+def _pm(h) -> str:
+    return f"± {h:.4f}" if h is not None else ""
+
+
+def _omega(terms: dict) -> float:
+    return math.sqrt(9.81 * terms["m_cx"] / terms["J"])
+
+
+def judged_by(report: dict) -> list[str]:
+    """Which error chose the structure and judged the held-out runs, and the held-out
+    runs' effort errors where the effort judged them."""
+    out = [f"- chosen by: {report['selected_by']}; held out judged by: "
+           f"{'effort' if report.get('holdout_effort') else 'position'}; its residual: "
+           f"{report.get('residual_error', 'position')}; cross-validation by "
+           f"{report['cross_validation']['by']} on the {report['cross_validation']['error']}"]
+    held = report.get("holdout_effort")
+    if held:
+        which = "the rejected structure" if report["rejected"] else "calibrated"
+        out += ["", "| held-out run | effort RMS, nominal [N m] | "
+                f"{which} [N m] |", "|---|---|---|"]
+        out += [f"| {Path(e['file']).name} | {e['rms_nominal']:.4f} | "
+                f"{e['rms_calibrated']:.4f} |" for e in held]
+    return out
 
 
 def _dfki_signals(folder: Path, name: str, cutoff: float):

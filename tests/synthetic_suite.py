@@ -95,7 +95,8 @@ def run_case(seed: int) -> dict:
             "checks": checks,
             "unexplained": bool(report["unexplained"]), "holdout_before": before,
             "holdout_after": after, "worse": after > before * (1 + 1e-9), "seconds": seconds,
-            "cpu": cpu}
+            "cpu": cpu, "selected_by": report["selected_by"],
+            "holdout_judged_by": "effort" if report.get("holdout_effort") else "position"}
 
 
 def run_cases(seeds: list[int], workers: int | None = None,

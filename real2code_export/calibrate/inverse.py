@@ -305,3 +305,31 @@ def fold_errors(problem: Problem, effects: tuple[Effect, ...],
         sse_nom += float(np.sum(((d.y[left] - d.x[left] @ nominal) / w) ** 2))
         sse_cal += float(np.sum(((d.y[left] - d.x[left] @ coef) / w) ** 2))
     return sse_nom, sse_cal
+
+
+def effort_errors(problem: Problem, effects: tuple[Effect, ...], values: dict[str, float]
+                  ) -> list[dict]:
+    """How well the effort equation with ``values`` (parameter key -> value; the nominal
+    where absent) and the nominal model each predict the measured effort of every run and
+    joint of ``problem``, runs they were not fitted on: per block the RMS error (effort
+    units) and the squared error in effort-noise units."""
+    d = design(problem, effects)
+    nominal = np.array([coefficients(e, {p.name: p.nominal for p in e.params})[name]
+                        for e, name in d.columns])
+    fitted = np.array([coefficients(e, {p.name: values.get(p.key, p.nominal)
+                                        for p in e.params})[name] for e, name in d.columns])
+    out, start = [], 0
+    for t, k, idx in d.rows:
+        rows = slice(start, start + len(idx))
+        start += len(idx)
+        scale = max(problem.contexts[problem.joints[k]].effort_scale, 1e-12)
+        errors = {}
+        for label, coef in (("nominal", nominal), ("calibrated", fitted)):
+            r = d.y[rows] - d.x[rows] @ coef if len(coef) else d.y[rows]
+            errors[label] = (float(np.sqrt(np.mean(r**2))) * scale if len(r) else 0.0,
+                             float(np.sum((r / d.noise[rows]) ** 2)))
+        out.append({"file": problem.trajectories[t].source, "joint": problem.joints[k],
+                    "rms_nominal": errors["nominal"][0], "rms_calibrated":
+                    errors["calibrated"][0], "sse_nominal": errors["nominal"][1],
+                    "sse_calibrated": errors["calibrated"][1]})
+    return out

@@ -116,7 +116,7 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
             "score": "BIC (inverse-dynamics screen)", "bic": ef.bic(selection.screen_n_ref),
             "fitted_by": "inverse dynamics (screened out before simulation)"
             if selection.by == "simulation" else "inverse dynamics (effort equation)",
-            "selected": False,
+            "selected": ef is chosen.start,  # the effort equation's own result
         })
     report = {
         "schema": SCHEMA, "schema_version": 1, "model": model_name,
@@ -305,24 +305,70 @@ def _checks_markdown(report: dict[str, Any]) -> list[str]:
                   f"{cv['by']}, the calibrated structure predicts the left-out data{each} "
                   f"with squared error {cv['sse_calibrated']:.4g} against the nominal "
                   f"model's {cv['sse_nominal']:.4g} (noise units).", ""]
+    held = report.get("holdout_effort")
+    if held:
+        lines += ["## Held out, judged by the effort", "",
+                  "Neither model's open-loop replay follows these held-out runs (each is "
+                  "further from the motion than the run's mean), or the effort equation "
+                  "alone chose the structure: each model predicts the measured effort from "
+                  "the measured motion instead (inverse dynamics), and that error judged "
+                  "them (squared, in effort-noise units, summed).", "",
+                  "| run | joint | effort RMS nominal | calibrated | inverse-dynamics "
+                  "estimate |", "|---|---|---|---|---|"]
+        for e in held:
+            lines.append(f"| `{Path(e['file']).name}` | `{e['joint']}` | "
+                         f"{_fmt(e['rms_nominal'])} | {_fmt(e['rms_calibrated'])} | "
+                         f"{_fmt(e.get('rms_inverse_dynamics'))} |")
+        lines.append("")
+    sym = report.get("symmetric_alternative")
+    if sym:
+        eq_sym = (sym.get("equation_error") or {}).get("parameters") or {}
+        lines += ["## The symmetric model beside it", "",
+                  f"{' + '.join(sym['refined_by'])} refines {' + '.join(sym['causes'])} "
+                  "(the same friction both ways and a constant force), fitted on the same "
+                  f"data: residual {sym['residual_to_noise']:.2f} x noise against "
+                  f"{sym['residual_to_noise_refined']:.2f}, BIC {sym['delta_bic']:+.1f} for "
+                  "the symmetric model.", "",
+                  "| parameter | simulation fit | 95 % half-width | inverse dynamics |",
+                  "|---|---|---|---|"]
+        for key, v in sym["parameters"].items():
+            inv = eq_sym.get(key, {}).get("value")
+            lines.append(f"| `{key}` | {_fmt(v['value'], 6)} | {_fmt(v['halfwidth95'])} | "
+                         f"{_fmt(inv, 6)} |")
+        lines.append("")
     eq = report.get("equation_error")
     if eq and eq.get("parameters"):
-        lines += ["## Inverse dynamics (equation error)", "",
-                  "| parameter | equation error | simulation |", "|---|---|---|"]
+        lines += ["## Inverse dynamics (equation error)", ""]
+        if eq.get("rejected"):
+            lines += ["The structure rejected above, as the effort equation estimates it "
+                      "(the nominal model was kept):", ""]
+        lines += ["| parameter | equation error | 95 % half-width | simulation |",
+                  "|---|---|---|---|"]
         for key, v in eq["parameters"].items():
             sim = report["parameters"].get(key, {}).get("value")
-            lines.append(f"| `{key}` | {_fmt(v, 6)} | {_fmt(sim, 6)} |")
+            half = (eq.get("halfwidth95") or {}).get(key)
+            lines.append(f"| `{key}` | {_fmt(v, 6)} | {_fmt(half)} | {_fmt(sim, 6)} |")
+        for joint, b in (eq.get("base_parameters") or {}).items():
+            half = b.get("halfwidth95") or {}
+            for name in b.get("unit", {}):
+                value, h = b[name], half.get(name)
+                fmt = (lambda x: ", ".join(_fmt(v) for v in x)) if isinstance(value, list) \
+                    else _fmt
+                lines.append(f"| `{joint}` {name} | {fmt(value)} | "
+                             f"{fmt(h) if h is not None else '—'} | |")
         lines.append("")
     base = report.get("base_parameters") or {}
     if base:
         lines += ["## Base inertial parameters", "", "| joint | parameter | nominal | "
-                  "calibrated | unit |", "|---|---|---|---|---|"]
+                  "calibrated | 95 % half-width | unit |", "|---|---|---|---|---|---|"]
         for joint, both in base.items():
             units = both["nominal"]["unit"]
             for name, unit in units.items():
                 a, b = both["nominal"][name], both["calibrated"][name]
+                h = (both.get("halfwidth95") or {}).get(name)
                 fmt = (lambda x: ", ".join(_fmt(v) for v in x)) if isinstance(a, list) \
                     else _fmt
-                lines.append(f"| `{joint}` | {name} | {fmt(a)} | {fmt(b)} | {unit} |")
+                lines.append(f"| `{joint}` | {name} | {fmt(a)} | {fmt(b)} | "
+                             f"{fmt(h) if h is not None else '—'} | {unit} |")
         lines.append("")
     return lines

@@ -3,6 +3,7 @@ and the report out (atomically: all of it or nothing)."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,16 +15,23 @@ from .. import atomic
 from ..errors import FormatError
 from ..model import ArticulatedObject
 from . import features as ft
-from .apply import calibrated_object
+from .alternatives import symmetric_alternative
+from .apply import base_parameter_halfwidths, calibrated_object
 from .experiment import read_experiment
 from .fit import Fit, fit_candidate
 from .inertial import compared
-from .inverse import _nominal_effort
+from .inverse import _nominal_effort, effort_errors
 from .prediction import initial_values, predict, predict_beside
 from .problem import Problem, build_problem, calibration_spec
 from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
 from .select import Selection, select
-from .select_effort import effort_decides, select_by_effort
+from .select_effort import (
+    EFFORT_ONLY,
+    effort_decides,
+    replay_cannot_judge,
+    select_by_effort,
+    select_on_effort_only,
+)
 from .trajectory import MIN_SAMPLES, Trajectory, read_all
 from .validate import cross_validate, cross_validate_effort
 from .windows import Excluded, cut, find_pushes, segments, window
@@ -229,10 +237,13 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
         trajectories = [p for tr in trajectories for p in segments(tr, segment)]
     problem = build_problem(model, trajectories)
     selection = select_by_effort(problem) if effort_decides(problem) else select(problem)
+    if selection.by == "simulation" and replay_cannot_judge(problem, selection):
+        selection = select_on_effort_only(problem, selection)
+    # the effort equation alone chose and fitted: every judgement is made on the effort
+    effort_only = selection.by == EFFORT_ONLY
     rejected = None
-    cv = cross_validate_effort(problem, selection.chosen) \
-        if selection.by == "effort equation" else \
-        cross_validate(model, trajectories, selection.chosen)
+    cv = cross_validate(model, trajectories, selection.chosen) \
+        if selection.by == "simulation" else cross_validate_effort(problem, selection.chosen)
     if not cv.improves:
         rejected = (f"{'+'.join(selection.chosen.names)} predicts left-out data worse than "
                     f"the nominal model (cross-validation by {cv.kind}, {cv.error}: squared "
@@ -243,7 +254,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     after = replay(calibrated, trajectories, selection.chosen) if selection.chosen.effects \
         else selection.nominal
     fits = _replays("fitted", trajectories, selection.nominal, after)
-    if rejected is None and selection.chosen.effects and \
+    if rejected is None and selection.chosen.effects and not effort_only and \
             _worse(fits):
         # (its own fit is better; the exported model's replay, initial states as the data
         # give them, is not: what it fitted lives in the fit's initial states)
@@ -251,16 +262,38 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                     "the nominal model")
     held_nominal = predict(model, held) if held else None
     holdouts = []
+    held_effort = None
     if held and rejected is None:
         held_after = held_nominal
         if selection.chosen.effects:
             held_nominal, held_after = predict_beside(model, calibrated, held, held_nominal)
         holdouts = _replays("held out", held, held_nominal, held_after)
-        if _worse(holdouts):
+        lost = list(range(len(held))) if effort_only else \
+            [i for i, r in enumerate(holdouts) if _lost(r)]
+        if selection.chosen.effects and lost and all(
+                j in held[i].efforts for i in lost for j in problem.joints):
+            # neither model's open-loop replay follows these runs (an unstable plant its
+            # controller held up, replayed on the recorded effort), or the replay judged
+            # nothing of the fit: the effort each model says the measured motion needs
+            # judges them
+            held_effort = held_effort_errors(model, [held[i] for i in lost],
+                                             selection.chosen)
+            followed = [r for i, r in enumerate(holdouts) if i not in lost]
+            worse = (followed and _worse(followed)) or \
+                sum(e["sse_calibrated"] for e in held_effort) > \
+                sum(e["sse_nominal"] for e in held_effort)
+        else:
+            worse = _worse(holdouts)
+        if worse:
             rejected = (f"{'+'.join(selection.chosen.names)} predicts the held-out data "
-                        "worse than the nominal model")
+                        "worse than the nominal model" + (
+                            " (judged by the effort each predicts from the measured "
+                            "motion on the runs no replay follows)"
+                            if held_effort else ""))
+    proposed = None  # the structure rejected, if one was
     if rejected is not None:  # never worse than nominal: the nominal model is the result
         selection.log.append(f"rejected: {rejected}; the nominal model is kept")
+        proposed = selection.chosen
         selection.chosen = selection.nominal
         calibrated = calibrated_object(model, selection.nominal)
         if held:
@@ -269,8 +302,14 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     report = build_report(problem, selection, fits, holdouts, _features(problem, selection.nominal),
                           [tr.source for tr in trajectories], [tr.source for tr in held],
                           model.name)
-    report["equation_error"] = _equation_error(problem, selection.chosen)
-    report["base_parameters"] = {j: compared(model, calibrated, j) for j in problem.joints}
+    # (of the rejected structure where one was: what the effort said, set beside the
+    # nominal model that was kept)
+    report["equation_error"] = _equation_error(model, problem, proposed or selection.chosen)
+    if proposed is not None and report["equation_error"] is not None:
+        report["equation_error"]["rejected"] = True
+    report["base_parameters"] = {j: {**compared(model, calibrated, j), "halfwidth95":
+                                     base_parameter_halfwidths(model, selection.chosen, j)}
+                                 for j in problem.joints}
     report["excluded"] = [e.as_json() for e in excluded + held_excluded]
     report["shooting_segment"] = segment
     report["sensor"] = {tr.source: {j: {"noise": float(problem.position_noise[t][k]),
@@ -278,6 +317,11 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                                     for k, j in enumerate(problem.joints)}
                         for t, tr in enumerate(problem.trajectories)}
     report["cross_validation"] = cv.as_json()
+    report["holdout_effort"] = held_effort
+    report["residual_error"] = "effort" if effort_only and rejected is None else "position"
+    # (fitted by simulation as the chosen structure was: not where no replay can judge)
+    report["symmetric_alternative"] = None if effort_only else \
+        symmetric_alternative(problem, selection.chosen)
     report["rejected"] = rejected
     if rejected is not None:
         report["unexplained"] = True
@@ -288,20 +332,60 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     return CalibrationResult(calibrated, report, selection, problem, fits, holdouts, files)
 
 
-def _equation_error(problem: Problem, chosen: Fit) -> dict | None:
+def _equation_error(model: ArticulatedObject, problem: Problem, chosen: Fit) -> dict | None:
     """The inverse-dynamics (equation-error) estimate of the chosen structure beside the
-    simulation (output-error) one: where the effort is measured both are reported."""
+    simulation (output-error) one, with its 95 % intervals and the base inertial
+    parameters it gives: where the effort is measured both are reported."""
     if not any(problem.contexts[j].has_effort for j in problem.joints):
         return None
     start = chosen.start
     if start is None:
         return {"parameters": {}, "note": "nominal model: nothing fitted"}
+    as_fit = dataclasses.replace(chosen, values={**chosen.values, **start.values},
+                                 cov=dict(start.cov))
+    inverse_model = calibrated_object(model, as_fit)
     return {"parameters": dict(start.values),
+            "halfwidth95": {k: _finite(start.halfwidth(k)) for k in start.values},
+            "base_parameters": {j: {**compared(model, inverse_model, j)["calibrated"],
+                                    "halfwidth95": base_parameter_halfwidths(model, as_fit, j)}
+                                for j in problem.joints},
+            "rejected": False,
             "residual_rms": float(np.sqrt(start.rss / max(start.n, 1))),
             "unit": "effort / effort scale",
             "loss": "soft L1 where the effort residual has spikes, else least squares",
             "note": "measured effort regressed on Savitzky-Golay smoothed motion; the "
-                    "simulation fit starts from it and decides"}
+                    "simulation fit starts from it and decides, but where selected_by is "
+                    "'effort equation only' (this is then the result)"}
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _lost(r: Replay) -> bool:
+    """Neither model's replay follows the run: each is further from the measured motion
+    than the run's own mean (R^2 <= 0), so the position error measures a divergence, not
+    which model is nearer."""
+    spread = float(np.sum((r.measured - r.measured.mean(axis=0)) ** 2))
+    return all(float(np.sum((sim - r.measured) ** 2)) >= spread
+               for sim in (r.nominal, r.calibrated))
+
+
+def held_effort_errors(model: ArticulatedObject, trajectories: list[Trajectory],
+                       chosen: Fit) -> list[dict]:
+    """The chosen structure's effort equation, with the values of the fit (and with its
+    inverse-dynamics estimate), against the nominal model on runs it was not fitted on:
+    the measured effort each predicts from the measured motion (inverse dynamics), per
+    run and joint."""
+    problem = build_problem(model, trajectories)
+    effects = tuple(problem.effects[e.joint][e.variant] for e in chosen.effects
+                    if e.variant in problem.effects[e.joint])
+    out = effort_errors(problem, effects, chosen.values)
+    if chosen.start is not None:
+        for row, eq in zip(out, effort_errors(problem, effects, chosen.start.values),
+                           strict=True):
+            row["rms_inverse_dynamics"] = eq["rms_calibrated"]
+    return out
 
 
 def _worse(replays: list[Replay]) -> bool:
@@ -371,6 +455,10 @@ def run_calibrate(model_path: Path, data: Sequence[Path], holdout: Sequence[Path
     for e in r["excluded"]:
         print(f"left out   {Path(e['file']).name} {e['start']:.3f}-{e['end']:.3f} s: "
               f"{e['reason']}")
+    for e in r["holdout_effort"] or []:
+        print(f"            {Path(e['file']).name}: no replay follows it; effort RMS "
+              f"{e['rms_nominal']:.4g} -> {e['rms_calibrated']:.4g} (held out, inverse "
+              "dynamics)")
     if r["rejected"]:
         print(f"rejected    {r['rejected']}")
     if r["unexplained"]:

@@ -9,10 +9,15 @@ it are replayed (each closed-loop replay steps the law sample by sample).
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
+import numpy as np
+
 from . import features
 from .effects import Effect
 from .fit import DEGENERATE, MATERIAL, Fit, fit_candidate, refine_fit
-from .inverse import EquationFit, equation_fit
+from .inverse import EquationFit, coefficients, design, equation_fit
 from .problem import Problem
 from .select import MAX_EFFECTS, Selection, _key, _n_ref, _proposals
 
@@ -100,17 +105,22 @@ def _departs(f: Fit, e: Effect) -> bool:
     return bool(strength > 1.96 * se)
 
 
-def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFECTS
+def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFECTS,
+                  screened: dict[tuple[str, ...], EquationFit] | None = None
                   ) -> tuple[list[tuple[Effect, ...]], dict[tuple[str, ...], EquationFit]]:
     """The stepwise search of :func:`select_by_effort`: the structure kept at each step
-    (the last is the chosen one), and every structure scored."""
-    screened: dict[tuple[str, ...], EquationFit] = {(): equation_fit(problem, ())}
+    (the last is the chosen one), and every structure scored (``screened``: those scored
+    already, by key)."""
+    screened = dict(screened or {})
+    if () not in screened:
+        screened[()] = equation_fit(problem, ())
     current: tuple[Effect, ...] = ()
     path: list[tuple[Effect, ...]] = []
     while len(current) < max_effects:
-        proposals = [p for p in _proposals(problem, current) if _key(p) not in screened]
+        proposals = _proposals(problem, current)
         for p in proposals:
-            screened[_key(p)] = equation_fit(problem, p)
+            if _key(p) not in screened:
+                screened[_key(p)] = equation_fit(problem, p)
         n_ref = _n_ref(screened.values())
         here = screened[_key(current)]
         kept = None
@@ -137,3 +147,67 @@ def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFEC
         path.append(kept)
         log.append(f"kept {'+'.join(screened[_key(current)].names)}")
     return path, screened
+
+
+# Where no replay can judge the structures (below), the selection is made and its values
+# taken on the effort equation alone: ``Selection.by`` says so.
+EFFORT_ONLY = "effort equation only"
+
+
+def replay_cannot_judge(problem: Problem, selection: Selection) -> bool:
+    """Whether the output error cannot judge this problem but the effort equation can:
+    every run's effort is measured and replayed open loop (no declared law), no candidate
+    is an end stop (the effort equation leaves impacts out), and even the simulation
+    search's choice leaves the motion more than UNEXPLAINED_RATIO noise deviations off
+    (RMS). An unstable plant its controller held up (a swing-up), replayed open loop on
+    the recorded effort, leaves the data whatever its parameters: the output error then
+    measures that divergence, not the causes, while the effort each structure says the
+    measured motion needs is still a least squares of the identification literature."""
+    from .report import UNEXPLAINED_RATIO
+
+    if any(tr.law() is not None or not all(j in tr.efforts for j in problem.joints)
+           for tr in problem.trajectories):
+        return False
+    if not all(e.coefficient_names for lib in problem.effects.values() for e in lib.values()):
+        return False
+    chosen = selection.chosen
+    return math.sqrt(chosen.rss / chosen.n) > UNEXPLAINED_RATIO
+
+
+def select_on_effort_only(problem: Problem, after: Selection,
+                          max_effects: int = MAX_EFFECTS) -> Selection:
+    """Where :func:`replay_cannot_judge`: the forward search of :func:`select_by_effort`
+    on the effort equation (started from the structures the simulation search already
+    screened), and the chosen structure's inverse-dynamics estimate is the result, its
+    95 % intervals from the equation's covariance; no structure is replayed (the
+    simulation search's nominal fit stays, for the replays of the report)."""
+    log = after.log + [
+        f"the simulation search's choice ({'+'.join(after.chosen.names) or 'nominal'}) "
+        f"leaves the motion {math.sqrt(after.chosen.rss / after.chosen.n):.0f} noise "
+        "deviations off, and every run's effort is measured and replayed open loop: the "
+        "replay cannot judge the structures (it diverges whatever the parameters); they "
+        "are compared on the effort equation, and its estimate is the result"]
+    path, screened = effort_search(problem, log, max_effects, dict(after.screened))
+    nominal = after.nominal
+    chosen = as_fit(problem, nominal, screened[_key(path[-1])]) if path else nominal
+    screen_ref = _n_ref(screened.values())
+    return Selection(nominal, chosen, [nominal], after.n_ref,
+                     sorted(screened.items(), key=lambda kv: kv[1].bic(screen_ref)),
+                     screen_ref, log, by=EFFORT_ONLY)
+
+
+def as_fit(problem: Problem, nominal: Fit, ef: EquationFit) -> Fit:
+    """An effort-equation fit as the result: its structure, values and covariance, its
+    residual the effort's (in effort-noise deviations), the initial states and replays the
+    nominal fit's (nothing was replayed)."""
+    d = design(problem, ef.effects)
+    coef = np.concatenate([[coefficients(e, {p.name: ef.values[p.key] for p in e.params})[n]
+                            for n in e.coefficient_names] for e in ef.effects]) \
+        if d.columns else np.zeros(0)
+    residual = (d.y - d.x @ coef) / d.noise
+    halfwidth = {k: ef.halfwidth(k) for k in ef.values}
+    return dataclasses.replace(
+        nominal, effects=ef.effects, values=dict(ef.values), halfwidth=halfwidth,
+        cov=dict(ef.cov), identifiable={k: math.isfinite(h) for k, h in halfwidth.items()},
+        correlated={}, residual=residual, rss=float(residual @ residual),
+        n_eff=ef.n_eff, k=ef.k, start=ef, material=dict(ef.material), refined=False)
