@@ -1,5 +1,5 @@
 """The joint predictor's training data: procedural objects (``pipeline.procedural``, every
-category, 2 to 15 parts), each seen at a partially-open state (the paper's assumption: every
+category, the household ones included, 2 to 15 parts), each seen at a partially-open state (the paper's assumption: every
 door and drawer ajar), with the paper's augmentation — a random rotation about z and a
 random shift — and one of ours for boxes cut from a predicted segmentation: some drawers are
 seen by their front alone (:func:`drawer_fronts`). Labels come from the ground-truth joints
@@ -98,14 +98,19 @@ def _one(args):
     return sample(obj, ajar_configuration(obj, rng), random_placement(rng), rng)
 
 
+STORAGE_SHARE = 0.5  # of objects that are storage furniture, besides its share of the rest
+
+
 def object_specs(n_objects: int, seed: int) -> list[tuple[str, int | None, int]]:
-    """A balanced mix: storage furniture over 2..15 parts, and the other categories."""
-    from ..procedural import CATEGORIES, part_count_range
+    """A balanced mix: storage furniture over 2..15 parts (the widest range of layouts), and
+    every category, the household ones included, in equal shares of the rest."""
+    from ..procedural import ALL_CATEGORIES, part_count_range
 
     rng = np.random.default_rng(seed)
     specs = []
     for k in range(n_objects):
-        category = CATEGORIES[0] if rng.random() < 0.6 else CATEGORIES[rng.integers(len(CATEGORIES))]
+        category = ALL_CATEGORIES[0] if rng.random() < STORAGE_SHARE else \
+            ALL_CATEGORIES[rng.integers(len(ALL_CATEGORIES))]
         lo, hi = part_count_range(category)
         specs.append((category, int(rng.integers(lo, hi + 1)), seed * 1_000_000 + k))
     return specs
