@@ -1,6 +1,7 @@
 """Train the learned joint predictor on procedural objects, on the CPU.
 
-    python -m pipeline.predictors.train [--objects 6000] [--epochs 40] [--out PATH]
+    python -m pipeline.predictors.train [--objects 6000] [--epochs 40] [--workers 2]
+        [--threads N] [--out PATH]
 
 Data: :mod:`.data` (procedural objects, ajar, augmented, labelled from their true joints).
 The weights, the configuration and the training record (time, validation accuracy) are
@@ -87,11 +88,13 @@ def exact_accuracy(network, data) -> float:
 
 def train(n_objects: int, epochs: int, seed: int, out: Path, batch_size: int = 64,
           workers: int = 2, network_config: dict | None = None,
-          cache_dir: Path | None = None) -> dict:
+          cache_dir: Path | None = None, threads: int | None = None) -> dict:
+    """Generate the data with ``workers`` processes and train with ``threads`` torch threads
+    (default: as many as workers)."""
     import torch
 
     torch.manual_seed(seed)
-    torch.set_num_threads(max(1, workers))
+    torch.set_num_threads(max(1, threads or workers))
     t0 = time.perf_counter()
     def cache(tag: str, n: int, s: int) -> Path | None:
         return cache_dir / f"joints_{tag}_{n}_{s}.pkl" if cache_dir else None
@@ -140,13 +143,15 @@ def main(argv=None) -> None:
     p.add_argument("--objects", type=int, default=6000)
     p.add_argument("--epochs", type=int, default=40)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--workers", type=int, default=2, help="processes generating the data")
+    p.add_argument("--threads", type=int, default=None,
+                   help="torch threads for training (default: as many as --workers)")
     p.add_argument("--out", type=Path, default=WEIGHTS)
     p.add_argument("--cache-dir", type=Path, default=None,
                    help="keep generated samples here between runs")
     args = p.parse_args(argv)
     record = train(args.objects, args.epochs, args.seed, args.out, workers=args.workers,
-                   cache_dir=args.cache_dir)
+                   cache_dir=args.cache_dir, threads=args.threads)
     print(json.dumps(record, indent=1))
 
 
