@@ -38,7 +38,8 @@ def _every_count(categories=CATEGORIES, seeds=SEEDS):
 
 
 CASES = _every_count()
-HOUSEHOLD_CASES = _every_count(HOUSEHOLD_CATEGORIES, seeds=(0, 1))
+# Household categories: every part count once, the seed alternating (the suite's time).
+HOUSEHOLD_CASES = [(c, n, n % 2) for c, n, _ in _every_count(HOUSEHOLD_CATEGORIES, seeds=(0,))]
 _cache: dict[tuple, object] = {}
 
 
@@ -116,10 +117,11 @@ def test_generated_objects_are_valid_and_named(category, n_parts, seed):
 def test_part_count_from_the_seed(category):
     lo, hi = part_count_range(category)
     counts = set()
-    for seed in range(12):
+    for seed in range(12 if category in CATEGORIES else 6):
         obj = generate(category, None, seed)
         assert lo <= len(obj.parts) <= hi
-        assert len(generate(category, None, seed).parts) == len(obj.parts)
+        if seed == 0:  # the count comes from the seed (whole objects: byte_for_byte below)
+            assert len(generate(category, None, seed).parts) == len(obj.parts)
         counts.add(len(obj.parts))
     assert hi == lo or len(counts) > 1
 
@@ -147,8 +149,7 @@ def test_bad_category_and_seed_are_refused():
 # -- determinism --------------------------------------------------------------------------------
 @pytest.mark.parametrize("category, n_parts", [("storage_furniture", 9), ("table", 3),
                                                ("refrigerator", 3), ("laptop", 2), ("box", 2),
-                                               ("oven", 12), ("dishwasher", 5), ("microwave", 5),
-                                               ("trash_can", 4), ("door", 3)])
+                                               ("oven", 7), ("door", 3)])
 def test_same_seed_same_object_byte_for_byte(tmp_path, category, n_parts):
     a, b = generate(category, n_parts, 7), generate(category, n_parts, 7)
     assert differences(a, b, tol=0.0) == []
@@ -221,8 +222,9 @@ def test_box_overlap_test_matches_geometry():
 
 @pytest.mark.parametrize("category", ALL_CATEGORIES)
 def test_observed_configuration_is_collision_free(category):
-    seeds = SEEDS if category in CATEGORIES else (0, 1)
-    for (_, n, s) in _every_count([category], seeds):
+    cases = _every_count([category]) if category in CATEGORIES else \
+        [case for case in HOUSEHOLD_CASES if case[0] == category]
+    for (_, n, s) in cases:
         obj = _generated(category, n, s)
         poses = forward_kinematics(obj, obj.observed_configuration())
         boxes = {p.name: _local_boxes(p) for p in obj.parts}
@@ -302,13 +304,12 @@ def test_household_objects_are_valid_and_joints_as_intended(category, n_parts, s
 
 
 def test_household_styles_vary_with_the_seed():
-    assert {generate("oven", 6, s).metadata["style"]["kind"] for s in range(8)} == {"range", "wall"}
-    doors = [generate("door", 2, s) for s in range(10)]
+    assert {_generated("oven", 3, s).metadata["style"]["kind"] for s in range(6)} == {"range", "wall"}
+    doors = [_generated("door", 2, s) for s in range(8)]
     assert {o.metadata["style"]["layout"] for o in doors} == {"hinged", "sliding"}
-    assert {generate("trash_can", 3, s).metadata["style"]["lid"] for s in range(8)} == \
+    assert {_generated("trash_can", 3, s).metadata["style"]["lid"] for s in range(6)} == \
         {"single", "butterfly"}
-    objs = doors + [generate(c, part_count_range(c)[1], s) for c in HOUSEHOLD_CATEGORIES
-                    for s in range(3)]
+    objs = doors + [_generated(*case) for case in HOUSEHOLD_CASES]
     labels = {lab for o in objs for lab in o.metadata["joint_labels"].values()}
     assert labels == set(HOUSEHOLD_JOINTS)
 
@@ -328,7 +329,7 @@ def test_stands_on_the_floor(category, n_parts, seed):
 
 
 @pytest.mark.parametrize("category, n_parts, seed",
-                         [(c, n, 0) for c, n, s in CASES + HOUSEHOLD_CASES if s == 0])
+                         [(c, n, 0) for c, n, s in CASES if s == 0] + HOUSEHOLD_CASES)
 def test_meshes_are_closed_convex_boxes_and_inertials_match_them(category, n_parts, seed):
     import trimesh
 
@@ -371,9 +372,10 @@ def test_inertials_equal_the_integrated_pieces(seed):
     ("microwave", 5.0, 25.0), ("trash_can", 0.5, 15.0), ("door", 10.0, 250.0),
 ])
 def test_masses_and_sizes_are_realistic(category, low, high):
-    seeds = SEEDS if category in CATEGORIES else (0, 1)
+    cases = _every_count([category]) if category in CATEGORIES else \
+        [case for case in HOUSEHOLD_CASES if case[0] == category]
     largest = 3.5 if category == "door" else 2.1  # a sliding door runs over the wall beside
-    for (_, n, s) in _every_count([category], seeds):
+    for (_, n, s) in cases:
         obj = _generated(category, n, s)
         assert low <= obj.total_mass() <= high, (obj.name, obj.total_mass())
         size = np.ptp(np.concatenate([_world_vertices(obj, p.name, {}) for p in obj.parts]), axis=0)
