@@ -1,8 +1,8 @@
 """The joint predictor's training data: procedural objects (``pipeline.procedural``, the
-categories of a world (:data:`WORLDS`), 2 to 15 parts), each seen at a partially-open state (the paper's assumption: every
-door and drawer ajar), with the paper's augmentation — a random rotation about z and a
-random shift — and one of ours for boxes cut from a predicted segmentation: some drawers are
-seen by their front alone (:func:`drawer_fronts`). Labels come from the ground-truth joints
+categories of a world, :data:`WORLDS`; 2 to 15 parts), each seen at a partially-open state
+(the paper's assumption: every door and drawer ajar), with the paper's augmentation — a
+random rotation about z and a random shift — and one of ours for boxes cut from a predicted
+segmentation: some drawers are seen by their front alone (:func:`drawer_fronts`). Labels come from the ground-truth joints
 encoded on the fitted boxes (``pipeline.boxes``). The other learned models draw their
 objects and states from here too (:func:`object_specs`, :func:`ajar_configuration`)."""
 

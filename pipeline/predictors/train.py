@@ -1,7 +1,7 @@
 """Train the learned joint predictor on procedural objects, on the CPU.
 
     python -m pipeline.predictors.train [--objects 6000] [--epochs 40] [--workers 2]
-        [--threads N] [--init WEIGHTS --lr 5e-4] [--out PATH]
+        [--threads N] [--world real2code|household] [--init WEIGHTS --lr 5e-4] [--out PATH]
 
 Data: :mod:`.data` (procedural objects, ajar, augmented, labelled from their true joints).
 The weights, the configuration and the training record (time, validation accuracy) are
