@@ -18,10 +18,11 @@ Conventions (besides the model's):
 - q = 0 is closed. Revolute joints open outward for positive angles (doors swing to the
   front, lids lift, a pedal goes down; knobs and turntables turn about their own axis),
   prismatic joints slide along +X (a sliding door along the wall, +Y or -Y); limits start
-  at 0. The observed
-  ``state`` is a random, mostly partly open value within the limits (sometimes closed).
-- A part's frame is its joint frame: on the hinge line for doors and lids, at the centre
-  of the closed front face for drawers. No joint origin is rotated.
+  at 0. The observed ``state`` is a random, mostly partly open value within the limits
+  (sometimes closed).
+- A part's frame is its joint frame: on the hinge line for doors and lids (on the axis for
+  knobs and turntables), at the centre of the closed front face for drawers (of the front
+  bar for racks, of the back face for sliding doors). No joint origin is rotated.
 - Geometry is a union of boxes (and 12-sided cylinders): the visual mesh concatenates them,
   each is one convex collision piece, the inertial combines their exact solid inertials.
 - Closed, no two parts overlap: fronts keep a gap of a few millimetres to their opening.
