@@ -37,12 +37,32 @@ def test_training_script_runs_and_its_weights_load(tmp_path):
 
     out = tmp_path / "tiny.pt"
     record = train(n_objects=24, epochs=2, seed=3, out=out, batch_size=8, workers=1,
-                   network_config={"d_model": 16, "layers": 1, "heads": 2})
+                   network_config={"d_model": 16, "layers": 1, "heads": 2},
+                   cache_dir=tmp_path / "cache")
     assert record["objects"] == 24 and record["parameters"] > 0
     predictor = LearnedPredictor.load(out)
     assert predictor.config["training"]["epochs"] == 2
     program = predictor.predict(_boxes())
     assert program.root_geom in (0, 1)
+    # Fine-tuned from those weights (the samples from the cache): their shape and record kept.
+    tuned = train(n_objects=24, epochs=1, seed=3, out=tmp_path / "tuned.pt", batch_size=8,
+                  workers=1, cache_dir=tmp_path / "cache", init=out, lr=5e-4)
+    assert tuned["init"]["training"]["epochs"] == 2 and tuned["data_seconds"] < 5.0
+    assert LearnedPredictor.load(tmp_path / "tuned.pt").config["network"]["d_model"] == 16
+
+
+def test_training_worlds():
+    """The default world is the paper's five categories, drawn as the shipped networks'
+    data were; the household world adds every household category."""
+    from pipeline.predictors.data import object_specs
+    from pipeline.procedural import ALL_CATEGORIES, CATEGORIES
+
+    five = object_specs(300, 0)
+    assert {c for c, _, _ in five} == set(CATEGORIES)
+    assert object_specs(300, 0, "real2code") == five
+    assert {c for c, _, _ in object_specs(300, 0, "household")} == set(ALL_CATEGORIES)
+    with pytest.raises(ValueError, match="unknown world"):
+        object_specs(3, 0, "kitchen")
 
 
 def _boxes():

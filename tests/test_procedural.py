@@ -1,5 +1,6 @@
 """The procedural generator: valid, deterministic, physically sensible objects in every
-Real2Code category (closed without overlaps, opening outward, standing on the floor)."""
+Real2Code category and every household category (closed without overlaps, opening outward,
+standing on the floor)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,11 @@ import numpy as np
 import pytest
 
 from pipeline.procedural import (
+    ALL_CATEGORIES,
     CATEGORIES,
     FRONT,
     GENERATOR,
+    HOUSEHOLD_CATEGORIES,
     UP,
     GenerationError,
     generate,
@@ -35,6 +38,8 @@ def _every_count(categories=CATEGORIES, seeds=SEEDS):
 
 
 CASES = _every_count()
+# Household categories: every part count once, the seed alternating (the suite's time).
+HOUSEHOLD_CASES = [(c, n, n % 2) for c, n, _ in _every_count(HOUSEHOLD_CATEGORIES, seeds=(0,))]
 _cache: dict[tuple, object] = {}
 
 
@@ -108,14 +113,15 @@ def test_generated_objects_are_valid_and_named(category, n_parts, seed):
     assert sorted(int(n.rsplit("_", 1)[1]) for n in fronts) == list(range(len(fronts)))
 
 
-@pytest.mark.parametrize("category", CATEGORIES)
+@pytest.mark.parametrize("category", ALL_CATEGORIES)
 def test_part_count_from_the_seed(category):
     lo, hi = part_count_range(category)
     counts = set()
-    for seed in range(12):
+    for seed in range(12 if category in CATEGORIES else 6):
         obj = generate(category, None, seed)
         assert lo <= len(obj.parts) <= hi
-        assert len(generate(category, None, seed).parts) == len(obj.parts)
+        if seed == 0:  # the count comes from the seed (whole objects: byte_for_byte below)
+            assert len(generate(category, None, seed).parts) == len(obj.parts)
         counts.add(len(obj.parts))
     assert hi == lo or len(counts) > 1
 
@@ -142,7 +148,8 @@ def test_bad_category_and_seed_are_refused():
 
 # -- determinism --------------------------------------------------------------------------------
 @pytest.mark.parametrize("category, n_parts", [("storage_furniture", 9), ("table", 3),
-                                               ("refrigerator", 3), ("laptop", 2), ("box", 2)])
+                                               ("refrigerator", 3), ("laptop", 2), ("box", 2),
+                                               ("oven", 7), ("door", 3)])
 def test_same_seed_same_object_byte_for_byte(tmp_path, category, n_parts):
     a, b = generate(category, n_parts, 7), generate(category, n_parts, 7)
     assert differences(a, b, tol=0.0) == []
@@ -183,7 +190,7 @@ def test_limits_and_observed_states(category):
         assert np.any(fractions == 0.0)
 
 
-@pytest.mark.parametrize("category, n_parts, seed", CASES)
+@pytest.mark.parametrize("category, n_parts, seed", CASES + HOUSEHOLD_CASES)
 def test_closed_parts_do_not_interpenetrate(category, n_parts, seed):
     obj = _generated(category, n_parts, seed)
     assert _clashes(obj, {}) == []
@@ -213,9 +220,11 @@ def test_box_overlap_test_matches_geometry():
         assert _penetrates(cube, cube, pose, np.eye(4)) is expected, d
 
 
-@pytest.mark.parametrize("category", CATEGORIES)
+@pytest.mark.parametrize("category", ALL_CATEGORIES)
 def test_observed_configuration_is_collision_free(category):
-    for (_, n, s) in _every_count([category]):
+    cases = _every_count([category]) if category in CATEGORIES else \
+        [case for case in HOUSEHOLD_CASES if case[0] == category]
+    for (_, n, s) in cases:
         obj = _generated(category, n, s)
         poses = forward_kinematics(obj, obj.observed_configuration())
         boxes = {p.name: _local_boxes(p) for p in obj.parts}
@@ -251,8 +260,62 @@ def test_opening_moves_fronts_out_and_lids_up(category, n_parts, seed):
         assert (opened.mean(axis=0) - closed.mean(axis=0)) @ outward > 0.0
 
 
+# The joint each household label has: its type, and for a hinge how its far point moves.
+HOUSEHOLD_JOINTS = {"door": "outward", "lid": "up", "pedal": "down", "knob": "own axis",
+                    "turntable": "own axis", "drawer": "slide", "rack": "slide",
+                    "sliding_door": "slide"}
+
+
+@pytest.mark.parametrize("category, n_parts, seed", HOUSEHOLD_CASES)
+def test_household_objects_are_valid_and_joints_as_intended(category, n_parts, seed):
+    obj = _generated(category, n_parts, seed)
+    assert validate(obj) is obj and len(obj.parts) == n_parts and obj.root.name == "body"
+    meta = obj.metadata
+    assert (meta["category"], meta["seed"], meta["generator"]) == (category, seed, GENERATOR)
+    assert json.loads(json.dumps(meta)) == meta
+    assert set(meta["part_labels"]) == {p.name for p in obj.parts}
+    for j in obj.joints:
+        label = meta["joint_labels"][j.name]
+        motion = HOUSEHOLD_JOINTS[label]
+        assert j.parent == "body" and meta["part_labels"][j.child] == label
+        assert 0.0 == j.limits.lower <= j.state <= j.limits.upper
+        closed = _world_vertices(obj, j.child, {})
+        opened = _world_vertices(obj, j.child, {j.name: j.limits.upper})
+        if motion == "slide":
+            assert j.type is JointType.PRISMATIC and j.name == f"{j.child}_slide"
+            along = FRONT if label != "sliding_door" else np.array([0.0, np.sign(j.axis[1]), 0.0])
+            assert abs(j.axis @ along) == 1.0  # racks and drawers along +X, sliding doors along Y
+            np.testing.assert_allclose(opened - closed, np.outer(np.ones(len(closed)),
+                                                                 j.limits.upper * along), atol=1e-12)
+            continue
+        assert j.type is JointType.REVOLUTE and j.name == f"{j.child}_hinge"
+        hinge = j.origin[:3, 3]
+        if motion == "own axis":  # a knob or turntable turns about the axis through its middle
+            centre = closed.mean(axis=0)
+            off_axis = (centre - hinge) - ((centre - hinge) @ j.axis) * j.axis
+            assert np.linalg.norm(off_axis) < 0.01 and 3.0 < j.limits.upper < 2 * np.pi
+            continue
+        assert j.name in meta["hinge_sides"]
+        rel = closed - hinge
+        radius = np.linalg.norm(rel - np.outer(rel @ j.axis, j.axis), axis=1)
+        far = int(np.argmax(radius))
+        direction = {"outward": FRONT, "up": UP, "down": -UP}[motion]
+        assert (opened[far] - closed[far]) @ direction > 0.2 * radius[far], (j.name, label)
+
+
+def test_household_styles_vary_with_the_seed():
+    assert {_generated("oven", 3, s).metadata["style"]["kind"] for s in range(6)} == {"range", "wall"}
+    doors = [_generated("door", 2, s) for s in range(8)]
+    assert {o.metadata["style"]["layout"] for o in doors} == {"hinged", "sliding"}
+    assert {_generated("trash_can", 3, s).metadata["style"]["lid"] for s in range(6)} == \
+        {"single", "butterfly"}
+    objs = doors + [_generated(*case) for case in HOUSEHOLD_CASES]
+    labels = {lab for o in objs for lab in o.metadata["joint_labels"].values()}
+    assert labels == set(HOUSEHOLD_JOINTS)
+
+
 # -- geometry and mass ------------------------------------------------------------------------
-@pytest.mark.parametrize("category, n_parts, seed", CASES)
+@pytest.mark.parametrize("category, n_parts, seed", CASES + HOUSEHOLD_CASES)
 def test_stands_on_the_floor(category, n_parts, seed):
     obj = _generated(category, n_parts, seed)
     assert obj.root.visual.vertices[:, 2].min() == 0.0
@@ -265,7 +328,8 @@ def test_stands_on_the_floor(category, n_parts, seed):
     assert np.all(lo[:2] < 0) and np.all(hi[:2] > 0)
 
 
-@pytest.mark.parametrize("category, n_parts, seed", [(c, n, 0) for c, n, s in CASES if s == 0])
+@pytest.mark.parametrize("category, n_parts, seed",
+                         [(c, n, 0) for c, n, s in CASES if s == 0] + HOUSEHOLD_CASES)
 def test_meshes_are_closed_convex_boxes_and_inertials_match_them(category, n_parts, seed):
     import trimesh
 
@@ -304,14 +368,18 @@ def test_inertials_equal_the_integrated_pieces(seed):
 
 @pytest.mark.parametrize("category, low, high", [
     ("storage_furniture", 5.0, 300.0), ("table", 5.0, 100.0), ("refrigerator", 20.0, 200.0),
-    ("laptop", 0.5, 5.0), ("box", 0.02, 30.0),
+    ("laptop", 0.5, 5.0), ("box", 0.02, 30.0), ("oven", 20.0, 120.0), ("dishwasher", 10.0, 60.0),
+    ("microwave", 5.0, 25.0), ("trash_can", 0.5, 15.0), ("door", 10.0, 250.0),
 ])
 def test_masses_and_sizes_are_realistic(category, low, high):
-    for (_, n, s) in _every_count([category]):
+    cases = _every_count([category]) if category in CATEGORIES else \
+        [case for case in HOUSEHOLD_CASES if case[0] == category]
+    largest = 3.5 if category == "door" else 2.1  # a sliding door runs over the wall beside
+    for (_, n, s) in cases:
         obj = _generated(category, n, s)
         assert low <= obj.total_mass() <= high, (obj.name, obj.total_mass())
         size = np.ptp(np.concatenate([_world_vertices(obj, p.name, {}) for p in obj.parts]), axis=0)
-        assert np.all(size > 0.01) and np.all(size < 2.1), (obj.name, size)
+        assert np.all(size > 0.01) and np.all(size < largest), (obj.name, size)
         if category == "storage_furniture":
             assert size.min() >= 0.3 and size.max() <= 2.1
 
@@ -350,7 +418,7 @@ def test_drawers_are_open_containers(category, n_parts, seed):
 @pytest.mark.parametrize("category, n_parts", [("storage_furniture", 15), ("storage_furniture", 12),
                                                ("storage_furniture", 4),
                                                ("table", 5), ("refrigerator", 3), ("laptop", 2),
-                                               ("box", 2)])
+                                               ("box", 2), ("oven", 12), ("door", 3)])
 def test_compiles_in_mujoco(tmp_path, category, n_parts):
     mujoco = pytest.importorskip("mujoco")
     mjcf = pytest.importorskip("real2code_export.formats.mjcf")

@@ -1,8 +1,8 @@
-"""The joint predictor's training data: procedural objects (``pipeline.procedural``, every
-category, 2 to 15 parts), each seen at a partially-open state (the paper's assumption: every
-door and drawer ajar), with the paper's augmentation — a random rotation about z and a
-random shift — and one of ours for boxes cut from a predicted segmentation: some drawers are
-seen by their front alone (:func:`drawer_fronts`). Labels come from the ground-truth joints
+"""The joint predictor's training data: procedural objects (``pipeline.procedural``, the
+categories of a world, :data:`WORLDS`; 2 to 15 parts), each seen at a partially-open state
+(the paper's assumption: every door and drawer ajar), with the paper's augmentation — a
+random rotation about z and a random shift — and one of ours for boxes cut from a predicted
+segmentation: some drawers are seen by their front alone (:func:`drawer_fronts`). Labels come from the ground-truth joints
 encoded on the fitted boxes (``pipeline.boxes``). The other learned models draw their
 objects and states from here too (:func:`object_specs`, :func:`ajar_configuration`)."""
 
@@ -17,6 +17,7 @@ from real2code_export.kinematics import world_joints, world_part_meshes
 from real2code_export.model import JointType, Mesh
 
 from ..boxes import ground_truth_program, part_boxes
+from ..procedural import ALL_CATEGORIES, CATEGORIES, part_count_range
 from .features import EDGES, box_features
 from .network import JOINT_TYPES
 
@@ -98,26 +99,40 @@ def _one(args):
     return sample(obj, ajar_configuration(obj, rng), random_placement(rng), rng)
 
 
-def object_specs(n_objects: int, seed: int) -> list[tuple[str, int | None, int]]:
-    """A balanced mix: storage furniture over 2..15 parts, and the other categories."""
-    from ..procedural import CATEGORIES, part_count_range
+# The worlds training draws from: categories, and the share of objects that are storage
+# furniture (the widest range of layouts) before the rest is shared out equally. The shipped
+# mask and occupancy networks (and every figure made with their views) are of
+# ``real2code``; ``household`` adds the household categories.
+WORLDS = {"real2code": CATEGORIES, "household": ALL_CATEGORIES}
+STORAGE_SHARE = {"real2code": 0.6, "household": 0.5}
 
+
+def object_specs(n_objects: int, seed: int, world: str = "real2code"
+                 ) -> list[tuple[str, int | None, int]]:
+    """A balanced mix of ``world``: storage furniture over 2..15 parts, and the other
+    categories in equal shares of the rest."""
+    if world not in WORLDS:
+        raise ValueError(f"unknown world {world!r}; choose from {list(WORLDS)}")
+    categories = WORLDS[world]
     rng = np.random.default_rng(seed)
     specs = []
     for k in range(n_objects):
-        category = CATEGORIES[0] if rng.random() < 0.6 else CATEGORIES[rng.integers(len(CATEGORIES))]
+        category = categories[0] if rng.random() < STORAGE_SHARE[world] else \
+            categories[rng.integers(len(categories))]
         lo, hi = part_count_range(category)
         specs.append((category, int(rng.integers(lo, hi + 1)), seed * 1_000_000 + k))
     return specs
 
 
-def make_dataset(n_objects: int, seed: int, workers: int = 2, cache: Path | None = None) -> list:
-    """Samples for ``n_objects`` procedural objects; ``cache`` keeps them between runs."""
+def make_dataset(n_objects: int, seed: int, workers: int = 2, cache: Path | None = None,
+                 world: str = "real2code") -> list:
+    """Samples for ``n_objects`` procedural objects of ``world``; ``cache`` keeps them
+    between runs."""
     import pickle
 
     if cache is not None and cache.is_file():
         return pickle.loads(cache.read_bytes())
-    specs = object_specs(n_objects, seed)
+    specs = object_specs(n_objects, seed, world)
     if workers > 1:
         from multiprocessing import get_context
 

@@ -1,4 +1,6 @@
-"""Procedural articulated objects in the five Real2Code categories.
+"""Procedural articulated objects: the five Real2Code categories (:data:`CATEGORIES`) and
+household objects users scan besides them (:data:`HOUSEHOLD_CATEGORIES`: ovens,
+dishwashers, microwaves, trash cans, doors in their frames).
 
 ``generate(category, n_parts, seed)`` builds a random object of ``category`` with
 ``n_parts`` rigid parts (the root body included; ``None`` picks a count), the same object
@@ -9,13 +11,18 @@ Conventions (besides the model's):
 - Z up; the object's front faces +X (:data:`FRONT`); it stands on z = 0, centred on the
   z axis. "Left"/"right" are as seen from the front (looking along -X): left is -Y.
 - The root part is always ``body``; movable parts are ``door_<i>`` / ``drawer_<i>``
-  (numbered top to bottom, then left to right), ``lid`` (box) and ``screen`` (laptop); their
-  joints ``<part>_hinge`` or ``<part>_slide``.
+  (numbered top to bottom, then left to right), ``lid`` (box, trash can) and ``screen``
+  (laptop), and in household objects ``rack_<i>`` (oven shelves, dishwasher baskets, top to
+  bottom), ``knob_<i>``, ``turntable``, ``lid_<i>`` (a trash can's butterfly lid) and
+  ``pedal``; their joints ``<part>_hinge`` (revolute) or ``<part>_slide`` (prismatic).
 - q = 0 is closed. Revolute joints open outward for positive angles (doors swing to the
-  front, lids lift), prismatic joints slide along +X; limits start at 0. The observed
-  ``state`` is a random, mostly partly open value within the limits (sometimes closed).
-- A part's frame is its joint frame: on the hinge line for doors and lids, at the centre
-  of the closed front face for drawers. No joint origin is rotated.
+  front, lids lift, a pedal goes down; knobs and turntables turn about their own axis),
+  prismatic joints slide along +X (a sliding door along the wall, +Y or -Y); limits start
+  at 0. The observed ``state`` is a random, mostly partly open value within the limits
+  (sometimes closed).
+- A part's frame is its joint frame: on the hinge line for doors and lids (on the axis for
+  knobs and turntables), at the centre of the closed front face for drawers (of the front
+  bar for racks, of the back face for sliding doors). No joint origin is rotated.
 - Geometry is a union of boxes (and 12-sided cylinders): the visual mesh concatenates them,
   each is one convex collision piece, the inertial combines their exact solid inertials.
 - Closed, no two parts overlap: fronts keep a gap of a few millimetres to their opening.
@@ -23,8 +30,10 @@ Conventions (besides the model's):
   one is observed closed).
 
 ``metadata`` holds ``category``, ``seed``, ``generator``, ``n_parts``, ``front``/``up``,
-``part_labels`` / ``joint_labels`` (``body``, ``door``, ``drawer``, ``lid``), ``hinge_sides``
-(``left``, ``right``, ``top``, ``bottom``, ``back``) and ``style`` (the choices made).
+``part_labels`` / ``joint_labels`` (``body``, ``door``, ``drawer``, ``lid``, and in household
+objects ``rack``, ``knob``, ``turntable``, ``pedal``, ``sliding_door``), ``hinge_sides`` (of
+doors, lids and pedals: ``left``, ``right``, ``top``, ``bottom``, ``back``) and ``style``
+(the choices made).
 """
 
 from __future__ import annotations
@@ -36,13 +45,27 @@ import numpy as np
 from real2code_export.errors import Real2CodeError
 from real2code_export.model import ArticulatedObject, validate
 
-from . import box, laptop, refrigerator, storage_furniture, table
+from . import (
+    box,
+    dishwasher,
+    door,
+    laptop,
+    microwave,
+    oven,
+    refrigerator,
+    storage_furniture,
+    table,
+    trash_can,
+)
 from ._build import FRONT, UP, close_clashing_fronts
 
-__all__ = ["CATEGORIES", "FRONT", "GENERATOR", "UP", "GenerationError", "generate",
-           "part_count_range"]
+__all__ = ["ALL_CATEGORIES", "CATEGORIES", "FRONT", "GENERATOR", "HOUSEHOLD_CATEGORIES", "UP",
+           "GenerationError", "generate", "part_count_range"]
 
+# The paper's categories: the procedural test set (``procedural_cases``) draws from these only.
 CATEGORIES = ("storage_furniture", "table", "refrigerator", "laptop", "box")
+HOUSEHOLD_CATEGORIES = ("oven", "dishwasher", "microwave", "trash_can", "door")
+ALL_CATEGORIES = CATEGORIES + HOUSEHOLD_CATEGORIES
 GENERATOR = "real2code_export.procedural"
 _MODULES: dict[str, ModuleType] = {
     "storage_furniture": storage_furniture,
@@ -50,6 +73,11 @@ _MODULES: dict[str, ModuleType] = {
     "refrigerator": refrigerator,
     "laptop": laptop,
     "box": box,
+    "oven": oven,
+    "dishwasher": dishwasher,
+    "microwave": microwave,
+    "trash_can": trash_can,
+    "door": door,
 }
 
 
@@ -60,7 +88,8 @@ class GenerationError(Real2CodeError, ValueError):
 
 def _module(category: str) -> ModuleType:
     if category not in _MODULES:
-        raise GenerationError(f"unknown category {category!r}; choose from {list(CATEGORIES)}")
+        raise GenerationError(
+            f"unknown category {category!r}; choose from {list(ALL_CATEGORIES)}")
     return _MODULES[category]
 
 

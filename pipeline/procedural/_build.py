@@ -36,6 +36,8 @@ DENSITY = {
     "insulated": 220.0,
     "laptop_base": 750.0,
     "laptop_lid": 900.0,
+    "hollow_core": 380.0,  # an interior door: veneered frame over a honeycomb core
+    "plaster": 850.0,  # a stud wall with plasterboard, taken as solid
 }
 
 
@@ -125,6 +127,29 @@ def make_part(name: str, primitives: list[Primitive], frame: np.ndarray,
                 color=color)
 
 
+def shell(lo, hi, wall: float, density: float, open_side: str) -> list[Box]:
+    """The walls of a hollow box between corners ``lo`` and ``hi`` with one side left open
+    (``"front"``: +X, an appliance's cavity; ``"top"``: +Z, a bin): five panels of
+    thickness ``wall``, none overlapping another."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    w = wall
+    if open_side == "front":
+        return [
+            Box((x0, y0, z0), (x1, y0 + w, z1), density), Box((x0, y1 - w, z0), (x1, y1, z1), density),
+            Box((x0, y0 + w, z0), (x1, y1 - w, z0 + w), density),
+            Box((x0, y0 + w, z1 - w), (x1, y1 - w, z1), density),
+            Box((x0, y0 + w, z0 + w), (x0 + w, y1 - w, z1 - w), density),
+        ]
+    if open_side == "top":
+        return [
+            Box((x0, y0, z0), (x1, y1, z0 + w), density),
+            Box((x0, y0, z0 + w), (x0 + w, y1, z1), density), Box((x1 - w, y0, z0 + w), (x1, y1, z1), density),
+            Box((x0 + w, y0, z0 + w), (x1 - w, y0 + w, z1), density),
+            Box((x0 + w, y1 - w, z0 + w), (x1 - w, y1, z1), density),
+        ]
+    raise PrimitiveError(f"no open side {open_side!r}")
+
+
 # -- joints ------------------------------------------------------------------------------------
 def observed_state(rng: np.random.Generator, limits: Limits, p_closed: float = 0.15) -> float:
     """The value at capture time: mostly partially open (Real2Code renders its objects with
@@ -145,11 +170,13 @@ def revolute(rng: np.random.Generator, name: str, child: str, hinge: np.ndarray,
 
 
 def prismatic(rng: np.random.Generator, name: str, child: str, rest: np.ndarray,
-              travel: float, *, damping: float, friction: float) -> Joint:
-    """A drawer slide along the front normal, origin at the drawer's closed position."""
+              travel: float, *, damping: float, friction: float, axis=FRONT) -> Joint:
+    """A slide along ``axis`` (a drawer's: the front normal), origin at the part's closed
+    position."""
     limits = Limits(0.0, float(travel), effort=100.0, velocity=1.0)
     return Joint(name=name, type=JointType.PRISMATIC, parent="body", child=child,
-                 origin=tf.make(translation=rest), axis=FRONT.copy(), limits=limits,
+                 origin=tf.make(translation=rest), axis=np.array(axis, dtype=float),
+                 limits=limits,
                  dynamics=Dynamics(damping=damping, friction=friction),
                  state=observed_state(rng, limits))
 

@@ -208,3 +208,46 @@ def door_dynamics(rng: np.random.Generator) -> dict[str, float]:
 
 def drawer_dynamics(rng: np.random.Generator) -> dict[str, float]:
     return {"damping": uniform(rng, 2.0, 8.0), "friction": uniform(rng, 0.5, 3.0)}
+
+
+# -- appliance parts: knobs and racks ------------------------------------------------------------
+KNOB_CLEARANCE = 0.002  # between a knob and the panel it turns on (its shaft is hidden)
+
+
+def knob(face_x: float, y: float, z: float, radius: float, length: float) -> Hinged:
+    """A control knob on the panel x = ``face_x``: a cylinder along +X with a pointer ridge
+    across its face (so a turn shows), turning about its own axis."""
+    x0 = face_x + KNOB_CLEARANCE
+    ridge = 0.25 * radius
+    prims: list[Primitive] = [
+        Cylinder((x0 + length / 2, y, z), 0, radius, length, DENSITY["plastic"]),
+        Box((x0 + length, y - ridge / 2, z - 0.8 * radius), (x0 + length + 0.004, y + ridge / 2,
+                                                              z + 0.8 * radius), DENSITY["plastic"]),
+    ]
+    return Hinged(prims, np.array([x0, y, z]), (1.0, 0.0, 0.0))
+
+
+def wire_rack(x0: float, x1: float, y0: float, y1: float, z: float, bar: float,
+              bars: int) -> list[Primitive]:
+    """An oven shelf: a rectangular frame of square steel bars with ``bars`` bars across it
+    from front to back, lying on the plane z (its underside)."""
+    d = DENSITY["steel"]
+    prims: list[Primitive] = [
+        Box((x0, y0, z), (x0 + bar, y1, z + bar), d), Box((x1 - bar, y0, z), (x1, y1, z + bar), d),
+        Box((x0 + bar, y0, z), (x1 - bar, y0 + bar, z + bar), d),
+        Box((x0 + bar, y1 - bar, z), (x1 - bar, y1, z + bar), d),
+    ]
+    for k in range(bars):
+        yc = y0 + (k + 1) * (y1 - y0) / (bars + 1)
+        prims.append(Box((x0 + bar, yc - bar / 2, z), (x1 - bar, yc + bar / 2, z + bar), d))
+    return prims
+
+
+def rack_dynamics(rng: np.random.Generator) -> dict[str, float]:
+    """Oven shelves and dishwasher baskets run on rails or rollers: lighter than a drawer."""
+    return {"damping": uniform(rng, 0.5, 3.0), "friction": uniform(rng, 0.2, 1.5)}
+
+
+def knob_dynamics(rng: np.random.Generator) -> dict[str, float]:
+    return {"damping": uniform(rng, 0.001, 0.01), "friction": uniform(rng, 0.01, 0.05),
+            "effort": 1.0}

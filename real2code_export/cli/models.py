@@ -44,7 +44,8 @@ def add_parsers(sub) -> None:
 
     s = sub.add_parser("generate", help="a procedural articulated object")
     s.add_argument("--category", required=True,
-                   choices=["storage_furniture", "table", "refrigerator", "laptop", "box"])
+                   help="storage_furniture, table, refrigerator, laptop, box, or a household "
+                        "one (oven, dishwasher, microwave, trash_can, door)")
     s.add_argument("--parts", type=int, default=None, help="number of rigid parts")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--out", required=True, help="output folder (object.json and meshes)")
