@@ -72,10 +72,12 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                 for f in capture.frames]
     normals = axis_mean(seg.points, np.concatenate([p for p, _ in measured]),
                         np.concatenate([n for _, n in measured]))
-    labels, claimed = claim_panels(seg.points, seg.point_labels, seg.spacing, options, normals)
+    labels, found = find_level_fronts(seg.points, seg.point_labels, seg.spacing, options,
+                                      normals)
+    labels, claimed = claim_panels(seg.points, labels, seg.spacing, options, normals)
     labels, moved = return_compartments(seg.points, labels, seg.spacing, options, normals)
     labels, protruding = give_protrusions(seg.points, labels, seg.spacing, options, normals)
-    moved = claimed + moved + protruding
+    moved = found + claimed + moved + protruding
     labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
@@ -638,4 +640,83 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             out[index] = 1
             moved.append({"part": k, "points": len(index), "shell": True,
                           "on_sides": round(on_sides, 2)})
+    return numbered_by_size(out), moved
+
+
+def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                      options: CompartmentOptions = CompartmentOptions(),
+                      normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A drawer the masks left in the carcass's label, found beside a drawer pulled out as
+    far: the carcass's points facing the way a moving part's front faces, level with that
+    front, where the part stands out past the carcass's walls, are another front, and what
+    lies behind it within its outline, as deep as the part, is another part.
+
+    The part's front: its points whose measured ``normals`` face along an axis of the
+    carcass's box (within ``panel_min_angle``), their outermost tenth along one side, at
+    least ``front_points`` of them, reaching that face of the box (within ``behind_voxels``
+    spacings: the drawer left in the carcass's label stretches the box to itself) and
+    ``behind_voxels`` spacings past the carcass's own walls facing that way (the median of
+    its points facing along the axis on that side). Level: within ``behind_voxels``
+    spacings of it; each piece of them (points linked within ``panel_link_voxels``
+    spacings) of at least ``front_points`` points, away from the part's own front on the
+    face (at most ``1 - nested_share`` of it within ``nested_margin_voxels`` spacings),
+    is a front. Behind it: the carcass's points within its outline on the face
+    (``enclosed_margin_voxels`` spacings) as deep as the part reaches along the axis; at most twice the part's points, as a
+    sibling drawer is (a table top's edge level with the fronts has the whole top behind
+    it). A turned panel is no drawer and finds nothing. Needs the measured ``normals``.
+    Returns the labels, renumbered by size, and what was found."""
+    from scipy.spatial import cKDTree
+
+    from .segment.pieces import linked_components
+
+    out = labels.copy()
+    moved: list[dict] = []
+    carcass = np.nonzero(labels == 1)[0]
+    if normals is None or labels.max() < 2 or len(carcass) < 4:
+        return out, moved
+    body = part_obb(cloud[carcass])
+    local = (cloud - body.center) @ body.R
+    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    behind = options.behind_voxels * voxel
+    apart = options.nested_margin_voxels * voxel
+    margin = options.enclosed_margin_voxels * voxel
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        if (len(index) < options.front_points
+                or turned_panel(cloud[index], body, voxel, options, normals[index]) is not None):
+            continue
+        for a in range(3):
+            across = [b for b in range(3) if b != a]
+            for sign in (1, -1):
+                facing = index[square[index, a] & (sign * local[index, a] > 0)]
+                if len(facing) < options.front_points:
+                    continue
+                front = float(np.quantile(sign * local[facing, a], 0.9))
+                walls = carcass[square[carcass, a] & (sign * local[carcass, a] > 0)]
+                if (front < body.extent[a] - behind or len(walls) == 0
+                        or front - float(np.median(sign * local[walls, a])) < behind):
+                    continue
+                level = walls[np.abs(sign * local[walls, a] - front) <= behind]
+                level = level[out[level] == 1]
+                if len(level) < options.front_points:
+                    continue
+                own = cKDTree(local[facing][:, across])
+                piece = linked_components(cloud[level], options.panel_link_voxels * voxel)
+                reach = front - float(np.quantile(sign * local[index, a], 0.02))
+                for p in range(int(piece.max()) + 1):
+                    members = level[piece == p]
+                    if len(members) < options.front_points or np.isfinite(own.query(
+                            local[members][:, across], distance_upper_bound=apart)[0]).mean() \
+                            > 1.0 - options.nested_share:
+                        continue
+                    free = np.nonzero(out == 1)[0]
+                    depth = sign * local[free, a]
+                    near = np.isfinite(cKDTree(local[members][:, across]).query(
+                        local[free][:, across], distance_upper_bound=margin)[0])
+                    part = free[near & (depth >= front - reach) & (depth <= front + behind)]
+                    if len(part) > 2 * len(index):
+                        continue
+                    out[part] = int(out.max()) + 1
+                    moved.append({"part": k, "points": len(part), "level_front": True,
+                                  "side": [a, sign]})
     return numbered_by_size(out), moved

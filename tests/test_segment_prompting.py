@@ -576,7 +576,7 @@ def test_a_body_cut_across_its_length_is_one_part_again():
     past the front (within the opening) stays a part."""
     from pipeline.compartments import merge_shell
 
-    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    y, z = (0, 1, 0), (0, 0, 1)
     shell = _open_box()
     floor = (shell[:, 2] == -0.4) & (shell[:, 1] <= 0.34)
     end = ~floor & (shell[:, 1] > 0.2)  # the rest's box reaches y = 0.34 by its floor
@@ -589,6 +589,42 @@ def test_a_body_cut_across_its_length_is_one_part_again():
     # the drawer alone, out of the whole body's box: no shell
     whole = np.concatenate([np.ones(len(shell), int), np.full(len(drawer), 2)])
     assert merge_shell(cloud, whole, 0.02)[1] == []
+
+
+def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_found():
+    """Two drawers pulled 15 cm out of a carcass with a front rim; the masks gave one its
+    own label and left the other in the carcass's (its box then reaches the drawers'
+    fronts, so neither stands out of it). The carcass's points facing along the drawer's
+    front, level with it and apart from it on the face, with what lies behind them as deep
+    as the drawer, are a part of their own. Pushed shut, the drawers are level with the rim
+    and nothing is found."""
+    from pipeline.compartments import find_level_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    box = _open_box()
+    rim = np.concatenate([_grid(0.8, 0.06, (0.3, -0.4, -0.4), y, z),
+                          _grid(0.8, 0.06, (0.3, -0.4, 0.34), y, z),
+                          _grid(0.06, 0.8, (0.3, -0.4, -0.4), y, z),
+                          _grid(0.06, 0.8, (0.3, 0.34, -0.4), y, z)])
+    box_normals = np.where((np.abs(box[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(box[:, 1]) - 0.4) < 1e-9)[:, None], y, z))
+
+    def drawer(y0):  # within the opening, inside the rim
+        return [(_grid(0.25, 0.2, (0.45, y0, -0.3), y, z), x),
+                (_grid(0.45, 0.25, (0.0, y0, -0.3), x, y), z)]
+
+    cloud, normals = _facing((rim, x), *drawer(-0.3), *drawer(0.05))
+    cloud, normals = np.concatenate([box, cloud]), np.concatenate([box_normals, normals])
+    n = np.cumsum([0, len(box) + len(rim), sum(len(p) for p, _ in drawer(-0.3))])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]] = 2
+    out, moved = find_level_fronts(cloud, labels, 0.02, normals=normals)
+    assert (out[n[2]:] == out[n[2]]).all() and out[n[2]] not in (1, out[n[1]])
+    assert (out[n[1]:n[2]] == out[n[1]]).all() and (out[:n[1]] == 1).all()
+    assert [m["level_front"] for m in moved] == [True]
+    shut = cloud.copy()
+    shut[n[1]:, 0] -= 0.15
+    assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
 def test_a_turned_panel_is_found_the_same_every_time():
