@@ -547,18 +547,9 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     body = part_obb(cloud[labels == 1])
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
-    margin = options.enclosed_margin_voxels * voxel
     apart = options.nested_margin_voxels * voxel
-    for k in range(2, int(labels.max()) + 1):
-        index = np.nonzero(labels == k)[0]
-        if (len(index) < 30 or body.contains(cloud[index], tol=margin).mean()
-                >= options.enclosed_inside
-                or turned_panel(cloud[index], body, voxel, options, normals[index]) is not None):
-            continue
-        faces = open_faces(local, labels, body.extent, margin, [k])
-        if not faces:
-            continue
-        a, sign = faces[0]
+    for k, index, (a, sign), _ in _standing(cloud, labels, body, local, voxel, options,
+                                            normals):
         across = [b for b in range(3) if b != a]
         facing = index[square[index, a]]
         depth = np.sort(local[facing, a])
@@ -594,6 +585,27 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     return numbered_by_size(out), moved
 
 
+def _standing(cloud: np.ndarray, labels: np.ndarray, body, local: np.ndarray, voxel: float,
+              options: CompartmentOptions, normals: np.ndarray | None):
+    """The moving parts (at least 30 points) standing out of the carcass's box ``body``
+    (less than ``enclosed_inside`` of their points in it) that are no turned panel, each as
+    (label, its points' indices, the face it stands out past (:func:`open_faces`), which of
+    its points lie in the box). ``local``: every point in the box's frame."""
+    margin = options.enclosed_margin_voxels * voxel
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        if len(index) < 30:
+            continue
+        inside = body.contains(cloud[index], tol=margin)
+        if (inside.mean() >= options.enclosed_inside
+                or turned_panel(cloud[index], body, voxel, options,
+                                None if normals is None else normals[index]) is not None):
+            continue
+        faces = open_faces(local, labels, body.extent, margin, [k])
+        if faces:
+            yield k, index, faces[0], inside
+
+
 def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 options: CompartmentOptions = CompartmentOptions(),
                 normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
@@ -617,17 +629,8 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     body = part_obb(cloud[labels == 1])
     local = (cloud - body.center) @ body.R
     margin = options.enclosed_margin_voxels * voxel
-    for k in range(2, int(labels.max()) + 1):
-        index = np.nonzero(labels == k)[0]
-        inside = body.contains(cloud[index], tol=margin)
-        if (len(index) < 30 or inside.mean() >= options.enclosed_inside
-                or turned_panel(cloud[index], body, voxel, options,
-                                None if normals is None else normals[index]) is not None):
-            continue
-        faces = open_faces(local, labels, body.extent, margin, [k])
-        if not faces:
-            continue
-        a, sign = faces[0]
+    for k, index, (a, sign), inside in _standing(cloud, labels, body, local, voxel, options,
+                                                 normals):
         across = [b for b in range(3) if b != a]
         points = local[index]
         beyond = points[sign * points[:, a] > body.extent[a] + margin]
