@@ -668,9 +668,12 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     spacings) of at least ``front_points`` points, away from the part's own front on the
     face (at most ``1 - nested_share`` of it within ``nested_margin_voxels`` spacings),
     is a front. Behind it: the carcass's points within its outline on the face
-    (``enclosed_margin_voxels`` spacings) as deep as the part reaches along the axis; at most twice the part's points, as a
-    sibling drawer is (a table top's edge level with the fronts has the whole top behind
-    it). A turned panel is no drawer and finds nothing. Needs the measured ``normals``.
+    (``enclosed_margin_voxels`` spacings) as deep as the part reaches along the axis; at
+    most twice the part's points, as a sibling drawer is (a table top's edge level with the
+    fronts has the whole top behind it). A turned panel is no drawer and finds nothing; nor
+    does a small piece of the carcass in a label of its own (what :func:`return_enclosed`
+    gives back: on a phone-LiDAR ring a patch of a cabinet's floor "found" two pieces of
+    the floor beside it). Needs the measured ``normals``.
     Returns the labels, renumbered by size, and what was found."""
     from scipy.spatial import cKDTree
 
@@ -689,7 +692,10 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     margin = options.enclosed_margin_voxels * voxel
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
-        if (len(index) < options.front_points
+        patch = (len(index) <= options.enclosed_share * len(carcass)  # the carcass's own,
+                 and body.contains(cloud[index], tol=margin).mean()  # as return_enclosed
+                 >= options.enclosed_inside)  # finds it: a patch of its floor is no drawer
+        if (len(index) < options.front_points or patch
                 or turned_panel(cloud[index], body, voxel, options, normals[index]) is not None):
             continue
         for a in range(3):
