@@ -54,7 +54,8 @@ class CompartmentOptions:
     front_share: float = 0.15  # a label whose fronts (points facing out of the face it
     front_points: int = 30  # stands out past) fall at depths behind_voxels apart, each this
     # share of them and this many, at the face or out of it, with outlines apart on the
-    # face, is two parts (two drawers pulled out by different lengths)
+    # face, is two parts (two drawers pulled out by different lengths); a drawer left in
+    # the carcass's label is found by a front of this many points level with a sibling's
     shell_span: float = 0.9  # a part standing out whose points past the face span this
     shell_wall_share: float = 0.1  # share of the carcass's box across it both ways, with
     # this share of its points on the box's sides around the face, is the carcass's shell
@@ -529,10 +530,9 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     ``panel_min_angle``), grouped by depth along it (a gap of more than ``behind_voxels``
     spacings parts two groups); a group of at least ``front_share`` of them and
     ``front_points``, at the face or out of it (no more than ``behind_voxels`` spacings
-    behind it), is a front. A
-    drawer's own back panel, seen past its front from above, faces the same way at another
-    depth but lies within the front's outline on the face; two drawers' fronts lie apart on
-    it (no more than ``1 - nested_share`` of the smaller's points within
+    behind it), is a front. A drawer's own back panel, seen past its front from above,
+    faces the same way at another depth but lies within the front's outline on the face;
+    two drawers' fronts lie apart on it (no more than ``1 - nested_share`` of the smaller's points within
     ``nested_margin_voxels`` spacings of the other's, seen across the face: their edges
     touch). Every point of the label then goes to the front nearest it across the face
     (a drawer's sides and bottom lie behind its own front). A turned panel is no drawer and
