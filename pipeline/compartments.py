@@ -1,8 +1,10 @@
 """The compartment seen past a swung-open door, and pieces of the carcass cut out as parts of
 their own, go back to the carcass, an open panel's points in other labels go to it, and what
 of the carcass's label stands out past its walls goes to the part it hangs on, and a
-drawer's body cut from its pulled-out front joins it again: repairs of a part segmentation
-by what a carcass is, their own stage between segmentation and fusion.
+drawer's body cut from its pulled-out front joins it again, a drawer left in the carcass's
+label is found beside one pulled out as far, a label holding two drawers pulled out by
+different lengths is split, and a body cut across its length is one again: repairs of a
+part segmentation by what a carcass is, their own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
 compartment the door reveals, which the carcass's own masks leave out, so no vote gives those
@@ -42,20 +44,32 @@ class CompartmentOptions:
     enclosed_inside: float = 0.98  # ... with this share of them inside the carcass's box ...
     enclosed_margin_voxels: float = 1.0  # ... (grown by this many spacings) is the carcass's
     enclosed_thick: float = 0.5  # so is a larger one wholly inside spanning at least this
-    # share of the carcass's box along each of its axes (no door or drawer front is)
+    # share of the carcass's box along each of its axes (no door or drawer front is) ...
+    thick_inside: float = 0.9  # ... with this share of its points in the box (true moving
+    # parts seen ajar from a ring have at most two thirds of theirs in it)
     wall_margin_voxels: float = 1.0  # the carcass's points this far past its walls stand out
     nested_share: float = 0.9  # a moving part with this share of its points in a larger
     nested_margin_voxels: float = 2.0  # one's box (grown by this), standing out of the
     # carcass, is a piece of it (a drawer's side cut from its front)
+    front_share: float = 0.15  # a label whose fronts (points facing out of the face it
+    front_points: int = 30  # stands out past) fall at depths behind_voxels apart, each this
+    # share of them and this many, at the face or out of it, with outlines apart on the
+    # face, is two parts (two drawers pulled out by different lengths); a drawer left in
+    # the carcass's label is found by a front of this many points level with a sibling's
+    shell_span: float = 0.9  # a part standing out whose points past the face span this
+    shell_wall_share: float = 0.1  # share of the carcass's box across it both ways, with
+    # this share of its points on the box's sides around the face, is the carcass's shell
 
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
-    """``seg`` with open panels' points in other labels given to them, then the compartments
-    behind open doors given back to the carcass, what of the carcass stands out past its
-    walls given to the parts it touches, enclosed pieces given back to the carcass, and a
-    part lying in another's box merged into it (its cloud's labels and
-    every view's label image); what moved is in ``details["returned_to_carcass"]``.
+    """``seg`` with drawers left in the carcass's label found, open panels' points in other
+    labels given to them, then the compartments behind open doors given back to the
+    carcass, what of the carcass stands out past its walls given to the parts it touches,
+    enclosed pieces given back to the carcass, a part lying in another's box or behind its
+    front merged into it, a label with two drawers' fronts split, and pieces of the
+    carcass's shell standing past its box merged into it (its cloud's labels and every
+    view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
     if seg.spacing is None:
         return seg
@@ -63,16 +77,22 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                 for f in capture.frames]
     normals = axis_mean(seg.points, np.concatenate([p for p, _ in measured]),
                         np.concatenate([n for _, n in measured]))
-    labels, claimed = claim_panels(seg.points, seg.point_labels, seg.spacing, options, normals)
+    labels, found = find_level_fronts(seg.points, seg.point_labels, seg.spacing, options,
+                                      normals)
+    labels, claimed = claim_panels(seg.points, labels, seg.spacing, options, normals)
     labels, moved = return_compartments(seg.points, labels, seg.spacing, options, normals)
     labels, protruding = give_protrusions(seg.points, labels, seg.spacing, options, normals)
-    moved = claimed + moved + protruding
+    moved = found + claimed + moved + protruding
     labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
     moved += nested
     labels, behind = merge_behind(seg.points, labels, seg.spacing, options, normals)
     moved += behind
+    labels, split = split_fronts(seg.points, labels, seg.spacing, options, normals)
+    moved += split
+    labels, shell = merge_shell(seg.points, labels, seg.spacing, options, normals)
+    moved += shell
     if not moved:  # the labels stand (already numbered by size): no views to redo
         return replace(seg, details={**seg.details, "returned_to_carcass": []})
     return replace(seg, labels=label_views(capture, seg.points, labels),
@@ -341,12 +361,14 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     faces = open_faces(local, labels, body.extent, margin,
                        [k for k in parts if inside[k] < options.enclosed_inside])
     for k in parts:
-        if inside[k] < options.enclosed_inside:
+        if inside[k] < options.thick_inside:
             continue
         index = np.nonzero(labels == k)[0]
-        small = len(index) <= options.enclosed_share * carcass.sum()
         thick = bool(np.all(np.ptp(local[index], axis=0)
                             >= options.enclosed_thick * 2 * body.extent))
+        if inside[k] < options.enclosed_inside and not thick:
+            continue
+        small = len(index) <= options.enclosed_share * carcass.sum()
         # how far behind each open face the part's front lies (its points but the strays
         # enclosed_inside leaves out)
         depth = min((float(np.quantile(body.extent[a] - sign * local[index, a],
@@ -495,3 +517,219 @@ def _box(points: np.ndarray):
         return part_obb(points)
     except (QhullError, ValueError):
         return None
+
+
+def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                 options: CompartmentOptions = CompartmentOptions(),
+                 normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A label standing out past a face of the carcass's box whose fronts lie at two depths,
+    side by side, is two parts: two drawers pulled out by different lengths that the masks
+    gave one label.
+
+    Its fronts are its points whose measured ``normals`` face along the face's axis (within
+    ``panel_min_angle``), grouped by depth along it (a gap of more than ``behind_voxels``
+    spacings parts two groups); a group of at least ``front_share`` of them and
+    ``front_points``, at the face or out of it (no more than ``behind_voxels`` spacings
+    behind it), is a front. A drawer's own back panel, seen past its front from above,
+    faces the same way at another depth but lies within the front's outline on the face;
+    two drawers' fronts lie apart on it (no more than ``1 - nested_share`` of the smaller's points within
+    ``nested_margin_voxels`` spacings of the other's, seen across the face: their edges
+    touch). Every point of the label then goes to the front nearest it across the face
+    (a drawer's sides and bottom lie behind its own front). A turned panel is no drawer and
+    is left alone; so are two drawers pulled out alike (one front). Needs the measured
+    ``normals``. Returns the labels, renumbered by size, and what was split."""
+    from scipy.spatial import cKDTree
+
+    out = labels.copy()
+    moved: list[dict] = []
+    if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = part_obb(cloud[labels == 1])
+    local = (cloud - body.center) @ body.R
+    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    apart = options.nested_margin_voxels * voxel
+    for k, index, (a, sign), _ in _standing(cloud, labels, body, local, voxel, options,
+                                            normals):
+        across = [b for b in range(3) if b != a]
+        facing = index[square[index, a]]
+        depth = np.sort(local[facing, a])
+        cuts = np.nonzero(np.diff(depth) > options.behind_voxels * voxel)[0]
+        bounds = np.concatenate([[-np.inf], (depth[cuts] + depth[cuts + 1]) / 2, [np.inf]])
+        group = np.searchsorted(bounds, local[facing, a]) - 1
+        least = max(options.front_points, options.front_share * len(facing))
+        # at the face or out of it: a drawer's front, open or shut (not a back panel)
+        fronts = [f for f in (facing[group == g] for g in range(len(bounds) - 1))
+                  if len(f) >= least and float(np.median(sign * local[f, a]))
+                  >= body.extent[a] - options.behind_voxels * voxel]
+        # fronts apart on the face: of the smaller, no more than 1 - nested_share near the
+        # other (their edges touch); a back panel lies wholly within its front's outline
+        kept: list[np.ndarray] = []
+        for f in sorted(fronts, key=len, reverse=True):
+            if all(np.isfinite(cKDTree(local[g][:, across]).query(
+                    local[f][:, across], distance_upper_bound=apart)[0]).mean()
+                   <= 1.0 - options.nested_share for g in kept):
+                kept.append(f)
+        if len(kept) < 2:
+            continue
+        nearest = np.full(len(index), np.inf)
+        which = np.zeros(len(index), dtype=int)
+        for i, f in enumerate(kept):
+            d = cKDTree(local[f][:, across]).query(local[index][:, across])[0]
+            which[d < nearest] = i
+            nearest = np.minimum(nearest, d)
+        top = int(out.max())
+        for i in range(1, len(kept)):
+            out[index[which == i]] = top + i
+        moved.append({"part": k, "points": len(index), "fronts": len(kept),
+                      "split_m": [round(float(np.median(local[f, a])), 3) for f in kept]})
+    return numbered_by_size(out), moved
+
+
+def _standing(cloud: np.ndarray, labels: np.ndarray, body, local: np.ndarray, voxel: float,
+              options: CompartmentOptions, normals: np.ndarray | None):
+    """The moving parts (at least 30 points) standing out of the carcass's box ``body``
+    (less than ``enclosed_inside`` of their points in it) that are no turned panel, each as
+    (label, its points' indices, the face it stands out past (:func:`open_faces`), which of
+    its points lie in the box). ``local``: every point in the box's frame."""
+    margin = options.enclosed_margin_voxels * voxel
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        if len(index) < 30:
+            continue
+        inside = body.contains(cloud[index], tol=margin)
+        if (inside.mean() >= options.enclosed_inside
+                or turned_panel(cloud[index], body, voxel, options,
+                                None if normals is None else normals[index]) is not None):
+            continue
+        faces = open_faces(local, labels, body.extent, margin, [k])
+        if faces:
+            yield k, index, faces[0], inside
+
+
+def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                options: CompartmentOptions = CompartmentOptions(),
+                normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A part standing out past a face of the carcass's box that spans the whole face and
+    runs on along the box's sides is a piece of the carcass's shell: the masks cut a body
+    in two (a box's end, 40 % of it, standing 6 cm past the rest's box, read as a slide).
+
+    Spanning the face: its points beyond it (but the ``1 - enclosed_inside`` outermost
+    each way) span ``shell_span`` of the box along both axes across the face; along the
+    sides: at least ``shell_wall_share`` of its points in the box lie within
+    ``enclosed_margin_voxels`` spacings of the box's four sides around that face, where a
+    carcass's walls are. A drawer pulled out lies inside its opening, within the carcass's
+    walls (and the walls hide its sides); a door or a lid standing out spans the face one
+    way only, or is a turned panel (left alone). A drawer whose front covers the carcass's
+    whole face and whose sides run along its walls within a spacing would go to the
+    carcass. Returns the labels, renumbered by size, and what merged."""
+    out = labels.copy()
+    moved: list[dict] = []
+    if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = part_obb(cloud[labels == 1])
+    local = (cloud - body.center) @ body.R
+    margin = options.enclosed_margin_voxels * voxel
+    for k, index, (a, sign), inside in _standing(cloud, labels, body, local, voxel, options,
+                                                 normals):
+        across = [b for b in range(3) if b != a]
+        points = local[index]
+        beyond = points[sign * points[:, a] > body.extent[a] + margin]
+        if len(beyond) < 4:
+            continue
+        lo, hi = np.quantile(beyond, [1.0 - options.enclosed_inside,
+                                      options.enclosed_inside], axis=0)
+        spans = all(hi[b] - lo[b] >= options.shell_span * 2 * body.extent[b] for b in across)
+        sides = np.zeros(len(index), dtype=bool)
+        for b in across:
+            sides |= np.abs(np.abs(points[:, b]) - body.extent[b]) <= margin
+        on_sides = float(np.count_nonzero(sides & inside)) / len(index)
+        if spans and on_sides >= options.shell_wall_share:
+            out[index] = 1
+            moved.append({"part": k, "points": len(index), "shell": True,
+                          "on_sides": round(on_sides, 2)})
+    return numbered_by_size(out), moved
+
+
+def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                      options: CompartmentOptions = CompartmentOptions(),
+                      normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A drawer the masks left in the carcass's label, found beside a drawer pulled out as
+    far: the carcass's points facing the way a moving part's front faces, level with that
+    front, where the part stands out past the carcass's walls, are another front, and what
+    lies behind it within its outline, as deep as the part, is another part.
+
+    The part's front: its points whose measured ``normals`` face along an axis of the
+    carcass's box (within ``panel_min_angle``), their outermost tenth along one side, at
+    least ``front_points`` of them, reaching that face of the box (within ``behind_voxels``
+    spacings: the drawer left in the carcass's label stretches the box to itself) and
+    ``behind_voxels`` spacings past the carcass's own walls facing that way (the median of
+    its points facing along the axis on that side). Level: within ``behind_voxels``
+    spacings of it; each piece of them (points linked within ``panel_link_voxels``
+    spacings) of at least ``front_points`` points, away from the part's own front on the
+    face (at most ``1 - nested_share`` of it within ``nested_margin_voxels`` spacings),
+    is a front. Behind it: the carcass's points within its outline on the face
+    (``enclosed_margin_voxels`` spacings) as deep as the part reaches along the axis; at
+    most twice the part's points, as a sibling drawer is (a table top's edge level with the
+    fronts has the whole top behind it). A turned panel is no drawer and finds nothing; nor
+    does a small piece of the carcass in a label of its own (what :func:`return_enclosed`
+    gives back: on a phone-LiDAR ring a patch of a cabinet's floor "found" two pieces of
+    the floor beside it). Needs the measured ``normals``.
+    Returns the labels, renumbered by size, and what was found."""
+    from scipy.spatial import cKDTree
+
+    from .segment.pieces import linked_components
+
+    out = labels.copy()
+    moved: list[dict] = []
+    carcass = np.nonzero(labels == 1)[0]
+    if normals is None or labels.max() < 2 or len(carcass) < 4:
+        return out, moved
+    body = part_obb(cloud[carcass])
+    local = (cloud - body.center) @ body.R
+    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    behind = options.behind_voxels * voxel
+    apart = options.nested_margin_voxels * voxel
+    margin = options.enclosed_margin_voxels * voxel
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        patch = (len(index) <= options.enclosed_share * len(carcass)  # the carcass's own,
+                 and body.contains(cloud[index], tol=margin).mean()  # as return_enclosed
+                 >= options.enclosed_inside)  # finds it: a patch of its floor is no drawer
+        if (len(index) < options.front_points or patch
+                or turned_panel(cloud[index], body, voxel, options, normals[index]) is not None):
+            continue
+        for a in range(3):
+            across = [b for b in range(3) if b != a]
+            for sign in (1, -1):
+                facing = index[square[index, a] & (sign * local[index, a] > 0)]
+                if len(facing) < options.front_points:
+                    continue
+                front = float(np.quantile(sign * local[facing, a], 0.9))
+                walls = carcass[square[carcass, a] & (sign * local[carcass, a] > 0)]
+                if (front < body.extent[a] - behind or len(walls) == 0
+                        or front - float(np.median(sign * local[walls, a])) < behind):
+                    continue
+                level = walls[np.abs(sign * local[walls, a] - front) <= behind]
+                level = level[out[level] == 1]
+                if len(level) < options.front_points:
+                    continue
+                own = cKDTree(local[facing][:, across])
+                piece = linked_components(cloud[level], options.panel_link_voxels * voxel)
+                reach = front - float(np.quantile(sign * local[index, a], 0.02))
+                for p in range(int(piece.max()) + 1):
+                    members = level[piece == p]
+                    if len(members) < options.front_points or np.isfinite(own.query(
+                            local[members][:, across], distance_upper_bound=apart)[0]).mean() \
+                            > 1.0 - options.nested_share:
+                        continue
+                    free = np.nonzero(out == 1)[0]
+                    depth = sign * local[free, a]
+                    near = np.isfinite(cKDTree(local[members][:, across]).query(
+                        local[free][:, across], distance_upper_bound=margin)[0])
+                    part = free[near & (depth >= front - reach) & (depth <= front + behind)]
+                    if len(part) > 2 * len(index):
+                        continue
+                    out[part] = int(out.max()) + 1
+                    moved.append({"part": k, "points": len(part), "level_front": True,
+                                  "side": [a, sign]})
+    return numbered_by_size(out), moved

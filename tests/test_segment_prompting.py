@@ -330,6 +330,14 @@ def test_a_small_part_inside_the_carcass_box_is_the_carcass():
     out, moved = return_enclosed(cloud, cut, voxel=0.02)
     assert np.array_equal(out, truth)
     assert [m.get("thick") for m in moved] == [True]
+    # with a few of the drawer's points (5 %) mixed in, out of the box, it still goes back,
+    # those to the drawer
+    mixed = cut.copy()
+    mixed[np.nonzero((truth == 2) & (cloud[:, 0] > 0.4))[0][:int(0.05 * (cut == 3).sum())]] = 3
+    assert 0.9 < np.mean(np.abs(cloud[mixed == 3, 0]) <= 0.32) < 0.98
+    out, moved = return_enclosed(cloud, mixed, voxel=0.02)
+    assert np.array_equal(out, truth)
+    assert [m.get("thick") for m in moved] == [True]
 
 
 def test_an_open_panels_strip_in_other_labels_goes_to_the_panel():
@@ -521,6 +529,102 @@ def test_a_drawers_body_behind_its_pulled_out_front_is_one_part_again():
     pushed = cloud.copy()
     pushed[n[1]:n[3], 0] -= 0.16
     assert merge_behind(pushed, labels, 0.02)[1] == []
+
+
+def _facing(*pieces):
+    """Points and their normals: (points, normal) pieces concatenated."""
+    return (np.concatenate([p for p, _ in pieces]),
+            np.concatenate([np.tile(n, (len(p), 1)) for p, n in pieces]).astype(float))
+
+
+def test_two_drawers_pulled_out_by_different_lengths_in_one_label_are_two_parts():
+    """Two drawers, one above the other, pulled 15 and 30 cm out of a carcass, in one label:
+    their fronts lie at two depths, apart on the face, so the label is split between them
+    (each drawer's bottom with its front). A drawer whose back panel is seen past its front
+    (another depth, within the front's outline) and two drawers pulled out alike stay one
+    label."""
+    from pipeline.compartments import split_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    low = [(_grid(0.3, 0.2, (0.45, 0.05, -0.3), y, z), x),
+           (_grid(0.45, 0.3, (0.0, 0.05, -0.3), x, y), z)]
+    high = [(_grid(0.3, 0.2, (0.6, 0.05, 0.05), y, z), x),
+            (_grid(0.6, 0.3, (0.0, 0.05, 0.05), x, y), z)]
+    cloud, normals = _facing((carcass, x), *low, *high)
+    n = np.cumsum([0, len(carcass), sum(len(p) for p, _ in low)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:] = 2
+    out, moved = split_fronts(cloud, labels, 0.02, normals=normals)
+    assert len(np.unique(out[n[1]:n[2]])) == 1 and len(np.unique(out[n[2]:])) == 1
+    assert len(np.unique(out)) == 3 and (out[:n[1]] == 1).all()
+    assert moved[0]["fronts"] == 2 and moved[0]["split_m"][0] < moved[0]["split_m"][1]
+    # one drawer and its back panel, seen past the front from above: one part
+    back = _grid(0.3, 0.15, (0.05, 0.05, -0.28), y, z)
+    one, one_normals = _facing((carcass, x), *low, (back, x))
+    assert split_fronts(one, labels[:len(one)], 0.02, normals=one_normals)[1] == []
+    # both pulled out alike: one front, nothing to tell them apart by
+    alike = cloud.copy()
+    alike[n[2]:, 0] -= 0.15
+    assert split_fronts(alike, labels, 0.02, normals=normals)[1] == []
+
+
+def test_a_body_cut_across_its_length_is_one_part_again():
+    """A box's body cut by the masks into most of it and its end (the end wall and the
+    walls' last stretch, standing out past the rest's box): the end spans the rest's
+    cross-section and runs along its walls, so it is the carcass's. A drawer pulled out
+    past the front (within the opening) stays a part."""
+    from pipeline.compartments import merge_shell
+
+    y, z = (0, 1, 0), (0, 0, 1)
+    shell = _open_box()
+    floor = (shell[:, 2] == -0.4) & (shell[:, 1] <= 0.34)
+    end = ~floor & (shell[:, 1] > 0.2)  # the rest's box reaches y = 0.34 by its floor
+    drawer = _grid(0.3, 0.2, (0.45, -0.2, -0.3), y, z)
+    cloud = np.concatenate([shell, drawer])
+    labels = np.concatenate([np.where(end, 2, 1), np.full(len(drawer), 3)])
+    out, moved = merge_shell(cloud, labels, 0.02)
+    assert (out[:len(shell)] == 1).all() and (out[len(shell):] == 2).all()
+    assert [m["part"] for m in moved] == [2] and moved[0]["shell"]
+    # the drawer alone, out of the whole body's box: no shell
+    whole = np.concatenate([np.ones(len(shell), int), np.full(len(drawer), 2)])
+    assert merge_shell(cloud, whole, 0.02)[1] == []
+
+
+def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_found():
+    """Two drawers pulled 15 cm out of a carcass with a front rim; the masks gave one its
+    own label and left the other in the carcass's (its box then reaches the drawers'
+    fronts, so neither stands out of it). The carcass's points facing along the drawer's
+    front, level with it and apart from it on the face, with what lies behind them as deep
+    as the drawer, are a part of their own. Pushed shut, the drawers are level with the rim
+    and nothing is found."""
+    from pipeline.compartments import find_level_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    box = _open_box()
+    rim = np.concatenate([_grid(0.8, 0.06, (0.3, -0.4, -0.4), y, z),
+                          _grid(0.8, 0.06, (0.3, -0.4, 0.34), y, z),
+                          _grid(0.06, 0.8, (0.3, -0.4, -0.4), y, z),
+                          _grid(0.06, 0.8, (0.3, 0.34, -0.4), y, z)])
+    box_normals = np.where((np.abs(box[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(box[:, 1]) - 0.4) < 1e-9)[:, None], y, z))
+
+    def drawer(y0):  # within the opening, inside the rim
+        return [(_grid(0.25, 0.2, (0.45, y0, -0.3), y, z), x),
+                (_grid(0.45, 0.25, (0.0, y0, -0.3), x, y), z)]
+
+    cloud, normals = _facing((rim, x), *drawer(-0.3), *drawer(0.05))
+    cloud, normals = np.concatenate([box, cloud]), np.concatenate([box_normals, normals])
+    n = np.cumsum([0, len(box) + len(rim), sum(len(p) for p, _ in drawer(-0.3))])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]] = 2
+    out, moved = find_level_fronts(cloud, labels, 0.02, normals=normals)
+    assert (out[n[2]:] == out[n[2]]).all() and out[n[2]] not in (1, out[n[1]])
+    assert (out[n[1]:n[2]] == out[n[1]]).all() and (out[:n[1]] == 1).all()
+    assert [m["level_front"] for m in moved] == [True]
+    shut = cloud.copy()
+    shut[n[1]:, 0] -= 0.15
+    assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
 def test_a_turned_panel_is_found_the_same_every_time():
