@@ -47,15 +47,29 @@ FRAME_JOINT = f"{NAMESPACE}:fixedJoint"  # on a frame (an Xform in a body): its 
 _PARSE_ERROR = re.compile(r":(\d+):\d+: (.*?)(?: in <([^>]*)>)?'?$", re.MULTILINE)
 
 
+# the first OpenUSD release whose UsdPhysics parse is safe on many threads
+_PHYSICS_PARSE_THREAD_SAFE = (0, 26, 5)
+
+
 def load_physics(stage):
     """UsdPhysics' own parse of the whole stage. usd-core 26.11 names it
     ``UsdPhysicsLoadStageFromPrimRange`` (the old ``LoadUsdPhysicsFromRange`` is deprecated);
     OpenUSD 25.08, inside Blender 5.0, has only the old name: take whichever exists."""
-    from pxr import UsdPhysics
+    from pxr import Usd, UsdPhysics, Work
 
     loader = (getattr(UsdPhysics, "UsdPhysicsLoadStageFromPrimRange", None)
               or UsdPhysics.LoadUsdPhysicsFromRange)
-    return loader(stage, ["/"])
+    if Usd.GetVersion() >= _PHYSICS_PARSE_THREAD_SAFE:
+        return loader(stage, ["/"])
+    # Older parsers race when a rigid body holds many colliders and now and then crash the
+    # process (newton-physics/newton#1743, #3293: fixed in OpenUSD 26.5; a Blender 5.0
+    # add-on test crashed so once in three runs): parse on one thread, then restore.
+    limit = Work.GetConcurrencyLimit()
+    Work.SetConcurrencyLimit(1)
+    try:
+        return loader(stage, ["/"])
+    finally:
+        Work.SetConcurrencyLimit(limit)
 
 
 def open_stage(path: Path):
