@@ -49,8 +49,10 @@ def hollow_pieces(mesh: Mesh, hull_volume: float, pitch: float, max_pieces: int
         return None
     try:
         to_box, _ = trimesh.bounds.oriented_bounds(points)
-    except TypeError:  # trimesh finds no box when every candidate's volume is NaN (PartNet
-        to_box = np.eye(4)  # 12036's thin pieces): the voxels are then axis-aligned
+    except (TypeError, ValueError):  # trimesh finds no box when every candidate's volume is
+        # NaN (PartNet 12036's thin pieces), and fails on some exactly flat point sets (a
+        # panel's face cut out by its colour): the voxels are then axis-aligned
+        to_box = np.eye(4)
     samples = _surface_samples(mesh, pitch)
     local = trimesh.transform_points(samples, to_box)
     low = local.min(axis=0)

@@ -184,6 +184,22 @@ def test_a_partnet_object_whose_pieces_trimesh_finds_no_box_for():
     assert all(p.collision for p in obj.parts if p.visual is not None)
 
 
+def test_a_flat_piece_trimesh_finds_no_box_for_keeps_axis_aligned_voxels(monkeypatch):
+    """trimesh's oriented_bounds fails on some exactly flat point sets (ValueError: a
+    PartNet panel's face cut out by its colour, in `evaluate joints`): the voxels are then
+    axis-aligned, as where it finds no box, and the carcass keeps its inside."""
+    from real2code_export import collision_boxes
+
+    def no_box(points, *args, **kwargs):
+        raise ValueError("zero-size array to reduction operation maximum which has no identity")
+
+    monkeypatch.setattr(trimesh.bounds, "oriented_bounds", no_box)
+    carcass = open_box([0.4, 0.6, 0.5], open_side=0)
+    hull = trimesh.convex.convex_hull(carcass.vertices).volume
+    boxes = collision_boxes.hollow_pieces(carcass, hull, 0.4 / 40, 16)
+    assert boxes is not None and len(boxes) >= 5  # back, sides, top, bottom
+
+
 def test_pieces_that_meet_along_a_range_are_kept_apart_halfway_too(tmp_path):
     """PartNet 8867's door: a corner of one piece cut across an edge of the other between two
     swept values, both of which left them clear; separation now also cuts the pieces that
