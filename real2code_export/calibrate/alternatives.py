@@ -57,7 +57,7 @@ def symmetric_alternative(problem: Problem, chosen: Fit) -> dict | None:
         "causes": sorted(fit.names),
         "refined_by": sorted(chosen.names),
         "fitted_by": "simulation",
-        "parameters": {k: {"value": v, "halfwidth95": _finite(fit.halfwidth.get(k, math.inf))}
+        "parameters": {k: {"value": v, "halfwidth95": finite_or_none(fit.halfwidth.get(k, math.inf))}
                        for k, v in fit.values.items()},
         "residual_to_noise": math.sqrt(fit.rss / fit.n),
         "residual_to_noise_refined": math.sqrt(chosen.rss / chosen.n),
@@ -66,10 +66,11 @@ def symmetric_alternative(problem: Problem, chosen: Fit) -> dict | None:
     }
     if fit.start is not None:
         out["equation_error"] = {
-            "parameters": {k: {"value": v, "halfwidth95": _finite(fit.start.halfwidth(k))}
+            "parameters": {k: {"value": v, "halfwidth95": finite_or_none(fit.start.halfwidth(k))}
                            for k, v in fit.start.values.items()}}
     return out
 
 
-def _finite(x: float) -> float | None:
-    return x if math.isfinite(x) else None
+def finite_or_none(x: float) -> float | None:
+    """``x`` where finite, else None (JSON has no infinity: an unidentified half-width)."""
+    return float(x) if math.isfinite(x) else None

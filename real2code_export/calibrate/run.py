@@ -15,7 +15,7 @@ from .. import atomic
 from ..errors import FormatError
 from ..model import ArticulatedObject
 from . import features as ft
-from .alternatives import symmetric_alternative
+from .alternatives import finite_or_none, symmetric_alternative
 from .apply import base_parameter_halfwidths, calibrated_object
 from .experiment import read_experiment
 from .fit import Fit, fit_candidate
@@ -345,7 +345,7 @@ def _equation_error(model: ArticulatedObject, problem: Problem, chosen: Fit) -> 
                                  cov=dict(start.cov))
     inverse_model = calibrated_object(model, as_fit)
     return {"parameters": dict(start.values),
-            "halfwidth95": {k: _finite(start.halfwidth(k)) for k in start.values},
+            "halfwidth95": {k: finite_or_none(start.halfwidth(k)) for k in start.values},
             "base_parameters": {j: {**compared(model, inverse_model, j)["calibrated"],
                                     "halfwidth95": base_parameter_halfwidths(model, as_fit, j)}
                                 for j in problem.joints},
@@ -357,9 +357,6 @@ def _equation_error(model: ArticulatedObject, problem: Problem, chosen: Fit) -> 
                     "simulation fit starts from it and decides, but where selected_by is "
                     "'effort equation only' (this is then the result)"}
 
-
-def _finite(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 def _lost(r: Replay) -> bool:
