@@ -137,19 +137,24 @@ def ellipsoid_collider(prim, to_part: np.ndarray) -> Mesh | None:
 
 
 class MeshAssets:
-    """The mesh assets an object places more than once (``Mesh.placements`` of its visuals
-    and colliders, counted per placement), each written once as ``mesh_<k>`` under the class
-    ``/<object>/MeshAssets`` when first placed, with creased normals (and texture
-    coordinates) once a visual places it. Assets placed once are written where they are
-    placed, as before."""
+    """The mesh assets whose data an object would otherwise hold more than once
+    (``Mesh.placements`` of its visuals and colliders), each written once as ``mesh_<k>``
+    under the class ``/<object>/MeshAssets`` when first placed, with creased normals (and
+    texture coordinates) once a visual places it. An asset that is whole meshes at one pose
+    only (a part's visual and its collider; a left and a right finger, each in its own
+    frame), which ``_define_mesh_once`` writes once already, with fewer prims, or that is
+    placed once, is written where it is placed, as before."""
 
     def __init__(self, layer, object_path: str, obj: ArticulatedObject) -> None:
-        counts: dict[int, int] = {}
+        copies: dict[int, set] = {}  # id(asset) -> where its data would be written
         for part in obj.parts:
             for mesh in ([part.visual] if part.visual is not None else []) + part.collision:
+                whole = len(mesh.placements) == 1 and len(mesh.faces) == len(
+                    mesh.placements[0].asset.faces) and not mesh.primitives
                 for placement in mesh.placements:
-                    counts[id(placement.asset)] = counts.get(id(placement.asset), 0) + 1
-        self.shared = {key for key, n in counts.items() if n > 1}
+                    copies.setdefault(id(placement.asset), set()).add(
+                        (None if whole else id(mesh), placement.pose.tobytes()))
+        self.shared = {key for key, seen in copies.items() if len(seen) > 1}
         self.layer, self.scope = layer, f"{object_path}/{MESH_ASSETS}"
         self.written: dict[int, str] = {}  # id(asset) -> its prim
         self.shaded: set[int] = set()  # those with normals (placed by a visual)
