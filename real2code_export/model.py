@@ -65,6 +65,36 @@ class JointType(StrEnum):
         return self in (JointType.REVOLUTE, JointType.CONTINUOUS)
 
 
+@dataclass(frozen=True, eq=False)
+class Placement:
+    """A stretch of a mesh's own triangles that is mesh ``asset`` moved by the rigid
+    ``pose``: the mesh's vertices ``vertex:vertex + len(asset.vertices)`` are
+    ``asset.transformed(pose)``'s (to float64 rounding, where poses were composed) and its
+    faces ``face:face + len(asset.faces)`` are ``asset.faces + vertex``. A reader that places
+    one mesh file several times (MJCF's mesh assets, each used by several geoms) says so,
+    so that a writer whose format can place one mesh data several times (USD's references)
+    writes it once; every other reader and writer takes the mesh as it is."""
+
+    asset: Mesh  # a mesh of its own: no shapes, no placements
+    pose: np.ndarray  # 4x4, rigid
+    vertex: int
+    face: int
+
+    @property
+    def vertex_end(self) -> int:
+        return self.vertex + len(self.asset.vertices)
+
+    @property
+    def face_end(self) -> int:
+        return self.face + len(self.asset.faces)
+
+    def shifted(self, vertices: int, faces: int, before: np.ndarray | None = None) -> Placement:
+        """The placement in a mesh that has ``vertices`` and ``faces`` more before it (and,
+        ``before``, is moved by that rigid transform)."""
+        pose = self.pose if before is None else before @ self.pose
+        return Placement(self.asset, pose, self.vertex + vertices, self.face + faces)
+
+
 @dataclass(eq=False)
 class Mesh:
     """A triangle mesh: float64 vertices (N, 3), int64 faces (M, 3) and, for a textured
@@ -77,13 +107,18 @@ class Mesh:
 
     ``colors``: a visual of several colours (a robot link's visuals each with its own
     material) as runs (face count, RGBA) over the faces in order, summing to their number;
-    empty: one colour, the part's (:meth:`color_pieces`)."""
+    empty: one colour, the part's (:meth:`color_pieces`).
+
+    ``placements``: stretches of its own triangles that are one mesh placed (:class:`Placement`,
+    :meth:`placed`); kept through :meth:`transformed`, :meth:`remainder` and
+    :meth:`concatenate`, dropped by everything else that makes a new mesh."""
 
     vertices: np.ndarray
     faces: np.ndarray
     uv: np.ndarray | None = None
     primitives: tuple[Primitive, ...] = ()
     colors: tuple[tuple[int, RGBA], ...] = ()
+    placements: tuple[Placement, ...] = ()
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
@@ -102,6 +137,18 @@ class Mesh:
             if len(self.uv) != len(self.vertices):
                 raise ModelError("mesh", f"{len(self.uv)} texture coordinates for "
                                  f"{len(self.vertices)} vertices")
+
+    @classmethod
+    def placed(cls, asset: Mesh, pose: np.ndarray | None = None) -> Mesh:
+        """``asset`` moved by the rigid ``pose`` (None: where it is), saying so
+        (:attr:`placements`): an asset used several times is written once where a format
+        can place it. The asset's own vertices are kept exactly where it is not moved."""
+        if asset.primitives or asset.placements:
+            return asset if pose is None else asset.transformed(pose)
+        moved = asset if pose is None else asset.transformed(pose)
+        pose = np.eye(4) if pose is None else np.asarray(pose, dtype=np.float64)
+        return cls(moved.vertices, moved.faces, moved.uv, colors=moved.colors,
+                   placements=(Placement(asset, pose, 0, 0),))
 
     @classmethod
     def of_primitive(cls, primitive: Primitive) -> Mesh:
@@ -131,7 +178,8 @@ class Mesh:
             return None
         uv = None if self.uv is None else self.uv[:kept_v]
         return Mesh(self.vertices[:kept_v], self.faces[:kept_f], uv,
-                    colors=_runs_upto(self.colors, kept_f))
+                    colors=_runs_upto(self.colors, kept_f),
+                    placements=tuple(p for p in self.placements if p.face_end <= kept_f))
 
     def face_color_runs(self) -> list[tuple[int, int, RGBA]]:
         """(first face, end face, RGBA) of each colour run ([] for a mesh of one colour)."""
@@ -187,8 +235,10 @@ class Mesh:
         v = self.vertices @ transform[:3, :3].T + transform[:3, 3]
         rigid = np.linalg.det(transform[:3, :3]) > 0
         shapes = tuple(p.transformed(transform) for p in self.primitives) if rigid else ()
+        placements = tuple(p.shifted(0, 0, transform) for p in self.placements) \
+            if rigid else ()
         return Mesh(v, self.faces.copy(), None if self.uv is None else self.uv.copy(), shapes,
-                    self.colors)
+                    self.colors, placements)
 
     def bounds(self) -> np.ndarray:
         return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
@@ -224,17 +274,20 @@ class Mesh:
         own = [m for m in own if m is not None]
         shapes = tuple(p for m in meshes for p in m.primitives)
         pieces = own + [Mesh(*p.tessellation()) for p in shapes]
-        verts, faces, offset = [], [], 0
+        verts, faces, placements, offset, face_offset = [], [], [], 0, 0
         for m in pieces:
             verts.append(m.vertices)
             faces.append(m.faces + offset)
+            placements += [p.shifted(offset, face_offset) for p in m.placements]
             offset += len(m.vertices)
+            face_offset += len(m.faces)
         if not verts:
             return Mesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
         uv = None
         if all(m.uv is not None for m in pieces):
             uv = np.concatenate([m.uv for m in pieces])
-        return Mesh(np.concatenate(verts), np.concatenate(faces), uv, shapes)
+        return Mesh(np.concatenate(verts), np.concatenate(faces), uv, shapes,
+                    placements=tuple(placements))
 
 
 def _join_colored(pieces: list[Mesh], runs: list[list[tuple[int, RGBA | None]]]) -> Mesh:
@@ -294,7 +347,7 @@ def _concatenate_colored(meshes: list[Mesh], colors: list[RGBA]) -> Mesh:
             runs.append((len(m.faces), c))
     shapes = tuple(p for p, _ in shaped)
     return Mesh(joined.vertices, joined.faces, joined.uv, shapes,
-                tuple(runs) if len(runs) > 1 else ())
+                tuple(runs) if len(runs) > 1 else (), joined.placements)
 
 
 IMAGE_SUFFIXES = {"image/png": ".png", "image/jpeg": ".jpg"}

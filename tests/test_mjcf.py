@@ -999,3 +999,45 @@ def test_a_mesh_file_of_vertices_only_is_their_convex_hull_as_in_mujoco(tmp_path
     (empty / "cloud.xml").write_text(source.read_text())
     with pytest.raises(FormatError, match="<mesh name='points'>: at least 4 vertices"):
         load_any(empty / "cloud.xml")
+
+
+def test_a_mesh_used_by_several_geoms_is_one_placed_asset(tmp_path):
+    """A mesh asset used by several geoms (two in one body, one in another, as a robot's
+    wheels and bolts are) reads as one asset placed at each geom's pose (Mesh.placements):
+    the USD export writes its data once and places it by reference, and reads back equal."""
+    (tmp_path / "bolt.obj").write_text(trimesh.exchange.obj.export_obj(
+        trimesh.creation.box(extents=(0.02, 0.03, 0.05)), include_normals=False))
+    path = write(tmp_path / "bolts.xml", """<mujoco>
+  <asset><mesh name="bolt" file="bolt.obj"/></asset>
+  <worldbody><body name="base">
+    <geom type="mesh" mesh="bolt" pos="0.1 0 0" euler="0 0 30" rgba="1 0 0 1"/>
+    <geom type="mesh" mesh="bolt" pos="-0.1 0 0" rgba="0 0 1 1"/>
+    <body name="arm" pos="0 0 0.2"><joint name="hinge" axis="0 0 1" range="-1 1"/>
+      <geom type="mesh" mesh="bolt" pos="0 0.1 0" euler="90 0 0" mass="0.1"/>
+    </body></body></worldbody>
+</mujoco>
+""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = mjcf.load(path)
+    placements = [p for part in obj.parts for m in [part.visual, *part.collision]
+                  if m is not None for p in m.placements]
+    assert len(placements) == 6  # 3 visuals, 3 colliders
+    assert all(p.asset is placements[0].asset for p in placements)
+    for part in obj.parts:
+        for m in [part.visual, *part.collision]:
+            for p in m.placements:
+                np.testing.assert_allclose(m.vertices[p.vertex:p.vertex_end],
+                                           p.asset.transformed(p.pose).vertices, atol=1e-15)
+    written = export(obj, tmp_path / "out", ["usd"])
+    text = written["usd"].read_text()
+    assert text.count("references = </bolts/MeshAssets/mesh_0>") == 6
+    assert "MeshAssets/mesh_1" not in text
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        back = load_any(written["usd"])
+    assert differences(obj, back, 1e-6) == []
+    for name in ("base", "arm"):
+        np.testing.assert_allclose(back.part(name).visual.vertices,
+                                   obj.part(name).visual.vertices, atol=1e-7)
+        assert back.part(name).visual.colors == obj.part(name).visual.colors

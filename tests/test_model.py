@@ -16,6 +16,7 @@ from real2code_export.model import (
     Inertial,
     Joint,
     JointType,
+    Mesh,
     differences,
     forward_kinematics,
     sample_configuration,
@@ -23,7 +24,7 @@ from real2code_export.model import (
     validate,
 )
 
-from helpers import box_inertial, small_cabinet
+from helpers import box_inertial, box_mesh, small_cabinet
 
 
 def test_small_cabinet_is_valid():
@@ -279,3 +280,36 @@ def test_merging_fixed_joints_keeps_every_field_of_the_joints_below():
     np.testing.assert_allclose(merged.joint("lead").origin[:3, 3], [0, 0, 0.5])
     assert merged.joint("follow").mimic == Mimic("lead", -2.0, 0.1)
     assert merged.joint("spin").drive_limits == DriveLimits(3.0, 7.0)
+
+
+def _placements_hold(mesh: Mesh) -> bool:
+    """Every placement's stretch of the mesh is its asset at its pose (Placement)."""
+    for p in mesh.placements:
+        moved = p.asset.transformed(p.pose)
+        if not (np.allclose(mesh.vertices[p.vertex:p.vertex_end], moved.vertices, atol=1e-12)
+                and np.array_equal(mesh.faces[p.face:p.face_end], p.asset.faces + p.vertex)):
+            return False
+    return True
+
+
+def test_placements_follow_the_mesh_through_concatenate_transform_and_remainder():
+    """Mesh.placed says which asset a mesh places; concatenating (with colours, which
+    reorders the pieces), moving and taking the remainder keep every placement true; what
+    makes a mesh otherwise drops them."""
+    from real2code_export.primitives import Primitive, ShapeKind
+
+    asset = box_mesh([0.1, 0.2, 0.3])
+    turn = tf.make(tf.rpy_to_matrix([0.3, -0.2, 1.1]), [0.1, 0.2, 0.3])
+    pieces = [Mesh.placed(asset, turn), Mesh.of_primitive(Primitive(ShapeKind.BOX, [0.1] * 3)),
+              box_mesh([0.05] * 3), Mesh.placed(asset)]
+    assert pieces[3].placements[0].asset is asset
+    assert np.shares_memory(pieces[3].vertices, asset.vertices)  # not moved: kept exactly
+    for colours in (None, [(1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0),
+                           (0.0, 0.0, 1.0, 1.0)]):
+        joined = Mesh.concatenate(pieces, colours)
+        assert len(joined.placements) == 2 and _placements_hold(joined)
+        moved = joined.transformed(tf.make(tf.rpy_to_matrix([1.0, 0.5, -0.4]), [1.0, 2.0, 3.0]))
+        assert len(moved.placements) == 2 and _placements_hold(moved)
+        assert len(moved.remainder().placements) == 2 and _placements_hold(moved.remainder())
+    mirrored = pieces[0].transformed(np.diag([-1.0, 1.0, 1.0, 1.0]))
+    assert mirrored.placements == ()

@@ -829,7 +829,9 @@ def test_visuals_of_several_colours_are_kept_in_every_format(tmp_path):
         and 'rgba="0 0 1 1"' in xml, xml
     assert written["urdf"].read_text().count("<visual") == 3
     usda = written["usd"].read_text()
-    assert usda.count('def GeomSubset "colour_') == 2 and "base_colour_1" in usda
+    # (the one mesh file placed three times: its data once, a prim per placement bound to
+    # its colour's material; the box a shape)
+    assert usda.count("references = </three/MeshAssets/mesh_0>") == 3 and "base_colour_1" in usda
     data = written["gltf"].read_bytes()
     doc = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
     assert [len(m["primitives"]) for m in doc["meshes"] if m["name"] == "base"] == [3]
@@ -1142,3 +1144,28 @@ def test_meshes_in_the_folder_a_mujoco_compiler_meshdir_names(tmp_path):
     path.write_text(text.format("other.stl"))
     with pytest.raises(FormatError, match="<link name='base'>: mesh file not found"):
         urdf.load(path)
+
+
+def test_a_mesh_file_named_by_several_links_is_one_placed_asset(tmp_path):
+    """A mesh file several <visual>s name at different origins (a robot's wheels) reads as
+    one asset placed at each (Mesh.placements), which the USD export writes once."""
+    import trimesh
+
+    from real2code_export.formats import export
+
+    (tmp_path / "wheel.obj").write_text(trimesh.exchange.obj.export_obj(
+        trimesh.creation.cylinder(radius=0.05, height=0.02, sections=12), include_normals=False))
+    links = "".join(f"""
+  <link name="wheel_{k}"><visual><origin xyz="0 0 0" rpy="{k} 0 0"/>
+    <geometry><mesh filename="wheel.obj"/></geometry></visual></link>
+  <joint name="axle_{k}" type="continuous"><parent link="base"/><child link="wheel_{k}"/>
+    <origin xyz="{0.1 * k} 0 0"/><axis xyz="0 1 0"/></joint>""" for k in range(3))
+    path = tmp_path / "cart.urdf"
+    path.write_text(f'<robot name="cart"><link name="base"/>{links}</robot>')
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = urdf.load(path)
+    placements = [obj.part(f"wheel_{k}").visual.placements[0] for k in range(3)]
+    assert all(p.asset is placements[0].asset for p in placements)
+    written = export(obj, tmp_path / "out", ["usd"])
+    assert written["usd"].read_text().count("references = </cart/MeshAssets/mesh_0>") == 3

@@ -336,6 +336,78 @@ def test_a_mesh_is_written_once(tmp_path):
         path.read_bytes()
 
 
+def _one_asset_placed_four_times():
+    """A mesh asset placed twice in one part's visual (two colours) and once in another's,
+    whose collider is the same placement: the model says so (Mesh.placements)."""
+    asset = box_mesh([0.1, 0.04, 0.02])
+    asset = Mesh(asset.vertices + [0.01, 0.0, 0.0], asset.faces)  # off its origin
+    turned = tf.make(tf.quat_to_matrix([0.0, 0.0, 0.0, 1.0]), [0.0, 0.2, 0.0])
+    visual = Mesh.concatenate([Mesh.placed(asset, tf.make(None, [0.3, 0.0, 0.0])),
+                               Mesh.placed(asset, turned)],
+                              [(1.0, 0.5, 0.25, 1.0), (0.25, 0.5, 1.0, 1.0)])
+    lone = Mesh.placed(asset, tf.make(None, [0.0, 0.0, 0.1]))
+    arm = Part("arm", visual=visual, inertial=box_inertial([0.3, 0.1, 0.1], 1.0),
+               color=(1.0, 0.5, 0.25, 1.0))
+    tip = Part("tip", visual=lone, collision=[lone], inertial=box_inertial([0.1] * 3, 0.1))
+    return ArticulatedObject("placed", [Part("base"), arm, tip], [
+        Joint("yaw", "revolute", "base", "arm", axis=[0.0, 0.0, 1.0], limits=Limits(-1.0, 1.0)),
+        Joint("tip_fixed", "fixed", "arm", "tip", origin=tf.make(None, [0.4, 0.0, 0.0]))])
+
+
+def test_a_mesh_asset_placed_several_times_is_written_once(tmp_path):
+    """A mesh asset the model places several times (an MJCF mesh used by several geoms) is
+    one abstract prim under MeshAssets, with the only copy of its arrays; each placement is
+    a prim referring to it at its own pose, of its own colour; the stage validates, reads
+    back as the same object placing one asset (so written so again)."""
+    obj = _one_asset_placed_four_times()
+    path = usd.save(obj, tmp_path, write_meshes=False)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    arrays = Sdf.Layer.FindOrOpen(str(tmp_path / usd.mesh_layer_path("placed")))
+    asset = "/placed/MeshAssets/mesh_0"
+    assert layer.GetPrimAtPath("/placed/MeshAssets").specifier == Sdf.SpecifierClass
+    assert layer.GetPrimAtPath("/placed/MeshAssets/mesh_1") is None
+    with_points = []
+    arrays.Traverse("/", lambda p: with_points.append(str(p.GetPrimPath()))
+                    if p.IsPropertyPath() and p.name == "points" else None)
+    assert with_points == [asset]
+    for prim in ("arm/arm_mesh_0", "arm/arm_mesh_1", "tip/tip", "tip/tip_collision_0"):
+        spec = layer.GetPrimAtPath(f"/placed/Geometry/{prim}")
+        assert [str(r.primPath) for r in spec.referenceList.prependedItems] == [asset], prim
+        assert "xformOp:orient" in spec.attributes, prim
+    stage = Usd.Stage.Open(str(path))
+    assert not [p for p in stage.Traverse() if "MeshAssets" in str(p.GetPath())]  # abstract
+    assert _validation_errors(stage) == []
+    back = usd.load(path)
+    assert differences(obj, back, TOL) == []
+    arm = back.part("arm").visual
+    assert arm.colors == obj.part("arm").visual.colors
+    np.testing.assert_allclose(arm.vertices, obj.part("arm").visual.vertices, atol=1e-7)
+    placed = [p.asset for p in arm.placements] + [back.part("tip").visual.placements[0].asset,
+                                                  back.part("tip").collision[0].placements[0].asset]
+    assert len(placed) == 4 and all(a is placed[0] for a in placed)
+    # written so again: the same prims (the poses' quaternions may move in their last bit:
+    # USD turns an orient op into a matrix through its own rotation)
+    again = usd.save(back, tmp_path / "again", write_meshes=False)
+    assert _usda_lines(again, "references", "def ") == _usda_lines(path, "references", "def ")
+
+
+def _usda_lines(path, *starts: str) -> list[str]:
+    return [line.strip() for line in path.read_text().splitlines()
+            if line.strip().startswith(starts) or any(f" {s}" in line for s in starts)]
+
+
+def test_a_mesh_placed_once_is_written_where_it_is(tmp_path):
+    """Placements of assets each used once change nothing: the visual is one mesh as
+    before, no MeshAssets."""
+    asset = box_mesh([0.1, 0.1, 0.1])
+    obj = ArticulatedObject("once", [Part("base", visual=Mesh.placed(
+        asset, tf.make(None, [0.0, 0.0, 0.2])), inertial=box_inertial([0.1] * 3, 1.0))], [])
+    path = usd.save(obj, tmp_path, write_meshes=False)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    assert layer.GetPrimAtPath("/once/MeshAssets") is None
+    assert not layer.GetPrimAtPath("/once/Geometry/base/base").referenceList.prependedItems
+
+
 def test_the_mesh_arrays_are_a_binary_layer_beside_the_text(tmp_path):
     """``<name>.usda`` (text: every prim, schema and value but the mesh arrays) sublayers
     ``meshes/<name>.usdc`` (binary: points, triangles, texture coordinates, at the same prim

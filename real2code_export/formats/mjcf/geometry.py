@@ -102,9 +102,11 @@ def geom_mesh(model, g: int, source: Path, element: str,
                                               (given or {}).get(mesh_id))
         mesh, mesh_frame = mesh_cache[mesh_id]
         transform = placed @ mesh_frame
+        # (each geom says which asset it places: a writer that can place one mesh several
+        # times writes the asset once, Mesh.placements)
         if np.allclose(transform, np.eye(4), rtol=0.0, atol=1e-12):
-            return mesh  # the usual case (our own files): keep the numbers exactly
-        return mesh.transformed(transform)
+            return Mesh.placed(mesh)  # the usual case (our own files): the numbers exactly
+        return Mesh.placed(mesh, transform)
     shape = geom_primitive(kind, size, placed)
     return None if shape is None else Mesh.of_primitive(shape)
 

@@ -271,7 +271,10 @@ def _report_notes(ctx: Context) -> None:
 
 # -- links ----------------------------------------------------------------------------------------
 def _placed(mesh: Mesh, transform: np.ndarray) -> Mesh:
-    return mesh if np.array_equal(transform, np.eye(4)) else mesh.transformed(transform)
+    """A <visual>'s or <collision>'s mesh at its origin, saying which mesh file's mesh it
+    places (``Mesh.placements``: a file several elements name is written once where a format
+    can place it)."""
+    return Mesh.placed(mesh, None if np.array_equal(transform, np.eye(4)) else transform)
 
 
 def _part(ctx: Context, el: etree._Element, name: str, materials: dict,

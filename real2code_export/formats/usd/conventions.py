@@ -8,6 +8,9 @@ Layout of a file we write (after Newton's urdf-usd-converter asset structure):
         Geometry/<part>  Xform, PhysicsRigidBodyAPI + PhysicsMassAPI: visual and collision meshes
         Physics/<joint>  PhysicsRevoluteJoint / PhysicsPrismaticJoint / PhysicsFixedJoint
         Looks/<part>     Material (UsdPreviewSurface)
+        MeshAssets/mesh_<k>  (class) a mesh placed by several prims, each an internal
+                         reference to it with its own pose (a robot's mesh file used by
+                         several geoms, written once)
     /PhysicsScene        outside the asset, so referencing the object never adds a second scene
 
 The mesh arrays are in a binary layer the .usda sublayers, ``meshes/<object>.usdc``
@@ -35,6 +38,9 @@ from ... import transforms as tf
 from ...errors import FormatError, InputError
 
 GEOMETRY, PHYSICS, LOOKS = "Geometry", "Physics", "Looks"
+# a class (abstract: never drawn, simulated or traversed) of the mesh assets placed by
+# several prims, each referring to one (geometry.AssetLibrary)
+MESH_ASSETS = "MeshAssets"
 SCENE = "PhysicsScene"
 NAMESPACE = "real2code"  # our custom attributes: real2code:state, real2code:effort, ...
 WORLD_JOINT = "world_fixed"

@@ -25,7 +25,12 @@ time, as the converters lay out their assets (a Geometry layer in .usdc beside t
 
 A mesh's data is in the file once: a collider or visual mesh equal to a visual mesh written
 before it (a collision that is the visual, as most robots' files give it; a left and a right
-finger) is an internal reference to that prim (``_define_mesh_once``).
+finger) is an internal reference to that prim (``_define_mesh_once``). A mesh asset the model
+says is placed more than once (``Mesh.placements``: an MJCF mesh used by several geoms, in one
+part or in several) is written once, under the class ``MeshAssets`` (never drawn or simulated
+itself), and each placement is a prim referring to it with its own pose (:class:`MeshAssets`):
+a part's visual is then a prim per placement (``<part>`` for one, ``<part>_mesh_<k>`` for
+several), each of one colour, which the reader joins back into the part's mesh.
 """
 
 from __future__ import annotations
@@ -36,10 +41,10 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, warn
-from ...model import DEFAULT_COLOR, Mesh, Part, Texture
+from ...model import DEFAULT_COLOR, RGBA, ArticulatedObject, Mesh, Part, Placement, Texture
 from ...normals import creased_normals
 from ...primitives import Primitive, ShapeKind
-from .conventions import NAMESPACE
+from .conventions import MESH_ASSETS, NAMESPACE
 from .layer import apply, attribute, connect, define, extent, place, relationship
 
 ST = "st"  # the texture-coordinate primvar's name, as UsdPreviewSurface's examples use
@@ -131,12 +136,119 @@ def ellipsoid_collider(prim, to_part: np.ndarray) -> Mesh | None:
     return Mesh.of_primitive(Primitive(ShapeKind.ELLIPSOID, list(radii.Get()), matrix))
 
 
+class MeshAssets:
+    """The mesh assets whose data an object would otherwise hold more than once
+    (``Mesh.placements`` of its visuals and colliders), each written once as ``mesh_<k>``
+    under the class ``/<object>/MeshAssets`` when first placed, with creased normals (and
+    texture coordinates) once a visual places it. An asset that is whole meshes at one pose
+    only (a part's visual and its collider; a left and a right finger, each in its own
+    frame), which ``_define_mesh_once`` writes once already, with fewer prims, or that is
+    placed once, is written where it is placed, as before."""
+
+    def __init__(self, layer, object_path: str, obj: ArticulatedObject) -> None:
+        copies: dict[int, set] = {}  # id(asset) -> where its data would be written
+        for part in obj.parts:
+            for mesh in ([part.visual] if part.visual is not None else []) + part.collision:
+                whole = len(mesh.placements) == 1 and len(mesh.faces) == len(
+                    mesh.placements[0].asset.faces) and not mesh.primitives
+                for placement in mesh.placements:
+                    copies.setdefault(id(placement.asset), set()).add(
+                        (None if whole else id(mesh), placement.pose.tobytes()))
+        self.shared = {key for key, seen in copies.items() if len(seen) > 1}
+        self.layer, self.scope = layer, f"{object_path}/{MESH_ASSETS}"
+        self.written: dict[int, str] = {}  # id(asset) -> its prim
+        self.shaded: set[int] = set()  # those with normals (placed by a visual)
+
+    def shares(self, asset: Mesh) -> bool:
+        return id(asset) in self.shared
+
+    def path(self, asset: Mesh, *, visual: bool) -> str:
+        """The asset's prim, written the first time it is asked for."""
+        from pxr import Sdf
+
+        key = id(asset)
+        if key not in self.written:
+            if not self.written:  # the class holding them, after the object's scopes
+                parent = self.layer.GetPrimAtPath(Sdf.Path(self.scope).GetParentPath())
+                Sdf.PrimSpec(parent, MESH_ASSETS, Sdf.SpecifierClass, "Scope")
+            self.written[key] = f"{self.scope}/mesh_{len(self.written)}"
+            _define_mesh(self.layer, self.written[key], asset)
+        if visual and key not in self.shaded:
+            self.shaded.add(key)
+            prim = self.layer.GetPrimAtPath(self.written[key])
+            _creased_normals(prim, asset)
+            if asset.uv is not None:
+                _texture_coordinates(prim, asset.uv)
+        return self.written[key]
+
+
+def _place_asset(layer, path: str, placement: Placement, assets: MeshAssets, *schemas: str,
+                 visual: bool):
+    """A mesh prim at ``placement``'s pose holding its asset: a reference to the asset's one
+    prim where it is placed more than once, else the asset's own data here."""
+    from pxr import Sdf
+
+    asset = placement.asset
+    if assets.shares(asset):
+        prim = define(layer, path, "Mesh", *schemas)
+        prim.referenceList.prependedItems.append(
+            Sdf.Reference(primPath=assets.path(asset, visual=visual)))
+    else:
+        prim = _define_mesh(layer, path, asset, *schemas)
+        if visual:
+            _creased_normals(prim, asset)
+            if asset.uv is not None:
+                _texture_coordinates(prim, asset.uv)
+    place(prim, placement.pose)
+    return prim
+
+
+def _placed_pieces(own: Mesh, part: Part,
+                   assets: MeshAssets) -> list[tuple[Placement, RGBA | None]] | None:
+    """The visual's own triangles as the assets it places, in order, each with its colour
+    (None: the part's), where every triangle lies in one placement of one colour, rigidly
+    placed, and some asset is placed more than once in the object; else None (the visual is
+    written as one mesh). A textured part keeps one mesh: its images need one."""
+    if not own.placements or part.texture is not None or part.maps \
+            or not any(assets.shares(p.asset) for p in own.placements):
+        return None
+    runs = own.face_color_runs()
+    out, vertex, face = [], 0, 0
+    for p in sorted(own.placements, key=lambda p: p.face):
+        if p.face != face or p.vertex != vertex or p.asset.colors or p.asset.primitives \
+                or (p.asset.uv is None) != (own.uv is None) \
+                or not tf.is_rotation(p.pose[:3, :3]):
+            return None
+        rgba = None
+        if runs:
+            run = next((r for r in runs if r[0] <= p.face < r[1]), None)
+            if run is None or p.face_end > run[1]:
+                return None
+            rgba = run[2]
+        out.append((p, rgba))
+        vertex, face = p.vertex_end, p.face_end
+    return out if (vertex, face) == (len(own.vertices), len(own.faces)) else None
+
+
+def _whole_placement(mesh: Mesh, assets: MeshAssets) -> Placement | None:
+    """The one placement of a shared asset that is the whole of ``mesh`` (a collider that is
+    one mesh asset placed), else None."""
+    if len(mesh.placements) != 1 or mesh.primitives:
+        return None
+    p = mesh.placements[0]
+    whole = (p.vertex, p.face, p.vertex_end, p.face_end) == (0, 0, len(mesh.vertices),
+                                                             len(mesh.faces))
+    return p if whole and assets.shares(p.asset) and tf.is_rotation(p.pose[:3, :3]) else None
+
+
 def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
-                        visuals_written: dict[str, Mesh] | None = None) -> None:
+                        visuals_written: dict[str, Mesh] | None = None,
+                        assets: MeshAssets | None = None) -> None:
     """Visual mesh, collision pieces and the part's material (bound on the part prim, so the
     colour is kept even for a part without a visual mesh). ``visuals_written`` (prim path ->
     mesh: the visual meshes of the layer so far, this part's added): a mesh whose data one
-    of them already holds refers to it (:func:`_define_mesh_once`)."""
+    of them already holds refers to it (:func:`_define_mesh_once`). ``assets``: the object's
+    mesh assets placed more than once, placed by reference (:class:`MeshAssets`)."""
     from pxr import Gf
 
     visuals_written = {} if visuals_written is None else visuals_written
@@ -154,7 +266,14 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
 
     visuals = []  # (prim, its colour: None for the part's)
     own = part.visual.remainder() if part.visual is not None else None
-    if own is not None:
+    pieces = _placed_pieces(own, part, assets) if own is not None and assets else None
+    for k, (placement, rgba) in enumerate(pieces or ()):  # an asset's prim per placement
+        name = visual_name(part) if len(pieces) == 1 else f"{part.name}_mesh_{k}"
+        prim = _place_asset(layer, f"{body_path}/{name}", placement, assets, visual=True)
+        visuals.append((prim, rgba))
+        if rgba is not None and colours[rgba] != material_path:
+            bind(prim, colours[rgba])
+    if own is not None and pieces is None:
         prim = _define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
                                  visuals_written, visual=True)
         if own.colors:  # (its displayColor, for importers that read no material: the part's)
@@ -177,6 +296,10 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
             geom = _define_ellipsoid_collider(layer, where, piece.primitive)
         elif piece.primitive is not None:  # an analytic collider
             geom = define_shape(layer, where, piece.primitive, "PhysicsCollisionAPI")
+        elif assets and (placement := _whole_placement(piece, assets)) is not None:
+            geom = _place_asset(layer, where, placement, assets, "PhysicsCollisionAPI",
+                                "PhysicsMeshCollisionAPI", visual=False)
+            attribute(geom, "physics:approximation", "Token", "convexHull", uniform=True)
         else:
             geom = _define_mesh_once(layer, where, piece, visuals_written, visual=False)
             attribute(geom, "physics:approximation", "Token", "convexHull", uniform=True)
@@ -379,6 +502,46 @@ def read_mesh(prim, to_part: np.ndarray, path, element: str) -> Mesh:
                           axis=1)
     unique, inverse = np.unique(keys, axis=0, return_inverse=True)
     return Mesh(v[unique[:, 0].astype(np.int64)], inverse.reshape(-1, 3), unique[:, 1:])
+
+
+def read_placed_mesh(prim, to_part: np.ndarray, path, element: str,
+                     assets: dict[str, Mesh]) -> Mesh:
+    """:func:`read_mesh`, saying which mesh it places (``Mesh.placements``) where the prim is
+    placed rigidly: its own data, or, where it is an asset placed by reference
+    (:class:`MeshAssets`: its one internal reference is to an abstract mesh prim, whose
+    arrays it composes unchanged), that asset, read once (``assets``: by prim path). A file
+    that wrote an asset once reads back as placing it, and is written so again."""
+    matrix = np.asarray(to_part, dtype=np.float64)
+    if np.linalg.det(matrix[:3, :3]) <= 0 or not tf.is_rotation(matrix[:3, :3]):
+        return read_mesh(prim, matrix, path, element)
+    target = _asset_prim(prim)
+    if target is None:
+        asset = read_mesh(prim, np.eye(4), path, element)
+    else:
+        key = str(target.GetPath())
+        if key not in assets:
+            assets[key] = read_mesh(target, np.eye(4), path, f"prim <{key}>")
+        asset = assets[key]
+    return Mesh.placed(asset, None if np.array_equal(matrix, np.eye(4)) else matrix)
+
+
+def _asset_prim(prim):
+    """The abstract mesh prim that ``prim``'s one internal reference brings, whose arrays
+    (points, triangles, texture coordinates) and orientation it composes unchanged, or None."""
+    from pxr import UsdGeom
+
+    items = [r for spec in prim.GetPrimStack()
+             for r in spec.referenceList.GetAddedOrExplicitItems()]
+    if len(items) != 1 or items[0].assetPath or items[0].primPath.isEmpty:
+        return None
+    target = prim.GetStage().GetPrimAtPath(items[0].primPath)
+    if not target or not target.IsAbstract() or not target.IsA(UsdGeom.Mesh):
+        return None
+    for name in (*MESH_ARRAYS, f"primvars:{ST}:indices", "orientation"):
+        stack = prim.GetAttribute(name).GetPropertyStack() if prim.HasAttribute(name) else []
+        if stack and stack[0].path.GetPrimPath() != target.GetPath():
+            return None
+    return target
 
 
 def _read_texture_coordinates(prim, n_points: int, n_corners: int, path,

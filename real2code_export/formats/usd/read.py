@@ -41,7 +41,7 @@ from .geometry import (
     ellipsoid_collider,
     read_color,
     read_images,
-    read_mesh,
+    read_placed_mesh,
     shape_mesh,
 )
 from .joint import (
@@ -72,6 +72,7 @@ class Context:
     world: dict[str, np.ndarray] = field(default_factory=dict)
     to_part: dict[str, np.ndarray] = field(default_factory=dict)
     names: dict[str, str] = field(default_factory=dict)  # body path -> part name
+    assets: dict[str, Mesh] = field(default_factory=dict)  # mesh assets placed by reference
 
 
 def load(path: str | Path) -> ArticulatedObject:
@@ -169,7 +170,8 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
         if shape.IsA(UsdGeom.Mesh):
             mesh = ellipsoid_collider(shape, placed(shape))
             collision.append(mesh if mesh is not None else
-                             read_mesh(shape, placed(shape), path, f"prim <{sp}>"))
+                             read_placed_mesh(shape, placed(shape), path, f"prim <{sp}>",
+                                              ctx.assets))
         else:
             mesh = shape_mesh(shape, placed(shape))
             if mesh is None:
@@ -184,8 +186,8 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
     visuals, runs = [], []  # runs: each visual's colours (geometry.color_runs)
     for p in visual_prims:
         where_p = f"prim <{p.GetPath()}>"
-        mesh = read_mesh(p, placed(p), path, where_p) if p.IsA(UsdGeom.Mesh) else \
-            shape_mesh(p, placed(p))
+        mesh = read_placed_mesh(p, placed(p), path, where_p, ctx.assets) \
+            if p.IsA(UsdGeom.Mesh) else shape_mesh(p, placed(p))
         if mesh is None:
             warn(f"{path}: {where_p} ({p.GetTypeName()}): a shape the model has no place for "
                  "(box, sphere, cylinder, capsule and meshes are read); not shown")

@@ -25,7 +25,7 @@ from ...model import (
 from .. import output_file
 from .body import in_parent_body, write_body, write_frame
 from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
-from .geometry import move_mesh_arrays, write_part_geometry
+from .geometry import MeshAssets, move_mesh_arrays, write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
 from .layer import apply, attribute, new_layer
 
@@ -51,12 +51,13 @@ def _author(obj: ArticulatedObject):
     world = forward_kinematics(written, obj.observed_configuration())
     frames = in_parent_body(obj)
     visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
+    assets = MeshAssets(layer, base, obj)  # mesh assets placed more than once: written once
     for part in obj.parts:
         if part.name in frames:
             continue
         body = f"{base}/{GEOMETRY}/{part.name}"
         write_body(layer, body, part, world[part.name])
-        write_part_geometry(layer, part, body, f"{base}/{LOOKS}/{part.name}", visuals)
+        write_part_geometry(layer, part, body, f"{base}/{LOOKS}/{part.name}", visuals, assets)
     for joint in [j for j in obj.joints if j.child in frames]:  # an Xform in its parent body
         frame = obj.part(joint.child)
         path = f"{base}/{GEOMETRY}/{joint.parent}/{frame.name}"
@@ -66,7 +67,8 @@ def _author(obj: ArticulatedObject):
             write_body(layer, path, frame, world[frame.name])
         else:
             write_frame(layer, path, joint)
-        write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}", visuals)
+        write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}", visuals,
+                            assets)
 
     world_joint = sanitize_name(WORLD_JOINT, {j.name for j in obj.joints})
     root_part = obj.root.name
