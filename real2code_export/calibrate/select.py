@@ -235,11 +235,12 @@ def _symmetric_counterpart(problem: Problem, e: Effect, rest: tuple[Effect, ...]
 def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
     """An effect the data can hardly tell from another (a constant force and an encoder's
     zero error) may have won the cheap screen by a hair: its alias is fitted by simulation
-    too, and the better of the two by BIC kept."""
+    too, and the better of the two by BIC kept. So is the simpler effect one reduces to
+    where its extra parameters are found absent (:func:`_reduced`)."""
     best = kept
     for e in kept.effects:
         lib = problem.effects[e.joint]
-        for alias in e.aliases:
+        for alias in (*e.aliases, *_reduced(kept, e, lib)):
             if alias not in lib:
                 continue
             swapped = tuple(x for x in kept.effects if x is not e) + (lib[alias],)
@@ -260,6 +261,21 @@ def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit
             log.append(f"tried {'+'.join(f.names)} in place of {'+'.join(kept.names)}: "
                        f"BIC {f.bic(n_ref):.1f}, no better")
     return best
+
+
+def _reduced(f: Fit, e: Effect, lib: dict) -> tuple[str, ...]:
+    """The simpler effect ``e`` of fit ``f`` is where its extra parameters are found
+    absent: inertia that leaves the first moment as it was (its mass scale within its
+    95 % interval of 1) is inertia about the axis alone, which on a joint that may hold a
+    rotor (armature offered: the model declares an actuator or the effort is measured) is
+    the rotor's armature, one parameter fewer (a driven lid's rotor read as its parts'
+    rotational inertia x3.3)."""
+    if e.name != "inertia" or "armature" not in lib or "armature" in e.aliases:
+        return ()
+    key = f"{e.joint}.inertia_scale"
+    if key not in f.values or abs(f.values[key] - 1.0) > f.halfwidth.get(key, math.inf):
+        return ()
+    return ("armature",)
 
 
 def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
