@@ -104,6 +104,24 @@ def test_an_indistinguishable_reading_is_right_only_where_the_report_says_so():
                             expected)
 
 
+def test_a_rotor_on_a_driven_lid_is_named_armature(tmp_path):
+    """A driven lid's rotor adds inertia about the axis alone, the first moment unchanged,
+    as the parts' inertia about their own centres of mass would (the report says the two
+    are one reading): on a joint that may hold a rotor the armature, one parameter fewer,
+    is named (seed 196, an armature and an encoder's zero error: was `inertia` with the
+    rotational inertia x3.3 and the mass x1.0003)."""
+    from real2code_export.calibrate import calibrate
+
+    case = make(196)
+    assert case.expected_causes() == {"armature", "encoder_offset"}
+    fit, held = case.write(tmp_path)
+    report = calibrate(case.obj, [fit], [held]).report
+    assert set(report["causes"]) == {"armature", "encoder_offset"}, report["selection_log"]
+    armature = next(d for d in report["cause_details"] if d["effect"] == "armature")
+    assert "inertia" in armature["indistinguishable_from"]
+    assert report["holdout_rmse_after"] < report["holdout_rmse_before"]
+
+
 def test_declared_loop_reproduces_its_effort():
     """The declared feedback law, applied to the recorded positions, gives the recorded
     effort (up to the effort sensor's noise): the experiment file says what happened."""
