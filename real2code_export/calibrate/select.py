@@ -175,7 +175,8 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     it (an encoder's zero error tried beside direction-dependent friction, whose Coulomb
     asymmetry holds the same constant force): the structure less its absent effects,
     fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
-    there. (A structure is never reached otherwise: the search only adds.)"""
+    there, or else, where one of its own is not there, less that one too. (A structure is
+    never reached otherwise: the search only adds.)"""
     rest = tuple(e for e in f.effects if _there(f, e, fits, _n_ref(fits.values())))
     warm = dict(f.values)
     for e in f.effects:
@@ -207,7 +208,10 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     if g.degenerate() or not all(g.present(e) for e in g.effects):
         log.append(f"tried {'+'.join(g.names)} (less what was not there): "
                    f"BIC {g.bic(n_ref):.1f}, an effect not significant")
-        return None
+        # less what is not there beside the others in it too: direction-dependent friction
+        # given way to damping, friction and a constant force where no force is (a lid
+        # let go at rest), the force's absence is the true damping and friction
+        return None if g.degenerate() else _without_absent(problem, g, current, fits, log)
     log.append(f"tried {'+'.join(g.names)} (less what was not there): BIC {g.bic(n_ref):.1f}")
     return g
 
