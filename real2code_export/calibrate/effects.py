@@ -13,7 +13,9 @@ Equivalences decide which combinations are offered: direction-dependent Coulomb 
 a constant force -(c+ - c-) / 2, in slip and in stick alike, so ``asymmetric_friction``
 excludes ``offset``; a spring with a free rest position holds a constant force too; and on
 a joint gravity has no hold on, scaling the moving inertia and adding armature are the
-same extra inertia (reported as one cause, ``inertia``, with ``armature`` as its alias).
+same extra inertia (reported as one cause, ``inertia``, with ``armature`` as its alias);
+on one it holds, armature is inertia about the axis alone, the first moment unchanged
+(``armature``, with ``inertia`` as its alias, where the joint may hold a rotor).
 """
 
 from __future__ import annotations
