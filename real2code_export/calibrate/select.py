@@ -213,7 +213,38 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
         # let go at rest), the force's absence is the true damping and friction
         return None if g.degenerate() else _without_absent(problem, g, current, fits, log)
     log.append(f"tried {'+'.join(g.names)} (less what was not there): BIC {g.bic(n_ref):.1f}")
-    return g
+    return _force_earned(problem, g, f, fits, log)
+
+
+def _force_earned(problem: Problem, g: Fit, f: Fit, fits: dict, log: list[str]) -> Fit:
+    """The constant force a symmetric counterpart brought in (:func:`_without_absent`, not
+    in ``f``) must earn its parameter like any effect: on a joint that moves one way
+    friction and a constant force are one column but where it rests (a door let go:
+    friction 1.30 and a force of -0.77 N m for the true 0.52 N m of friction), so the
+    counterpart without it is fitted too (from ``g``'s values and from its own
+    inverse-dynamics start) and kept where BIC prefers it and its effects are there."""
+    forces = [e for e in g.effects if e.name == "offset" and e not in f.effects]
+    if not forces:
+        return g
+    plain = tuple(e for e in g.effects if e not in forces)
+    if not plain or _key(plain) in fits:
+        return g
+    h = min((fit_candidate(problem, plain, refine=False, warm=dict(g.values)),
+             fit_candidate(problem, plain, refine=False)), key=lambda x: x.rss)
+    fits[_key(plain)] = h
+    n_ref = _n_ref(fits.values())
+    if h.bic(n_ref) >= g.bic(n_ref):
+        log.append(f"tried {'+'.join(h.names)} (its force left out): BIC {h.bic(n_ref):.1f}, "
+                   "no better")
+        return g
+    h = refine_fit(h)
+    fits[_key(plain)] = h
+    if h.degenerate() or not all(h.present(e) for e in h.effects):
+        log.append(f"tried {'+'.join(h.names)} (its force left out): BIC {h.bic(n_ref):.1f}, "
+                   "an effect not significant")
+        return g
+    log.append(f"tried {'+'.join(h.names)} (its force left out): BIC {h.bic(n_ref):.1f}")
+    return h
 
 
 def _symmetric_counterpart(problem: Problem, e: Effect, rest: tuple[Effect, ...],
