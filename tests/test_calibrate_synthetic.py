@@ -207,6 +207,18 @@ def test_what_is_not_there_is_left_out_again_from_what_remains():
     assert all(c[4] for c in r["checks"]), r["checks"]
 
 
+@pytest.mark.slow
+def test_a_counterparts_force_must_earn_its_parameter():
+    """A door let go, damping and friction: direction-dependent friction, not there on a
+    door that moves one way, gives way to damping and friction, not to friction and a
+    constant force that together are the friction (seed 161: was `damping, friction,
+    offset`, friction 1.30 and a force of -0.77 N m for 0.52; about 25 s of CPU)."""
+    r = _case(161)
+    assert r["scenario"] == "released" and r["expected"] == ["damping", "friction"], r
+    assert r["right"] and not r["worse"], r
+    assert all(c[4] for c in r["checks"]), r["checks"]
+
+
 def test_a_loop_the_screen_cannot_read_is_decided_by_the_replay():
     """A declared position loop on a door whose recorded effort is the law applied to noisy
     encoder readings: the equation-error screen prefers no effect to the nominal model, so
