@@ -13,7 +13,9 @@ Equivalences decide which combinations are offered: direction-dependent Coulomb 
 a constant force -(c+ - c-) / 2, in slip and in stick alike, so ``asymmetric_friction``
 excludes ``offset``; a spring with a free rest position holds a constant force too; and on
 a joint gravity has no hold on, scaling the moving inertia and adding armature are the
-same extra inertia (reported as one cause, ``inertia``, with ``armature`` as its alias).
+same extra inertia (reported as one cause, ``inertia``, with ``armature`` as its alias);
+on one it holds, armature is inertia about the axis alone, the first moment unchanged
+(``armature``, with ``inertia`` as its alias, where the joint may hold a rotor).
 """
 
 from __future__ import annotations
@@ -416,8 +418,15 @@ def library(ctx: JointContext) -> list[Effect]:
                                  else "reported as the parts' inertia")) if rotor_alike
             else ""))
     if ctx.gravity_loaded and ctx.actuated and ctx.has_effort:
+        # a rotor's armature adds inertia about the axis alone, as the parts' own inertia
+        # about their centres of mass does: the data cannot tell the two apart
         out.append(Effect("armature", j, (p("armature", "armature", "inertia", d.armature, 0,
-                                            20 * inertia, d.armature),), ctx=ctx))
+                                            20 * inertia, d.armature),), ctx=ctx,
+                          aliases=("inertia",),
+                          choice="a rotor's armature and the parts' inertia about their own "
+                                 "centres of mass both add inertia about the axis alone (the "
+                                 "first moment unchanged); the joint may hold a rotor (an actuator "
+                                 "declared, or the joint driven), so the rotor is named"))
     if _zero_shows(ctx):
         # where the position has an absolute meaning (gravity or a spring pulls toward a
         # place) a zero error of the encoder shows, and must not pass for a force

@@ -175,7 +175,8 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     it (an encoder's zero error tried beside direction-dependent friction, whose Coulomb
     asymmetry holds the same constant force): the structure less its absent effects,
     fitted from ``f``'s values, kept if its BIC beats ``current``'s and all its effects are
-    there. (A structure is never reached otherwise: the search only adds.)"""
+    there, or else, where one of its own is not there, less that one too. (A structure is
+    never reached otherwise: the search only adds.)"""
     rest = tuple(e for e in f.effects if _there(f, e, fits, _n_ref(fits.values())))
     warm = dict(f.values)
     for e in f.effects:
@@ -207,9 +208,43 @@ def _without_absent(problem: Problem, f: Fit, current: Fit, fits: dict,
     if g.degenerate() or not all(g.present(e) for e in g.effects):
         log.append(f"tried {'+'.join(g.names)} (less what was not there): "
                    f"BIC {g.bic(n_ref):.1f}, an effect not significant")
-        return None
+        # less what is not there beside the others in it too: direction-dependent friction
+        # given way to damping, friction and a constant force where no force is (a lid
+        # let go at rest), the force's absence is the true damping and friction
+        return None if g.degenerate() else _without_absent(problem, g, current, fits, log)
     log.append(f"tried {'+'.join(g.names)} (less what was not there): BIC {g.bic(n_ref):.1f}")
-    return g
+    return _force_earned(problem, g, f, fits, log)
+
+
+def _force_earned(problem: Problem, g: Fit, f: Fit, fits: dict, log: list[str]) -> Fit:
+    """The constant force a symmetric counterpart brought in (:func:`_without_absent`, not
+    in ``f``) must earn its parameter like any effect: on a joint that moves one way
+    friction and a constant force are one column but where it rests (a door let go:
+    friction 1.30 and a force of -0.77 N m for the true 0.52 N m of friction), so the
+    counterpart without it is fitted too (from ``g``'s values and from its own
+    inverse-dynamics start) and kept where BIC prefers it and its effects are there."""
+    forces = [e for e in g.effects if e.name == "offset" and e not in f.effects]
+    if not forces:
+        return g
+    plain = tuple(e for e in g.effects if e not in forces)
+    if not plain or _key(plain) in fits:
+        return g
+    h = min((fit_candidate(problem, plain, refine=False, warm=dict(g.values)),
+             fit_candidate(problem, plain, refine=False)), key=lambda x: x.rss)
+    fits[_key(plain)] = h
+    n_ref = _n_ref(fits.values())
+    if h.bic(n_ref) >= g.bic(n_ref):
+        log.append(f"tried {'+'.join(h.names)} (its force left out): BIC {h.bic(n_ref):.1f}, "
+                   "no better")
+        return g
+    h = refine_fit(h)
+    fits[_key(plain)] = h
+    if h.degenerate() or not all(h.present(e) for e in h.effects):
+        log.append(f"tried {'+'.join(h.names)} (its force left out): BIC {h.bic(n_ref):.1f}, "
+                   "an effect not significant")
+        return g
+    log.append(f"tried {'+'.join(h.names)} (its force left out): BIC {h.bic(n_ref):.1f}")
+    return h
 
 
 def _symmetric_counterpart(problem: Problem, e: Effect, rest: tuple[Effect, ...],
@@ -235,11 +270,12 @@ def _symmetric_counterpart(problem: Problem, e: Effect, rest: tuple[Effect, ...]
 def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
     """An effect the data can hardly tell from another (a constant force and an encoder's
     zero error) may have won the cheap screen by a hair: its alias is fitted by simulation
-    too, and the better of the two by BIC kept."""
+    too, and the better of the two by BIC kept. So is the simpler effect one reduces to
+    where its extra parameters are found absent (:func:`_reduced`)."""
     best = kept
     for e in kept.effects:
         lib = problem.effects[e.joint]
-        for alias in e.aliases:
+        for alias in (*e.aliases, *_reduced(kept, e, lib)):
             if alias not in lib:
                 continue
             swapped = tuple(x for x in kept.effects if x is not e) + (lib[alias],)
@@ -260,6 +296,21 @@ def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit
             log.append(f"tried {'+'.join(f.names)} in place of {'+'.join(kept.names)}: "
                        f"BIC {f.bic(n_ref):.1f}, no better")
     return best
+
+
+def _reduced(f: Fit, e: Effect, lib: dict) -> tuple[str, ...]:
+    """The simpler effect ``e`` of fit ``f`` is where its extra parameters are found
+    absent: inertia that leaves the first moment as it was (its mass scale within its
+    95 % interval of 1) is inertia about the axis alone, which on a joint that may hold a
+    rotor (armature offered: the model declares an actuator or the effort is measured) is
+    the rotor's armature, one parameter fewer (a driven lid's rotor read as its parts'
+    rotational inertia x3.3)."""
+    if e.name != "inertia" or "armature" not in lib or "armature" in e.aliases:
+        return ()
+    key = f"{e.joint}.inertia_scale"
+    if key not in f.values or abs(f.values[key] - 1.0) > f.halfwidth.get(key, math.inf):
+        return ()
+    return ("armature",)
 
 
 def _together(problem: Problem, current: Fit, near: list[Fit], fits: dict,
