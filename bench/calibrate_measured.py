@@ -295,7 +295,8 @@ def section_dfki(data: Path, work: Path) -> list[str]:
             "The evidence (bench/calibrate_measured.py, from the converted CSVs): the "
             "measured torque predicted from the measured motion by the authors' model "
             "structure with each set of inertial terms, its friction and offset fitted on "
-            "the identification run:", "",
+            "the identification run, over whole runs (the stretches the command leaves out "
+            "as pushes included: they decide the second table, docs/calibration.md):", "",
             *torque_evidence(folder, {"stated rig": (rig["J"], rig["m_cx"]),
                                       "published fit": (pub["J"], pub["m_cx"]),
                                       "calibrated": (fitted["J"], fitted["m_cx"]),
