@@ -80,3 +80,35 @@ def test_symmetric_reading_and_held_out_effort(tmp_path):
     [row] = effort_errors(held, (held.effects[j]["asymmetric_friction"],), fitted)
     assert row["rms_calibrated"] < 0.5 * row["rms_nominal"], row
     assert row["sse_calibrated"] < row["sse_nominal"]
+
+
+def test_held_out_estimate_says_whether_the_runs_share_the_values(tmp_path):
+    """The chosen structure fitted on the held-out runs' effort, beside the fit's: a rerun
+    of the same lid agrees; a rerun whose effort reads twice the scale (a motor's torque
+    that reads another scale in that run) disagrees on the inertia, and the clause says
+    so."""
+    from real2code_export.calibrate.agreement import disagreement, held_out_estimate
+    from real2code_export.calibrate.fit import fit_candidate
+    from real2code_export.calibrate.select_effort import as_fit
+
+    from synthetic_joint_data import rerun
+
+    case = make_case(2, kind="lid", effects=["inertia"])
+    csv = tmp_path / "run.csv"
+    csv.write_text(case.csv())
+    problem = build_problem(case.obj, [read_csv(csv, case.obj)])
+    inertia = (problem.effects[case.joint]["inertia"],)
+    chosen = as_fit(problem, fit_candidate(problem, ()), equation_fit(problem, inertia))
+    same, scaled = rerun(case, 1), rerun(case, 1)
+    scaled.effort = 2.0 * scaled.effort
+    for name, run, agrees in (("same.csv", same, True), ("scaled.csv", scaled, False)):
+        path = tmp_path / name
+        path.write_text(run.csv())
+        held = build_problem(case.obj, [read_csv(path, case.obj)])
+        est = held_out_estimate(case.obj, held, chosen)
+        assert est["agree"] is agrees, est["parameters"]
+        assert est["causes"] == ["inertia"]
+        assert (disagreement(est) == "") is agrees
+    key = f"{case.joint}.inertia_scale"
+    assert est["parameters"][key]["held_out"] > 1.5 * est["parameters"][key]["fit"]
+    assert key in disagreement(est)

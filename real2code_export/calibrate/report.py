@@ -320,6 +320,19 @@ def _checks_markdown(report: dict[str, Any]) -> list[str]:
                          f"{_fmt(e['rms_nominal'])} | {_fmt(e['rms_calibrated'])} | "
                          f"{_fmt(e.get('rms_inverse_dynamics'))} |")
         lines.append("")
+    est = report.get("holdout_estimate")
+    if est:
+        lines += ["The same structure fitted on the held-out runs' effort (not written into "
+                  "the model), beside the fit's own effort-equation estimate: "
+                  + ("they agree." if est["agree"] else "they disagree beyond both 95 % "
+                     "intervals: the runs do not share these values."), "",
+                  "| parameter | fit | 95 % half-width | held-out runs | 95 % half-width "
+                  "| agree |", "|---|---|---|---|---|---|"]
+        for key, v in est["parameters"].items():
+            lines.append(f"| `{key}` | {_fmt(v['fit'])} | {_fmt(v['fit_halfwidth95'], 2)} | "
+                         f"{_fmt(v['held_out'])} | {_fmt(v['held_out_halfwidth95'], 2)} | "
+                         f"{'yes' if v['agree'] else 'no'} |")
+        lines.append("")
     sym = report.get("symmetric_alternative")
     if sym:
         eq_sym = (sym.get("equation_error") or {}).get("parameters") or {}

@@ -15,6 +15,7 @@ from .. import atomic
 from ..errors import FormatError
 from ..model import ArticulatedObject
 from . import features as ft
+from .agreement import disagreement, held_out_estimate
 from .alternatives import finite_or_none, symmetric_alternative
 from .apply import base_parameter_halfwidths, calibrated_object
 from .experiment import read_experiment
@@ -262,7 +263,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                     "the nominal model")
     held_nominal = predict(model, held) if held else None
     holdouts = []
-    held_effort = None
+    held_effort = held_estimate = None
     if held and rejected is None:
         held_after = held_nominal
         if selection.chosen.effects:
@@ -276,8 +277,11 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
             # controller held up, replayed on the recorded effort), or the replay judged
             # nothing of the fit: the effort each model says the measured motion needs
             # judges them
-            held_effort = held_effort_errors(model, [held[i] for i in lost],
-                                             selection.chosen)
+            held_problem = build_problem(model, [held[i] for i in lost])
+            held_effort = held_effort_errors(held_problem, selection.chosen)
+            # (and what the same structure says fitted on them: whether the runs share
+            # its values)
+            held_estimate = held_out_estimate(model, held_problem, selection.chosen)
             followed = [r for i, r in enumerate(holdouts) if i not in lost]
             worse = (followed and _worse(followed)) or \
                 sum(e["sse_calibrated"] for e in held_effort) > \
@@ -289,7 +293,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                         "worse than the nominal model" + (
                             " (judged by the effort each predicts from the measured "
                             "motion on the runs no replay follows)"
-                            if held_effort else ""))
+                            if held_effort else "") + disagreement(held_estimate))
     proposed = None  # the structure rejected, if one was
     if rejected is not None:  # never worse than nominal: the nominal model is the result
         selection.log.append(f"rejected: {rejected}; the nominal model is kept")
@@ -318,6 +322,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                         for t, tr in enumerate(problem.trajectories)}
     report["cross_validation"] = cv.as_json()
     report["holdout_effort"] = held_effort
+    report["holdout_estimate"] = held_estimate
     report["residual_error"] = "effort" if effort_only and rejected is None else "position"
     # (fitted by simulation as the chosen structure was: not where no replay can judge)
     report["symmetric_alternative"] = None if effort_only else \
@@ -368,13 +373,11 @@ def _lost(r: Replay) -> bool:
                for sim in (r.nominal, r.calibrated))
 
 
-def held_effort_errors(model: ArticulatedObject, trajectories: list[Trajectory],
-                       chosen: Fit) -> list[dict]:
+def held_effort_errors(problem: Problem, chosen: Fit) -> list[dict]:
     """The chosen structure's effort equation, with the values of the fit (and with its
-    inverse-dynamics estimate), against the nominal model on runs it was not fitted on:
-    the measured effort each predicts from the measured motion (inverse dynamics), per
-    run and joint."""
-    problem = build_problem(model, trajectories)
+    inverse-dynamics estimate), against the nominal model on runs it was not fitted on
+    (``problem``'s): the measured effort each predicts from the measured motion (inverse
+    dynamics), per run and joint."""
     effects = tuple(problem.effects[e.joint][e.variant] for e in chosen.effects
                     if e.variant in problem.effects[e.joint])
     out = effort_errors(problem, effects, chosen.values)
