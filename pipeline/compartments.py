@@ -364,31 +364,46 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if inside[k] < options.thick_inside:
             continue
         index = np.nonzero(labels == k)[0]
-        thick = bool(np.all(np.ptp(local[index], axis=0)
-                            >= options.enclosed_thick * 2 * body.extent))
-        if inside[k] < options.enclosed_inside and not thick:
-            continue
-        small = len(index) <= options.enclosed_share * carcass.sum()
-        # how far behind each open face the part's front lies (its points but the strays
-        # enclosed_inside leaves out)
-        depth = min((float(np.quantile(body.extent[a] - sign * local[index, a],
-                                       1.0 - options.enclosed_inside))
-                     for a, sign in faces), default=0.0)
-        deep = depth > options.behind_voxels * voxel
-        # from the open face to the back: no front seen shut reaches so far in
-        lo, hi = np.quantile(local[index], [1.0 - options.enclosed_inside,
-                                            options.enclosed_inside], axis=0)
-        through = bool(faces) and all(hi[a] - lo[a] >= options.enclosed_thick * 2
-                                      * body.extent[a] for a, _ in faces)
-        if small or thick or deep or through:
+        kinds = enclosed_kinds(local[index], body.extent, faces, inside[k],
+                               int(carcass.sum()), voxel, options)
+        if kinds:
             out[index] = 1
             stray = index[~body.contains(cloud[index], tol=margin)]
             if len(stray):  # they would stretch the carcass's box: to the nearest other part
                 out[stray] = _nearest_label(cloud, out, stray, index)
-            kind = ({} if small else {"thick": True} if thick
-                    else {"deep_m": round(depth, 3)} if deep else {"through": True})
-            moved.append({"part": k, "points": len(index), "enclosed": True, **kind})
+            kind = next(iter(kinds))
+            moved.append({"part": k, "points": len(index), "enclosed": True,
+                          **({} if kind == "small" else {kind: kinds[kind]})})
     return numbered_by_size(out), moved
+
+
+def enclosed_kinds(local: np.ndarray, extent: np.ndarray, faces: list[tuple[int, int]],
+                   inside: float, carcass_points: int, voxel: float,
+                   options: CompartmentOptions = CompartmentOptions()) -> dict:
+    """Why a part lying in the carcass's box is the carcass's (:func:`return_enclosed`), the
+    first reason first: ``small``, ``thick``, ``deep_m`` (how far its front lies behind the
+    open ``faces``) or ``through``; empty when none holds. ``local``: its points in the box's
+    frame; ``extent``: the box's half-lengths; ``inside``: the share of its points in the
+    box (below ``enclosed_inside`` only the thick rule, at ``thick_inside``, applies)."""
+    kinds: dict = {}
+    thick = bool(np.all(np.ptp(local, axis=0) >= options.enclosed_thick * 2 * extent))
+    if inside < options.enclosed_inside and not thick:
+        return kinds
+    if len(local) <= options.enclosed_share * carcass_points:
+        kinds["small"] = True
+    if thick:
+        kinds["thick"] = True
+    # how far behind each open face the part's front lies (its points but the strays
+    # enclosed_inside leaves out)
+    depth = min((float(np.quantile(extent[a] - sign * local[:, a], 1.0 - options.enclosed_inside))
+                 for a, sign in faces), default=0.0)
+    if depth > options.behind_voxels * voxel:
+        kinds["deep_m"] = round(depth, 3)
+    # from the open face to the back: no front seen shut reaches so far in
+    lo, hi = np.quantile(local, [1.0 - options.enclosed_inside, options.enclosed_inside], axis=0)
+    if faces and all(hi[a] - lo[a] >= options.enclosed_thick * 2 * extent[a] for a, _ in faces):
+        kinds["through"] = True
+    return kinds
 
 
 def _nearest_label(cloud: np.ndarray, labels: np.ndarray, points: np.ndarray,

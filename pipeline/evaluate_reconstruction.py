@@ -96,6 +96,34 @@ def _truth_meshes(case: Case) -> list:
     return [m.to_trimesh() for m in world_part_meshes(case.obj, None, case.base).values()]
 
 
+def case_capture(case: Case, seed: int, *, views: int = 12, size: int = 256,
+                 cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
+                 sensor=None, room: bool = False):
+    """The capture :func:`evaluate` reconstructs ``case`` from: rendered (seeded), degraded
+    by ``sensor`` (a :class:`pipeline.sensors.SensorModel`; clean when None), the object
+    isolated and the depth cleaned (once, not once per setting)."""
+    from .depth_cleanup import clean_capture
+    from .isolate import isolate_object
+    from .render import render_object
+    from .sensors import PRESETS, degrade
+
+    capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
+                            seed=seed, cameras=cameras, distance=distance, room=room)
+    capture = degrade(capture, sensor or PRESETS["clean"], seed)
+    return clean_capture(isolate_object(capture)[0])[0]
+
+
+def score_failure(case: Case, scores: Scores) -> None:
+    """A failed reconstruction scored as missing, not hidden: no joint predicted, each true
+    one wrong at its worst."""
+    bucket = bucket_of(len(case.obj.parts))
+    scores.objects[bucket] = scores.objects.get(bucket, 0) + 1
+    scores.counts.append(JointCount(bucket, len(case.obj.movable_joints), 0, 0))
+    for j in case.obj.movable_joints:
+        scores.joints.append(JointScore(bucket, j.type.angular, False, 90.0, None, None, None,
+                                        None))
+
+
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
              cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
@@ -106,13 +134,10 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them, ``room`` puts the
     object in a room (:mod:`pipeline.room`) that the pipeline must find it in."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
-    from .depth_cleanup import clean_capture
-    from .isolate import isolate_object
     from .reconstruct import reconstruct_capture
-    from .render import render_object
     from .segment import get_segmenter
     from .segment.evaluate import matched_part_iou
-    from .sensors import degrade, load_sensor
+    from .sensors import load_sensor
 
     sensor_model = load_sensor(sensor)  # a bad preset fails before any work
     if segmenter is None and any(s == "learned" for s, _ in settings):
@@ -124,10 +149,8 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
     results = {s: SettingResult() for s in settings}
     for k, case in enumerate(cases):
         bucket = bucket_of(len(case.obj.parts))
-        capture = render_object(case.obj, base=case.base, views=views, width=size, height=size,
-                                seed=seed + k, cameras=cameras, distance=distance, room=room)
-        capture = degrade(capture, sensor_model, seed + k)
-        capture, _ = clean_capture(isolate_object(capture)[0])  # once, not once per setting
+        capture = case_capture(case, seed + k, views=views, size=size, cameras=cameras,
+                               distance=distance, sensor=sensor_model, room=room)
         truth = _truth_meshes(case)
         segmentations = {}
         for seg_method, completion in settings:
@@ -141,12 +164,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
                     precomputed_segmentation=segmentations.get(seg_method), texture=False)
             except Exception as e:  # a failed reconstruction is scored as missing, not hidden
                 result.failures.append(f"{bucket}: {case.label}: {type(e).__name__}: {e}")
-                result.joints.objects[bucket] = result.joints.objects.get(bucket, 0) + 1
-                result.joints.counts.append(
-                    JointCount(bucket, len(case.obj.movable_joints), 0, 0))
-                for j in case.obj.movable_joints:
-                    result.joints.joints.append(JointScore(
-                        bucket, j.type.angular, False, 90.0, None, None, None, None))
+                score_failure(case, result.joints)
                 continue
             segmentations[seg_method] = rec.segmentation
             result.seconds.append(time.perf_counter() - t0)

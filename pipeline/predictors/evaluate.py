@@ -126,9 +126,10 @@ def _centres(obj: ArticulatedObject, poses) -> dict[str, np.ndarray]:
 
 
 def score_object(truth: ArticulatedObject, truth_base: np.ndarray, predicted: ArticulatedObject,
-                 scores: Scores) -> None:
+                 scores: Scores) -> dict[str, str]:
     """Add one object's joints to ``scores``. ``truth_base`` places the truth in the world
-    frame the prediction was made in; the prediction's root frame is that world frame."""
+    frame the prediction was made in; the prediction's root frame is that world frame.
+    Returns the match: each true part's name -> the predicted part's it was scored against."""
     bucket = bucket_of(len(truth.parts))
     scores.objects[bucket] = scores.objects.get(bucket, 0) + 1
     t_poses, t_axes = _world_axes(truth, truth_base)
@@ -167,3 +168,4 @@ def score_object(truth: ArticulatedObject, truth_base: np.ndarray, predicted: Ar
         if type_ok and axis_deg <= MATCH_AXIS_DEG and (rel is None or rel <= MATCH_POSITION_REL):
             correct += 1
     scores.counts.append(JointCount(bucket, len(t_axes), len(p_axes), correct))
+    return match
