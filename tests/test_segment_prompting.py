@@ -708,3 +708,24 @@ def test_a_turned_panel_is_found_the_same_every_time():
     assert abs(first[3] - 40.0) < 1.0
     for one, two in zip(first, second, strict=True):
         assert np.array_equal(one, two)
+
+
+def test_the_network_sees_the_object_on_its_training_background():
+    """A room's colours around the object (no depth there after isolation) become the
+    renders' background; a hole inside the object (a sensor's missing pixel) keeps its
+    colour; a render of the object alone is passed on as it is."""
+    from pipeline.render import background_rgb8
+    from pipeline.segment.features import object_rgb
+
+    depth = np.zeros((20, 30), np.float32)
+    depth[5:15, 8:20] = 1.5
+    depth[9, 12] = 0.0  # a missing pixel inside the object
+    rgb = np.full((20, 30, 3), 90, np.uint8)  # the floor
+    rgb[5:15, 8:20] = 200
+    out = object_rgb(rgb, depth)
+    assert (out[depth == 0][:, :3] == background_rgb8()).all(axis=1).sum() == 20 * 30 - 120
+    assert (out[9, 12] == 200).all() and (out[5:15, 8:20] == 200).all()
+    alone = render_object(generate("storage_furniture", 2, 1), views=2, seed=0, width=64,
+                          height=64)
+    for f in alone.frames:
+        assert object_rgb(f.rgb, f.depth) is f.rgb

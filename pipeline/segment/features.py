@@ -10,6 +10,12 @@ nearest capture pixel, RGB area-averaged; the camera-frame points behind the nor
 computed through the sampled pixels' own centres, so normals of flat panels stay exact
 however the window falls on the pixel grid.
 
+Outside the object's silhouette (its pixels with depth, enclosed holes filled) the RGB is
+the renders' dark background the network was trained on: in a room, isolation leaves depth
+only on the object, and the floor's and the wall's colours around it are no part of what the
+network learnt (on a table in a room with exactly its own pixels kept: 1 part found with
+the room's colours, 4 of 4 without).
+
 A window may be turned (``Window.angle``): a hand-held camera is rolled a few degrees, and
 the network was trained on upright views; its grid then stands upright (the world's up
 straight up, :func:`upright_angles`) and its rays and normals are those of the same camera
@@ -220,10 +226,28 @@ def grid_features(rgb: np.ndarray, depth: np.ndarray, rays: np.ndarray) -> np.nd
     return out
 
 
+def object_rgb(rgb: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """``rgb`` with every pixel outside the object's silhouette (pixels with depth, enclosed
+    holes filled: a sensor's missing pixels keep their colour) the renders' background; the
+    same array where nothing changes."""
+    from scipy.ndimage import binary_fill_holes
+
+    from ..render import background_rgb8
+
+    outside = ~binary_fill_holes(depth > 0)
+    background = background_rgb8()
+    if not (rgb[outside][:, :3] != background).any():
+        return rgb
+    out = rgb.copy()
+    out[outside, :3] = background
+    return out
+
+
 def frame_features(frame, window: Window | None = None) -> np.ndarray:
     """The network input for one capture frame over ``window`` (default: the object's)."""
     window = window or object_window(frame.depth)
     c = frame.camera
     h, w = frame.depth.shape
-    return grid_features(sample_rgb(frame.rgb, window), sample_nearest(frame.depth, window),
+    return grid_features(sample_rgb(object_rgb(frame.rgb, frame.depth), window),
+                         sample_nearest(frame.depth, window),
                          pixel_rays(c.fl_x, c.fl_y, c.cx, c.cy, window, h, w))
