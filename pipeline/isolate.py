@@ -17,6 +17,12 @@ the object's pixels alone (a capture of the object alone passes through unchange
    its region, with any small cluster mostly inside the object's box (a piece cut off by a
    gap) and any cluster mostly above or below it (a table's body under its top, seen apart
    from it past the top's overhang); clutter and the rest go.
+4. the object's foot: what of it lies within a room plane's inlier distance (the bottom
+   centimetre of a cabinet's faces, a refrigerator's base plate on the floor) went with the
+   plane. Geometry cannot tell it from the floor; colour can, where the object's differs:
+   a plane pixel inside the region whose colour is off the plane's (fitted, frame by
+   frame, on its pixels outside the region, shading across it included), joined in the
+   image to the object's pixels, is the object's again.
 """
 
 from __future__ import annotations
@@ -57,6 +63,9 @@ class IsolationOptions:
     stacked_min: float = 0.005  # object (inside its outline seen from above), and at least
     # this share of the object's size (not a speck of the floor's noise), is the object's
     upright: float = 0.5  # the views' mean up axis at least this long: they agree on up
+    foot_colour: float = 12.0  # a plane pixel this far (8-bit RGB) from its plane's colour ...
+    foot_sigmas: float = 4.0  # ... and this many times its spread there is the object's
+    foot_reference: int = 30  # a plane's pixels outside the region its colour is taken from
 
 
 @dataclass(frozen=True)
@@ -264,6 +273,67 @@ def _outline(points: np.ndarray, up: np.ndarray):
     return lambda q: hull.find_simplex(q @ across) >= 0
 
 
+def _plane_colour(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray, rounds: int = 3,
+                  ) -> tuple[np.ndarray, float]:
+    """A room plane's colour in one view as it varies over the image (shading changes
+    smoothly across a floor: linear in the pixel coordinates, per channel), fitted on its
+    pixels with the outliers (the object's foot, a spot) trimmed; its coefficients (3, 3)
+    and the robust spread (8-bit RGB) of the pixels about it."""
+    design = np.stack([np.ones(len(rows)), rows / 256.0, cols / 256.0], 1)
+    keep = np.ones(len(rows), bool)
+    for _ in range(rounds):
+        coef = np.linalg.lstsq(design[keep], rgb[keep], rcond=None)[0]
+        residual = np.linalg.norm(rgb - design @ coef, axis=1)
+        sigma = 1.4826 * float(np.median(residual[keep])) + 1e-6
+        keep = residual <= 3.0 * sigma
+        if keep.sum() < 10:
+            break
+    return coef, sigma
+
+
+def foot_pixels(frame: Frame, rows: np.ndarray, cols: np.ndarray, world: np.ndarray,
+                plane: np.ndarray, planes: list[tuple[np.ndarray, float]], kept: np.ndarray,
+                inside: np.ndarray, options: IsolationOptions = IsolationOptions(),
+                ) -> np.ndarray:
+    """Which of one frame's room-plane pixels (``plane``, over its pixels with depth at
+    ``rows``, ``cols``; ``planes`` the room's planes in it) are the object's foot: inside
+    the region, off their plane's colour in this view (:func:`_plane_colour`, fitted on
+    its pixels outside the region, surely the room's) by
+    ``foot_colour`` and ``foot_sigmas`` times its spread, and joined in the image to the
+    object's ``kept`` pixels through such pixels. Where the object's foot has the room's
+    colour, the plane keeps it."""
+    from scipy.ndimage import label
+
+    out = np.zeros(len(plane), bool)
+    if not planes or not (plane & inside).any():
+        return out
+    rgb = frame.rgb[..., :3].astype(np.float64)[rows, cols]
+    nearest = np.argmin(np.stack([np.abs(world @ n + d) for n, d in planes]), axis=0)
+    off = np.zeros(len(plane), bool)
+    for k in range(len(planes)):
+        on = plane & (nearest == k)
+        room = on & ~inside  # the plane's colour from where it is surely the room's
+        if room.sum() < options.foot_reference:
+            continue
+        coef, sigma = _plane_colour(rgb[room], rows[room], cols[room])
+        near = on & inside
+        design = np.stack([np.ones(near.sum()), rows[near] / 256.0, cols[near] / 256.0], 1)
+        residual = np.linalg.norm(rgb[near] - design @ coef, axis=1)
+        off[np.nonzero(near)[0][residual > max(options.foot_colour,
+                                               options.foot_sigmas * sigma)]] = True
+    candidate = off & inside
+    if not candidate.any():
+        return out
+    h, w = frame.depth.shape
+    grid = np.zeros((h, w), np.int8)  # 1: the object's kept pixels, 2: candidates
+    grid[rows[kept], cols[kept]] = 1
+    grid[rows[candidate], cols[candidate]] = 2
+    regions, _ = label(grid > 0, structure=np.ones((3, 3)))
+    joined = np.unique(regions[grid == 1])
+    out[candidate] = np.isin(regions[rows[candidate], cols[candidate]], joined[joined > 0])
+    return out
+
+
 def object_points(points: np.ndarray, region: Region, boxed: bool, footprint: float,
                   options: IsolationOptions = IsolationOptions(),
                   up: np.ndarray | None = None) -> np.ndarray:
@@ -334,21 +404,28 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
         raise InputError("the capture has no depth off the room's planes: no object in it")
     footprint = float(np.median([np.median(f.depth[f.depth > 0]) / f.camera.fl_x
                                  for f in capture.frames if (f.depth > 0).any()]))
-    is_object = object_points(everything, region, box is not None, footprint, options,
-                              views_up(capture.frames, options))
+    up = views_up(capture.frames, options)
+    is_object = object_points(everything, region, box is not None, footprint, options, up)
     if not is_object.any():
         raise InputError("found no object in the capture: nothing off the room's planes "
                          "inside the given --box")
     obj = everything[is_object]
-    frames, planes_dropped, other_dropped = [], 0, 0
+    frames, planes_dropped, other_dropped, returned = [], 0, 0, 0
     start = 0
-    for frame, (rows, cols, _, plane, _) in zip(capture.frames, per_frame, strict=True):
+    for frame, found, (rows, cols, world, plane, _) in zip(capture.frames, room_planes,
+                                                           per_frame, strict=True):
         drop = plane.copy()
         n = int((~plane).sum())
         drop[~plane] = ~is_object[start:start + n]
         start += n
-        planes_dropped += int(plane.sum())
         other_dropped += int((drop & ~plane).sum())
+        if plane.any():
+            foot = foot_pixels(frame, rows, cols, world, plane, [*found, *shared], ~drop,
+                               region.contains(world), options)
+            drop &= ~foot
+            plane = plane & ~foot
+            returned += int(foot.sum())
+        planes_dropped += int(plane.sum())
         if drop.any():
             depth = frame.depth.copy()
             depth[rows[drop], cols[drop]] = 0.0
@@ -358,6 +435,7 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
     summary = {"region": {"centre": np.round(region.centre, 4).tolist(),
                           "radius": round(region.radius, 4), "box_given": box is not None},
                "object_box": [np.round(obj.min(0), 4).tolist(), np.round(obj.max(0), 4).tolist()],
-               "plane_pixels_dropped": planes_dropped, "other_pixels_dropped": other_dropped}
+               "plane_pixels_dropped": planes_dropped, "other_pixels_dropped": other_dropped,
+               "foot_pixels_kept": returned}
     extra = dict(capture.extra) | {"object_isolation": summary}
     return Capture(frames, list(capture.parts), extra, capture.path), summary

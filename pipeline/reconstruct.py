@@ -95,7 +95,13 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
             context = np.concatenate(others) if others else None
             meshes[name] = complete_part(points, context=context, model=model)
         else:
-            meshes[name] = segment_only_mesh(points, alpha_spacings=ALPHA_SPACINGS_FUSED)
+            from .complete.learned import CompletionError
+
+            try:
+                meshes[name] = segment_only_mesh(points, alpha_spacings=ALPHA_SPACINGS_FUSED)
+            except CompletionError as e:  # a sliver (63 points nearly on a line): no surface
+                warn(f"reconstruct: segment {name}: {e}; left out")
+                continue
         if progress:
             progress(f"  {name}: {len(points)} points -> {len(meshes[name].faces)} faces")
     return meshes
@@ -179,6 +185,11 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     t = time.perf_counter()
     say(f"shape completion ({completion}) of {len(clouds)} parts ...")
     meshes = complete_parts(clouds, completion, completion_model, progress)
+    if len(meshes) < 2:
+        raise ReconstructionError(f"completion gave {len(meshes)} part surface(s); an "
+                                  "articulated object needs two")
+    clouds = {n: clouds[n] for n in meshes}
+    colors = {n: c for n, c in colors.items() if n in meshes}
     timings["completion"] = time.perf_counter() - t
 
     t = time.perf_counter()

@@ -65,6 +65,12 @@ def _srgb(linear: np.ndarray) -> np.ndarray:
                     1.055 * np.power(linear, 1 / 2.4) - 0.055)
 
 
+def background_rgb8(background=BACKGROUND) -> np.ndarray:
+    """The 8-bit sRGB colour a render gives a pixel where no ray hits (the mask network's
+    training views have it around the object)."""
+    return np.round(_srgb(np.asarray(background, np.float64)) * 255).astype(np.uint8)
+
+
 class Raycaster:
     """Part meshes in one open3d scene; ``render`` gives RGB, z-depth and part ids."""
 

@@ -200,3 +200,21 @@ def test_open_drawers_keep_their_opening_under_phone_lidar(tmp_path):
     assert sorted(got) == sorted(want) and len(want) == 2
     for child, state in want.items():
         assert state > 0.05 and abs(got[child] - state) < 0.025, (child, got[child], state)
+
+
+def test_a_part_with_no_surface_is_left_out_not_the_object():
+    """A sliver of a segment (its points all on a line: no alpha surface) is left out with
+    a warning, as a segment with too few points is; the other parts are completed."""
+    import trimesh
+
+    from pipeline.reconstruct import complete_parts
+    from real2code_export.errors import Real2CodeWarning
+
+    rng = np.random.default_rng(0)
+    box = trimesh.creation.box(extents=(0.4, 0.3, 0.5))
+    clouds = {"body": box.sample(3000, seed=1),
+              "door": box.sample(3000, seed=2) * (0.1, 1, 1) + (0.3, 0, 0),
+              "sliver": np.outer(rng.uniform(0, 0.2, 63), (1.0, 0.5, 0.2))}
+    with pytest.warns(Real2CodeWarning, match="sliver"):
+        meshes = complete_parts(clouds, "segment_only")
+    assert set(meshes) == {"body", "door"}

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .features import SIZE, frame_features, object_window, whole_view
+from .features import SIZE, frame_features, object_window, upright_angles, whole_view
 
 STABILITY_OFFSET = 1.0  # SAM's: how far the logit threshold moves for the stability score
 # The point head refines only the points whose coarse logit is this unsure (PointRend's
@@ -45,8 +45,10 @@ class LearnedSegmenter:
         """Encode every view once (the heavy half of the network)."""
         import torch
 
-        self._windows = [object_window(f.depth) if self.window == "object"
-                         else whole_view(*f.depth.shape) for f in frames]
+        # a rolled view's window is turned upright, as the training views stood
+        self._windows = [object_window(f.depth, angle=a) if self.window == "object"
+                         else whole_view(*f.depth.shape)
+                         for f, a in zip(frames, upright_angles(frames), strict=True)]
         self._inputs = torch.from_numpy(np.stack([frame_features(f, w) for f, w in
                                                   zip(frames, self._windows, strict=True)]))
         with torch.no_grad():
