@@ -49,3 +49,27 @@ def test_precision_and_recall_count_extra_and_wrong_joints():
     score_object(truth, np.eye(4), turned, wrong)
     row = next(iter(wrong.table().values()))
     assert row["joint_precision"] == (n - 1) / n == row["joint_recall"]
+
+
+def test_a_piece_of_the_carcass_is_not_credited_with_a_drawers_joint():
+    """A predicted part made of the carcass's surface nearest a moving part, on that part's
+    true joint: its centre lies near the part's, but none of it is the part, so the part is
+    matched to nothing and its joint counts as missed (the score matches by surfaces)."""
+    from real2code_export.model import Mesh, forward_kinematics
+
+    truth = generate("storage_furniture", 4, 1)
+    n = len(truth.movable_joints)
+    stand_in = copy.deepcopy(truth)
+    poses = forward_kinematics(stand_in, stand_in.observed_configuration(), None)
+    child = stand_in.part(stand_in.movable_joints[0].child)
+    carcass = stand_in.root.visual.transformed(poses[stand_in.root.name])
+    centre = child.visual.transformed(poses[child.name]).vertices.mean(axis=0)
+    face_centres = carcass.vertices[carcass.faces].mean(axis=1)
+    near = np.argsort(np.linalg.norm(face_centres - centre, axis=1))[:max(4, len(carcass.faces) // 5)]
+    piece = Mesh(carcass.vertices, carcass.faces[near])
+    child.visual = piece.transformed(np.linalg.inv(poses[child.name]))
+    scores = Scores()
+    match = score_object(truth, np.eye(4), stand_in, scores)
+    assert child.name not in match or match[child.name] != child.name
+    row = next(iter(scores.table().values()))
+    assert row["joint_recall"] == (n - 1) / n and row["joint_precision"] == (n - 1) / n

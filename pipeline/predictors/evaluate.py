@@ -4,8 +4,12 @@ For every ground-truth movable joint: whether the predicted joint on the matched
 has the right type, the angle between the axes (degrees, sign-free), the distance between
 the axis lines for revolute joints (correct for parallel lines; in metres and as a
 fraction of the object's diagonal), the error of the observed state and of the upper limit.
-Parts are matched by an optimal assignment on their world centres, so predictions that
-reorder or rename parts are scored fairly.
+Parts are matched by what they are made of, not where their centres lie: each predicted
+part's surface samples vote for the true part nearest them, and an optimal assignment pairs
+parts by how much of each the other holds. A predicted part stands for a true part only if
+most of its surface is that part's (:data:`MATCH_SHARE`), so a piece of the carcass read as
+a drawer is never credited with the drawer's joint because its centre lies near the
+drawer's. Predictions that reorder or rename parts are scored fairly.
 
 Those figures judge each true joint by its matched part only, so a reconstruction that
 splits an object into many parts with many joints loses nothing. The stricter score counts
@@ -37,6 +41,8 @@ PAPER_FULL = {  # Real2Code from RGB-D with its own segmentation (Table 3)
 
 MATCH_AXIS_DEG = 10.0
 MATCH_POSITION_REL = 0.1
+MATCH_SHARE = 0.5  # of a predicted part's surface that must be its true part's
+SURFACE_SAMPLES = 2000  # per part, seeded: the score is deterministic
 
 
 def bucket_of(n_parts: int) -> str:
@@ -120,32 +126,75 @@ def _world_axes(obj: ArticulatedObject, base: np.ndarray | None = None):
     return poses, out
 
 
-def _centres(obj: ArticulatedObject, poses) -> dict[str, np.ndarray]:
-    return {p.name: poses[p.name][:3, :3] @ p.visual.vertices.mean(axis=0) + poses[p.name][:3, 3]
-            for p in obj.parts if p.visual is not None}
+def _surfaces(obj: ArticulatedObject, poses) -> dict[str, np.ndarray]:
+    """Each part's surface in the world frame, sampled evenly by area (its vertices where it
+    has no area)."""
+    import trimesh
+
+    out = {}
+    for p in obj.parts:
+        if p.visual is None:
+            continue
+        mesh = p.visual.transformed(poses[p.name])
+        tri = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+        if len(mesh.faces) and tri.area > 0:
+            out[p.name] = trimesh.sample.sample_surface(tri, SURFACE_SAMPLES, seed=0)[0]
+        else:
+            out[p.name] = np.asarray(mesh.vertices, dtype=float)
+    return out
+
+
+def _nearest_owner(points: np.ndarray, surfaces: list[np.ndarray]) -> np.ndarray:
+    """For each point, the index of the surface nearest it."""
+    from scipy.spatial import cKDTree
+
+    owner = np.concatenate([np.full(len(s), k) for k, s in enumerate(surfaces)])
+    return owner[cKDTree(np.concatenate(surfaces)).query(points)[1]]
+
+
+def match_parts(truth: dict[str, np.ndarray],
+                predicted: dict[str, np.ndarray]) -> dict[str, str]:
+    """True part name -> the predicted part that stands for it, from surface samples (name
+    -> points, one world frame). ``share[i, j]``: of predicted part j's samples, the share
+    nearer true part i than any other; ``cover[i, j]``: of true part i's, the share nearer
+    predicted part j. Pairs are assigned to maximise the summed F-score of the two; a pair
+    whose predicted part is not mostly its true part (share below :data:`MATCH_SHARE`) is
+    no match."""
+    t_names, p_names = list(truth), list(predicted)
+    if not t_names or not p_names:
+        return {}
+    t_surf, p_surf = [truth[n] for n in t_names], [predicted[n] for n in p_names]
+    share = np.zeros((len(t_names), len(p_names)))
+    for j, points in enumerate(p_surf):
+        share[:, j] = np.bincount(_nearest_owner(points, t_surf), minlength=len(t_names)) / len(points)
+    cover = np.zeros_like(share)
+    for i, points in enumerate(t_surf):
+        cover[i] = np.bincount(_nearest_owner(points, p_surf), minlength=len(p_names)) / len(points)
+    f = np.where(share + cover > 0, 2 * share * cover / np.maximum(share + cover, 1e-12), 0.0)
+    f[share < MATCH_SHARE] = 0.0
+    rows, cols = linear_sum_assignment(-f)
+    return {t_names[r]: p_names[c] for r, c in zip(rows, cols, strict=True) if f[r, c] > 0}
 
 
 def score_object(truth: ArticulatedObject, truth_base: np.ndarray, predicted: ArticulatedObject,
                  scores: Scores) -> dict[str, str]:
     """Add one object's joints to ``scores``. ``truth_base`` places the truth in the world
     frame the prediction was made in; the prediction's root frame is that world frame.
-    Returns the match: each true part's name -> the predicted part's it was scored against."""
+    Returns the match (:func:`match_parts`): each true part's name -> the predicted part's
+    it was scored against; a true part no predicted part stands for has its joint scored at
+    its worst."""
     bucket = bucket_of(len(truth.parts))
     scores.objects[bucket] = scores.objects.get(bucket, 0) + 1
     t_poses, t_axes = _world_axes(truth, truth_base)
     p_poses, p_axes = _world_axes(predicted)
-    tc, pc = _centres(truth, t_poses), _centres(predicted, p_poses)
-    t_names, p_names = list(tc), list(pc)
-    cost = np.array([[np.linalg.norm(tc[a] - pc[b]) for b in p_names] for a in t_names])
-    rows, cols = linear_sum_assignment(cost)
-    match = {t_names[r]: p_names[c] for r, c in zip(rows, cols, strict=True)}
+    match = match_parts(_surfaces(truth, t_poses), _surfaces(predicted, p_poses))
     corners = np.concatenate([p.visual.transformed(t_poses[p.name]).vertices
                               for p in truth.parts if p.visual is not None])
     diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
     correct = 0  # predicted joints on a matched part that agree with its true joint
     for child, (tj, t_axis, t_point) in t_axes.items():
         pred = p_axes.get(match.get(child, ""))
-        if pred is None:  # the matched part has no joint: every error at its worst
+        if pred is None:  # unmatched, or its part has no joint: every error at its worst
             scores.joints.append(JointScore(bucket, tj.type is not JointType.PRISMATIC, False,
                                             90.0, None, None, None, None))
             continue
