@@ -133,7 +133,7 @@ def _surfaces(obj: ArticulatedObject, poses) -> dict[str, np.ndarray]:
 
     out = {}
     for p in obj.parts:
-        if p.visual is None:
+        if p.visual is None or not len(p.visual.vertices):  # nothing to stand for a part
             continue
         mesh = p.visual.transformed(poses[p.name])
         tri = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
