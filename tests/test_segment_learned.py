@@ -17,6 +17,7 @@ from pipeline.segment.evaluate import matched_part_iou  # noqa: E402
 from pipeline.segment.learned import LearnedSegmenter  # noqa: E402
 from pipeline.segment.network import build_network  # noqa: E402
 from pipeline.segment.train import WEIGHTS, batch, centre_loss, losses, sample_prompts  # noqa: E402
+from pipeline.training_cache import code_version  # noqa: E402
 from real2code_export.errors import FormatError  # noqa: E402
 
 
@@ -92,7 +93,7 @@ def test_views_from_other_paths_and_sensors_and_the_comparison(tmp_path):
                     views_per_object=2, cache_dir=tmp_path)
     first, second = twice[("ring", "phone-lidar")]
     assert first == second and 0.0 < first["mean_iou"] <= 1.0
-    assert list(tmp_path.glob("segment_compare_1_2_ring_phone-lidar.pkl"))
+    assert list(tmp_path.glob(f"segment_compare_1_2_ring_phone-lidar_{code_version()}.pkl"))
 
 
 def test_missing_or_foreign_weights(tmp_path):

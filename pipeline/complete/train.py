@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..training_cache import cache_file
 from ..weights import save_weights
 from .data import Sample, object_samples
 from .learned import WEIGHTS
@@ -105,7 +106,7 @@ def train(n_objects: int, steps: int, seed: int, out: Path, batch_size: int = 16
     torch.set_num_threads(max(1, threads))
     t0 = time.perf_counter()
     def cache(tag: str, n: int, s: int) -> Path | None:
-        return cache_dir / f"completion_{tag}_{n}_{s}.pkl" if cache_dir else None
+        return cache_file(cache_dir, f"completion_{tag}_{n}_{s}")
 
     n_val = val_objects or max(40, n_objects // 20)
     data = make_dataset(n_objects, seed, workers, cache("train", n_objects, seed))

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..training_cache import cache_file
 from ..weights import save_weights
 from .data import WORLDS, make_dataset
 from .features import EDGES
@@ -100,7 +101,7 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, batch_size: int = 6
     torch.set_num_threads(max(1, threads or workers))
     t0 = time.perf_counter()
     def cache(tag: str, n: int, s: int) -> Path | None:
-        return cache_dir / f"joints_{tag}_{world}_{n}_{s}.pkl" if cache_dir else None
+        return cache_file(cache_dir, f"joints_{tag}_{world}_{n}_{s}")
 
     data = make_dataset(n_objects, seed, workers, cache("train", n_objects, seed), world)
     n_val = max(50, n_objects // 10)

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..training_cache import cache_file
 from ..weights import save_weights
 from .data import SHIPPED_CAMERAS, SHIPPED_SENSORS, View, make_views
 from .features import SIZE, grid_features
@@ -216,7 +217,7 @@ def _cached(cache_dir: Path | None, tag: str, make):
 
     if cache_dir is None:
         return make()
-    path = cache_dir / f"segment_{tag}.pkl"
+    path = cache_file(cache_dir, f"segment_{tag}")
     if path.is_file():
         return pickle.loads(path.read_bytes())
     data = make()
