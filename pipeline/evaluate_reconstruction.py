@@ -217,7 +217,9 @@ def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool) -
                                      _fmt(table.get(b), "segmentation_iou", "{:.3f}")])
                          for b in names)] for method, table in tables.items()]
     lines = [f"### {title}", "", "Joints: type accuracy / axis error (degrees) / axis position "
-             "error (% of the object's diagonal, revolute joints):", "",
+             "error (% of the object's diagonal, revolute joints), each true joint on the "
+             "predicted part that stands for its part (most of that part's surface its own; "
+             "none: scored wrong at 90 degrees):", "",
              *markdown_table(header, joints),
              "", "Movable joints, extras counted: precision / recall / predicted for true "
              f"(a joint is right with the right type, axis within {MATCH_AXIS_DEG:g} degrees "
