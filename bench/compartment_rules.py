@@ -8,9 +8,10 @@ it, ``--commits``), and fusion, boxes and the joint predictor (segment-only comp
 on each result, scored as the evaluation scores it. Per variant and split: the true moving
 parts that keep a label of their own (a label most of whose points are that part's),
 movable-joint precision / recall / predicted for true, how many of the joints scored right
-are on stand-ins (the score matches parts by their centres: a label mostly of other parts'
-points, a piece of the carcass, can be matched to a true part the masks never found, and
-its joint counts right when its type and axis agree), type accuracy and axis error. With
+are on stand-ins (a label mostly of other parts' points, a piece of the carcass, matched
+to a true part the masks never found, its joint counted right when its type and axis agree:
+the score's matching by centres did that until session 21; matching by surfaces it should
+count none, which this column checks), type accuracy and axis error. With
 ``--trace`` each step of today's stage is followed on every object: the points of true
 moving parts it moved, and the true moving parts that lost their last label to it;
 ``--trace-only`` does only that (seconds an object, once cached).
@@ -201,8 +202,9 @@ def reconstruct_scored(case: Case, capture, seg) -> tuple[Scores, dict[str, int]
 def stand_ins(case: Case, scores: Scores, match: dict[str, int], labels: np.ndarray,
               truth: np.ndarray, capture) -> int:
     """How many of the joints scored right are on a stand-in: a label matched to the true
-    part (by centres, as the score matches) most of whose points are not that part's (a
-    piece of the carcass read as a slide along a button's axis counts right)."""
+    part (as the score matches) most of whose points are not that part's (a piece of the
+    carcass read as a slide along a button's axis, counted right by the centre matching
+    before session 21)."""
     index = {name: k + 1 for k, name in enumerate(capture.parts)}
     count = 0
     for joint, score in zip(case.obj.movable_joints, scores.joints, strict=True):
