@@ -144,12 +144,17 @@ def _surfaces(obj: ArticulatedObject, poses) -> dict[str, np.ndarray]:
     return out
 
 
-def _nearest_owner(points: np.ndarray, surfaces: list[np.ndarray]) -> np.ndarray:
-    """For each point, the index of the surface nearest it."""
+def _votes(voters: list[np.ndarray], surfaces: list[np.ndarray]) -> np.ndarray:
+    """``votes[j, k]``: the share of ``voters[j]``'s points nearer ``surfaces[k]`` than any
+    other surface (one tree over all the surfaces, one query over all the voters)."""
     from scipy.spatial import cKDTree
 
     owner = np.concatenate([np.full(len(s), k) for k, s in enumerate(surfaces)])
-    return owner[cKDTree(np.concatenate(surfaces)).query(points)[1]]
+    nearest = owner[cKDTree(np.concatenate(surfaces)).query(np.concatenate(voters))[1]]
+    voter = np.concatenate([np.full(len(v), j) for j, v in enumerate(voters)])
+    counts = np.zeros((len(voters), len(surfaces)))
+    np.add.at(counts, (voter, nearest), 1.0)
+    return counts / np.array([len(v) for v in voters])[:, None]
 
 
 def match_parts(truth: dict[str, np.ndarray],
@@ -164,12 +169,8 @@ def match_parts(truth: dict[str, np.ndarray],
     if not t_names or not p_names:
         return {}
     t_surf, p_surf = [truth[n] for n in t_names], [predicted[n] for n in p_names]
-    share = np.zeros((len(t_names), len(p_names)))
-    for j, points in enumerate(p_surf):
-        share[:, j] = np.bincount(_nearest_owner(points, t_surf), minlength=len(t_names)) / len(points)
-    cover = np.zeros_like(share)
-    for i, points in enumerate(t_surf):
-        cover[i] = np.bincount(_nearest_owner(points, p_surf), minlength=len(p_names)) / len(points)
+    share = _votes(p_surf, t_surf).T
+    cover = _votes(t_surf, p_surf)
     f = np.where(share + cover > 0, 2 * share * cover / np.maximum(share + cover, 1e-12), 0.0)
     f[share < MATCH_SHARE] = 0.0
     rows, cols = linear_sum_assignment(-f)
