@@ -1,9 +1,10 @@
-"""Benchmark: what writing each mesh asset once (``Mesh.placements``) would save the formats
-that write mesh files (MJCF, URDF, object.json) for some description files, as they stand:
-the mesh files written now, the placements and distinct assets the readers found, the
-assets placed more than once, the faces in the files now against each asset once, and
-whether every visual placement lies inside one colour run (then a geom per placement
-carries one colour).
+"""Benchmark: what writing each mesh asset once (``Mesh.placements``) saves the formats that
+write mesh files (MJCF, URDF, object.json) for some description files: the mesh files and
+faces each part's merged meshes would need against those the export writes
+(``meshfiles.MeshLayout``), the placements and distinct assets the readers found, the
+assets placed more than once, the faces if each asset were written once, and whether every
+visual placement lies inside one colour run (then a geom per placement carries one
+colour).
 
     PYTHONPATH=$PWD .venv/bin/python bench/placements.py FILE...
 """
@@ -15,7 +16,7 @@ import time
 from pathlib import Path
 
 from real2code_export.formats import load
-from real2code_export.meshfiles import collision_file_meshes, visual_color_files
+from real2code_export.meshfiles import MeshLayout, collision_file_meshes, visual_color_files
 
 
 def survey(path: Path) -> dict:
@@ -44,11 +45,13 @@ def survey(path: Path) -> dict:
             else:
                 crossing += 1
         unplaced += len(own.faces) - sum(len(p.asset.faces) for p in own.placements)
+    written = MeshLayout(obj).files(obj)
     return {"file": path.name, "read_s": round(seconds, 2), "parts": len(obj.parts),
-            "mesh_files": files, "visuals_of_several_colours": several_colours,
+            "mesh_files_merged": files, "mesh_files_written": len(written),
+            "faces_in_files_written": sum(len(m.faces) for m, _ in written.values()), "visuals_of_several_colours": several_colours,
             "placements": sum(n for _, n in uses.values()), "assets": len(uses),
             "assets_placed_more_than_once": sum(n > 1 for _, n in uses.values()),
-            "faces_in_files_now": faces_now,
+            "faces_in_merged_files": faces_now,
             "faces_each_asset_once": sum(len(a.faces) for a, _ in uses.values()),
             "visual_placements_in_one_colour_run": inside,
             "visual_placements_across_colours": crossing, "visual_faces_in_no_placement": unplaced}

@@ -1,13 +1,14 @@
-"""Mesh files shared by every exporter: one OBJ per visual mesh and per collision piece.
+"""Mesh files shared by every exporter: one OBJ per distinct visual mesh, collision piece
+and placed mesh asset.
 
 Every format references the same files (``meshes/<part>.obj``,
-``meshes/<part>_collision_<k>.obj``), written once per export, deterministically, so the
-same model gives byte-identical files. Reading: OBJ through tinyobjloader (the geometry and
-its MTL colours in one pass, without importing trimesh and scipy: a PartNet object is ~100
-OBJ files and the export of one is a command a user waits on), Collada through
-``collada_mesh`` (pycollada: scene-graph transforms, unit and materials' diffuse colours
-applied), everything else
-through trimesh (STL, glTF, PLY, ...).
+``meshes/<part>_collision_<k>.obj``, ``meshes/<part>_mesh_<k>.obj`` for an asset placed
+several times: :class:`MeshLayout`), each distinct mesh written once per export,
+deterministically, so the same model gives byte-identical files. Reading: OBJ through
+tinyobjloader (the geometry and its MTL colours in one pass, without importing trimesh and
+scipy: a PartNet object is ~100 OBJ files and the export of one is a command a user waits
+on), Collada through ``collada_mesh`` (pycollada: scene-graph transforms, unit and
+materials' diffuse colours applied), everything else through trimesh (STL, glTF, PLY, ...).
 """
 
 from __future__ import annotations
@@ -150,23 +151,108 @@ def mtl_bytes(part: Part) -> bytes:
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
+class MeshGeometry(NamedTuple):
+    """A mesh geometry a file-based format writes for a part (an MJCF geom, a URDF
+    ``<visual>``/``<collision>``, an object.json entry): the file ``relpath`` holding
+    ``mesh``, which lies at ``pose`` in the part frame (None: as the file has it), of colour
+    ``rgba`` (a visual's; None for a collider), the element named ``name``."""
+
+    name: str
+    relpath: str
+    mesh: Mesh
+    rgba: RGBA | None
+    pose: np.ndarray | None = None
+
+
+class MeshLayout:
+    """Every mesh file of an export and each part's geometries naming them, the one plan
+    object.json, MJCF and URDF share (they share the files). A part's visual is its colour
+    files (:func:`visual_color_files`) or, where it is wholly placements of mesh assets
+    the object places more than once (:mod:`real2code_export.placements`), a geometry per
+    placement naming the asset's one file (``<part>_mesh_<k>.obj``, after the first part
+    placing it) at the placement's pose; a collision piece likewise. Placements are used
+    only where each stretch is its asset moved bit for bit, so the lossless object.json
+    reads the same numbers back from the same files."""
+
+    def __init__(self, obj: ArticulatedObject) -> None:
+        from .placements import placed_pieces, shared_assets, whole_placement
+
+        shared = shared_assets(obj)
+        taken = {rel for part in obj.parts
+                 for rel in [r for r, _, _ in visual_color_files(part)]
+                 + [collision_relpath(part.name, k) for k, _ in collision_file_meshes(part)]}
+        asset_files: dict[int, str] = {}
+
+        def asset_file(part: Part, asset: Mesh) -> str:
+            if id(asset) not in asset_files:
+                k = sum(rel.startswith(f"{MESH_DIR}/{part.name}_mesh_")
+                        for rel in asset_files.values())
+                while (rel := f"{MESH_DIR}/{part.name}_mesh_{k}.obj") in taken:
+                    k += 1  # (a part named like another's asset file)
+                taken.add(rel)
+                asset_files[id(asset)] = rel
+            return asset_files[id(asset)]
+
+        self.visuals: dict[str, list[MeshGeometry]] = {}
+        self.collisions: dict[str, list[tuple[int, MeshGeometry]]] = {}
+        for part in obj.parts:
+            own = part.visual.remainder() if part.visual is not None and shared else None
+            pieces = None if own is None else placed_pieces(own, part, shared, exact=True)
+            if pieces is not None:
+                self.visuals[part.name] = [
+                    MeshGeometry(_placed_visual_name(part.name, k), asset_file(part, p.asset),
+                                 p.asset, part.color if rgba is None else rgba, p.pose)
+                    for k, (p, rgba) in enumerate(pieces)]
+            else:
+                self.visuals[part.name] = [
+                    MeshGeometry(visual_element_name(part.name, k), rel, mesh, rgba)
+                    for k, (rel, mesh, rgba) in enumerate(visual_color_files(part))]
+            collisions = []
+            for k, mesh in collision_file_meshes(part):
+                name = f"{part.name}_collision_{k}"
+                p = whole_placement(mesh, shared, exact=True) if shared else None
+                collisions.append((k, MeshGeometry(name, collision_relpath(part.name, k), mesh,
+                                                   None) if p is None else
+                                   MeshGeometry(name, asset_file(part, p.asset), p.asset,
+                                                None, p.pose)))
+            self.collisions[part.name] = collisions
+
+    def geometries(self, part: Part) -> list[tuple[MeshGeometry, bool]]:
+        """The part's mesh geometries, (geometry, whether it is a visual), visuals first."""
+        return [(g, True) for g in self.visuals[part.name]] + [
+            (g, False) for _, g in self.collisions[part.name]]
+
+    def files(self, obj: ArticulatedObject) -> dict[str, tuple[Mesh, str | None]]:
+        """relpath -> (the mesh it holds, the material it names: a textured visual's), each
+        file once (an asset placed several times is one file)."""
+        out: dict[str, tuple[Mesh, str | None]] = {}
+        for part in obj.parts:
+            material = part.name if part.texture is not None else None
+            for g, visual in self.geometries(part):
+                out.setdefault(g.relpath, (g.mesh, material if visual and g.pose is None
+                                           else None))
+        return out
+
+    def shared_files(self, obj: ArticulatedObject) -> dict[str, str]:
+        """Each mesh file an export writes (relpath) -> the first in part order holding the
+        same mesh, itself where none before it does: a format that may name one file for
+        several geometries (MJCF, URDF) names that one, so its tools read and compile each
+        distinct mesh once (a gripper's left and right fingers, a collision piece that is its
+        part's visual)."""
+        first: dict[tuple, str] = {}
+        return {rel: first.setdefault((material, _digest(mesh)), rel)
+                for rel, (mesh, material) in self.files(obj).items()}
+
+
+def _placed_visual_name(part_name: str, k: int) -> str:
+    """The MJCF geom's or URDF <visual>'s name of a visual's placement ``k`` (0: named as a
+    visual of one mesh)."""
+    return f"{part_name}_visual" if k == 0 else f"{part_name}_visual_mesh_{k}"
+
+
 def shared_mesh_files(obj: ArticulatedObject) -> dict[str, str]:
-    """Each mesh file an export writes (relpath) -> the first in part order holding the same
-    mesh, itself where none before it does: a format that may name one file for several
-    geometries (MJCF, URDF) names that one, so its tools read and compile each distinct mesh
-    once (a gripper's left and right fingers, a collision piece that is its part's visual)."""
-    first: dict[tuple, str] = {}
-    out = {}
-    for part in obj.parts:
-        items = []
-        material = part.name if part.texture is not None else None
-        # (a textured visual's file names its own material)
-        items += [(rel, mesh, material) for rel, mesh, _ in visual_color_files(part)]
-        items += [(collision_relpath(part.name, k), m, None)
-                  for k, m in collision_file_meshes(part)]
-        for rel, mesh, material in items:
-            out[rel] = first.setdefault((material, _digest(mesh)), rel)
-    return out
+    """:meth:`MeshLayout.shared_files` of the object's layout."""
+    return MeshLayout(obj).shared_files(obj)
 
 
 def _digest(mesh: Mesh) -> bytes:
@@ -180,9 +266,13 @@ def _digest(mesh: Mesh) -> bytes:
     return h.digest()
 
 
-def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = False) -> dict[str, Path]:
-    """Write every mesh of ``obj`` under ``out_dir`` (a textured part's visual with its MTL and
-    image beside it); returns relpath -> absolute path."""
+def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = False,
+                        layout: MeshLayout | None = None) -> dict[str, Path]:
+    """Write every distinct mesh file of ``obj``'s :class:`MeshLayout` under ``out_dir`` (an
+    asset placed several times once; a mesh equal to one before it not again: every format
+    names the first, :meth:`MeshLayout.shared_files`), a textured part's visual with its
+    MTL and image beside it; returns relpath -> absolute path."""
+    layout = MeshLayout(obj) if layout is None else layout
     written = {}
 
     def put(rel: str, data: bytes) -> None:
@@ -191,15 +281,13 @@ def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = Fal
         path.write_bytes(data)
         written[rel] = path
 
-    for part in obj.parts:
-        files = visual_color_files(part)
-        material = part.name if part.texture is not None else None
-        for rel, mesh, _ in files:
+    shared = layout.shared_files(obj)
+    for rel, (mesh, material) in layout.files(obj).items():
+        if shared[rel] == rel:  # (a mesh equal to one before it: that file serves both)
             put(rel, obj_bytes(mesh, exact, material))
-        if files and material is not None:
+    for part in obj.parts:
+        if part.texture is not None and layout.visuals[part.name]:
             put(material_relpath(part.name), mtl_bytes(part))
-        for k, mesh in collision_file_meshes(part):
-            put(collision_relpath(part.name, k), obj_bytes(mesh, exact))
     written.update(write_texture_images(obj, out_dir))
     return written
 

@@ -223,9 +223,9 @@ def test_compiler_settings_and_mesh_references(exported):
     assert spec.compiler.inertiafromgeom == mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     assert spec.meshdir == "meshes"
     files = sorted(m.file for m in spec.meshes)
-    shared = shared_mesh_files(exported[0])  # every file written; each distinct one referenced
-    assert sorted(Path(r).name for r in shared) == sorted(p.name for p in
-                                                         (path.parent / "meshes").iterdir())
+    shared = shared_mesh_files(exported[0])  # each distinct mesh one file, referenced
+    assert sorted({Path(r).name for r in shared.values()}) == sorted(
+        p.name for p in (path.parent / "meshes").iterdir())
     assert files == sorted({Path(first).name for first in shared.values()})
     assert len(files) < len(shared)  # (its collision pieces equal to visuals share them)
     assert "shelf.obj" in files and not any("shelf_collision" in f for f in files)
@@ -1041,3 +1041,94 @@ def test_a_mesh_used_by_several_geoms_is_one_placed_asset(tmp_path):
         np.testing.assert_allclose(back.part(name).visual.vertices,
                                    obj.part(name).visual.vertices, atol=1e-7)
         assert back.part(name).visual.colors == obj.part(name).visual.colors
+
+
+def test_a_mesh_used_by_several_geoms_is_one_file_in_every_file_format(tmp_path):
+    """The same placed asset in the formats that write mesh files (MJCF, URDF, object.json,
+    one meshes/ folder): the asset is one file, each placement a geom / <visual> /
+    <collision> / entry naming it at its pose; each reads back equal, the asset placed again
+    (so written so again: a second export gives the same bytes); object.json bit for bit."""
+    (tmp_path / "bolt.obj").write_text(trimesh.exchange.obj.export_obj(
+        trimesh.creation.box(extents=(0.02, 0.03, 0.05)), include_normals=False))
+    path = write(tmp_path / "bolts.xml", """<mujoco>
+  <asset><mesh name="bolt" file="bolt.obj"/></asset>
+  <worldbody><body name="base">
+    <geom type="mesh" mesh="bolt" pos="0.1 0 0" euler="0 0 30" rgba="1 0 0 1"/>
+    <geom type="mesh" mesh="bolt" pos="-0.1 0 0" rgba="0 0 1 1"/>
+    <geom type="box" size="0.01 0.01 0.01" pos="0 0 -0.1"/>
+    <body name="arm" pos="0 0 0.2"><joint name="hinge" axis="0 0 1" range="-1 1"/>
+      <geom type="mesh" mesh="bolt" pos="0 0.1 0" euler="90 0 0" mass="0.1"/>
+    </body></body></worldbody>
+</mujoco>
+""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = mjcf.load(path)
+    written = export(obj, tmp_path / "out", ["mjcf", "urdf", "json"])
+    meshes = sorted(p.name for p in (tmp_path / "out" / "meshes").iterdir())
+    assert meshes == ["base_mesh_0.obj"], meshes  # 3 visuals and 3 colliders place it
+    xml, urdf_text = written["mjcf"].read_text(), written["urdf"].read_text()
+    assert xml.count('mesh="base_mesh_0"') == 6 and xml.count("<mesh ") == 1, xml
+    assert urdf_text.count('filename="meshes/base_mesh_0.obj"') == 6, urdf_text
+    again = {}
+    for fmt, out in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            back = load_any(out)
+        assert differences(obj, back, 0.0 if fmt == "json" else 1e-9) == [], fmt
+        placed = [p.asset for part in back.parts for m in [part.visual, *part.collision]
+                  if m is not None for p in m.placements]
+        assert len(placed) == 6 and all(a is placed[0] for a in placed), fmt
+        for name in ("base", "arm"):
+            assert back.part(name).visual.colors == obj.part(name).visual.colors, fmt
+        again[fmt] = export(back, tmp_path / f"again_{fmt}", [fmt])[fmt]
+        assert again[fmt].read_bytes() == out.read_bytes(), fmt
+    assert (tmp_path / "again_json" / "meshes" / "base_mesh_0.obj").read_bytes() == \
+        (tmp_path / "out" / "meshes" / "base_mesh_0.obj").read_bytes()
+
+
+def test_a_mesh_used_by_several_geoms_is_instanced_by_glTF_nodes(tmp_path):
+    """glTF: a visual wholly of placed assets is a child node per placement (its TRS the
+    pose, its material the colour) of the asset's one mesh data; the Khronos validator
+    finds no error; our reader joins the children back into the part's visual, placing one
+    asset."""
+    import json
+    import struct
+
+    from real2code_export.formats.gltf import validator as gltf_validator
+
+    (tmp_path / "bolt.obj").write_text(trimesh.exchange.obj.export_obj(
+        trimesh.creation.box(extents=(0.02, 0.03, 0.05)), include_normals=False))
+    path = write(tmp_path / "bolts.xml", """<mujoco>
+  <asset><mesh name="bolt" file="bolt.obj"/></asset>
+  <worldbody><body name="base">
+    <geom type="mesh" mesh="bolt" pos="0.1 0 0" euler="0 0 30" rgba="1 0 0 1"/>
+    <geom type="mesh" mesh="bolt" pos="-0.1 0 0" rgba="0 0 1 1"/>
+    <body name="arm" pos="0 0 0.2"><joint name="hinge" axis="0 0 1" range="-1 1"/>
+      <geom type="mesh" mesh="bolt" pos="0 0.1 0" euler="90 0 0" mass="0.1"/>
+    </body></body></worldbody>
+</mujoco>
+""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = mjcf.load(path)
+    glb = export(obj, tmp_path / "out", ["gltf"])["gltf"]
+    data = glb.read_bytes()
+    doc = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
+    nodes = {n["name"]: n for n in doc["nodes"]}
+    assert "mesh" not in nodes["base"] and "mesh" not in nodes["arm"]
+    placed = [nodes[n] for n in ("base_mesh_0", "base_mesh_1", "arm_mesh_0")]
+    positions = {doc["meshes"][n["mesh"]]["primitives"][0]["attributes"]["POSITION"]
+                 for n in placed}
+    assert len(positions) == 1  # the asset's vertex data once
+    assert len({doc["meshes"][n["mesh"]]["primitives"][0]["material"] for n in placed}) == 3
+    report = gltf_validator.validate_gltf(glb)
+    assert report["errors"] == 0, report["messages"]
+    back = load_any(glb)
+    assert differences(obj, back, 1e-6) == []
+    for name in ("base", "arm"):
+        assert back.part(name).visual.colors == obj.part(name).visual.colors
+    visual_assets = [p.asset for part in back.parts for p in part.visual.placements]
+    assert len(visual_assets) == 3 and all(a is visual_assets[0] for a in visual_assets)
+    again = export(back, tmp_path / "again", ["gltf"])["gltf"]
+    assert again.read_bytes() == data

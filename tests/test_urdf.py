@@ -16,7 +16,7 @@ from real2code_export import transforms as tf
 from real2code_export.errors import FormatError, Real2CodeWarning
 from real2code_export.formats import urdf
 from real2code_export.formats.urdf.write import stable_rpy
-from real2code_export.meshfiles import obj_bytes, visual_color_files
+from real2code_export.meshfiles import MeshLayout, obj_bytes
 from real2code_export.model import (
     ArticulatedObject,
     DriveLimits,
@@ -131,7 +131,8 @@ def mujoco_matches(obj: ArticulatedObject, path: Path, rng, samples: int = 4) ->
     data = mujoco.MjData(model)
     assert model.nbody == len(obj.parts) + 1  # fusestatic="false": one body per part
     # a visual is a geom per colour and per shape
-    geoms = sum(len(visual_color_files(p)) + len(p.visual.primitives if p.visual else ())
+    layout = MeshLayout(obj)  # (or per placement of a mesh file placed several times)
+    geoms = sum(len(layout.visuals[p.name]) + len(p.visual.primitives if p.visual else ())
                 + len(p.collision) for p in obj.parts)
     assert model.ngeom == geoms  # discardvisual="false": the visuals are there too
     for part in obj.parts:  # mass properties as MuJoCo read them (principal axes in body)
@@ -195,10 +196,10 @@ def test_export_text(tmp_path):
     # URDF requires effort and velocity: the unknown velocity is a documented default, marked.
     assert f'velocity="{urdf.DEFAULT_VELOCITY!r}" real2code:velocity="none"' in text
     assert 'real2code:stiffness="2.0" real2code:springref="0.3" real2code:armature="0.01"' in text
-    for part in obj.parts:
-        assert (tmp_path / "meshes" / f"{part.name}.obj").is_file()
-        for k in range(len(part.collision)):
-            assert (tmp_path / "meshes" / f"{part.name}_collision_{k}.obj").is_file()
+    named = re.findall(r'filename="(meshes/[^"]+)"', text)
+    assert named and all((tmp_path / rel).is_file() for rel in named)
+    for part in obj.parts:  # (a piece equal to a mesh before it names that one's file)
+        assert f'filename="meshes/{part.name}.obj"' in text
     assert urdf.save(obj, tmp_path).read_bytes() == text.encode()  # deterministic
 
 
@@ -785,7 +786,7 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
 def test_visuals_of_several_colours_are_kept_in_every_format(tmp_path):
     """A link whose visuals differ in colour (a box, two meshes) keeps each visual's colour
     per face, its own triangles grouped by colour: MJCF a geom per colour, URDF a <visual>
-    per colour, USD GeomSubsets bound to a material per colour, glTF a primitive per
+    per colour (here per placement of the one mesh file, each of one colour), USD GeomSubsets bound to a material per colour, glTF a primitive per
     colour; every export reads back equal. Where one visual has no colour, the part's is the
     coloured ones' area-weighted mean, said (as where a colour comes from a mesh file's
     own materials)."""
@@ -827,7 +828,11 @@ def test_visuals_of_several_colours_are_kept_in_every_format(tmp_path):
     xml = written["mjcf"].read_text()
     assert xml.count('rgba="1 0 0 1"') >= 1 and 'rgba="0 1 0 1"' in xml \
         and 'rgba="0 0 1 1"' in xml, xml
-    assert written["urdf"].read_text().count("<visual") == 3
+    # (the one mesh file placed three times: a <visual> per placement naming one file, each
+    # at its origin and of its colour; the box a shape)
+    urdf_text = written["urdf"].read_text()
+    assert urdf_text.count("<visual") == 4 and urdf_text.count('filename="meshes/base_mesh_0.obj"') == 3
+    assert not list((tmp_path / "out" / "meshes").glob("base_colour_*.obj"))
     usda = written["usd"].read_text()
     # (the one mesh file placed three times: its data once, a prim per placement bound to
     # its colour's material; the box a shape)

@@ -1,7 +1,9 @@
 """object.json: the project's own lossless format.
 
 A JSON document (schema name and version, the object, its parts and joints) with the
-meshes beside it as OBJ files holding exact float64 text. Transforms are stored as a
+meshes beside it as OBJ files holding exact float64 text, each distinct mesh once (a mesh
+asset placed several times is one file, each placement an entry with its pose:
+``meshfiles.MeshLayout``). Transforms are stored as a
 translation and a 3x3 rotation matrix, numbers as Python's shortest exact text, so
 load(save(obj)) reproduces ``obj`` bit for bit.
 """
@@ -13,14 +15,15 @@ from pathlib import Path
 from typing import Any
 
 from .. import atomic
+from .. import transforms as tf
 from ..errors import FormatError, ModelError
 from ..meshfiles import (
-    collision_relpath,
+    MeshGeometry,
+    MeshLayout,
     map_relpath,
     read_mesh,
     texture_from_file,
     texture_relpath,
-    visual_color_files,
     write_object_meshes,
 )
 from ..model import (
@@ -49,28 +52,50 @@ from ..model_json import (
 )
 
 SCHEMA = "real2code_export/object"
-SCHEMA_VERSION = 1
+# 2: a mesh file placed at a pose ({"mesh", "pose"}: a mesh asset written once, placed by
+# several parts or several times in one); version 1 files read as they are.
+SCHEMA_VERSION = 2
+READS = (1, 2)
 FILENAME = "object.json"
 
 
-def _visual_files(part: Part) -> str | list[dict] | None:
-    """The visual's mesh file, or for a visual of several colours each colour's file."""
-    files = visual_color_files(part)
-    if part.visual is None or not part.visual.colors:
-        return files[0][0] if files else None
-    return [{"mesh": rel, "color": list(rgba)} for rel, _, rgba in files]
+def _placed(g: MeshGeometry, shared: dict[str, str]) -> dict | str:
+    """A mesh file entry: its path (the first file holding the same mesh), or where it is
+    placed, {"mesh", "pose"}."""
+    if g.pose is None:
+        return shared[g.relpath]
+    return {"mesh": shared[g.relpath], "pose": {"translation": g.pose[:3, 3].tolist(),
+                                        "rotation": g.pose[:3, :3].tolist()}}
+
+
+def _visual_files(part: Part, layout: MeshLayout,
+                  shared: dict[str, str]) -> str | list[dict] | None:
+    """The visual's mesh file, or for a visual of several colours or placed meshes each
+    colour's or placement's file ({"mesh", "color", "pose"})."""
+    files = layout.visuals[part.name]
+    several = part.visual is not None and bool(part.visual.colors)
+    if not several and len(files) == 1 and files[0].pose is None:
+        return shared[files[0].relpath]
+    if not files:
+        return None
+    entries = [_placed(g, shared) for g in files]
+    return [(e if isinstance(e, dict) else {"mesh": e})
+            | ({"color": list(g.rgba)} if several else {})
+            for e, g in zip(entries, files, strict=True)]
 
 
 def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
-    parts = []
+    parts, layout = [], MeshLayout(obj)
+    shared = layout.shared_files(obj)  # equal meshes: one file
     for p in obj.parts:
+        meshes = dict(layout.collisions[p.name])
         parts.append(
             {
                 "name": p.name,
                 "color": list(p.color),
                 # a visual of several colours: a file per colour ({"mesh", "color"}), its
                 # shapes' colours beside them
-                "visual": _visual_files(p),
+                "visual": _visual_files(p, layout, shared),
                 **({"visual_shapes": [shape_json(s) for s in p.visual.primitives]}
                    if p.visual is not None and p.visual.primitives else {}),
                 **({"visual_shape_colors": [list(c) for c in p.visual.shape_colors()]}
@@ -78,7 +103,7 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                    else {}),
                 "texture": texture_relpath(p) if p.texture is not None else None,
                 **({"maps": {role: map_relpath(p, role) for role in p.maps}} if p.maps else {}),
-                "collision": [collision_relpath(p.name, k) if m.primitive is None
+                "collision": [_placed(meshes[k], shared) if m.primitive is None
                               else {"shape": shape_json(m.primitive)}
                               for k, m in enumerate(p.collision)],
                 "inertial": None
@@ -156,9 +181,25 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
         raise FormatError(path, None, f"not a real2code_export object (schema must be {SCHEMA!r})")
     version = data.get("schema_version")
-    if version != SCHEMA_VERSION:
+    if version not in READS:
         raise FormatError(path, "schema_version", f"unsupported version {version!r} "
-                          f"(this release reads {SCHEMA_VERSION})")
+                          f"(this release reads {', '.join(map(str, READS))})")
+    assets: dict[str, Mesh] = {}  # a file placed several times is one asset
+
+    def mesh_file(item: Any, el: str) -> Mesh:
+        """A mesh file entry (a path, or {"mesh", "pose"}) as the mesh it places."""
+        rel = member(item, "mesh", path, el) if isinstance(item, dict) else item
+        if not isinstance(rel, str):
+            raise FormatError(path, el, f"a mesh file must be a path, got {rel!r}")
+        if not isinstance(item, dict) or item.get("pose") is None:
+            return read_mesh(base / rel, source=path, element=el)
+        if rel not in assets:
+            assets[rel] = read_mesh(base / rel, source=path, element=el)
+        pose = transform(item["pose"], path, el, "pose ")
+        if not tf.is_rotation(pose[:3, :3]):
+            raise FormatError(path, el, "pose rotation is not a rotation matrix")
+        return Mesh.placed(assets[rel], pose)
+
     parts = []
     for i, pd in enumerate(member(data, "parts", path, "object")):
         el = f"parts[{i}]"
@@ -168,9 +209,9 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         files = pd.get("visual")
         for k, item in enumerate(files if isinstance(files, list) else
                                  [] if files is None else [{"mesh": files}]):
-            rel = member(item, "mesh", path, f"{el} visual[{k}]")
-            visuals.append(read_mesh(base / rel, source=path, element=el + " visual"))
-            colours.append(item.get("color"))
+            visuals.append(mesh_file(item, f"{el} visual" + (f"[{k}]" if isinstance(
+                files, list) else "")))
+            colours.append(item.get("color") if isinstance(item, dict) else None)
         visuals += [Mesh.of_primitive(shape_from_json(d, path, f"{el} visual_shapes[{k}]"))
                     for k, d in enumerate(pd.get("visual_shapes", []))]
         colours += pd.get("visual_shape_colors") or [None] * (len(visuals) - len(colours))
@@ -183,7 +224,7 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
         collision = [
             Mesh.of_primitive(shape_from_json(rel["shape"], path, f"{el} collision[{k}]"))
             if isinstance(rel, dict) and "shape" in rel
-            else read_mesh(base / rel, source=path, element=f"{el} collision")
+            else mesh_file(rel, f"{el} collision[{k}]")
             for k, rel in enumerate(pd.get("collision", []))
         ]
         inertial = None

@@ -32,7 +32,7 @@ from ...model import (
     validate,
 )
 from ...model_json import mimic_from_json, shape_from_json
-from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr
+from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr, node_matrix, ours
 from .document import Document, rigid
 from .khr_physics import load_khr
 
@@ -91,17 +91,19 @@ def _load_ours(doc: Document, root: int) -> ArticulatedObject:
             part_nodes[data["part"]] = i
         elif "joint" in data and "type" in data:
             joint_nodes.append(i)
-    parts = [_our_part(doc, name, i) for name, i in part_nodes.items()]
+    assets: dict[tuple, Mesh] = {}  # placed mesh data -> its one asset (every part's)
+    parts = [_our_part(doc, name, i, assets) for name, i in part_nodes.items()]
     joints = [_our_joint(doc, i, part_nodes) for i in joint_nodes]
     return ArticulatedObject(name=str(info.get("object")), parts=parts, joints=joints,
                              metadata=metadata if isinstance(metadata, dict) else {})
 
 
-def _our_part(doc: Document, name: str, i: int) -> Part:
+def _our_part(doc: Document, name: str, i: int, assets: dict[tuple, Mesh]) -> Part:
     el = doc.element(i)
     data = doc.ours(i)
     node = doc.nodes[i]
-    visual = doc.mesh(node.mesh, el) if node.mesh is not None else None
+    visual = doc.mesh(node.mesh, el) if node.mesh is not None \
+        else _placed_visual(doc, i, name, assets)
     shapes = data.get("visual_shapes", [])
     if visual is not None and isinstance(shapes, list) and shapes:
         visual = _with_shapes(visual, [shape_from_json(d, doc.path, f"{el} visual_shapes"
@@ -136,6 +138,47 @@ def _our_part(doc: Document, name: str, i: int) -> Part:
     color = tuple(_vector(data.get("color", [0.7, 0.7, 0.7, 1.0]), 4, doc, el, "colour"))
     return Part(name=name, visual=visual, collision=collision, inertial=inertial, color=color,
                 **_part_images(_images(doc, node.mesh, visual, el)))
+
+
+def _placed_visual(doc: Document, i: int, name: str,
+                   assets: dict[tuple, Mesh]) -> Mesh | None:
+    """A part node's visual as its placement children (extras ``placement`` k, 0..n-1) each
+    place: one mesh asset per glTF vertex data (``assets``, across parts: a glTF mesh per
+    material reads the same accessors), at the child's TRS, in the child's material colour;
+    None without any."""
+    placed: dict[int, int] = {}
+    for c in doc.nodes[i].children or []:
+        k = doc.ours(c).get("placement")
+        if k is None:
+            continue
+        if not isinstance(k, int) or k in placed or doc.nodes[c].mesh is None:
+            raise FormatError(doc.path, doc.element(c), f"placement {k!r} of part {name!r} is "
+                              "not a new placement number with a mesh")
+        placed[k] = c
+    if not placed:
+        return None
+    if sorted(placed) != list(range(len(placed))):
+        raise FormatError(doc.path, doc.element(i), f"placements {sorted(placed)} of part "
+                          f"{name!r} are not numbered 0..n-1")
+    pieces, colours = [], []
+    for k in range(len(placed)):
+        c = placed[k]
+        node = doc.nodes[c]
+        primitives = doc.gltf.meshes[node.mesh].primitives or [] \
+            if 0 <= node.mesh < len(doc.gltf.meshes or []) else []
+        key = tuple((p.attributes.POSITION, p.indices, ours(p.extras).get("source_vertex"),
+                     getattr(p.attributes, "TEXCOORD_0", None)) for p in primitives)
+        if key not in assets:
+            read = doc.mesh(node.mesh, doc.element(c))
+            assets[key] = Mesh(read.vertices, read.faces, read.uv)
+        pose = node_matrix(node)
+        if not tf.is_rotation(pose[:3, :3]):
+            raise FormatError(doc.path, doc.element(c), "a placement must be rigid (no scale)")
+        pieces.append(Mesh.placed(assets[key], pose))
+        colours.append(doc.material_color(primitives[0].material) if primitives else None)
+    if None in colours or len(set(colours)) < 2:
+        return Mesh.concatenate(pieces)
+    return Mesh.concatenate(pieces, colours)
 
 
 def _collision_mesh(doc: Document, c: int, name: str) -> tuple[int, str]:

@@ -4,6 +4,10 @@ Node tree (names are the model's; the scene holds one root node):
 
     <object>                      rotation: Z up -> Y up; extras: object name, metadata
       <root part>                 mesh: visual; extras: part (colour, inertial)
+        <part>_mesh_<k>           a visual wholly of mesh assets the object places more than
+                                  once: the part node has no mesh, a child per placement
+                                  (TRS = its pose; extras: placement k) uses the asset's mesh
+                                  (its vertex data once in the buffer, shared by every use)
         <part>_collision_<k>      KHR collider -> an implicit box (TRS places it), or the
                                   geometry node <part>_collision_<k>_geometry (outside the scene)
         <joint>                   TRS = joint origin; extras: the joint (type, axis, limits, ...)
@@ -46,6 +50,7 @@ from ...model import (
     validate,
 )
 from ...model_json import mimic_json, shape_json
+from ...placements import placed_pieces, shared_assets
 from .. import output_file
 from . import physics
 from .conventions import (
@@ -310,6 +315,9 @@ def build(obj: ArticulatedObject) -> bytes:
     physics_joints: list[dict] = []
     shapes: list[dict] = []  # KHR_implicit_shapes, for box collision pieces
     animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
+    shared = shared_assets(obj)  # mesh assets placed more than once: instanced by nodes
+    asset_meshes: dict[tuple[int, int], int] = {}  # (id(asset), material) -> glTF mesh
+    encoded: dict[int, VertexData] = {}  # id(asset) -> its vertex data (normals once)
 
     def material(part: Part, rgba=None) -> int:
         color = _floats(part.color if rgba is None else rgba)
@@ -341,7 +349,10 @@ def build(obj: ArticulatedObject) -> bytes:
     def add_part(part: Part, joint: Joint | None) -> tuple[int, int | None]:
         """The part's node and, if it is its own rigid body, its joint attachment node."""
         mesh = None
-        if part.visual is not None:  # shapes tessellated (glTF has none), kept in extras
+        pieces = placed_pieces(part.visual, part, shared) if part.visual is not None \
+            and shared and not part.visual.primitives else None
+        if part.visual is not None and pieces is None:
+            # shapes tessellated (glTF has none), kept in extras
             colours = {rgba: None for _, rgba in part.visual.colors}  # a material per colour
             for rgba in colours:
                 colours[rgba] = material(part, rgba)
@@ -351,6 +362,15 @@ def build(obj: ArticulatedObject) -> bytes:
         fields = motion_trs(joint, joint.state) if joint is not None else {}
         node = b.node(part.name, mesh=mesh, extras=_part_extras(part), **fields)
         children = b.gltf.nodes[node].children
+        materials: dict = {}  # the part's colour (None) or a run's -> its material
+        for k, (placement, rgba) in enumerate(pieces or ()):
+            if rgba not in materials:
+                materials[rgba] = material(part, rgba)
+            children.append(b.node(
+                f"{part.name}_mesh_{k}", mesh=asset_mesh(placement.asset, materials[rgba]),
+                translation=_floats(placement.pose[:3, 3]),
+                rotation=quat_xyzw(placement.pose[:3, :3]),
+                extras={EXTRAS_KEY: {"placement": k}}))
         attach = None
         body = physics.has_body(joint, part)
         if body:
@@ -365,6 +385,17 @@ def build(obj: ArticulatedObject) -> bytes:
         for child_joint in tree.children[part.name]:
             children.append(add_joint(child_joint))
         return node, attach
+
+    def asset_mesh(asset: Mesh, mat: int) -> int:
+        """The glTF mesh of a placed asset in material ``mat``: one per pair, every one
+        reading the asset's one copy of vertex data (accessors are shared by content)."""
+        key = (id(asset), mat)
+        if key not in asset_meshes:
+            if id(asset) not in encoded:
+                encoded[id(asset)] = encode_visual(asset)
+            name = f"mesh_{list(encoded).index(id(asset))}"
+            asset_meshes[key] = b.mesh(name, encoded[id(asset)], mat)
+        return asset_meshes[key]
 
     def add_collider(part: Part, k: int, piece: Mesh) -> int:
         name = f"{part.name}_collision_{k}"

@@ -36,17 +36,14 @@ from ...engine_settings import (
 from ...errors import ExportError, warn
 from ...meshfiles import (
     MESH_DIR,
-    collision_file_meshes,
-    collision_relpath,
+    MeshLayout,
     image_textures,
     map_relpath,
-    shared_mesh_files,
     texture_relpath,
-    visual_color_files,
     visual_element_name,
     write_object_meshes,
 )
-from ...model import ArticulatedObject, Joint, JointType, Mesh, Part, metadata_json, validate
+from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
 from .. import output_file
 from .conventions import (
     COLLISION_GROUP,
@@ -57,6 +54,7 @@ from .conventions import (
     custom_name,
     describe_mujoco_error,
     float32,
+    snap_position,
     snap_unit,
 )
 from .geometry import mjcf_geom
@@ -239,22 +237,26 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
         spec.modelfiledir = str(model_dir) + "/"
 
     parts = obj.parts_in_tree_order()
-    # One asset per distinct mesh file: geoms whose meshes are equal share the first one's
-    # asset (meshfiles.shared_mesh_files), so MuJoCo compiles each once. A visual's shell
-    # inertia only where no collision geom uses the asset: then the asset is what a URDF of
-    # the same meshes gives MuJoCo (its mesh cache serves both), and with inertiafromgeom
-    # off the mode only places the mesh in its geom.
-    shared = shared_mesh_files(obj)
-    colliding = {shared[rel] for part in parts for rel, _, visual in _mesh_files(part)
+    # One asset per distinct mesh file (MeshLayout: a mesh asset placed several times is one
+    # file; geoms whose meshes are equal share the first one's), so MuJoCo compiles each
+    # once. A visual's shell inertia only where no collision geom uses the asset: then the
+    # asset is what a URDF of the same meshes gives MuJoCo (its mesh cache serves both), and
+    # with inertiafromgeom off the mode only places the mesh in its geom.
+    layout = MeshLayout(obj)
+    shared = layout.shared_files(obj)
+    colliding = {shared[g.relpath] for part in parts for g, visual in layout.geometries(part)
                  if not visual}
+    declared = set()
     for part in parts:
-        for rel, mesh, visual in _mesh_files(part):
-            if shared[rel] != rel:
+        for g, visual in layout.geometries(part):
+            rel = g.relpath
+            if shared[rel] != rel or rel in declared:
                 continue
+            declared.add(rel)  # (an asset placed several times: one <mesh>)
             if in_memory:  # user vertices: no file, no text to format and parse
                 asset = spec.add_mesh(name=_stem(rel))
-                asset.uservert = mesh.vertices.ravel()
-                asset.userface = mesh.faces.astype(np.int32).ravel()
+                asset.uservert = g.mesh.vertices.ravel()
+                asset.userface = g.mesh.faces.astype(np.int32).ravel()
             else:
                 asset = spec.add_mesh(name=_stem(rel), file=rel.removeprefix(MESH_DIR + "/"))
             if visual and rel not in colliding:  # scans are often open or flat: an area
@@ -267,9 +269,9 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     root = obj.root
     if root_is_world(obj):  # MuJoCo's own world body is that part (its mass in <custom>)
         bodies = {root.name: spec.worldbody}
-        _add_geoms(spec.worldbody, root)
+        _add_geoms(spec.worldbody, root, layout)
     else:
-        bodies = {root.name: _add_body(spec.worldbody, root, None)}
+        bodies = {root.name: _add_body(spec.worldbody, root, None, layout)}
     sites, chains, parts_by_name = site_parts(obj), body_chains(obj), obj.tree().parts
     merged = {j.child for chain in chains.values() for j in chain[:-1]}
     refs = {j.name: j.state for j in joints if not j.type.multi_dof}  # a joint's ref
@@ -278,7 +280,8 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
             _add_site(bodies[joint.parent], joint)
         elif joint.parent not in merged:  # (the rest of a chain is its first joint's body)
             chain = chains.get(joint.name, [joint])
-            body = _add_body(bodies[joint.parent], parts_by_name[chain[-1].child], chain)
+            body = _add_body(bodies[joint.parent], parts_by_name[chain[-1].child], chain,
+                             layout)
             bodies.update((j.child, body) for j in chain)
     assets = {_stem(rel): _stem(first) for rel, first in shared.items()}
     for geom in spec.geoms:
@@ -398,19 +401,12 @@ def texture_name(part: Part) -> str:
     return f"{part.name}_texture"
 
 
-def _mesh_files(part: Part) -> list[tuple[str, Mesh, bool]]:
-    """The mesh assets: the visual's own mesh and the collision pieces that are not shapes."""
-    items = [(rel, mesh, True) for rel, mesh, _ in visual_color_files(part)]
-    items += [(collision_relpath(part.name, k), m, False) for k, m in collision_file_meshes(part)]
-    return items
-
-
 def _stem(relpath: str) -> str:
     """The mesh asset's name: its file name without folder and extension."""
     return relpath.rpartition("/")[2].rpartition(".")[0]
 
 
-def _add_body(parent, part: Part, chain: list[Joint] | None):
+def _add_body(parent, part: Part, chain: list[Joint] | None, layout: MeshLayout):
     """The part's body, placed by the joint into it, or by a chain of joints that MJCF holds
     in one body, at the joints' states (:func:`_placed_joints`)."""
     if chain is None:
@@ -428,7 +424,7 @@ def _add_body(parent, part: Part, chain: list[Joint] | None):
         body.mass = part.inertial.mass
         body.ipos = [x + 0.0 for x in part.inertial.com]
         body.fullinertia = full_inertia(part.inertial.inertia)
-    _add_geoms(body, part)
+    _add_geoms(body, part, layout)
     return body
 
 
@@ -438,29 +434,39 @@ def full_inertia(inertia) -> list[float]:
             inertia[1, 2]]
 
 
-def _add_geoms(body, part: Part) -> None:
+def _add_geoms(body, part: Part, layout: MeshLayout) -> None:
     import mujoco
 
     mesh_geom = mujoco.mjtGeom.mjGEOM_MESH
     rgba = float32(part.color)
     visual_only = dict(contype=0, conaffinity=0, group=VISUAL_GROUP)
-    # a visual of several colours: a geom per colour, the first named as a visual of one
-    for k, (rel, _, colour) in enumerate(visual_color_files(part)):
-        body.add_geom(name=visual_element_name(part.name, k), type=mesh_geom, meshname=_stem(rel),
-                      rgba=float32(colour), **visual_only)
+    # a visual of several colours or placed meshes: a geom per colour or placement, the
+    # first named as a visual of one mesh
+    for g in layout.visuals[part.name]:
+        body.add_geom(name=g.name, type=mesh_geom, meshname=_stem(g.relpath),
+                      rgba=float32(g.rgba), **_placed(g.pose), **visual_only)
     shapes = part.visual.primitives if part.visual is not None else ()
     for k, (shape, colour) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
                                             else (), strict=True)):
         body.add_geom(name=f"{part.name}_visual_{k}", **_shape_geom(shape),
                       rgba=rgba if colour is None else float32(colour), **visual_only)
+    meshes = dict(layout.collisions[part.name])
     for k, piece in enumerate(part.collision):
         name = f"{part.name}_collision_{k}"
         if piece.primitive is not None:
             body.add_geom(name=name, **_shape_geom(piece.primitive), group=COLLISION_GROUP,
                           rgba=rgba)
         else:
-            body.add_geom(name=name, type=mesh_geom, meshname=_stem(collision_relpath(part.name, k)),
-                          group=COLLISION_GROUP, rgba=rgba)
+            body.add_geom(name=name, type=mesh_geom, meshname=_stem(meshes[k].relpath),
+                          group=COLLISION_GROUP, rgba=rgba, **_placed(meshes[k].pose))
+
+
+def _placed(pose: np.ndarray | None) -> dict:
+    """A mesh geom's pos and quat in its body, for a mesh file placed at ``pose``."""
+    if pose is None:
+        return {}
+    return dict(pos=snap_position(pose[:3, 3]),
+                quat=snap_unit(tf.matrix_to_quat(pose[:3, :3]), sign_free=True))
 
 
 def _shape_geom(shape) -> dict:
@@ -560,11 +566,11 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
 
 def _element_owner(obj: ArticulatedObject, name: str) -> str:
     """Which part or joint a MuJoCo element name belongs to (body, joint, geom, mesh)."""
-    owners = []
+    owners, layout = [], MeshLayout(obj)
     for part in obj.parts:
         shapes = len(part.visual.primitives) if part.visual is not None else 0
-        names = {part.name} | {visual_element_name(part.name, k)
-                               for k in range(len(visual_color_files(part)) or 1)} | {
+        names = {part.name} | {g.name for g in layout.visuals[part.name]} | {
+            visual_element_name(part.name, 0)} | {
             f"{part.name}_collision_{k}" for k in range(len(part.collision))} | {
             f"{part.name}_visual_{k}" for k in range(shapes)}
         if name in names:

@@ -22,11 +22,8 @@ from ... import transforms as tf
 from ...errors import ModelError, warn
 from ...meshfiles import (
     MESH_DIR,
-    collision_relpath,
+    MeshLayout,
     obj_bytes,
-    shared_mesh_files,
-    visual_color_files,
-    visual_element_name,
     warn_maps_not_referenced,
     write_object_meshes,
 )
@@ -90,9 +87,10 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
     compiler = etree.SubElement(etree.SubElement(robot, "mujoco"), "compiler")
     for key, value in MUJOCO_COMPILER:
         compiler.set(key, value)
-    shared = shared_mesh_files(obj)  # equal meshes: one file, read and compiled once
+    layout = MeshLayout(obj)  # an asset placed several times: one file, at each origin
+    shared = layout.shared_files(obj)  # equal meshes: one file, read and compiled once
     for part in obj.parts:
-        robot.append(_link(part, shared))
+        robot.append(_link(part, layout, shared))
     as_meshes = shape_mesh_files(obj)
     if as_meshes:
         kinds = sorted({m.primitives[0].kind.value for m in as_meshes.values()})
@@ -182,7 +180,7 @@ def shape_relpath(part_name: str, role: str, k: int) -> str:
     return f"{MESH_DIR}/{part_name}_{role}_{k}_shape.obj"
 
 
-def _link(part: Part, shared: dict[str, str]) -> etree._Element:
+def _link(part: Part, layout: MeshLayout, shared: dict[str, str]) -> etree._Element:
     link = etree.Element("link")
     link.set("name", part.name)
     # A part with a visual but deliberately no inertial or no collision: say so, or our reader
@@ -201,11 +199,14 @@ def _link(part: Part, shared: dict[str, str]) -> etree._Element:
         _sub(el, "inertia", *((k, number(v)) for k, v in (
             ("ixx", i[0, 0]), ("ixy", i[0, 1]), ("ixz", i[0, 2]),
             ("iyy", i[1, 1]), ("iyz", i[1, 2]), ("izz", i[2, 2]))))
-    visuals = []  # (element, colour): a visual of several colours is one <visual> per colour
-    for k, (rel, _, colour) in enumerate(visual_color_files(part)):
-        visuals.append((el := _sub(link, "visual", ("name", visual_element_name(part.name, k))),
-                        colour))
-        _mesh_geometry(el, shared[rel])
+    # (element, colour): a visual of several colours or placed meshes is one <visual> per
+    # colour or placement
+    visuals = []
+    for g in layout.visuals[part.name]:
+        visuals.append((el := _sub(link, "visual", ("name", g.name)), g.rgba))
+        if g.pose is not None:
+            _origin(el, g.pose)
+        _mesh_geometry(el, shared[g.relpath])
     shapes = part.visual.primitives if part.visual is not None else ()
     for k, (shape, colour) in enumerate(zip(shapes, part.visual.shape_colors() if shapes
                                             else (), strict=True)):
@@ -218,12 +219,15 @@ def _link(part: Part, shared: dict[str, str]) -> etree._Element:
         material = _sub(el, "material", ("name", f"{part.name}_material"
                                          + (f"_{k}" if k else "")))
         _sub(material, "color", ("rgba", numbers(colour)))
+    meshes = dict(layout.collisions[part.name])
     for k, piece in enumerate(part.collision):
         el = _sub(link, "collision", ("name", f"{part.name}_collision_{k}"), (ns("convex"), "true"))
         if piece.primitive is not None:
             _shape_geometry(el, part, piece.primitive, shape_relpath(part.name, "collision", k))
         else:
-            _mesh_geometry(el, shared[collision_relpath(part.name, k)])
+            if meshes[k].pose is not None:
+                _origin(el, meshes[k].pose)
+            _mesh_geometry(el, shared[meshes[k].relpath])
     return link
 
 

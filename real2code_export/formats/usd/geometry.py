@@ -41,8 +41,9 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, warn
-from ...model import DEFAULT_COLOR, RGBA, ArticulatedObject, Mesh, Part, Placement, Texture
+from ...model import DEFAULT_COLOR, ArticulatedObject, Mesh, Part, Placement, Texture
 from ...normals import creased_normals
+from ...placements import placed_pieces, shared_assets, whole_placement
 from ...primitives import Primitive, ShapeKind
 from .conventions import MESH_ASSETS, NAMESPACE
 from .layer import apply, attribute, connect, define, extent, place, relationship
@@ -138,23 +139,13 @@ def ellipsoid_collider(prim, to_part: np.ndarray) -> Mesh | None:
 
 class MeshAssets:
     """The mesh assets whose data an object would otherwise hold more than once
-    (``Mesh.placements`` of its visuals and colliders), each written once as ``mesh_<k>``
+    (:func:`real2code_export.placements.shared_assets`), each written once as ``mesh_<k>``
     under the class ``/<object>/MeshAssets`` when first placed, with creased normals (and
-    texture coordinates) once a visual places it. An asset that is whole meshes at one pose
-    only (a part's visual and its collider; a left and a right finger, each in its own
-    frame), which ``_define_mesh_once`` writes once already, with fewer prims, or that is
-    placed once, is written where it is placed, as before."""
+    texture coordinates) once a visual places it. Every other mesh is written where it is
+    placed, as before (``_define_mesh_once`` writes equal meshes once)."""
 
     def __init__(self, layer, object_path: str, obj: ArticulatedObject) -> None:
-        copies: dict[int, set] = {}  # id(asset) -> where its data would be written
-        for part in obj.parts:
-            for mesh in ([part.visual] if part.visual is not None else []) + part.collision:
-                whole = len(mesh.placements) == 1 and len(mesh.faces) == len(
-                    mesh.placements[0].asset.faces) and not mesh.primitives
-                for placement in mesh.placements:
-                    copies.setdefault(id(placement.asset), set()).add(
-                        (None if whole else id(mesh), placement.pose.tobytes()))
-        self.shared = {key for key, seen in copies.items() if len(seen) > 1}
+        self.shared = shared_assets(obj)  # id(asset) -> asset
         self.layer, self.scope = layer, f"{object_path}/{MESH_ASSETS}"
         self.written: dict[int, str] = {}  # id(asset) -> its prim
         self.shaded: set[int] = set()  # those with normals (placed by a visual)
@@ -203,44 +194,6 @@ def _place_asset(layer, path: str, placement: Placement, assets: MeshAssets, *sc
     return prim
 
 
-def _placed_pieces(own: Mesh, part: Part,
-                   assets: MeshAssets) -> list[tuple[Placement, RGBA | None]] | None:
-    """The visual's own triangles as the assets it places, in order, each with its colour
-    (None: the part's), where every triangle lies in one placement of one colour, rigidly
-    placed, and some asset is placed more than once in the object; else None (the visual is
-    written as one mesh). A textured part keeps one mesh: its images need one."""
-    if not own.placements or part.texture is not None or part.maps \
-            or not any(assets.shares(p.asset) for p in own.placements):
-        return None
-    runs = own.face_color_runs()
-    out, vertex, face = [], 0, 0
-    for p in sorted(own.placements, key=lambda p: p.face):
-        if p.face != face or p.vertex != vertex or p.asset.colors or p.asset.primitives \
-                or (p.asset.uv is None) != (own.uv is None) \
-                or not tf.is_rotation(p.pose[:3, :3]):
-            return None
-        rgba = None
-        if runs:
-            run = next((r for r in runs if r[0] <= p.face < r[1]), None)
-            if run is None or p.face_end > run[1]:
-                return None
-            rgba = run[2]
-        out.append((p, rgba))
-        vertex, face = p.vertex_end, p.face_end
-    return out if (vertex, face) == (len(own.vertices), len(own.faces)) else None
-
-
-def _whole_placement(mesh: Mesh, assets: MeshAssets) -> Placement | None:
-    """The one placement of a shared asset that is the whole of ``mesh`` (a collider that is
-    one mesh asset placed), else None."""
-    if len(mesh.placements) != 1 or mesh.primitives:
-        return None
-    p = mesh.placements[0]
-    whole = (p.vertex, p.face, p.vertex_end, p.face_end) == (0, 0, len(mesh.vertices),
-                                                             len(mesh.faces))
-    return p if whole and assets.shares(p.asset) and tf.is_rotation(p.pose[:3, :3]) else None
-
-
 def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
                         visuals_written: dict[str, Mesh] | None = None,
                         assets: MeshAssets | None = None) -> None:
@@ -266,7 +219,8 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
 
     visuals = []  # (prim, its colour: None for the part's)
     own = part.visual.remainder() if part.visual is not None else None
-    pieces = _placed_pieces(own, part, assets) if own is not None and assets else None
+    pieces = placed_pieces(own, part, assets.shared) if own is not None and assets \
+        else None
     for k, (placement, rgba) in enumerate(pieces or ()):  # an asset's prim per placement
         name = visual_name(part) if len(pieces) == 1 else f"{part.name}_mesh_{k}"
         prim = _place_asset(layer, f"{body_path}/{name}", placement, assets, visual=True)
@@ -296,7 +250,7 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
             geom = _define_ellipsoid_collider(layer, where, piece.primitive)
         elif piece.primitive is not None:  # an analytic collider
             geom = define_shape(layer, where, piece.primitive, "PhysicsCollisionAPI")
-        elif assets and (placement := _whole_placement(piece, assets)) is not None:
+        elif assets and (placement := whole_placement(piece, assets.shared)) is not None:
             geom = _place_asset(layer, where, placement, assets, "PhysicsCollisionAPI",
                                 "PhysicsMeshCollisionAPI", visual=False)
             attribute(geom, "physics:approximation", "Token", "convexHull", uniform=True)
