@@ -5,11 +5,12 @@ against this one's, alternating run by run so a busy machine slows both alike; t
     git archive REV | tar -x -C /tmp/before     # the code to compare with, as a folder (link
                                                 # its gltf_validator/node_modules for check)
     .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] check DIR [DIR ...]
-    .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] export FILE [FILE ...]
+    .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] [--to mjcf,urdf] export FILE [FILE ...]
     .venv/bin/python bench/ab.py --before /tmp/before [--repeat 5] export-check FILE [FILE ...]
 
 ``check DIR``: ``real2code check`` of every file in DIR (an export's folder); ``export
-FILE``: ``real2code export FILE --to usd`` into a temporary folder; ``export-check FILE``:
+FILE``: ``real2code export FILE --to usd`` (or ``--to`` the formats given) into a temporary
+folder; ``export-check FILE``:
 each side exports FILE (every default format) with its own code once, then ``real2code
 check`` of its own export is timed (a change to what the export writes). Both checkouts run in the
 same console script and interpreter, each chosen by ``PYTHONPATH``; both are byte-compiled
@@ -53,6 +54,7 @@ def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--before", required=True, type=Path, help="the other checkout")
     p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--to", default="usd", help="export: the formats (as real2code export's --to)")
     p.add_argument("command", choices=["check", "export", "export-check"])
     p.add_argument("inputs", nargs="+", type=Path)
     args = p.parse_args()
@@ -68,7 +70,7 @@ def main() -> None:
             if args.command == "check":
                 commands = dict.fromkeys(trees, [ours, "check", *_files(item)])
             elif args.command == "export":
-                commands = dict.fromkeys(trees, [ours, "export", str(item), "--to", "usd",
+                commands = dict.fromkeys(trees, [ours, "export", str(item), "--to", args.to,
                                                  "--out", f"{tmp}/out"])
             else:
                 commands = {}
