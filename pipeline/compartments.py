@@ -56,6 +56,9 @@ class CompartmentOptions:
     # share of them and this many, at the face or out of it, with outlines apart on the
     # face, is two parts (two drawers pulled out by different lengths); a drawer left in
     # the carcass's label is found by a front of this many points level with a sibling's
+    seam_step_voxels: float = 0.5  # two fronts side by side, each flat, at depths this many
+    # spacings apart, on either side of a straight seam, are two parts too (two drawers
+    # pulled out by lengths a centimetre or two apart)
     shell_span: float = 0.9  # a part standing out whose points past the face span this
     shell_wall_share: float = 0.1  # share of the carcass's box across it both ways, with
     # this share of its points on the box's sides around the face, is the carcass's shell
@@ -549,10 +552,12 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     faces the same way at another depth but lies within the front's outline on the face;
     two drawers' fronts lie apart on it (no more than ``1 - nested_share`` of the smaller's points within
     ``nested_margin_voxels`` spacings of the other's, seen across the face: their edges
-    touch). Every point of the label then goes to the front nearest it across the face
-    (a drawer's sides and bottom lie behind its own front). A turned panel is no drawer and
-    is left alone; so are two drawers pulled out alike (one front). Needs the measured
-    ``normals``. Returns the labels, renumbered by size, and what was split."""
+    touch). Fronts whose depths differ by less than the grouping parts (a centimetre or
+    two) are two where a straight seam across the face parts two flat fronts
+    (:func:`_seam_fronts`). Every point of the label then goes to the front nearest it
+    across the face (a drawer's sides and bottom lie behind its own front). A turned panel
+    is no drawer and is left alone; so are two drawers pulled out alike (one front). Needs
+    the measured ``normals``. Returns the labels, renumbered by size, and what was split."""
     from scipy.spatial import cKDTree
 
     out = labels.copy()
@@ -584,6 +589,11 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     local[f][:, across], distance_upper_bound=apart)[0]).mean()
                    <= 1.0 - options.nested_share for g in kept):
                 kept.append(f)
+        if len(kept) < 2:  # two fronts side by side a little apart in depth: a seam
+            at_face = facing[sign * local[facing, a] >= body.extent[a]
+                             - options.behind_voxels * voxel]
+            kept = _seam_fronts(at_face, sign * local[:, a], local, across, voxel, least,
+                                options)
         if len(kept) < 2:
             continue
         nearest = np.full(len(index), np.inf)
@@ -598,6 +608,55 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         moved.append({"part": k, "points": len(index), "fronts": len(kept),
                       "split_m": [round(float(np.median(local[f, a])), 3) for f in kept]})
     return numbered_by_size(out), moved
+
+
+def _seam_fronts(front: np.ndarray, depth: np.ndarray, local: np.ndarray, across: list[int],
+                 voxel: float, least: float, options: CompartmentOptions) -> list[np.ndarray]:
+    """Two fronts side by side whose depths differ by less than the grouping by depth
+    parts (two drawers pulled out by lengths a centimetre or two apart): a straight seam
+    across the face (along one of the carcass's axes) splits the ``front`` points (at the
+    face, facing out; ``depth``: every point's, out of it) into two sides, each side's front
+    is the plane most of its points lie on (within a quarter of ``seam_step_voxels``
+    spacings of its depth mode), each plane at least ``least`` points, their depths
+    ``seam_step_voxels`` to ``behind_voxels`` spacings apart (a larger step is the grouping
+    by depth's: a drawer's back panel lies that far behind its front pulled out), and the
+    planes apart across the seam: of each plane's points at most ``1 - nested_share`` lie
+    on the other side (a recessed panel's rim surrounds it on every side of any seam; two
+    drawers' fronts each lie on their own side). The two planes' points, the larger
+    first, or [] where no seam does."""
+    if len(front) < 2 * least:
+        return []
+    tol = 0.25 * options.seam_step_voxels * voxel
+    step_min, step_max = options.seam_step_voxels * voxel, options.behind_voxels * voxel
+    x = depth[front]
+    best = None
+    for b in across:
+        u = local[front, b]
+        for cut in np.quantile(u, np.linspace(0.1, 0.9, 33)):
+            side = u > cut
+            if min(side.sum(), (~side).sum()) < least:
+                continue
+            modes = [_depth_mode(x[~side], tol), _depth_mode(x[side], tol)]
+            if not step_min <= abs(modes[1] - modes[0]) <= step_max:
+                continue
+            on = [np.abs(x - m) <= tol for m in modes]  # each plane, over the whole front
+            planes = [on[0] & ~side, on[1] & side]
+            stray = [float((on[0] & side).sum()) / max(planes[0].sum(), 1),
+                     float((on[1] & ~side).sum()) / max(planes[1].sum(), 1)]
+            size = min(int(p.sum()) for p in planes)
+            if size >= least and max(stray) <= 1.0 - options.nested_share \
+                    and (best is None or size > best[0]):
+                best = (size, [front[p] for p in planes])
+    return [] if best is None else sorted(best[1], key=len, reverse=True)
+
+
+def _depth_mode(x: np.ndarray, tol: float) -> float:
+    """The depth with the most of ``x`` within ``tol`` of it (the middle of the densest
+    window of width 2 ``tol``)."""
+    x = np.sort(x)
+    count = np.searchsorted(x, x + 2.0 * tol, side="right") - np.arange(len(x))
+    i = int(np.argmax(count))
+    return float(np.median(x[i:i + count[i]]))
 
 
 def _standing(cloud: np.ndarray, labels: np.ndarray, body, local: np.ndarray, voxel: float,

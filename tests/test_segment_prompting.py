@@ -634,6 +634,41 @@ def test_two_drawers_pulled_out_by_different_lengths_in_one_label_are_two_parts(
     assert split_fronts(alike, labels, 0.02, normals=normals)[1] == []
 
 
+def test_two_drawers_side_by_side_a_centimetre_and_a_half_apart_are_two_parts():
+    """Two drawers side by side in one label, pulled out 10 and 11.5 cm: their fronts lie
+    closer in depth than the grouping by depth parts (3 spacings), but a straight seam
+    between them leaves each front on its own side, flat, 1.5 cm from the other: two
+    parts. One drawer whose front has a recessed panel (a rim around a panel 1.5 cm
+    deeper) is one part: its rim lies on both sides of any seam."""
+    from pipeline.compartments import split_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+
+    def drawer(y0, out):
+        return [(_grid(0.3, 0.2, (0.3 + out, y0, -0.3), y, z), x),
+                (_grid(0.3 + out, 0.3, (0.0, y0, -0.3), x, y), z)]
+
+    cloud, normals = _facing((carcass, x), *drawer(-0.35, 0.1), *drawer(0.05, 0.115))
+    n = np.cumsum([0, len(carcass), sum(len(p) for p, _ in drawer(-0.35, 0.1))])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:] = 2
+    out, moved = split_fronts(cloud, labels, 0.02, normals=normals)
+    assert len(np.unique(out[n[1]:n[2]])) == 1 and len(np.unique(out[n[2]:])) == 1
+    assert len(np.unique(out)) == 3 and (out[:n[1]] == 1).all()
+    assert moved[0]["fronts"] == 2
+    assert sorted(moved[0]["split_m"]) == pytest.approx([0.4, 0.415], abs=1e-6)
+    # one drawer, its front a rim 4 cm wide around a panel 1.5 cm deeper: one part
+    front = _grid(0.7, 0.3, (0.4, -0.35, -0.35), y, z)
+    inner = (np.abs(front[:, 1]) < 0.31) & (np.abs(front[:, 2] + 0.2) < 0.11)
+    front[inner, 0] -= 0.015
+    one, one_normals = _facing((carcass, x), (front, x),
+                               (_grid(0.4, 0.7, (0.0, -0.35, -0.35), x, y), z))
+    assert split_fronts(one, np.r_[np.ones(len(carcass), int),
+                                   np.full(len(one) - len(carcass), 2)], 0.02,
+                        normals=one_normals)[1] == []
+
+
 def test_a_body_cut_across_its_length_is_one_part_again():
     """A box's body cut by the masks into most of it and its end (the end wall and the
     walls' last stretch, standing out past the rest's box): the end spans the rest's
