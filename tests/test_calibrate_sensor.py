@@ -91,3 +91,24 @@ def test_effort_held_between_samples_is_not_a_delay(tmp_path):
     extras = result.model.metadata["real2code:dynamics"][case.joint]
     assert extras["effort_delay"]["seconds"] == pytest.approx(lag)
     assert report["holdout_rmse_after"] < report["holdout_rmse_before"]
+
+
+def test_a_loops_reaction_to_encoder_noise_is_not_effort_sensor_noise():
+    """A position loop turns the encoder's noise into applied effort: the effort sensor's
+    own noise is what the position's jitter does not explain (a PD law on the measured
+    position, its velocity over two samples, 1 mN m of sensor noise: the effort's jitter is
+    over a hundred times that); an effort no loop computes keeps its plain noise level."""
+    from real2code_export.calibrate import features
+
+    rng = np.random.default_rng(3)
+    t = np.arange(4000) / 500.0
+    q_true = 0.5 + 0.3 * np.sin(1.3 * t)
+    q = np.round((q_true + rng.normal(0, 3e-4, t.size)) / 7.7e-4) * 7.7e-4
+    vel = np.zeros_like(q)
+    vel[2:] = (q[2:] - q[:-2]) / (2 / 500.0)
+    effort = 40.0 * (0.55 - q) - 3.0 * vel + rng.normal(0, 1e-3, t.size)
+    assert features.noise_level(effort) > 100e-3
+    assert features.sensor_noise_level(effort, q) == pytest.approx(1e-3, rel=0.15)
+    pushed = np.sin(2.1 * t) + rng.normal(0, 1e-3, t.size)
+    assert features.sensor_noise_level(pushed, q) == pytest.approx(
+        features.noise_level(pushed), rel=0.05)

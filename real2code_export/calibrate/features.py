@@ -98,6 +98,48 @@ def noise_level(x: np.ndarray) -> float:
     return est / math.sqrt(max(1.0 - center, 1e-6))
 
 
+# samples of the position's recent past a loop's command may read (a velocity from a few
+# samples' differences, a short filter): the jitter they explain is the loop's, not the sensor's
+LOOP_TAPS = 8
+
+
+def sensor_noise_level(x: np.ndarray, q: np.ndarray) -> float:
+    """:func:`noise_level` of an effort ``x`` less the part of its jitter the position
+    ``q``'s jitter explains: a loop on the measured position turns the encoder's noise into
+    applied effort (real force, replayed as recorded), which is no noise of the effort's
+    sensor. The jitter of both (what a short local cubic cannot follow) is regressed on the
+    position's at this and the previous LOOP_TAPS samples (causal: what the effort does to
+    the position shows samples later); where no loop reads the position, nothing is
+    explained and this is :func:`noise_level`."""
+    n = len(x)
+    w = 9 if n >= 9 else (n - 1) | 1
+    if w < 5 or n < 3 * w + 4 * (LOOP_TAPS + 1):
+        return noise_level(x)
+    ex = x - savgol_filter(x, w, 3, mode="interp")
+    eq = q - savgol_filter(q, w, 3, mode="interp")
+    a = np.column_stack([eq[LOOP_TAPS - i:n - i] for i in range(LOOP_TAPS + 1)])
+    y = ex[LOOP_TAPS:]
+    core = slice(w, len(y) - w)
+    a, y = a[core], y[core]
+    if not np.any(a):
+        return noise_level(x)
+    # robust: the few samples where the loop saturates or an impact kicks are left out
+    coef = np.linalg.lstsq(a, y, rcond=None)[0]
+    for _ in range(2):
+        r = y - a @ coef
+        scale = float(np.median(np.abs(r))) * 1.4826
+        keep = np.abs(r) <= 4.0 * max(scale, 1e-300)
+        if keep.sum() < a.shape[1] * 4:
+            break
+        coef = np.linalg.lstsq(a[keep], y[keep], rcond=None)[0]
+    r = y - a @ coef
+    mad = float(np.median(np.abs(r - np.median(r)))) * 1.4826
+    rms = float(np.sqrt(np.mean(r**2)))
+    est = min(mad, rms) if mad > 0 else rms
+    center = savgol_coeffs(w, 3)[w // 2]
+    return min(est / math.sqrt(max(1.0 - center, 1e-6)), noise_level(x))
+
+
 def effective_samples(resid: np.ndarray) -> float:
     """Independent samples in a residual: its length over the integrated autocorrelation
     time (Sokal's automatic window). A residual with slow drifts (an unmodelled input

@@ -44,7 +44,9 @@ class Problem:
     contexts: dict[str, JointContext]
     effects: dict[str, dict[str, Effect]]  # joint -> effect variant -> Effect
     position_noise: list[np.ndarray]  # per trajectory: per joint sigma
-    effort_noise: list[np.ndarray]  # per trajectory: per joint sigma (closed loop only)
+    # per trajectory: per joint sigma of the measured effort's jitter (what smoothing
+    # leaves in it, a loop's reaction to the encoder's noise included)
+    effort_noise: list[np.ndarray]
     signals: list[Signals]
     # per trajectory, (joints, 2): initial position and velocity, which of them are fitted
     # (positions always: one noisy first sample would offset a whole run; velocities when
@@ -57,6 +59,9 @@ class Problem:
     base_laws: dict = field(default_factory=dict)  # joint -> the model's own AppliedLaw
     # (previous, next) trajectory indices of pieces of one run (multiple shooting)
     links: list[tuple[int, int]] = field(default_factory=list)
+    # per trajectory: per joint sigma of the effort sensor's own noise (the jitter less what
+    # the position's jitter explains: features.sensor_noise_level)
+    effort_sensor_noise: list[np.ndarray] = field(default_factory=list)
 
 
 FRICTION_TIMECONST = 2 * MAX_TIMESTEP
@@ -207,6 +212,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
     _, dadr = joint_addresses(nominal, joints)
 
     signals, pos_noise, eff_noise, x0s, x0_free, x0_se = [], [], [], [], [], []
+    eff_sensor = []
     stops: dict[str, list[str]] = {j: [] for j in joints}
     for tr in trajectories:
         period = tr.sample_period
@@ -216,6 +222,9 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
         taus = np.column_stack([tr.efforts.get(j, np.zeros(tr.n)) for j in joints])
         eff_noise.append(np.array([features.noise_level(taus[:, k]) if j in tr.efforts
                                    else 0.0 for k, j in enumerate(joints)]))
+        eff_sensor.append(np.array([features.sensor_noise_level(taus[:, k], qs[:, k])
+                                    if j in tr.efforts else 0.0
+                                    for k, j in enumerate(joints)]))
         x0s.append(np.zeros((len(joints), 2)))
         x0_free.append(np.zeros((len(joints), 2), bool))
         x0_se.append(np.zeros((len(joints), 2)))
@@ -316,4 +325,4 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
     links = [(t - 1, t) for t in range(1, len(trajectories)) if trajectories[t].continues]
     return Problem(obj, joints, trajectories, spec, contexts, effects, pos_noise, eff_noise,
                    signals, x0s, x0_free, x0_se, stops, nonsmooth,
-                   {name: contexts[name].law for name in joints}, links)
+                   {name: contexts[name].law for name in joints}, links, eff_sensor)

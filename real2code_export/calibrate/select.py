@@ -156,7 +156,7 @@ def _refine_friction(problem: Problem, current: Fit, fits: dict, log: list[str])
             fits[_key(p)] = f
             # what only the direction dependence explains: the symmetric model refitted
             # takes up the rest (its linearised motion change, the others held, does not)
-            gained = math.sqrt(max(current.rss - f.rss, 0.0) / f.n)
+            gained = _explained(problem, current, f)
             if gained < MATERIAL:
                 log.append(f"{'+'.join(f.names)} refines {'+'.join(current.names)} by "
                            f"{gained:.2f} noise deviations: not material")
@@ -517,7 +517,34 @@ def _there(f: Fit, e: Effect, fits: dict, n_ref: float) -> bool:
         return False
     without = fits.get(_key(tuple(x for x in f.effects if x is not e)))
     return without is not None and without.bic(n_ref) > f.bic(n_ref) and \
-        math.sqrt(max(without.rss - f.rss, 0.0) / f.n) >= MATERIAL
+        _explained(f.solution.problem, without, f) >= MATERIAL
+
+
+def _effort_rss(problem: Problem, fit: Fit) -> tuple[float, int]:
+    """The replay's misfit of a declared loop's measured effort, in the effort sensor's
+    noise (squares summed, samples): (0, 0) where no run is a measured loop."""
+    total, count = 0.0, 0
+    for t, tr in enumerate(problem.trajectories):
+        if tr.law() is None or not problem.effort_sensor_noise or t >= len(fit.simulated):
+            continue
+        for k, j in enumerate(problem.joints):
+            sigma = float(problem.effort_sensor_noise[t][k])
+            if j not in tr.efforts or not sigma > 0:
+                continue
+            d = (fit.simulated[t].efforts[:, k] - tr.efforts[j]) / sigma
+            total += float(d @ d)
+            count += d.size
+    return total, count
+
+
+def _explained(problem: Problem, without: Fit, f: Fit) -> float:
+    """What ``f`` explains beyond ``without`` (a structure with less, refitted), in noise
+    deviations: of the motion, or of a declared loop's measured effort where that is more
+    (each in its own sensor's noise: a loop holds the motion, and what an effect does
+    shows in the effort it takes)."""
+    gained = math.sqrt(max(without.rss - f.rss, 0.0) / f.n)
+    (e0, n), (e1, _) = _effort_rss(problem, without), _effort_rss(problem, f)
+    return max(gained, math.sqrt(max(e0 - e1, 0.0) / n)) if n else gained
 
 
 def select(problem: Problem, screen_top: int = SCREEN_TOP,

@@ -54,7 +54,8 @@ def input_noise_spread(sol: Solution) -> np.ndarray:
         for t, tr in enumerate(problem.trajectories):
             if tr.law() is not None or not tr.efforts:
                 continue
-            sigma = problem.effort_noise[t]
+            # the sensor's noise: a loop's reaction to the encoder's noise was applied
+            sigma = problem.effort_sensor_noise[t]
             efforts = {j: e + rng.normal(0.0, sigma[problem.joints.index(j)], len(e))
                        for j, e in tr.efforts.items()}
             noisy = dataclasses.replace(tr, efforts=efforts)
@@ -137,5 +138,28 @@ def uncertainty(ev: Evaluator, r, jmat, scales, n_eff, values, problem, x_star, 
         for name, v in null.items():
             i = index[f"{e.joint}.{name}"]
             dx[i] = (v - own[name]) / scales[i]
-        material[e.name] = float(np.sqrt(np.mean((jmat @ dx) ** 2)))
+        material[e.name] = max(float(np.sqrt(np.mean((jmat @ dx) ** 2))),
+                               effort_moved(ev, problem, x_star + dx, rollouts))
     return halfwidth, cov, ident, corr, material
+
+
+def effort_moved(ev: Evaluator, problem, x: np.ndarray, rollouts) -> float:
+    """How far the point ``x`` moves a declared loop's effort from ``rollouts`` (the
+    fit's replays) where the effort is measured: RMS in the effort sensor's noise
+    (:func:`features.sensor_noise_level`). A loop holds the motion, so an effect shows
+    in the effort it takes, not in the positions; 0 where no run is a measured loop."""
+    total, count = 0.0, 0
+    for t, tr in enumerate(problem.trajectories):
+        measured = [k for k, j in enumerate(problem.joints) if j in tr.efforts]
+        if tr.law() is None or not measured or t >= len(rollouts) or \
+                not problem.effort_sensor_noise:
+            continue
+        (_, ro), = ev.run(t, [x])
+        for k in measured:
+            sigma = float(problem.effort_sensor_noise[t][k])
+            if not sigma > 0:
+                continue
+            d = (ro.efforts[:, k] - rollouts[t].efforts[:, k]) / sigma
+            total += float(d @ d)
+            count += d.size
+    return math.sqrt(total / count) if count else 0.0
