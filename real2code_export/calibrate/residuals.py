@@ -15,7 +15,7 @@ import numpy as np
 
 from .effects import Effect
 from .problem import Problem
-from .simulate import MAX_TIMESTEP, AppliedLaw, BatchRunner, Rollout, compile_spec
+from .simulate import MAX_TIMESTEP, AppliedLaw, BatchRunner, Rollout, compile_spec, recorded_late
 
 FD_STEP = 3e-4  # forward-difference step, relative to each parameter's scale
 # Multiple shooting: a gap of one noise deviation between a piece's replayed end and the
@@ -153,13 +153,17 @@ class Evaluator:
         groups: dict[tuple, list[int]] = {}
         for i, x in enumerate(points):  # points with one lag replay one input
             groups.setdefault(self.delays(self.split(x)[0]), []).append(i)
+        tr = self.problem.trajectories[t]
         for lag, idx in groups.items():
-            use = self._runner(t, lag, runner)
+            # open loop, a lag is the position recorded late (the replay's output shifted);
+            # a loop's law acts on the late positions, so there the effort is shifted
+            late = any(lag) and tr.controller is None and not tr.feedback
+            use = (runner or self.runners[t]) if late else self._runner(t, lag, runner)
             out = use.run([models[i] for i in idx], [initials[i] for i in idx],
                           [laws[i] for i in idx], self.fine, self.refine,
                           [bases[i] for i in idx] if bases is not None else None)
             for i, ro in zip(idx, out, strict=True):
-                ros[i] = ro
+                ros[i] = recorded_late(ro, tr.time, lag) if late else ro
         for zero, ro in zip(zeros, ros, strict=True):
             if np.any(zero):
                 ro.positions = ro.positions + zero

@@ -146,6 +146,23 @@ def measured_samples(traj: Trajectory) -> np.ndarray:
     return u
 
 
+def recorded_late(ro: Rollout, time: np.ndarray, lag: Sequence[float]) -> Rollout:
+    """``ro`` as a position sensor ``lag`` seconds late (per joint) records it: the reading
+    at t is the replayed position at t - lag (a cubic through the samples), and before
+    the run's start, where the record holds no effort that moved the joint, the position
+    it starts from. A late position is the effort read early: shifting the effort instead
+    would set the joint moving ``lag`` before its recorded start, and where a load
+    (gravity) acts from the start, its swing then runs a lag's phase ahead for good."""
+    from scipy.interpolate import CubicSpline
+
+    q = ro.positions.copy()
+    for k, d in enumerate(lag):
+        if d and len(time) >= 2:
+            at = np.maximum(time - d, time[0])
+            q[:, k] = CubicSpline(time, ro.positions[:, k])(at)
+    return Rollout(q, ro.efforts)
+
+
 def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarray:
     """((n - 1) * nsub, joints) effort per simulation step, at each substep's midpoint:
     linear between samples (one step per interval: the mean of its two samples), or a
