@@ -159,11 +159,16 @@ class Evaluator:
             # a loop's law acts on the late positions, so there the effort is shifted
             late = any(lag) and tr.controller is None and not tr.feedback
             use = (runner or self.runners[t]) if late else self._runner(t, lag, runner)
-            out = use.run([models[i] for i in idx], [initials[i] for i in idx],
+            # the initial state stays the one read at the first sample; the replay starts
+            # where the joint then is, a lag on
+            starts = [{j: (q + v * lag[k], v) for k, (j, (q, v)) in
+                       enumerate(initials[i].items())} if late else initials[i] for i in idx]
+            out = use.run([models[i] for i in idx], starts,
                           [laws[i] for i in idx], self.fine, self.refine,
                           [bases[i] for i in idx] if bases is not None else None)
             for i, ro in zip(idx, out, strict=True):
-                ros[i] = recorded_late(ro, tr.time, lag) if late else ro
+                ros[i] = recorded_late(ro, tr.time, lag, [initials[i][j][1] for j in
+                                                          self.problem.joints]) if late else ro
         for zero, ro in zip(zeros, ros, strict=True):
             if np.any(zero):
                 ro.positions = ro.positions + zero
