@@ -155,9 +155,12 @@ class Evaluator:
             groups.setdefault(self.delays(self.split(x)[0]), []).append(i)
         tr = self.problem.trajectories[t]
         for lag, idx in groups.items():
-            # open loop, a lag is the position recorded late (the replay's output shifted);
-            # a loop's law acts on the late positions, so there the effort is shifted
-            late = any(lag) and tr.controller is None and not tr.feedback
+            # open loop, a lag beyond a sample interval is the position recorded late (the
+            # replay's output shifted); within one it is how the effort was held between
+            # samples (report._effort_holds), and a loop's law acts on the late positions:
+            # there the effort is shifted
+            late = any(abs(d) > tr.sample_period for d in lag) and \
+                tr.controller is None and not tr.feedback
             use = (runner or self.runners[t]) if late else self._runner(t, lag, runner)
             # the initial state stays the one read at the first sample; the replay starts
             # where the joint then is, a lag on
