@@ -122,6 +122,24 @@ def test_a_rotor_on_a_driven_lid_is_named_armature(tmp_path):
     assert report["holdout_rmse_after"] < report["holdout_rmse_before"]
 
 
+def test_a_late_position_sensor_on_a_lid_let_go_is_a_delay_alone(tmp_path):
+    """A position recorded late is the replay's output shifted: the lid (let go away from
+    its rest at the run's start, gravity loading it) starts swinging at its recorded
+    start, not a lag before it, whose phase error a Coulomb friction took up (seed 137:
+    was `friction, effort_delay`)."""
+    from real2code_export.calibrate import calibrate
+
+    case = make(137)
+    assert case.expected_causes() == {"effort_delay"}
+    fit, held = case.write(tmp_path)
+    report = calibrate(case.obj, [fit], [held]).report
+    assert report["causes"] == ["effort_delay"], report["selection_log"]
+    delay = report["parameters"][f"{case.joint}.effort_delay"]
+    truth = case.truth["effort_delay"]["effort_delay"]
+    assert abs(delay["value"] - truth) <= delay["halfwidth95"]
+    assert report["holdout_rmse_after"] < 0.2 * report["holdout_rmse_before"]
+
+
 def test_declared_loop_reproduces_its_effort():
     """The declared feedback law, applied to the recorded positions, gives the recorded
     effort (up to the effort sensor's noise): the experiment file says what happened."""

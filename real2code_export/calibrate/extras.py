@@ -10,7 +10,7 @@ replay of the object (calibrated or not) applies them:
             "limit": {"timeconst": tc, "dampratio": z},       # MJCF solreflimit
             "friction": {"timeconst": tc, "dampratio": 1.0},  # MJCF solreffriction
             "encoder_offset": {"position": d},                # the sensor reads q + d
-            "effort_delay": {"seconds": s},                   # effort felt s after recorded
+            "effort_delay": {"seconds": s},                   # position read s late (open loop)
         }, ...}
 
 The force law for a simulator without these attributes (MuJoCo: ``qfrc_applied``):

@@ -15,7 +15,7 @@ import numpy as np
 
 from .effects import Effect
 from .problem import Problem
-from .simulate import MAX_TIMESTEP, AppliedLaw, BatchRunner, Rollout, compile_spec
+from .simulate import MAX_TIMESTEP, AppliedLaw, BatchRunner, Rollout, compile_spec, recorded_late
 
 FD_STEP = 3e-4  # forward-difference step, relative to each parameter's scale
 # Multiple shooting: a gap of one noise deviation between a piece's replayed end and the
@@ -153,13 +153,25 @@ class Evaluator:
         groups: dict[tuple, list[int]] = {}
         for i, x in enumerate(points):  # points with one lag replay one input
             groups.setdefault(self.delays(self.split(x)[0]), []).append(i)
+        tr = self.problem.trajectories[t]
         for lag, idx in groups.items():
-            use = self._runner(t, lag, runner)
-            out = use.run([models[i] for i in idx], [initials[i] for i in idx],
+            # open loop, a lag beyond a sample interval is the position recorded late (the
+            # replay's output shifted); within one it is how the effort was held between
+            # samples (report._effort_holds), and a loop's law acts on the late positions:
+            # there the effort is shifted
+            late = any(abs(d) > tr.sample_period for d in lag) and \
+                tr.controller is None and not tr.feedback
+            use = (runner or self.runners[t]) if late else self._runner(t, lag, runner)
+            # the initial state stays the one read at the first sample; the replay starts
+            # where the joint then is, a lag on
+            starts = [{j: (q + v * lag[k], v) for k, (j, (q, v)) in
+                       enumerate(initials[i].items())} if late else initials[i] for i in idx]
+            out = use.run([models[i] for i in idx], starts,
                           [laws[i] for i in idx], self.fine, self.refine,
                           [bases[i] for i in idx] if bases is not None else None)
             for i, ro in zip(idx, out, strict=True):
-                ros[i] = ro
+                ros[i] = recorded_late(ro, tr.time, lag, [initials[i][j][1] for j in
+                                                          self.problem.joints]) if late else ro
         for zero, ro in zip(zeros, ros, strict=True):
             if np.any(zero):
                 ro.positions = ro.positions + zero

@@ -146,6 +146,25 @@ def measured_samples(traj: Trajectory) -> np.ndarray:
     return u
 
 
+def recorded_late(ro: Rollout, time: np.ndarray, lag: Sequence[float],
+                  speed: Sequence[float]) -> Rollout:
+    """``ro`` as a position sensor ``lag`` seconds late (per joint) records it: the reading
+    at t is the replayed position at t - lag (linear between samples: a cubic rings
+    where dry friction stops the joint, a kink in its motion), and before
+    the replay's start the position it starts from, moving at the ``speed`` it starts
+    with (at rest: held there). A late position is the effort read early: shifting the
+    effort instead sets the joint moving a lag before its recorded start, and where a
+    load (gravity) acts from the start, its swing then runs a lag's phase ahead for good."""
+    q = ro.positions.copy()
+    for k, d in enumerate(lag):
+        if d and len(time) >= 2:
+            at = time - d
+            before = at < time[0]
+            q[:, k] = np.interp(at, time, ro.positions[:, k])
+            q[before, k] = ro.positions[0, k] + speed[k] * (at[before] - time[0])
+    return Rollout(q, ro.efforts)
+
+
 def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarray:
     """((n - 1) * nsub, joints) effort per simulation step, at each substep's midpoint:
     linear between samples (one step per interval: the mean of its two samples), or a
