@@ -23,6 +23,7 @@ import numpy as np
 from .errors import FormatError, NoTrianglesError, warn
 from .meshtopology import used_indices
 from .model import RGBA, ArticulatedObject, Mesh, Part, Texture
+from .placements import placed_pieces, shared_assets, whole_placement
 
 
 class MeshFile(NamedTuple):
@@ -175,8 +176,6 @@ class MeshLayout:
     reads the same numbers back from the same files."""
 
     def __init__(self, obj: ArticulatedObject) -> None:
-        from .placements import placed_pieces, shared_assets, whole_placement
-
         shared = shared_assets(obj)
         taken = {rel for part in obj.parts
                  for rel in [r for r, _, _ in visual_color_files(part)]
