@@ -45,7 +45,7 @@ def survey(path: Path) -> dict:
             else:
                 crossing += 1
         unplaced += len(own.faces) - sum(len(p.asset.faces) for p in own.placements)
-    written = MeshLayout(obj).files(obj)
+    written = MeshLayout(obj).files()
     return {"file": path.name, "read_s": round(seconds, 2), "parts": len(obj.parts),
             "mesh_files_merged": files, "mesh_files_written": len(written),
             "faces_in_files_written": sum(len(m.faces) for m, _ in written.values()), "visuals_of_several_colours": several_colours,

@@ -176,6 +176,7 @@ class MeshLayout:
     reads the same numbers back from the same files."""
 
     def __init__(self, obj: ArticulatedObject) -> None:
+        self.obj = obj
         shared = shared_assets(obj)
         taken = {rel for part in obj.parts
                  for rel in [r for r, _, _ in visual_color_files(part)]
@@ -221,18 +222,18 @@ class MeshLayout:
         return [(g, True) for g in self.visuals[part.name]] + [
             (g, False) for _, g in self.collisions[part.name]]
 
-    def files(self, obj: ArticulatedObject) -> dict[str, tuple[Mesh, str | None]]:
+    def files(self) -> dict[str, tuple[Mesh, str | None]]:
         """relpath -> (the mesh it holds, the material it names: a textured visual's), each
         file once (an asset placed several times is one file)."""
         out: dict[str, tuple[Mesh, str | None]] = {}
-        for part in obj.parts:
+        for part in self.obj.parts:
             material = part.name if part.texture is not None else None
             for g, visual in self.geometries(part):
                 out.setdefault(g.relpath, (g.mesh, material if visual and g.pose is None
                                            else None))
         return out
 
-    def shared_files(self, obj: ArticulatedObject) -> dict[str, str]:
+    def shared_files(self) -> dict[str, str]:
         """Each mesh file an export writes (relpath) -> the first in part order holding the
         same mesh, itself where none before it does: a format that may name one file for
         several geometries (MJCF, URDF) names that one, so its tools read and compile each
@@ -240,7 +241,7 @@ class MeshLayout:
         part's visual)."""
         first: dict[tuple, str] = {}
         return {rel: first.setdefault((material, _digest(mesh)), rel)
-                for rel, (mesh, material) in self.files(obj).items()}
+                for rel, (mesh, material) in self.files().items()}
 
 
 def _placed_visual_name(part_name: str, k: int) -> str:
@@ -251,7 +252,7 @@ def _placed_visual_name(part_name: str, k: int) -> str:
 
 def shared_mesh_files(obj: ArticulatedObject) -> dict[str, str]:
     """:meth:`MeshLayout.shared_files` of the object's layout."""
-    return MeshLayout(obj).shared_files(obj)
+    return MeshLayout(obj).shared_files()
 
 
 def _digest(mesh: Mesh) -> bytes:
@@ -265,13 +266,13 @@ def _digest(mesh: Mesh) -> bytes:
     return h.digest()
 
 
-def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = False,
-                        layout: MeshLayout | None = None) -> dict[str, Path]:
+def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = False
+                        ) -> dict[str, Path]:
     """Write every distinct mesh file of ``obj``'s :class:`MeshLayout` under ``out_dir`` (an
     asset placed several times once; a mesh equal to one before it not again: every format
     names the first, :meth:`MeshLayout.shared_files`), a textured part's visual with its
     MTL and image beside it; returns relpath -> absolute path."""
-    layout = MeshLayout(obj) if layout is None else layout
+    layout = MeshLayout(obj)
     written = {}
 
     def put(rel: str, data: bytes) -> None:
@@ -280,8 +281,8 @@ def write_object_meshes(obj: ArticulatedObject, out_dir: Path, exact: bool = Fal
         path.write_bytes(data)
         written[rel] = path
 
-    shared = layout.shared_files(obj)
-    for rel, (mesh, material) in layout.files(obj).items():
+    shared = layout.shared_files()
+    for rel, (mesh, material) in layout.files().items():
         if shared[rel] == rel:  # (a mesh equal to one before it: that file serves both)
             put(rel, obj_bytes(mesh, exact, material))
     for part in obj.parts:

@@ -1001,25 +1001,33 @@ def test_a_mesh_file_of_vertices_only_is_their_convex_hull_as_in_mujoco(tmp_path
         load_any(empty / "cloud.xml")
 
 
-def test_a_mesh_used_by_several_geoms_is_one_placed_asset(tmp_path):
-    """A mesh asset used by several geoms (two in one body, one in another, as a robot's
-    wheels and bolts are) reads as one asset placed at each geom's pose (Mesh.placements):
-    the USD export writes its data once and places it by reference, and reads back equal."""
+def _bolts(tmp_path, box: bool = False) -> ArticulatedObject:
+    """An MJCF whose one mesh (a bolt) three geoms use, two in one body (red, blue) and one
+    in another (and, ``box``, a box geom beside them), read: one asset placed six times
+    (three visuals, three colliders)."""
     (tmp_path / "bolt.obj").write_text(trimesh.exchange.obj.export_obj(
         trimesh.creation.box(extents=(0.02, 0.03, 0.05)), include_normals=False))
+    extra = '    <geom type="box" size="0.01 0.01 0.01" pos="0 0 -0.1"/>\n' if box else ""
     path = write(tmp_path / "bolts.xml", """<mujoco>
   <asset><mesh name="bolt" file="bolt.obj"/></asset>
   <worldbody><body name="base">
     <geom type="mesh" mesh="bolt" pos="0.1 0 0" euler="0 0 30" rgba="1 0 0 1"/>
     <geom type="mesh" mesh="bolt" pos="-0.1 0 0" rgba="0 0 1 1"/>
-    <body name="arm" pos="0 0 0.2"><joint name="hinge" axis="0 0 1" range="-1 1"/>
+""" + extra + """    <body name="arm" pos="0 0 0.2"><joint name="hinge" axis="0 0 1" range="-1 1"/>
       <geom type="mesh" mesh="bolt" pos="0 0.1 0" euler="90 0 0" mass="0.1"/>
     </body></body></worldbody>
 </mujoco>
 """)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", Real2CodeWarning)
-        obj = mjcf.load(path)
+        return mjcf.load(path)
+
+
+def test_a_mesh_used_by_several_geoms_is_one_placed_asset(tmp_path):
+    """A mesh asset used by several geoms (two in one body, one in another, as a robot's
+    wheels and bolts are) reads as one asset placed at each geom's pose (Mesh.placements):
+    the USD export writes its data once and places it by reference, and reads back equal."""
+    obj = _bolts(tmp_path)
     placements = [p for part in obj.parts for m in [part.visual, *part.collision]
                   if m is not None for p in m.placements]
     assert len(placements) == 6  # 3 visuals, 3 colliders
@@ -1048,22 +1056,7 @@ def test_a_mesh_used_by_several_geoms_is_one_file_in_every_file_format(tmp_path)
     one meshes/ folder): the asset is one file, each placement a geom / <visual> /
     <collision> / entry naming it at its pose; each reads back equal, the asset placed again
     (so written so again: a second export gives the same bytes); object.json bit for bit."""
-    (tmp_path / "bolt.obj").write_text(trimesh.exchange.obj.export_obj(
-        trimesh.creation.box(extents=(0.02, 0.03, 0.05)), include_normals=False))
-    path = write(tmp_path / "bolts.xml", """<mujoco>
-  <asset><mesh name="bolt" file="bolt.obj"/></asset>
-  <worldbody><body name="base">
-    <geom type="mesh" mesh="bolt" pos="0.1 0 0" euler="0 0 30" rgba="1 0 0 1"/>
-    <geom type="mesh" mesh="bolt" pos="-0.1 0 0" rgba="0 0 1 1"/>
-    <geom type="box" size="0.01 0.01 0.01" pos="0 0 -0.1"/>
-    <body name="arm" pos="0 0 0.2"><joint name="hinge" axis="0 0 1" range="-1 1"/>
-      <geom type="mesh" mesh="bolt" pos="0 0.1 0" euler="90 0 0" mass="0.1"/>
-    </body></body></worldbody>
-</mujoco>
-""")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", Real2CodeWarning)
-        obj = mjcf.load(path)
+    obj = _bolts(tmp_path, box=True)
     written = export(obj, tmp_path / "out", ["mjcf", "urdf", "json"])
     meshes = sorted(p.name for p in (tmp_path / "out" / "meshes").iterdir())
     assert meshes == ["base_mesh_0.obj"], meshes  # 3 visuals and 3 colliders place it
@@ -1097,21 +1090,7 @@ def test_a_mesh_used_by_several_geoms_is_instanced_by_glTF_nodes(tmp_path):
 
     from real2code_export.formats.gltf import validator as gltf_validator
 
-    (tmp_path / "bolt.obj").write_text(trimesh.exchange.obj.export_obj(
-        trimesh.creation.box(extents=(0.02, 0.03, 0.05)), include_normals=False))
-    path = write(tmp_path / "bolts.xml", """<mujoco>
-  <asset><mesh name="bolt" file="bolt.obj"/></asset>
-  <worldbody><body name="base">
-    <geom type="mesh" mesh="bolt" pos="0.1 0 0" euler="0 0 30" rgba="1 0 0 1"/>
-    <geom type="mesh" mesh="bolt" pos="-0.1 0 0" rgba="0 0 1 1"/>
-    <body name="arm" pos="0 0 0.2"><joint name="hinge" axis="0 0 1" range="-1 1"/>
-      <geom type="mesh" mesh="bolt" pos="0 0.1 0" euler="90 0 0" mass="0.1"/>
-    </body></body></worldbody>
-</mujoco>
-""")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", Real2CodeWarning)
-        obj = mjcf.load(path)
+    obj = _bolts(tmp_path)
     glb = export(obj, tmp_path / "out", ["gltf"])["gltf"]
     data = glb.read_bytes()
     doc = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])

@@ -86,7 +86,7 @@ def _visual_files(part: Part, layout: MeshLayout,
 
 def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
     parts, layout = [], MeshLayout(obj)
-    shared = layout.shared_files(obj)  # equal meshes: one file
+    shared = layout.shared_files()  # equal meshes: one file
     for p in obj.parts:
         meshes = dict(layout.collisions[p.name])
         parts.append(

@@ -243,7 +243,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     # asset is what a URDF of the same meshes gives MuJoCo (its mesh cache serves both), and
     # with inertiafromgeom off the mode only places the mesh in its geom.
     layout = MeshLayout(obj)
-    shared = layout.shared_files(obj)
+    shared = layout.shared_files()
     colliding = {shared[g.relpath] for part in parts for g, visual in layout.geometries(part)
                  if not visual}
     declared = set()

@@ -88,7 +88,7 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
     for key, value in MUJOCO_COMPILER:
         compiler.set(key, value)
     layout = MeshLayout(obj)  # an asset placed several times: one file, at each origin
-    shared = layout.shared_files(obj)  # equal meshes: one file, read and compiled once
+    shared = layout.shared_files()  # equal meshes: one file, read and compiled once
     for part in obj.parts:
         robot.append(_link(part, layout, shared))
     as_meshes = shape_mesh_files(obj)
