@@ -59,6 +59,8 @@ class CompartmentOptions:
     # share of them and this many, at the face or out of it, with outlines apart on the
     # face, is two parts (two drawers pulled out by different lengths); a drawer left in
     # the carcass's label is found by a front of this many points level with a sibling's
+    front_span: float = 0.5  # a sibling's front spans at least this share of the part's
+    # front's lesser span on the face both ways (not a rim's edge strip)
     seam_step_voxels: float = 0.5  # two fronts side by side, each flat, at depths this many
     # spacings apart, on either side of a straight seam, are two parts too (two drawers
     # pulled out by lengths a centimetre or two apart)
@@ -67,27 +69,28 @@ class CompartmentOptions:
     # this share of its points on the box's sides around the face, is the carcass's shell
 
 
-def carcass_box(points: np.ndarray, voxel: float):
-    """The carcass's box (:func:`part_obb`) without the few points the masks gave it past
-    its walls. Its sides are where its surfaces lie: along each axis of its box, at most a
-    spacing past the point with a row of points across the box (its shortest side's
-    length in spacings) beyond it; fewer points farther out (the edge of a drawer's front
-    or a handle labelled carcass) do not move it. The whole box follows its outermost
-    points: on a procedural cabinet 11 of 13,186 carcass points, the edge of an open
-    drawer's front, stood 16 cm in front of its face, and four drawers in their openings
-    read as compartments 7 cm behind that false face (:func:`return_enclosed`)."""
-    body = part_obb(points)
-    local = (points - body.center) @ body.R
-    keep = np.ones(len(points), dtype=bool)
-    for a in range(3):
-        across = 2.0 * min(body.extent[b] for b in range(3) if b != a)
-        row = max(int(across / voxel), 1)
-        if len(points) <= 2 * row:
-            continue
-        x = np.sort(local[:, a])
-        keep &= (local[:, a] >= x[row - 1] - voxel) & (local[:, a] <= x[-row] + voxel)
-    return body if keep.all() else part_obb(points[keep])
+def carcass_box(points: np.ndarray, voxel: float,
+                options: CompartmentOptions = CompartmentOptions()):
+    """The carcass's box (:func:`part_obb`) without the stray pieces the masks gave it: its
+    points linked (within ``panel_link_voxels`` spacings) into pieces, those with fewer
+    points than a row across the box's shortest side (in spacings) left out. Such a piece
+    hangs on no carcass surface (the edge of a drawer's front or a handle labelled
+    carcass, standing out with the part it belongs to), and the whole box follows its
+    outermost points: on a procedural cabinet 11 of 13,186 carcass points, the edge of an
+    open drawer's front, stood 16 cm in front of its face, and four drawers in their
+    openings read as compartments 7 cm behind that false face (:func:`return_enclosed`).
+    A carcass's own surface past its walls (a fridge's back seen edge-on) is linked to
+    them and stays."""
+    from .segment.pieces import linked_components
 
+    body = part_obb(points)
+    row = max(int(2.0 * float(body.extent.min()) / voxel), 1)
+    piece = linked_components(points, options.panel_link_voxels * voxel)
+    sizes = np.bincount(piece)
+    keep = sizes[piece] >= row
+    if keep.all() or np.count_nonzero(keep) < 4:
+        return body
+    return part_obb(points[keep])
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
@@ -157,7 +160,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         panel = turned_panel(cloud[index], body, voxel, options,
@@ -212,7 +215,7 @@ def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved = []
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     panels, own = {}, np.zeros(len(cloud), dtype=bool)  # own: on its own label's open panel
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
@@ -318,7 +321,7 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = labels == 1
     if normals is None or labels.max() < 2 or np.count_nonzero(carcass) < 4:
         return out, moved
-    body = carcass_box(cloud[carcass], voxel)
+    body = carcass_box(cloud[carcass], voxel, options)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     margin = options.wall_margin_voxels * voxel
@@ -387,7 +390,7 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = labels == 1
     if labels.max() < 2 or np.count_nonzero(carcass) < 4:
         return out, moved
-    body = carcass_box(cloud[carcass], voxel)
+    body = carcass_box(cloud[carcass], voxel, options)
     margin = options.enclosed_margin_voxels * voxel
     local = (cloud - body.center) @ body.R
     parts = [k for k in range(2, int(labels.max()) + 1) if np.any(labels == k)]
@@ -482,7 +485,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     sizes = np.bincount(labels)
     parts = [k for k in np.argsort(sizes, kind="stable") if k >= 2 and sizes[k] >= 4]
     boxes = {k: _box(cloud[labels == k]) for k in parts}
@@ -512,7 +515,10 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     (not of their extent: a label of a few strays spread across the whole box has an
     extent that takes in any drawer); right behind: its front (the points but the ``1 - enclosed_inside`` foremost) no more
     than ``behind_voxels`` spacings behind the face (what lies deeper is the carcass's
-    inside, :func:`return_enclosed`); in the box: at least half its points. A front is no
+    inside, :func:`return_enclosed`); deeper in the box than the front (more of its points
+    in it: a drawer pulled out past half its depth keeps less than half its body in the
+    box; a procedural cabinet's such drawer stood 30 % in once the box left out a stray
+    piece of 7 points, :func:`carcass_box`). A front is no
     swung panel (:func:`turned_panel`, with the measured ``normals`` where given): a drawer
     barely open below a door swung 40 degrees lies within the door's outline. A
     closed part beside an open one is not in its outline; the carcass's rim around an
@@ -524,7 +530,7 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     local = (cloud - body.center) @ body.R
     margin = options.enclosed_margin_voxels * voxel
     parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
@@ -534,8 +540,6 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                                  None if normals is None else normals[labels == k]) is None]
     grow = options.nested_margin_voxels * voxel
     for k in parts:
-        if inside[k] < 0.5:
-            continue
         points = local[labels == k]
         for front in (f for f in standing if inside[f] < inside[k]):
             faces = open_faces(local, labels, body.extent, margin, [front])
@@ -595,7 +599,7 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     apart = options.nested_margin_voxels * voxel
@@ -731,7 +735,7 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     local = (cloud - body.center) @ body.R
     margin = options.enclosed_margin_voxels * voxel
     for k, index, (a, sign), inside in _standing(cloud, labels, body, local, voxel, options,
@@ -771,7 +775,9 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     its points facing along the axis on that side). Level: within ``behind_voxels``
     spacings of it; each piece of them (points linked within ``panel_link_voxels``
     spacings) of at least ``front_points`` points, away from the part's own front on the
-    face (:func:`_on_own_front`), is a front. Behind it: the carcass's points within its outline on the face
+    face (:func:`_on_own_front`), as tall and as wide as ``front_span`` of the part's
+    front's lesser span on the face (a table top's front edge level with a drawer pulled
+    out, 3 cm tall, is no drawer front 9 cm tall), is a front. Behind it: the carcass's points within its outline on the face
     (``enclosed_margin_voxels`` spacings) as deep as the part reaches along the axis; at
     most twice the part's points, as a sibling drawer is (a table top's edge level with the
     fronts has the whole top behind it). A turned panel is no drawer and finds nothing; nor
@@ -788,7 +794,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = np.nonzero(labels == 1)[0]
     if normals is None or labels.max() < 2 or len(carcass) < 4:
         return out, moved
-    body = carcass_box(cloud[carcass], voxel)
+    body = carcass_box(cloud[carcass], voxel, options)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     behind = options.behind_voxels * voxel
@@ -823,7 +829,9 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 for p in range(int(piece.max()) + 1):
                     members = level[piece == p]
                     if len(members) < options.front_points or _on_own_front(
-                            local[members][:, across], own, apart, options):
+                            local[members][:, across], own, apart, options) or np.ptp(
+                            local[members][:, across], axis=0).min() < options.front_span \
+                            * np.ptp(local[facing][:, across], axis=0).min():
                         continue
                     free = np.nonzero(out == 1)[0]
                     depth = sign * local[free, a]
