@@ -42,7 +42,8 @@ REFINE = 4
 # several such parts (an interval's edge is 3.84), so the rest would move no decision.
 STOP_SHARE = 0.01
 # A stop's softness (MuJoCo's solreflimit) has local minima: it starts from the best of
-# this grid (time constants a factor of two to two and a half apart).
+# this grid (time constants a factor of two to two and a half apart, and the time
+# constant's upper bound: a soft stop with its edge inward is a valley of its own).
 SOFTNESS_TIMECONSTS = (0.002, 0.004, 0.008, 0.016, 0.04)
 SOFTNESS_DAMPRATIOS = (0.25, 0.6, 1.2, 2.5)
 # A stop's fit leaving this many noise variances per sample gets a second start from the
@@ -321,7 +322,7 @@ def _start_limit_softness(ev: Evaluator, params, x0: np.ndarray, scales: np.ndar
     if not idx_tc:
         return x0
     points = [x0.copy()]
-    for tc in SOFTNESS_TIMECONSTS:
+    for tc in (*SOFTNESS_TIMECONSTS, math.inf):  # (inf: each one's upper bound)
         for dr in SOFTNESS_DAMPRATIOS:
             x = x0.copy()
             for i in idx_tc:

@@ -19,6 +19,7 @@ from .windows import window
 # A run is predicted from its opening: this share of it fits its initial state ...
 PREDICT_SHARE = 0.25
 PREDICT_NFEV = 8  # ... in at most this many evaluations (two values a run, started near)
+ALIKE = 1e-9  # relative: replays closer than this are the same motion's
 
 
 def initial_values(fit: Fit | None) -> dict[str, float]:
@@ -50,13 +51,34 @@ def predict_beside(nominal_obj: ArticulatedObject, calibrated_obj: ArticulatedOb
     model's :func:`predict` of them) and the nominal prediction to compare it with: both
     replayed at one step, so that what the model changes is compared, not two steps'
     errors (a stop the runs come near but never reach makes the calibrated replay step
-    finely and changes nothing else)."""
+    finely and changes nothing else). A run whose opening the two models replay alike from
+    the nominal initial state keeps that state: the same opening fits the same state, and a
+    refit from it would move it by the optimiser's tolerance and judge that, not the model
+    (a stop reached only later, or never)."""
     trajectories = list(trajectories)
-    calibrated = predict(calibrated_obj, trajectories, nominal)
-    if calibrated.solution.ev.fine and not nominal.solution.ev.fine:
+    same = replay_from(calibrated_obj, trajectories, nominal.initial)
+    if same.solution.ev.fine and not nominal.solution.ev.fine:
         again = replay_from(nominal_obj, trajectories, nominal.initial, fine=True)
         nominal = dataclasses.replace(again, rollouts=nominal.rollouts + again.rollouts)
-    return nominal, calibrated
+    alike = [_alike(opening_samples(tr), a.positions, b.positions) for tr, a, b in
+             zip(trajectories, nominal.simulated, same.simulated, strict=True)]
+    if all(alike):
+        return nominal, same
+    calibrated = predict(calibrated_obj, trajectories, nominal)
+    if any(alike):
+        initial = [x0 if keep else x for keep, x0, x in
+                   zip(alike, nominal.initial, calibrated.initial, strict=True)]
+        again = replay_from(calibrated_obj, trajectories, initial)
+        calibrated = dataclasses.replace(again, rollouts=calibrated.rollouts + again.rollouts)
+    return nominal, dataclasses.replace(calibrated,
+                                        rollouts=calibrated.rollouts + same.rollouts)
+
+
+def _alike(n: int, a: np.ndarray, b: np.ndarray) -> bool:
+    """Two replays' first ``n`` samples the same motion, to round-off."""
+    a, b = a[:n], b[:n]
+    scale = max(float(np.max(np.abs(a))), 1.0)
+    return bool(np.max(np.abs(a - b)) <= ALIKE * scale)
 
 
 def replay_from(obj: ArticulatedObject, trajectories: list[Trajectory],
@@ -77,3 +99,11 @@ def opening(tr: Trajectory) -> Trajectory:
     if tr.controller is not None or np.searchsorted(tr.time, end) < 2 * MIN_SAMPLES:
         return tr
     return window(tr, None, end)
+
+
+def opening_samples(tr: Trajectory) -> int:
+    """How many of ``tr``'s first samples :func:`opening` keeps."""
+    end = tr.time[0] + max(PREDICT_SHARE * tr.duration, CREEP_SECONDS)
+    if tr.controller is not None or np.searchsorted(tr.time, end) < 2 * MIN_SAMPLES:
+        return tr.n
+    return int(np.count_nonzero(tr.time <= end + 1e-12))

@@ -123,6 +123,7 @@ def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFEC
                 screened[_key(p)] = equation_fit(problem, p)
         n_ref = _n_ref(screened.values())
         here = screened[_key(current)]
+        material = MATERIAL * _noise_share(problem, screened.values())
         kept = None
         for p in sorted(proposals, key=lambda p: screened[_key(p)].bic(n_ref)):
             ef = screened[_key(p)]
@@ -132,7 +133,7 @@ def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFEC
             if ef.degenerate(DEGENERATE):
                 log.append(f"tried {label}: BIC {ef.bic(n_ref):.1f}, two effects explain "
                            "the same thing")
-            elif all(ef.present(e, MATERIAL) for e in ef.effects):
+            elif all(ef.present(e, material) for e in ef.effects):
                 log.append(f"tried {label}: BIC {ef.bic(n_ref):.1f}")
                 kept = p
                 break
@@ -147,6 +148,19 @@ def effort_search(problem: Problem, log: list[str], max_effects: int = MAX_EFFEC
         path.append(kept)
         log.append(f"kept {'+'.join(screened[_key(current)].names)}")
     return path, screened
+
+
+def _noise_share(problem: Problem, screened) -> float:
+    """The share of the effort noise, as the equation assumes it (the sensor's, smoothed
+    as white noise is), that the data leave room for: at most the best-fitting structure's
+    residual (noise and what it misses). A loop's effort noise is its reaction to the
+    encoder's, not white: smoothed, it falls further than white noise does, and effects
+    measured against the assumed noise would all look smaller than a deviation."""
+    d = design(problem, ())
+    if not len(d.noise):
+        return 1.0
+    best = min(ef.rss / ef.n for ef in screened if ef.n)
+    return min(1.0, math.sqrt(best / float(np.mean(d.noise ** 2))))
 
 
 # Where no replay can judge the structures (below), the selection is made and its values
