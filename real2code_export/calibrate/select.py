@@ -298,6 +298,41 @@ def _try_aliases(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit
     return best
 
 
+def _slope_earned(problem: Problem, kept: Fit, fits: dict, log: list[str]) -> Fit:
+    """A spring is a constant force plus a slope over the positions the runs visit: where
+    the same structure with a constant force in its place (fitted, all its effects there)
+    leaves the motion within MATERIAL noise deviations of the spring's fit, the slope is
+    not material and the constant force is kept, one parameter fewer (a loop that moves a
+    drawer little, or holds it: what its process noise lends a slope is no spring). Judged
+    on the motion only: a declared loop's effort is the law's output on the same noisy
+    positions, and its misfit in the effort sensor's noise counts the position's misfit
+    again, amplified by the loop's gain."""
+    best = kept
+    for e in kept.effects:
+        lib = problem.effects[e.joint]
+        if e.name != "spring" or "offset" not in lib or any(
+                x.joint == e.joint and x.name == "offset" for x in best.effects):
+            continue
+        swapped = tuple(x for x in best.effects if x is not e) + (lib["offset"],)
+        f = fits.get(_key(swapped))
+        if f is None:
+            f = fit_candidate(problem, swapped, refine=False, warm=dict(best.values))
+            fits[_key(swapped)] = f
+        gained = math.sqrt(max(f.rss - best.rss, 0.0) / best.n)
+        if gained >= MATERIAL:
+            continue
+        f = refine_fit(f)
+        fits[_key(swapped)] = f
+        n_ref = _n_ref(fits.values())
+        if f.degenerate() or not all(_there(f, x, fits, n_ref) for x in f.effects):
+            continue
+        log.append(f"the spring of {'+'.join(best.names)} explains {gained:.2f} noise "
+                   f"deviations of the motion beyond a constant force ({'+'.join(f.names)}, "
+                   "refitted): its slope is not material, the constant force kept")
+        best = f
+    return best
+
+
 def _reduced(f: Fit, e: Effect, lib: dict) -> tuple[str, ...]:
     """The simpler effect ``e`` of fit ``f`` is where its extra parameters are found
     absent: inertia that leaves the first moment as it was (its mass scale within its
@@ -691,6 +726,7 @@ def select(problem: Problem, screen_top: int = SCREEN_TOP,
                        "earns its parameters")
             break
         current = _try_aliases(problem, kept, fits, log)
+        current = _slope_earned(problem, current, fits, log)
         log.append(f"kept {'+'.join(current.names)}")
         if _nothing_left(current):
             log.append(f"residual {math.sqrt(current.rss / current.n):.2f} x noise: nothing "
