@@ -226,6 +226,47 @@ def test_declared_loop_replays_are_the_stepwise_replay(tmp_path):
     assert np.ptp(together[0].positions - together[1].positions) > 1e-3  # they differ
 
 
+def test_a_noisy_loops_replay_applies_its_clipped_commands_mean(tmp_path):
+    """A loop on a noisy encoder clips a noisy command: the replay applies the clipped
+    command's mean under the command's noise (the encoder's through the law), the same in
+    the batch of plain floats as in the general controller; far from the limits, the law."""
+    from real2code_export.calibrate.feedback import clipped_mean
+    from real2code_export.calibrate.problem import build_problem
+    from real2code_export.calibrate.residuals import build_model
+    from real2code_export.calibrate.simulate import declared_loop, rollout
+    from real2code_export.calibrate.trajectory import read_all
+
+    rng = np.random.default_rng(3)
+    u = np.array([-1.3, -1.02, -0.97, 0.0, 0.95, 1.0, 1.1])
+    draws = np.clip(u[:, None] + rng.normal(0.0, 0.1, (len(u), 200_000)), -1.0, 1.0)
+    np.testing.assert_allclose(clipped_mean(u, -1.0, 1.0, 0.1), draws.mean(axis=1),
+                               atol=1e-3)
+    assert clipped_mean(0.0, -1.0, 1.0, 0.1) == pytest.approx(0.0, abs=1e-12)
+    assert clipped_mean(0.99, -1.0, 1.0, 0.1) < 0.96  # the clipped noise pulls it in
+
+    obj, joint, t, q, ref, u, law = _pd_drawer(5, damping=4.0, duration=1.0)
+    csv = _write_loop(tmp_path, joint, t, q, ref, u, law, "saturation = [-0.05, 0.05]\n")
+    plain, = read_all([csv], obj)
+    noisy = plain.with_encoder_noise()
+    fb = noisy.feedback[joint]
+    assert fb.encoder_noise > 0 and fb.command_noise(noisy.sample_period) > 0
+    assert plain.feedback[joint].encoder_noise == 0.0
+    runs = {}
+    for name, tr in (("plain", plain), ("noisy", noisy)):
+        problem = build_problem(obj, [tr])
+        model = build_model(problem, (), {})
+        x0 = {joint: (0.2, 0.0)}
+        got, = declared_loop([model], tr, [x0], [{}])
+        alone = rollout(model, tr, x0, {})
+        np.testing.assert_allclose(got.positions, alone.positions, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got.efforts, alone.efforts, rtol=0, atol=1e-12)
+        runs[name] = got
+    # where the command is clipped the noisy loop applies less
+    sat = np.abs(runs["plain"].efforts[:, 0]) >= 0.05 * law["gain"] * (1 - 1e-9)
+    assert sat.any()
+    assert np.all(np.abs(runs["noisy"].efforts[sat, 0]) <= 0.05 * law["gain"])
+
+
 def test_a_loop_that_forgets_its_start_ends_on_its_base(tmp_path):
     """A Jacobian's initial-state column: the same model replayed from a moved start. The
     loop forgets the move within its time constants; from there the replay is its base's

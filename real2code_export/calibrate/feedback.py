@@ -5,13 +5,25 @@ position, held over the sample interval:
     v_k = (q_k - q_{k-taps}) / (taps * h)
     u_k = kp * (r_k - q_k) - kd * v_k + added_k,  clipped to the saturation
     effort_k = gain * u_k
+
+A loop reads a noisy encoder: its command carries the law's reaction to that noise, and
+where the command is clipped the noisy command's mean is not the noiseless law's (near
+the limit the noise is clipped on one side only: the loop applies less than the law
+says). The replay, noiseless, applies that mean (``encoder_noise``, the position's own
+noise level, set from the data: :meth:`Trajectory.with_encoder_noise`); unclipped, the
+mean is the law itself.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import ndtr
+
+# command noise deviations from the limit beyond which the clipped mean is the clip itself
+CLIP_REACH = 8.0
 
 
 @dataclass(frozen=True)
@@ -23,6 +35,13 @@ class Feedback:
     added: str | None = None  # column added to the command
     saturation: tuple[float, float] | None = None
     gain: float = 1.0
+    encoder_noise: float = 0.0  # the position noise the loop reads (from the data)
+
+    def command_noise(self, period: float) -> float:
+        """The standard deviation of the command's reaction to the encoder's noise n:
+        -(kp + c) n_k + c n_(k-taps), c = kd / (taps * period)."""
+        c = self.kd / (max(self.velocity_taps, 1) * period)
+        return self.encoder_noise * math.hypot(self.kp + c, c)
 
     def command(self, k: int, q: np.ndarray, columns: dict[str, np.ndarray],
                 period: float) -> float:
@@ -38,9 +57,27 @@ class Feedback:
         u = self.kp * (columns[self.reference][k] - q[:, k]) - self.kd * v
         if self.added is not None:
             u = u + columns[self.added][k]
-        if self.saturation is not None:  # (the array's own clip: np.clip's wrapper costs
-            u = u.clip(self.saturation[0], self.saturation[1])  # more than the clipping)
+        if self.saturation is not None:
+            lo, hi = self.saturation
+            s = self.command_noise(period)
+            # (the array's own clip: np.clip's wrapper costs more than the clipping)
+            clipped = u.clip(lo, hi)
+            if s > 0:
+                near = (u < lo + CLIP_REACH * s) | (u > hi - CLIP_REACH * s)
+                if near.any():
+                    return np.where(near, clipped_mean(u, lo, hi, s), clipped)
+            return clipped
         return u
+
+
+def clipped_mean(u, lo: float, hi: float, s: float):
+    """E[clip(u + e, lo, hi)] for e ~ N(0, s^2) (arrays or floats)."""
+    a = (lo - u) / s
+    b = (hi - u) / s
+    pa, pb = ndtr(a), ndtr(b)
+    phi = 1.0 / math.sqrt(2.0 * math.pi)
+    return lo * pa + hi * (1.0 - pb) + u * (pb - pa) + \
+        s * phi * (np.exp(-0.5 * a * a) - np.exp(-0.5 * b * b))
 
 
 def controller(feedback: dict[str, Feedback], columns: dict[str, np.ndarray], period: float):

@@ -226,6 +226,8 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                            formats: Sequence[str] | None = None,
                            segment: float | None = None) -> CalibrationResult:
     """:func:`calibrate` on trajectories already in memory (adapters with a feedback law)."""
+    trajectories = [tr.with_encoder_noise() for tr in trajectories]
+    held = [tr.with_encoder_noise() for tr in held]
     whole = trajectories
     trajectories, excluded = leave_out_pushes(model, trajectories)
     held, held_excluded = leave_out_pushes(model, held)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .feedback import CLIP_REACH, clipped_mean
 from .trajectory import Trajectory
 
 # Largest step (s) where the dynamics are not smooth (dry friction, end stops); smooth
@@ -389,6 +390,10 @@ class _LoopTerms:
         self.added = [float(x) for x in columns[f.added]] if f.added is not None else None
         self.period = period
         self.lo, self.hi = f.saturation if f.saturation is not None else (None, None)
+        # the clipped command's mean under the encoder's noise (feedback.py), where the
+        # command comes within CLIP_REACH of its noise of a limit
+        self.s = f.command_noise(period)
+        self.reach = CLIP_REACH * self.s
 
     def effort(self, k: int, q: list[float]) -> float:
         f = self.f
@@ -398,7 +403,10 @@ class _LoopTerms:
         if self.added is not None:
             u = u + self.added[k]
         if self.lo is not None:
-            u = min(max(u, self.lo), self.hi)
+            if self.s > 0 and (u < self.lo + self.reach or u > self.hi - self.reach):
+                u = float(clipped_mean(u, self.lo, self.hi, self.s))
+            else:
+                u = min(max(u, self.lo), self.hi)
         return f.gain * u
 
     def replay(self, step, m, d, qadr: int, dof: int, const: float, q: list[float],
@@ -411,6 +419,9 @@ class _LoopTerms:
         f = self.f
         kp, kd, gain, vt, period = f.kp, f.kd, f.gain, f.velocity_taps, self.period
         ref, added, lo, hi = self.ref, self.added, self.lo, self.hi
+        s, reach = self.s, self.reach
+        near_lo = lo + reach if lo is not None else None
+        near_hi = hi - reach if hi is not None else None
         read, readv, qfrc = d.qpos.item, d.qvel.item, d.qfrc_applied
         substeps = range(nsub)
         last = len(q) - 1
@@ -425,7 +436,10 @@ class _LoopTerms:
             if added is not None:
                 c = c + added[i]
             if lo is not None:
-                c = min(max(c, lo), hi)
+                if s > 0 and (c < near_lo or c > near_hi):
+                    c = float(clipped_mean(c, lo, hi, s))
+                else:
+                    c = min(max(c, lo), hi)
             ui = gain * c
             u[i] = ui
             if i == last:

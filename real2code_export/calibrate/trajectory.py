@@ -11,7 +11,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import FormatError
 from ..model import ArticulatedObject
 from .experiment import Experiment, experiment_for
+from .features import noise_level
 from .feedback import Feedback
 from .feedback import controller as feedback_controller
 
@@ -64,6 +65,18 @@ class Trajectory:
         if self.feedback:
             return feedback_controller(self.feedback, self.columns, self.sample_period)
         return None
+
+    def with_encoder_noise(self) -> Trajectory:
+        """This run with each declared loop told the noise of the position it reads (its
+        own noise level, where not set): the replay applies the clipped command's mean
+        under it (feedback.py)."""
+        if not any(f.encoder_noise == 0 and j in self.positions
+                   for j, f in self.feedback.items()):
+            return self
+        return replace(self, feedback={
+            j: replace(f, encoder_noise=noise_level(self.positions[j]))
+            if f.encoder_noise == 0 and j in self.positions else f
+            for j, f in self.feedback.items()})
 
     @property
     def joints(self) -> list[str]:
