@@ -596,6 +596,43 @@ def test_a_drawers_body_behind_its_pulled_out_front_is_one_part_again():
     assert merge_behind(pushed, labels, 0.02)[1] == []
 
 
+
+def test_a_few_stray_points_do_not_move_the_carcass_box():
+    """Ten points of a drawer's front edge the masks gave the carcass, 30 cm in front of
+    it, linked to none of its surfaces: its box is the shell's. A bracket on its back,
+    linked to the back wall, is its own surface and stays in the box."""
+    from pipeline.compartments import carcass_box
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    shell = _open_box()
+    stray = _grid(0.0, 0.18, (0.6, 0.1, 0.0), y, z)[:10]
+    box = carcass_box(np.concatenate([shell, stray]), 0.02)
+    assert np.allclose(sorted(2 * box.extent), [0.6, 0.8, 0.8], atol=1e-6)
+    assert abs(box.center[0]) < 1e-6
+    bracket = _grid(0.1, 0.3, (-0.4, -0.15, -0.15), x, y)  # 10 cm behind the back wall
+    box = carcass_box(np.concatenate([shell, bracket]), 0.02)
+    assert np.isclose(2 * box.extent[np.argmax(np.abs(box.R[0]))], 0.7, atol=1e-6)
+
+
+def test_a_drawer_pulled_out_past_half_its_depth_is_one_part_again():
+    """Pulled out 35 cm of its 45, a drawer's body has most of its points out of the carcass's
+    box; still deeper in it than its front, within the front's outline: merged into it."""
+    from pipeline.compartments import merge_behind
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    front = _grid(0.3, 0.2, (0.65, 0.05, -0.3), y, z)
+    body = np.concatenate([_grid(0.45, 0.3, (0.2, 0.05, -0.3), x, y),
+                           _grid(0.45, 0.18, (0.2, 0.05, -0.28), x, z)])
+    cloud = np.concatenate([carcass, front, body])
+    n = np.cumsum([0, len(carcass), len(front), len(body)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]] = 3, 2
+    assert np.mean(cloud[n[2]:n[3], 0] <= 0.32) < 0.5
+    out, moved = merge_behind(cloud, labels, 0.02)
+    assert (out[n[1]:] == out[n[1]]).all() and (out[:n[1]] == 1).all()
+    assert moved == [{"part": 2, "points": len(body), "behind": 3}]
+
 def _facing(*pieces):
     """Points and their normals: (points, normal) pieces concatenated."""
     return (np.concatenate([p for p, _ in pieces]),
