@@ -583,7 +583,10 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     ``panel_min_angle``), grouped by depth along it (a gap of more than ``behind_voxels``
     spacings parts two groups); a group of at least ``front_share`` of them and
     ``front_points``, at the face or out of it (no more than ``behind_voxels`` spacings
-    behind it), is a front. A drawer's own back panel, seen past its front from above,
+    behind it), spanning more than ``behind_voxels`` spacings both ways across the face, is
+    a front (a door swung square to the face shows its edges there, strips a spacing or two
+    wide: a procedural refrigerator's door open 95 degrees was cut in two by its free edge
+    and its hinge's). A drawer's own back panel, seen past its front from above,
     faces the same way at another depth but lies within the front's outline on the face;
     two drawers' fronts lie apart on it (no more than ``1 - nested_share`` of the smaller's points within
     ``nested_margin_voxels`` spacings of the other's, seen across the face: their edges
@@ -615,7 +618,9 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         # at the face or out of it: a drawer's front, open or shut (not a back panel)
         fronts = [f for f in (facing[group == g] for g in range(len(bounds) - 1))
                   if len(f) >= least and float(np.median(sign * local[f, a]))
-                  >= body.extent[a] - options.behind_voxels * voxel]
+                  >= body.extent[a] - options.behind_voxels * voxel
+                  and np.ptp(local[f][:, across], axis=0).min()
+                  > options.behind_voxels * voxel]
         # fronts apart on the face: of the smaller, no more than 1 - nested_share near the
         # other (their edges touch); a back panel lies wholly within its front's outline
         kept: list[np.ndarray] = []

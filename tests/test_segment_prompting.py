@@ -671,6 +671,22 @@ def test_two_drawers_pulled_out_by_different_lengths_in_one_label_are_two_parts(
     assert split_fronts(alike, labels, 0.02, normals=normals)[1] == []
 
 
+def test_a_door_swung_square_to_the_face_is_not_split_at_its_edges():
+    """A door swung 95 degrees stands out past the carcass's front, its panel facing
+    sideways; its free edge and its hinge's strip face out of the face at two depths, 6 cm
+    apart on it, but each is a strip a spacing wide, no front: one part."""
+    from pipeline.compartments import split_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    panel = _grid(0.6, 0.7, (0.32, -0.41, -0.35), x, z)
+    free = _grid(0.02, 0.7, (0.92, -0.45, -0.35), y, z)
+    hinge = _grid(0.02, 0.7, (0.32, -0.37, -0.35), y, z)
+    cloud, normals = _facing((carcass, x), (panel, y), (free, x), (hinge, x))
+    labels = np.ones(len(cloud), int)
+    labels[len(carcass):] = 2
+    assert split_fronts(cloud, labels, 0.02, normals=normals)[1] == []
+
 def test_two_drawers_side_by_side_a_centimetre_and_a_half_apart_are_two_parts():
     """Two drawers side by side in one label, pulled out 10 and 11.5 cm: their fronts lie
     closer in depth than the grouping by depth parts (3 spacings), but a straight seam
