@@ -20,7 +20,7 @@ import numpy as np
 
 from .capture import Capture
 from .fuse import axis_mean, normal_map, point_map
-from .obb import part_obb
+from .obb import OBB, part_obb
 from .ransac import fit_plane
 from .segment.prompting import Segmentation, label_views, numbered_by_size
 
@@ -70,7 +70,7 @@ class CompartmentOptions:
 
 
 def carcass_box(points: np.ndarray, voxel: float,
-                options: CompartmentOptions = CompartmentOptions()):
+                options: CompartmentOptions = CompartmentOptions()) -> OBB:
     """The carcass's box (:func:`part_obb`) without the stray pieces the masks gave it: its
     points linked (within ``panel_link_voxels`` spacings) into pieces, those with fewer
     points than a row across the box's shortest side (in spacings) left out. Such a piece
@@ -91,6 +91,7 @@ def carcass_box(points: np.ndarray, voxel: float,
     if keep.all() or np.count_nonzero(keep) < 4:
         return body
     return part_obb(points[keep])
+
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
@@ -782,8 +783,9 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     spacings) of at least ``front_points`` points, away from the part's own front on the
     face (:func:`_on_own_front`), as tall and as wide as ``front_span`` of the part's
     front's lesser span on the face (a table top's front edge level with a drawer pulled
-    out, 3 cm tall, is no drawer front 9 cm tall), is a front. Behind it: the carcass's points within its outline on the face
-    (``enclosed_margin_voxels`` spacings) as deep as the part reaches along the axis; at
+    out, 3 cm tall, is no drawer front 9 cm tall), is a front. Behind it: the carcass's
+    points within its outline on the face (``enclosed_margin_voxels`` spacings) as deep as
+    the part reaches along the axis; at
     most twice the part's points, as a sibling drawer is (a table top's edge level with the
     fronts has the whole top behind it). A turned panel is no drawer and finds nothing; nor
     does a small piece of the carcass in a label of its own (what :func:`return_enclosed`
