@@ -182,15 +182,12 @@ def test_hidden_effect_suite():
                f"{s['noisy']}; outside: {s['outside']}; worse: {s['worse_cases']}")
     print(summary)
     assert s["quiet"] >= 0.97, summary
-    # issue 16's coverage target is over the whole suite (91-92 % of 342 values, session
-    # 23); CI's slice holds 52 of them, where one value is two points: below 85 % the
-    # intervals have broken, between that and the target the slice says so
-    assert s["covered"] >= 0.85, summary
+    # issue 16's target; CI's slice 48 of 52 (session 24: a declared loop's reaction to
+    # its encoder's noise in the intervals put seed 24's two values inside)
+    assert s["covered"] >= 0.90, summary
     assert s["worse"] == 0, summary
     if s["right"] < 0.95:  # issue 16's target over the whole suite (CI's 24: 96 %, session 15)
         pytest.xfail(f"right causes below the 95 % target: {summary}")
-    if s["covered"] < 0.90:  # session 23: 46 of 52 (seed 24's closed loop, both outside)
-        pytest.xfail(f"values inside their intervals below the 90 % target: {summary}")
 
 
 def test_a_stop_above_the_observed_state_is_written_as_measured(tmp_path):
