@@ -1,9 +1,9 @@
 """How sure a fitted candidate is: 95 % intervals from ``mujoco.sysid``'s Jacobian
 intervals (widened for the residual's correlation, plus the replay's numerical error,
 what the noise on a measured input does to the estimate and what a declared loop's
-reaction to its encoder's noise does to it), the covariance, which
-parameters the data cannot identify or cannot tell apart, and how much each effect moves
-the simulated motion.
+reaction to its encoder's noise does to it), the covariance, which parameters the data
+cannot identify or cannot tell apart, and how much each effect moves the simulated
+motion.
 """
 
 from __future__ import annotations
@@ -96,6 +96,9 @@ def loop_noise_cov(sol: Solution) -> np.ndarray | None:
                 continue
             feedback, columns, draws = {}, dict(tr.columns), {}
             for j, f in tr.feedback.items():
+                if j not in problem.joints:  # (a law on no measured joint: not replayed)
+                    feedback[j] = f
+                    continue
                 k = problem.joints.index(j)
                 sigma = f.encoder_noise or float(problem.position_noise[t][k])
                 name = f"{j}.encoder_noise_draw"
@@ -120,9 +123,10 @@ def loop_noise_cov(sol: Solution) -> np.ndarray | None:
 def uncertainty(ev: Evaluator, r, jmat, scales, n_eff, values, problem, x_star, numerical,
                 rollouts, loop_cov: np.ndarray | None = None):
     """95 % half-widths (sysid's Jacobian intervals, widened for residual correlation,
-    with ``loop_cov``, :func:`loop_noise_cov`, added to their covariance), the covariance, which parameters the data cannot identify, strong correlations, and
-    how much each effect moves the simulated motion (RMS, in noise standard deviations:
-    the Jacobian times the step back to the effect's absence)."""
+    with ``loop_cov``, :func:`loop_noise_cov`, added to their covariance), the
+    covariance, which parameters the data cannot identify, strong correlations, and how
+    much each effect moves the simulated motion (RMS, in noise standard deviations: the
+    Jacobian times the step back to the effect's absence)."""
     from mujoco import sysid
 
     p = len(ev.params)
