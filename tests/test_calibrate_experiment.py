@@ -267,6 +267,42 @@ def test_a_noisy_loops_replay_applies_its_clipped_commands_mean(tmp_path):
     assert np.all(np.abs(runs["noisy"].efforts[sat, 0]) <= 0.05 * law["gain"])
 
 
+def test_a_loop_reading_a_draw_of_its_noise_applies_the_law_to_it(tmp_path):
+    """``Feedback.reading``: the law applied to the position plus a noise column (what
+    the loop did on the rig; uncertainty.loop_noise_cov's draws), clipped as it is, the
+    same in the batch of plain floats as in the general controller."""
+    import dataclasses
+
+    from real2code_export.calibrate.problem import build_problem
+    from real2code_export.calibrate.residuals import build_model
+    from real2code_export.calibrate.simulate import declared_loop, rollout
+    from real2code_export.calibrate.trajectory import read_all
+
+    obj, joint, t, q, ref, u, law = _pd_drawer(5, damping=4.0, duration=1.0)
+    csv = _write_loop(tmp_path, joint, t, q, ref, u, law, "saturation = [-0.05, 0.05]\n")
+    plain, = read_all([csv], obj)
+    noise = np.random.default_rng(7).normal(0.0, 1e-4, plain.n)
+    fb = dataclasses.replace(plain.with_encoder_noise().feedback[joint], reading="draw",
+                             encoder_noise=0.0)
+    tr = dataclasses.replace(plain, feedback={joint: fb},
+                             columns={**plain.columns, "draw": noise})
+    model = build_model(build_problem(obj, [tr]), (), {})
+    x0 = {joint: (0.2, 0.0)}
+    got, = declared_loop([model], tr, [x0], [{}])
+    alone = rollout(model, tr, x0, {})
+    np.testing.assert_allclose(got.positions, alone.positions, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.efforts, alone.efforts, rtol=0, atol=1e-12)
+    read = got.positions[:, 0] + noise
+    h, taps = tr.sample_period, fb.velocity_taps
+    k = np.arange(taps, tr.n)
+    want = fb.kp * (tr.columns[fb.reference][k] - read[k]) - \
+        fb.kd * (read[k] - read[k - taps]) / (taps * h)
+    np.testing.assert_allclose(got.efforts[k, 0], fb.gain * np.clip(want, -0.05, 0.05),
+                               rtol=1e-9, atol=1e-12)
+    quiet, = declared_loop([model], plain, [x0], [{}])
+    assert np.max(np.abs(got.positions - quiet.positions)) > 0  # the draw drives the joint
+
+
 def test_a_loop_that_forgets_its_start_ends_on_its_base(tmp_path):
     """A Jacobian's initial-state column: the same model replayed from a moved start. The
     loop forgets the move within its time constants; from there the replay is its base's

@@ -182,15 +182,12 @@ def test_hidden_effect_suite():
                f"{s['noisy']}; outside: {s['outside']}; worse: {s['worse_cases']}")
     print(summary)
     assert s["quiet"] >= 0.97, summary
-    # issue 16's coverage target is over the whole suite (91-92 % of 342 values, session
-    # 23); CI's slice holds 52 of them, where one value is two points: below 85 % the
-    # intervals have broken, between that and the target the slice says so
-    assert s["covered"] >= 0.85, summary
+    # issue 16's target; CI's slice 48 of 52 (session 24: a declared loop's reaction to
+    # its encoder's noise in the intervals put seed 24's two values inside)
+    assert s["covered"] >= 0.90, summary
     assert s["worse"] == 0, summary
     if s["right"] < 0.95:  # issue 16's target over the whole suite (CI's 24: 96 %, session 15)
         pytest.xfail(f"right causes below the 95 % target: {summary}")
-    if s["covered"] < 0.90:  # session 23: 46 of 52 (seed 24's closed loop, both outside)
-        pytest.xfail(f"values inside their intervals below the 90 % target: {summary}")
 
 
 def test_a_stop_above_the_observed_state_is_written_as_measured(tmp_path):
@@ -375,3 +372,44 @@ def test_stops_and_drift_traced_in_session_23(seed):
     with direction-dependent friction (73, about 60 s)."""
     r = _case(seed)
     assert r["right"] and not r["worse"], r
+
+
+def test_a_noisy_loops_intervals_hold_its_dithered_friction(tmp_path):
+    """A door with damping and dry friction in a declared PD loop on a noisy encoder, run
+    four times (each its own reference, gains and noise): the loop's reaction to the
+    noise jitters the joint, which smooths its dry friction into something like damping
+    (fitted friction low, damping high), and drives it by a random command the replay
+    does not apply. The 95 % intervals of the true structure cover the true values in
+    at least 7 of the 8 (the Jacobian's alone: 3 of 8, session 23), and each still
+    excludes absence (uncertainty.loop_noise_cov; about 12 s of CPU)."""
+    import synthetic_scenarios as ss
+    from synthetic_suite import truth_params
+
+    from real2code_export.calibrate.fit import fit_candidate
+    from real2code_export.calibrate.problem import build_problem
+    from real2code_export.calibrate.trajectory import read_all
+
+    case = make(204)  # closed loop, door, damping and friction
+    assert case.scenario == "closed_loop" and sorted(case.truth) == ["damping", "friction"]
+    truth = truth_params(case)
+    times = np.arange(0.0, case.notes["duration"], 1.0 / case.notes["rate"])
+    amplitude = ss.ACCEL[case.kind] * case.physics.inertia
+    inside, values = 0, []
+    for k in range(4):
+        rng = np.random.default_rng([204, k, 24])
+        q_true, q_meas, effort, declared = ss._loop(case.physics, case.kind, times, rng,
+                                                    amplitude, False, ss._no_push)
+        run = ss.Run(times, q_true, {case.joint: q_meas, f"{case.joint}.effort": effort,
+                                     **declared["columns"]},
+                     {f"joints.{case.joint}.feedback": declared["feedback"]})
+        csv = ss.write_run(run, tmp_path / f"run_{k}.csv")
+        problem = build_problem(case.obj, [tr.with_encoder_noise()
+                                           for tr in read_all([csv], case.obj)])
+        fit = fit_candidate(problem, tuple(problem.effects[case.joint][e]
+                                           for e in ("damping", "friction")))
+        for key, true in truth.items():
+            v, h = fit.values[key], fit.halfwidth[key]
+            values.append((k, key, v, h, true))
+            inside += abs(v - true) <= h
+            assert v > h, values  # the cause stays there
+    assert inside >= 7, values

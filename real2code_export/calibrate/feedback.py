@@ -12,6 +12,11 @@ the limit the noise is clipped on one side only: the loop applies less than the 
 says). The replay, noiseless, applies that mean (``encoder_noise``, the position's own
 noise level, set from the data: :meth:`Trajectory.with_encoder_noise`); unclipped, the
 mean is the law itself.
+
+``reading`` names a column added to the position the law reads: a draw of the encoder's
+noise, replayed to measure what the loop's reaction to it does to the estimate
+(:func:`uncertainty.input_noise_spread`); the draw is in the reading, so the law is
+clipped as it is, not averaged.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ class Feedback:
     saturation: tuple[float, float] | None = None
     gain: float = 1.0
     encoder_noise: float = 0.0  # the position noise the loop reads (from the data)
+    reading: str | None = None  # column of noise drawn onto the position the law reads
 
     def command_noise(self, period: float) -> float:
         """The standard deviation of the command's reaction to the encoder's noise n:
@@ -53,8 +59,11 @@ class Feedback:
                  period: float) -> np.ndarray:
         """:meth:`command` for several replays at once: ``q`` is (replays, samples)."""
         taps = min(self.velocity_taps, k)
-        v = (q[:, k] - q[:, k - taps]) / (taps * period) if taps > 0 else 0.0
-        u = self.kp * (columns[self.reference][k] - q[:, k]) - self.kd * v
+        qk, qb = q[:, k], q[:, k - taps]
+        if self.reading is not None:
+            qk, qb = qk + columns[self.reading][k], qb + columns[self.reading][k - taps]
+        v = (qk - qb) / (taps * period) if taps > 0 else 0.0
+        u = self.kp * (columns[self.reference][k] - qk) - self.kd * v
         if self.added is not None:
             u = u + columns[self.added][k]
         if self.saturation is not None:

@@ -26,7 +26,7 @@ from .inverse import EquationFit, equation_fit
 from .problem import Problem
 from .residuals import Evaluator, initial_slots, noise_floor
 from .simulate import Rollout
-from .uncertainty import Solution, input_noise_spread, uncertainty
+from .uncertainty import Solution, input_noise_spread, loop_noise_cov, uncertainty
 
 DEGENERATE = 0.999  # parameters of two effects this correlated explain the same thing
 # An effect is named only if removing it moves the simulated motion by at least this many
@@ -198,14 +198,15 @@ def fit_candidate(problem: Problem, effects: tuple[Effect, ...], max_nfev: int =
     return refine_fit(fit) if refine else fit
 
 
-def _finish(sol: Solution, numerical: np.ndarray) -> Fit:
+def _finish(sol: Solution, numerical: np.ndarray, loop_cov: np.ndarray | None = None
+            ) -> Fit:
     problem, ev, r = sol.problem, sol.ev, sol.r
     values, x0 = ev.split(sol.x)
     n_eff = sum(features.effective_samples(r[ev.offsets[t]:ev.offsets[t + 1]])
                 for t in range(len(problem.trajectories)))
     halfwidth, cov, ident, corr, material = uncertainty(ev, r, sol.jac, sol.scales, n_eff,
                                                          values, problem, sol.x, numerical,
-                                                         sol.ros)
+                                                         sol.ros, loop_cov)
     return Fit(ev.effects, values, halfwidth, cov, ident, corr, x0, r, float(r @ r), n_eff,
                len(ev.params), sol.ros, sol.start, ev.count, material=material,
                solution=sol, refined=not len(sol.x))
@@ -238,7 +239,8 @@ def refine_fit(fit: Fit) -> Fit:
         step = step / 4
     numerical = np.sqrt((x_corr - sol.x) ** 2 + input_noise_spread(sol) ** 2)
     refined = _finish(Solution(sol.problem, sol.ev, x_corr, sol.jac, sol.scales, sol.lb,
-                                sol.ub, sol.r, sol.ros, sol.start), numerical)
+                                sol.ub, sol.r, sol.ros, sol.start), numerical,
+                      loop_noise_cov(sol))
     refined.refined = True
     for e in sol.ev.effects:
         if e.name == "limit":  # how much the stop moves the motion: replay without it

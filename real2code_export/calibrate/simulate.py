@@ -296,7 +296,7 @@ def declared_loop(models: Sequence, traj: Trajectory, initials: Sequence[Initial
         u = [[0.0] * n for _ in range(nj)]
         forget = _Forgetting(base, memory) if base is not None and \
             base.velocities is not None and m.na == 0 else None
-        if nj == 1 and 0 in loops:  # one looped joint, the common rig: the law inline
+        if nj == 1 and 0 in loops and loops[0].read is None:  # the common rig: law inline
             loops[0].replay(step, m, d, qadr_l[0], dadr_l[0], cb[0], q[0], v[0], u[0],
                             nsub, forget)
         else:
@@ -394,12 +394,17 @@ class _LoopTerms:
         # command comes within CLIP_REACH of its noise of a limit
         self.s = f.command_noise(period)
         self.reach = CLIP_REACH * self.s
+        # a draw of the encoder's noise on the position the law reads (feedback.py)
+        self.read = [float(x) for x in columns[f.reading]] if f.reading is not None else None
 
     def effort(self, k: int, q: list[float]) -> float:
         f = self.f
         taps = min(f.velocity_taps, k)
-        v = (q[k] - q[k - taps]) / (taps * self.period) if taps > 0 else 0.0
-        u = f.kp * (self.ref[k] - q[k]) - f.kd * v
+        qk, qb = q[k], q[k - taps]
+        if self.read is not None:
+            qk, qb = qk + self.read[k], qb + self.read[k - taps]
+        v = (qk - qb) / (taps * self.period) if taps > 0 else 0.0
+        u = f.kp * (self.ref[k] - qk) - f.kd * v
         if self.added is not None:
             u = u + self.added[k]
         if self.lo is not None:

@@ -1,8 +1,9 @@
 """How sure a fitted candidate is: 95 % intervals from ``mujoco.sysid``'s Jacobian
-intervals (widened for the residual's correlation, plus the replay's numerical error and
-what the noise on a measured input does to the estimate), the covariance, which
-parameters the data cannot identify or cannot tell apart, and how much each effect moves
-the simulated motion.
+intervals (widened for the residual's correlation, plus the replay's numerical error,
+what the noise on a measured input does to the estimate and what a declared loop's
+reaction to its encoder's noise does to it), the covariance, which parameters the data
+cannot identify or cannot tell apart, and how much each effect moves the simulated
+motion.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .problem import Problem
+from .residuals import noise_floor
 from .simulate import BatchRunner
 
 if TYPE_CHECKING:
@@ -69,12 +71,62 @@ def input_noise_spread(sol: Solution) -> np.ndarray:
     return 1.96 * np.sqrt(np.mean(np.square(shifts), axis=0))
 
 
+def loop_noise_cov(sol: Solution) -> np.ndarray | None:
+    """What a declared loop's reaction to its encoder's noise does to the estimate: the
+    mean square of the parameter shifts it causes (scaled units; None where no run is a
+    declared loop). The loop reads the position plus the noise, so the joint is driven
+    by a random command the replay (the noiseless law, or its clipped mean) does not
+    apply: process noise, spread over the loop's own time constants and partly
+    cancelled in what the encoder records (below its bandwidth the loop holds the
+    *reading* on the reference), which no count of the residual's effective samples
+    describes; and where the joint sticks the jitter smooths its dry friction into
+    something like damping (a bias: friction fitted low, damping high, alike both ways).
+    Seeded draws make each such run as the loop would have recorded it at the estimate
+    (the loop reading the simulated position plus a draw of the noise, that reading
+    recorded), mapped to parameters through the Jacobian against the noiseless replay;
+    their mean square holds the bias and the spread, and how they move together (a
+    bias alike both ways cancels in the difference of the two directions)."""
+    problem, ev = sol.problem, sol.ev
+    shifts = []
+    rng = np.random.default_rng(0)
+    for _ in range(INPUT_NOISE_DRAWS):
+        dr = np.zeros_like(sol.r)
+        for t, tr in enumerate(problem.trajectories):
+            if not tr.feedback or tr.controller is not None:
+                continue
+            feedback, columns, draws = {}, dict(tr.columns), {}
+            for j, f in tr.feedback.items():
+                if j not in problem.joints:  # (a law on no measured joint: not replayed)
+                    feedback[j] = f
+                    continue
+                k = problem.joints.index(j)
+                sigma = f.encoder_noise or float(problem.position_noise[t][k])
+                name = f"{j}.encoder_noise_draw"
+                columns[name] = draws[k] = rng.normal(0.0, sigma, tr.n)
+                # the draw is in the reading: the law clipped as it is, not its mean
+                feedback[j] = dataclasses.replace(f, reading=name, encoder_noise=0.0)
+            noisy = dataclasses.replace(tr, feedback=feedback, columns=columns)
+            (r1, _), = ev.run(t, [sol.x], BatchRunner(noisy, problem.joints))
+            a = ev.offsets[t]
+            dr[a:ev.offsets[t + 1]] = r1 - sol.r[a:ev.offsets[t + 1]]
+            for k, n in draws.items():  # the recorded reading (residual units)
+                j = problem.joints[k]
+                dr[a + k * tr.n:a + (k + 1) * tr.n] += n / noise_floor(
+                    problem.position_noise[t][k], tr.positions[j])
+        if not np.any(dr):
+            return None
+        shifts.append(np.linalg.lstsq(sol.jac, dr, rcond=None)[0])
+    shifts = np.array(shifts)
+    return shifts.T @ shifts / len(shifts)
+
+
 def uncertainty(ev: Evaluator, r, jmat, scales, n_eff, values, problem, x_star, numerical,
-                rollouts):
-    """95 % half-widths (sysid's Jacobian intervals, widened for residual correlation),
-    the covariance, which parameters the data cannot identify, strong correlations, and
-    how much each effect moves the simulated motion (RMS, in noise standard deviations:
-    the Jacobian times the step back to the effect's absence)."""
+                rollouts, loop_cov: np.ndarray | None = None):
+    """95 % half-widths (sysid's Jacobian intervals, widened for residual correlation,
+    with ``loop_cov``, :func:`loop_noise_cov`, added to their covariance), the
+    covariance, which parameters the data cannot identify, strong correlations, and how
+    much each effect moves the simulated motion (RMS, in noise standard deviations: the
+    Jacobian times the step back to the effect's absence)."""
     from mujoco import sysid
 
     p = len(ev.params)
@@ -89,6 +141,9 @@ def uncertainty(ev: Evaluator, r, jmat, scales, n_eff, values, problem, x_star, 
     sigma_x, hw = sysid.calculate_intervals([r], jmat)
     sigma_x = np.asarray(sigma_x)[:p, :p] * inflate**2
     hw = np.asarray(hw)[:p] * inflate
+    if loop_cov is not None:
+        sigma_x = sigma_x + loop_cov[:p, :p]
+        hw = np.sqrt(hw**2 + 1.96**2 * np.diag(loop_cov)[:p])
     for i, a in enumerate(ev.params):
         # statistical half-width plus the replay's numerical error, added linearly
         num = float(numerical[i] * scales[i])
