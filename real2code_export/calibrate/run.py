@@ -95,7 +95,7 @@ def _features(problem: Problem, nominal: Fit) -> list[dict]:
             noise = float(problem.position_noise[t][k])
             q, dq = sig.q[:, k], sig.dq[:, k]
             sim = nominal.simulated[t].positions[:, k]
-            _, dq_sim, _ = ft.derivatives(sim, tr.sample_period)
+            _, dq_sim, _ = ft.derivatives(sim, tr.sample_period, sig.window)
             rest = ft.rest_position(q, dq, noise)
             rest_sim = ft.rest_position(sim, dq_sim, noise)
             env = ft.decay_envelope(tr.time, q, dq, noise, rest)
