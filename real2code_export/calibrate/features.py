@@ -53,10 +53,15 @@ def chosen_window(qs: np.ndarray, period: float, efforts: np.ndarray | None = No
     effort (``efforts``, columns; what a lag between effort and position moves). One
     window per run, the effort filtered alike (parallel filtering: the filter's lag and
     shape cancel between regressors and regressand). At least :func:`smoothing_window`'s,
-    at most MAX_WINDOW_SECONDS and a quarter of the run."""
+    at most MAX_WINDOW_SECONDS and a quarter of the run; :func:`smoothing_window`'s where
+    no effort is measured (``efforts`` None or without columns): the simulation error fits
+    such a run, the equation only starts it, and a coasting joint's acceleration, small
+    against the noise, would ask for a window that blurs its whole motion."""
     x = np.asarray(qs, float)
     x = x[:, None] if x.ndim == 1 else x
     n = len(x)
+    if efforts is None or np.size(efforts) == 0:
+        return smoothing_window(period)
     cap = max(MIN_WINDOW, min(n // 4, int(round(MAX_WINDOW_SECONDS / period))))
     cap -= 1 - cap % 2
     grid = [min(smoothing_window(period), cap)]
