@@ -15,23 +15,104 @@ from scipy.signal import find_peaks, savgol_coeffs, savgol_filter
 
 
 def smoothing_window(period: float, seconds: float = 0.15, minimum: int = 7) -> int:
+    """A window of a fixed duration (odd, at least ``minimum`` samples): for looks that
+    need one span whatever the data (an impact, a push's energy); the equation error's
+    own window is :func:`chosen_window`'s, from the run's data."""
     w = max(minimum, int(round(seconds / period)))
     return w + 1 if w % 2 == 0 else w
 
 
-def smoothing_gain(period: float) -> float:
-    """The factor by which :func:`derivatives`' smoothing scales white noise (its
-    standard deviation)."""
-    w = smoothing_window(period)
-    return float(np.sqrt(np.sum(savgol_coeffs(w, min(4, w - 1)) ** 2)))
+# The equation error regresses the effort on the smoothed acceleration: noise in a
+# regressor biases its coefficient toward zero by its share of the regressor's variance
+# (errors in variables), so the window is long enough that the acceleration's noise is at
+# most this share of the acceleration's RMS (an inertia low by at most 4 %, which the
+# simulation fit then removes); longer windows blur what is not linear in the motion (a
+# friction's sign where the joint sticks) and bias it the other way. It is never
+# shorter than smoothing_window's 0.15 s: shorter windows were tried (session 24) and
+# let the effort equation explain a hand-driven run's torque (DFKI's gravity
+# compensation) with invented causes.
+REGRESSOR_NOISE = 0.2
+MIN_WINDOW = 7  # samples: the order-4 polynomial's fewest plus two
+MAX_WINDOW_SECONDS = 1.0  # s: no filter of the equation error averages over longer
+WINDOW_GROWTH = 1.1  # the windows tried grow by this factor
+POLYORDER = 4
 
 
-def derivative_gain(period: float) -> float:
+def _gain(window: int, deriv: int, period: float) -> float:
+    """The factor by which the smoothing's ``deriv``-th derivative scales white noise."""
+    order = min(POLYORDER, window - 1)
+    return float(np.sqrt(np.sum(savgol_coeffs(window, order, deriv=deriv, delta=period)
+                                ** 2)))
+
+
+def chosen_window(qs: np.ndarray, period: float, efforts: np.ndarray | None = None) -> int:
+    """The smoothing window of one run's equation error, chosen from its data: the
+    shortest in which every regressor the window makes keeps its noise (the signal's noise
+    level through the filter) at most REGRESSOR_NOISE of its RMS: the acceleration of each
+    joint that moves (its span beyond 20 noise deviations) and the rate of each measured
+    effort (``efforts``, columns; what a lag between effort and position moves). One
+    window per run, the effort filtered alike (parallel filtering: the filter's lag and
+    shape cancel between regressors and regressand). At least :func:`smoothing_window`'s,
+    at most MAX_WINDOW_SECONDS and a quarter of the run; :func:`smoothing_window`'s where
+    no effort is measured (``efforts`` None or without columns): the simulation error fits
+    such a run, the equation only starts it, and a coasting joint's acceleration, small
+    against the noise, would ask for a window that blurs its whole motion."""
+    x = np.asarray(qs, float)
+    x = x[:, None] if x.ndim == 1 else x
+    n = len(x)
+    if efforts is None or np.size(efforts) == 0:
+        return smoothing_window(period)
+    cap = max(MIN_WINDOW, min(n // 4, int(round(MAX_WINDOW_SECONDS / period))))
+    cap -= 1 - cap % 2
+    grid = [min(smoothing_window(period), cap)]
+    while grid[-1] < cap:
+        w = max(int(grid[-1] * WINDOW_GROWTH), grid[-1] + 2)
+        grid.append(min(w + 1 - w % 2, cap))
+    signals = [(x[:, k], 2) for k in range(x.shape[1])]
+    if efforts is not None:
+        e = np.asarray(efforts, float)
+        e = e[:, None] if e.ndim == 1 else e
+        signals += [(e[:, k], 1) for k in range(e.shape[1])]
+    out = grid[0]
+    for y, deriv in signals:
+        sigma = noise_level(y)
+        if sigma <= 0 or np.ptp(y) <= 20 * sigma:
+            continue
+        w = cap
+        for cand in grid:
+            if 3 * cand > n:
+                break
+            d = savgol_filter(y, cand, min(POLYORDER, cand - 1), deriv=deriv,
+                              delta=period, mode="interp")[cand:-cand]
+            rms = float(np.sqrt(np.mean(d**2))) if d.size else 0.0
+            if _gain(cand, deriv, period) * sigma <= REGRESSOR_NOISE * rms:
+                w = cand
+                break
+        out = max(out, w)
+    return out
+
+
+def cutoff(window: int, period: float) -> float:
+    """The frequency (Hz) where :func:`derivatives`' smoothing passes half the power (its
+    -3 dB point): the low-pass cut-off the window amounts to."""
+    c = savgol_coeffs(window, min(POLYORDER, window - 1))
+    freqs = np.linspace(0.0, 0.5, 4096)
+    k = np.arange(len(c)) - len(c) // 2
+    h = np.abs(np.exp(-2j * np.pi * np.outer(freqs, k)) @ c)
+    below = np.flatnonzero(h < 1.0 / math.sqrt(2.0))
+    return float(freqs[below[0]] / period) if below.size else 0.5 / period
+
+
+def smoothing_gain(period: float, window: int | None = None) -> float:
+    """The factor by which :func:`derivatives`' smoothing (``window``; by default
+    :func:`smoothing_window`'s) scales white noise (its standard deviation)."""
+    return _gain(window or smoothing_window(period), 0, period)
+
+
+def derivative_gain(period: float, window: int | None = None) -> float:
     """The factor by which :func:`derivatives`' smoothed first derivative scales white
     position noise (its standard deviation)."""
-    w = smoothing_window(period)
-    return float(np.sqrt(np.sum(savgol_coeffs(w, min(4, w - 1), deriv=1, delta=period)
-                                ** 2)))
+    return _gain(window or smoothing_window(period), 1, period)
 
 
 def derivatives(x: np.ndarray, period: float, window: int | None = None
@@ -39,7 +120,7 @@ def derivatives(x: np.ndarray, period: float, window: int | None = None
     """Savitzky-Golay smoothed value, first and second derivative."""
     w = min(window or smoothing_window(period), len(x) - (1 - len(x) % 2))
     w = max(w, 5)
-    order = min(4, w - 1)
+    order = min(POLYORDER, w - 1)
     kw = {"window_length": w, "polyorder": order, "delta": period, "mode": "interp"}
     return (savgol_filter(x, deriv=0, **kw), savgol_filter(x, deriv=1, **kw),
             savgol_filter(x, deriv=2, **kw))

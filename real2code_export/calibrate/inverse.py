@@ -160,7 +160,8 @@ def design(problem: Problem, effects: tuple[Effect, ...]) -> Design:
             rows.append((t, k, np.flatnonzero(use)))
             # the rows hold the smoothed effort: its noise is the sensor's, smoothed
             sigma = float(problem.effort_noise[t][k]) * features.smoothing_gain(
-                problem.trajectories[t].sample_period) if problem.effort_noise else 0.0
+                problem.trajectories[t].sample_period, sig.window) \
+                if problem.effort_noise else 0.0
             noise.append(np.full(int(use.sum()), max(sigma, 1e-9 * scale) / scale))
     lower, upper = [], []
     for e, name in col_index:

@@ -33,6 +33,7 @@ class Signals:
     dq_noise: np.ndarray  # per joint: noise of the smoothed velocity
     usable: np.ndarray  # (n,) samples away from impacts and the ends
     stops: list[list[str]]  # per joint: the sides this run shows the joint stopped hard
+    window: int  # samples of the smoothing, chosen from the run (features.chosen_window)
 
 
 @dataclass
@@ -245,11 +246,17 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
                 x0s[-1][k, 1] = 0.0
         if not inverse:
             continue
-        smoothed = [features.derivatives(qs[:, k], period) for k in range(len(joints))]
+        # one window for the motion and the effort (parallel filtering: the filter's lag
+        # and shape cancel between the regressors and the regressand)
+        despiked = np.column_stack([features.despike(taus[:, k])[0]
+                                    for k in range(len(joints))])
+        w = features.chosen_window(qs, period, despiked[:, [k for k, j in enumerate(joints)
+                                                            if j in tr.efforts]])
+        smoothed = [features.derivatives(qs[:, k], period, w) for k in range(len(joints))]
         q_s = np.column_stack([s[0] for s in smoothed])
         dq = np.column_stack([s[1] for s in smoothed])
         ddq = np.column_stack([s[2] for s in smoothed])
-        tau_d = [features.derivatives(features.despike(taus[:, k])[0], period)
+        tau_d = [features.derivatives(despiked[:, k], period, w)
                  for k in range(len(joints))]
         tau_s = np.column_stack([d[0] for d in tau_d])
         tau_dt = np.column_stack([d[1] for d in tau_d])
@@ -258,8 +265,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
         eps = 1e-5 * max(float(np.ptp(qs)), 1e-3)
         tau_dq = (rigid_effort(spec, joints, q_s + eps, dq, ddq) - tau_rb) / eps
         tau_dq += np.array([obj.joint(j).dynamics.stiffness for j in joints])
-        w = features.smoothing_window(period)
-        dq_noise = sig_q * features.derivative_gain(period)
+        dq_noise = sig_q * features.derivative_gain(period, w)
         usable = np.ones(tr.n, bool)
         usable[: w // 2 + 1] = False
         usable[-(w // 2 + 1):] = False
@@ -270,7 +276,7 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
                 if side not in stops[j]:
                     stops[j].append(side)
         signals.append(Signals(q_s, dq, ddq, tau_s, tau_rb, tau_rot, tau_dq, tau_dt,
-                               dq_noise, usable, seen))
+                               dq_noise, usable, seen, w))
 
     # samples near an end stop are left out of the inverse-dynamics start (impacts)
     for sig in signals:

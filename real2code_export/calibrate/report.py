@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..jsonsafe import finite_or_null as _num
+from . import features as ft
 from .effects import SENSOR, VOCABULARY, Effect, readings
 from .fit import Fit
 from .select import Selection
@@ -145,8 +146,24 @@ def build_report(problem, selection: Selection, fits: list[Replay], holdouts: li
                           "rmse_after": r.rmse("calibrated")} for r in fits + holdouts],
         "selection_log": selection.log,
         "selected_by": selection.by,
+        "smoothing": smoothing(problem),
     }
     return report
+
+
+def smoothing(problem) -> list[dict]:
+    """Per run, the smoothing its equation error used (features.chosen_window): the
+    Savitzky-Golay window, in samples and seconds, and the low-pass cut-off it amounts to
+    (motion and effort filtered alike)."""
+    out = []
+    for tr, sig in zip(problem.trajectories, problem.signals, strict=False):
+        period = tr.sample_period
+        out.append({"file": tr.source, "window_samples": int(sig.window),
+                    "window_seconds": float(sig.window * period),
+                    "cutoff_hz": ft.cutoff(sig.window, period),
+                    "polyorder": min(ft.POLYORDER, sig.window - 1),
+                    "default_window_samples": ft.smoothing_window(period)})
+    return out
 
 
 def json_text(report: dict[str, Any]) -> str:
@@ -265,6 +282,14 @@ def markdown(report: dict[str, Any], images: dict[str, str]) -> str:
     lines += ["## What the data show", ""]
     for f in report["features"]:
         lines.append(f"- `{Path(f['file']).name}`: " + "; ".join(f["summary"]))
+    if report.get("smoothing"):
+        lines += ["", "Smoothing of the effort equation (motion and effort filtered alike; "
+                  "the window chosen from each run's noise, features.chosen_window):", "",
+                  "| run | window [samples] | window [s] | cut-off (-3 dB) [Hz] |",
+                  "|---|---|---|---|"]
+        lines += [f"| `{Path(r['file']).name}` | {r['window_samples']} | "
+                  f"{r['window_seconds']:.3g} | {r['cutoff_hz']:.3g} |"
+                  for r in report["smoothing"]]
     lines += ["", "## Candidates", "", f"Criterion: {report['criterion']}.", "",
               "| causes | parameters | ΔBIC | residual / noise | all significant | chosen |",
               "|---|---|---|---|---|---|"]

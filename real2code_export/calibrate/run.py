@@ -24,7 +24,15 @@ from .inertial import compared
 from .inverse import _nominal_effort, effort_errors
 from .prediction import initial_values, predict, predict_beside
 from .problem import Problem, build_problem, calibration_spec
-from .report import Replay, build_report, candidates_plot, json_text, markdown, replay_plot
+from .report import (
+    Replay,
+    build_report,
+    candidates_plot,
+    json_text,
+    markdown,
+    replay_plot,
+    smoothing,
+)
 from .select import Selection, select
 from .select_effort import (
     EFFORT_ONLY,
@@ -95,7 +103,7 @@ def _features(problem: Problem, nominal: Fit) -> list[dict]:
             noise = float(problem.position_noise[t][k])
             q, dq = sig.q[:, k], sig.dq[:, k]
             sim = nominal.simulated[t].positions[:, k]
-            _, dq_sim, _ = ft.derivatives(sim, tr.sample_period)
+            _, dq_sim, _ = ft.derivatives(sim, tr.sample_period, sig.window)
             rest = ft.rest_position(q, dq, noise)
             rest_sim = ft.rest_position(sim, dq_sim, noise)
             env = ft.decay_envelope(tr.time, q, dq, noise, rest)
@@ -266,6 +274,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
     held_nominal = predict(model, held) if held else None
     holdouts = []
     held_effort = held_estimate = None
+    held_smoothing: list[dict] = []
     if held and rejected is None:
         held_after = held_nominal
         if selection.chosen.effects:
@@ -281,6 +290,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
             # judges them
             held_problem = build_problem(model, [held[i] for i in lost])
             held_effort = held_effort_errors(held_problem, selection.chosen)
+            held_smoothing = smoothing(held_problem)
             # (and what the same structure says fitted on them: whether the runs share
             # its values)
             held_estimate = held_out_estimate(model, held_problem, selection.chosen)
@@ -324,6 +334,7 @@ def calibrate_trajectories(model: ArticulatedObject, trajectories: list[Trajecto
                         for t, tr in enumerate(problem.trajectories)}
     report["cross_validation"] = cv.as_json()
     report["holdout_effort"] = held_effort
+    report["smoothing"] += held_smoothing  # the held-out runs' effort equation too
     report["holdout_estimate"] = held_estimate
     report["residual_error"] = "effort" if effort_only and rejected is None else "position"
     # (fitted by simulation as the chosen structure was: not where no replay can judge)

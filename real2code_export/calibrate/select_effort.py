@@ -40,7 +40,7 @@ def effort_decides(problem: Problem) -> bool:
     for t, tr in enumerate(problem.trajectories):
         if tr.law() is None or not all(j in tr.efforts for j in problem.joints):
             return False
-        gain = features.smoothing_gain(tr.sample_period)
+        gain = features.smoothing_gain(tr.sample_period, problem.signals[t].window)
         for k, j in enumerate(problem.joints):
             noise = float(problem.effort_noise[t][k]) * gain
             if not noise < EFFORT_CLEAN * problem.contexts[j].effort_scale:
