@@ -570,6 +570,32 @@ def test_a_piece_deep_behind_the_open_face_is_the_carcass_at_any_size():
     assert return_enclosed(closed, kept, voxel=0.02)[1] == []
 
 
+def test_settling_takes_back_a_deep_patch_but_not_a_small_drawer_seen_shut():
+    """Once the other rules have run, a patch of the carcass's inside deep behind the open
+    face goes back to it, as in the first pass; a small drawer front flush with the opening
+    (under 3 % of the carcass's points: the first pass takes it by size) stays, since after
+    the merges a drawer seen shut lies wholly in the box too."""
+    from pipeline.compartments import return_enclosed, settle
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    door = _grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z)  # swung 90 degrees past the front
+    inner = _grid(0.2, 0.2, (-0.28, -0.2, -0.1), y, z)  # 2 cm in front of the back wall
+    shut = _grid(0.14, 0.1, (0.29, 0.02, -0.36), y, z)  # a small front, flush
+    cloud = np.concatenate([carcass, door, inner, shut])
+    n = np.cumsum([0, len(carcass), len(door), len(inner), len(shut)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]], labels[n[3]:] = 2, 3, 4
+    assert len(shut) < 0.03 * len(carcass)
+    first = return_enclosed(cloud, labels, voxel=0.02)[0]
+    assert (first[n[2]:] == 1).all()  # the first pass: the patch, and the front by size
+    out, moved = settle(cloud, labels, voxel=0.02)
+    assert (out[n[2]:n[3]] == 1).all() and moved[0]["deep_m"] > 0.5
+    assert len(np.unique(out[n[3]:])) == 1 and out[n[3]] not in (1, out[n[1]])
+    assert len(moved) == 1
+    assert settle(cloud, out, voxel=0.02)[1] == []  # settled: nothing moves again
+
+
 def test_a_drawers_body_behind_its_pulled_out_front_is_one_part_again():
     """A drawer pulled 15 cm out of a carcass, its body (bottom and side, in the box behind
     the front's outline) in a label of its own: merged into the front. A drawer seen shut
