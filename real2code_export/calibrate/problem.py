@@ -235,14 +235,10 @@ def build_problem(obj: ArticulatedObject, trajectories: list[Trajectory],
             moving = abs(v0) > 4 * sv
             if not moving:
                 # a slow creep hides in 40 ms of noise but drifts a replay away over
-                # seconds (a piece that starts where a push was left out): a longer look.
-                # Hidden, it agrees with the short look; where it does not, the long look
-                # sees the joint accelerate away from rest (a lid let go: its quadratic
-                # over 0.25 s read 3.2 rad/s, 100 standard errors off the true 0, and
-                # held the fit's start there), not a creep
+                # seconds (a piece that starts where a push was left out): a longer look
                 (_, v_long), (_, sv_long) = _initial_state(tr.time, qs[:, k], sig_q[k],
                                                            CREEP_SECONDS)
-                if abs(v_long) > 4 * sv_long and abs(v_long - v0) <= 4 * sv:
+                if abs(v_long) > 4 * sv_long:
                     moving, x0s[-1][k, 1] = True, v_long
             x0_free[-1][k] = (True, moving)
             if not moving:
