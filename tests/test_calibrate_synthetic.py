@@ -364,6 +364,63 @@ def test_a_drifting_loops_effort_judges_against_the_noise_it_leaves(tmp_path):
     assert path and {e.name for e in path[-1]} == {"asymmetric_friction"}, log
 
 
+def test_a_loops_measured_effort_is_replayed_held_over_each_interval(tmp_path):
+    """A drawer in an undeclared position loop with dry friction and added inertia, its
+    measured effort replayed open loop (seed 23, drift): the loop set its command once a
+    sample from the noisy encoder and held it, so the effort jitters sample to sample.
+    Replayed linear between samples, that jitter averages out and the joint is driven
+    by a smoother force than it felt: the true structure fits friction 0.4740 +- 0.0066
+    (true 0.4825, outside; the command's fit 0.4959 +- 0.0045 and inertia scale 1.3677 +-
+    0.0015, true 1.3720, both outside); replayed held (trajectory.held_efforts,
+    simulate.step_input), 0.48241 +- 0.00172 and 1.37202 +- 0.00067. A pushed run's
+    effort is not held (about 10 s of CPU)."""
+    from synthetic_suite import truth_params
+
+    from real2code_export.calibrate.fit import fit_candidate
+    from real2code_export.calibrate.trajectory import read_all
+
+    case = make(23)
+    assert case.scenario == "drift" and sorted(case.truth) == ["friction", "inertia"]
+    problem, _ = _fit_problem(case, tmp_path)
+    assert all(tr.held == (case.joint,) for tr in problem.trajectories)
+    fit = fit_candidate(problem, tuple(problem.effects[case.joint][e]
+                                       for e in ("friction", "inertia")))
+    got = {k: (fit.values[k], fit.halfwidth[k], v) for k, v in truth_params(case).items()}
+    assert all(abs(v - true) <= h for v, h, true in got.values()), got
+    pushed = make(0)
+    assert pushed.scenario == "pushed"
+    fit_csv, _ = pushed.write(tmp_path)
+    assert read_all([fit_csv], pushed.obj)[0].held == ()
+
+
+@pytest.mark.xfail(strict=True, reason="session 24 (i16w): the creep look's start is the bias; refusing it moved seed 28's and 10's values out (docs/calibration.md)")
+def test_a_lid_let_go_at_rest_starts_at_rest(tmp_path):
+    """A lid with a spring let go at rest 0.8 rad from its balance (seed 162, position
+    only): it accelerates at once, so a quadratic over the creep look's 0.25 s read 3.2
+    rad/s at the start, 100 standard errors of the 40 ms look off the true 0, and the fit's
+    start was held near it: stiffness 6.199 +- 0.036 (true 6.325), outside. Refusing a
+    long look the short one contradicts (or one where the short look sees the joint
+    accelerate) starts the run at rest and puts the stiffness inside (6.3249 +- 0.0001),
+    but moved seed 28's four values and 10's damping_pos out: not kept, a known bias
+    (about 5 s of CPU)."""
+    from synthetic_suite import truth_params
+
+    from real2code_export.calibrate.fit import fit_candidate
+    from real2code_export.calibrate.problem import build_problem
+    from real2code_export.calibrate.trajectory import read_all
+
+    case = make(162)
+    assert case.scenario == "released_at_rest" and sorted(case.truth) == ["damping", "spring"]
+    fit_csv, _ = case.write(tmp_path)
+    problem = build_problem(case.obj, read_all([fit_csv], case.obj))
+    assert problem.initial[0][0, 1] == 0.0 and not problem.initial_free[0][0, 1]
+    fit = fit_candidate(problem, tuple(problem.effects[case.joint][e]
+                                       for e in ("damping", "spring")))
+    key = f"{case.joint}.stiffness"
+    truth = truth_params(case)[key]
+    assert abs(fit.values[key] - truth) <= fit.halfwidth[key], (fit.values, fit.halfwidth)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [49, 99, 73])
 def test_stops_and_drift_traced_in_session_23(seed):

@@ -67,8 +67,9 @@ def parameters_json(fit: Fit) -> dict[str, Any]:
 def _effort_holds(problem, chosen: Fit) -> dict[int, Effect]:
     """The chosen effort lags of at most one sample interval: below the record's time
     resolution, they are how the effort was held between samples, not a cause. The replay
-    interpolates the effort linearly between samples; a digital controller's command is
-    held over each interval, which the replay sees as the effort felt half a sample late.
+    interpolates the effort linearly between samples where no loop's jitter shows it held
+    (trajectory.held_efforts); a command held over each interval all the same is seen
+    there as the effort felt half a sample late.
     The lag stays in the model (its replay follows the data better), reported apart."""
     period = max(tr.sample_period for tr in problem.trajectories)
     return {id(e): e for e in chosen.effects if e.name == "effort_delay"

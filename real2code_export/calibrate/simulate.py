@@ -166,21 +166,33 @@ def recorded_late(ro: Rollout, time: np.ndarray, lag: Sequence[float],
     return Rollout(q, ro.efforts)
 
 
-def step_input(samples: np.ndarray, nsub: int, cubic: bool = False) -> np.ndarray:
+def step_input(samples: np.ndarray, nsub: int, cubic: bool = False,
+               held: np.ndarray | None = None) -> np.ndarray:
     """((n - 1) * nsub, joints) effort per simulation step, at each substep's midpoint:
     linear between samples (one step per interval: the mean of its two samples), or a
     cubic spline through them (the reference replay: how much the reconstruction of the
-    input between samples matters is part of the replay's numerical error)."""
+    input between samples matters is part of the replay's numerical error). ``held``
+    (per joint): an effort a digital loop held over each interval, replayed as its steps
+    (exact, so the reference replay holds it too)."""
     frac = (np.arange(nsub) + 0.5) / nsub
     if cubic and len(samples) >= 4:
         from scipy.interpolate import CubicSpline
 
         k = np.arange(len(samples), dtype=float)
         where = (k[:-1, None] + frac[None, :]).ravel()
-        return CubicSpline(k, samples, axis=0)(where)
-    a, b = samples[:-1], samples[1:]
-    per = a[:, None, :] * (1 - frac)[None, :, None] + b[:, None, :] * frac[None, :, None]
-    return per.reshape(-1, samples.shape[1])
+        per = CubicSpline(k, samples, axis=0)(where)
+    else:
+        a, b = samples[:-1], samples[1:]
+        per = a[:, None, :] * (1 - frac)[None, :, None] + b[:, None, :] * frac[None, :, None]
+        per = per.reshape(-1, samples.shape[1])
+    if held is not None and np.any(held):
+        per[:, held] = np.repeat(samples[:-1, held], nsub, axis=0)
+    return per
+
+
+def held_mask(traj: Trajectory) -> np.ndarray:
+    """Per joint of ``traj``: whether its effort was held over each interval."""
+    return np.array([j in traj.held for j in traj.joints], bool)
 
 
 def _uniform(traj: Trajectory) -> bool:
@@ -223,7 +235,8 @@ def rollout(model, traj: Trajectory, initial: Initial,
     h = model.opt.timestep
     uniform = _uniform(traj)
     samples = measured_samples(traj)
-    per_step = step_input(samples, nsub, cubic=refine > 1) if uniform else None
+    held = held_mask(traj)
+    per_step = step_input(samples, nsub, cubic=refine > 1, held=held) if uniform else None
 
     q_out = np.empty((n, nj))
     u_out = np.zeros((n, nj))
@@ -249,7 +262,7 @@ def rollout(model, traj: Trajectory, initial: Initial,
             continue
         steps = nsub if uniform else max(1, round((t[i + 1] - t[i]) / h))
         base = u_out[i] + const if controller is not None else \
-            0.5 * (samples[i] + samples[i + 1]) + const
+            np.where(held, samples[i], 0.5 * (samples[i] + samples[i + 1])) + const
         qfrc[dadr] = base
         for _ in range(steps):
             step(model, d)
@@ -458,13 +471,17 @@ class _LoopTerms:
                 step(m, d)
 
 
-def irregular_input(time: np.ndarray, samples: np.ndarray, h: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def irregular_input(time: np.ndarray, samples: np.ndarray, h: float,
+                    held: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Irregular samples as steps of ``h``: each interval's effort held at the mean of its
-    two samples for as many whole steps as the interval holds (at least one), and the step
-    count after which each sample after the first is read (:func:`rollout`'s stepping)."""
+    two samples (at its first where ``held``, per joint: :func:`step_input`) for as many
+    whole steps as the interval holds (at least one), and the step count after which each
+    sample after the first is read (:func:`rollout`'s stepping)."""
     steps = np.maximum(1, np.round(np.diff(time) / h).astype(int))
-    return np.repeat(0.5 * (samples[:-1] + samples[1:]), steps, axis=0), np.cumsum(steps)
+    level = 0.5 * (samples[:-1] + samples[1:])
+    if held is not None and np.any(held):
+        level[:, held] = samples[:-1, held]
+    return np.repeat(level, steps, axis=0), np.cumsum(steps)
 
 
 class BatchRunner:
@@ -500,10 +517,12 @@ class BatchRunner:
         period = traj.sample_period
         nsub = substeps_for(period, fine) * refine
         if _uniform(traj):
-            per_step = step_input(self._input, nsub, cubic=refine > 1)
+            per_step = step_input(self._input, nsub, cubic=refine > 1,
+                                  held=held_mask(traj))
             ends = nsub * np.arange(1, traj.n)
         else:
-            per_step, ends = irregular_input(traj.time, self._input, period / nsub)
+            per_step, ends = irregular_input(traj.time, self._input, period / nsub,
+                                             held_mask(traj))
         if self._datas is None or self._datas[0].model.nq != m0.nq:
             self._datas = [mujoco.MjData(m0) for _ in range(THREADS)]
         spec_full = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)

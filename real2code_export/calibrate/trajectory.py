@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import FormatError
 from ..model import ArticulatedObject
 from .experiment import Experiment, experiment_for
-from .features import noise_level
+from .features import noise_level, sensor_noise_level
 from .feedback import Feedback
 from .feedback import controller as feedback_controller
 
@@ -57,6 +57,9 @@ class Trajectory:
     # a piece of a longer run that starts on the previous piece's last sample (multiple
     # shooting: the fit keeps the two joined)
     continues: bool = False
+    # joints whose measured effort a digital loop computed each sample from the sampled
+    # position and held over the interval (:func:`held_efforts`): replayed as steps
+    held: tuple[str, ...] = ()
 
     def law(self) -> Controller | None:
         """The closed loop the replay runs (None: open loop, the measured effort)."""
@@ -180,15 +183,41 @@ def read_csv(path: str | Path, obj: ArticulatedObject,
             columns[jc.feedback.reference] = col[jc.feedback.reference] * position_scale(joint)
             if jc.feedback.added is not None:
                 columns[jc.feedback.added] = col[jc.feedback.added].copy()
+    positions = {j: col[c] * position_scale(j) for j, c in position_of.items()}
+    efforts = {j: col[c].copy() for j, c in effort_of.items()}
     return Trajectory(
         source=str(path),
         time=t * time_scale,
-        positions={j: col[c] * position_scale(j) for j, c in position_of.items()},
-        efforts={j: col[c].copy() for j, c in effort_of.items()},
+        positions=positions,
+        efforts=efforts,
         feedback=feedback, columns=columns,
         gravity=exp.gravity if exp is not None else None,
         window=(exp.start, exp.end) if exp is not None else (None, None),
+        held=held_efforts(positions, efforts),
     )
+
+
+# the effort's jitter this many times its sensor's: most of it (8/9 of its variance) is a
+# loop's reaction to the sampled position (open-loop efforts measure 1.0-1.1, loops 9 and up)
+HELD_JITTER = 3.0
+
+
+def held_efforts(positions: dict[str, np.ndarray], efforts: dict[str, np.ndarray]
+                 ) -> tuple[str, ...]:
+    """The joints whose measured effort a loop computed from the sampled position: its
+    jitter is the encoder's noise turned into command (features.sensor_noise_level), so a
+    digital controller set it once a sample and held it over the interval. Replayed linear
+    between samples instead, the command's sample-to-sample jitter averages out and the
+    joint is driven by a smoother force than it felt (dry friction it dithered is fitted
+    high, a drawer's inertia low: the suite's drift cases)."""
+    out = []
+    for j, x in efforts.items():
+        if j not in positions:
+            continue
+        sensor = sensor_noise_level(x, positions[j])
+        if noise_level(x) > HELD_JITTER * sensor:
+            out.append(j)
+    return tuple(out)
 
 
 def movable_type(obj: ArticulatedObject, joint: str) -> bool:
