@@ -445,6 +445,47 @@ def test_an_open_panels_strip_in_other_labels_goes_to_the_panel():
     assert claim_panels(cloud, labels, 0.02)[1] == []
 
 
+def test_a_door_swung_a_few_degrees_past_its_neighbour_on_one_hinge_line_keeps_its_label():
+    """Two doors on one hinge line at a carcass's front, open 78 and 83 degrees: the first
+    is a turned panel (12 degrees off the carcass's axes), the second is not (7 degrees)
+    and lies within a few centimetres of the first's plane, facing along it, touching it
+    at the hinge. It is a panel of its own beside the first, not a piece of it: a
+    neighbour's claim never takes most of a moving part's label (``claim_most``; a
+    procedural cabinet's such door lost 726 of its 764 points). A strip of it is still
+    claimed when the rest stays."""
+    from pipeline.compartments import claim_panels
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    back = _grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z)
+    walls = [_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z),
+             _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)]
+
+    def door(degrees, z0):
+        a = np.radians(degrees)  # swung from lying along +y across the front
+        return (_grid(0.34, 0.38, (0.31, -0.4, z0), (np.sin(a), np.cos(a), 0), z),
+                (np.cos(a), -np.sin(a), 0))
+
+    (lower, n_lower), (upper, n_upper) = door(78, -0.4), door(83, 0.0)
+    cloud = np.concatenate([back, *walls, lower, upper])
+    n_carcass = len(back) + sum(map(len, walls))
+    normals = np.concatenate([np.tile(x, (len(back), 1)), np.tile(y, (len(walls[0]), 1)),
+                              np.tile(y, (len(walls[1]), 1)), np.tile(z, (len(walls[2]), 1)),
+                              np.tile(z, (len(walls[3]), 1)), np.tile(n_lower, (len(lower), 1)),
+                              np.tile(n_upper, (len(upper), 1))]).astype(float)
+    labels = np.concatenate([np.ones(n_carcass, int), np.full(len(lower), 2),
+                             np.full(len(upper), 3)])
+    out, moved = claim_panels(cloud, labels, 0.02, normals=normals)
+    assert np.array_equal(out, labels) and moved == []
+    # the same upper door with most of it in the carcass's label: what is left of its own
+    # label (a strip at its free edge) still keeps it; the carcass's share is claimed
+    split = labels.copy()
+    upper_at = np.arange(n_carcass + len(lower), len(cloud))
+    split[upper_at[(upper[:, 0] - 0.31) < 0.2]] = 1
+    out, moved = claim_panels(cloud, split, 0.02, normals=normals)
+    assert [m["claimed_from"] for m in moved] == [1]
+    assert (out[upper_at[(upper[:, 0] - 0.31) >= 0.2]] != out[n_carcass]).all()
+
+
 def test_a_handle_and_a_flaps_edge_standing_out_of_the_carcass_go_to_the_flap():
     """A flap tipped 40 degrees forward about its bottom edge on a carcass's front: its
     handle (a bar in front of it) and its side edge (facing along the hinge, a carcass axis)
