@@ -62,6 +62,22 @@ def test_a_stop_case_meets_its_stop_in_the_fitted_run():
         assert q.max() >= p.stop if p.stop_side > 0 else q.min() <= p.stop
 
 
+def test_a_direction_dependent_friction_case_moves_both_ways_in_the_fitted_run():
+    """Friction that differs by direction is in a run's data only where the joint moves
+    both ways: seed 110's first draw (a drawer pushed one way, never back) hid one it
+    could not show, and is redrawn; every such case's fitted run moves each way (fast, no
+    calibration)."""
+    from synthetic_scenarios import _make, _moves_both_ways
+
+    first = _make(110, 0, "pushed", False)
+    assert "asymmetric_friction" in first.truth
+    assert not _moves_both_ways(first.fit.true_position)
+    for seed in (10, 110, 144, 148):
+        case = make(seed)
+        if "asymmetric_friction" in case.truth:
+            assert _moves_both_ways(case.fit.true_position), seed
+
+
 def test_a_stop_is_seen_only_where_the_joint_is_stopped_hard(tmp_path):
     """Where a run shows a joint stopped hard (the stops offered, the pushes excused as a
     stop's rebound): a measured push that turns the joint back at the far end of its
