@@ -420,13 +420,18 @@ def main() -> int:
     parser.add_argument("--reuse", action="store_true", help="render from the reports a "
                         "previous run left in --work (its commands and their times)")
     args = parser.parse_args()
+    names = [name.strip() for name in args.only.split(",") if name.strip()]
+    unknown = [name for name in names if name not in SECTIONS]
+    if unknown:  # before any work: a typo must not cost a calibration first
+        parser.error(f"--only: unknown section(s) {', '.join(unknown)}; choose from "
+                     f"{', '.join(SECTIONS)}")
     global REUSE
     REUSE = args.reuse
     print(f"<!-- machine: {describe()}, load average {os.getloadavg()[0]:.1f} -->")
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
-        for name in args.only.split(","):
-            print("\n".join(SECTIONS[name.strip()](args.data, work)), flush=True)
+        for name in names:
+            print("\n".join(SECTIONS[name](args.data, work)), flush=True)
     return 0
 
 
