@@ -344,7 +344,7 @@ def make(seed: int, name: str | None = None, clean: bool | None = None) -> Scena
     the generator does not model, or while the fitted run never meets the stop the case
     hides: a stop the fitted data do not reach is not in them, and no method names it; so
     with a friction that differs by direction where the fitted run never moves one of the
-    two ways: seed 110's pushed door moved one way only, and what its friction is the
+    two ways: seed 110's pushed drawer moved one way only, and what its friction is the
     other way is in no sample)."""
     if name is None:
         name, default_clean = scenario_for(seed)
