@@ -44,29 +44,50 @@ class Solution:
     start: EquationFit | None
 
 
-def input_noise_spread(sol: Solution) -> np.ndarray:
-    """What the noise on the measured effort does to the estimate (the fit treats the
-    input as exact): replays with the input perturbed by its own noise level (seeded
-    draws), mapped to parameters through the Jacobian; 1.96 standard deviations."""
+def _redrawn_shifts(sol: Solution, redraw) -> np.ndarray | None:
+    """The parameter shifts (scaled units, one row per seeded draw) that redrawn runs
+    cause, mapped through the Jacobian against the fit's own replay; None where ``redraw``
+    redraws no run. ``redraw(t, trajectory, rng)`` gives run ``t`` as it might have been
+    recorded and what the recording adds to the start of its residual (an array, maybe
+    empty), or None to leave it; the draws come from one generator in the same order
+    every time."""
     problem, ev = sol.problem, sol.ev
     shifts = []
     rng = np.random.default_rng(0)
     for _ in range(INPUT_NOISE_DRAWS):
         dr = np.zeros_like(sol.r)
         for t, tr in enumerate(problem.trajectories):
-            if tr.law() is not None or not tr.efforts:
+            drawn = redraw(t, tr, rng)
+            if drawn is None:
                 continue
-            # the sensor's noise: a loop's reaction to the encoder's noise was applied
-            sigma = problem.effort_sensor_noise[t]
-            efforts = {j: e + rng.normal(0.0, sigma[problem.joints.index(j)], len(e))
-                       for j, e in tr.efforts.items()}
-            noisy = dataclasses.replace(tr, efforts=efforts)
+            noisy, recorded = drawn
             (r1, _), = ev.run(t, [sol.x], BatchRunner(noisy, problem.joints))
             a, b = ev.offsets[t], ev.offsets[t + 1]
             dr[a:b] = r1 - sol.r[a:b]
-        if np.any(dr):
-            shifts.append(np.linalg.lstsq(sol.jac, dr, rcond=None)[0])
-    if not shifts:
+            dr[a:a + len(recorded)] += recorded
+        if not np.any(dr):
+            return None
+        shifts.append(np.linalg.lstsq(sol.jac, dr, rcond=None)[0])
+    return np.array(shifts)
+
+
+def input_noise_spread(sol: Solution) -> np.ndarray:
+    """What the noise on the measured effort does to the estimate (the fit treats the
+    input as exact): replays with the input perturbed by its own noise level (seeded
+    draws), mapped to parameters through the Jacobian; 1.96 standard deviations."""
+    problem = sol.problem
+
+    def redraw(t, tr, rng):
+        if tr.law() is not None or not tr.efforts:
+            return None
+        # the sensor's noise: a loop's reaction to the encoder's noise was applied
+        sigma = problem.effort_sensor_noise[t]
+        efforts = {j: e + rng.normal(0.0, sigma[problem.joints.index(j)], len(e))
+                   for j, e in tr.efforts.items()}
+        return dataclasses.replace(tr, efforts=efforts), np.zeros(0)
+
+    shifts = _redrawn_shifts(sol, redraw)
+    if shifts is None:
         return np.zeros(len(sol.x))
     return 1.96 * np.sqrt(np.mean(np.square(shifts), axis=0))
 
@@ -86,37 +107,33 @@ def loop_noise_cov(sol: Solution) -> np.ndarray | None:
     recorded), mapped to parameters through the Jacobian against the noiseless replay;
     their mean square holds the bias and the spread, and how they move together (a
     bias alike both ways cancels in the difference of the two directions)."""
-    problem, ev = sol.problem, sol.ev
-    shifts = []
-    rng = np.random.default_rng(0)
-    for _ in range(INPUT_NOISE_DRAWS):
-        dr = np.zeros_like(sol.r)
-        for t, tr in enumerate(problem.trajectories):
-            if not tr.feedback or tr.controller is not None:
-                continue
-            feedback, columns, draws = {}, dict(tr.columns), {}
-            for j, f in tr.feedback.items():
-                if j not in problem.joints:  # (a law on no measured joint: not replayed)
-                    feedback[j] = f
-                    continue
-                k = problem.joints.index(j)
-                sigma = f.encoder_noise or float(problem.position_noise[t][k])
-                name = f"{j}.encoder_noise_draw"
-                columns[name] = draws[k] = rng.normal(0.0, sigma, tr.n)
-                # the draw is in the reading: the law clipped as it is, not its mean
-                feedback[j] = dataclasses.replace(f, reading=name, encoder_noise=0.0)
-            noisy = dataclasses.replace(tr, feedback=feedback, columns=columns)
-            (r1, _), = ev.run(t, [sol.x], BatchRunner(noisy, problem.joints))
-            a = ev.offsets[t]
-            dr[a:ev.offsets[t + 1]] = r1 - sol.r[a:ev.offsets[t + 1]]
-            for k, n in draws.items():  # the recorded reading (residual units)
-                j = problem.joints[k]
-                dr[a + k * tr.n:a + (k + 1) * tr.n] += n / noise_floor(
-                    problem.position_noise[t][k], tr.positions[j])
-        if not np.any(dr):
+    problem = sol.problem
+
+    def redraw(t, tr, rng):
+        if not tr.feedback or tr.controller is not None:
             return None
-        shifts.append(np.linalg.lstsq(sol.jac, dr, rcond=None)[0])
-    shifts = np.array(shifts)
+        feedback, columns, draws = {}, dict(tr.columns), {}
+        for j, f in tr.feedback.items():
+            if j not in problem.joints:  # (a law on no measured joint: not replayed)
+                feedback[j] = f
+                continue
+            k = problem.joints.index(j)
+            sigma = f.encoder_noise or float(problem.position_noise[t][k])
+            name = f"{j}.encoder_noise_draw"
+            columns[name] = draws[k] = rng.normal(0.0, sigma, tr.n)
+            # the draw is in the reading: the law clipped as it is, not its mean
+            feedback[j] = dataclasses.replace(f, reading=name, encoder_noise=0.0)
+        # the recorded reading, in the run's position residuals (one block per joint)
+        recorded = np.zeros((max(draws) + 1) * tr.n if draws else 0)
+        for k, n in draws.items():
+            recorded[k * tr.n:(k + 1) * tr.n] = n / noise_floor(
+                problem.position_noise[t][k], tr.positions[problem.joints[k]])
+        noisy = dataclasses.replace(tr, feedback=feedback, columns=columns)
+        return noisy, recorded
+
+    shifts = _redrawn_shifts(sol, redraw)
+    if shifts is None:
+        return None
     return shifts.T @ shifts / len(shifts)
 
 
