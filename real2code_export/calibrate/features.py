@@ -13,8 +13,10 @@ import math
 import numpy as np
 from scipy.signal import find_peaks, savgol_coeffs, savgol_filter
 
+MIN_WINDOW = 7  # samples: the order-4 polynomial's fewest plus two
 
-def smoothing_window(period: float, seconds: float = 0.15, minimum: int = 7) -> int:
+
+def smoothing_window(period: float, seconds: float = 0.15, minimum: int = MIN_WINDOW) -> int:
     """A window of a fixed duration (odd, at least ``minimum`` samples): for looks that
     need one span whatever the data (an impact, a push's energy); the equation error's
     own window is :func:`chosen_window`'s, from the run's data."""
@@ -32,7 +34,6 @@ def smoothing_window(period: float, seconds: float = 0.15, minimum: int = 7) -> 
 # let the effort equation explain a hand-driven run's torque (DFKI's gravity
 # compensation) with invented causes.
 REGRESSOR_NOISE = 0.2
-MIN_WINDOW = 7  # samples: the order-4 polynomial's fewest plus two
 MAX_WINDOW_SECONDS = 1.0  # s: no filter of the equation error averages over longer
 WINDOW_GROWTH = 1.1  # the windows tried grow by this factor
 POLYORDER = 4
