@@ -847,6 +847,51 @@ def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_foun
     assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
+def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
+    """The two guards of :func:`find_level_fronts`: a level piece of the carcass's label
+    that is the part's own front (most of it next to the front, across its whole width) or
+    a strip no taller than a table top's edge (3 cm against a drawer front's 25) finds no
+    sibling; a sibling touching the part along one edge only (across the gap between two
+    drawers) is still one (:func:`_on_own_front`)."""
+    from scipy.spatial import cKDTree
+
+    from pipeline.compartments import _on_own_front, find_level_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    own = _grid(0.25, 0.2, (0.0, -0.3, -0.3), y, z)[:, 1:]  # a drawer's front on the face
+    tree, apart = cKDTree(own), 0.04
+    assert _on_own_front(own + [0.01, 0.0], tree, apart)  # its own front, a cm aside
+    sibling = _grid(0.25, 0.2, (0.0, -0.045, -0.3), y, z)[:, 1:]  # 1.5 cm beside it
+    assert not _on_own_front(sibling, tree, apart)  # touches along one edge strip only
+    assert not _on_own_front(sibling + [0.5, 0.0], tree, apart)  # far away
+
+    # a drawer pulled 15 cm out (its own label); level with its front, in the carcass's
+    # label, a strip 3 cm tall with a thin lip behind it: no drawer front
+    box = _open_box()
+    box_normals = np.where((np.abs(box[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(box[:, 1]) - 0.4) < 1e-9)[:, None], y, z))
+    rim = np.concatenate([_grid(0.8, 0.06, (0.3, -0.4, -0.4), y, z),
+                          _grid(0.8, 0.06, (0.3, -0.4, 0.34), y, z)])
+    strip = _grid(0.3, 0.03, (0.45, 0.05, 0.3), y, z)
+    lip = _grid(0.15, 0.3, (0.3, 0.05, 0.3), x, y)
+    drawer = [(_grid(0.25, 0.2, (0.45, -0.3, -0.3), y, z), x),
+              (_grid(0.45, 0.25, (0.0, -0.3, -0.3), x, y), z)]
+    cloud, normals = _facing((rim, x), (strip, x), (lip, z), *drawer)
+    cloud, normals = np.concatenate([box, cloud]), np.concatenate([box_normals, normals])
+    labels = np.ones(len(cloud), int)
+    labels[len(box) + len(rim) + len(strip) + len(lip):] = 2
+    assert find_level_fronts(cloud, labels, 0.02, normals=normals)[1] == []
+    # the same strip 25 cm tall (a sibling drawer's front) is found
+    tall = _grid(0.3, 0.25, (0.45, 0.05, -0.3), y, z)
+    cloud2, normals2 = _facing((rim, x), (tall, x), *drawer)
+    cloud2 = np.concatenate([box, cloud2])
+    normals2 = np.concatenate([box_normals, normals2])
+    labels2 = np.ones(len(cloud2), int)
+    labels2[len(box) + len(rim) + len(tall):] = 2
+    assert [m["level_front"] for m in find_level_fronts(cloud2, labels2, 0.02,
+                                                        normals=normals2)[1]] == [True]
+
+
 def test_a_turned_panel_is_found_the_same_every_time():
     """The plane of a noisy door swung 40 degrees is found, and found identically on a
     second call (open3d's segment_plane, seeded, returned other planes run to run)."""
