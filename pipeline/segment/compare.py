@@ -4,9 +4,10 @@
         [--sensors clean,phone-lidar] [--world household]
 
 For every (camera path, sensor) pair: views of procedural objects of a world (default the
-paper's categories) that the training never drew (another seed), each network prompted inside the true parts as in training, and the mean
-IoU of its masks (:func:`pipeline.segment.train.validate`). The shipped weights are replaced
-only by weights that do better on the paths people take and no worse on the front arc.
+paper's categories) that the training never drew (another seed), each network prompted
+inside the true parts as in training, and the mean IoU of its masks
+(:func:`pipeline.segment.train.validate`). The shipped weights are replaced only by weights
+that do better on the paths people take and no worse on the front arc.
 """
 
 from __future__ import annotations
