@@ -62,21 +62,55 @@ def test_training_script_writes_loadable_weights(tmp_path):
     assert record["parameters"] > 0 and record["epochs"] == 1
     segmenter = LearnedSegmenter.load(out)
     assert segmenter is not None
+    assert record["world"] == "real2code"
     # going on from those weights keeps their network and their record; rehearsing adds
-    # their own first object (seed 0), and every epoch but the last leaves a checkpoint
+    # their own first object (seed 0, their world), and every epoch but the last leaves a
+    # checkpoint
     more = tmp_path / "more.pt"
     again = train(2, 2, 5, more, images_per_batch=4, prompts_per_image=4, workers=1,
-                  views_per_object=2, lr=1e-3, init=out, rehearse=1, validation_objects=2)
+                  views_per_object=2, lr=1e-3, init=out, rehearse=1, validation_objects=2,
+                  world="household")
     assert again["previous"]["seed"] == 0 and again["seed"] == 5 and again["lr"] == 1e-3
     assert again["rehearsal"]["seed"] == 0 and again["views"] == 2 * 2 + 1 * 2
+    assert again["world"] == "household" and again["rehearsal"]["world"] == "real2code"
     assert LearnedSegmenter.load(tmp_path / "more.epoch1.pt").config["training"]["epochs"] == 1
     with pytest.raises(ValueError, match="needs --init"):
         train(2, 1, 5, tmp_path / "x.pt", workers=1, rehearse=1)
+    with pytest.raises(ValueError, match="unknown world 'kitchen'"):
+        train(2, 1, 5, tmp_path / "x.pt", workers=1, world="kitchen")
     continued = LearnedSegmenter.load(more)
     assert continued.config["network"] == segmenter.config["network"]
     before = segmenter.network.state_dict()
     after = continued.network.state_dict()
     assert any(not torch.equal(before[k], after[k]) for k in before)  # it did train
+
+
+def test_the_world_a_record_names():
+    """A rehearsal replays the world of its initial weights: their record's, the
+    fine-tuning's for weights between two trainings, the paper's for records before worlds."""
+    from pipeline.segment.train import recorded_world
+
+    assert recorded_world(None) == "real2code"
+    assert recorded_world({"seed": 1}) == "real2code"
+    assert recorded_world({"seed": 1, "world": "household"}) == "household"
+    assert recorded_world({"interpolated": {"alpha": 0.5, "old": {"seed": 1},
+                                            "new": {"world": "household"}}}) == "household"
+
+
+def test_views_of_a_world():
+    """``world`` draws the objects from that world's categories (the default, the paper's,
+    draws as before)."""
+    from pipeline.predictors.data import object_specs
+    from pipeline.procedural import CATEGORIES
+    from pipeline.segment.data import _one
+
+    (category, n, seed), = object_specs(1, 0, "household")
+    assert category not in CATEGORIES  # seed 0 draws a household category there
+    views = make_views(1, 0, views_per_object=1, workers=1, world="household")
+    alone = _one((category, n, seed, 1, ("front-arc",), ("clean",)))
+    assert len(views) == 1 and np.array_equal(views[0].mask, alone[0].mask)
+    (paper, *_), = object_specs(1, 0)
+    assert paper in CATEGORIES
 
 
 def test_views_from_other_paths_and_sensors_and_the_comparison(tmp_path):
@@ -94,6 +128,9 @@ def test_views_from_other_paths_and_sensors_and_the_comparison(tmp_path):
     first, second = twice[("ring", "phone-lidar")]
     assert first == second and 0.0 < first["mean_iou"] <= 1.0
     assert list(tmp_path.glob(f"segment_compare_1_2_ring_phone-lidar_{code_version()}.pkl"))
+    compare([WEIGHTS], ["ring"], ["clean"], objects=1, views_per_object=1, cache_dir=tmp_path,
+            world="household")  # another world's views are kept under another name
+    assert list(tmp_path.glob(f"segment_compare_1_1_ring_clean_household_{code_version()}.pkl"))
 
 
 def test_missing_or_foreign_weights(tmp_path):
@@ -110,9 +147,12 @@ needs_weights = pytest.mark.skipif(not WEIGHTS.is_file(), reason="no shipped wei
 @needs_weights
 def test_shipped_weights_record_their_training():
     seg = LearnedSegmenter.load()
-    record = seg.config["training"]
-    mixed = record.get("interpolated")  # weights between two trainings record both
-    for r in [mixed["old"], mixed["new"]] if mixed else [record]:
+
+    def trainings(record):  # weights between two trainings record both, maybe nested
+        mixed = record.get("interpolated")
+        return trainings(mixed["old"]) + trainings(mixed["new"]) if mixed else [record]
+
+    for r in trainings(seg.config["training"]):
         assert r["total_seconds"] > 0 and r["validation"]["mean_iou"] > 0.5
     assert WEIGHTS.stat().st_size < 3_000_000
 

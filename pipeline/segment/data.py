@@ -68,6 +68,7 @@ def _colours(names: list[str], original: dict[str, tuple], rng: np.random.Genera
 # ``--sensors`` of the training command draw each object's path and sensor from lists.
 SHIPPED_CAMERAS = ("front-arc",)
 SHIPPED_SENSORS = ("clean",)
+SHIPPED_WORLD = "real2code"  # the world of weights whose record names none (before session 25)
 
 
 def _pick(options: tuple[str, ...], rng: np.random.Generator) -> str:
@@ -131,13 +132,15 @@ def _one(spec) -> list[View]:
 
 def make_views(n_objects: int, seed: int, views_per_object: int = 4,
                workers: int = 2, cameras: tuple[str, ...] = SHIPPED_CAMERAS,
-               sensors: tuple[str, ...] = SHIPPED_SENSORS) -> list[View]:
-    """Views of ``n_objects`` procedural objects (the joint predictor's mix of categories
-    and part counts; seeds below the evaluation's held-out offset)."""
+               sensors: tuple[str, ...] = SHIPPED_SENSORS,
+               world: str = SHIPPED_WORLD) -> list[View]:
+    """Views of ``n_objects`` procedural objects of ``world`` (the joint predictor's mix of
+    categories and part counts, ``pipeline.predictors.data.WORLDS``; seeds below the
+    evaluation's held-out offset)."""
     from ..predictors.data import object_specs
 
     specs = [(c, n, s, views_per_object, tuple(cameras), tuple(sensors))
-             for c, n, s in object_specs(n_objects, seed)]
+             for c, n, s in object_specs(n_objects, seed, world)]
     if workers > 1:
         from multiprocessing import get_context
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..training_cache import cache_file
 from ..weights import save_weights
-from .data import SHIPPED_CAMERAS, SHIPPED_SENSORS, View, make_views
+from .data import SHIPPED_CAMERAS, SHIPPED_SENSORS, SHIPPED_WORLD, View, make_views
 from .features import SIZE, grid_features
 from .learned import WEIGHTS
 
@@ -226,6 +226,24 @@ def _cached(cache_dir: Path | None, tag: str, make):
     return data
 
 
+def recorded_world(record: dict | None) -> str:
+    """The world (``pipeline.predictors.data.WORLDS``) a training record's objects came
+    from: weights between two trainings have their fine-tuning's (whose data held the
+    rehearsal of the other's); a record that names none predates worlds."""
+    if not record:
+        return SHIPPED_WORLD
+    if "interpolated" in record:
+        return recorded_world(record["interpolated"].get("new"))
+    return record.get("world", SHIPPED_WORLD)
+
+
+def _mix_tag(cameras, sensors, world: str) -> str:
+    """What a cache name adds for views not drawn as the first shipped weights' were."""
+    tag = "" if (tuple(cameras), tuple(sensors)) == (SHIPPED_CAMERAS, SHIPPED_SENSORS) else \
+        "_" + "-".join((*cameras, *sensors)).replace(".", "_").replace("/", "_")
+    return tag if world == SHIPPED_WORLD else f"{tag}_{world}"
+
+
 def _union(*lists) -> list[str]:
     return list(dict.fromkeys(x for xs in lists for x in xs))
 
@@ -236,16 +254,17 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
           cache_dir: Path | None = None, init: Path | None = None,
           cameras: tuple[str, ...] = SHIPPED_CAMERAS,
           sensors: tuple[str, ...] = SHIPPED_SENSORS, rehearse: int = 0,
-          validation_objects: int | None = None) -> dict:
+          validation_objects: int | None = None, world: str = SHIPPED_WORLD) -> dict:
     """Train (or, with ``init``, go on training) and save to ``out``; after every epoch but
     the last the weights so far go beside it (``NAME.epochK.pt``), to compare or resume.
 
     ``rehearse`` adds that many of the ``init`` weights' own training objects, drawn as
-    theirs were (their record's seed, cameras and sensors), to the new views: fine-tuning on
+    theirs were (their record's seed, world, cameras and sensors), to the new views: fine-tuning on
     other paths and sensors alone makes the network forget what it did well (issue 20's
     first fine-tuning lost 0.035 mask IoU on the clean front arc with 1/16 of its views
     drawn so). ``validation_objects``: how many held-out objects the validation renders
-    (default 40, or 1 in 20 of the training objects where that is more)."""
+    (default 40, or 1 in 20 of the training objects where that is more). ``world``: the
+    categories the new objects (and the validation's) are drawn from, recorded."""
     import torch
 
     from .network import build_network
@@ -261,27 +280,30 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
         previous = start.config.get("training")
     elif rehearse:
         raise ValueError("--rehearse needs --init: it replays the initial weights' own data")
-    mix = "" if (tuple(cameras), tuple(sensors)) == (SHIPPED_CAMERAS, SHIPPED_SENSORS) else \
-        "_" + "-".join((*cameras, *sensors)).replace(".", "_").replace("/", "_")
+    from ..predictors.data import WORLDS
+
+    if world not in WORLDS:
+        raise ValueError(f"unknown world {world!r}; choose from {list(WORLDS)}")
+    mix = _mix_tag(cameras, sensors, world)
     views = _cached(cache_dir, f"train_{n_objects}_{seed}_{views_per_object}{mix}",
                     lambda: make_views(n_objects, seed, views_per_object, workers, cameras,
-                                       sensors))
+                                       sensors, world))
     n_val = validation_objects or max(40, n_objects // 20)
     val = _cached(cache_dir, f"val_{n_val}_{seed + 7919}{mix}",
-                  lambda: make_views(n_val, seed + 7919, 2, workers, cameras, sensors))
+                  lambda: make_views(n_val, seed + 7919, 2, workers, cameras, sensors, world))
     rehearsal = None
     if rehearse:
         old = start.config.get("input", {})
         rehearsal = {"objects": rehearse, "seed": int((previous or {}).get("seed", 1)),
                      "cameras": old.get("cameras", list(SHIPPED_CAMERAS)),
-                     "sensors": old.get("sensors", list(SHIPPED_SENSORS))}
+                     "sensors": old.get("sensors", list(SHIPPED_SENSORS)),
+                     "world": recorded_world(previous)}
         old_mix = (tuple(rehearsal["cameras"]), tuple(rehearsal["sensors"]))
-        tag = "" if old_mix == (SHIPPED_CAMERAS, SHIPPED_SENSORS) else \
-            "_" + "-".join(old_mix[0] + old_mix[1]).replace(".", "_").replace("/", "_")
+        tag = _mix_tag(*old_mix, rehearsal["world"])
         views = views + _cached(
             cache_dir, f"train_{rehearse}_{rehearsal['seed']}_{views_per_object}{tag}",
             lambda: make_views(rehearse, rehearsal["seed"], views_per_object, workers,
-                               *old_mix))
+                               *old_mix, rehearsal["world"]))
     t_data = time.perf_counter() - t0
     print(f"{len(views)} training views, {len(val)} validation views in {t_data:.0f} s",
           flush=True)
@@ -304,7 +326,8 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
 
     def record(validation: dict) -> dict:
         out = {
-            "objects": n_objects, "views": len(views), "epochs": len(history), "seed": seed,
+            "objects": n_objects, "world": world, "views": len(views),
+            "epochs": len(history), "seed": seed,
             "images_per_batch": images_per_batch, "prompts_per_image": prompts_per_image,
             "data_seconds": round(t_data, 1),
             "total_seconds": round(time.perf_counter() - t0, 1),
@@ -352,6 +375,8 @@ def train(n_objects: int, epochs: int, seed: int, out: Path, *, images_per_batch
 
 
 def main(argv=None) -> None:
+    from ..predictors.data import WORLDS
+
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--objects", type=int, default=1200)
     p.add_argument("--epochs", type=int, default=10)
@@ -377,6 +402,9 @@ def main(argv=None) -> None:
     p.add_argument("--rehearse", type=int, default=0,
                    help="with --init: also train on this many of the initial weights' own "
                         "training objects, drawn as theirs were (so it does not forget them)")
+    p.add_argument("--world", default=SHIPPED_WORLD, choices=sorted(WORLDS),
+                   help="the categories the new objects are drawn from (a rehearsal replays "
+                        "the world of the --init weights' record)")
     p.add_argument("--validation-objects", type=int, default=None,
                    help="held-out objects to validate on (default 40, or 1 in 20 of "
                         "--objects where that is more)")
@@ -387,7 +415,7 @@ def main(argv=None) -> None:
                    cache_dir=args.cache_dir, lr=args.lr, init=args.init,
                    cameras=tuple(args.cameras.split(",")),
                    sensors=tuple(args.sensors.split(",")), rehearse=args.rehearse,
-                   validation_objects=args.validation_objects,
+                   validation_objects=args.validation_objects, world=args.world,
                    network_config={"dim": args.dim,
                                    "widths": [int(w) for w in args.widths.split(",")],
                                    "fine": args.fine})
