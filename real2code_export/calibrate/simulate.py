@@ -237,6 +237,7 @@ def rollout(model, traj: Trajectory, initial: Initial,
     samples = measured_samples(traj)
     held = held_mask(traj)
     per_step = step_input(samples, nsub, cubic=refine > 1, held=held) if uniform else None
+    levels = None if uniform else interval_levels(samples, held)
 
     q_out = np.empty((n, nj))
     u_out = np.zeros((n, nj))
@@ -261,8 +262,7 @@ def rollout(model, traj: Trajectory, initial: Initial,
                 step(model, d)
             continue
         steps = nsub if uniform else max(1, round((t[i + 1] - t[i]) / h))
-        base = u_out[i] + const if controller is not None else \
-            np.where(held, samples[i], 0.5 * (samples[i] + samples[i + 1])) + const
+        base = u_out[i] + const if controller is not None else levels[i] + const
         qfrc[dadr] = base
         for _ in range(steps):
             step(model, d)
@@ -478,10 +478,16 @@ def irregular_input(time: np.ndarray, samples: np.ndarray, h: float,
     whole steps as the interval holds (at least one), and the step count after which each
     sample after the first is read (:func:`rollout`'s stepping)."""
     steps = np.maximum(1, np.round(np.diff(time) / h).astype(int))
+    return np.repeat(interval_levels(samples, held), steps, axis=0), np.cumsum(steps)
+
+
+def interval_levels(samples: np.ndarray, held: np.ndarray | None = None) -> np.ndarray:
+    """(n - 1, joints) the effort each interval is replayed at when it is one level: the
+    mean of its two samples, or its first where ``held`` (per joint)."""
     level = 0.5 * (samples[:-1] + samples[1:])
     if held is not None and np.any(held):
         level[:, held] = samples[:-1, held]
-    return np.repeat(level, steps, axis=0), np.cumsum(steps)
+    return level
 
 
 class BatchRunner:
