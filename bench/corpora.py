@@ -14,12 +14,16 @@ CPU the command used), the medians and totals per corpus and the ratios converte
 one ratio the converter can be compared on; with ``--floor`` also, per file, each tool's floor
 (:data:`FLOOR`: its interpreter importing what it writes USD with and MuJoCo compiling the
 file, nothing written), the CPU no export of that file by either tool can go below.
+``--server``: with ``--usd-only``, our USD export also run through ``real2code server`` (started
+once, in a folder of its own, its start timed: the cold first command), each file's command
+beside the one on its own; a command's CPU there is the caller's and the server's fork's.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import statistics
 import subprocess
@@ -36,6 +40,7 @@ from _machine import byte_compile, converters_bin, describe, load_average  # noq
 REPO = Path(__file__).resolve().parents[1]
 CONVERTERS = converters_bin()
 REAL2CODE = [sys.executable, "-m", "real2code_export.cli"]
+ALONE = {**os.environ, "REAL2CODE_SERVER": "off"}  # ours on its own, whatever server runs
 
 
 def urdf_files() -> list[Path]:
@@ -46,6 +51,33 @@ def urdf_files() -> list[Path]:
 def mjcf_files() -> list[Path]:
     root = SHARED_DATA / "mujoco_menagerie"
     return [root / e["model"] for e in json.loads((root / "index.json").read_text())]
+
+
+class Server:
+    """``real2code server`` in a runtime folder of its own (not the user's), for the run."""
+
+    def __init__(self) -> None:
+        self.folder = tempfile.TemporaryDirectory()
+        self.env = {**os.environ, "XDG_RUNTIME_DIR": self.folder.name}
+        self.start_s, _, rc, said = timed([*REAL2CODE, "server", "start", "--idle-timeout", "0"],
+                                          self.env)
+        if rc != 0:
+            sys.exit(f"real2code server start failed: {said}")
+        self.pid = int(said.split("pid ")[1].split(",")[0])
+
+    def forks_cpu(self) -> float:
+        """CPU seconds of the server's ended forks (its children's, as the kernel counts)."""
+        fields = Path(f"/proc/{self.pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[13]) + int(fields[14])) / os.sysconf("SC_CLK_TCK")
+
+    def timed(self, cmd: list[str]) -> tuple[float, float, int, str]:
+        before = self.forks_cpu()
+        wall, cpu, rc, said = timed(cmd, self.env)
+        return wall, cpu + self.forks_cpu() - before, rc, said
+
+    def stop(self) -> None:
+        timed([*REAL2CODE, "server", "stop"], self.env)
+        self.folder.cleanup()
 
 
 def timed(cmd: list[str], env: dict | None = None) -> tuple[float, float, int, str]:
@@ -94,21 +126,26 @@ def _floor_cells(r: dict) -> str:
             f"{r['above_ours_cpu']:.2f} / {r['above_converter_cpu']:.2f} |")
 
 
-def run_file(path: Path, converter: str, usd_only: bool = False) -> dict:
+def run_file(path: Path, converter: str, usd_only: bool = False,
+             server: Server | None = None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         row: dict = {"file": path.name}
         if not usd_only:
             ours, ours_cpu, rc, said = timed([*REAL2CODE, "export", str(path), "--out",
-                                              f"{tmp}/ours"])
+                                              f"{tmp}/ours"], ALONE)
             row.update(export_s=ours, export_cpu=ours_cpu, export_rc=rc, said=said)
         if not usd_only and rc == 0:
             files = sorted(str(p) for p in Path(tmp, "ours").iterdir() if p.is_file())
-            check, check_cpu, rc_check, _ = timed([*REAL2CODE, "check", *files])
+            check, check_cpu, rc_check, _ = timed([*REAL2CODE, "check", *files], ALONE)
             row.update(check_s=check, check_cpu=check_cpu, check_rc=rc_check)
         # the converter's output alone (USD), as a user after a USD file runs it
         usd, usd_cpu, rc_usd, _ = timed([*REAL2CODE, "export", str(path), "--to", "usd",
-                                         "--out", f"{tmp}/usd"])
+                                         "--out", f"{tmp}/usd"], ALONE)
         row.update(usd_s=usd, usd_cpu=usd_cpu, usd_rc=rc_usd)
+        if server is not None:
+            warm, warm_cpu, rc_warm, _ = server.timed([*REAL2CODE, "export", str(path), "--to",
+                                                       "usd", "--out", f"{tmp}/warm"])
+            row.update(warm_s=warm, warm_cpu=warm_cpu, warm_rc=rc_warm)
         if usd_only:
             row.update(export_rc=rc_usd)
         conv, conv_cpu, rc_conv, said_conv = timed([str(CONVERTERS / converter), str(path),
@@ -129,20 +166,24 @@ def _both(rows: list[dict], ours: str) -> list[dict]:
     return [r for r in rows if r[ours] == 0 and r["converter_rc"] == 0]
 
 
-def usd_summary(name: str, rows: list[dict]) -> str:
+def usd_summary(name: str, rows: list[dict], ours: str = "usd") -> str:
     """The ``--usd-only`` line: how many files each tool converts, then medians, totals
-    and ratios of the USD export and the converter over the files both convert."""
-    ok = [r for r in rows if r["usd_rc"] == 0]
+    and ratios of the USD export (``ours``: ``usd`` on its own, ``warm`` in the server) and
+    the converter over the files both convert."""
+    ok = [r for r in rows if r[f"{ours}_rc"] == 0]
     conv_ok = [r for r in rows if r["converter_rc"] == 0]
-    both = _both(rows, "usd_rc")
-    usd, usd_cpu = _median(both, "usd_s"), _median(both, "usd_cpu")
+    both = _both(rows, f"{ours}_rc")
+    usd, usd_cpu = _median(both, f"{ours}_s"), _median(both, f"{ours}_cpu")
     conv, conv_cpu = _median(both, "converter_s"), _median(both, "converter_cpu")
-    ratios = [r["converter_cpu"] / r["usd_cpu"] for r in both]
-    return (f"| {name} | {len(rows)} | {len(ok)} | {len(conv_ok)} | {len(both)} | "
+    ratios = [r["converter_cpu"] / r[f"{ours}_cpu"] for r in both]
+    walls = [r["converter_s"] / r[f"{ours}_s"] for r in both]
+    return (f"| {name}{' (server)' if ours == 'warm' else ''} | {len(rows)} | {len(ok)} | "
+            f"{len(conv_ok)} | {len(both)} | "
             f"{usd:.2f} ({usd_cpu:.2f}) | {conv:.2f} ({conv_cpu:.2f}) | {conv / usd:.2f} "
-            f"({conv_cpu / usd_cpu:.2f}) | {sum(r['usd_s'] for r in both):.1f} / "
+            f"({conv_cpu / usd_cpu:.2f}) | {sum(r[f'{ours}_s'] for r in both):.1f} / "
             f"{sum(r['converter_s'] for r in both):.1f} | "
-            f"{sum(x > 1 for x in ratios)} / {sum(x >= 2 for x in ratios)} |")
+            f"{sum(x > 1 for x in ratios)} / {sum(x >= 2 for x in ratios)} | "
+            f"{sum(x > 1 for x in walls)} / {sum(x >= 2 for x in walls)} |")
 
 
 def summary(name: str, rows: list[dict]) -> str:
@@ -170,7 +211,11 @@ def main() -> None:
                    help="with --usd-only: each tool's floor per file (FLOOR)")
     p.add_argument("--usd-only", action="store_true",
                    help="only `real2code export --to usd` and the converter")
+    p.add_argument("--server", action="store_true",
+                   help="with --usd-only: our export through `real2code server` too")
     args = p.parse_args()
+    if args.server and not args.usd_only:
+        sys.exit("--server goes with --usd-only")
     if not (CONVERTERS / "urdf_usd_converter").exists():
         sys.exit("run bench/setup_converters.sh first")
     byte_compile(REPO / "real2code_export")
@@ -181,15 +226,17 @@ def main() -> None:
     if args.usd_only:
         floor = (" floor, ours / converter's (CPU) | above it, ours / converter (CPU) |"
                  if args.floor else "")
+        warm = (" ours in the server | converter / ours in the server (wall, CPU) |"
+                if args.server else "")
         lines += ["| file | ours: export --to usd | converter (USD) | converter / ours "
-                  "(wall, CPU) | exit ours / converter |" + floor,
-                  "|---|---|---|---|---|" + "---|---|" * args.floor]
+                  "(wall, CPU) | exit ours / converter |" + floor + warm,
+                  "|---|---|---|---|---|" + "---|---|" * (args.floor + args.server)]
         totals = ["| corpus | files | we export | converter exits clean | both convert "
                   "(the rest over these) | median export --to usd | median converter | "
                   "converter / ours (medians) | total ours / converter (wall s) | files "
-                  "faster (CPU) / 2x faster (CPU) |"
+                  "faster / 2x faster (CPU) | files faster / 2x faster (wall) |"
                   + floor.replace(" floor", " median floor").replace(" above", " median above"),
-                  "|---|---|---|---|---|---|---|---|---|---|" + "---|---|" * args.floor]
+                  "|---|---|---|---|---|---|---|---|---|---|---|" + "---|---|" * args.floor]
     else:
         lines += ["| file | ours: export, 4 formats | ours: check | ours: export --to usd | "
                   "converter (USD) | converter / ours (4 formats) | converter / ours (USD) | "
@@ -199,12 +246,16 @@ def main() -> None:
                   "median converter | converter / ours (4 formats, medians) | converter / ours "
                   "(USD, medians) | total ours / converter (s) | median check |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    server = Server() if args.server else None
+    if server is not None:
+        lines.insert(1, f"\nreal2code server start (the cold first command): "
+                        f"{server.start_s:.2f} s wall")
     print(lines[0], flush=True)
     for key in (["urdf", "mjcf"] if args.corpus == "both" else [args.corpus]):
         name, files, converter = corpora[key]
         rows = []
         for path in files()[: args.limit]:
-            r = run_file(path, converter, args.usd_only)
+            r = run_file(path, converter, args.usd_only, server)
             if args.usd_only and args.floor:
                 r.update(floors(path))
                 r["above_ours_cpu"] = r["usd_cpu"] - r["floor_ours_cpu"]
@@ -222,6 +273,10 @@ def main() -> None:
                     f"{r['converter_rc']} |")
             if args.usd_only and args.floor:
                 line += " " + _floor_cells(r)
+            if server is not None:
+                line += (f" {r['warm_s']:.2f} ({r['warm_cpu']:.2f}) | "
+                         f"{r['converter_s'] / r['warm_s']:.2f}, "
+                         f"{r['converter_cpu'] / r['warm_cpu']:.2f} |")
             print(line, flush=True)
             lines.append(line)
         totals.append(usd_summary(name, rows) if args.usd_only else summary(name, rows))
@@ -229,6 +284,10 @@ def main() -> None:
             totals[-1] += " " + _floor_cells({k: _median(_both(rows, "usd_rc"), k) for k in (
                 "floor_ours_cpu", "floor_converter_cpu", "above_ours_cpu",
                 "above_converter_cpu")})
+        if server is not None:
+            totals.append(usd_summary(name, rows, "warm"))
+    if server is not None:
+        server.stop()
     lines[0] += f"; at end {load_average()}"
     text = "\n".join(lines + [""] + totals) + "\n"
     print("\n".join(totals))

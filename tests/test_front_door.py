@@ -186,6 +186,8 @@ def _bad_commands(tmp_path: Path) -> dict[str, list[str]]:
         "view": ["view", str(tmp_path / "missing.urdf"), "--no-browser", "--port", "0"],
         "batch": ["batch", "export", str(tmp_path / "nothing" / "*.urdf"), "--out",
                   str(tmp_path / "o")],
+        # (its folder made open to others by the test: refused)
+        "server": ["server", "start"],
     }
 
 
@@ -193,6 +195,10 @@ def test_every_command_refuses_bad_input_with_exit_2(tmp_path, capsys, monkeypat
     import pipeline.capture
 
     monkeypatch.setattr(pipeline.capture, "SAMPLE_CAPTURE", tmp_path / "no_capture")
+    runtime = tmp_path / "runtime"
+    (runtime / "real2code").mkdir(parents=True)
+    (runtime / "real2code").chmod(0o777)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(runtime))
     commands = {**_bad_commands(tmp_path), "demo": ["demo", "--out", str(tmp_path / "d")]}
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     evaluate = next(a for a in sub.choices["evaluate"]._actions if a.dest == "what")
@@ -408,7 +414,9 @@ def test_every_command_names_a_library_it_cannot_import_with_exit_2(tmp_path):
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     evaluate = next(a for a in sub.choices["evaluate"]._actions if a.dest == "what")
     names = set(sub.choices) - {"evaluate"} | {f"evaluate {w}" for w in evaluate.choices}
-    assert names <= {name.split(" (")[0].split(" --")[0] for name in cases}
+    # (`server` needs the standard library alone: what it imports for its forks is optional,
+    # a library missing there is met, and named, by the command that needs it)
+    assert names - {"server"} <= {name.split(" (")[0].split(" --")[0] for name in cases}
     done = subprocess.run(
         [sys.executable, "-c", _BROKEN_LIBRARY_DRIVER], cwd=REPO, capture_output=True,
         text=True, check=True, timeout=300,

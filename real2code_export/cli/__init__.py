@@ -2,7 +2,7 @@
 
 One module per command group (``models``: export, check, generate; ``articulate``;
 ``reconstruct``: demo, render, reconstruct and their evaluations; ``calibrate``;
-``simulate``; ``view``; ``batch``).
+``simulate``; ``view``; ``batch``; ``server``, with ``handoff`` its caller's side).
 Building the parser imports none of the stages: each command imports its stage when it runs,
 so ``real2code --help`` is quick. Every command runs inside :mod:`.boundary`.
 
@@ -17,7 +17,7 @@ import argparse
 import sys
 
 from .. import __version__
-from . import articulate, batch, calibrate, models, reconstruct, simulate, view
+from . import articulate, batch, calibrate, models, reconstruct, server, simulate, view
 from .boundary import call
 from .options import EXIT_DISAGREE, EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
 
@@ -45,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     articulate.add_evaluate_parsers(evaluate_sub)  # joints
     reconstruct.add_evaluate_parsers(evaluate_sub)  # completion, reconstruction
     batch.add_parsers(sub)
+    server.add_parsers(sub, run)
     return p
 
 
@@ -55,8 +56,15 @@ def run(argv: list[str] | None = None) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The console script: run, then end the process (see :func:`_end_process`)."""
+    """The console script: run (in this installation's server where one runs: see
+    :mod:`.server`), then end the process (see :func:`_end_process`)."""
     process_defaults()
+    if argv is None:
+        from .handoff import hand_off
+
+        status = hand_off(sys.argv[1:])
+        if status is not None:
+            _end_process(status)
     _end_process(run(argv))
 
 

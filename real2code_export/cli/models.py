@@ -69,19 +69,24 @@ def _use_package_path(args) -> None:
 
 def cmd_export(args) -> int:
     from .. import forked
-    from ..formats import FORMATS, export, format_for_path, hulls_collision
+    from ..formats import FORMATS, export, format_for_path, hulls_collision, imported
 
     _use_package_path(args)
     # The input is read in a forked copy while the writers' libraries import (which also
     # tells which of the default formats work here): the reader's own imports first, once.
     # Its option is the formats' (USD and glTF alone: no hulls); should the formats that
     # work here want the other, it is read again here.
+    # In the server's fork (cli/server.py) they are imported already: nothing to overlap.
     named = args.to or [f.name for f in FORMATS.values() if f.exported]
     _import_reader(args.input)
-    with forked.start(_read, args.input, hulls_collision(named)) as reading:
+    if all(imported(name) for name in named):
         formats = chosen_formats(args)
-        obj, said = reading.result() if hulls_collision(formats) == hulls_collision(named) \
-            else _read(args.input, hulls_collision(formats))
+        obj, said = _read(args.input, hulls_collision(formats))
+    else:
+        with forked.start(_read, args.input, hulls_collision(named)) as reading:
+            formats = chosen_formats(args)
+            obj, said = reading.result() if hulls_collision(formats) == hulls_collision(named) \
+                else _read(args.input, hulls_collision(formats))
     for w in said:  # on to the command's boundary, which prints them
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     written = export(obj, args.out, formats)

@@ -153,6 +153,12 @@ def _import_problem(fmt: Format, writing: bool) -> str | None:
     return None
 
 
+def imported(name: str) -> bool:
+    """Whether format ``name``'s libraries were imported already here (its availability was
+    asked and it is available): a command run by the server (cli/server.py) finds them so."""
+    return any(_PROBLEMS.get((name, writing), "") is None for writing in (False, True))
+
+
 def available(name: str) -> bool:
     """Whether format ``name`` can be read and written here (its imports really work)."""
     return unavailable_reason(name) is None
