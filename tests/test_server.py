@@ -174,3 +174,12 @@ def test_a_folder_open_to_others_is_refused(tmp_path):
     (tmp_path / "real2code").chmod(0o777)
     done = _cli(["server", "start"], env)
     assert done.returncode == 2 and "not private" in done.stderr
+
+
+def test_an_idle_server_stops_by_itself(tmp_path):
+    tmp_path.chmod(0o700)
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(tmp_path)}
+    done = _cli(["server", "run", "--idle-timeout", "0.01"], env)  # 0.6 s
+    assert done.returncode == 0
+    assert "idle for 0.01 min: stopping" in done.stderr
+    assert not any(tmp_path.rglob("*.sock"))

@@ -44,10 +44,14 @@ def hand_off(argv: list[str]) -> int | None:
         sock.close()
         return None
     with sock:
+        try:
+            cwd = os.getcwd()
+        except OSError:  # a folder since removed: as Python itself would say, here
+            return None
         umask = os.umask(0)
         os.umask(umask)
         request = {
-            "op": "run", "argv": argv, "argv0": sys.argv[0], "cwd": os.getcwd(),
+            "op": "run", "argv": argv, "argv0": sys.argv[0], "cwd": cwd,
             "environment": dict(os.environ), "umask": umask, "path": sys.path,
             "streams": [[s.encoding, s.errors] if s is not None else None
                         for s in (sys.stdin, sys.stdout, sys.stderr)],

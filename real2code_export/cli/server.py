@@ -224,6 +224,8 @@ class Server:
                         break
                 for key, _ in self.selector.select(timeout):
                     kind, command = key.data
+                    if kind in ("accept", "exited"):  # idle from the last request or end
+                        idle_since = time.monotonic()
                     if kind == "accept":
                         self._accept()
                     elif kind == "signal":
@@ -234,8 +236,6 @@ class Server:
                         self._reap(command)
                     elif kind == "caller":
                         self._from_caller(command)
-                if not self.children:
-                    idle_since = time.monotonic()
         finally:
             self._stop_listening()
         _log(f"stopped after {self.served} commands")
