@@ -13,11 +13,8 @@ short message and the file the traceback was written to).
 
 from __future__ import annotations
 
-import argparse
 import sys
 
-from .. import __version__
-from . import articulate, batch, calibrate, models, reconstruct, server, simulate, view
 from .boundary import call
 from .options import EXIT_DISAGREE, EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
 
@@ -25,7 +22,14 @@ __all__ = ["EXIT_DISAGREE", "EXIT_ERROR", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "
            "build_parser", "main", "run"]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser():
+    """The whole parser (its modules imported here: a command handed to the server,
+    handoff.py, needs none of them)."""
+    import argparse
+
+    from .. import __version__
+    from . import articulate, batch, calibrate, models, reconstruct, server, simulate, view
+
     p = argparse.ArgumentParser(
         prog="real2code",
         description="Articulated objects in, simulation-ready digital twins out "

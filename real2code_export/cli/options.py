@@ -3,8 +3,6 @@ formats). Imports nothing heavy: the parser is built from this on every run."""
 
 from __future__ import annotations
 
-import argparse
-
 # docs/design.md, "Exit status"
 EXIT_OK = 0  # success
 EXIT_DISAGREE = 1  # the check found a disagreement (batch: some object failed)
@@ -16,6 +14,8 @@ EXIT_INTERRUPTED = 130  # Ctrl-C (batch: rerun the same command to continue)
 def formats_arg(text: str) -> list[str]:
     """``--to mjcf,urdf``: names the registry knows (whether they work here is asked when the
     command runs, so building the parser imports no format)."""
+    import argparse
+
     from ..errors import FormatError
     from ..formats import parse_names
 
