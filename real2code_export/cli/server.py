@@ -10,8 +10,9 @@ caller's, the random generators are reseeded. What it does not: modules already 
 as the server imported them, so the server runs only commands of its own code (a change to
 the package's sources stops it: the next command runs on its own) and of its own
 interpreter, flags and import-time environment (:data:`serving.IMPORT_TIME_PREFIXES`; other
-commands run on their own, the server stays). It imports and never creates USD stages: USD's
-first stage starts threads, and a fork inherits no thread but every lock they held.
+commands run on their own, the server stays). The server itself stays on one thread: a fork
+inherits no thread but every lock one held (USD's registries are loaded with USD held to one
+thread, its limit given back in each fork).
 """
 
 from __future__ import annotations
@@ -197,7 +198,7 @@ class Server:
         import selectors
         import signal
 
-        self.warm_s, self.modules = warm()
+        self.warm_s, self.modules, self.usd_limit = warm()
         self.identity = serving.identity(self.installation)
         self.selector = selectors.DefaultSelector()
         self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -307,7 +308,7 @@ class Server:
                      *(c.pidfd for c in self.children.values())]
         pid = os.fork()
         if pid == 0:
-            run_command(self.runner, request, fds, inherited)  # never returns
+            run_command(self.runner, request, fds, inherited, self.usd_limit)  # never returns
         for fd in fds:
             os.close(fd)
         command = _Command(pid, os.pidfd_open(pid), conn, request["argv"], time.monotonic())
@@ -387,15 +388,18 @@ def _more(conn: socket.socket) -> bytes:
     return chunk
 
 
-def warm() -> tuple[float, int]:
+def warm() -> tuple[float, int, int | None]:
     """Import what the file commands import (every format's reader and writer and its probes,
-    as the format registry names them, and :data:`TOOLS`), then set it aside from the
-    garbage collector (``gc.freeze``: the forks neither walk nor copy it). Seconds taken and
-    modules imported; what fails to import is left to the command, which says why.
+    as the format registry names them, and :data:`TOOLS`), load USD's registries
+    (:func:`_usd_registries`), then set it all aside from the garbage collector
+    (``gc.freeze``: the forks neither walk nor copy it). Seconds taken, modules imported and
+    USD's concurrency limit for the forks; what fails to import is left to the command,
+    which says why. A process with a second thread here must not fork: an error.
 
-    Imports only: a rehearsal (a small robot exported to every format and checked here, USD
-    held to one thread) measured no gain on the exports that followed (iiwa14, dynamixel_2r,
-    centauro, talos_reduced: within the runs' spread), and USD's first stage starts threads."""
+    Not more: a rehearsal (a small robot exported to every format and checked here) measured
+    no gain beyond the registries' on the exports that followed (iiwa14, dynamixel_2r,
+    centauro, talos_reduced: within the runs' spread); the registries alone saved 0.01-0.03 s
+    of CPU an export (ur5_robot, iiwa14, dynamixel_2r, six runs each)."""
     import gc
     import importlib
 
@@ -412,12 +416,42 @@ def warm() -> tuple[float, int]:
     for module in TOOLS:
         with contextlib.suppress(Exception):
             importlib.import_module(module)
+    usd_limit = _usd_registries()
+    from .. import forked
+
+    if forked._threads() != 1:
+        raise RuntimeError(f"{forked._threads()} threads after the imports: a fork would "
+                           "inherit their locks")
     gc.collect()
     gc.freeze()
-    return time.perf_counter() - start, len(sys.modules)
+    return time.perf_counter() - start, len(sys.modules), usd_limit
 
 
-def run_command(runner, request: dict, fds: list[int], inherited: list) -> None:
+def _usd_registries() -> int | None:
+    """USD's plugin and schema registries and its layer file formats loaded, what a command's
+    first layer or stage pays (0.02-0.03 s), USD held to one thread meanwhile (a fork must
+    inherit none). USD's concurrency limit before, for each fork to restore
+    (:func:`run_command`); None where USD does not import here or the environment fixes its
+    limit (``PXR_WORK_THREAD_LIMIT``), and then nothing is loaded."""
+    try:
+        from pxr import Sdf, Usd, Work
+    except ImportError:
+        return None
+    from ..formats import FORMATS
+
+    limit = Work.GetConcurrencyLimit()
+    Work.SetConcurrencyLimit(1)
+    if Work.GetConcurrencyLimit() != 1:
+        return None
+    for suffix in FORMATS["usd"].suffixes:
+        Sdf.Layer.CreateAnonymous(f"warm{suffix}")
+    Usd.SchemaRegistry()
+    Usd.Stage.CreateInMemory()
+    return limit
+
+
+def run_command(runner, request: dict, fds: list[int], inherited: list,
+                usd_limit: int | None = None) -> None:
     """In the fork: become the caller's command, run it (``runner(argv)``), exit with its
     status."""
     import signal
@@ -439,6 +473,10 @@ def run_command(runner, request: dict, fds: list[int], inherited: list) -> None:
         os.umask(request["umask"])
         os.environ.clear()
         os.environ.update(request["environment"])
+        if usd_limit is not None:  # USD's own, given back (warm held it to one thread)
+            from pxr import Work
+
+            Work.SetConcurrencyLimit(usd_limit)
         sys.path[:] = request["path"]
         sys.argv = [request["argv0"], *request["argv"]]
         _open_streams(request["streams"])
