@@ -26,7 +26,7 @@ import sys
 import time
 
 from . import serving
-from .options import EXIT_ERROR, EXIT_INTERNAL, EXIT_OK
+from .options import EXIT_INTERNAL, EXIT_OK
 
 # Imported inside the readers', writers' and probes' functions, so importing their modules
 # does not import them (a missing one is imported by the command, slower, never wrong).
@@ -52,8 +52,21 @@ def add_parsers(sub, runner) -> None:
 
 
 def _idle_option(parser) -> None:
-    parser.add_argument("--idle-timeout", type=float, default=60.0, metavar="MINUTES",
+    parser.add_argument("--idle-timeout", type=_minutes, default=60.0, metavar="MINUTES",
                         help="stop after this long without a command (default 60; 0: never)")
+
+
+def _minutes(text: str) -> float:
+    import argparse
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not (value >= 0.0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of minutes (0 or more)")
+    return value
 
 
 # -- the commands ---------------------------------------------------------------------------------
@@ -88,7 +101,7 @@ def cmd_start(args) -> int:
         if process.poll() is not None:
             print(f"error: the real2code server exited at start (status {process.returncode}); "
                   f"its log: {log}", file=sys.stderr)
-            return EXIT_ERROR
+            return EXIT_INTERNAL
         time.sleep(0.05)
     process.terminate()
     print(f"error: the real2code server did not answer within 60 s; its log: {log}",
@@ -146,7 +159,7 @@ def _installation() -> serving.Installation:
     if not sys.platform.startswith("linux"):
         raise InputError("the real2code server runs on Linux only (each command is a fork)")
     installation = serving.Installation()
-    problem = serving.private(installation.folder())
+    problem = serving.private(installation.make_folder())
     if problem:
         raise InputError(f"the real2code server's folder is not private: {problem}")
     return installation
@@ -261,8 +274,7 @@ class Server:
             request, fds = _receive(conn)
             op = request.get("op")
             if op == "run":
-                self._run(conn, request, fds)
-                fds = []  # the command's now
+                self._run(conn, request, fds)  # (empties fds once the fork has them)
                 return
             status = self._status(request)
             if op == "stop":
@@ -297,8 +309,6 @@ class Server:
             _log(f"refused {' '.join(request['argv'][:1])}: {stale or other or refusal}")
             conn.sendall(f"refused {refusal}\n".encode())
             conn.close()
-            for fd in fds:
-                os.close(fd)
             if stale:  # every later command would be refused too
                 _log("its code changed on disk: stopping")
                 self._stop_listening()
@@ -311,14 +321,15 @@ class Server:
             run_command(self.runner, request, fds, inherited, self.usd_limit)  # never returns
         for fd in fds:
             os.close(fd)
+        fds.clear()
         command = _Command(pid, os.pidfd_open(pid), conn, request["argv"], time.monotonic())
         self.children[pid] = command
         self.served += 1
-        conn.setblocking(True)
         conn.settimeout(None)
-        conn.sendall(f"run {pid}\n".encode())
         self.selector.register(command.pidfd, selectors.EVENT_READ, ("exited", command))
         self.selector.register(conn, selectors.EVENT_READ, ("caller", command))
+        with contextlib.suppress(OSError):  # a caller gone already: its end is seen next
+            conn.sendall(f"run {pid}\n".encode())
 
     def _from_caller(self, command: _Command) -> None:
         import signal

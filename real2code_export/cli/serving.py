@@ -40,11 +40,14 @@ class Installation:
         self.key = f"{zlib.crc32(f'{sys.executable}|{self.package}'.encode()):08x}"
 
     def folder(self) -> Path:
-        """The user's folder of servers (made, 0700, where missing)."""
+        """The user's folder of servers (made by the server, 0700: a command only looks)."""
         runtime = os.environ.get("XDG_RUNTIME_DIR")
-        base = Path(runtime) / "real2code" if runtime else Path(f"/tmp/real2code-{os.getuid()}")
-        base.mkdir(mode=0o700, parents=True, exist_ok=True)
-        return base
+        return Path(runtime) / "real2code" if runtime else Path(f"/tmp/real2code-{os.getuid()}")
+
+    def make_folder(self) -> Path:
+        folder = self.folder()
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+        return folder
 
     def socket_path(self) -> Path:
         return self.folder() / f"server-{self.key}.sock"
