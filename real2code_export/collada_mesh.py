@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .meshtopology import unique_inverse
 from .model import RGBA
 
 
@@ -121,6 +122,6 @@ def _triangles(primitive) -> tuple[np.ndarray, np.ndarray] | None:
     index = np.asarray(primitive.vertex_index, dtype=np.int64).reshape(-1, 3)
     if len(index) == 0:
         return None
-    used, faces = np.unique(index, return_inverse=True)
+    used, faces = unique_inverse(index)
     vertices = np.asarray(primitive.vertex, dtype=np.float64).reshape(-1, 3)[used]
     return vertices, faces.reshape(-1, 3)

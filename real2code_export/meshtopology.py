@@ -32,6 +32,22 @@ def used_indices(indices: np.ndarray) -> np.ndarray:
     return np.flatnonzero(np.bincount(flat)) if len(flat) else np.zeros(0, dtype=np.intp)
 
 
+def unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, return_inverse=True)`` of integer ``keys``, the same two arrays
+    (the inverse of the flattened keys), by numpy's stable sort: ``np.unique`` sorts them by
+    quicksort, half as quick on a mesh's keys, which come partly ordered (edge and corner
+    keys of a g1 link: 3.0 -> 1.6 ms)."""
+    keys = np.asarray(keys).reshape(-1)
+    order = np.argsort(keys, kind="stable")
+    ordered = keys[order]
+    starts = np.empty(len(keys), dtype=bool)
+    starts[:1] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=starts[1:])
+    inverse = np.empty(len(keys), dtype=np.intp)
+    inverse[order] = np.cumsum(starts) - 1
+    return ordered[starts], inverse
+
+
 def merged(vertices: np.ndarray, faces: np.ndarray, digits: int = MERGE_DIGITS
            ) -> tuple[np.ndarray, np.ndarray]:
     """The vertices the faces use, those equal after rounding to ``digits`` decimals made
@@ -73,7 +89,7 @@ class Edges:
         a, b = self.directed[:, 0], self.directed[:, 1]
         lo, hi = np.minimum(a, b), np.maximum(a, b)  # (min(axis=1) on pairs: 30x slower)
         keys = lo * n + hi
-        self.order = np.argsort(keys)
+        self.order = np.argsort(keys, kind="stable")  # (see unique_inverse; ties by corner)
         sorted_keys = keys[self.order]
         self.starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
         self.sizes = np.diff(np.r_[self.starts, len(keys)])
@@ -119,7 +135,7 @@ def component_labels(count: int, pairs: np.ndarray) -> np.ndarray:
             break
         # hook each root under the smallest root it touches
         np.minimum.at(parent, np.maximum(a, b)[apart], np.minimum(a, b)[apart])
-    return np.unique(parent, return_inverse=True)[1].reshape(-1)
+    return unique_inverse(parent)[1]
 
 
 def _tetra_volumes(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

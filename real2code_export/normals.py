@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .meshtopology import Edges, component_labels
+from .meshtopology import Edges, component_labels, unique_inverse
 from .model import Mesh
 
 CREASE_ANGLE = np.radians(30.0)
@@ -54,7 +54,7 @@ def _creased_normals(mesh: Mesh) -> CreasedNormals:
     all_keys = np.concatenate([corner_key.reshape(-1), unused * n_groups + n_groups - 1])
     if len(vertices) * n_groups < 2**31:  # int32 keys sort in half the time, same answer
         all_keys = all_keys.astype(np.int32)
-    keys, inverse = np.unique(all_keys, return_inverse=True)
+    keys, inverse = unique_inverse(all_keys)
     keys = keys.astype(np.int64)
     indices = inverse[: faces.size].reshape(-1, 3)
     # each split vertex's sum of its corners' face normals, added in corner order (what
