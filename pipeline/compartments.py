@@ -67,6 +67,10 @@ class CompartmentOptions:
     shell_span: float = 0.9  # a part standing out whose points past the face span this
     shell_wall_share: float = 0.1  # share of the carcass's box across it both ways, with
     # this share of its points on the box's sides around the face, is the carcass's shell
+    beside_inside: float = 0.5  # a door swung square beside a drawer's front in one label
+    # stands out of the carcass's box with less than this share of its points in it ...
+    beside_reach: float = 0.5  # ... and its panel spans this share of the box's depth out
+    # of the face (its width; a strip of the carcass lying across the face does not)
     settle_rounds: int = 3  # return_enclosed again, after the others, until nothing moves
 
 
@@ -118,7 +122,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved = found + claimed + moved + protruding
     labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
     moved += enclosed
-    labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
+    labels, nested = merge_nested(seg.points, labels, seg.spacing, options, normals)
     moved += nested
     labels, behind = merge_behind(seg.points, labels, seg.spacing, options, normals)
     moved += behind
@@ -505,7 +509,7 @@ def open_faces(local: np.ndarray, labels: np.ndarray, extent: np.ndarray, margin
 
 def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                  options: CompartmentOptions = CompartmentOptions(),
-                 ) -> tuple[np.ndarray, list[dict]]:
+                 normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
     """A moving part lying in a larger moving part's box is a piece of it, when that one
     stands out of the carcass's box: a drawer pulled out, cut by the masks into its front
     and its side (on a phone-LiDAR ring a 4-part cabinet's drawer came out as a label of
@@ -514,8 +518,13 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     do not lie in each other's boxes; a part inside the carcass is left to
     :func:`return_enclosed`. ``nested_share`` of the smaller part's points within the
     larger's box grown by ``nested_margin_voxels`` spacings; standing out: less than
-    ``enclosed_inside`` of the larger's points in the carcass's box. Returns the labels,
-    renumbered by size, and what merged."""
+    ``enclosed_inside`` of the larger's points in the carcass's box. A smaller part with a
+    front of its own (:func:`_fronts`, on the face the larger stands out past, with the
+    measured ``normals``) apart on the face from a front of the larger (:func:`_apart`) is
+    no piece of it but a part beside it that the larger's mixed label reaches around (on
+    a hand-held path a drawer's own label lay in the box of one holding a door swung
+    square and the other drawer); a side or a body cut from its front has no such front.
+    Returns the labels, renumbered by size, and what merged."""
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
@@ -527,16 +536,43 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     out_of_place = {k: body.contains(cloud[labels == k], tol=options.enclosed_margin_voxels
                                      * voxel).mean() < options.enclosed_inside for k in parts}
     margin = options.nested_margin_voxels * voxel
+    local = (cloud - body.center) @ body.R
+    square = None if normals is None else \
+        np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     for i, small in enumerate(parts):
         points = cloud[labels == small]
         for large in parts[i + 1:]:
             if (out_of_place[large] and boxes[large] is not None and sizes[large] > sizes[small]
-                    and boxes[large].contains(points, tol=margin).mean() >= options.nested_share):
+                    and boxes[large].contains(points, tol=margin).mean() >= options.nested_share
+                    and not _beside(local, square, labels, small, large, body.extent, voxel,
+                                    options)):
                 out[out == small] = large
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "merged_into": int(large)})
                 break
     return numbered_by_size(out), moved
+
+
+def _beside(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray, small: int,
+            large: int, extent: np.ndarray, voxel: float, options: CompartmentOptions) -> bool:
+    """Whether part ``small`` has a front of its own apart on the face from one of part
+    ``large``'s, on the face ``large`` stands out past (:func:`merge_nested`). ``square``:
+    per point and axis of the carcass's box, whether its measured normal faces along it
+    (None without normals: never)."""
+    if square is None:
+        return False
+    faces = open_faces(local, labels, extent, options.enclosed_margin_voxels * voxel, [large])
+    if not faces:
+        return False
+    a = faces[0][0]
+    across = [b for b in range(3) if b != a]
+    own = _fronts(local, square, np.nonzero(labels == small)[0], faces[0], extent, voxel,
+                  options)
+    other = _fronts(local, square, np.nonzero(labels == large)[0], faces[0], extent, voxel,
+                    options)
+    apart = options.nested_margin_voxels * voxel
+    return any(_apart(local[f][:, across], local[g][:, across], apart, options)
+               for f in own for g in other)
 
 
 def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -645,31 +681,21 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                                             normals):
         across = [b for b in range(3) if b != a]
         facing = index[square[index, a]]
-        depth = np.sort(local[facing, a])
-        cuts = np.nonzero(np.diff(depth) > options.behind_voxels * voxel)[0]
-        bounds = np.concatenate([[-np.inf], (depth[cuts] + depth[cuts + 1]) / 2, [np.inf]])
-        group = np.searchsorted(bounds, local[facing, a]) - 1
         least = max(options.front_points, options.front_share * len(facing))
-        # at the face or out of it: a drawer's front, open or shut (not a back panel)
-        fronts = [f for f in (facing[group == g] for g in range(len(bounds) - 1))
-                  if len(f) >= least and float(np.median(sign * local[f, a]))
-                  >= body.extent[a] - options.behind_voxels * voxel
-                  and np.ptp(local[f][:, across], axis=0).min()
-                  > options.behind_voxels * voxel]
+        fronts = _fronts(local, square, index, (a, sign), body.extent, voxel, options)
         # fronts apart on the face: of the smaller, no more than 1 - nested_share near the
         # other (their edges touch); a back panel lies wholly within its front's outline
         kept: list[np.ndarray] = []
         for f in sorted(fronts, key=len, reverse=True):
-            if all(np.isfinite(cKDTree(local[g][:, across]).query(
-                    local[f][:, across], distance_upper_bound=apart)[0]).mean()
-                   <= 1.0 - options.nested_share for g in kept):
+            if all(_apart(local[f][:, across], local[g][:, across], apart, options)
+                   for g in kept):
                 kept.append(f)
         if len(kept) < 2:  # two fronts side by side a little apart in depth: a seam
             at_face = facing[sign * local[facing, a] >= body.extent[a]
                              - options.behind_voxels * voxel]
             kept = _seam_fronts(at_face, sign * local[:, a], local, across, voxel, least,
-                                options)
-        if len(kept) < 2:
+                                options) or kept
+        if not kept:
             continue
         nearest = np.full(len(index), np.inf)
         which = np.zeros(len(index), dtype=int)
@@ -680,9 +706,95 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         top = int(out.max())
         for i in range(1, len(kept)):
             out[index[which == i]] = top + i
+        beside = _beside_fronts(cloud, index[nearest > apart], body, a, voxel, len(index),
+                                options, normals)
+        for i, piece in enumerate(beside):
+            out[piece] = top + len(kept) + i
+        if len(kept) + len(beside) < 2:
+            continue
         moved.append({"part": k, "points": len(index), "fronts": len(kept),
-                      "split_m": [round(float(np.median(local[f, a])), 3) for f in kept]})
+                      "split_m": [round(float(np.median(local[f, a])), 3) for f in kept],
+                      **({"beside": [len(p) for p in beside]} if beside else {})})
     return numbered_by_size(out), moved
+
+
+def _beside_fronts(cloud: np.ndarray, far: np.ndarray, body, axis: int, voxel: float,
+                   points: int, options: CompartmentOptions,
+                   normals: np.ndarray) -> list[np.ndarray]:
+    """The doors swung square beside a label's fronts (:func:`split_fronts`): of its points
+    outside every front's outline on the face of axis ``axis`` (``far``: their indices),
+    each piece (points linked within ``panel_link_voxels`` spacings) of at least
+    ``front_points`` and ``front_share`` of the label's ``points`` that is a panel square
+    to the face (RANSAC's plane holding ``panel_fraction`` of it within ``panel_voxels``
+    spacings, counting the points whose measured ``normals`` face along it, turned no more
+    than ``panel_min_angle`` from square) standing out of the carcass's box (less than
+    ``beside_inside`` of it in the box grown by ``enclosed_margin_voxels`` spacings) and
+    reaching ``beside_reach`` of the box's depth out of the face is a part of its own. On a hand-held path one label held a door swung square and a drawer
+    pulled out below it; its door, seen across the face, is a strip beside the drawer's
+    front. A drawer's own sides and bottom lie within its front's outline, or, where the
+    masks cut its front short, reach no further out of the box than it is pulled (on the
+    same path a drawer's bottom, 64 % in the box); a strip of a refrigerator's carcass
+    beside a front, out of the box, reached 15 % of its depth out of the face."""
+    from .ransac import fit_plane
+    from .segment.pieces import linked_components
+
+    if len(far) < options.front_points:
+        return []
+    piece = linked_components(cloud[far], options.panel_link_voxels * voxel)
+    least = max(options.front_points, options.front_share * points)
+    margin = options.enclosed_margin_voxels * voxel
+    out = []
+    for p in range(int(piece.max()) + 1):
+        members = far[piece == p]
+        reach = float(np.ptp((cloud[members] - body.center) @ body.R[:, axis]))
+        if (len(members) < least or reach < options.beside_reach * 2.0 * body.extent[axis]
+                or body.contains(cloud[members], tol=margin).mean() >= options.beside_inside):
+            continue
+        normal, _, inliers = fit_plane(cloud[members], options.panel_voxels * voxel, 300,
+                                       np.random.default_rng(0))
+        facing = np.abs(normals[members[inliers]] @ normal) \
+            >= np.cos(np.radians(options.panel_normal_deg))
+        square = abs(float(body.R[:, axis] @ normal)) <= np.sin(np.radians(
+            options.panel_min_angle))
+        if normal.any() and square and facing.sum() >= options.panel_fraction * len(members):
+            out.append(members)
+    return out
+
+
+def _fronts(local: np.ndarray, square: np.ndarray, index: np.ndarray, face: tuple[int, int],
+            extent: np.ndarray, voxel: float, options: CompartmentOptions) -> list[np.ndarray]:
+    """A label's fronts on a face (axis, sign) of the carcass's box (:func:`split_fronts`):
+    its points (``index``) facing along the face's axis (``square``: per point and axis),
+    grouped by depth along it (a gap of more than ``behind_voxels`` spacings parts two
+    groups), each group of at least ``front_share`` of them and ``front_points``, at the
+    face or out of it, spanning more than ``behind_voxels`` spacings both ways across it.
+    ``local``: every point in the box's frame; ``extent``: its half-lengths."""
+    a, sign = face
+    across = [b for b in range(3) if b != a]
+    facing = index[square[index, a]]
+    if len(facing) == 0:
+        return []
+    depth = np.sort(local[facing, a])
+    cuts = np.nonzero(np.diff(depth) > options.behind_voxels * voxel)[0]
+    bounds = np.concatenate([[-np.inf], (depth[cuts] + depth[cuts + 1]) / 2, [np.inf]])
+    group = np.searchsorted(bounds, local[facing, a]) - 1
+    least = max(options.front_points, options.front_share * len(facing))
+    # at the face or out of it: a drawer's front, open or shut (not a back panel)
+    return [f for f in (facing[group == g] for g in range(len(bounds) - 1))
+            if len(f) >= least and float(np.median(sign * local[f, a]))
+            >= extent[a] - options.behind_voxels * voxel
+            and np.ptp(local[f][:, across], axis=0).min() > options.behind_voxels * voxel]
+
+
+def _apart(front: np.ndarray, other: np.ndarray, apart: float,
+           options: CompartmentOptions) -> bool:
+    """Whether two fronts (their points on the face, in its two axes) lie apart on it: of
+    ``front`` no more than ``1 - nested_share`` within ``apart`` of ``other`` (their edges
+    touch; a drawer's back panel lies wholly within its front's outline)."""
+    from scipy.spatial import cKDTree
+
+    near = np.isfinite(cKDTree(other).query(front, distance_upper_bound=apart)[0])
+    return float(near.mean()) <= 1.0 - options.nested_share
 
 
 def _seam_fronts(front: np.ndarray, depth: np.ndarray, local: np.ndarray, across: list[int],
