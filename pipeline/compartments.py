@@ -543,36 +543,54 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         points = cloud[labels == small]
         for large in parts[i + 1:]:
             if (out_of_place[large] and boxes[large] is not None and sizes[large] > sizes[small]
-                    and boxes[large].contains(points, tol=margin).mean() >= options.nested_share
-                    and not _beside(local, square, labels, small, large, body.extent, voxel,
-                                    options)):
-                out[out == small] = large
+                    and boxes[large].contains(points, tol=margin).mean() >= options.nested_share):
+                into = _front_owner(local, square, labels, parts, small, large, body.extent,
+                                    voxel, options)
+                if not into:  # a front of its own beside the larger's: a part of its own
+                    continue
+                out[out == small] = out[labels == into][0]
                 moved.append({"part": int(small), "points": int(sizes[small]),
-                              "merged_into": int(large)})
+                              "merged_into": int(into)})
                 break
     return numbered_by_size(out), moved
 
 
-def _beside(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray, small: int,
-            large: int, extent: np.ndarray, voxel: float, options: CompartmentOptions) -> bool:
-    """Whether part ``small`` has a front of its own apart on the face from one of part
-    ``large``'s, on the face ``large`` stands out past (:func:`merge_nested`). ``square``:
-    per point and axis of the carcass's box, whether its measured normal faces along it
-    (None without normals: never)."""
+def _front_owner(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray,
+                 parts: list[int], small: int, large: int, extent: np.ndarray, voxel: float,
+                 options: CompartmentOptions) -> int:
+    """Which part the part ``small``, lying in the box of the part ``large``, is a piece of
+    (:func:`merge_nested`), by their fronts (:func:`_fronts`) on the face ``large`` stands
+    out past: ``large``, unless a front of ``small``'s lies apart on the face from one of
+    ``large``'s (:func:`_apart`); then the largest other part with a front on that face
+    that ``small``'s front is not apart from and lies within ``behind_voxels`` spacings of
+    in depth (one front the masks cut in two), or 0 (a part of its own). ``square``: per
+    point and axis of the carcass's box, whether its measured normal faces along it (None
+    without normals: ``large``)."""
     if square is None:
-        return False
+        return large
     faces = open_faces(local, labels, extent, options.enclosed_margin_voxels * voxel, [large])
     if not faces:
-        return False
+        return large
     a = faces[0][0]
     across = [b for b in range(3) if b != a]
-    own = _fronts(local, square, np.nonzero(labels == small)[0], faces[0], extent, voxel,
-                  options)
-    other = _fronts(local, square, np.nonzero(labels == large)[0], faces[0], extent, voxel,
-                    options)
     apart = options.nested_margin_voxels * voxel
-    return any(_apart(local[f][:, across], local[g][:, across], apart, options)
-               for f in own for g in other)
+
+    def fronts(k):
+        return _fronts(local, square, np.nonzero(labels == k)[0], faces[0], extent, voxel,
+                       options)
+
+    own = fronts(small)
+    if not any(_apart(local[f][:, across], local[g][:, across], apart, options)
+               for f in own for g in fronts(large)):
+        return large
+    for k in reversed(parts):  # the largest first
+        if k in (small, large):
+            continue
+        if any(not _apart(local[f][:, across], local[g][:, across], apart, options)
+               and abs(float(np.median(local[f, a]) - np.median(local[g, a])))
+               <= options.behind_voxels * voxel for f in own for g in fronts(k)):
+            return k
+    return 0
 
 
 def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
