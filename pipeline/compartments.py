@@ -548,6 +548,8 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                                     voxel, options)
                 if not into:  # a front of its own beside the larger's: a part of its own
                     continue
+                if out[labels == into][0] == out[labels == small][0]:
+                    break  # the part whose front it continues has already joined it
                 out[out == small] = out[labels == into][0]
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "merged_into": int(into)})
