@@ -572,8 +572,9 @@ def test_a_mixed_label_is_parted_by_its_fronts_not_merged_whole():
     (top right); the drawer below that one lies in the label's box, its front cut in two
     labels (its left half with the bottom, its right half alone). Its fronts lie apart from
     the mixed label's, so it is no piece of it: the right half joins the left (one front),
-    and the door, a panel square to the face outside the mixed label's front's outline,
-    becomes a part of its own. Without measured normals the old reading stands: both
+    and the door, a panel square to the face outside the mixed label's front's outline
+    (not going on within it, as a door's panel behind its own bin does), becomes a part of
+    its own. Without measured normals the old reading stands: both
     halves merge into the mixed label."""
     from pipeline.compartments import merge_nested, split_fronts
 
@@ -606,6 +607,13 @@ def test_a_mixed_label_is_parted_by_its_fronts_not_merged_whole():
     short = cloud.copy()
     short[n[4]:n[5], 0] = 0.32 + (cloud[n[4]:n[5], 0] - 0.32) / 4
     assert split_fronts(short, out, 0.02, normals=normals)[1] == []
+    # a door swung square with a bin on its inside (a front facing out of the face) in a
+    # label of its own: its panel goes on behind the bin, one panel, nothing split
+    bin_front = (_grid(0.16, 0.2, (0.6, -0.36, -0.1), y, z), x)
+    alone, alone_normals = _facing((carcass, x), door, bin_front)
+    assert split_fronts(alone, np.r_[np.ones(len(carcass), int),
+                                     np.full(len(alone) - len(carcass), 2)], 0.02,
+                        normals=alone_normals)[1] == []
 
 
 def _open_box():
