@@ -3,7 +3,8 @@ their own, go back to the carcass, an open panel's points in other labels go to 
 of the carcass's label stands out past its walls goes to the part it hangs on, and a
 drawer's body cut from its pulled-out front joins it again, a drawer left in the carcass's
 label is found beside one pulled out as far, a label holding two drawers pulled out by
-different lengths is split, and a body cut across its length is one again: repairs of a
+different lengths is split, so is one holding a drawer and a door swung square beside it,
+and a body cut across its length is one again: repairs of a
 part segmentation by what a carcass is, their own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
