@@ -3,7 +3,8 @@ their own, go back to the carcass, an open panel's points in other labels go to 
 of the carcass's label stands out past its walls goes to the part it hangs on, and a
 drawer's body cut from its pulled-out front joins it again, a drawer left in the carcass's
 label is found beside one pulled out as far, a label holding two drawers pulled out by
-different lengths is split, and a body cut across its length is one again: repairs of a
+different lengths is split, so is one holding a drawer and a door swung square beside it,
+and a body cut across its length is one again: repairs of a
 part segmentation by what a carcass is, their own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
@@ -67,6 +68,10 @@ class CompartmentOptions:
     shell_span: float = 0.9  # a part standing out whose points past the face span this
     shell_wall_share: float = 0.1  # share of the carcass's box across it both ways, with
     # this share of its points on the box's sides around the face, is the carcass's shell
+    beside_inside: float = 0.5  # a door swung square beside a drawer's front in one label
+    # stands out of the carcass's box with less than this share of its points in it ...
+    beside_reach: float = 0.5  # ... and its panel spans this share of the box's depth out
+    # of the face (its width; a strip of the carcass lying across the face does not)
     settle_rounds: int = 3  # return_enclosed again, after the others, until nothing moves
 
 
@@ -118,7 +123,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved = found + claimed + moved + protruding
     labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
     moved += enclosed
-    labels, nested = merge_nested(seg.points, labels, seg.spacing, options)
+    labels, nested = merge_nested(seg.points, labels, seg.spacing, options, normals)
     moved += nested
     labels, behind = merge_behind(seg.points, labels, seg.spacing, options, normals)
     moved += behind
@@ -505,7 +510,7 @@ def open_faces(local: np.ndarray, labels: np.ndarray, extent: np.ndarray, margin
 
 def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                  options: CompartmentOptions = CompartmentOptions(),
-                 ) -> tuple[np.ndarray, list[dict]]:
+                 normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
     """A moving part lying in a larger moving part's box is a piece of it, when that one
     stands out of the carcass's box: a drawer pulled out, cut by the masks into its front
     and its side (on a phone-LiDAR ring a 4-part cabinet's drawer came out as a label of
@@ -514,8 +519,13 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     do not lie in each other's boxes; a part inside the carcass is left to
     :func:`return_enclosed`. ``nested_share`` of the smaller part's points within the
     larger's box grown by ``nested_margin_voxels`` spacings; standing out: less than
-    ``enclosed_inside`` of the larger's points in the carcass's box. Returns the labels,
-    renumbered by size, and what merged."""
+    ``enclosed_inside`` of the larger's points in the carcass's box. A smaller part with a
+    front of its own (:func:`_fronts`, on the face the larger stands out past, with the
+    measured ``normals``) apart on the face from a front of the larger (:func:`_apart`) is
+    no piece of it but a part beside it that the larger's mixed label reaches around (on
+    a hand-held path a drawer's own label lay in the box of one holding a door swung
+    square and the other drawer); a side or a body cut from its front has no such front.
+    Returns the labels, renumbered by size, and what merged."""
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
@@ -527,16 +537,63 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     out_of_place = {k: body.contains(cloud[labels == k], tol=options.enclosed_margin_voxels
                                      * voxel).mean() < options.enclosed_inside for k in parts}
     margin = options.nested_margin_voxels * voxel
+    local = (cloud - body.center) @ body.R
+    square = None if normals is None else \
+        np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     for i, small in enumerate(parts):
         points = cloud[labels == small]
         for large in parts[i + 1:]:
             if (out_of_place[large] and boxes[large] is not None and sizes[large] > sizes[small]
                     and boxes[large].contains(points, tol=margin).mean() >= options.nested_share):
-                out[out == small] = large
+                into = _front_owner(local, square, labels, parts, small, large, body.extent,
+                                    voxel, options)
+                if not into:  # a front of its own beside the larger's: a part of its own
+                    continue
+                if out[labels == into][0] == out[labels == small][0]:
+                    break  # the part whose front it continues has already joined it
+                out[out == small] = out[labels == into][0]
                 moved.append({"part": int(small), "points": int(sizes[small]),
-                              "merged_into": int(large)})
+                              "merged_into": int(into)})
                 break
     return numbered_by_size(out), moved
+
+
+def _front_owner(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray,
+                 parts: list[int], small: int, large: int, extent: np.ndarray, voxel: float,
+                 options: CompartmentOptions) -> int:
+    """Which part the part ``small``, lying in the box of the part ``large``, is a piece of
+    (:func:`merge_nested`), by their fronts (:func:`_fronts`) on the face ``large`` stands
+    out past: ``large``, unless a front of ``small``'s lies apart on the face from one of
+    ``large``'s (:func:`_apart`); then the largest other part with a front on that face
+    that ``small``'s front is not apart from and lies within ``behind_voxels`` spacings of
+    in depth (one front the masks cut in two), or 0 (a part of its own). ``square``: per
+    point and axis of the carcass's box, whether its measured normal faces along it (None
+    without normals: ``large``)."""
+    if square is None:
+        return large
+    faces = open_faces(local, labels, extent, options.enclosed_margin_voxels * voxel, [large])
+    if not faces:
+        return large
+    a = faces[0][0]
+    across = [b for b in range(3) if b != a]
+    apart = options.nested_margin_voxels * voxel
+
+    def fronts(k):
+        return _fronts(local, square, np.nonzero(labels == k)[0], faces[0], extent, voxel,
+                       options)
+
+    own = fronts(small)
+    if not any(_apart(local[f][:, across], local[g][:, across], apart, options)
+               for f in own for g in fronts(large)):
+        return large
+    for k in reversed(parts):  # the largest first
+        if k in (small, large):
+            continue
+        if any(not _apart(local[f][:, across], local[g][:, across], apart, options)
+               and abs(float(np.median(local[f, a]) - np.median(local[g, a])))
+               <= options.behind_voxels * voxel for f in own for g in fronts(k)):
+            return k
+    return 0
 
 
 def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -645,31 +702,21 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                                             normals):
         across = [b for b in range(3) if b != a]
         facing = index[square[index, a]]
-        depth = np.sort(local[facing, a])
-        cuts = np.nonzero(np.diff(depth) > options.behind_voxels * voxel)[0]
-        bounds = np.concatenate([[-np.inf], (depth[cuts] + depth[cuts + 1]) / 2, [np.inf]])
-        group = np.searchsorted(bounds, local[facing, a]) - 1
         least = max(options.front_points, options.front_share * len(facing))
-        # at the face or out of it: a drawer's front, open or shut (not a back panel)
-        fronts = [f for f in (facing[group == g] for g in range(len(bounds) - 1))
-                  if len(f) >= least and float(np.median(sign * local[f, a]))
-                  >= body.extent[a] - options.behind_voxels * voxel
-                  and np.ptp(local[f][:, across], axis=0).min()
-                  > options.behind_voxels * voxel]
+        fronts = _fronts(local, square, index, (a, sign), body.extent, voxel, options)
         # fronts apart on the face: of the smaller, no more than 1 - nested_share near the
         # other (their edges touch); a back panel lies wholly within its front's outline
         kept: list[np.ndarray] = []
         for f in sorted(fronts, key=len, reverse=True):
-            if all(np.isfinite(cKDTree(local[g][:, across]).query(
-                    local[f][:, across], distance_upper_bound=apart)[0]).mean()
-                   <= 1.0 - options.nested_share for g in kept):
+            if all(_apart(local[f][:, across], local[g][:, across], apart, options)
+                   for g in kept):
                 kept.append(f)
         if len(kept) < 2:  # two fronts side by side a little apart in depth: a seam
             at_face = facing[sign * local[facing, a] >= body.extent[a]
                              - options.behind_voxels * voxel]
             kept = _seam_fronts(at_face, sign * local[:, a], local, across, voxel, least,
-                                options)
-        if len(kept) < 2:
+                                options) or kept
+        if not kept:
             continue
         nearest = np.full(len(index), np.inf)
         which = np.zeros(len(index), dtype=int)
@@ -680,9 +727,105 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         top = int(out.max())
         for i in range(1, len(kept)):
             out[index[which == i]] = top + i
+        beside = _beside_fronts(cloud, index, nearest > apart, body, a, voxel, options,
+                                normals)
+        for i, piece in enumerate(beside):
+            out[piece] = top + len(kept) + i
+        if len(kept) + len(beside) < 2:
+            continue
         moved.append({"part": k, "points": len(index), "fronts": len(kept),
-                      "split_m": [round(float(np.median(local[f, a])), 3) for f in kept]})
+                      "split_m": [round(float(np.median(local[f, a])), 3) for f in kept],
+                      **({"beside": [len(p) for p in beside]} if beside else {})})
     return numbered_by_size(out), moved
+
+
+def _beside_fronts(cloud: np.ndarray, index: np.ndarray, far: np.ndarray, body, axis: int,
+                   voxel: float, options: CompartmentOptions,
+                   normals: np.ndarray) -> list[np.ndarray]:
+    """The doors swung square beside a label's fronts (:func:`split_fronts`): of the label's
+    points (``index``) outside every front's outline on the face of axis ``axis`` (``far``,
+    per point), each piece (points linked within ``panel_link_voxels`` spacings) of at
+    least ``front_points`` and ``front_share`` of the label that is a panel square to the
+    face (RANSAC's plane holding ``panel_fraction`` of it within ``panel_voxels`` spacings,
+    counting the points whose measured ``normals`` face along it, turned no more than
+    ``panel_min_angle`` from square) standing out of the carcass's box (less than
+    ``beside_inside`` of it in the box grown by ``enclosed_margin_voxels`` spacings),
+    reaching ``beside_reach`` of the box's depth out of the face, and not going on within
+    the outline (the label's other points on its plane, facing along it, fewer than
+    ``claim_share`` of its own) is a part of its own. A refrigerator's door swung square
+    with its bins, in a label of its own, has a front (the bins' faces) and its panel
+    past their outline; that panel goes on behind them (on a ring 712 points on its
+    plane within the outline, 279 past it), and stays. On a hand-held path one label held a door swung square and a drawer
+    pulled out below it; its door, seen across the face, is a strip beside the drawer's
+    front. A drawer's own sides and bottom lie within its front's outline, or, where the
+    masks cut its front short, reach no further out of the box than it is pulled (on the
+    same path a drawer's bottom, 64 % in the box); a strip of a refrigerator's carcass
+    beside a front, out of the box, reached 15 % of its depth out of the face."""
+    from .ransac import fit_plane
+    from .segment.pieces import linked_components
+
+    far, near = index[far], index[~far]
+    if len(far) < options.front_points:
+        return []
+    piece = linked_components(cloud[far], options.panel_link_voxels * voxel)
+    least = max(options.front_points, options.front_share * len(index))
+    margin = options.enclosed_margin_voxels * voxel
+    out = []
+    for p in range(int(piece.max()) + 1):
+        members = far[piece == p]
+        reach = float(np.ptp((cloud[members] - body.center) @ body.R[:, axis]))
+        if (len(members) < least or reach < options.beside_reach * 2.0 * body.extent[axis]
+                or body.contains(cloud[members], tol=margin).mean() >= options.beside_inside):
+            continue
+        normal, offset, inliers = fit_plane(cloud[members], options.panel_voxels * voxel, 300,
+                                            np.random.default_rng(0))
+        cos = np.cos(np.radians(options.panel_normal_deg))
+        facing = np.abs(normals[members[inliers]] @ normal) >= cos
+        square = abs(float(body.R[:, axis] @ normal)) <= np.sin(np.radians(
+            options.panel_min_angle))
+        goes_on = np.count_nonzero((np.abs(cloud[near] @ normal + offset)
+                                    <= options.panel_voxels * voxel)
+                                   & (np.abs(normals[near] @ normal) >= cos))
+        if (normal.any() and square and facing.sum() >= options.panel_fraction * len(members)
+                and goes_on < options.claim_share * facing.sum()):
+            out.append(members)
+    return out
+
+
+def _fronts(local: np.ndarray, square: np.ndarray, index: np.ndarray, face: tuple[int, int],
+            extent: np.ndarray, voxel: float, options: CompartmentOptions) -> list[np.ndarray]:
+    """A label's fronts on a face (axis, sign) of the carcass's box (:func:`split_fronts`):
+    its points (``index``) facing along the face's axis (``square``: per point and axis),
+    grouped by depth along it (a gap of more than ``behind_voxels`` spacings parts two
+    groups), each group of at least ``front_share`` of them and ``front_points``, at the
+    face or out of it, spanning more than ``behind_voxels`` spacings both ways across it.
+    ``local``: every point in the box's frame; ``extent``: its half-lengths."""
+    a, sign = face
+    across = [b for b in range(3) if b != a]
+    facing = index[square[index, a]]
+    if len(facing) == 0:
+        return []
+    depth = np.sort(local[facing, a])
+    cuts = np.nonzero(np.diff(depth) > options.behind_voxels * voxel)[0]
+    bounds = np.concatenate([[-np.inf], (depth[cuts] + depth[cuts + 1]) / 2, [np.inf]])
+    group = np.searchsorted(bounds, local[facing, a]) - 1
+    least = max(options.front_points, options.front_share * len(facing))
+    # at the face or out of it: a drawer's front, open or shut (not a back panel)
+    return [f for f in (facing[group == g] for g in range(len(bounds) - 1))
+            if len(f) >= least and float(np.median(sign * local[f, a]))
+            >= extent[a] - options.behind_voxels * voxel
+            and np.ptp(local[f][:, across], axis=0).min() > options.behind_voxels * voxel]
+
+
+def _apart(front: np.ndarray, other: np.ndarray, apart: float,
+           options: CompartmentOptions) -> bool:
+    """Whether two fronts (their points on the face, in its two axes) lie apart on it: of
+    ``front`` no more than ``1 - nested_share`` within ``apart`` of ``other`` (their edges
+    touch; a drawer's back panel lies wholly within its front's outline)."""
+    from scipy.spatial import cKDTree
+
+    near = np.isfinite(cKDTree(other).query(front, distance_upper_bound=apart)[0])
+    return float(near.mean()) <= 1.0 - options.nested_share
 
 
 def _seam_fronts(front: np.ndarray, depth: np.ndarray, local: np.ndarray, across: list[int],

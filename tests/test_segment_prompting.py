@@ -567,6 +567,55 @@ def test_a_drawer_cut_into_its_front_and_its_side_is_one_part_again():
     assert merge_nested(shut, labels, 0.02)[1] == []
 
 
+def test_a_mixed_label_is_parted_by_its_fronts_not_merged_whole():
+    """One label holds a door swung square (full height, left) and a drawer pulled out
+    (top right); the drawer below that one lies in the label's box, its front cut in two
+    labels (its left half with the bottom, its right half alone). Its fronts lie apart from
+    the mixed label's, so it is no piece of it: the right half joins the left (one front),
+    and the door, a panel square to the face outside the mixed label's front's outline
+    (not going on within it, as a door's panel behind its own bin does), becomes a part of
+    its own. Without measured normals the old reading stands: both
+    halves merge into the mixed label."""
+    from pipeline.compartments import merge_nested, split_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    door = (_grid(0.6, 0.7, (0.32, -0.38, -0.35), x, z), y)
+    top = [(_grid(0.3, 0.2, (0.45, 0.05, 0.1), y, z), x),
+           (_grid(0.45, 0.3, (0.0, 0.05, 0.1), x, y), z)]
+    left = [(_grid(0.14, 0.2, (0.45, 0.05, -0.3), y, z), x),
+            (_grid(0.45, 0.14, (0.0, 0.05, -0.3), x, y), z)]
+    right = (_grid(0.14, 0.2, (0.45, 0.21, -0.3), y, z), x)
+    pieces = [(carcass, x), *left, right, door, *top]
+    cloud, normals = _facing(*pieces)
+    n = np.cumsum([0, *(len(p) for p, _ in pieces)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[3]], labels[n[3]:n[4]], labels[n[4]:] = 3, 4, 2
+    out, moved = merge_nested(cloud, labels, 0.02, normals=normals)
+    assert moved == [{"part": 4, "points": len(right[0]), "merged_into": 3}]
+    assert len(np.unique(out[n[1]:n[4]])) == 1 and len(np.unique(out)) == 3
+    split, moved = split_fronts(cloud, out, 0.02, normals=normals)
+    assert moved == [{"part": int(out[n[4]]), "points": n[-1] - n[4], "fronts": 1,
+                      "split_m": [pytest.approx(0.45)], "beside": [len(door[0])]}]
+    assert len(np.unique(split)) == 4 and (split[:n[1]] == 1).all()
+    assert len(np.unique(split[n[4]:n[5]])) == 1 and len(np.unique(split[n[5]:])) == 1
+    assert len({split[n[1]], split[n[4]], split[n[5]]}) == 3
+    # without normals: both halves merge into the mixed label, as before
+    assert len(np.unique(merge_nested(cloud, labels, 0.02)[0])) == 2
+    # a panel reaching less than half the carcass's depth out of the face (a strip of the
+    # carcass standing a little out beside a front) is no door: nothing split
+    short = cloud.copy()
+    short[n[4]:n[5], 0] = 0.32 + (cloud[n[4]:n[5], 0] - 0.32) / 4
+    assert split_fronts(short, out, 0.02, normals=normals)[1] == []
+    # a door swung square with a bin on its inside (a front facing out of the face) in a
+    # label of its own: its panel goes on behind the bin, one panel, nothing split
+    bin_front = (_grid(0.16, 0.2, (0.6, -0.36, -0.1), y, z), x)
+    alone, alone_normals = _facing((carcass, x), door, bin_front)
+    assert split_fronts(alone, np.r_[np.ones(len(carcass), int),
+                                     np.full(len(alone) - len(carcass), 2)], 0.02,
+                        normals=alone_normals)[1] == []
+
+
 def _open_box():
     """A carcass's shell open at the front (x = 0.3): back, sides, floor and top."""
     x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
