@@ -68,8 +68,11 @@ def is_noisy(noise_rel: float, options: CleanupOptions = CleanupOptions()) -> bo
 
 def measured_noisy(summary: dict) -> bool:
     """Whether :func:`clean_capture` found any frame of the capture noisy (its summary's
-    ``noisy``, taken on the unrounded noise)."""
-    return bool(summary["noisy"])
+    ``noisy``, taken on the unrounded noise; a summary written before it kept the verdict,
+    in a capture saved cleaned, is judged by its frames' noise)."""
+    if "noisy" in summary:
+        return bool(summary["noisy"])
+    return any(is_noisy(n) for n in summary["noise_rel"])
 
 
 def clean_depth(depth: np.ndarray, options: CleanupOptions = CleanupOptions(),

@@ -42,6 +42,10 @@ def test_the_cleanup_s_threshold_is_the_one_test():
     assert is_noisy(threshold) and not is_noisy(np.nextafter(threshold, 0))
     exact, noisy = ({"noise_rel": [0.0], "noisy": v, "min_noise_rel": threshold}
                     for v in (False, True))
+    # a summary saved before the verdict was kept: judged by the same test
+    assert measured_noisy({"noise_rel": [0.0, threshold]})
+    assert not measured_noisy({"noise_rel": [float(np.nextafter(threshold, 0))]})
+    assert choose("auto", {"noise_rel": [threshold]}).used == "noisy"
     # the chooser reads the cleanup's verdict, not a threshold of its own
     assert choose("auto", exact).used == "clean" and choose("auto", noisy).used == "noisy"
 

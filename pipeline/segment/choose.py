@@ -43,14 +43,14 @@ class Choice:
 
 def choose(mask_weights: str | Path, cleanup: dict) -> Choice:
     """The weights for a capture whose depth cleanup summary is ``cleanup``."""
-    from ..depth_cleanup import measured_noisy
+    from ..depth_cleanup import CleanupOptions, measured_noisy
 
     noise = max(cleanup.get("noise_rel") or [0.0])
     mode = str(mask_weights)
     if mode == "auto":
         noisy = measured_noisy(cleanup)
         used = "noisy" if noisy else "clean"
-        threshold = cleanup.get("min_noise_rel")
+        threshold = cleanup.get("min_noise_rel", CleanupOptions().min_noise_rel)
         why = (f"depth noise {noise:.5f} of range measured, "
                f"{'at or above' if noisy else 'below'} the cleanup's {threshold:g}")
         return Choice(mode, used, SHIPPED[used], why, noise)
