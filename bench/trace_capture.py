@@ -10,14 +10,17 @@ scored and each predicted joint set against the true part its label mostly holds
     PYTHONPATH=$PWD nice -n 5 .venv/bin/python bench/trace_capture.py \
         --partnet ../shared/data/partnet_mobility --splits dev \
         [--cameras ring|handheld|...] [--room] [--capture phone-lidar] \
-        [--only 0,3] [--seg-cache DIR] [--gt] [--set lateral_px=0,holes=0]
+        [--only 0,3] [--seg-cache DIR] [--gt] [--set lateral_px=0,holes=0] \
+        [--mask-weights auto|clean|noisy|PATH]
 
 ``--only`` picks cases by their index in the split (the evaluation's order, so each case's
 seed is the evaluation's); ``--seg-cache`` keeps each capture's raw segmentation so the
 later stages can be traced again without the mask network; ``--gt`` also runs the
 capture's own masks through the same later stages (is a loss the masks' or the fusion's,
 boxes' or joint predictor's?); ``--set`` changes a preset's fields (one fault at a time
-taken out).
+taken out); ``--mask-weights`` picks the mask network as the command does (auto: by the
+noise the cleanup measured; a segmentation cached by another network than the clean one is
+kept under its own name).
 """
 
 from __future__ import annotations
@@ -41,7 +44,8 @@ from pipeline.isolate import isolate_object  # noqa: E402
 from pipeline.predictors.evaluate import Scores, score_object  # noqa: E402
 from pipeline.reconstruct import reconstruct_capture  # noqa: E402
 from pipeline.render import render_object  # noqa: E402
-from pipeline.segment import get_segmenter, segment  # noqa: E402
+from pipeline.segment import segment  # noqa: E402
+from pipeline.segment.choose import MaskWeights, choose  # noqa: E402
 from pipeline.segment.evaluate import matched_part_iou  # noqa: E402
 from pipeline.sensors import degrade, load_sensor  # noqa: E402
 
@@ -117,6 +121,9 @@ def main() -> None:
     p.add_argument("--set", default="", help="sensor fields changed, e.g. lateral_px=0,holes=0 "
                    "(one fault at a time taken out of a preset)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--mask-weights", default="auto",
+                   help="auto|clean|noisy|PATH, as real2code reconstruct's (auto: by the noise "
+                   "the cleanup measured)")
     args = p.parse_args()
     cases = procedural_cases(args.objects, args.seed) if args.objects else \
         partnet_cases(args.partnet, args.splits, args.seed)
@@ -139,14 +146,17 @@ def main() -> None:
         print(f"[{k}] {case.label} ({len(case.obj.parts)} parts, "
               f"{len(case.obj.movable_joints)} movable): {isolation_trace(raw, capture)}; "
               f"cleanup dropped {cleanup['dropped']} filled {cleanup['filled']}", flush=True)
+        choice = choose(args.mask_weights, cleanup)
+        print(f"  mask network: {choice.used} ({choice.why})", flush=True)
+        used = "" if choice.used == "clean" else f"_{choice.used}"  # earlier caches: clean
         tag = (f"{args.cameras}_{args.distance}_{args.capture}{args.set}_{int(args.room)}_"
-               f"{args.seed}_{k}.pkl")
+               f"{args.seed}_{k}{used}.pkl")
         cached = args.seg_cache / tag if args.seg_cache else None
         if cached and cached.is_file():
             seg = pickle.loads(cached.read_bytes())
         else:
-            segmenter = segmenter or get_segmenter("learned")
-            seg = segment(capture, "learned", segmenter=segmenter)
+            segmenter = segmenter or MaskWeights(args.mask_weights)
+            seg = segment(capture, "learned", segmenter=segmenter.for_capture(cleanup)[0])
             if cached:
                 cached.parent.mkdir(parents=True, exist_ok=True)
                 cached.write_bytes(pickle.dumps(seg))

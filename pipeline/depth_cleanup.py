@@ -59,12 +59,28 @@ def noise_level(depth: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(residual)))
 
 
+def is_noisy(noise_rel: float, options: CleanupOptions = CleanupOptions()) -> bool:
+    """Whether a frame of this relative noise is noisy (cleaned) rather than exact (passed
+    through): the one test of it, which the later stages read through the capture's summary
+    (:func:`measured_noisy`)."""
+    return noise_rel >= options.min_noise_rel
+
+
+def measured_noisy(summary: dict) -> bool:
+    """Whether :func:`clean_capture` found any frame of the capture noisy (its summary's
+    ``noisy``, taken on the unrounded noise; a summary written before it kept the verdict,
+    in a capture saved cleaned, is judged by its frames' noise)."""
+    if "noisy" in summary:
+        return bool(summary["noisy"])
+    return any(is_noisy(n) for n in summary["noise_rel"])
+
+
 def clean_depth(depth: np.ndarray, options: CleanupOptions = CleanupOptions(),
                 ) -> tuple[np.ndarray, dict]:
     """One frame's depth with outliers dropped, small holes filled and noise smoothed (all
     at the frame's own noise level), and what was done."""
     noise = noise_level(depth)
-    if noise < options.min_noise_rel:
+    if not is_noisy(noise, options):
         return depth, {"noise_rel": noise, "dropped": 0, "filled": 0}
     out = depth.astype(np.float64).copy()
     near = _neighbourhood(out, 1)
@@ -214,7 +230,7 @@ def clean_capture(capture: Capture, options: CleanupOptions = CleanupOptions(),
         notes.append(note)
     cleaned = [Frame(f.camera, f.camera_to_world, f.rgb, d, f.mask, f.name)
                for f, d in zip(capture.frames, depths, strict=True)]
-    noisy = any(n["noise_rel"] >= options.min_noise_rel for n in notes)
+    noisy = any(is_noisy(n["noise_rel"], options) for n in notes)
     moves = [0.0] * len(cleaned)
     if noisy:  # an exact capture's poses are taken as they are
         draft = Capture(cleaned, capture.parts, capture.extra, capture.path)
@@ -224,6 +240,7 @@ def clean_capture(capture: Capture, options: CleanupOptions = CleanupOptions(),
     summary = {"noise_rel": [round(n["noise_rel"], 5) for n in notes],
                "dropped": sum(n["dropped"] for n in notes),
                "filled": sum(n["filled"] for n in notes),
-               "pose_moves_m": [round(m, 4) for m in moves]}
+               "pose_moves_m": [round(m, 4) for m in moves], "noisy": noisy,
+               "min_noise_rel": options.min_noise_rel}
     extra = dict(capture.extra) | {"depth_cleanup": summary}
     return Capture(cleaned, list(capture.parts), extra, capture.path), summary

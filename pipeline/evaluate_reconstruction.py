@@ -68,6 +68,7 @@ class SettingResult:
     segmentation_iou: list[tuple[str, float]] = field(default_factory=list)
     failures: list[str] = field(default_factory=list)
     seconds: list[float] = field(default_factory=list)
+    mask_weights: list[str] = field(default_factory=list)  # per capture: the network used
 
     def table(self) -> dict[str, dict[str, float]]:
         joints = self.joints.table()
@@ -126,22 +127,24 @@ def score_failure(case: Case, scores: Scores) -> None:
 
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
-             cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
+             mask_weights="auto", cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
              sensor: str = "clean", room: bool = False,
              progress=None) -> dict[tuple[str, str], SettingResult]:
     """Reconstruct every case under every (segmentation, completion) setting and score it;
     ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`), ``sensor``
     (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them, ``room`` puts the
-    object in a room (:mod:`pipeline.room`) that the pipeline must find it in."""
+    object in a room (:mod:`pipeline.room`) that the pipeline must find it in.
+    ``mask_weights`` (:mod:`pipeline.segment.choose`) picks the learned masks' network
+    unless a ``segmenter`` is given."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
     from .reconstruct import reconstruct_capture
-    from .segment import get_segmenter
+    from .segment.choose import MaskWeights
     from .segment.evaluate import matched_part_iou
     from .sensors import load_sensor
 
     sensor_model = load_sensor(sensor)  # a bad preset fails before any work
     if segmenter is None and any(s == "learned" for s, _ in settings):
-        segmenter = get_segmenter("learned")
+        mask_weights = MaskWeights(mask_weights)  # a bad file fails before any work
     if completion_model is None and any(c == "learned" for _, c in settings):
         from .complete import load_model
 
@@ -160,7 +163,7 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
                 rec = reconstruct_capture(
                     capture, segmentation=seg_method, completion=completion,
                     segmenter=segmenter if seg_method == "learned" else None,
-                    completion_model=completion_model, name=case.obj.name, collision="hull",
+                    mask_weights=mask_weights, completion_model=completion_model, name=case.obj.name, collision="hull",
                     precomputed_segmentation=segmentations.get(seg_method), texture=False)
             except Exception as e:  # a failed reconstruction is scored as missing, not hidden
                 result.failures.append(f"{bucket}: {case.label}: {type(e).__name__}: {e}")
@@ -173,12 +176,16 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
             result.shapes.append(ShapeScore(
                 bucket, REPORT_SCALE * object_chamfer(pred, truth),
                 REPORT_SCALE * part_chamfer(pred, truth).mean, len(pred), len(truth)))
+            if "mask_weights" in rec.segmentation.details:
+                result.mask_weights.append(rec.segmentation.details["mask_weights"]["used"])
             if seg_method != "gt":
                 iou, _ = matched_part_iou(rec.segmentation.labels,
                                           [f.mask for f in capture.frames])
                 result.segmentation_iou.append((bucket, iou))
         if progress:
-            progress(f"{k + 1}/{len(cases)} {case.label} ({len(case.obj.parts)} parts)")
+            used = {r.mask_weights[-1] for r in results.values() if r.mask_weights}
+            masks = f"; mask network {', '.join(sorted(used))}" if used else ""
+            progress(f"{k + 1}/{len(cases)} {case.label} ({len(case.obj.parts)} parts{masks})")
     return results
 
 
@@ -193,8 +200,25 @@ def _count(row: dict | None) -> str:
     return f"{int(row['predicted_joints'])} for {int(row['joints'])}"
 
 
-def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool) -> str:
-    """Joint and shape tables: a row per setting (and the paper's full-pipeline row)."""
+def mask_weights_note(results: dict[tuple[str, str], SettingResult], mode: str) -> str | None:
+    """What network the predicted masks came from, for the tables' notes: the mode asked and
+    how many captures each network segmented."""
+    from collections import Counter
+
+    used = next((r.mask_weights for (s, _), r in results.items() if s == "learned"), None)
+    if used is None:
+        return None
+    how = {"auto": "auto: chosen by the depth noise each capture's cleanup measured",
+           "clean": "clean (forced)", "noisy": "noisy (forced)"}.get(mode, f"{mode} (a file)")
+    counts = ", ".join(f"{n} on {k}" for n, k in sorted(Counter(used).items()))
+    return (f"Predicted masks: mask network {how}; used: {counts or 'none'} of "
+            f"{len(used)} segmented captures.")
+
+
+def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool,
+             notes: list[str] | None = None) -> str:
+    """Joint and shape tables: a row per setting (and the paper's full-pipeline row), after
+    ``notes`` (how the tables were made)."""
     names = [b for b, *_ in BUCKETS]
     header = ["method", *(f"{b} parts" for b in names)]
     joints = []
@@ -216,7 +240,7 @@ def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool) -
                                      _fmt(table.get(b), "part_count_exact", "{:.2f}"),
                                      _fmt(table.get(b), "segmentation_iou", "{:.3f}")])
                          for b in names)] for method, table in tables.items()]
-    lines = [f"### {title}", "", "Joints: type accuracy / axis error (degrees) / axis position "
+    lines = [f"### {title}", "", *(f"{n}\n" for n in notes or []), "Joints: type accuracy / axis error (degrees) / axis position "
              "error (% of the object's diagonal, revolute joints), each true joint on the "
              "predicted part that stands for its part (most of that part's surface its own; "
              "none: scored wrong at 90 degrees):", "",

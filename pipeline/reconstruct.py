@@ -12,7 +12,9 @@ the object in the room (:mod:`pipeline.isolate`) and the depth cleanup
     object.json, <name>.xml/.urdf/.usda/.glb   the model and its exports
     check.json     the cross-tool check of the exports; report.json  what ran, how long
 
-Segmentation: ``learned`` (the shipped mask network, prompted the paper's way), ``sam``
+Segmentation: ``learned`` (a shipped mask network, prompted the paper's way: the one trained
+for exact depth, or where the cleanup measured the depth noisy the one trained on noisy
+sensors, :mod:`pipeline.segment.choose`), ``sam``
 (a SAM checkpoint) or ``gt`` (the capture's masks). Completion: ``learned`` (the shipped
 occupancy network) or ``segment_only`` (surface reconstruction of the raw points, the
 paper's baseline).
@@ -109,7 +111,7 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
 
 def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                         completion: str = "learned", predictor: str = "learned",
-                        segmenter=None, completion_model=None,
+                        segmenter=None, completion_model=None, mask_weights="auto",
                         prompting: PromptingOptions | None = None,
                         sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                         name: str = "reconstruction", collision: str = "auto",
@@ -123,7 +125,10 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     which scores geometry and joints, leaves it out).
     ``precomputed_segmentation`` skips the segmentation stages (segmentation, then the
     compartments behind open doors back to the carcass; the evaluation segments once and
-    completes twice)."""
+    completes twice).
+    ``mask_weights``: which mask network the learned segmentation uses (auto, clean, noisy,
+    a weights file, or a loaded :class:`pipeline.segment.choose.MaskWeights`); auto chooses
+    by the depth noise the cleanup measured. A ``segmenter`` given is used as it is."""
     from real2code_export.model import Mesh
 
     from .articulate import articulate
@@ -153,10 +158,20 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     t = time.perf_counter()
     say(f"segmentation ({segmentation}) of {len(capture.frames)} views ...")
     seg = precomputed_segmentation
+    choice = None
     if seg is None:
+        if segmentation == "learned" and segmenter is None:
+            from .segment.choose import MaskWeights
+
+            chooser = mask_weights if isinstance(mask_weights, MaskWeights) else \
+                MaskWeights(mask_weights)
+            segmenter, choice = chooser.for_capture(cleanup)
+            say(f"  mask network: {choice.used} ({choice.weights.name}; {choice.why})")
         seg = return_to_carcass(capture, segment(
             capture, segmentation, segmenter=segmenter, options=prompting,
             sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type))
+        if choice is not None:
+            seg.details["mask_weights"] = choice.record()
     timings["segmentation"] = time.perf_counter() - t
     say(f"  {seg.n_parts} parts ({timings['segmentation']:.1f} s)")
 
@@ -164,9 +179,9 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     # stray points: at predicted masks' borders, and wherever the depth itself was noisy (a
     # true mask over smeared depth holds points of what lies behind); the boxes of such
     # points are squared to the largest part's (articulate's align_boxes) for the same reason
-    from .depth_cleanup import CleanupOptions
+    from .depth_cleanup import measured_noisy
 
-    noisy = max(cleanup["noise_rel"], default=0.0) >= CleanupOptions().min_noise_rel
+    noisy = measured_noisy(cleanup)
     by_label = oriented_part_clouds(capture, seg.labels, clean=segmentation != "gt" or noisy)
     names = {k: (capture.parts[k - 1] if segmentation == "gt" and k <= len(capture.parts)
                  else f"part_{k}") for k in by_label}
@@ -197,7 +212,9 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     art = articulate({n: Mesh.from_trimesh(m) for n, m in meshes.items()},
                      get_predictor(predictor), name=name, colors=colors,
                      metadata={"reconstructed_from": str(capture.path or ""),
-                               "segmentation": segmentation, "completion": completion},
+                               "segmentation": segmentation, "completion": completion,
+                               **({"mask_weights": seg.details["mask_weights"]}
+                                  if "mask_weights" in seg.details else {})},
                      collision=collision, align_boxes=segmentation != "gt" or noisy,
                      observed={n: (clouds[n], normals[n]) for n in clouds})
     timings["articulation"] = time.perf_counter() - t
@@ -278,7 +295,7 @@ def write_stages(result: ReconstructResult, folder: Path,
 def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "learned",
                 completion: str = "learned", predictor: str = "learned",
                 sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
-                formats: list[str] | None = None, check_configurations: int = 100,
+                mask_weights: str | Path = "auto", formats: list[str] | None = None, check_configurations: int = 100,
                 name: str | None = None, texture: bool = True, box=None,
                 progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Read the capture folder, run every stage, write everything into ``out`` (atomically:
@@ -288,9 +305,14 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
 
     capture = read_capture(capture)
     say = progress or (lambda _msg: None)
+    if segmentation == "learned":  # a bad weights file fails before any stage runs
+        from .segment.choose import MaskWeights
+
+        mask_weights = MaskWeights(mask_weights)
     result = reconstruct_capture(
         capture, segmentation=segmentation, completion=completion, predictor=predictor,
         sam_checkpoint=sam_checkpoint, sam_model_type=sam_model_type,
+        mask_weights=mask_weights,
         name=name or capture.extra.get("object") or capture.path.name, texture=texture,
         box=box, progress=progress)
     out = Path(out)
@@ -305,6 +327,7 @@ def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "le
         (staging / "report.json").write_text(json.dumps({
             "capture": str(capture.path), "segmentation": segmentation,
             "completion": completion, "predictor": predictor,
+            "mask_weights": result.segmentation.details.get("mask_weights"),
             "parts": list(result.meshes), "joints": [
                 {"name": j.name, "type": j.type.value, "parent": j.parent, "child": j.child,
                  "state": j.state, "lower": j.limits.lower, "upper": j.limits.upper}

@@ -315,6 +315,9 @@ def test_the_parser_restates_no_stage_fact_wrongly():
     from pipeline import sensors
 
     assert tuple(sensors.PRESETS) == reconstruct.CAPTURE_PRESETS
+    from pipeline.segment import choose
+
+    assert reconstruct.MASK_WEIGHTS == choose.MODES
     assert batch.KINDS == KINDS == tuple(TASKS)
 
 

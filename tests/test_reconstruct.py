@@ -107,8 +107,13 @@ def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
     assert args.func(args) == 0
     text = capsys.readouterr().out
     assert "segmentation (learned)" in text and "AGREE" in text
+    # an exact render: the clean-trained network, said and recorded with the noise measured
+    assert "mask network: clean (segmenter.pt; depth noise" in text
+    report = json.loads((tmp_path / "o" / "report.json").read_text())
+    assert report["mask_weights"]["used"] == "clean" and not report["depth_cleanup"]["noisy"]
     truth = load(read_capture(capture_dir).ground_truth_path())
     model = load(tmp_path / "o" / "object.json")
+    assert model.metadata["mask_weights"] == report["mask_weights"]
     assert len(truth.parts) <= len(model.parts) <= len(truth.parts) + 1
     mean, per_part = _segmentation_iou(tmp_path / "o", capture_dir)
     assert mean > MEAN_IOU_SMALL and min(per_part.values()) > 0.9, per_part
@@ -119,6 +124,17 @@ def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
     score_object(truth, read_capture(capture_dir).object_pose(), model, scores)
     assert len(scores.joints) == len(truth.movable_joints)
     assert all(j.type_ok and j.axis_deg < 2.0 for j in scores.joints), scores.joints
+
+
+def test_a_bad_mask_weights_file_is_refused_before_any_stage(capture_dir, tmp_path, capsys):
+    out = tmp_path / "o"
+    status = run(["reconstruct", str(capture_dir), "--out", str(out), "--mask-weights",
+                  str(tmp_path / "none.pt")])
+    assert status == 2 and "none.pt" in capsys.readouterr().err and not out.exists()
+    status = run(["reconstruct", str(capture_dir), "--out", str(out), "--segmentation", "gt",
+                  "--mask-weights", "noisy"])
+    assert status == 2 and "--mask-weights noisy is for --segmentation learned" in \
+        capsys.readouterr().err and not out.exists()
 
 
 @pytest.mark.slow

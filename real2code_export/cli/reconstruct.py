@@ -20,6 +20,7 @@ RENDER_VIEWS, RENDER_SIZE = 12, 256
 CAMERA_PATHS, CAMERA_DISTANCES = ("ring", "half-ring", "handheld", "front-arc"), \
     ("near", "mid", "far")
 CAPTURE_PRESETS = ("clean", "phone-lidar", "structured-light", "time-of-flight")
+MASK_WEIGHTS = ("auto", "clean", "noisy")  # pipeline.segment.choose.MODES, or a file
 # (segmentation, completion) of evaluate reconstruction, by the names its --settings takes
 EVALUATION_SETTINGS = {"gt+completion": ("gt", "learned"),
                        "gt+segment-only": ("gt", "segment_only"),
@@ -41,6 +42,15 @@ def add_camera_options(s) -> None:
     s.add_argument("--room", action="store_true",
                    help="stand the object on a floor before a wall, with clutter around it "
                    "(seeded by --seed; the pipeline must find the object)")
+
+
+def add_mask_weights_option(s) -> None:
+    """``--mask-weights``: which mask network the learned segmentation uses."""
+    s.add_argument("--mask-weights", default="auto", metavar="|".join(MASK_WEIGHTS) + "|PATH",
+                   help="the mask network (with learned segmentation): auto (default) takes "
+                   "the one trained on noisy sensors where the depth cleanup measures the "
+                   "capture's depth noisy and the clean-trained one otherwise; clean or noisy "
+                   "forces a shipped one; or a weights file (python -m pipeline.segment.train)")
 
 
 def add_demo_parser(sub) -> None:
@@ -112,6 +122,7 @@ def _reconstruct_options(s) -> None:
                    help="learned (shipped mask network), gt (the capture's masks) or sam")
     s.add_argument("--sam-checkpoint", help="a SAM checkpoint (with --segmentation sam)")
     s.add_argument("--sam-model-type", default="vit_b", choices=["vit_b", "vit_l", "vit_h"])
+    add_mask_weights_option(s)
     s.add_argument("--completion", choices=["learned", "segment_only"], default="learned",
                    help="learned occupancy network, or the raw points' surface (baseline)")
     s.add_argument("--predictor", default="learned", choices=["learned", "geometric"],
@@ -129,8 +140,13 @@ def _run_reconstruct(capture, out, args) -> int:
     from pipeline.reconstruct import reconstruct
 
     from ..check import format_table
+    from ..errors import Real2CodeError
 
+    if args.mask_weights != "auto" and args.segmentation != "learned":
+        raise Real2CodeError(f"--mask-weights {args.mask_weights} is for --segmentation "
+                             f"learned, not {args.segmentation}")
     result = reconstruct(capture, out, segmentation=args.segmentation,
+                         mask_weights=args.mask_weights,
                          box=parse_box(args.box) if args.box else None,
                          completion=args.completion, predictor=args.predictor,
                          sam_checkpoint=args.sam_checkpoint, sam_model_type=args.sam_model_type,
@@ -193,6 +209,7 @@ def add_evaluate_reconstruction_parser(evaluate_sub) -> argparse.ArgumentParser:
     add_camera_options(e)
     e.add_argument("--settings", default=",".join(EVALUATION_SETTINGS),
                    help="comma-separated, of " + ", ".join(EVALUATION_SETTINGS) + " (all)")
+    add_mask_weights_option(e)
     e.add_argument("--splits", default="dev,holdout",
                    help="which PartNet-Mobility splits to add with --partnet (dev,holdout)")
     e.add_argument("--json", help="write the figures as JSON")
@@ -205,7 +222,12 @@ def cmd_evaluate_reconstruction(args) -> int:
     import numpy as np
 
     from pipeline.evaluate_articulation import partnet_cases, procedural_cases
-    from pipeline.evaluate_reconstruction import SETTING_NAMES, evaluate, markdown
+    from pipeline.evaluate_reconstruction import (
+        SETTING_NAMES,
+        evaluate,
+        markdown,
+        mask_weights_note,
+    )
 
     from ..errors import Real2CodeError
     from .options import write_evaluation
@@ -231,22 +253,26 @@ def cmd_evaluate_reconstruction(args) -> int:
             sets["PartNet-Mobility holdout (benchmark, not tuned to)"] = partnet_cases(
                 root, "holdout", args.seed)
     conditions = {"cameras": args.cameras, "distance": args.distance, "capture": args.capture,
-                  "room": args.room}
+                  "room": args.room, "mask_weights": args.mask_weights}
     figures, text = {"conditions": conditions}, []
     for set_name, cases in sets.items():
         results = evaluate(cases, views=args.views, size=args.size, seed=args.seed,
                            cameras=args.cameras, distance=args.distance, sensor=args.capture,
-                           room=args.room, settings=settings,
+                           room=args.room, settings=settings, mask_weights=args.mask_weights,
                            progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
         tables = {SETTING_NAMES[k]: r.table() for k, r in results.items()}
         figures[set_name] = {
             SETTING_NAMES[k]: {"buckets": r.table(), "failures": r.failures,
-                               "seconds_per_object": float(np.mean(r.seconds or [0.0]))}
+                               "seconds_per_object": float(np.mean(r.seconds or [0.0])),
+                               "mask_weights": r.mask_weights}
             for k, r in results.items()}
         room = "; in a room" if args.room else ""
+        note = mask_weights_note(results, args.mask_weights)
+        weights = f"; mask weights {args.mask_weights}" if note else ""
         text.append(markdown(f"{set_name} ({len(cases)} objects; cameras {args.cameras}, "
-                             f"{args.distance}; capture {args.capture}{room})", tables,
-                             show_paper=set_name.startswith("procedural")))
+                             f"{args.distance}; capture {args.capture}{room}{weights})", tables,
+                             show_paper=set_name.startswith("procedural"),
+                             notes=[note] if note else None))
     write_evaluation(args, "\n\n".join(text), figures)
     return 0
 
