@@ -45,6 +45,7 @@ from pipeline.predictors.evaluate import Scores, score_object  # noqa: E402
 from pipeline.reconstruct import reconstruct_capture  # noqa: E402
 from pipeline.render import render_object  # noqa: E402
 from pipeline.segment import segment  # noqa: E402
+from pipeline.segment.choose import DEFAULT as DEFAULT_MASK_WEIGHTS  # noqa: E402
 from pipeline.segment.choose import MaskWeights, choose  # noqa: E402
 from pipeline.segment.evaluate import matched_part_iou  # noqa: E402
 from pipeline.sensors import degrade, load_sensor  # noqa: E402
@@ -121,9 +122,9 @@ def main() -> None:
     p.add_argument("--set", default="", help="sensor fields changed, e.g. lateral_px=0,holes=0 "
                    "(one fault at a time taken out of a preset)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--mask-weights", default="auto",
-                   help="auto|clean|noisy|PATH, as real2code reconstruct's (auto: by the noise "
-                   "the cleanup measured)")
+    p.add_argument("--mask-weights", default=DEFAULT_MASK_WEIGHTS,
+                   help="auto|clean|noisy|PATH, as real2code reconstruct's (default "
+                   f"{DEFAULT_MASK_WEIGHTS}; auto: by the noise the cleanup measured)")
     args = p.parse_args()
     cases = procedural_cases(args.objects, args.seed) if args.objects else \
         partnet_cases(args.partnet, args.splits, args.seed)

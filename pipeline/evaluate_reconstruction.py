@@ -127,24 +127,25 @@ def score_failure(case: Case, scores: Scores) -> None:
 
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
-             mask_weights="auto", cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
+             mask_weights=None, cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
              sensor: str = "clean", room: bool = False,
              progress=None) -> dict[tuple[str, str], SettingResult]:
     """Reconstruct every case under every (segmentation, completion) setting and score it;
     ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`), ``sensor``
     (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them, ``room`` puts the
     object in a room (:mod:`pipeline.room`) that the pipeline must find it in.
-    ``mask_weights`` (:mod:`pipeline.segment.choose`) picks the learned masks' network
-    unless a ``segmenter`` is given."""
+    ``mask_weights`` (:mod:`pipeline.segment.choose`; None: its ``DEFAULT``) picks the
+    learned masks' network unless a ``segmenter`` is given."""
     from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
     from .reconstruct import reconstruct_capture
-    from .segment.choose import MaskWeights
+    from .segment.choose import DEFAULT, MaskWeights
     from .segment.evaluate import matched_part_iou
     from .sensors import load_sensor
 
     sensor_model = load_sensor(sensor)  # a bad preset fails before any work
     if segmenter is None and any(s == "learned" for s, _ in settings):
-        mask_weights = MaskWeights(mask_weights)  # a bad file fails before any work
+        mask_weights = MaskWeights(DEFAULT if mask_weights is None else mask_weights)  # a bad
+        # file fails before any work
     if completion_model is None and any(c == "learned" for _, c in settings):
         from .complete import load_model
 
@@ -209,7 +210,8 @@ def mask_weights_note(results: dict[tuple[str, str], SettingResult], mode: str) 
     if used is None:
         return None
     how = {"auto": "auto: chosen by the depth noise each capture's cleanup measured",
-           "clean": "clean (forced)", "noisy": "noisy (forced)"}.get(mode, f"{mode} (a file)")
+           "clean": "clean (the shipped network)", "noisy": "noisy (forced)"}.get(
+               mode, f"{mode} (a file)")
     counts = ", ".join(f"{n} on {k}" for n, k in sorted(Counter(used).items()))
     return (f"Predicted masks: mask network {how}; used: {counts or 'none'} of "
             f"{len(used)} segmented captures.")

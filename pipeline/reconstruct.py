@@ -34,6 +34,7 @@ from real2code_export.errors import InputError, Real2CodeError, warn
 
 from .capture import Capture, read_capture
 from .segment import PromptingOptions, Segmentation, segment
+from .segment.choose import DEFAULT as DEFAULT_MASK_WEIGHTS
 
 COMPLETIONS = ("learned", "segment_only")
 PALETTE = np.array([[230, 25, 75], [60, 180, 75], [255, 225, 25], [0, 130, 200],
@@ -111,7 +112,8 @@ def complete_parts(clouds: dict[str, np.ndarray], completion: str, model=None,
 
 def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
                         completion: str = "learned", predictor: str = "learned",
-                        segmenter=None, completion_model=None, mask_weights="auto",
+                        segmenter=None, completion_model=None,
+                        mask_weights=DEFAULT_MASK_WEIGHTS,
                         prompting: PromptingOptions | None = None,
                         sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
                         name: str = "reconstruction", collision: str = "auto",
@@ -127,8 +129,9 @@ def reconstruct_capture(capture: Capture, *, segmentation: str = "learned",
     compartments behind open doors back to the carcass; the evaluation segments once and
     completes twice).
     ``mask_weights``: which mask network the learned segmentation uses (auto, clean, noisy,
-    a weights file, or a loaded :class:`pipeline.segment.choose.MaskWeights`); auto chooses
-    by the depth noise the cleanup measured. A ``segmenter`` given is used as it is."""
+    a weights file, or a loaded :class:`pipeline.segment.choose.MaskWeights`; by default
+    the shipped one, ``choose.DEFAULT``); auto chooses by the depth noise the cleanup
+    measured. A ``segmenter`` given is used as it is."""
     from real2code_export.model import Mesh
 
     from .articulate import articulate
@@ -295,7 +298,7 @@ def write_stages(result: ReconstructResult, folder: Path,
 def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "learned",
                 completion: str = "learned", predictor: str = "learned",
                 sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
-                mask_weights: str | Path = "auto", formats: list[str] | None = None, check_configurations: int = 100,
+                mask_weights: str | Path = DEFAULT_MASK_WEIGHTS, formats: list[str] | None = None, check_configurations: int = 100,
                 name: str | None = None, texture: bool = True, box=None,
                 progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Read the capture folder, run every stage, write everything into ``out`` (atomically:

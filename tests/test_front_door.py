@@ -318,6 +318,7 @@ def test_the_parser_restates_no_stage_fact_wrongly():
     from pipeline.segment import choose
 
     assert reconstruct.MASK_WEIGHTS == choose.MODES
+    assert reconstruct.MASK_WEIGHTS_DEFAULT == choose.DEFAULT
     assert batch.KINDS == KINDS == tuple(TASKS)
 
 

@@ -8,9 +8,10 @@ on noisy sensors, chosen by the noise the depth cleanup measured in the capture'
   noisy depth, worse on exact depth's many-part objects, so it is used only where the depth
   is noisy.
 
-``auto`` (the default) takes ``noisy`` where the cleanup found any frame noisy
+``auto`` takes ``noisy`` where the cleanup found any frame noisy
 (:func:`pipeline.depth_cleanup.measured_noisy`: the cleanup's own threshold, so there is one)
-and ``clean`` otherwise; ``clean``, ``noisy`` or a weights file force one.
+and ``clean`` otherwise; ``clean``, ``noisy`` or a weights file force one. The default is
+:data:`DEFAULT`.
 """
 
 from __future__ import annotations
@@ -23,6 +24,12 @@ from .learned import WEIGHTS
 NOISY_WEIGHTS = WEIGHTS.with_name("segmenter_noisy.pt")
 SHIPPED = {"clean": WEIGHTS, "noisy": NOISY_WEIGHTS}
 MODES = ("auto", *SHIPPED)  # or a weights file's path
+# The shipped network for every capture unless asked: ``auto`` measured better on noisy
+# rings (PartNet-Mobility dev's phone-LiDAR ring: type 0.83 / 0.78 / 0.75 -> 1.00 / 0.94 /
+# 0.83 in 3, 4-5 and 6-15 parts) but worse on hand-held phone views of many parts (6-15:
+# 0.75 / 22.7 degrees -> 0.42 / 67.7) and on the room demo's capture (5 parts for 6, 3 of 5
+# joints right, against 7 for 6 and 5 of 5): docs/evaluation.md, session 26.
+DEFAULT = "clean"
 
 
 @dataclass(frozen=True)
@@ -55,7 +62,8 @@ def choose(mask_weights: str | Path, cleanup: dict) -> Choice:
                f"{'at or above' if noisy else 'below'} the cleanup's {threshold:g}")
         return Choice(mode, used, SHIPPED[used], why, noise)
     if mode in SHIPPED:
-        return Choice(mode, mode, SHIPPED[mode], f"forced ({mode}); depth noise {noise:.5f} "
+        said = "the default" if mode == DEFAULT else f"forced ({mode})"
+        return Choice(mode, mode, SHIPPED[mode], f"{said}; depth noise {noise:.5f} "
                       "of range measured", noise)
     path = Path(mask_weights)
     return Choice(mode, path.name, path, f"forced (a file); depth noise {noise:.5f} of range "
@@ -67,7 +75,7 @@ class MaskWeights:
     file is a :class:`pipeline.weights.WeightsError` naming it, before any work), and the one
     for each capture."""
 
-    def __init__(self, mask_weights: str | Path = "auto"):
+    def __init__(self, mask_weights: str | Path = DEFAULT):
         from .learned import LearnedSegmenter
 
         self.mode = str(mask_weights)

@@ -21,6 +21,7 @@ CAMERA_PATHS, CAMERA_DISTANCES = ("ring", "half-ring", "handheld", "front-arc"),
     ("near", "mid", "far")
 CAPTURE_PRESETS = ("clean", "phone-lidar", "structured-light", "time-of-flight")
 MASK_WEIGHTS = ("auto", "clean", "noisy")  # pipeline.segment.choose.MODES, or a file
+MASK_WEIGHTS_DEFAULT = "clean"  # pipeline.segment.choose.DEFAULT (why: there)
 # (segmentation, completion) of evaluate reconstruction, by the names its --settings takes
 EVALUATION_SETTINGS = {"gt+completion": ("gt", "learned"),
                        "gt+segment-only": ("gt", "segment_only"),
@@ -46,11 +47,13 @@ def add_camera_options(s) -> None:
 
 def add_mask_weights_option(s) -> None:
     """``--mask-weights``: which mask network the learned segmentation uses."""
-    s.add_argument("--mask-weights", default="auto", metavar="|".join(MASK_WEIGHTS) + "|PATH",
-                   help="the mask network (with learned segmentation): auto (default) takes "
-                   "the one trained on noisy sensors where the depth cleanup measures the "
-                   "capture's depth noisy and the clean-trained one otherwise; clean or noisy "
-                   "forces a shipped one; or a weights file (python -m pipeline.segment.train)")
+    s.add_argument("--mask-weights", default=MASK_WEIGHTS_DEFAULT,
+                   metavar="|".join(MASK_WEIGHTS) + "|PATH",
+                   help="the mask network (with learned segmentation): clean (default) the "
+                   "shipped one; noisy the one trained on noisy sensors (better on noisy rings, "
+                   "worse on hand-held views of many parts: docs/evaluation.md); auto takes "
+                   "noisy where the depth cleanup measures the capture's depth noisy and clean "
+                   "otherwise; or a weights file (python -m pipeline.segment.train)")
 
 
 def add_demo_parser(sub) -> None:
@@ -142,7 +145,7 @@ def _run_reconstruct(capture, out, args) -> int:
     from ..check import format_table
     from ..errors import Real2CodeError
 
-    if args.mask_weights != "auto" and args.segmentation != "learned":
+    if args.mask_weights != MASK_WEIGHTS_DEFAULT and args.segmentation != "learned":
         raise Real2CodeError(f"--mask-weights {args.mask_weights} is for --segmentation "
                              f"learned, not {args.segmentation}")
     result = reconstruct(capture, out, segmentation=args.segmentation,
