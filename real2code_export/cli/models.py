@@ -76,7 +76,7 @@ def cmd_export(args) -> int:
     # tells which of the default formats work here): the reader's own imports first, once.
     # Its option is the formats' (USD and glTF alone: no hulls); should the formats that
     # work here want the other, it is read again here.
-    # In the server's fork (cli/server.py) they are imported already: nothing to overlap.
+    # In the server's fork (cli/server_loop.py) they are imported already: nothing to overlap.
     named = args.to or [f.name for f in FORMATS.values() if f.exported]
     _import_reader(args.input)
     if all(imported(name) for name in named):

@@ -155,7 +155,7 @@ def _import_problem(fmt: Format, writing: bool) -> str | None:
 
 def imported(name: str) -> bool:
     """Whether format ``name``'s libraries were imported already here (its availability was
-    asked and it is available): a command run by the server (cli/server.py) finds them so."""
+    asked and it is available): a command run by the server (cli/server_loop.py) finds them so."""
     return any(_PROBLEMS.get((name, writing), "") is None for writing in (False, True))
 
 
