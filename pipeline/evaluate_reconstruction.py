@@ -164,7 +164,8 @@ def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int =
                 rec = reconstruct_capture(
                     capture, segmentation=seg_method, completion=completion,
                     segmenter=segmenter if seg_method == "learned" else None,
-                    mask_weights=mask_weights, completion_model=completion_model, name=case.obj.name, collision="hull",
+                    mask_weights=mask_weights, completion_model=completion_model,
+                    name=case.obj.name, collision="hull",
                     precomputed_segmentation=segmentations.get(seg_method), texture=False)
             except Exception as e:  # a failed reconstruction is scored as missing, not hidden
                 result.failures.append(f"{bucket}: {case.label}: {type(e).__name__}: {e}")
@@ -242,8 +243,9 @@ def markdown(title: str, tables: dict[str, dict[str, dict]], show_paper: bool,
                                      _fmt(table.get(b), "part_count_exact", "{:.2f}"),
                                      _fmt(table.get(b), "segmentation_iou", "{:.3f}")])
                          for b in names)] for method, table in tables.items()]
-    lines = [f"### {title}", "", *(f"{n}\n" for n in notes or []), "Joints: type accuracy / axis error (degrees) / axis position "
-             "error (% of the object's diagonal, revolute joints), each true joint on the "
+    lines = [f"### {title}", "", *(f"{n}\n" for n in notes or []),
+             "Joints: type accuracy / axis error (degrees) / axis position error (% of the "
+             "object's diagonal, revolute joints), each true joint on the "
              "predicted part that stands for its part (most of that part's surface its own; "
              "none: scored wrong at 90 degrees):", "",
              *markdown_table(header, joints),

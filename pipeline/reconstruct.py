@@ -298,7 +298,8 @@ def write_stages(result: ReconstructResult, folder: Path,
 def reconstruct(capture: str | Path, out: str | Path, *, segmentation: str = "learned",
                 completion: str = "learned", predictor: str = "learned",
                 sam_checkpoint: str | Path | None = None, sam_model_type: str = "vit_b",
-                mask_weights: str | Path = DEFAULT_MASK_WEIGHTS, formats: list[str] | None = None, check_configurations: int = 100,
+                mask_weights: str | Path = DEFAULT_MASK_WEIGHTS, formats: list[str] | None = None,
+                check_configurations: int = 100,
                 name: str | None = None, texture: bool = True, box=None,
                 progress: Callable[[str], None] | None = None) -> ReconstructResult:
     """Read the capture folder, run every stage, write everything into ``out`` (atomically:

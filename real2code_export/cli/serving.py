@@ -69,7 +69,7 @@ def private(folder: Path) -> str | None:
 
 def code_stamp(package: Path) -> list[int]:
     """The package's Python sources as they are now (how many, their newest change, their
-    total size): a server that imported older ones is stale. Walks ~150 files, ~1 ms."""
+    total size): a server that imported older ones is stale. Walks ~140 files, 2 ms."""
     count = newest = size = 0
     stack = [str(package)]
     while stack:
