@@ -7,8 +7,9 @@ the exporter recorded. Each triangle's colour is its material's diffuse colour (
 material library; a texture, or no material, gives none). The bindings of materials to an
 instance are taken out before pycollada reads the scene and kept aside, so a binding pycollada
 cannot resolve (a material whose effect refers to a missing image: pycollada drops the whole
-node) costs the colour only, never geometry. (trimesh's own Collada loader ignores the unit
-and loses such nodes.)
+node) costs the colour only, never geometry. Only positions and their indices are read
+(:func:`_positions_only`). (trimesh's own Collada loader ignores the unit and loses such
+nodes.)
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float,
             m.get("symbol"): m.get("target", "").removeprefix("#")
             for m in binding.iter("{*}instance_material")}
         instance.remove(binding)
+    _positions_only(root)
     try:
         doc = collada.Collada(io.BytesIO(etree.tostring(root)),
                               ignore=[collada.common.DaeUnsupportedError,
@@ -72,6 +74,39 @@ def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float,
         runs.append((len(f), rgba))
         offset += len(v)
     return np.concatenate(vertices) * unit, np.concatenate(faces), unit, runs
+
+
+_UNREAD = "REAL2CODE_UNREAD"  # a semantic pycollada does not know: it keeps the input, reads nothing
+
+
+def _positions_only(root) -> None:
+    """Empty every mesh's sources that only shading reads (normals, texture coordinates,
+    colours, tangents) before pycollada parses them: this reader takes positions and their
+    indices only, and parsing those sources' text was a fifth of a robot's whole export
+    (example-robot-data, sampled). Their inputs stay, under a semantic pycollada keeps
+    unread, as each input's offset sets the stride of the primitive's index list."""
+    for mesh in root.iter("{*}mesh"):
+        positions = set()
+        for vertices in mesh.iterfind("{*}vertices"):
+            for put in list(vertices.iterfind("{*}input")):
+                if put.get("semantic") == "POSITION":
+                    positions.add(put.get("source", "").removeprefix("#"))
+                else:
+                    vertices.remove(put)
+        primitive_inputs = [put for primitive in mesh if primitive.tag.endswith(
+            ("triangles", "polylist", "polygons", "tristrips", "trifans", "lines",
+             "linestrips")) for put in primitive.iterfind("{*}input")]
+        positions |= {put.get("source", "").removeprefix("#") for put in primitive_inputs
+                      if put.get("semantic") == "VERTEX"}
+        unread = set()
+        for source in mesh.iterfind("{*}source"):
+            if source.get("id") not in positions:
+                unread.add(source.get("id"))
+                for array in source.iterfind("{*}float_array"):
+                    array.text = None
+        for put in primitive_inputs:
+            if put.get("source", "").removeprefix("#") in unread:
+                put.set("semantic", _UNREAD)
 
 
 class _Colours:

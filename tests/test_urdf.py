@@ -399,6 +399,48 @@ def test_collada_scene_graph_and_unit(tmp_path):
                                [[0.1, 0.0, 0.0], [0.12, 0.02, 0.0]], atol=1e-12)
 
 
+@pytest.mark.parametrize("normals", ["numbers", "not numbers"])
+def test_collada_with_normals_and_texture_coordinates_interleaved(tmp_path, normals):
+    """A primitive's index list interleaves each corner's position, normal and texture
+    coordinate (stride 3): the triangles are read from the positions at their offset, as
+    pycollada reads them with every source read. The shading sources are not
+    read at all: a normal array that is not numbers costs nothing."""
+    from real2code_export.meshfiles import read_mesh
+
+    normal_text = "0 0 1 " * 4 if normals == "numbers" else "up " * 12
+    accessor = ('<technique_common><accessor source="#{0}-array" count="{1}" stride="{2}">'
+                + "{3}</accessor></technique_common>")
+    xyz = '<param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>'
+    st = '<param name="S" type="float"/><param name="T" type="float"/>'
+    (tmp_path / "quad.dae").write_text(f"""<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <library_geometries><geometry id="quad"><mesh>
+    <source id="pos"><float_array id="pos-array" count="12">0 0 0 1 0 0 1 2 0 0 2 0</float_array>
+      {accessor.format("pos", 4, 3, xyz)}</source>
+    <source id="nrm"><float_array id="nrm-array" count="12">{normal_text}</float_array>
+      {accessor.format("nrm", 4, 3, xyz)}</source>
+    <source id="uv"><float_array id="uv-array" count="8">0 0 1 0 1 1 0 1</float_array>
+      {accessor.format("uv", 4, 2, st)}</source>
+    <vertices id="verts"><input semantic="POSITION" source="#pos"/>
+      <input semantic="NORMAL" source="#nrm"/></vertices>
+    <triangles count="2"><input semantic="VERTEX" source="#verts" offset="0"/>
+      <input semantic="NORMAL" source="#nrm" offset="1"/>
+      <input semantic="TEXCOORD" source="#uv" offset="2" set="0"/>
+      <p>0 0 0 1 1 1 2 0 2  0 1 0 2 0 2 3 1 3</p></triangles>
+  </mesh></geometry></library_geometries>
+</COLLADA>
+""")
+    mesh = read_mesh(tmp_path / "quad.dae")
+    corners = [[0, 0, 0], [1, 0, 0], [1, 2, 0], [0, 0, 0], [1, 2, 0], [0, 2, 0]]
+    np.testing.assert_array_equal(mesh.vertices[mesh.faces].reshape(-1, 3), corners)
+    if normals == "numbers":
+        import collada
+
+        whole = collada.Collada(str(tmp_path / "quad.dae")).geometries[0].primitives[0]
+        np.testing.assert_array_equal(mesh.vertices[mesh.faces],
+                                      whole.vertex[whole.vertex_index])
+
+
 @pytest.mark.parametrize("kind", ["binary", "ascii", "ascii, two solids"])
 def test_stl_is_read_as_trimesh_reads_it(tmp_path, kind):
     """STL is read without trimesh (its import costs more than a robot's USD export): the

@@ -32,7 +32,8 @@ from .options import EXIT_INTERNAL
 # Imported inside the readers', writers' and probes' functions, so importing their modules
 # does not import them (a missing one is imported by the command, slower, never wrong).
 TOOLS = ("numpy", "mujoco", "pinocchio", "trimesh", "pygltflib", "lxml.etree", "collada",
-         "PIL.Image", "scipy.spatial.transform")
+         "PIL.Image", "scipy.spatial.transform", "tinyobjloader", "pxr.UsdValidation",
+         "real2code_export.collada_mesh", "real2code_export.formats.gltf.validator")
 
 
 class Server:
@@ -241,7 +242,8 @@ def _more(conn: socket.socket) -> bytes:
 
 def warm() -> tuple[float, int, int | None]:
     """Import what the file commands import (every format's reader and writer and its probes,
-    as the format registry names them, and :data:`TOOLS`), load USD's registries
+    as the format registry names them, and :data:`TOOLS`; every command's module is imported
+    already: ``server run`` was parsed), load USD's registries
     (:func:`_usd_registries`), then set it all aside from the garbage collector
     (``gc.freeze``: the forks neither walk nor copy it). Seconds taken, modules imported and
     USD's concurrency limit for the forks; what fails to import is left to the command,
@@ -279,8 +281,9 @@ def warm() -> tuple[float, int, int | None]:
 
 
 def _usd_registries() -> int | None:
-    """USD's plugin and schema registries and its layer file formats loaded, what a command's
-    first layer or stage pays (0.02-0.03 s), USD held to one thread meanwhile (a fork must
+    """USD's plugin and schema registries, its layer file formats and the Newton schema
+    (:func:`~..formats.usd.conventions.open_stage`) loaded, what a command's first layer or
+    stage pays (0.02-0.03 s), USD held to one thread meanwhile (a fork must
     inherit none). USD's concurrency limit before, for each fork to restore
     (:func:`run_command`); None where USD does not import here or the environment fixes its
     limit (``PXR_WORK_THREAD_LIMIT``), and then nothing is loaded."""
@@ -298,6 +301,8 @@ def _usd_registries() -> int | None:
         Sdf.Layer.CreateAnonymous(f"warm{suffix}")
     Usd.SchemaRegistry()
     Usd.Stage.CreateInMemory()
+    with contextlib.suppress(ImportError):  # our schema, as open_stage registers it
+        import newton_usd_schemas  # noqa: F401
     return limit
 
 
