@@ -23,17 +23,19 @@ from .meshtopology import unique_inverse
 from .model import RGBA
 
 
-def read_collada(path: Path) -> tuple[np.ndarray, np.ndarray, float,
-                                       list[tuple[int, RGBA | None]]]:
+def read_collada(path: Path, data: bytes | None = None) -> tuple[
+        np.ndarray, np.ndarray, float, list[tuple[int, RGBA | None]]]:
     """Vertices (metres, scene-graph transforms applied), triangles, the file's unit (metres
     per unit, already applied) and the triangles' colours, as runs: one (number of triangles,
-    diffuse RGBA or None) per primitive placed, in the triangles' order. Raises ValueError
-    saying what is wrong."""
+    diffuse RGBA or None) per primitive placed, in the triangles' order, from the file's
+    bytes ``data`` where read already. Raises ValueError saying what is wrong."""
     import collada
     from lxml import etree
 
     try:
-        root = etree.parse(str(path), etree.XMLParser(huge_tree=True)).getroot()
+        parser = etree.XMLParser(huge_tree=True)
+        root = (etree.parse(str(path), parser).getroot() if data is None
+                else etree.fromstring(data, parser, base_url=str(path)))
     except etree.XMLSyntaxError as e:
         raise ValueError(f"not a Collada file (not XML: {e})") from e
     if etree.QName(root).localname != "COLLADA":
