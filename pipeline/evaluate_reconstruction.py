@@ -18,6 +18,7 @@ Scores, by the paper's buckets of part count:
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -69,6 +70,15 @@ class SettingResult:
     failures: list[str] = field(default_factory=list)
     seconds: list[float] = field(default_factory=list)
     mask_weights: list[str] = field(default_factory=list)  # per capture: the network used
+
+    def absorb(self, other: SettingResult) -> None:
+        """Add ``other``'s cases (one case's, from :func:`evaluate_case`) after these."""
+        self.joints.absorb(other.joints)
+        self.shapes += other.shapes
+        self.segmentation_iou += other.segmentation_iou
+        self.failures += other.failures
+        self.seconds += other.seconds
+        self.mask_weights += other.mask_weights
 
     def table(self) -> dict[str, dict[str, float]]:
         joints = self.joints.table()
@@ -128,66 +138,151 @@ def score_failure(case: Case, scores: Scores) -> None:
 def evaluate(cases: list[Case], *, views: int = 12, size: int = 256, seed: int = 0,
              settings=SETTINGS, segmenter=None, completion_model=None,
              mask_weights=None, cameras: str = DEFAULT_PATH, distance: str = DEFAULT_DISTANCE,
-             sensor: str = "clean", room: bool = False,
+             sensor: str = "clean", room: bool = False, workers: int = 1,
              progress=None) -> dict[tuple[str, str], SettingResult]:
     """Reconstruct every case under every (segmentation, completion) setting and score it;
     ``cameras`` and ``distance`` place the views (:mod:`pipeline.camera_paths`), ``sensor``
     (a preset or sensor JSON, :mod:`pipeline.sensors`) degrades them, ``room`` puts the
     object in a room (:mod:`pipeline.room`) that the pipeline must find it in.
     ``mask_weights`` (:mod:`pipeline.segment.choose`; None: its ``DEFAULT``) picks the
-    learned masks' network unless a ``segmenter`` is given."""
-    from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
-    from .reconstruct import reconstruct_capture
-    from .segment.choose import DEFAULT, MaskWeights
-    from .segment.evaluate import matched_part_iou
+    learned masks' network unless a ``segmenter`` is given.
+
+    ``workers`` > 1: the cases in that many processes, each with its own copy of the shipped
+    models (so no ``segmenter`` or ``completion_model`` object may be given) and its share
+    of the CPUs for torch; every case is rendered and degraded from its own seed as in one
+    process, and the results are merged in the cases' order."""
     from .sensors import load_sensor
 
     sensor_model = load_sensor(sensor)  # a bad preset fails before any work
-    if segmenter is None and any(s == "learned" for s, _ in settings):
-        mask_weights = MaskWeights(DEFAULT if mask_weights is None else mask_weights)  # a bad
-        # file fails before any work
-    if completion_model is None and any(c == "learned" for _, c in settings):
-        from .complete import load_model
-
-        completion_model = load_model()
+    mode = _mask_weights_mode(mask_weights)
+    needs = _Needs(masks=segmenter is None and any(s == "learned" for s, _ in settings),
+                   completion=completion_model is None
+                   and any(c == "learned" for _, c in settings))
+    case_options = dict(views=views, size=size, settings=tuple(settings), cameras=cameras,
+                        distance=distance, sensor=sensor_model, room=room)
     results = {s: SettingResult() for s in settings}
-    for k, case in enumerate(cases):
-        bucket = bucket_of(len(case.obj.parts))
-        capture = case_capture(case, seed + k, views=views, size=size, cameras=cameras,
-                               distance=distance, sensor=sensor_model, room=room)
-        truth = _truth_meshes(case)
-        segmentations = {}
-        for seg_method, completion in settings:
-            result = results[(seg_method, completion)]
-            t0 = time.perf_counter()
-            try:
-                rec = reconstruct_capture(
-                    capture, segmentation=seg_method, completion=completion,
-                    segmenter=segmenter if seg_method == "learned" else None,
-                    mask_weights=mask_weights, completion_model=completion_model,
-                    name=case.obj.name, collision="hull",
-                    precomputed_segmentation=segmentations.get(seg_method), texture=False)
-            except Exception as e:  # a failed reconstruction is scored as missing, not hidden
-                result.failures.append(f"{bucket}: {case.label}: {type(e).__name__}: {e}")
-                score_failure(case, result.joints)
-                continue
-            segmentations[seg_method] = rec.segmentation
-            result.seconds.append(time.perf_counter() - t0)
-            score_object(case.obj, case.base, rec.articulation.obj, result.joints)
-            pred = list(rec.meshes.values())
-            result.shapes.append(ShapeScore(
-                bucket, REPORT_SCALE * object_chamfer(pred, truth),
-                REPORT_SCALE * part_chamfer(pred, truth).mean, len(pred), len(truth)))
-            if "mask_weights" in rec.segmentation.details:
-                result.mask_weights.append(rec.segmentation.details["mask_weights"]["used"])
-            if seg_method != "gt":
-                iou, _ = matched_part_iou(rec.segmentation.labels,
-                                          [f.mask for f in capture.frames])
-                result.segmentation_iou.append((bucket, iou))
+
+    def merge(k: int, case: Case, outcome: dict[tuple[str, str], SettingResult]) -> None:
+        for key, part in outcome.items():
+            results[key].absorb(part)
         if progress:
-            used = {r.mask_weights[-1] for r in results.values() if r.mask_weights}
+            used = {r.mask_weights[-1] for r in outcome.values() if r.mask_weights}
             masks = f"; mask network {', '.join(sorted(used))}" if used else ""
             progress(f"{k + 1}/{len(cases)} {case.label} ({len(case.obj.parts)} parts{masks})")
+
+    if workers > 1 and len(cases) > 1:
+        if segmenter is not None or completion_model is not None:
+            raise ValueError("evaluate: workers > 1 loads the shipped models in each worker; "
+                             "a segmenter or completion model object cannot be given")
+        from multiprocessing import get_context
+
+        workers = min(workers, len(cases))
+        threads = max(1, (os.cpu_count() or 1) // workers)
+        jobs = [(case, seed + k, case_options) for k, case in enumerate(cases)]
+        with get_context("spawn").Pool(workers, initializer=_start_worker,
+                                       initargs=(mode, needs, threads)) as pool:
+            for k, outcome in enumerate(pool.imap(_worker_case, jobs)):
+                merge(k, cases[k], outcome)
+        return results
+    models = _load_models(mode, needs)
+    models.segmenter = segmenter or models.segmenter
+    models.completion_model = completion_model or models.completion_model
+    for k, case in enumerate(cases):
+        merge(k, case, evaluate_case(case, seed + k, models, **case_options))
+    return results
+
+
+@dataclass(frozen=True)
+class _Needs:
+    masks: bool  # the learned masks' networks
+    completion: bool  # the completion model
+
+
+@dataclass
+class _Models:
+    mask_weights: object = None  # pipeline.segment.choose.MaskWeights
+    segmenter: object = None
+    completion_model: object = None
+
+
+def _mask_weights_mode(mask_weights) -> str:
+    from .segment.choose import DEFAULT
+
+    return str(DEFAULT if mask_weights is None else mask_weights)
+
+
+def _load_models(mode: str, needs: _Needs) -> _Models:
+    """The shipped models a run needs, loaded once (a bad weights file fails before any
+    work)."""
+    models = _Models()
+    if needs.masks:
+        from .segment.choose import MaskWeights
+
+        models.mask_weights = MaskWeights(mode)
+    if needs.completion:
+        from .complete import load_model
+
+        models.completion_model = load_model()
+    return models
+
+
+_WORKER_MODELS: _Models | None = None  # a worker process's own, loaded by _start_worker
+
+
+def _start_worker(mode: str, needs: _Needs, threads: int) -> None:
+    global _WORKER_MODELS
+    import torch
+
+    torch.set_num_threads(threads)  # the workers share the CPUs, not each all of them
+    _WORKER_MODELS = _load_models(mode, needs)
+
+
+def _worker_case(job) -> dict[tuple[str, str], SettingResult]:
+    case, case_seed, options = job
+    return evaluate_case(case, case_seed, _WORKER_MODELS, **options)
+
+
+def evaluate_case(case: Case, case_seed: int, models: _Models, *, views: int, size: int,
+                  settings, cameras: str, distance: str, sensor, room: bool
+                  ) -> dict[tuple[str, str], SettingResult]:
+    """One case under every setting: its capture rendered and degraded from ``case_seed``
+    (once, shared by the settings), each reconstruction scored."""
+    from .chamfer import REPORT_SCALE, object_chamfer, part_chamfer
+    from .reconstruct import reconstruct_capture
+    from .segment.evaluate import matched_part_iou
+
+    results = {s: SettingResult() for s in settings}
+    bucket = bucket_of(len(case.obj.parts))
+    capture = case_capture(case, case_seed, views=views, size=size, cameras=cameras,
+                           distance=distance, sensor=sensor, room=room)
+    truth = _truth_meshes(case)
+    segmentations = {}
+    for seg_method, completion in settings:
+        result = results[(seg_method, completion)]
+        t0 = time.perf_counter()
+        try:
+            rec = reconstruct_capture(
+                capture, segmentation=seg_method, completion=completion,
+                segmenter=models.segmenter if seg_method == "learned" else None,
+                mask_weights=models.mask_weights, completion_model=models.completion_model,
+                name=case.obj.name, collision="hull",
+                precomputed_segmentation=segmentations.get(seg_method), texture=False)
+        except Exception as e:  # a failed reconstruction is scored as missing, not hidden
+            result.failures.append(f"{bucket}: {case.label}: {type(e).__name__}: {e}")
+            score_failure(case, result.joints)
+            continue
+        segmentations[seg_method] = rec.segmentation
+        result.seconds.append(time.perf_counter() - t0)
+        score_object(case.obj, case.base, rec.articulation.obj, result.joints)
+        pred = list(rec.meshes.values())
+        result.shapes.append(ShapeScore(
+            bucket, REPORT_SCALE * object_chamfer(pred, truth),
+            REPORT_SCALE * part_chamfer(pred, truth).mean, len(pred), len(truth)))
+        if "mask_weights" in rec.segmentation.details:
+            result.mask_weights.append(rec.segmentation.details["mask_weights"]["used"])
+        if seg_method != "gt":
+            iou, _ = matched_part_iou(rec.segmentation.labels, [f.mask for f in capture.frames])
+            result.segmentation_iou.append((bucket, iou))
     return results
 
 

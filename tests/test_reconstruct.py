@@ -198,6 +198,29 @@ def test_evaluation_scores_a_reconstruction():
     assert "| gt masks, segment only | 1.00 / " in text
 
 
+def test_evaluation_in_worker_processes_gives_the_same_figures():
+    """``workers=2``: each case rendered and scored in a worker of its own, from its own seed,
+    merged in the cases' order: the tables, every joint's score and the failures equal one
+    process's. A segmenter object cannot travel to the workers: refused."""
+    from pipeline.evaluate_articulation import procedural_cases
+    from pipeline.evaluate_reconstruction import evaluate
+
+    cases = procedural_cases(2, seed=3)
+    options = dict(views=6, size=128, settings=(("gt", "segment_only"),))
+    alone = evaluate(cases, **options)[("gt", "segment_only")]
+    said = []
+    shared = evaluate(cases, workers=2, progress=said.append, **options)[("gt", "segment_only")]
+    assert json.dumps(shared.table(), sort_keys=True) == json.dumps(alone.table(),
+                                                                    sort_keys=True)
+    assert len(alone.joints.joints) >= 2
+    assert shared.joints.joints == alone.joints.joints
+    assert shared.joints.counts == alone.joints.counts and shared.failures == alone.failures
+    assert [m.split(" ")[0] for m in said] == ["1/2", "2/2"]
+    with pytest.raises(ValueError, match="workers > 1"):
+        evaluate(cases, workers=2, segmenter=object(), views=6, size=128,
+                 settings=(("learned", "segment_only"),))
+
+
 @pytest.mark.skipif(not _has_completion_weights(), reason="completion weights not shipped")
 def test_open_drawers_keep_their_opening_under_phone_lidar(tmp_path):
     """A scan's completed carcass closes its openings behind the drawers' fronts, and the

@@ -80,6 +80,13 @@ class Scores:
     objects: dict[str, int] = field(default_factory=dict)
     counts: list[JointCount] = field(default_factory=list)
 
+    def absorb(self, other: Scores) -> None:
+        """Add ``other``'s objects (scored apart, in a worker) after these."""
+        self.joints += other.joints
+        self.counts += other.counts
+        for bucket, n in other.objects.items():
+            self.objects[bucket] = self.objects.get(bucket, 0) + n
+
     def table(self) -> dict[str, dict[str, float]]:
         out = {}
         for name, *_ in BUCKETS:

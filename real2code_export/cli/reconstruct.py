@@ -215,6 +215,9 @@ def add_evaluate_reconstruction_parser(evaluate_sub) -> argparse.ArgumentParser:
     add_mask_weights_option(e)
     e.add_argument("--splits", default="dev,holdout",
                    help="which PartNet-Mobility splits to add with --partnet (dev,holdout)")
+    e.add_argument("--workers", type=int, default=1,
+                   help="objects reconstructed in this many processes at once, the CPUs "
+                   "shared among them (default 1); the figures are the same")
     e.add_argument("--json", help="write the figures as JSON")
     e.add_argument("--markdown", help="write the tables as markdown")
     e.set_defaults(func=cmd_evaluate_reconstruction)
@@ -241,6 +244,8 @@ def cmd_evaluate_reconstruction(args) -> int:
         raise Real2CodeError(f"--settings: unknown {unknown or names}; choose from "
                              f"{', '.join(EVALUATION_SETTINGS)}")
     settings = tuple(EVALUATION_SETTINGS[n] for n in names)
+    if args.workers < 1:
+        raise Real2CodeError(f"--workers: expected 1 or more, got {args.workers}")
     sets = {"procedural test set": procedural_cases(args.objects, args.seed)} \
         if args.objects > 0 else {}
     if args.partnet:
@@ -262,7 +267,7 @@ def cmd_evaluate_reconstruction(args) -> int:
         results = evaluate(cases, views=args.views, size=args.size, seed=args.seed,
                            cameras=args.cameras, distance=args.distance, sensor=args.capture,
                            room=args.room, settings=settings, mask_weights=args.mask_weights,
-                           progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
+                           workers=args.workers, progress=lambda msg, s=set_name: print(f"{s}: {msg}", flush=True))
         tables = {SETTING_NAMES[k]: r.table() for k, r in results.items()}
         figures[set_name] = {
             SETTING_NAMES[k]: {"buckets": r.table(), "failures": r.failures,
