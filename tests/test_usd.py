@@ -298,6 +298,36 @@ def test_a_massless_fixed_part_with_geometry_belongs_to_its_parents_body(tmp_pat
     assert back.part("ee").color == pytest.approx(obj.part("ee").color, abs=1e-6)
 
 
+def test_a_chain_of_massless_fixed_parts_belongs_to_the_body_it_hangs_from(tmp_path):
+    """Collision-only links fixed one below the other (Unitree's ``calflower`` and
+    ``calflower1``): the upper has a child, so it was a rigid body of its own with no mass
+    stated, which a simulator fills from its colliders. Both are Xforms, the lower inside
+    the upper, in the moving link's body; every mass is stated and the chain reads back as
+    the same parts and joints."""
+    from real2code_export.probes.schema_dynamics import usd_dynamics
+
+    calf = Part("calf", visual=box_mesh([0.05, 0.05, 0.3]),
+                collision=[box_mesh([0.05, 0.05, 0.3])],
+                inertial=box_inertial([0.05, 0.05, 0.3], 1.0))
+    lower = Part("lower", collision=[box_mesh([0.02, 0.02, 0.06])])
+    lowest = Part("lowest", collision=[box_mesh([0.03, 0.03, 0.03])])
+    obj = ArticulatedObject("leg", [Part("base"), calf, lower, lowest], [
+        Joint("knee", "revolute", "base", "calf", axis=[0.0, 1.0, 0.0], limits=Limits(-1.0, 1.0)),
+        Joint("lower_joint", "fixed", "calf", "lower",
+              origin=tf.make(tf.rpy_to_matrix([0.0, 0.05, 0.0]), [0.02, 0.0, -0.148])),
+        Joint("lowest_joint", "fixed", "lower", "lowest",
+              origin=tf.make(tf.rpy_to_matrix([0.0, 0.48, 0.0]), [-0.01, 0.0, -0.04]))])
+    path = usd.save(obj, tmp_path, write_meshes=False)
+    _, parsed = _parsed(path)
+    assert sorted(p.rsplit("/", 1)[1] for p in parsed["RigidBody"]) == ["base", "calf"]
+    colliders = [str(s) for s in parsed["RigidBody"]["/leg/Geometry/calf"].collisions]
+    assert any(c.startswith("/leg/Geometry/calf/lower/lowest/") for c in colliders), colliders
+    assert usd_dynamics(open_probes(path)[0]).unstated == {}
+    back = usd.load(path)
+    assert differences(obj, back, TOL) == []
+    assert back.joint("lowest_joint").parent == "lower"
+
+
 def test_a_mesh_is_written_once(tmp_path):
     """A collider with its part's visual mesh data, and a part whose visual mesh another
     part's already holds, refer to the mesh written first (an internal reference): the data

@@ -48,14 +48,27 @@ def write_body(layer, path: str, part: Part, world: np.ndarray):
     return prim
 
 
-def in_parent_body(obj: ArticulatedObject) -> set[str]:
-    """The parts written as an Xform in their parent's body: fixed, massless, nothing hanging
-    from them (a frame, or a link with only geometry). Their geometry is the parent body's
-    in every simulator; the Xform keeps their name, frame and look for the round trip."""
+def in_parent_body(obj: ArticulatedObject) -> list[str]:
+    """The parts written as an Xform in their parent's body (or in such an Xform), parents
+    first: fixed, massless, and all that hangs from them so too (a frame; a link with only
+    geometry; a chain of them, as Unitree's collision-only calf links). Their geometry is
+    the body's in every simulator; the Xform keeps their name, frame and look for the round
+    trip."""
     tree = obj.tree()
-    return {j.child for j in obj.joints
-            if j.type is JointType.FIXED and not tree.children[j.child]
-            and tree.parts[j.child].inertial is None}
+
+    def held(name: str) -> bool:  # the part and everything below it: fixed and massless
+        joint = tree.parent.get(name)
+        return joint is not None and joint.type is JointType.FIXED \
+            and tree.parts[name].inertial is None \
+            and all(held(j.child) for j in tree.children[name])
+
+    out, stack = [], [obj.root.name]
+    while stack:  # depth first from the root: a frame after the part it hangs from
+        name = stack.pop()
+        if name != obj.root.name and held(name):
+            out.append(name)
+        stack += [j.child for j in reversed(tree.children[name])]
+    return out
 
 
 def write_frame(layer, path: str, joint):

@@ -211,14 +211,17 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
 
 
 def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str],
-            in_frame: dict[str, list[str]]):
+            in_frame: dict[str, list[str]], inside: tuple[str, np.ndarray] | None = None):
     """The frames in a body, each a part fixed to the body's part (joint named by
     ``real2code:fixedJoint``, else ``<body>_to_<frame>``): Xforms with nothing to draw below
     them, and ours (``real2code:fixedJoint``) with the geometry below them (a massless part
-    the writer put in its parent's body; ``in_frame``: its colliders by frame path)."""
+    the writer put in its parent's body; ``in_frame``: its colliders by frame path) and the
+    frames below that, fixed to it (``inside``: the frame's part and its prim -> part map,
+    the identity: the writer placed it at the part's frame)."""
     from pxr import UsdGeom
 
     scale = np.diag([ctx.mpu, ctx.mpu, ctx.mpu, 1.0])
+    parent, to_parent = inside if inside is not None else (ctx.names[body], ctx.to_part[body])
     for p in _own_descendants(prim):
         ours = p.HasAttribute(FRAME_JOINT)
         if p.GetTypeName() != "Xform" or not ours and any(
@@ -230,13 +233,15 @@ def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str
             warn(f"{ctx.path}: {where}: an empty Xform with scale or shear is no frame; ignored")
             continue
         name = sanitize_name(p.GetName(), taken)
-        origin = ctx.to_part[body] @ scale @ local @ np.linalg.inv(scale)
+        origin = to_parent @ scale @ local @ np.linalg.inv(scale)
         kept = p.GetAttribute(FRAME_JOINT).Get() if p.HasAttribute(FRAME_JOINT) else None
         joint = sanitize_name(kept if isinstance(kept, str) and kept else
-                              f"{ctx.names[body]}_to_{name}", joint_names)
+                              f"{parent}_to_{name}", joint_names)
         part = _part(ctx, name, p, in_frame.get(str(p.GetPath()), []), np.eye(4)) if ours \
             else Part(name, color=read_color(p, [], ctx.path))
-        yield part, Joint(joint, JointType.FIXED, ctx.names[body], name, origin=origin)
+        yield part, Joint(joint, JointType.FIXED, parent, name, origin=origin)
+        if ours:
+            yield from _frames(ctx, body, p, taken, joint_names, in_frame, (name, np.eye(4)))
 
 
 def _own_descendants(prim):

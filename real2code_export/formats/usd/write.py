@@ -2,9 +2,9 @@
 mass, collision and looks, through the concept modules (body, geometry, joint) in the layout
 of ``conventions``, authored through Sdf (``layer``); deterministic text (.usda) over a binary
 layer of the mesh arrays (``meshes/<name>.usdc``), each written atomically. A massless part
-fixed to its parent with nothing hanging from it (a frame; a URDF ``ee_link`` with only a
-collision box) is an Xform in its parent's body, its geometry below it, no rigid body of its
-own: UsdPhysics has no way to say "no mass" (0 means "compute it"), and PhysX would give it
+fixed to its parent with nothing but such parts hanging from it (a frame; a URDF ``ee_link``
+with only a collision box; a chain of collision-only links) is an Xform in its parent's body
+(or in such an Xform), its geometry below it, no rigid body of its own: UsdPhysics has no way to say "no mass" (0 means "compute it"), and PhysX would give it
 a mass from its colliders' density or a default one (:func:`.body.in_parent_body`)."""
 
 from __future__ import annotations
@@ -49,24 +49,28 @@ def _author(obj: ArticulatedObject):
     base = f"/{obj.name}"
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
     world = forward_kinematics(written, obj.observed_configuration())
-    frames = in_parent_body(obj)
+    in_body = in_parent_body(obj)  # parents first
+    frames = set(in_body)
     visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
     assets = MeshAssets(layer, base, obj)  # mesh assets placed more than once: written once
+    path_of = {}  # part -> its prim: a body's, or a frame's in its parent's prim
     for part in obj.parts:
         if part.name in frames:
             continue
-        body = f"{base}/{GEOMETRY}/{part.name}"
+        body = path_of[part.name] = f"{base}/{GEOMETRY}/{part.name}"
         write_body(layer, body, part, world[part.name])
         write_part_geometry(layer, part, body, f"{base}/{LOOKS}/{part.name}", visuals, assets)
-    for joint in [j for j in obj.joints if j.child in frames]:  # an Xform in its parent body
-        frame = obj.part(joint.child)
-        path = f"{base}/{GEOMETRY}/{joint.parent}/{frame.name}"
+    joint_of = {j.child: j for j in obj.joints}
+    for name in in_body:  # an Xform in its parent's prim
+        joint, frame = joint_of[name], obj.part(name)
+        path = f"{path_of[joint.parent]}/{frame.name}"
         if layer.GetPrimAtPath(path):  # the name is one of the parent's own prims': a body
             frames.discard(frame.name)
             path = f"{base}/{GEOMETRY}/{frame.name}"
             write_body(layer, path, frame, world[frame.name])
         else:
             write_frame(layer, path, joint)
+        path_of[name] = path
         write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}", visuals,
                             assets)
 
