@@ -426,3 +426,27 @@ def test_a_usd_mass_states_what_a_consumer_reads(tmp_path):
     mass, inertia, com = point.bodies["arm"]
     assert mass == 2.0 and not inertia.any() and np.allclose(com, [0.1, 0, 0], atol=1e-7)
     assert not point.unstated
+
+
+def test_an_mjcf_whose_include_names_assets_up_a_folder_is_a_reference_from_anywhere(
+        tmp_path, monkeypatch):
+    """An included file naming its meshes ``../meshes/...`` (Genesis's franka_sim): MuJoCo
+    opens them from the model's folder or by its absolute path, and from another folder
+    with a relative path says "Error opening file". The export and its check against the
+    source load it as from its folder."""
+    import trimesh
+
+    model = tmp_path / "robot"
+    (model / "assets").mkdir(parents=True)
+    (model / "meshes").mkdir()
+    trimesh.creation.box((0.1, 0.1, 0.1)).export(model / "meshes" / "link.stl")
+    (model / "assets" / "assets.xml").write_text(
+        '<mujocoinclude><asset><mesh name="link" file="../meshes/link.stl"/></asset>'
+        "</mujocoinclude>")
+    (model / "arm.xml").write_text(
+        '<mujoco model="arm"><include file="assets/assets.xml"/><worldbody>'
+        '<body name="link"><joint name="hinge" axis="0 0 1"/>'
+        '<geom type="mesh" mesh="link"/></body></worldbody></mujoco>')
+    monkeypatch.chdir(tmp_path)
+    status = run(["export", "robot/arm.xml", "--to", "mjcf,urdf", "--check", "--out", "out"])
+    assert status == EXIT_OK

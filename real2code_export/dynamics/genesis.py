@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..formats import format_for_path
+from ..mujoco_files import mujoco_path
 from . import Experiment, Recorder, Trajectory, urdf_laws
 from .venv import GENESIS_VENV, Outcome, run_in_venv, run_many_in_venv, serve
 
@@ -42,7 +43,7 @@ def _mjcf_joints(path: Path) -> dict[str, tuple[float, float, float, float]]:
     them."""
     import mujoco
 
-    m = mujoco.MjModel.from_xml_path(str(path))
+    m = mujoco.MjModel.from_xml_path(mujoco_path(path))
     out = {}
     for j in range(m.njnt):
         adr = int(m.jnt_qposadr[j])

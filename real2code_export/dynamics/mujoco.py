@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..formats import is_format
+from ..mujoco_files import spec_from_file
 from . import EngineUnavailable, Experiment, Recorder, Trajectory
 
 
@@ -24,7 +25,7 @@ def load_spec(path: Path):
     except ImportError as e:
         raise EngineUnavailable("MuJoCo is not installed (pip install 'real2code-export[sim]')") \
             from e
-    spec = mujoco.MjSpec.from_file(str(path))
+    spec = spec_from_file(path)
     spec.compiler.discardvisual = True
     if is_format(path, "urdf"):
         # URDF has no place for MuJoCo's constraint softness: the settings our MJCF authors

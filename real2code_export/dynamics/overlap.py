@@ -19,6 +19,7 @@ import numpy as np
 
 from ..formats import is_format
 from ..model import ArticulatedObject
+from ..mujoco_files import spec_from_file
 
 TOLERANCE = 1e-4  # m: shallower is touching
 
@@ -135,7 +136,7 @@ def drop_exclusions(model) -> None:
 def _compiled(mjcf: Path):
     import mujoco
 
-    spec = mujoco.MjSpec.from_file(str(mjcf))
+    spec = spec_from_file(mjcf)
     spec.compiler.discardvisual = True
     model = spec.compile()
     drop_exclusions(model)

@@ -37,6 +37,7 @@ import numpy as np
 from .. import transforms as tf
 from ..inertia import combine_inertials
 from ..model import UNBOUNDED_LIMIT, Inertial, sanitize_name
+from ..mujoco_files import spec_from_file
 from ._stdio import captured_c_output
 
 # What a warning that explains a joint missing from the export says: any change of the joint.
@@ -115,12 +116,10 @@ def _mjcf(path: str | Path, compiled: Mapping[Path, object] | None):
     """An MJCF file as MuJoCo compiles it, every body kept, at rest: the model a kinematic
     probe compiled already where ``compiled`` holds one (path -> MjModel; its contact
     exclusions and visual geoms dropped, which move and weigh nothing), else compiled here."""
-    import mujoco
-
     model = (compiled or {}).get(Path(path))
     if model is not None:
         return _at_rest(model)
-    spec = mujoco.MjSpec.from_file(str(path))
+    spec = spec_from_file(path)
     spec.compiler.fusestatic = False
     return _compiled(spec)
 

@@ -15,6 +15,7 @@ import numpy as np
 from ..dynamics.overlap import drop_exclusions
 from ..errors import CheckError, NameNotFoundError
 from ..formats import format_for_path
+from ..mujoco_files import spec_from_file
 from . import JointInfo
 from ._stdio import captured_c_output
 
@@ -168,10 +169,7 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
     try:
         # qhull prints pages on a degenerate mesh; MuJoCo's own error says it in a line.
         with captured_c_output():
-            if source and is_urdf:
-                spec = source_urdf_spec(path)
-            else:
-                spec = mujoco.MjSpec.from_file(str(path))
+            spec = source_urdf_spec(path) if source and is_urdf else spec_from_file(path)
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
             # bodies attached by fixed joints); visual-only geoms do not move anything.
             spec.compiler.fusestatic = False

@@ -43,6 +43,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
+from ...mujoco_files import spec_from_file
 from ...repairs import balanced_inertia, massless_moving_parts
 from .conventions import (
     COLLISION_GROUP,
@@ -69,10 +70,8 @@ def load(path: str | Path) -> ArticulatedObject:
 
 # -- parse and compile, errors named ------------------------------------------------------------
 def _compile(path: Path):
-    import mujoco
-
     try:
-        spec = mujoco.MjSpec.from_file(str(path.resolve()))
+        spec = spec_from_file(path)
     except ValueError as e:
         raise _error(path, str(e)) from e
     given = give_meshes(spec, {mesh: _mesh_file(spec, mesh, path)
