@@ -62,12 +62,12 @@ def in_parent_body(obj: ArticulatedObject) -> list[str]:
             and tree.parts[name].inertial is None \
             and all(held(j.child) for j in tree.children[name])
 
-    out, stack = [], [obj.root.name]
-    while stack:  # depth first from the root: a frame after the part it hangs from
-        name = stack.pop()
-        if name != obj.root.name and held(name):
-            out.append(name)
-        stack += [j.child for j in reversed(tree.children[name])]
+    inside = [j.child for j in obj.joints if held(j.child)]  # in the joints' order
+    out: list[str] = []
+    while inside:  # each after the frame it hangs from
+        ready = [n for n in inside if tree.parent[n].parent not in inside]
+        out += ready
+        inside = [n for n in inside if n not in ready]
     return out
 
 
