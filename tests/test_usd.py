@@ -775,3 +775,42 @@ def test_spherical_joint_is_a_ball_joint_with_its_cone_limit(tmp_path):
         assert ball.cone_limit == (None if expected is None else pytest.approx(expected))
         elliptic = [w for w in caught if "elliptic cone" in str(w.message)]
         assert len(elliptic) == (cones[0] != cones[1]), [str(w.message) for w in caught]
+
+
+def test_a_foreign_body_without_mass_and_with_instanced_colliders(tmp_path):
+    """Other people's USD (Newton's example assets): a moving body with MassAPI's density
+    and no mass, its collider under an instanceable prim (an instance proxy, which
+    UsdPhysics parses and a plain traversal does not see). The simulators compute its mass
+    from the collider at the authored density; so does the reader, warned. A body the
+    world holds keeps none (its mass moves nothing)."""
+    from pxr import Gf, UsdGeom
+
+    path = tmp_path / "arm.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.Xform.Define(stage, "/arm")
+    prototype = UsdGeom.Cube.Define(stage, "/prototypes/block/cube")
+    prototype.CreateSizeAttr(0.2)
+    UsdPhysics.CollisionAPI.Apply(prototype.GetPrim())
+    stage.GetPrimAtPath("/prototypes").SetSpecifier(Sdf.SpecifierClass)
+    for name, at in (("base", (0.0, 0.0, 0.0)), ("link", (0.5, 0.0, 0.0))):
+        body = UsdGeom.Xform.Define(stage, f"/arm/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        shapes = stage.DefinePrim(f"/arm/{name}/collisions")
+        shapes.GetReferences().AddInternalReference("/prototypes/block")
+        shapes.SetInstanceable(True)
+    UsdPhysics.MassAPI.Apply(stage.GetPrimAtPath("/arm/link")).CreateDensityAttr(500.0)
+    fixed = UsdPhysics.FixedJoint.Define(stage, "/arm/world_joint")
+    fixed.CreateBody1Rel().SetTargets(["/arm/base"])
+    hinge = UsdPhysics.RevoluteJoint.Define(stage, "/arm/hinge")
+    hinge.CreateBody0Rel().SetTargets(["/arm/base"])
+    hinge.CreateBody1Rel().SetTargets(["/arm/link"])
+    hinge.CreateAxisAttr("Z")
+    hinge.CreateLocalPos0Attr(Gf.Vec3f(0.5, 0.0, 0.0))
+    stage.GetRootLayer().Save()
+    with pytest.warns(Real2CodeWarning, match=r"computed from its 1 collider\(s\) at 500 kg/m"):
+        obj = usd.load(path)
+    link = obj.part("link")
+    assert link.inertial.mass == pytest.approx(500.0 * 0.2**3)
+    assert len(link.collision) == 1 and obj.part("base").inertial is None

@@ -57,13 +57,15 @@ class Articulation:
 
 def parse(stage, path, mpu: float) -> Articulation:
     """The checked articulation; positions in metres (``mpu``: metres per stage unit)."""
-    from pxr import Tf
+    from pxr import Tf, Usd
 
     try:
         parsed = load_physics(stage)
     except Tf.ErrorException as e:
         raise FormatError(path, None, f"UsdPhysics cannot parse the stage: {e}") from e
-    order = {str(p.GetPath()): i for i, p in enumerate(stage.Traverse())}
+    # (instance proxies too: UsdPhysics parses the colliders of instanceable prims)
+    order = {str(p.GetPath()): i for i, p in enumerate(
+        Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))}
     bodies, shapes, edges = [], {}, []
     for kind, (paths, descs) in parsed.items():
         name = kind.name
@@ -88,6 +90,17 @@ def parse(stage, path, mpu: float) -> Articulation:
     art.edges.sort(key=lambda e: order[e.path])
     art.shapes = shapes
     return art
+
+
+def welded(art: Articulation) -> set[str]:
+    """The bodies that cannot move: the root and what fixed joints hold to it (or to the
+    world)."""
+    out, fixed = {art.root}, [e for e in art.edges if e.kind is JointType.FIXED]
+    while True:
+        more = {e.child for e in fixed if e.parent in out} - out
+        if not more:
+            return out
+        out |= more
 
 
 def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:

@@ -82,18 +82,27 @@ def write_frame(layer, path: str, joint):
     return prim
 
 
+# kg/m^3: what a UsdPhysics simulator gives a collider whose density nothing authors (PhysX's
+# default, Newton's ShapeConfig.density)
+SIMULATOR_DENSITY = 1000.0
+
+
 def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu: float,
-                  where: str) -> Inertial | None:
+                  where: str, colliders: list[Mesh] | None = None) -> Inertial | None:
     """The part's inertial in the part frame, SI units. ``to_part`` maps body -> part frame
     (metres); ``meshes`` (part frame) are used only to fill what the file leaves to the
-    simulator to compute (a warning says so)."""
+    simulator to compute (a warning says so). A rigid body with no mass authored has the
+    mass its ``colliders`` (part frame) give it at the authored density, else
+    :data:`SIMULATOR_DENSITY`, as the simulators compute it (warned)."""
     from pxr import UsdPhysics
 
     if not prim.HasAPI(UsdPhysics.MassAPI):
-        return None
+        return _from_colliders(prim, colliders or [], mpu, kpu, where)
     api = UsdPhysics.MassAPI(prim)
     mass = float(api.GetMassAttr().Get() or 0.0) * kpu
     if mass <= 0.0:
+        if colliders:
+            return _from_colliders(prim, colliders, mpu, kpu, where)
         warn(f"{where}: mass not authored (the simulator would compute it from density); "
              "the part gets no inertial")
         return None
@@ -126,6 +135,27 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
         com = hull_com if com is None else com
         inertia = hull_inertia if inertia is None else inertia
     return Inertial(mass, com, inertia)
+
+
+def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float,
+                    where: str) -> Inertial | None:
+    """A rigid body's mass properties as a simulator computes them where no mass is
+    authored; None for a prim that is no rigid body (our frames: massless by design) or
+    where no colliders are given (none, or a body that cannot move: its mass moves
+    nothing)."""
+    from pxr import UsdPhysics
+
+    from ...inertia import inertial_from_meshes
+
+    if not prim.HasAPI(UsdPhysics.RigidBodyAPI) or not colliders:
+        return None
+    authored = float(UsdPhysics.MassAPI(prim).GetDensityAttr().Get() or 0.0) \
+        if prim.HasAPI(UsdPhysics.MassAPI) else 0.0
+    density = authored * kpu / mpu**3 if authored > 0.0 else SIMULATOR_DENSITY
+    warn(f"{where}: mass not authored: computed from its {len(colliders)} collider(s) at "
+         f"{density:g} kg/m^3 ({'authored' if authored > 0.0 else 'the simulators default'}), "
+         "as PhysX and Newton compute it")
+    return inertial_from_meshes(colliders, density)
 
 
 def _hull_mass_properties(meshes: list[Mesh], mass: float) -> tuple[np.ndarray, np.ndarray]:

@@ -108,13 +108,15 @@ def load(path: str | Path) -> ArticulatedObject:
         ctx.names[art_.WORLD] = sanitize_name("world", taken)
         parts.append(Part(ctx.names[art_.WORLD]))
     in_frame: dict[str, list[str]] = {}  # our frame's path -> the colliders below it
+    still = art_.welded(art)
     for body in art.bodies:
         ctx.names[body] = sanitize_name(prims[body].GetName(), taken)
         shapes = []
         for s in art.shapes.get(body, []):
             frame = _frame_of(ctx, s)
             (shapes if frame is None else in_frame.setdefault(frame, [])).append(s)
-        parts.append(_part(ctx, ctx.names[body], prims[body], shapes, ctx.to_part[body]))
+        parts.append(_part(ctx, ctx.names[body], prims[body], shapes, ctx.to_part[body],
+                           moves=body not in still))
 
     joint_names: set[str] = set()
     joints = [_joint(ctx, e, joint_names) for e in art.edges]
@@ -152,9 +154,11 @@ def _rigid(m: np.ndarray, path, prim_path: str) -> np.ndarray:
     return m
 
 
-def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.ndarray) -> Part:
+def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.ndarray,
+          moves: bool = False) -> Part:
     """The part ``name`` of a body prim, or of a frame in one (``prim``): its collision shapes,
-    visual meshes, mass and colour; ``to_part`` maps the prim's frame (metres) to the part's."""
+    visual meshes, mass and colour; ``to_part`` maps the prim's frame (metres) to the part's.
+    A body that ``moves`` with no mass authored gets its colliders' (:func:`read_inertial`)."""
     from pxr import UsdGeom, UsdPhysics
 
     path = ctx.path
@@ -199,7 +203,7 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
         visual = Mesh.join_colored(visuals, runs) if len(visuals) > 1 or len(runs[0]) > 1 \
             else visuals[0]
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
-                             f"{path}: {where}")
+                             f"{path}: {where}", colliders=collision if moves else None)
     images = read_images(prim, visual_prims, path)
     if images and (visual is None or visual.uv is None or len(visuals) > 1):
         warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
@@ -247,9 +251,9 @@ def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str
 def _own_descendants(prim):
     """Descendants of a body prim, not entering nested rigid bodies (they are parts) nor
     our frames (their geometry is theirs)."""
-    from pxr import UsdPhysics
+    from pxr import Usd, UsdPhysics
 
-    for child in prim.GetChildren():
+    for child in prim.GetFilteredChildren(Usd.TraverseInstanceProxies()):  # instanced too
         if child.HasAPI(UsdPhysics.RigidBodyAPI):
             continue
         yield child
