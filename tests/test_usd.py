@@ -814,3 +814,56 @@ def test_a_foreign_body_without_mass_and_with_instanced_colliders(tmp_path):
     link = obj.part("link")
     assert link.inertial.mass == pytest.approx(500.0 * 0.2**3)
     assert len(link.collision) == 1 and obj.part("base").inertial is None
+
+
+def test_a_foreign_body_whose_xform_is_scaled(tmp_path):
+    """A rigid body's Xform scaled along its own axes (Newton's cartpole: the cart a unit
+    cube under ``xformOp:scale = (0.2, 0.25, 0.2)``): the body is where its translation
+    and rotation put it, its shapes are scaled (as PhysX and Newton's importer take them:
+    the cart's cube is 0.2 x 0.25 x 0.2 m) and so are the joints' positions in it. A body
+    whose Xform shears is refused, naming it."""
+    from pxr import Gf, UsdGeom
+
+    def stage_with(cart_ops):
+        path = tmp_path / "cart.usda"
+        stage = Usd.Stage.CreateNew(str(path))
+        UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+        UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+        UsdGeom.Xform.Define(stage, "/cartpole")
+        rail = UsdGeom.Xform.Define(stage, "/cartpole/rail")
+        UsdPhysics.RigidBodyAPI.Apply(rail.GetPrim())
+        cart = UsdGeom.Xform.Define(stage, "/cartpole/cart")
+        cart_ops(cart)
+        UsdPhysics.RigidBodyAPI.Apply(cart.GetPrim())
+        UsdPhysics.MassAPI.Apply(cart.GetPrim()).CreateMassAttr(1.0)
+        cube = UsdGeom.Cube.Define(stage, "/cartpole/cart/box")
+        cube.CreateSizeAttr(1.0)
+        UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+        fixed = UsdPhysics.FixedJoint.Define(stage, "/cartpole/root")
+        fixed.CreateBody1Rel().SetTargets(["/cartpole/rail"])
+        slide = UsdPhysics.PrismaticJoint.Define(stage, "/cartpole/slide")
+        slide.CreateBody0Rel().SetTargets(["/cartpole/rail"])
+        slide.CreateBody1Rel().SetTargets(["/cartpole/cart"])
+        slide.CreateAxisAttr("X")
+        slide.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 1.0))
+        slide.CreateLocalPos1Attr(Gf.Vec3f(0.0, 0.0, 0.0))
+        stage.GetRootLayer().Save()
+        return path
+
+    def scaled(cart):
+        cart.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 1.0))
+        cart.AddScaleOp().Set(Gf.Vec3f(0.2, 0.25, 0.2))
+
+    obj = usd.load(stage_with(scaled))
+    world = forward_kinematics(obj, obj.observed_configuration())["cart"]
+    corners = obj.part("cart").collision[0].vertices @ world[:3, :3].T + world[:3, 3]
+    np.testing.assert_allclose(corners.min(axis=0), [-0.1, -0.125, 0.9], atol=1e-9)
+    np.testing.assert_allclose(corners.max(axis=0), [0.1, 0.125, 1.1], atol=1e-9)
+    assert obj.part("cart").inertial.mass == pytest.approx(1.0)
+
+    def sheared(cart):
+        cart.AddTransformOp().Set(Gf.Matrix4d(1, 0, 0, 0, 0.5, 1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 1))
+
+    with pytest.raises(FormatError, match=r"prim </cartpole/cart>: rigid body transform has "
+                                          "shear"):
+        usd.load(stage_with(sheared))

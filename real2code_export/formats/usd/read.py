@@ -70,6 +70,9 @@ class Context:
     up: np.ndarray  # 4x4: the stage's up axis -> Z up
     xforms: object  # pxr.UsdGeom.XformCache
     world: dict[str, np.ndarray] = field(default_factory=dict)
+    # a body Xform's scale (its prim's axes): what lies below it is scaled so (as PhysX scales
+    # a body's shapes; UsdPhysics' parser scales the joints' localPos); the body is not
+    scale: dict[str, np.ndarray] = field(default_factory=dict)
     to_part: dict[str, np.ndarray] = field(default_factory=dict)
     names: dict[str, str] = field(default_factory=dict)  # body path -> part name
     assets: dict[str, Mesh] = field(default_factory=dict)  # mesh assets placed by reference
@@ -85,8 +88,8 @@ def load(path: str | Path) -> ArticulatedObject:
     art = art_.parse(stage, path, mpu)
     prims = {p: stage.GetPrimAtPath(p) for p in art.bodies}
     scale = np.diag([mpu, mpu, mpu, 1.0])
-    ctx.world = {p: _rigid(scale @ m @ np.linalg.inv(scale), path, p)
-                 for p, m in world_transforms(stage, prims.values()).items()}
+    for p, m in world_transforms(stage, prims.values()).items():
+        ctx.world[p], ctx.scale[p] = _rigid_and_scale(scale @ m @ np.linalg.inv(scale), path, p)
     ctx.world[art_.WORLD] = np.eye(4)
 
     # to_part[b]: body frame -> part frame (metres). A part's frame is its parent joint's
@@ -147,6 +150,25 @@ def load(path: str | Path) -> ArticulatedObject:
         raise FormatError(path, e.element, e.message) from e
 
 
+def _rigid_and_scale(m: np.ndarray, path, prim_path: str) -> tuple[np.ndarray, np.ndarray]:
+    """A body's world transform as its rigid pose and the scale along its own axes (a
+    ``xformOp:scale`` after its rotation); shear or a mirror is refused."""
+    scale = np.linalg.norm(m[:3, :3], axis=0)
+    rigid = m.copy()
+    if np.all(scale > 1e-12):
+        rigid[:3, :3] = m[:3, :3] / scale
+    if not np.all(scale > 1e-12) or not tf.is_rotation(rigid[:3, :3], tol=1e-5):
+        raise FormatError(path, f"prim <{prim_path}>", "rigid body transform has shear or a "
+                          "mirror (a scale along its own axes is read; this is not)")
+    return rigid, scale
+
+
+def _scaled(ctx: Context, prim) -> np.ndarray:
+    """4x4: the prim's own scale where it is a scaled body (:attr:`Context.scale`)."""
+    s = ctx.scale.get(str(prim.GetPath()))
+    return np.eye(4) if s is None else np.diag([*s, 1.0])
+
+
 def _rigid(m: np.ndarray, path, prim_path: str) -> np.ndarray:
     if not tf.is_rotation(m[:3, :3], tol=1e-5):
         raise FormatError(path, f"prim <{prim_path}>", "rigid body transform has scale or "
@@ -165,8 +187,10 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
     where = f"prim <{prim.GetPath()}>"
     units = np.diag([ctx.mpu, ctx.mpu, ctx.mpu, 1.0])
 
+    body_scale = _scaled(ctx, prim)
+
     def placed(p) -> np.ndarray:
-        return to_part @ units @ relative_transform(ctx.xforms, p, prim)
+        return to_part @ units @ body_scale @ relative_transform(ctx.xforms, p, prim)
 
     collision = []
     for sp in shape_paths:
@@ -232,7 +256,7 @@ def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str
                 d.IsA(UsdGeom.Gprim) for d in _own_descendants(p)):
             continue
         where = f"prim <{p.GetPath()}>"
-        local = relative_transform(ctx.xforms, p, prim)
+        local = _scaled(ctx, prim) @ relative_transform(ctx.xforms, p, prim)
         if not tf.is_rotation(local[:3, :3], tol=1e-5):
             warn(f"{ctx.path}: {where}: an empty Xform with scale or shear is no frame; ignored")
             continue
