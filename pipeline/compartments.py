@@ -245,8 +245,6 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     edges are strips a thickness wide, and what lies behind it is square to the carcass,
     so none of them is a second panel. Runs before the rules that read a label's panel.
     Needs the measured ``normals``. Returns the labels, renumbered by size, and what split."""
-    from scipy.spatial import cKDTree
-
     out = labels.copy()
     moved: list[dict] = []
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -267,12 +265,53 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if apart < options.panels_apart_deg or not _wide_panel(cloud[plane], second[0],
                                                                voxel, options):
             continue
-        d_first = cKDTree(cloud[index[first[2]]]).query(cloud[index])[0]
-        d_second = cKDTree(cloud[plane]).query(cloud[index])[0]
-        new = index[d_second < d_first]
+        planes = _two_planes(cloud[index], [first[:2], second[:2]],
+                             options.panel_voxels * voxel)
+        apart = float(np.degrees(np.arccos(min(1.0, abs(float(planes[0][0] @ planes[1][0]))))))
+        new = index[_nearer_panel_second(cloud[index], planes, options.panel_voxels * voxel)]
         out[new] = int(out.max()) + 1
         moved.append({"part": k, "points": len(new), "panels_apart_deg": round(apart, 1)})
     return numbered_by_size(out), moved
+
+
+def _nearer_second(points: np.ndarray, planes) -> np.ndarray:
+    """Whether each point lies nearer the second of two planes ((normal, offset) pairs)."""
+    (n1, d1), (n2, d2) = planes
+    return np.abs(points @ n2 + d2) < np.abs(points @ n1 + d1)
+
+
+def _nearer_panel_second(points: np.ndarray, planes, tolerance: float) -> np.ndarray:
+    """Whether each point lies nearer the second panel's points than the first's: a panel's
+    points lie within ``tolerance`` of its plane and nearer it than the other's (near where
+    they meet, both planes pass close; off both, what is nearest on the surfaces decides,
+    not the planes' extensions)."""
+    from scipy.spatial import cKDTree
+
+    second = _nearer_second(points, planes)
+    near = [np.abs(points @ n + d) <= tolerance for n, d in planes]
+    on = [near[0] & ~second, near[1] & second]
+    if not on[0].any() or not on[1].any():
+        return second
+    d0, d1 = (cKDTree(points[mine]).query(points)[0] for mine in on)
+    return d1 < d0
+
+
+def _two_planes(points: np.ndarray, planes, tolerance: float, rounds: int = 2):
+    """Two planes refitted to the points nearer each, within ``tolerance`` of it (RANSAC's
+    first plane also holds the other panel's strip along the line where they meet, which
+    tilts it toward the other)."""
+    for _ in range(rounds):
+        second = _nearer_second(points, planes)
+        refit = []
+        for (normal, offset), mine in zip(planes, (~second, second), strict=True):
+            near = points[mine & (np.abs(points @ normal + offset) <= tolerance)]
+            if len(near) < 3:
+                return planes
+            centre = near.mean(axis=0)
+            normal = np.linalg.svd(near - centre, full_matrices=False)[2][-1]
+            refit.append((normal, float(-normal @ centre)))
+        planes = refit
+    return planes
 
 
 def _wide_panel(points: np.ndarray, normal: np.ndarray, voxel: float,
