@@ -3,9 +3,9 @@ their own, go back to the carcass, an open panel's points in other labels go to 
 of the carcass's label stands out past its walls goes to the part it hangs on, and a
 drawer's body cut from its pulled-out front joins it again, a drawer left in the carcass's
 label is found beside one pulled out as far, a label holding two drawers pulled out by
-different lengths is split, so is one holding a drawer and a door swung square beside it,
-and a body cut across its length is one again: repairs of a
-part segmentation by what a carcass is, their own stage between segmentation and fusion.
+different lengths is split, so is one holding two panels swung apart, so is one holding a
+drawer and a door swung square beside it, and a body cut across its length is one again:
+repairs of a part segmentation by what a carcass is, their own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
 compartment the door reveals, which the carcass's own masks leave out, so no vote gives those
@@ -104,8 +104,8 @@ def carcass_box(points: np.ndarray, voxel: float,
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
-    """``seg`` with drawers left in the carcass's label found, open panels' points in other
-    labels given to them, then the compartments behind open doors given back to the
+    """``seg`` with drawers left in the carcass's label found, a label holding two swung
+    panels split, open panels' points in other labels given to them, then the compartments behind open doors given back to the
     carcass, what of the carcass stands out past its walls given to the parts it touches,
     enclosed pieces given back to the carcass, a part lying in another's box or behind its
     front merged into it, a label with two drawers' fronts split, and pieces of the
