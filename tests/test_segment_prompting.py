@@ -519,6 +519,14 @@ def test_two_flaps_on_one_rail_swung_opposite_ways_in_one_label_are_two_parts():
     far = CompartmentOptions(panels_apart_deg=45.0)
     assert split_panels(cloud, labels, 0.02, far, normals)[1] == []
     assert split_panels(cloud, labels, 0.02)[1] == []  # no measured normals
+    # the largest label one panel (a box's lid swung open, its body's walls in the other
+    # labels): measured against it every wall is turned, so nothing is read as two panels
+    rim = (_grid(0.04, 0.8, (-0.34, -0.4, -0.4), x, z), y)  # the lid's rim, a strip
+    cloud, normals = _facing(carcass[0], rim, *carcass[1:], upper, lower)
+    n_lid = len(carcass[0][0]) + len(rim[0])
+    lid_labels = np.concatenate([np.ones(n_lid, int), np.full(n_carcass - len(carcass[0][0]), 3),
+                                 np.full(len(upper[0]) + len(lower[0]), 2)])
+    assert split_panels(cloud, lid_labels, 0.02, normals=normals)[1] == []
     # one flap 4 cm thick: its back face, its top edge (a strip, turned too) and the
     # compartment's floor behind it in its label are no second panel
     back = (upper[0] - 0.04 * out_up, -out_up)
