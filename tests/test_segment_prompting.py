@@ -486,6 +486,63 @@ def test_a_door_swung_a_few_degrees_past_its_neighbour_on_one_hinge_line_keeps_i
     assert (out[upper_at[(upper[:, 0] - 0.31) >= 0.2]] != out[n_carcass]).all()
 
 
+def test_two_flaps_on_one_rail_swung_opposite_ways_in_one_label_are_two_parts():
+    """Two flaps on one rail across a carcass's open front, the upper one tipped 20 degrees
+    forward about its bottom edge and the lower one 20 degrees about its top edge, in one
+    label (the noise-trained masks on the room demo capture): two turned panels 40 degrees
+    apart, each flap wide both ways, so the label is split, every point to its flap. One
+    flap with its back face (parallel), its edges (strips) and the compartment floor behind
+    it (square to the carcass) in its label is one panel and stays; so does a label of two
+    flaps tipped alike (one plane), and nothing splits without measured normals."""
+    from pipeline.compartments import CompartmentOptions, split_panels
+
+    x, y, z = np.eye(3)
+    a = np.radians(20)
+    up, down = np.array((np.sin(a), 0, np.cos(a))), np.array((np.sin(a), 0, -np.cos(a)))
+    out_up, out_down = np.array((np.cos(a), 0, -np.sin(a))), np.array((np.cos(a), 0, np.sin(a)))
+    carcass = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+               (_grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y), z)]
+    upper = (_grid(0.8, 0.38, (0.3, -0.4, 0.02), y, up), out_up)
+    lower = (_grid(0.8, 0.38, (0.3, -0.4, -0.02), y, down), out_down)
+    cloud, normals = _facing(*carcass, upper, lower)
+    n_carcass = sum(len(p) for p, _ in carcass)
+    truth = np.concatenate([np.ones(n_carcass, int), np.full(len(upper[0]), 2),
+                            np.full(len(lower[0]), 3)])
+    labels = np.minimum(truth, 2)  # both flaps in one label
+    out, moved = split_panels(cloud, labels, 0.02, normals=normals)
+    assert np.array_equal(out, truth)
+    assert moved == [{"part": 2, "points": len(lower[0]), "panels_apart_deg": 40.0}]
+    # with the rule asked for panels farther apart than these, they stay one label
+    far = CompartmentOptions(panels_apart_deg=45.0)
+    assert split_panels(cloud, labels, 0.02, far, normals)[1] == []
+    assert split_panels(cloud, labels, 0.02)[1] == []  # no measured normals
+    # the largest label one panel (a box's lid swung open, its body's walls in the other
+    # labels): measured against it every wall is turned, so nothing is read as two panels
+    rim = (_grid(0.04, 0.8, (-0.34, -0.4, -0.4), x, z), y)  # the lid's rim, a strip
+    cloud, normals = _facing(carcass[0], rim, *carcass[1:], upper, lower)
+    n_lid = len(carcass[0][0]) + len(rim[0])
+    lid_labels = np.concatenate([np.ones(n_lid, int), np.full(n_carcass - len(carcass[0][0]), 3),
+                                 np.full(len(upper[0]) + len(lower[0]), 2)])
+    assert split_panels(cloud, lid_labels, 0.02, normals=normals)[1] == []
+    # one flap 4 cm thick: its back face, its top edge (a strip, turned too) and the
+    # compartment's floor behind it in its label are no second panel
+    back = (upper[0] - 0.04 * out_up, -out_up)
+    edge = (_grid(0.8, 0.04, (0.3, -0.4, 0.02) + 0.38 * up, y, -out_up), up)
+    floor = (_grid(0.3, 0.8, (-0.25, -0.4, -0.38), x, y), z)
+    cloud, normals = _facing(*carcass, upper, back, edge, floor)
+    labels = np.concatenate([np.ones(n_carcass, int), np.full(len(cloud) - n_carcass, 2)])
+    assert split_panels(cloud, labels, 0.02, normals=normals)[1] == []
+    # two flaps side by side on the rail, tipped alike: one plane, one label stays
+    left = (_grid(0.38, 0.38, (0.3, -0.4, 0.02), y, up), out_up)
+    right = (_grid(0.38, 0.38, (0.3, 0.02, 0.02), y, up), out_up)
+    cloud, normals = _facing(*carcass, left, right)
+    labels = np.concatenate([np.ones(n_carcass, int), np.full(len(cloud) - n_carcass, 2)])
+    assert split_panels(cloud, labels, 0.02, normals=normals)[1] == []
+
+
 def test_a_handle_and_a_flaps_edge_standing_out_of_the_carcass_go_to_the_flap():
     """A flap tipped 40 degrees forward about its bottom edge on a carcass's front: its
     handle (a bar in front of it) and its side edge (facing along the hinge, a carcass axis)
