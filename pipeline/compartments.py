@@ -1126,15 +1126,11 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 if len(facing) < options.front_points:
                     continue
                 front = float(np.quantile(sign * local[facing, a], 0.9))
-                turned = carcass[square[carcass, a] & (sign * local[carcass, a] > 0)]
-                at_front = np.abs(sign * local[turned, a] - front) <= behind
-                # its own walls: not what is level with the front (a sibling's front left in
-                # its label, which can outnumber them)
-                walls = turned[~at_front]
+                walls = carcass[square[carcass, a] & (sign * local[carcass, a] > 0)]
                 if (front < body.extent[a] - behind or len(walls) == 0
                         or front - float(np.median(sign * local[walls, a])) < behind):
                     continue
-                level = turned[at_front]
+                level = walls[np.abs(sign * local[walls, a] - front) <= behind]
                 level = level[out[level] == 1]
                 if len(level) < options.front_points:
                     continue

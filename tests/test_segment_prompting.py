@@ -993,40 +993,6 @@ def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_foun
     assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
-def test_a_drawer_left_in_the_carcass_label_is_found_when_its_front_outnumbers_the_walls():
-    """As above, with a carcass whose own surface facing the drawers' way is only a strip
-    along its top (a table top's edge, fewer points than the drawer front left in its
-    label): the carcass's walls are what faces that way but is not level with the drawer's
-    front, so the drawer still stands out past them, and the one left in the carcass's
-    label is found. Pushed shut, the drawers are level with the strip: nothing is found."""
-    from pipeline.compartments import find_level_fronts
-
-    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
-    box = _open_box()
-    edge = _grid(0.8, 0.04, (0.3, -0.4, 0.36), y, z)
-    box_normals = np.where((np.abs(box[:, 0] + 0.3) < 1e-9)[:, None], x,
-                           np.where((np.abs(np.abs(box[:, 1]) - 0.4) < 1e-9)[:, None], y, z))
-
-    def drawer(y0):
-        return [(_grid(0.3, 0.25, (0.45, y0, -0.3), y, z), x),
-                (_grid(0.45, 0.3, (0.0, y0, -0.3), x, y), z)]
-
-    cloud, normals = _facing((edge, x), *drawer(-0.35), *drawer(0.02))
-    cloud, normals = np.concatenate([box, cloud]), np.concatenate([box_normals, normals])
-    n = np.cumsum([0, len(box) + len(edge), sum(len(p) for p, _ in drawer(-0.35))])
-    assert len(edge) < len(drawer(0.02)[0][0])  # the sibling's front outnumbers the edge
-    labels = np.ones(len(cloud), int)
-    labels[n[1]:n[2]] = 2
-    out, moved = find_level_fronts(cloud, labels, 0.02, normals=normals)
-    assert [m["level_front"] for m in moved] == [True]
-    front = np.arange(n[2], n[2] + len(drawer(0.02)[0][0]))
-    assert (out[front] == out[front[0]]).all() and out[front[0]] not in (1, out[n[1]])
-    assert (out[:n[1]] == 1).all()
-    shut = cloud.copy()
-    shut[n[1]:, 0] -= 0.15
-    assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
-
-
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
     """The two guards of :func:`find_level_fronts`: a level piece of the carcass's label
     that is the part's own front (most of it next to the front, across its whole width) or
