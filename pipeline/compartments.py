@@ -1,10 +1,11 @@
 """The compartment seen past a swung-open door, and pieces of the carcass cut out as parts of
 their own, go back to the carcass, an open panel's points in other labels go to it, and what
 of the carcass's label stands out past its walls goes to the part it hangs on, and a
-drawer's body cut from its pulled-out front joins it again, a drawer left in the carcass's
-label is found beside one pulled out as far, a label holding two drawers pulled out by
-different lengths is split, so is one holding a drawer and a door swung square beside it,
-and a body cut across its length is one again: repairs of a
+drawer's body cut from its pulled-out front joins it again, a door's outer face and liner
+in two labels are one part, the compartment past a door swung square goes back, a drawer
+left in the carcass's label is found beside one pulled out as far, a label holding two
+drawers pulled out by different lengths is split, so is one holding a drawer and a door
+swung square beside it, and a body cut across its length is one again: repairs of a
 part segmentation by what a carcass is, their own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
@@ -105,7 +106,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     labels given to them, then the compartments behind open doors given back to the
     carcass, what of the carcass stands out past its walls given to the parts it touches,
     enclosed pieces given back to the carcass, a part lying in another's box or behind its
-    front merged into it, a label with two drawers' fronts split, and pieces of the
+    front merged into it, a door's two faces merged, the compartment past a door swung
+    square given back, a label with two drawers' fronts split, and pieces of the
     carcass's shell standing past its box merged into it (its cloud's labels and every
     view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
