@@ -354,11 +354,14 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     box grew as far, and the flap, shut against that false face, read an opening of 0.001
     rad for 0.98. A carcass's own
     overhang (a table top over its drawers) joins its walls along its whole inner edge and
-    stays; so does a piece hanging on a part the box encloses (:func:`enclosed_parts`: a
-    piece of the carcass in a label of its own, which :func:`return_enclosed` gives back):
-    on a hand-held path a cabinet's bottom edge, 202 points, went to the carcass's other
-    half, which then stood out of the shrunk box and kept a joint. Needs the measured
-    ``normals``. Returns the labels, renumbered by size, and what moved, per piece."""
+    stays; so does a piece hanging on a part thick inside the box (:func:`enclosed_parts`:
+    a piece of the carcass in a label of its own, which :func:`return_enclosed` gives
+    back): on a hand-held path a cabinet's bottom edge, 202 points, went to the carcass's
+    other half, which then stood out of the shrunk box and kept a joint. Only the thick
+    kind: the others read the open faces off the box that the protruding pieces still
+    stretch (on a phone-LiDAR ring a table's drawer read as deep behind its bottom face
+    until 210 such points left the box). Needs the measured ``normals``. Returns the
+    labels, renumbered by size, and what moved, per piece."""
     from scipy.spatial import cKDTree
 
     from .segment.pieces import linked_components
@@ -388,9 +391,10 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         return out, moved
     link = options.panel_link_voxels * voxel
     piece = linked_components(cloud[standing], link)
-    # a part the carcass's box encloses is a piece of the carcass, nothing to hang on
+    # a part spanning the carcass's box every way is a piece of it, nothing to hang on
+    # (the other kinds read open faces off the box these pieces still stretch)
     shell = [k for k, kinds in enclosed_parts(cloud, labels, voxel, options, body).items()
-             if kinds]
+             if "thick" in kinds]
     inside = cKDTree(cloud[(carcass | np.isin(labels, shell)) & ~past])
     parts = {k: cKDTree(cloud[labels == k]) for k in range(2, int(labels.max()) + 1)
              if np.any(labels == k) and k not in shell}
@@ -757,8 +761,10 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
     front on it (:func:`_fronts`: a drawer pulled out shows one) that is a panel square to
     the face (RANSAC's plane holding ``panel_fraction`` of its points within
     ``panel_voxels`` spacings, counting those whose measured ``normals`` face along it,
-    turned no more than ``panel_min_angle`` from square) is a door swung open: it stands
-    wholly out of the face, so its points in the box more than ``behind_voxels`` spacings
+    turned no more than ``panel_min_angle`` from square), those points standing out of
+    the box (less than ``beside_inside`` of them in it: a drawer's side the merges left
+    apart lies mostly in it), is a door swung open: it stands wholly out of the face, so
+    its points in the box more than ``behind_voxels`` spacings
     behind the face are the carcass's inside (a refrigerator's inner side wall, 3.5 cm from
     its door's plane, in the door's label on a hand-held path: 1,561 points that pulled the
     hinge's line into the carcass). Runs after :func:`merge_nested` and
@@ -783,8 +789,9 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
         facing = np.abs(normals[index[inliers]] @ normal) >= cos
         if (not normal.any() or facing.sum() < options.panel_fraction * len(index)
                 or abs(float(body.R[:, a] @ normal)) > np.sin(np.radians(
-                    options.panel_min_angle))):
-            continue
+                    options.panel_min_angle))
+                or inside[inliers[facing]].mean() >= options.beside_inside):
+            continue  # no panel square to the face standing out of the box
         deep = inside & (sign * local[index, a] < body.extent[a]
                          - options.behind_voxels * voxel)
         if deep.any():

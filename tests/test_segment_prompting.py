@@ -598,10 +598,11 @@ def test_a_doors_outer_face_and_its_liner_are_one_part():
 
 
 def test_the_carcass_wall_in_a_square_swung_doors_label_goes_back():
-    """A door swung 90 degrees past a carcass's front, lying 2 cm off the carcass's side
-    wall's plane: its label also took that wall deep in the box (the inside seen past the
-    door); the wall goes back, the door keeps all its points. A drawer pulled out (its front
-    facing out of the face, its sides in the box) is left alone."""
+    """A door swung 90 degrees past a carcass's front, 1.5 cm off the carcass's side
+    wall's plane: its label also took a stretch of that wall deep in the box (the inside
+    seen past the door); the wall goes back, the door keeps all its points. A drawer pulled
+    out (its front facing out of the face, its sides in the box) is left alone; so is a
+    drawer's side alone in a label, mostly in the box."""
     from pipeline.compartments import return_past_square_panels
 
     x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
@@ -610,12 +611,12 @@ def test_the_carcass_wall_in_a_square_swung_doors_label_goes_back():
         (_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
          _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
          _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)), (x, y, y, z, z), strict=True)])
-    door = _grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z)
+    door = _grid(0.4, 0.7, (0.32, -0.415, -0.35), x, z)
     cloud = np.concatenate([carcass, door])
     normals = np.concatenate([normals_box, np.tile(y, (len(door), 1))]).astype(float)
     truth = np.concatenate([np.ones(len(carcass), int), np.full(len(door), 2)])
     labels = truth.copy()
-    wall = (cloud[:, 1] == -0.4) & (cloud[:, 0] < 0.2) & (np.abs(cloud[:, 2]) < 0.3)
+    wall = (cloud[:, 1] == -0.4) & (cloud[:, 0] < 0.2) & (np.abs(cloud[:, 2]) < 0.2)
     labels[wall] = 2
     out, moved = return_past_square_panels(cloud, labels, 0.02, normals=normals)
     assert np.array_equal(out, truth)
@@ -630,6 +631,11 @@ def test_the_carcass_wall_in_a_square_swung_doors_label_goes_back():
     labels = np.concatenate([np.ones(len(carcass), int),
                              np.full(len(cloud) - len(carcass), 2)])
     assert return_past_square_panels(cloud, labels, 0.02, normals=normals.astype(float))[1] == []
+    side = np.arange(len(carcass) + len(drawer[0][0]), len(carcass) + len(drawer[0][0])
+                     + len(drawer[1][0]))  # one side alone, 0.1 of it out of the box
+    assert return_past_square_panels(cloud[np.r_[:len(carcass), side]],
+                                     labels[np.r_[:len(carcass), side]], 0.02,
+                                     normals=normals[np.r_[:len(carcass), side]])[1] == []
 
 
 def test_a_drawer_cut_into_its_front_and_its_side_is_one_part_again():
