@@ -1,11 +1,13 @@
 """The compartment seen past a swung-open door, and pieces of the carcass cut out as parts of
 their own, go back to the carcass, an open panel's points in other labels go to it, and what
 of the carcass's label stands out past its walls goes to the part it hangs on, and a
-drawer's body cut from its pulled-out front joins it again, a drawer left in the carcass's
-label is found beside one pulled out as far, a label holding two drawers pulled out by
-different lengths is split, so is one holding two panels swung apart, so is one holding a
-drawer and a door swung square beside it, and a body cut across its length is one again:
-repairs of a part segmentation by what a carcass is, their own stage between segmentation and fusion.
+drawer's body cut from its pulled-out front joins it again, a door's outer face and liner
+in two labels are one part, the compartment past a door swung square goes back, a drawer
+left in the carcass's label is found beside one pulled out as far, a label holding two
+drawers pulled out by different lengths is split, so is one holding two panels swung
+apart, so is one holding a drawer and a door swung square beside it, and a body cut
+across its length is one again: repairs of a part segmentation by what a carcass is, their
+own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
 compartment the door reveals, which the carcass's own masks leave out, so no vote gives those
@@ -108,7 +110,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     panels split, open panels' points in other labels given to them, then the compartments behind open doors given back to the
     carcass, what of the carcass stands out past its walls given to the parts it touches,
     enclosed pieces given back to the carcass, a part lying in another's box or behind its
-    front merged into it, a label with two drawers' fronts split, and pieces of the
+    front merged into it, a door's two faces merged, the compartment past a door swung
+    square given back, a label with two drawers' fronts split, and pieces of the
     carcass's shell standing past its box merged into it (its cloud's labels and every
     view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
@@ -130,8 +133,12 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options, normals)
     moved += nested
+    labels, faces = merge_faces(seg.points, labels, seg.spacing, options, normals)
+    moved += faces
     labels, behind = merge_behind(seg.points, labels, seg.spacing, options, normals)
     moved += behind
+    labels, past = return_past_square_panels(seg.points, labels, seg.spacing, options, normals)
+    moved += past
     labels, split = split_fronts(seg.points, labels, seg.spacing, options, normals)
     moved += split
     labels, shell = merge_shell(seg.points, labels, seg.spacing, options, normals)
@@ -471,8 +478,14 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     box grew as far, and the flap, shut against that false face, read an opening of 0.001
     rad for 0.98. A carcass's own
     overhang (a table top over its drawers) joins its walls along its whole inner edge and
-    stays. Needs the measured ``normals``. Returns the labels, renumbered by size, and what
-    moved, per piece."""
+    stays; so does a piece hanging on a part thick inside the box (:func:`enclosed_parts`:
+    a piece of the carcass in a label of its own, which :func:`return_enclosed` gives
+    back): on a hand-held path a cabinet's bottom edge, 202 points, went to the carcass's
+    other half, which then stood out of the shrunk box and kept a joint. Only the thick
+    kind: the others read the open faces off the box that the protruding pieces still
+    stretch (on a phone-LiDAR ring a table's drawer read as deep behind its bottom face
+    until 210 such points left the box). Needs the measured ``normals``. Returns the
+    labels, renumbered by size, and what moved, per piece."""
     from scipy.spatial import cKDTree
 
     from .segment.pieces import linked_components
@@ -502,9 +515,13 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         return out, moved
     link = options.panel_link_voxels * voxel
     piece = linked_components(cloud[standing], link)
-    inside = cKDTree(cloud[carcass & ~past])
+    # a part spanning the carcass's box every way is a piece of it, nothing to hang on
+    # (the other kinds read open faces off the box these pieces still stretch)
+    shell = [k for k, kinds in enclosed_parts(cloud, labels, voxel, options, body).items()
+             if "thick" in kinds]
+    inside = cKDTree(cloud[(carcass | np.isin(labels, shell)) & ~past])
     parts = {k: cKDTree(cloud[labels == k]) for k in range(2, int(labels.max()) + 1)
-             if np.any(labels == k)}
+             if np.any(labels == k) and k not in shell}
 
     def share_touching(tree, points: np.ndarray) -> float:
         return float(np.isfinite(tree.query(points, distance_upper_bound=link)[0]).mean())
@@ -550,22 +567,12 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     labels, renumbered by size, and what was moved."""
     out = labels.copy()
     moved = []
-    carcass = labels == 1
-    if labels.max() < 2 or np.count_nonzero(carcass) < 4:
+    if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[carcass], voxel, options)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     margin = options.enclosed_margin_voxels * voxel
-    local = (cloud - body.center) @ body.R
-    parts = [k for k in range(2, int(labels.max()) + 1) if np.any(labels == k)]
-    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
-    faces = open_faces(local, labels, body.extent, margin,
-                       [k for k in parts if inside[k] < options.enclosed_inside])
-    for k in parts:
-        if inside[k] < options.thick_inside:
-            continue
+    for k, kinds in enclosed_parts(cloud, labels, voxel, options, body).items():
         index = np.nonzero(labels == k)[0]
-        kinds = enclosed_kinds(local[index], body.extent, faces, inside[k],
-                               int(carcass.sum()), voxel, options)
         if kinds and (evidence is None or any(kind in kinds for kind in evidence)):
             out[index] = 1
             stray = index[~body.contains(cloud[index], tol=margin)]
@@ -575,6 +582,28 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             moved.append({"part": k, "points": len(index), "enclosed": True,
                           **({} if kind == "small" else {kind: kinds[kind]})})
     return numbered_by_size(out), moved
+
+
+def enclosed_parts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                   options: CompartmentOptions = CompartmentOptions(),
+                   body: OBB | None = None) -> dict[int, dict]:
+    """Each moving part with at least ``thick_inside`` of its points in the carcass's box
+    ``body`` (:func:`carcass_box` of label 1 when None), with why it is the carcass's
+    (:func:`enclosed_kinds`; empty when no reason holds): what :func:`return_enclosed`
+    judges, and :func:`give_protrusions` reads (a piece of the carcass is nothing for the
+    carcass's points to hang on)."""
+    carcass = labels == 1
+    if body is None:
+        body = carcass_box(cloud[carcass], voxel, options)
+    margin = options.enclosed_margin_voxels * voxel
+    local = (cloud - body.center) @ body.R
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.any(labels == k)]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    faces = open_faces(local, labels, body.extent, margin,
+                       [k for k in parts if inside[k] < options.enclosed_inside])
+    return {k: enclosed_kinds(local[labels == k], body.extent, faces, inside[k],
+                              int(carcass.sum()), voxel, options)
+            for k in parts if inside[k] >= options.thick_inside}
 
 
 def enclosed_kinds(local: np.ndarray, extent: np.ndarray, faces: list[tuple[int, int]],
@@ -719,6 +748,63 @@ def _front_owner(local: np.ndarray, square: np.ndarray | None, labels: np.ndarra
     return 0
 
 
+def merge_faces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                options: CompartmentOptions = CompartmentOptions(),
+                normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """Two turned panels (:func:`turned_panel`) that are one panel's two faces are one
+    part: a door seen from outside and from inside, its outer face and its inner liner in
+    two labels (a hand-held path walks round a refrigerator's door open 28 degrees: its
+    outer face and its liner, 5 cm behind it, each a label and a hinge of their own).
+    One panel's faces are parallel (their planes within ``panel_min_angle``), the smaller's
+    plane points within the larger's outline on its plane (``nested_share`` of them within
+    ``nested_margin_voxels`` spacings of the larger's points, seen across the plane) and its
+    plane within the larger's points across it (between their ``1 - enclosed_inside`` and
+    ``enclosed_inside`` quantiles, grown by as much: the larger holds the door's bins and
+    edges). Two doors on one hinge line swung alike lie in one plane side by side, not
+    within each other's outline; double doors swung open turn opposite ways. Needs the
+    measured ``normals``. Returns the labels, renumbered by size, and what merged."""
+    from scipy.spatial import cKDTree
+
+    out = labels.copy()
+    moved: list[dict] = []
+    if normals is None or labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = carcass_box(cloud[labels == 1], voxel, options)
+    margin = options.nested_margin_voxels * voxel
+    sizes = np.bincount(labels)
+    panels = {}
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        panel = turned_panel(cloud[index], body, voxel, options, normals[index])
+        if panel is not None:
+            panels[k] = (index, panel)
+    parallel = np.cos(np.radians(options.panel_min_angle))
+    for small in sorted(panels, key=lambda k: sizes[k]):
+        index, (normal, offset, inliers, _) = panels[small]
+        for large in sorted(panels, key=lambda k: -sizes[k]):
+            if sizes[large] <= sizes[small]:
+                break
+            big, (n, o, _, _) = panels[large]
+            if abs(float(normal @ n)) < parallel:
+                continue
+            across = cloud[big] @ n + o
+            lo, hi = np.quantile(across, [1.0 - options.enclosed_inside,
+                                          options.enclosed_inside])
+            plane = float(np.median(cloud[index[inliers]] @ n + o))
+            if not lo - margin <= plane <= hi + margin:
+                continue
+            flat = np.linalg.svd(np.eye(3) - np.outer(n, n))[0][:, :2]  # the plane's axes
+            outline = cKDTree(cloud[big] @ flat)
+            within = np.isfinite(outline.query(cloud[index[inliers]] @ flat,
+                                               distance_upper_bound=margin)[0])
+            if within.mean() >= options.nested_share:
+                out[out == small] = out[labels == large][0]
+                moved.append({"part": int(small), "points": int(sizes[small]),
+                              "faces_of": int(large)})
+                break
+    return numbered_by_size(out), moved
+
+
 def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                  options: CompartmentOptions = CompartmentOptions(),
                  normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
@@ -785,6 +871,57 @@ def _box(points: np.ndarray):
         return part_obb(points)
     except (QhullError, ValueError):
         return None
+
+
+def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                              options: CompartmentOptions = CompartmentOptions(),
+                              normals: np.ndarray | None = None,
+                              ) -> tuple[np.ndarray, list[dict]]:
+    """The compartment seen past a door swung square goes back to the carcass: what
+    :func:`return_compartments` does for a panel turned from the carcass's axes, for one
+    square to them (swung about 90 degrees, no turned panel).
+
+    A label standing out past a face of the carcass's box (:func:`_standing`) with no
+    front on it (:func:`_fronts`: a drawer pulled out shows one) that is a panel square to
+    the face (RANSAC's plane holding ``panel_fraction`` of its points within
+    ``panel_voxels`` spacings, counting those whose measured ``normals`` face along it,
+    turned no more than ``panel_min_angle`` from square), those points standing out of
+    the box (less than ``beside_inside`` of them in it: a drawer's side the merges left
+    apart lies mostly in it), is a door swung open: it stands wholly out of the face, so
+    its points in the box more than ``behind_voxels`` spacings
+    behind the face are the carcass's inside (a refrigerator's inner side wall, 3.5 cm from
+    its door's plane, in the door's label on a hand-held path: 1,561 points that pulled the
+    hinge's line into the carcass). Runs after :func:`merge_nested` and
+    :func:`merge_behind`, which give a drawer's side or body cut from its front back to it.
+    Needs the measured ``normals``. Returns the labels, renumbered by size, and what moved."""
+    from .ransac import fit_plane
+
+    out = labels.copy()
+    moved: list[dict] = []
+    if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = carcass_box(cloud[labels == 1], voxel, options)
+    local = (cloud - body.center) @ body.R
+    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    cos = np.cos(np.radians(options.panel_normal_deg))
+    for k, index, (a, sign), inside in _standing(cloud, labels, body, local, voxel, options,
+                                                 normals):
+        if _fronts(local, square, index, (a, sign), body.extent, voxel, options):
+            continue
+        normal, offset, inliers = fit_plane(cloud[index], options.panel_voxels * voxel, 300,
+                                            np.random.default_rng(0))
+        facing = np.abs(normals[index[inliers]] @ normal) >= cos
+        if (not normal.any() or facing.sum() < options.panel_fraction * len(index)
+                or abs(float(body.R[:, a] @ normal)) > np.sin(np.radians(
+                    options.panel_min_angle))
+                or inside[inliers[facing]].mean() >= options.beside_inside):
+            continue  # no panel square to the face standing out of the box
+        deep = inside & (sign * local[index, a] < body.extent[a]
+                         - options.behind_voxels * voxel)
+        if deep.any():
+            out[index[deep]] = 1
+            moved.append({"part": k, "points": int(deep.sum()), "past_square_panel": True})
+    return numbered_by_size(out), moved
 
 
 def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,

@@ -592,6 +592,109 @@ def test_a_handle_and_a_flaps_edge_standing_out_of_the_carcass_go_to_the_flap():
                             normals=normals[open_front])[1] == []
 
 
+def test_a_piece_of_the_carcass_is_nothing_for_its_protruding_edge_to_hang_on():
+    """A carcass's shell in two labels: its back, left side, top and a strip of its floor,
+    and (a label of its own, spanning the box every way: the carcass's, as
+    :func:`return_enclosed` judges) its right side and the rest of the floor. A skirting
+    strip below the floor, in the carcass's label, stands past its walls and touches only
+    that other half; it stays with the carcass (given to the half, it shrank the carcass's
+    box and the half stood out of it)."""
+    from pipeline.compartments import enclosed_parts, give_protrusions
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    pieces = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x, 1),  # back
+              (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), y, 1),  # left side
+              (_grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y), z, 1),  # top
+              (_grid(0.6, 0.3, (-0.3, -0.4, -0.4), x, y), z, 1),  # floor, left strip
+              (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y, 2),  # right side
+              (_grid(0.6, 0.46, (-0.3, -0.06, -0.4), x, y), z, 2),  # floor, the rest
+              (_grid(0.3, 0.04, (0.3, 0.1, -0.47), y, z), x, 1)]  # skirting, 3 cm below
+    cloud = np.concatenate([p for p, _, _ in pieces])
+    normals = np.concatenate([np.tile(n, (len(p), 1)) for p, n, _ in pieces]).astype(float)
+    labels = np.concatenate([np.full(len(p), k) for p, _, k in pieces])
+    assert enclosed_parts(cloud, labels, 0.02)[2].get("thick")
+    out, moved = give_protrusions(cloud, labels, 0.02, normals=normals)
+    assert moved == [] and np.array_equal(out, labels)
+
+
+def test_a_doors_outer_face_and_its_liner_are_one_part():
+    """A door swung 30 degrees, seen from outside and from inside: its outer face (with the
+    shelves on its inner side) in one label, its liner 5 cm behind the face, within its
+    outline, in another; one part. Two doors on one hinge line swung alike, side by side
+    in one plane, stay two."""
+    from pipeline.compartments import merge_faces
+
+    z = np.array((0.0, 0.0, 1.0))
+    a = np.radians(30)
+    along, out = np.array((np.sin(a), np.cos(a), 0)), np.array((np.cos(a), -np.sin(a), 0))
+    hinge = np.array((0.3, -0.4, -0.4))
+    face = _grid(0.8, 0.8, hinge, along, z)
+    shelves = np.concatenate([_grid(0.6, 0.1, hinge + 0.1 * along + h * z - 0.05 * out,
+                                    along, -out) for h in (0.3, 0.6)])
+    liner = _grid(0.7, 0.7, hinge + 0.05 * (along + z) - 0.05 * out, along, z)
+    carcass = _open_box()
+    cloud = np.concatenate([carcass, face, shelves, liner])
+    normals = np.concatenate([np.tile((1.0, 0, 0), (len(carcass), 1)),
+                              np.tile(out, (len(face), 1)), np.tile(z, (len(shelves), 1)),
+                              np.tile(-out, (len(liner), 1))])
+    labels = np.concatenate([np.ones(len(carcass), int), np.full(len(face) + len(shelves), 2),
+                             np.full(len(liner), 3)])
+    merged, moved = merge_faces(cloud, labels, 0.02, normals=normals)
+    assert moved == [{"part": 3, "points": len(liner), "faces_of": 2}]
+    assert (merged[len(carcass):] == 2).all() and (merged[:len(carcass)] == 1).all()
+    assert merge_faces(cloud, labels, 0.02)[1] == []  # needs the measured normals
+    # two doors on one hinge line, swung alike: one plane, side by side
+    lower = _grid(0.8, 0.38, hinge, along, z)
+    upper = _grid(0.8, 0.36, hinge + 0.42 * z, along, z)
+    cloud = np.concatenate([carcass, lower, upper])
+    normals = np.concatenate([np.tile((1.0, 0, 0), (len(carcass), 1)),
+                              np.tile(out, (len(lower) + len(upper), 1))])
+    labels = np.concatenate([np.ones(len(carcass), int), np.full(len(lower), 2),
+                             np.full(len(upper), 3)])
+    assert merge_faces(cloud, labels, 0.02, normals=normals)[1] == []
+
+
+def test_the_carcass_wall_in_a_square_swung_doors_label_goes_back():
+    """A door swung 90 degrees past a carcass's front, 1.5 cm off the carcass's side
+    wall's plane: its label also took a stretch of that wall deep in the box (the inside
+    seen past the door); the wall goes back, the door keeps all its points. A drawer pulled
+    out (its front facing out of the face, its sides in the box) is left alone; so is a
+    drawer's side alone in a label, mostly in the box."""
+    from pipeline.compartments import return_past_square_panels
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    normals_box = np.concatenate([np.tile(n, (len(p), 1)) for p, n in zip(
+        (_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z),
+         _grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), _grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y),
+         _grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y)), (x, y, y, z, z), strict=True)])
+    door = _grid(0.4, 0.7, (0.32, -0.415, -0.35), x, z)
+    cloud = np.concatenate([carcass, door])
+    normals = np.concatenate([normals_box, np.tile(y, (len(door), 1))]).astype(float)
+    truth = np.concatenate([np.ones(len(carcass), int), np.full(len(door), 2)])
+    labels = truth.copy()
+    wall = (cloud[:, 1] == -0.4) & (cloud[:, 0] < 0.2) & (np.abs(cloud[:, 2]) < 0.2)
+    labels[wall] = 2
+    out, moved = return_past_square_panels(cloud, labels, 0.02, normals=normals)
+    assert np.array_equal(out, truth)
+    assert moved == [{"part": 2, "points": int(wall.sum()), "past_square_panel": True}]
+    assert return_past_square_panels(cloud, labels, 0.02)[1] == []  # needs the normals
+    # a drawer pulled 15 cm out: its front faces out of the face; its sides stay with it
+    drawer = [(_grid(0.3, 0.2, (0.45, -0.15, -0.3), y, z), x),
+              (_grid(0.5, 0.2, (-0.05, -0.15, -0.3), x, z), y),
+              (_grid(0.5, 0.2, (-0.05, 0.15, -0.3), x, z), y)]
+    cloud = np.concatenate([carcass, *(p for p, _ in drawer)])
+    normals = np.concatenate([normals_box, *(np.tile(n, (len(p), 1)) for p, n in drawer)])
+    labels = np.concatenate([np.ones(len(carcass), int),
+                             np.full(len(cloud) - len(carcass), 2)])
+    assert return_past_square_panels(cloud, labels, 0.02, normals=normals.astype(float))[1] == []
+    side = np.arange(len(carcass) + len(drawer[0][0]), len(carcass) + len(drawer[0][0])
+                     + len(drawer[1][0]))  # one side alone, 0.1 of it out of the box
+    assert return_past_square_panels(cloud[np.r_[:len(carcass), side]],
+                                     labels[np.r_[:len(carcass), side]], 0.02,
+                                     normals=normals[np.r_[:len(carcass), side]])[1] == []
+
+
 def test_a_drawer_cut_into_its_front_and_its_side_is_one_part_again():
     """A drawer pulled 15 cm out of a carcass, its side in a label of its own (inside the
     front's box): merged into the front. Two doors side by side, and a patch of the carcass's
