@@ -873,6 +873,18 @@ def _box(points: np.ndarray):
         return None
 
 
+def _carcass_frame(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                   options: CompartmentOptions, normals: np.ndarray | None):
+    """The carcass's box, every point in its frame, and whether each point's measured normal
+    is square to the box's axes; None without normals or a carcass to measure against."""
+    if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return None
+    body = carcass_box(cloud[labels == 1], voxel, options)
+    local = (cloud - body.center) @ body.R
+    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    return body, local, square
+
+
 def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                               options: CompartmentOptions = CompartmentOptions(),
                               normals: np.ndarray | None = None,
@@ -898,11 +910,10 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
 
     out = labels.copy()
     moved: list[dict] = []
-    if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+    frame = _carcass_frame(cloud, labels, voxel, options, normals)
+    if frame is None:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
-    local = (cloud - body.center) @ body.R
-    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    body, local, square = frame
     cos = np.cos(np.radians(options.panel_normal_deg))
     for k, index, (a, sign), inside in _standing(cloud, labels, body, local, voxel, options,
                                                  normals):
@@ -952,11 +963,10 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
 
     out = labels.copy()
     moved: list[dict] = []
-    if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+    frame = _carcass_frame(cloud, labels, voxel, options, normals)
+    if frame is None:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
-    local = (cloud - body.center) @ body.R
-    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    body, local, square = frame
     apart = options.nested_margin_voxels * voxel
     for k, index, (a, sign), _ in _standing(cloud, labels, body, local, voxel, options,
                                             normals):
