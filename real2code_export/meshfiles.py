@@ -414,6 +414,34 @@ _MTLLIB = re.compile(rb"\nmtllib[ \t]+([^\r\n]+)")
 _MAP_LINE = re.compile(rb"\n[ \t]*map_\w+[ \t]+(?:-\S+[ \t]+\S+[ \t]+)*([^\r\n]+)")
 
 
+def read_ahead(paths) -> None:
+    """Parse the STL files among ``paths`` not read yet on two threads, into the meshes read
+    lately (:class:`_ReadMeshes`), where :func:`read_mesh_file` then finds them: welding an
+    STL's corners (sorting them) is most of reading one, numpy sorts without holding the GIL,
+    and a robot's STL files are read at once on two cores where there are two
+    (docs/benchmarks.md, session 28). STL reading says nothing but its errors (no warning,
+    whose capture is not thread-safe); a file that fails is left to :func:`read_mesh_file`,
+    which says why and where. OBJ and Collada parsers hold the GIL: read in turn, as before."""
+    todo: dict[tuple, tuple[Path, bytes]] = {}
+    for path in map(Path, paths):
+        if path.suffix.lower() != ".stl" or not path.is_file():
+            continue
+        data = path.read_bytes()
+        key = _READ.key(path, data)
+        if key not in todo and _READ.get(key) is None:
+            todo[key] = (path, data)
+    if len(todo) < 2:
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(2, thread_name_prefix="read-stl") as pool:  # (ended on return)
+        futures = {key: pool.submit(_read_stl, path, data, None, None, None)
+                   for key, (path, data) in todo.items()}
+    for key, future in futures.items():
+        if future.exception() is None:
+            _READ.put(key, MeshFile(future.result()), [])
+
+
 def _read_unscaled(path: Path, data: bytes, source, element, line) -> MeshFile:
     """The file's mesh as :func:`read_mesh_file` reads it, before any scale, from its bytes
     ``data`` (tinyobjloader and trimesh read the file again themselves)."""

@@ -96,6 +96,35 @@ def test_a_mesh_file_read_again_is_parsed_once_with_its_warnings(tmp_path, monke
     assert read_mesh_file(path).color[:3] == (0.0, 1.0, 0.0) and len(parsed) == 3
 
 
+def test_stl_files_read_ahead_on_threads_are_read_once_and_the_same(tmp_path, monkeypatch):
+    """``read_ahead`` parses a model's STL files on two threads into the meshes read lately:
+    ``read_mesh_file`` then parses none of them again and gets what it would have read
+    itself; a broken file is left to it, which names the file and element."""
+    import trimesh
+
+    from real2code_export import meshfiles
+
+    for k, extents in enumerate([(1, 2, 3), (0.2, 0.1, 0.4), (3, 3, 1)]):
+        trimesh.creation.box(extents=extents).export(tmp_path / f"box{k}.stl")
+    (tmp_path / "broken.stl").write_bytes(b"solid nothing here\n")
+    paths = [tmp_path / f"box{k}.stl" for k in range(3)] + [tmp_path / "broken.stl"]
+    alone = [meshfiles._read_stl(p, p.read_bytes(), None, None, None) for p in paths[:3]]
+    meshfiles._READ.entries.clear()
+    meshfiles._READ.used = 0
+    meshfiles.read_ahead(paths)
+    parsed = []
+    parse = meshfiles._read_unscaled
+    monkeypatch.setattr(meshfiles, "_read_unscaled", lambda *a: parsed.append(a[0]) or parse(*a))
+    for path, mesh in zip(paths, alone):
+        read = read_mesh(path)
+        assert np.array_equal(read.vertices, mesh.vertices)
+        assert np.array_equal(read.faces, mesh.faces)
+    assert parsed == []
+    with pytest.raises(FormatError, match=r"robot\.xml: <mesh name='b'>: mesh .*broken\.stl"):
+        read_mesh(paths[3], source="robot.xml", element="<mesh name='b'>")
+    assert parsed == [paths[3]]
+
+
 def test_cache_returns_the_stored_result_and_keeps_warnings(tmp_path, monkeypatch):
     monkeypatch.setenv("REAL2CODE_CACHE", str(tmp_path / "cache"))
     mesh = Mesh(np.eye(3), [[0, 1, 2]])

@@ -381,6 +381,48 @@ def test_meshes_read_once_compile_as_mujoco_compiles_the_file(tmp_path, suffix):
                        rtol=0, atol=1e-12)
 
 
+def test_compiled_without_collision_structures_reads_the_same(tmp_path):
+    """The reader compiles with collisions off (MuJoCo then builds no convex hulls or
+    collision trees, a quarter of the compile): every mass, inertia and frame as MuJoCo
+    compiles the file, a mesh with ``inertia="convex"`` weighed by its hull still, and each
+    geom's ``contype`` and ``conaffinity`` as written, in the model and in the spec."""
+    from real2code_export.formats.mjcf.read import _compile
+
+    ell = trimesh.Trimesh(*_ell_prism())  # not convex: its hull weighs more
+    ell.export(tmp_path / "ell.stl")
+    path = write(tmp_path / "ell.xml", """<mujoco>
+  <asset><mesh name="ell" file="ell.stl" inertia="convex"/>
+         <mesh name="plain" file="ell.stl"/></asset>
+  <worldbody>
+    <body name="base"><geom type="mesh" mesh="ell" contype="2" conaffinity="5"/>
+      <body name="arm" pos="0 0 1"><joint axis="0 1 0"/>
+        <geom type="mesh" mesh="plain"/>
+        <geom type="box" size="0.1 0.1 0.1" contype="0" conaffinity="0" group="2"/></body></body>
+  </worldbody>
+</mujoco>
+""")
+    spec, model, _ = _compile(path)
+    direct = mujoco.MjModel.from_xml_path(str(path))
+    for field in ("body_mass", "body_inertia", "body_ipos", "body_iquat", "geom_pos",
+                  "geom_quat", "geom_size", "geom_contype", "geom_conaffinity", "mesh_vert"):
+        assert np.array_equal(getattr(model, field), getattr(direct, field)), field
+    assert [(g.contype, g.conaffinity) for g in spec.geoms] == [(2, 5), (1, 1), (0, 0)]
+    assert model.body_mass[1] > model.body_mass[2]  # the hull's volume, not the mesh's
+    assert direct.body_bvhnum.sum() > 0 and model.body_bvhnum.sum() == 0
+
+
+def _ell_prism() -> tuple[np.ndarray, np.ndarray]:
+    """An L-shaped prism, 2 x 2 x 1 with a 1 x 1 notch: 3 of volume, its hull 3.5."""
+    ring = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]
+    vertices = np.array([(x, y, z) for z in (0, 1) for x, y in ring], dtype=float)
+    n = len(ring)
+    faces = [f for i in range(n) for f in ((i, (i + 1) % n, (i + 1) % n + n),
+                                           (i, (i + 1) % n + n, i + n))]
+    cap = [(0, 1, 2), (0, 2, 3), (0, 3, 4), (0, 4, 5)]
+    faces += [(c, b, a) for a, b, c in cap] + [(a + n, b + n, c + n) for a, b, c in cap]
+    return vertices, np.array(faces)
+
+
 def test_stl_mujoco_refuses_is_refused_as_before(tmp_path):
     """An ASCII STL, which MuJoCo's decoder refuses, is not given to MuJoCo read by ours (which
     reads ASCII for URDF files): the MJCF is refused with MuJoCo's message, naming the mesh."""

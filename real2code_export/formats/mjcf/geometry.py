@@ -16,7 +16,7 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, NoTrianglesError, warn
-from ...meshfiles import MESH_SUFFIXES, STL_HEADER, binary_stl_triangles, read_mesh
+from ...meshfiles import MESH_SUFFIXES, STL_HEADER, binary_stl_triangles, read_ahead, read_mesh
 from ...model import Mesh
 from ...primitives import Primitive, ShapeKind
 
@@ -54,6 +54,8 @@ def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
     from ...errors import Real2CodeError
 
     given = []
+    read_ahead(path for path in files.values() if path.suffix.lower() == ".stl"
+               and path.is_file() and _mujoco_reads_stl(path))
     for spec_mesh, path in files.items():
         suffix = path.suffix.lower()
         if suffix not in _GIVEN_FORMATS or not path.is_file() \

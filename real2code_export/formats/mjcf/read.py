@@ -88,7 +88,7 @@ def _compile(path: Path):
              "collide nor weigh when it compiles): read without it, the visual geoms kept; "
              "the MJCF export does not set it")
     try:
-        model = spec.compile()
+        model = _compiled_without_hulls(spec)
     except ValueError as e:
         missing = _missing_mesh(spec, path)
         if missing is not None:
@@ -96,6 +96,29 @@ def _compile(path: Path):
         raise _error(path, str(e), spec) from e
     # (a mesh MuJoCo dropped, as discardvisual does, has no id)
     return spec, model, {mesh.id: (read, said) for mesh, read, said in given if mesh.id >= 0}
+
+
+def _compiled_without_hulls(spec):
+    """``spec.compile()``, without the convex hull (qhull) MuJoCo builds of every mesh a
+    colliding geom uses, which nothing read here uses: the geoms compile with collisions
+    off, their ``contype`` and ``conaffinity`` given back to the spec and the model after.
+    Every body's mass, inertia and frame, every geom's and mesh's, compile the same (179
+    Menagerie, Genesis, pybullet and Newton MJCF files, ``tests/test_mjcf.py``; a mesh
+    with ``inertia="convex"`` still gets its hull, for its mass); a quarter of the compile
+    of the 25 Menagerie models (docs/benchmarks.md, session 28)."""
+    colliding = [(geom, geom.contype, geom.conaffinity) for geom in spec.geoms
+                 if geom.contype or geom.conaffinity]
+    for geom, _, _ in colliding:
+        geom.contype = geom.conaffinity = 0
+    try:
+        model = spec.compile()
+    finally:
+        for geom, contype, conaffinity in colliding:
+            geom.contype, geom.conaffinity = contype, conaffinity
+    for geom, contype, conaffinity in colliding:
+        if geom.id >= 0:  # (a geom MuJoCo dropped has no id)
+            model.geom_contype[geom.id], model.geom_conaffinity[geom.id] = contype, conaffinity
+    return model
 
 
 def _error(path: Path, message: str, spec=None) -> FormatError:

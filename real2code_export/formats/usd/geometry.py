@@ -42,7 +42,7 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import DEFAULT_COLOR, ArticulatedObject, Mesh, Part, Placement, Texture
-from ...normals import creased_normals
+from ...normals import CreasedNormals, creased_normals
 from ...placements import placed_pieces, shared_assets, whole_placement
 from ...primitives import Primitive, ShapeKind
 from .conventions import MESH_ASSETS, NAMESPACE
@@ -144,9 +144,11 @@ class MeshAssets:
     texture coordinates) once a visual places it. Every other mesh is written where it is
     placed, as before (``_define_mesh_once`` writes equal meshes once)."""
 
-    def __init__(self, layer, object_path: str, obj: ArticulatedObject) -> None:
+    def __init__(self, layer, object_path: str, obj: ArticulatedObject,
+                 normals: LateNormals | None = None) -> None:
         self.shared = shared_assets(obj)  # id(asset) -> asset
         self.layer, self.scope = layer, f"{object_path}/{MESH_ASSETS}"
+        self.normals = normals
         self.written: dict[int, str] = {}  # id(asset) -> its prim
         self.shaded: set[int] = set()  # those with normals (placed by a visual)
 
@@ -167,7 +169,7 @@ class MeshAssets:
         if visual and key not in self.shaded:
             self.shaded.add(key)
             prim = self.layer.GetPrimAtPath(self.written[key])
-            _creased_normals(prim, asset)
+            _creased_normals(prim, asset, self.normals)
             if asset.uv is not None:
                 _texture_coordinates(prim, asset.uv)
         return self.written[key]
@@ -187,7 +189,7 @@ def _place_asset(layer, path: str, placement: Placement, assets: MeshAssets, *sc
     else:
         prim = _define_mesh(layer, path, asset, *schemas)
         if visual:
-            _creased_normals(prim, asset)
+            _creased_normals(prim, asset, assets.normals)
             if asset.uv is not None:
                 _texture_coordinates(prim, asset.uv)
     place(prim, placement.pose)
@@ -229,7 +231,8 @@ def write_part_geometry(layer, part: Part, body_path: str, material_path: str,
             bind(prim, colours[rgba])
     if own is not None and pieces is None:
         prim = _define_mesh_once(layer, f"{body_path}/{visual_name(part)}", own,
-                                 visuals_written, visual=True)
+                                 visuals_written, visual=True,
+                                 normals=assets.normals if assets else None)
         if own.colors:  # (its displayColor, for importers that read no material: the part's)
             _face_subsets(layer, prim, own, colours)
         visuals.append((prim, None))
@@ -302,7 +305,7 @@ def _face_subsets(layer, prim, mesh: Mesh, materials: dict[tuple, str]) -> None:
 
 
 def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, Mesh], *,
-                      visual: bool):
+                      visual: bool, normals: LateNormals | None = None):
     """A visual mesh (with its texture coordinates) or a convex collider's mesh, its data
     written once: where a visual mesh already written has the same points and triangles (a
     part whose collision is its visual, as most robots' files give it; a robot's left and
@@ -311,7 +314,8 @@ def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, M
     refers only to one with the same) and display colour (a visual authors its own; a
     collider's consumers read none). Every reader that composes the stage (UsdPhysics,
     PhysX, Newton, UsdValidation, ours) sees the same mesh either way; only visuals are
-    referred to, so no collider's schemas reach another prim."""
+    referred to, so no collider's schemas reach another prim. ``normals``: where its
+    normals are computed (:class:`LateNormals`; None: here)."""
     from pxr import Sdf
 
     schemas = () if visual else ("PhysicsCollisionAPI", "PhysicsMeshCollisionAPI")
@@ -323,7 +327,7 @@ def _define_mesh_once(layer, path: str, mesh: Mesh, visuals_written: dict[str, M
         return prim
     prim = _define_mesh(layer, path, mesh, *schemas)
     if visual:
-        _creased_normals(prim, mesh)
+        _creased_normals(prim, mesh, normals)
         if mesh.uv is not None:
             _texture_coordinates(prim, mesh.uv)
         visuals_written[path] = mesh
@@ -343,19 +347,63 @@ def _same_data(a: Mesh, b: Mesh, *, uv: bool) -> bool:
         and np.array_equal(a.uv.astype(np.float32), b.uv.astype(np.float32))
 
 
-def _creased_normals(prim, mesh: Mesh) -> None:
+def _creased_normals(prim, mesh: Mesh, later: LateNormals | None = None) -> None:
     """Normals split along creases, as glTF's (:mod:`real2code_export.normals`), as an
-    indexed face-varying primvar: one value per (vertex, smoothing group), one index per corner. Without them a
-    renderer smooths every shared vertex (Storm, Blender's importer): a box would shade as a
-    blob. Colliders get none: they are guides, never rendered."""
+    indexed face-varying primvar: one value per (vertex, smoothing group), one index per
+    corner. Without them a renderer smooths every shared vertex (Storm, Blender's importer):
+    a box would shade as a blob. Colliders get none: they are guides, never rendered.
+    ``later``: the primvars authored here, their values when :class:`LateNormals` has them."""
+    normals = attribute(prim, "primvars:normals", "Normal3fArray")
+    normals.SetInfo("interpolation", "faceVarying")
+    indices = attribute(prim, "primvars:normals:indices", "IntArray")
+    if later is None:
+        _fill_normals(normals, indices, creased_normals(mesh))
+    else:
+        later.ask(mesh, normals, indices)
+
+
+def _fill_normals(normals, indices, split: CreasedNormals) -> None:
     from pxr import Vt
 
-    split = creased_normals(mesh)
-    normals = attribute(prim, "primvars:normals", "Normal3fArray",
-                        Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(split.normals)))
-    normals.SetInfo("interpolation", "faceVarying")
-    attribute(prim, "primvars:normals:indices", "IntArray",
-              Vt.IntArray.FromNumpy(np.ascontiguousarray(split.indices.reshape(-1), dtype=np.int32)))
+    normals.default = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(split.normals))
+    indices.default = Vt.IntArray.FromNumpy(
+        np.ascontiguousarray(split.indices.reshape(-1), dtype=np.int32))
+
+
+class LateNormals:
+    """The visual meshes' creased normals computed on other threads while the layer is
+    authored: each mesh's primvars are authored where it is written (so the layer's
+    properties keep their order: the same text) and filled by :meth:`finish`. Sorting a
+    mesh's edges and corners, most of the work and a sixth of a Menagerie model's USD
+    export, runs in numpy without the GIL, so it goes on beside the authoring, on a second
+    core where there is one (docs/benchmarks.md, session 28). A context: its threads end
+    with it (a later fork, :mod:`real2code_export.forked`, needs none alive)."""
+
+    def __init__(self, workers: int = 2) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.pool = ThreadPoolExecutor(workers, thread_name_prefix="creased-normals")
+        self.asked: dict[int, tuple[Mesh, object]] = {}  # id(mesh) -> (mesh, its future)
+        self.waiting: list[tuple[object, object, object]] = []  # (future, normals, indices)
+
+    def __enter__(self) -> LateNormals:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def ask(self, mesh: Mesh, normals, indices) -> None:
+        """Fill the primvars ``normals`` and ``indices`` with ``mesh``'s, once they are
+        computed (a mesh asked for again is computed once)."""
+        if id(mesh) not in self.asked:  # (the mesh is kept: its id is not reused meanwhile)
+            self.asked[id(mesh)] = (mesh, self.pool.submit(creased_normals, mesh))
+        self.waiting.append((self.asked[id(mesh)][1], normals, indices))
+
+    def finish(self) -> None:
+        """Every primvar asked for, filled (a computation's error raised here)."""
+        for future, normals, indices in self.waiting:
+            _fill_normals(normals, indices, future.result())
+        self.waiting.clear()
 
 
 def _texture_coordinates(prim, uv: np.ndarray) -> None:

@@ -25,7 +25,7 @@ from ...model import (
 from .. import output_file
 from .body import in_parent_body, write_body, write_frame
 from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
-from .geometry import MeshAssets, move_mesh_arrays, write_part_geometry
+from .geometry import LateNormals, MeshAssets, move_mesh_arrays, write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
 from .layer import apply, attribute, new_layer
 
@@ -33,11 +33,13 @@ from .layer import apply, attribute, new_layer
 def _layer(obj: ArticulatedObject):
     from pxr import Sdf
 
-    with Sdf.ChangeBlock():
-        return _author(obj)
+    with Sdf.ChangeBlock(), LateNormals() as normals:
+        layer = _author(obj, normals)
+        normals.finish()
+        return layer
 
 
-def _author(obj: ArticulatedObject):
+def _author(obj: ArticulatedObject, normals: LateNormals):
     layer, root = new_layer(obj.name, SCENE if obj.name != SCENE else f"{SCENE}_1")
     # Fixed base: "this API can be on a direct or indirect parent of the root joint which is
     # connected to the world, or on the joint itself" (UsdPhysicsArticulationRootAPI docs).
@@ -52,7 +54,7 @@ def _author(obj: ArticulatedObject):
     in_body = in_parent_body(obj)  # parents first
     frames = set(in_body)
     visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
-    assets = MeshAssets(layer, base, obj)  # mesh assets placed more than once: written once
+    assets = MeshAssets(layer, base, obj, normals)  # assets placed more than once: once
     path_of = {}  # part -> its prim: a body's, or a frame's in its parent's prim
     for part in obj.parts:
         if part.name in frames:
