@@ -6,6 +6,8 @@ Roll-pitch-yaw follows URDF: R = Rz(yaw) @ Ry(pitch) @ Rx(roll).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 IDENTITY = np.eye(4)
@@ -64,23 +66,25 @@ def quat_to_matrix(q) -> np.ndarray:
 
 
 def matrix_to_quat(r: np.ndarray) -> np.ndarray:
-    """(w, x, y, z) quaternion of a rotation matrix, with w >= 0 (a canonical sign)."""
-    r = np.asarray(r, dtype=float)
-    tr = np.trace(r)
+    """(w, x, y, z) quaternion of a rotation matrix, with w >= 0 (a canonical sign). In
+    Python floats (the same operations, the same numbers as on numpy's scalars, a third of
+    the time: the USD writer places every prim by one)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(r, dtype=float).tolist()
+    tr = r00 + r11 + r22
     if tr > 0:
-        s = 2.0 * np.sqrt(tr + 1.0)
-        q = [0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s]
-    elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
-        q = [(r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s]
-    elif r[1, 1] > r[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
-        q = [(r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s]
+        s = 2.0 * math.sqrt(tr + 1.0)
+        q = [0.25 * s, (r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s]
+    elif r00 > r11 and r00 > r22:
+        s = 2.0 * math.sqrt(1.0 + r00 - r11 - r22)
+        q = [(r21 - r12) / s, 0.25 * s, (r01 + r10) / s, (r02 + r20) / s]
+    elif r11 > r22:
+        s = 2.0 * math.sqrt(1.0 + r11 - r00 - r22)
+        q = [(r02 - r20) / s, (r01 + r10) / s, 0.25 * s, (r12 + r21) / s]
     else:
-        s = 2.0 * np.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
-        q = [(r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s]
+        s = 2.0 * math.sqrt(1.0 + r22 - r00 - r11)
+        q = [(r10 - r01) / s, (r02 + r20) / s, (r12 + r21) / s, 0.25 * s]
     q = np.array(q)
-    q /= np.linalg.norm(q)
+    q /= math.sqrt(q.dot(q))  # what np.linalg.norm computes, without its checks
     return -q if q[0] < 0 else q
 
 
