@@ -1,0 +1,29 @@
+"""Rotation conversions every format writer uses."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from real2code_export import transforms as tf
+
+
+@pytest.mark.parametrize("quat", [
+    (1.0, 0.0, 0.0, 0.0),  # the identity: trace > 0
+    (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0), (0.0, 0.0, 0.0, 1.0),  # half turns: each
+    (0.1, 0.9, 0.3, -0.2), (0.05, -0.2, 0.95, 0.1), (0.02, 0.1, -0.3, 0.9),  # diagonal largest
+    (-0.7, 0.1, 0.2, 0.3),  # w < 0: the same rotation comes back with w > 0
+])
+def test_matrix_to_quat_inverts_quat_to_matrix_with_w_not_negative(quat):
+    q = np.asarray(quat) / np.linalg.norm(quat)
+    back = tf.matrix_to_quat(tf.quat_to_matrix(q))
+    assert back[0] >= 0.0
+    np.testing.assert_allclose(back, q if q[0] >= 0 else -q, atol=1e-12)
+    assert np.linalg.norm(back) == pytest.approx(1.0, abs=1e-15)
+
+
+def test_matrix_to_quat_of_many_rotations():
+    rng = np.random.default_rng(7)
+    for q in rng.normal(size=(500, 4)):
+        r = tf.quat_to_matrix(q)
+        np.testing.assert_allclose(tf.quat_to_matrix(tf.matrix_to_quat(r)), r, atol=1e-12)
