@@ -867,3 +867,78 @@ def test_a_foreign_body_whose_xform_is_scaled(tmp_path):
     with pytest.raises(FormatError, match=r"prim </cartpole/cart>: rigid body transform has "
                                           "shear"):
         usd.load(stage_with(sheared))
+
+
+def _scene_stage(path, anchored: bool):
+    """Boxes no joint holds (free bodies) beside, if ``anchored``, a body fixed to the world
+    with a flap hinged to it (Newton's sensor_contact_scene; without it, its palletizer)."""
+    from pxr import Gf, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/scene").GetPrim())
+    bodies = [("crate_0", (1.0, 0.0, 0.3)), ("crate_1", (-1.0, 0.5, 0.3)),
+              ("crate_2", (0.0, -1.0, 0.6))]
+    if anchored:
+        bodies = [("anchor", (0.0, 0.0, 1.0)), ("flap", (0.0, 0.2, 1.0))] + bodies
+    for name, at in bodies:
+        body = UsdGeom.Xform.Define(stage, f"/scene/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+        body.AddOrientOp().Set(Gf.Quatf(0.9659258, 0.0, 0.0, 0.2588190))  # 30 deg about Z
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+        cube = UsdGeom.Cube.Define(stage, f"/scene/{name}/box")
+        cube.CreateSizeAttr(0.1)
+        UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+    if anchored:
+        fixed = UsdPhysics.FixedJoint.Define(stage, "/scene/anchor_joint")
+        fixed.CreateBody1Rel().SetTargets(["/scene/anchor"])
+        fixed.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 1.0))
+        fixed.CreateLocalRot0Attr(Gf.Quatf(0.9659258, 0.0, 0.0, 0.2588190))
+        hinge = UsdPhysics.RevoluteJoint.Define(stage, "/scene/hinge")
+        hinge.CreateBody0Rel().SetTargets(["/scene/anchor"])
+        hinge.CreateBody1Rel().SetTargets(["/scene/flap"])
+        hinge.CreateAxisAttr("X")
+        hinge.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.1, 0.0))
+        hinge.CreateLocalPos1Attr(Gf.Vec3f(0.0, -0.1, 0.0))
+        hinge.CreateLowerLimitAttr(-45.0)
+        hinge.CreateUpperLimitAttr(45.0)
+    stage.GetRootLayer().Save()
+    return path
+
+
+@pytest.mark.parametrize("anchored", [True, False], ids=["anchored", "all_free"])
+def test_a_scene_of_free_bodies_in_every_format(tmp_path, anchored):
+    """A scene of free bodies (rigid bodies no joint holds), beside a body the world holds
+    or alone. Alone, none is more fixed than another: each floats from a massless part
+    'world' (warned). Beside one, they float from it, the root; the URDF export then hangs
+    them from an added link ``world``, the only parent MuJoCo's URDF import allows a free
+    joint. Every export reads back equal and agrees with the others in its own tools."""
+    import mujoco
+
+    from real2code_export.check import check_files
+
+    path = _scene_stage(tmp_path / "scene.usda", anchored)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(path)
+    said = [str(w.message) for w in caught]
+    root = "anchor" if anchored else "world"
+    assert obj.root.name == root
+    free = [j for j in obj.joints if j.type.value == "floating"]
+    assert sorted(j.child for j in free) == ["crate_0", "crate_1", "crate_2"] and all(
+        j.parent == root for j in free)
+    assert any("form 3 groups no joint connects: each is free" in m for m in said) \
+        != anchored, said
+    np.testing.assert_allclose(forward_kinematics(obj)["crate_2"][:3, 3], [0.0, -1.0, 0.6],
+                               atol=1e-6)
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
+    for fmt, out in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            assert not differences(obj, load_any(out)), fmt
+    model = mujoco.MjModel.from_xml_path(str(written["urdf"]))
+    assert sum(int(t) == mujoco.mjtJoint.mjJNT_FREE for t in model.jnt_type) == 3
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches

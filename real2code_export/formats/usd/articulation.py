@@ -5,8 +5,9 @@ from the part fixed to the world. No prim names or paths are assumed.
 
 The world: one fixed joint to the world -> its body is the root, placed by that joint; no
 joint to the world -> the single body without a parent is the root, fixed where it stands
-(warned); several joints to the world, or a moving one -> a massless part "world" becomes
-the root (warned). A body no joint connects to the root is free (UsdPhysics' free body): a
+(warned), unless the joints leave the bodies in several groups (a scene of free bodies: a
+palletizer's crates), each of which is then free; several joints to the world, or a moving
+one -> a massless part "world" becomes the root (warned). A body no joint connects to the root is free (UsdPhysics' free body): a
 floating joint from the root part holds it.
 """
 
@@ -149,6 +150,14 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
         warn(f"{path}: {len(world_edges)} joint(s) to the world "
              f"({', '.join(e.path for e in world_edges)}): a massless part 'world' is the root")
         root = WORLD
+    elif len(groups := _groups(bodies, edges)) > 1:
+        # A scene: bodies no joint holds to the world or to each other are free (UsdPhysics'
+        # free bodies), none more than another; each group's first body floats from a
+        # massless world part.
+        warn(f"{path}: no joint fixes a body to the world and the {len(bodies)} bodies form "
+             f"{len(groups)} groups no joint connects: each is free (a floating joint from a "
+             "massless part 'world')")
+        root = WORLD
     else:
         root = bodies[0]
         warn(f"{path}: no joint fixes the object to the world; the first body <{root}> is "
@@ -177,3 +186,15 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
         reached.add(free)
         frontier.append(free)
     return Articulation(bodies, {}, tree, root, root_placement)
+
+
+def _groups(bodies: list[str], edges: list[Edge]) -> list[set[str]]:
+    """The bodies in groups the joints connect (none of them to the world)."""
+    group = {b: {b} for b in bodies}
+    for e in edges:
+        a, b = group[e.body0], group[e.body1]
+        if a is not b:
+            a |= b
+            for body in b:
+                group[body] = a
+    return list({id(g): g for g in group.values()}.values())
