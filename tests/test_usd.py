@@ -942,3 +942,197 @@ def test_a_scene_of_free_bodies_in_every_format(tmp_path, anchored):
     assert sum(int(t) == mujoco.mjtJoint.mjJNT_FREE for t in model.jnt_type) == 3
     report = check_files(list(written.values()), n_configurations=5, validate=False)
     assert report.ok, report.mismatches
+
+
+def _d6_stage(path, joints, distance: bool = False):
+    """A base fixed to the world and, per entry of ``joints`` (name, free axes with their
+    range in degrees or metres, None for no limit; the values the child stands at; whether
+    body0 is the child), a child body on a generic joint (PhysicsJoint, a D6) whose other
+    axes are locked (low > high), its frames rotated and off both bodies' origins."""
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.formats.usd import d6
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/robot").GetPrim())
+
+    def body(name, pose):
+        xform = UsdGeom.Xform.Define(stage, f"/robot/{name}")
+        xform.AddTransformOp().Set(Gf.Matrix4d(pose.T.tolist()))
+        UsdPhysics.RigidBodyAPI.Apply(xform.GetPrim())
+        UsdPhysics.MassAPI.Apply(xform.GetPrim()).CreateMassAttr(1.0)
+        cube = UsdGeom.Cube.Define(stage, f"/robot/{name}/box")
+        cube.CreateSizeAttr(0.1)
+        UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+
+    base = tf.make(tf.axis_angle_matrix([0.0, 0.0, 1.0], 0.4), [0.0, 0.0, 1.0])
+    body("base", base)
+    fixed = UsdPhysics.FixedJoint.Define(stage, "/robot/to_world")
+    fixed.CreateBody1Rel().SetTargets(["/robot/base"])
+    fixed.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 1.0))
+    fixed.CreateLocalRot0Attr(Gf.Quatf(*tf.matrix_to_quat(base[:3, :3]).tolist()))
+    r0 = tf.axis_angle_matrix(np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0), 0.3)
+    r1 = tf.axis_angle_matrix(np.array([0.0, 1.0, 1.0]) / math.sqrt(2.0), -0.6)
+    t0, t1 = tf.make(r0, [0.1, 0.2, -0.1]), tf.make(r1, [0.0, 0.05, 0.15])
+    for k, (name, free, values, reversed_) in enumerate(joints):
+        dofs = [d6.Dof(a, a[-1], a.startswith("rot")) for a in d6.ORDER if a in free]
+        at = np.array(values, float)
+        moved = d6.motion(dofs, [math.radians(v) if d.angular else v
+                                 for d, v in zip(dofs, at, strict=True)])
+        child = f"link_{k}"  # (body1 = body0 T0 M(q) T1^-1, whichever body0 is)
+        body(child, base @ t0 @ (tf.inverse(moved) if reversed_ else moved) @ tf.inverse(t1))
+        joint = UsdPhysics.Joint.Define(stage, f"/robot/{name}")
+        ends = ["/robot/base", f"/robot/{child}"][::-1 if reversed_ else 1]
+        frames = [t0, t1][::-1 if reversed_ else 1]
+        joint.CreateBody0Rel().SetTargets([ends[0]])
+        joint.CreateBody1Rel().SetTargets([ends[1]])
+        for side, frame in enumerate(frames):
+            quat = Gf.Quatf(*tf.matrix_to_quat(frame[:3, :3]).tolist())
+            getattr(joint, f"CreateLocalPos{side}Attr")(Gf.Vec3f(*frame[:3, 3].tolist()))
+            getattr(joint, f"CreateLocalRot{side}Attr")(quat)
+        for axis in d6.ORDER + (("distance",) if distance else ()):
+            if axis in free and free[axis] is None:
+                continue  # no PhysicsLimitAPI: free
+            low, high = free.get(axis) or (1.0, -1.0)  # locked
+            limit = UsdPhysics.LimitAPI.Apply(joint.GetPrim(), axis)
+            limit.CreateLowAttr(low)
+            limit.CreateHighAttr(high)
+    stage.GetRootLayer().Save()
+    return path
+
+
+def test_a_generic_joint_is_the_joint_its_free_axes_make(tmp_path):
+    """A generic joint (a D6: PhysicsJoint, each axis locked by a limit whose low is above
+    its high) is, by its free axes: one rotation a revolute joint, one translation a
+    prismatic one, the three rotations unlimited a ball, none a fixed joint; else a chain
+    of joints, one per free axis in Newton's order (translations, then rotations X, Y, Z,
+    each about its axis as the ones before turned it: as Newton's importer and MuJoCo's
+    several joints of a body take it) through massless intermediate parts (warned). The
+    bodies' poses give the values; a joint running child -> parent is the chain reversed.
+    The MJCF export holds a chain as one body of several joints; every export reads back
+    equal and agrees with the others."""
+    import mujoco
+
+    from real2code_export.check import check_files
+
+    joints = [
+        ("hip", {"rotX": (-45.0, 30.0), "rotZ": (-60.0, 35.0)}, (20.0, -30.0), False),
+        ("knee", {"rotY": (-150.0, 0.0)}, (-40.0,), False),
+        ("wrist", {"rotZ": None}, (70.0,), True),
+        ("rail", {"transY": (-0.2, 0.3)}, (0.1,), False),
+        ("shoulder", {"rotX": None, "rotY": None, "rotZ": None}, (0.0, 0.0, 0.0), False),
+        ("ankle", {"transX": None, "rotX": (-10.0, 50.0), "rotY": (-50.0, 50.0)},
+         (0.05, 25.0, -15.0), True),
+        ("weld", {}, (), False),
+        ("neck", {"rotY": (-30.0, 30.0), "rotZ": None}, (15.0, 0.0), False),
+    ]
+    path = _d6_stage(tmp_path / "robot.usda", joints)
+    with pytest.warns(Real2CodeWarning, match=r"generic joints \(D6\) of several free axes split"):
+        obj = usd.load(path)
+    kinds = {j.name: j.type.value for j in obj.joints}
+    assert {k: kinds[k] for k in ("knee", "wrist", "rail", "shoulder", "weld")} == {
+        "knee": "revolute", "wrist": "continuous", "rail": "prismatic", "shoulder": "ball",
+        "weld": "fixed"}
+    hip = [obj.joint("hip_rotX"), obj.joint("hip_rotZ")]
+    assert [(j.parent, j.child) for j in hip] == [("base", "link_0_hip_rotX"),
+                                                 ("link_0_hip_rotX", "link_0")]
+    assert obj.part("link_0_hip_rotX").inertial.mass == pytest.approx(1e-6)
+    assert (hip[1].limits.lower, hip[1].limits.upper) == pytest.approx(
+        (math.radians(-60.0), math.radians(35.0)))
+    ankle = [obj.joint(n) for n in ("ankle_rotY", "ankle_rotX", "ankle_transX")]  # reversed
+    assert [(j.parent, j.child) for j in ankle] == [
+        ("base", "link_5_ankle_rotY"), ("link_5_ankle_rotY", "link_5_ankle_rotX"),
+        ("link_5_ankle_rotX", "link_5")]
+    for name, free, values, _ in joints:  # the values the bodies stand at
+        if name in ("shoulder", "weld"):
+            continue
+        got = [obj.joint(f"{name}_{a}" if len(free) > 1 else name).state for a in free]
+        expected = [math.radians(v) if a.startswith("rot") else v
+                    for a, v in zip(free, values, strict=True)]
+        assert got == pytest.approx(expected, abs=1e-6), name
+    # the model poses the child as the D6 does: T0 M(q) T1^-1 from the base body (which,
+    # the root, stands where its fixed joint puts it: the root part's frame is the world's)
+    q = {"hip_rotX": 0.2, "hip_rotZ": -0.7}
+    fk = forward_kinematics(obj, {**obj.observed_configuration(), **q})
+    r0 = tf.axis_angle_matrix(np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0), 0.3)
+    base = tf.make(tf.axis_angle_matrix([0.0, 0.0, 1.0], 0.4), [0.0, 0.0, 1.0])
+    expected = base @ tf.make(r0, [0.1, 0.2, -0.1]) @ tf.make(
+        tf.axis_angle_matrix([1.0, 0.0, 0.0], 0.2) @ tf.axis_angle_matrix([0.0, 0.0, 1.0], -0.7))
+    # (the part frame is the child body's frame at the joint: localRot1 turned, no offset)
+    expected = expected @ tf.make(tf.axis_angle_matrix(np.array([0.0, 1.0, 1.0]) / math.sqrt(2.0), -0.6)).T
+    np.testing.assert_allclose(fk["link_0"], expected, atol=1e-6)
+
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
+    for fmt, out in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            assert not differences(obj, load_any(out)), fmt
+    # one body of several joints where the joints after the first stand at 0 (a later one
+    # elsewhere would be written as its ref, which MuJoCo reads as a turned frame)
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert [int(model.body(b).jntnum[0]) for b in ("link_7", "link_0", "link_5")] == [2, 1, 1]
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+    with pytest.raises(FormatError, match=r"joint prim </robot/hip>: a generic joint with a "
+                                          "distance limit cannot be represented"):
+        usd.load(_d6_stage(tmp_path / "rope.usda", joints[:1], distance=True))
+
+
+def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path):
+    """A four-bar: four bodies, four hinges, one too many for a tree. The joint the file
+    excludes from the articulation (physics:excludeFromArticulation) is the one left out
+    of the tree, even where the walk from the root would meet another last: kept in the
+    metadata and carried to MuJoCo as an equality connect at its anchor (warned), which
+    holds at the written pose; every export reads back equal."""
+    import mujoco
+    from pxr import Gf, UsdGeom
+
+    path = tmp_path / "fourbar.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/fourbar").GetPrim())
+    for name, at in (("base", (0.5, 0.0, 0.0)), ("crank", (0.0, 0.0, 0.5)),
+                     ("coupler", (0.5, 0.0, 1.0)), ("rocker", (1.0, 0.0, 0.5))):
+        body = UsdGeom.Xform.Define(stage, f"/fourbar/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    fixed = UsdPhysics.FixedJoint.Define(stage, "/fourbar/ground")
+    fixed.CreateBody1Rel().SetTargets(["/fourbar/base"])
+    fixed.CreateLocalPos0Attr(Gf.Vec3f(0.5, 0.0, 0.0))
+    for name, body0, body1, pos0, pos1 in (
+            ("A", "base", "crank", (-0.5, 0, 0), (0, 0, -0.5)),
+            ("B", "crank", "coupler", (0, 0, 0.5), (-0.5, 0, 0)),
+            ("C", "base", "rocker", (0.5, 0, 0), (0, 0, -0.5)),
+            ("D", "rocker", "coupler", (0, 0, 0.5), (0.5, 0, 0))):
+        hinge = UsdPhysics.RevoluteJoint.Define(stage, f"/fourbar/{name}")
+        hinge.CreateBody0Rel().SetTargets([f"/fourbar/{body0}"])
+        hinge.CreateBody1Rel().SetTargets([f"/fourbar/{body1}"])
+        hinge.CreateAxisAttr("Y")
+        hinge.CreateLocalPos0Attr(Gf.Vec3f(*pos0))
+        hinge.CreateLocalPos1Attr(Gf.Vec3f(*pos1))
+        hinge.CreateExcludeFromArticulationAttr(name == "B")
+    stage.GetRootLayer().Save()
+    with pytest.warns(Real2CodeWarning, match=r"joint prim </fourbar/B> \(continuous\) closes "
+                                              "a kinematic loop"):
+        obj = usd.load(path)
+    assert sorted(j.name for j in obj.joints) == ["A", "C", "D"]
+    (loop,) = obj.metadata["loop_joints"]
+    assert (loop["name"], loop["body0"], loop["body1"]) == ("B", "crank", "coupler")
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
+    for fmt, out in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            back = load_any(out)
+        assert not differences(obj, back), fmt
+        assert back.metadata["loop_joints"] == obj.metadata["loop_joints"], fmt
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert model.neq == 1 and int(model.eq_type[0]) == mujoco.mjtEq.mjEQ_CONNECT
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    residual = data.efc_pos[data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
+    np.testing.assert_allclose(residual, 0.0, atol=1e-9)
