@@ -1085,10 +1085,13 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     """A four-bar: four bodies, four hinges, one too many for a tree. The joint the file
     excludes from the articulation (physics:excludeFromArticulation) is the one left out
     of the tree, even where the walk from the root would meet another last: kept in the
-    metadata and carried to MuJoCo as an equality connect at its anchor (warned), which
-    holds at the written pose; every export reads back equal."""
+    metadata, written back to USD excluded from the articulation, and carried to MuJoCo as
+    an equality connect at its anchor (warned), which holds at the written pose; every
+    export reads back equal and agrees with the others."""
     import mujoco
     from pxr import Gf, UsdGeom
+
+    from real2code_export.check import check_files
 
     path = tmp_path / "fourbar.usda"
     stage = Usd.Stage.CreateNew(str(path))
@@ -1136,3 +1139,9 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     mujoco.mj_forward(model, data)
     residual = data.efc_pos[data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
     np.testing.assert_allclose(residual, 0.0, atol=1e-9)
+    exported = Usd.Stage.Open(str(written["usd"]))
+    closing = UsdPhysics.RevoluteJoint(exported.GetPrimAtPath("/fourbar/Physics/B"))
+    assert closing and closing.GetExcludeFromArticulationAttr().Get() is True
+    assert [str(t) for t in closing.GetBody1Rel().GetTargets()] == ["/fourbar/Geometry/coupler"]
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches

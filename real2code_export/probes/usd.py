@@ -108,23 +108,34 @@ class UsdProbe:
         for k, (_, _, d) in enumerate(joints):
             for end in dict.fromkeys((str(d.body0), str(d.body1))):
                 at.setdefault(end, []).append(k)
-        walked, reached = set(), {WORLD}
-        frontier = collections.deque([WORLD])
-        unreached = iter(bodies)  # (in stage order: the first one not reached is a root)
-        while True:
+        walked, reached, order = set(), {WORLD}, [WORLD]
+        # a joint excluded from the articulation (physics:excludeFromArticulation) is walked
+        # after every other; one closing a loop is a constraint beside the tree, not posed
+        excluded = {k for k, (_, _, d) in enumerate(joints) if d.excludeFromArticulation}
+
+        def walk(frontier: collections.deque, excluded_too: bool) -> None:
             while frontier:
                 body = frontier.popleft()
                 for k in at.get(body, ()):
-                    if k in walked:
+                    if k in walked or (k in excluded and not excluded_too):
                         continue
                     walked.add(k)
                     link = self._link(joints[k], body, mpu)
                     if link.child in reached:
+                        if k in excluded:
+                            continue
                         raise CheckError(f"{path}: joint <{joints[k][0]}> closes a kinematic "
                                          "loop")
                     reached.add(link.child)
+                    order.append(link.child)
                     frontier.append(link.child)
                     self._links.append(link)
+
+        unreached = iter(bodies)  # (in stage order: the first one not reached is a root)
+        frontier = collections.deque([WORLD])
+        while True:
+            walk(frontier, False)
+            walk(collections.deque(order), True)
             root = next((b for b in unreached if b not in reached), None)
             if root is None:
                 break
@@ -132,6 +143,7 @@ class UsdProbe:
             m[:3, 3] *= mpu
             self._roots[root] = self._world @ m
             reached.add(root)
+            order.append(root)
             frontier.append(root)
 
         self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links

@@ -27,7 +27,7 @@ from ...model import (
 )
 from ...repairs import massless_moving_parts, unusable_mimics
 from . import articulation as art_
-from . import d6
+from . import d6, loop
 from .body import read_inertial
 from .conventions import (
     FLOATING_JOINT,
@@ -398,43 +398,46 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
     return joints, [Part(n) for n in ends[1:-1]]
 
 
-LOOPS_KEY = "loop_joints"  # the metadata key of the joints that close kinematic loops
-
-
 def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
     """``metadata`` with the joints that close kinematic loops (a four-bar's last joint; the
-    model is a tree): each kept as it is (kind, parts, anchor on each in its part frame,
-    metres) under :data:`LOOPS_KEY`, and carried to MuJoCo as an equality ``connect`` of the
-    two parts at its anchor (MuJoCo's way to close a loop: the two bodies held together at
-    that point, free to turn there; a hinge's axis is not held), in the kept MJCF elements
-    the MJCF writer writes back. Warned: no other format acts on them."""
+    model is a tree): each kept as it is under ``loop.LOOPS_KEY`` (:mod:`.loop`), which the
+    USD writer writes back, and carried to MuJoCo as an equality ``connect`` of the two
+    parts at its anchor (MuJoCo's way to close a loop: the two bodies held together at that
+    point, free to turn there; a hinge's axis is not held) in the kept MJCF elements the
+    MJCF writer writes back. Warned: URDF and glTF do not act on them. A loop our writer
+    wrote back replaces its own entry."""
     from lxml import etree
 
     from ..mjcf.kept import ELEMENTS_KEY
 
-    kept = list(metadata.get(LOOPS_KEY, []))
+    found = {}
+    for e in loops:
+        name = sanitize_name(ctx.stage.GetPrimAtPath(e.path).GetName())
+        frames = [ctx.to_part[body] @ art_.joint_frame(e.desc, side, ctx.mpu)
+                  for side, body in ((0, e.body0), (1, e.body1))]
+        found[name] = loop.described(name, e, frames, [ctx.names[e.body0], ctx.names[e.body1]],
+                                     ctx.mpu)
+        warn(f"{ctx.path}: joint prim <{e.path}> ({e.kind.value}) closes a kinematic loop: "
+             f"not a joint of the model (a tree); kept in the metadata {loop.LOOPS_KEY!r} and "
+             f"written to MJCF as an equality connect of {ctx.names[e.body0]!r} and "
+             f"{ctx.names[e.body1]!r} at its anchor (URDF and glTF do not act on it)")
+    kept = [k for k in metadata.get(loop.LOOPS_KEY, [])
+            if not isinstance(k, dict) or k.get("name") not in found]
     sections = dict(metadata.get(ELEMENTS_KEY, {}))
     equality = etree.fromstring(sections["equality"]) if "equality" in sections \
         else etree.Element("equality")
-    for e in loops:
-        name = sanitize_name(ctx.stage.GetPrimAtPath(e.path).GetName())
-        anchors = [(ctx.to_part[body] @ art_.joint_frame(e.desc, side, ctx.mpu))[:3, 3]
-                   for side, body in ((0, e.body0), (1, e.body1))]
-        kept.append({"name": name, "prim": e.path, "type": e.kind.value,
-                     "body0": ctx.names[e.body0], "body1": ctx.names[e.body1],
-                     "anchor0": anchors[0].tolist(), "anchor1": anchors[1].tolist()})
+    for el in list(equality):
+        if el.tag == "connect" and el.get("name") in found:
+            equality.remove(el)
+    for name, entry in found.items():
         connect = etree.SubElement(equality, "connect")
         connect.set("name", name)
-        connect.set("body1", ctx.names[e.body0])
-        connect.set("body2", ctx.names[e.body1])
-        connect.set("anchor", " ".join(repr(float(v)) for v in anchors[0]))
-        warn(f"{ctx.path}: joint prim <{e.path}> ({e.kind.value}) closes a kinematic loop: "
-             f"not a joint of the model (a tree); kept in the metadata {LOOPS_KEY!r} and "
-             f"written to MJCF as an equality connect of {ctx.names[e.body0]!r} and "
-             f"{ctx.names[e.body1]!r} at its anchor (no other format acts on it)")
+        connect.set("body1", entry["body0"])
+        connect.set("body2", entry["body1"])
+        connect.set("anchor", " ".join(repr(float(v)) for v in entry["frame0"]["translation"]))
     etree.indent(equality, space="  ")
     sections["equality"] = etree.tostring(equality, encoding="unicode")
-    return {**metadata, LOOPS_KEY: kept, ELEMENTS_KEY: sections}
+    return {**metadata, loop.LOOPS_KEY: kept + list(found.values()), ELEMENTS_KEY: sections}
 
 
 def _quat(desc, side: int) -> np.ndarray:

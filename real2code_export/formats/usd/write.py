@@ -28,6 +28,7 @@ from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCE
 from .geometry import MeshAssets, move_mesh_arrays, write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
 from .layer import apply, attribute, new_layer
+from .loop import write_loops
 
 
 def _layer(obj: ArticulatedObject):
@@ -91,6 +92,9 @@ def _author(obj: ArticulatedObject):
                             f"{base}/{GEOMETRY}/{j.parent}", f"{base}/{GEOMETRY}/{j.child}")
         if j.mimic is not None:
             write_mimic(joint, j.mimic, f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
+    taken = {j.name for j in obj.joints} | {world_joint}
+    write_loops(layer, obj, lambda name: f"{base}/{PHYSICS}/{sanitize_name(name, taken)}",
+                path_of.__getitem__)
     return layer
 
 

@@ -1,0 +1,109 @@
+"""Joints that close kinematic loops (a four-bar's fourth hinge): the model is a tree, so the
+USD reader keeps each such joint aside, in the object's metadata under :data:`LOOPS_KEY`, as
+the file states it, and the USD writer writes it back, excluded from the articulation
+(``physics:excludeFromArticulation``: PhysX and Newton solve it as a constraint beside the
+tree, as the source had it). MuJoCo gets an equality ``connect`` (the reader puts it in the
+kept MJCF elements); URDF and glTF carry the metadata only.
+
+An entry: ``name``, ``type`` (revolute, continuous, prismatic, fixed, ball or generic),
+``body0``/``body1`` (part names), ``frame0``/``frame1`` (the joint frame in each part's
+frame: ``translation`` in metres, ``rotation`` a w, x, y, z quaternion), ``axis`` (X, Y or
+Z; a revolute or prismatic joint), ``limits`` ([lower, upper] in degrees or metres, or
+None), ``cone`` (a spherical joint's two cone angles in degrees, or None) and, for a
+generic joint (D6), ``dofs``: its free axes, each ``[name, lower, upper]`` (degrees or
+metres, None for no limit).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ... import transforms as tf
+from ...errors import ModelError
+from ...model import JointType
+
+LOOPS_KEY = "loop_joints"
+_PRIMS = {"revolute": "PhysicsRevoluteJoint", "continuous": "PhysicsRevoluteJoint",
+          "prismatic": "PhysicsPrismaticJoint", "fixed": "PhysicsFixedJoint",
+          "ball": "PhysicsSphericalJoint", "generic": "PhysicsJoint"}
+
+
+def described(name: str, edge, frames: list[np.ndarray], parts: list[str],
+              mpu: float) -> dict:
+    """The metadata entry of a loop-closing joint (``edge``: the parsed joint,
+    ``articulation.Edge``; ``frames``: its frame in each part's frame, metres; ``mpu``:
+    the stage's metres per unit, for lengths)."""
+    desc, kind = edge.desc, edge.kind
+    entry = {"name": name, "type": "generic" if edge.dofs is not None else kind.value,
+             "body0": parts[0], "body1": parts[1]}
+    for side, frame in enumerate(frames):
+        entry[f"frame{side}"] = {"translation": [float(v) for v in frame[:3, 3]],
+                                 "rotation": [float(v) for v in tf.matrix_to_quat(frame[:3, :3])]}
+    if edge.dofs is not None:
+        entry["dofs"] = [[d.name] + ([None, None] if d.lower is None else
+                                     [v * (1.0 if d.angular else mpu) for v in (d.lower, d.upper)])
+                         for d in edge.dofs]
+    elif kind.movable:
+        entry["axis"] = str(desc.axis)
+        lim = desc.limit
+        finite = lim.enabled and math.isfinite(lim.lower) and math.isfinite(lim.upper)
+        scale = 1.0 if kind.angular else mpu
+        entry["limits"] = [float(lim.lower) * scale, float(lim.upper) * scale] if finite \
+            else None
+    elif kind is JointType.BALL:
+        lim = desc.limit
+        cones = [float(lim.lower), float(lim.upper)]
+        entry["cone"] = cones if lim.enabled and all(
+            math.isfinite(a) and a >= 0.0 for a in cones) else None
+    return entry
+
+
+def write_loops(layer, obj, joint_path, body_path) -> None:
+    """Each loop-closing joint of ``obj``'s metadata as a joint prim excluded from the
+    articulation (``joint_path(name)``: where its prim goes; ``body_path(part)``: a part's
+    prim). Entries that are not what :func:`described` makes are an error naming them."""
+    from pxr import Gf
+
+    from .layer import apply, attribute, define, relationship
+
+    entries = obj.metadata.get(LOOPS_KEY, [])
+    where = f"object {obj.name!r} metadata {LOOPS_KEY!r}"
+    if not isinstance(entries, list):
+        raise ModelError(where, "must be a list of joints")
+    parts = {p.name for p in obj.parts}
+    for k, e in enumerate(entries):
+        try:
+            kind = _PRIMS[e["type"]]
+            ends = [e["body0"], e["body1"]]
+            frames = [(Gf.Vec3f(*map(float, e[f"frame{s}"]["translation"])),
+                       Gf.Quatf(*map(float, e[f"frame{s}"]["rotation"]))) for s in (0, 1)]
+            if not all(p in parts for p in ends):
+                raise KeyError(f"a part of {ends}")
+        except (KeyError, TypeError, ValueError) as err:
+            raise ModelError(f"{where}[{k}]", f"not a joint as the USD reader keeps it "
+                             f"(missing or wrong: {err})") from err
+        prim = define(layer, joint_path(e["name"]), kind)
+        for side, (part, (pos, rot)) in enumerate(zip(ends, frames, strict=True)):
+            relationship(prim, f"physics:body{side}", body_path(part))
+            attribute(prim, f"physics:localPos{side}", "Point3f", pos)
+            attribute(prim, f"physics:localRot{side}", "Quatf", rot)
+        attribute(prim, "physics:excludeFromArticulation", "Bool", True, uniform=True)
+        if e.get("axis") is not None:
+            attribute(prim, "physics:axis", "Token", str(e["axis"]), uniform=True)
+        if e.get("limits") is not None:
+            attribute(prim, "physics:lowerLimit", "Float", float(e["limits"][0]))
+            attribute(prim, "physics:upperLimit", "Float", float(e["limits"][1]))
+        if e.get("cone") is not None:
+            for side, angle in enumerate(e["cone"]):
+                attribute(prim, f"physics:coneAngle{side}Limit", "Float", float(angle))
+        if e["type"] == "generic":
+            free = {name: (low, high) for name, low, high in e.get("dofs") or []}
+            for axis in ("transX", "transY", "transZ", "rotX", "rotY", "rotZ"):
+                low, high = free.get(axis, (1.0, -1.0))  # locked: low above high
+                if axis in free and low is None:
+                    continue  # free, no limit
+                apply(prim, f"PhysicsLimitAPI:{axis}")
+                attribute(prim, f"limit:{axis}:physics:low", "Float", float(low))
+                attribute(prim, f"limit:{axis}:physics:high", "Float", float(high))
