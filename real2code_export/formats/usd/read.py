@@ -132,8 +132,7 @@ def load(path: str | Path) -> ArticulatedObject:
             made, between = _generic_joint(ctx, e, joint_names, taken)
             parts += between
             if between:
-                chains.append(f"{made[0].child}_... <{e.path}> "
-                              f"({', '.join(d.name for d in e.dofs)})")
+                chains.append(f"<{e.path}> ({', '.join(d.name for d in e.dofs)})")
         joint_at[e.path] = made[0].name
         joints += made
     if chains:
@@ -424,8 +423,12 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
     kept = [k for k in metadata.get(loop.LOOPS_KEY, [])
             if not isinstance(k, dict) or k.get("name") not in found]
     sections = dict(metadata.get(ELEMENTS_KEY, {}))
-    equality = etree.fromstring(sections["equality"]) if "equality" in sections \
-        else etree.Element("equality")
+    try:
+        equality = etree.fromstring(sections["equality"]) if "equality" in sections \
+            else etree.Element("equality")
+    except (etree.XMLSyntaxError, TypeError, ValueError) as err:
+        raise FormatError(ctx.path, f"{METADATA} {ELEMENTS_KEY!r}", f"its equality section is "
+                          f"not XML: {err}") from err
     for el in list(equality):
         if el.tag == "connect" and el.get("name") in found:
             equality.remove(el)
