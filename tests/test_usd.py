@@ -1081,13 +1081,15 @@ def test_a_generic_joint_is_the_joint_its_free_axes_make(tmp_path):
         usd.load(_d6_stage(tmp_path / "rope.usda", joints[:1], distance=True))
 
 
-def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path):
+@pytest.mark.parametrize("closing", ["revolute", "generic"])
+def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path, closing):
     """A four-bar: four bodies, four hinges, one too many for a tree. The joint the file
     excludes from the articulation (physics:excludeFromArticulation) is the one left out
     of the tree, even where the walk from the root would meet another last: kept in the
     metadata, written back to USD excluded from the articulation, and carried to MuJoCo as
     an equality connect at its anchor (warned), which holds at the written pose; every
-    export reads back equal and agrees with the others."""
+    export reads back equal and agrees with the others. The closing joint a hinge, or a
+    generic joint (D6) whose one free axis is the hinge's."""
     import mujoco
     from pxr import Gf, UsdGeom
 
@@ -1112,10 +1114,18 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
             ("B", "crank", "coupler", (0, 0, 0.5), (-0.5, 0, 0)),
             ("C", "base", "rocker", (0.5, 0, 0), (0, 0, -0.5)),
             ("D", "rocker", "coupler", (0, 0, 0.5), (0.5, 0, 0))):
-        hinge = UsdPhysics.RevoluteJoint.Define(stage, f"/fourbar/{name}")
+        generic = name == "B" and closing == "generic"
+        hinge = (UsdPhysics.Joint if generic else UsdPhysics.RevoluteJoint).Define(
+            stage, f"/fourbar/{name}")
         hinge.CreateBody0Rel().SetTargets([f"/fourbar/{body0}"])
         hinge.CreateBody1Rel().SetTargets([f"/fourbar/{body1}"])
-        hinge.CreateAxisAttr("Y")
+        if generic:  # every axis locked (low above high) but rotY
+            for axis in ("transX", "transY", "transZ", "rotX", "rotZ"):
+                limit = UsdPhysics.LimitAPI.Apply(hinge.GetPrim(), axis)
+                limit.CreateLowAttr(1.0)
+                limit.CreateHighAttr(-1.0)
+        else:
+            hinge.CreateAxisAttr("Y")
         hinge.CreateLocalPos0Attr(Gf.Vec3f(*pos0))
         hinge.CreateLocalPos1Attr(Gf.Vec3f(*pos1))
         hinge.CreateExcludeFromArticulationAttr(name == "B")
@@ -1126,6 +1136,8 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     assert sorted(j.name for j in obj.joints) == ["A", "C", "D"]
     (loop,) = obj.metadata["loop_joints"]
     assert (loop["name"], loop["body0"], loop["body1"]) == ("B", "crank", "coupler")
+    generic_b = closing == "generic"
+    assert loop["type"] == ("generic" if generic_b else "continuous")
     written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
     for fmt, out in written.items():
         with warnings.catch_warnings():
@@ -1140,8 +1152,10 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     residual = data.efc_pos[data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
     np.testing.assert_allclose(residual, 0.0, atol=1e-9)
     exported = Usd.Stage.Open(str(written["usd"]))
-    closing = UsdPhysics.RevoluteJoint(exported.GetPrimAtPath("/fourbar/Physics/B"))
-    assert closing and closing.GetExcludeFromArticulationAttr().Get() is True
+    closing = UsdPhysics.Joint(exported.GetPrimAtPath("/fourbar/Physics/B"))
+    assert closing.GetPrim().GetTypeName() == ("PhysicsJoint" if generic_b else
+                                               "PhysicsRevoluteJoint")
+    assert closing.GetExcludeFromArticulationAttr().Get() is True
     assert [str(t) for t in closing.GetBody1Rel().GetTargets()] == ["/fourbar/Geometry/coupler"]
     report = check_files(list(written.values()), n_configurations=5, validate=False)
     assert report.ok, report.mismatches

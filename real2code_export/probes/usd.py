@@ -82,8 +82,10 @@ class UsdProbe:
                 if kind.name == "RigidBody":
                     bodies.append(str(p))
                 elif kind.name.endswith("Joint"):
+                    # (a generic joint only beside the articulation, closing a loop: below)
                     if kind.name not in ("RevoluteJoint", "PrismaticJoint", "FixedJoint",
-                                         "SphericalJoint"):
+                                         "SphericalJoint") and not (
+                            kind.name == "D6Joint" and d.excludeFromArticulation):
                         raise CheckError(f"{path}: joint <{p}>: {kind.name} is not supported")
                     joints.append((str(p), kind.name, d))
         if not bodies:
@@ -120,10 +122,14 @@ class UsdProbe:
                     if k in walked or (k in excluded and not excluded_too):
                         continue
                     walked.add(k)
+                    ends = {str(joints[k][2].body0), str(joints[k][2].body1)}
+                    if k in excluded and ends <= reached:
+                        continue  # closes a loop
+                    if joints[k][1] == "D6Joint":
+                        raise CheckError(f"{path}: joint <{joints[k][0]}>: D6Joint is not "
+                                         "supported in the articulation")
                     link = self._link(joints[k], body, mpu)
                     if link.child in reached:
-                        if k in excluded:
-                            continue
                         raise CheckError(f"{path}: joint <{joints[k][0]}> closes a kinematic "
                                          "loop")
                     reached.add(link.child)

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from ... import transforms as tf
-from ...errors import ModelError
+from ...errors import ModelError, warn
 from ...model import JointType
 
 LOOPS_KEY = "loop_joints"
@@ -79,11 +79,13 @@ def write_loops(layer, obj, joint_path, body_path) -> None:
             ends = [e["body0"], e["body1"]]
             frames = [(Gf.Vec3f(*map(float, e[f"frame{s}"]["translation"])),
                        Gf.Quatf(*map(float, e[f"frame{s}"]["rotation"]))) for s in (0, 1)]
-            if not all(p in parts for p in ends):
-                raise KeyError(f"a part of {ends}")
         except (KeyError, TypeError, ValueError) as err:
             raise ModelError(f"{where}[{k}]", f"not a joint as the USD reader keeps it "
                              f"(missing or wrong: {err})") from err
+        if not all(p in parts for p in ends):  # (the object changed since it was read)
+            warn(f"USD: {where}[{k}] ({e['name']!r}): part(s) "
+                 f"{[p for p in ends if p not in parts]} are not the object's: not written")
+            continue
         prim = define(layer, joint_path(e["name"]), kind)
         for side, (part, (pos, rot)) in enumerate(zip(ends, frames, strict=True)):
             relationship(prim, f"physics:body{side}", body_path(part))
