@@ -1129,6 +1129,9 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
         hinge.CreateLocalPos0Attr(Gf.Vec3f(*pos0))
         hinge.CreateLocalPos1Attr(Gf.Vec3f(*pos1))
         hinge.CreateExcludeFromArticulationAttr(name == "B")
+        if name == "B":  # a drive on the closing joint (its axis's instance), kept with it
+            drive = UsdPhysics.DriveAPI.Apply(hinge.GetPrim(), "rotY" if generic else "angular")
+            drive.CreateStiffnessAttr(3.0)
     stage.GetRootLayer().Save()
     with pytest.warns(Real2CodeWarning, match=r"joint prim </fourbar/B> \(continuous\) closes "
                                               "a kinematic loop"):
@@ -1138,6 +1141,8 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     assert (loop["name"], loop["body0"], loop["body1"]) == ("B", "crank", "coupler")
     generic_b = closing == "generic"
     assert loop["type"] == ("generic" if generic_b else "continuous")
+    assert loop["drives"] == [{"instance": "rotY" if generic_b else "angular",
+                               "attributes": {"stiffness": 3.0}}]
     written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
     for fmt, out in written.items():
         with warnings.catch_warnings():
@@ -1156,6 +1161,72 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     assert closing.GetPrim().GetTypeName() == ("PhysicsJoint" if generic_b else
                                                "PhysicsRevoluteJoint")
     assert closing.GetExcludeFromArticulationAttr().Get() is True
+    assert closing.GetPrim().GetAttribute(
+        f"drive:{'rotY' if generic_b else 'angular'}:physics:stiffness").Get() == 3.0
     assert [str(t) for t in closing.GetBody1Rel().GetTargets()] == ["/fourbar/Geometry/coupler"]
     report = check_files(list(written.values()), n_configurations=5, validate=False)
     assert report.ok, report.mismatches
+
+
+def test_joint_drives_are_kept_and_written_back(tmp_path):
+    """Drives (PhysicsDriveAPI: a simulator's actuator targets and gains) have no place in
+    the model: kept in the metadata in SI (a centimetre stage here; angles in degrees, as
+    UsdPhysics states them), warned, written back to USD on the joint they drive (a generic
+    joint's axis drive on that axis's joint), read back the same; a drive on a locked axis
+    drives nothing: said."""
+    from pxr import Gf, UsdGeom
+
+    path = tmp_path / "driven.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/arm").GetPrim())
+    for name, x in (("base", 0.0), ("upper", 10.0), ("lower", 20.0)):
+        body = UsdGeom.Xform.Define(stage, f"/arm/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(x, 0.0, 0.0))
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    UsdPhysics.FixedJoint.Define(stage, "/arm/root").CreateBody1Rel().SetTargets(["/arm/base"])
+    elbow = UsdPhysics.RevoluteJoint.Define(stage, "/arm/elbow")
+    shoulder = UsdPhysics.Joint.Define(stage, "/arm/shoulder")
+    for joint, ends in ((shoulder, ("base", "upper")), (elbow, ("upper", "lower"))):
+        joint.CreateBody0Rel().SetTargets([f"/arm/{ends[0]}"])
+        joint.CreateBody1Rel().SetTargets([f"/arm/{ends[1]}"])
+        joint.CreateLocalPos0Attr(Gf.Vec3f(10.0, 0.0, 0.0))
+    elbow.CreateAxisAttr("Z")
+    for axis in ("transX", "transY", "transZ", "rotX"):  # rotY, rotZ free
+        limit = UsdPhysics.LimitAPI.Apply(shoulder.GetPrim(), axis)
+        limit.CreateLowAttr(1.0)
+        limit.CreateHighAttr(-1.0)
+    for joint, instance, gains in ((elbow, "angular", (2.0, 0.5)), (shoulder, "rotZ", (4.0, 1.0)),
+                                   (shoulder, "transX", (1.0, 1.0))):
+        drive = UsdPhysics.DriveAPI.Apply(joint.GetPrim(), instance)
+        drive.CreateTypeAttr("force")
+        drive.CreateStiffnessAttr(gains[0])
+        drive.CreateDampingAttr(gains[1])
+        drive.CreateTargetPositionAttr(30.0)
+        drive.CreateMaxForceAttr(float("inf"))  # no limit: not kept
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(path)
+    said = "\n".join(str(w.message) for w in caught)
+    assert "drives (PhysicsDriveAPI" in said and "of joints elbow, shoulder_rotZ" in said
+    assert "drives on no free axis (a locked one, a fixed or ball joint) ignored: " \
+           "</arm/shoulder> transX" in said
+    drives = {(d["joint"], d["instance"]): d["attributes"] for d in obj.metadata["usd_drives"]}
+    # N cm / degree -> N m / degree: 1e-4 (kg cm^2 s^-2 -> kg m^2 s^-2)
+    assert drives == {
+        ("shoulder_rotZ", "angular"): pytest.approx(
+            {"type": "force", "stiffness": 4e-4, "damping": 1e-4, "targetPosition": 30.0}),
+        ("elbow", "angular"): pytest.approx(
+            {"type": "force", "stiffness": 2e-4, "damping": 5e-5, "targetPosition": 30.0})}
+    written = export(obj, tmp_path / "out", formats=["usd", "mjcf"])
+    exported = Usd.Stage.Open(str(written["usd"]))
+    prim = exported.GetPrimAtPath("/arm/Physics/shoulder_rotZ")
+    assert "PhysicsDriveAPI:angular" in prim.GetAppliedSchemas()
+    assert prim.GetAttribute("drive:angular:physics:stiffness").Get() == pytest.approx(4e-4)
+    for out in written.values():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            assert load_any(out).metadata["usd_drives"] == obj.metadata["usd_drives"]

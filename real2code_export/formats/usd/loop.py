@@ -11,7 +11,8 @@ frame: ``translation`` in metres, ``rotation`` a w, x, y, z quaternion), ``axis`
 Z; a revolute or prismatic joint), ``limits`` ([lower, upper] in degrees or metres, or
 None), ``cone`` (a spherical joint's two cone angles in degrees, or None) and, for a
 generic joint (D6), ``dofs``: its free axes, each ``[name, lower, upper]`` (degrees or
-metres, None for no limit).
+metres, None for no limit); ``drives``: its drives, each ``instance`` (``angular``,
+``linear``, or a generic joint's axis) and ``attributes`` (:mod:`.drive`).
 """
 
 from __future__ import annotations
@@ -30,11 +31,14 @@ _PRIMS = {"revolute": "PhysicsRevoluteJoint", "continuous": "PhysicsRevoluteJoin
           "ball": "PhysicsSphericalJoint", "generic": "PhysicsJoint"}
 
 
-def described(name: str, edge, frames: list[np.ndarray], parts: list[str],
-              mpu: float) -> dict:
+def described(name: str, edge, frames: list[np.ndarray], parts: list[str], prim,
+              mpu: float, kpu: float) -> dict:
     """The metadata entry of a loop-closing joint (``edge``: the parsed joint,
-    ``articulation.Edge``; ``frames``: its frame in each part's frame, metres; ``mpu``:
-    the stage's metres per unit, for lengths)."""
+    ``articulation.Edge``, at ``prim``; ``frames``: its frame in each part's frame, metres;
+    ``mpu``, ``kpu``: the stage's metres and kilograms per unit). Its drives too
+    (:mod:`.drive`), each on its own instance."""
+    from .drive import read_drives
+
     desc, kind = edge.desc, edge.kind
     entry = {"name": name, "type": "generic" if edge.dofs is not None else kind.value,
              "body0": parts[0], "body1": parts[1]}
@@ -57,6 +61,15 @@ def described(name: str, edge, frames: list[np.ndarray], parts: list[str],
         cones = [float(lim.lower), float(lim.upper)]
         entry["cone"] = cones if lim.enabled and all(
             math.isfinite(a) and a >= 0.0 for a in cones) else None
+    if edge.dofs is not None:
+        axes = {d.name: (d.name, "angular" if d.angular else "linear") for d in edge.dofs}
+    else:
+        axes = {k: (k, k) for k in ("angular", "linear")
+                if kind.movable and (k == "angular") == kind.angular}
+    drives = read_drives(prim, axes, mpu, kpu)[0]
+    if drives:
+        entry["drives"] = [{"instance": d["joint"], "attributes": d["attributes"]}
+                           for d in drives]
     return entry
 
 
@@ -66,6 +79,7 @@ def write_loops(layer, obj, joint_path, body_path) -> None:
     prim). Entries that are not what :func:`described` makes are an error naming them."""
     from pxr import Gf
 
+    from .drive import write_drive
     from .layer import apply, attribute, define, relationship
 
     entries = obj.metadata.get(LOOPS_KEY, [])
@@ -100,6 +114,8 @@ def write_loops(layer, obj, joint_path, body_path) -> None:
         if e.get("cone") is not None:
             for side, angle in enumerate(e["cone"]):
                 attribute(prim, f"physics:coneAngle{side}Limit", "Float", float(angle))
+        for kept in e.get("drives") or []:
+            write_drive(prim, str(kept["instance"]), dict(kept["attributes"]))
         if e["type"] == "generic":
             free = {name: (low, high) for name, low, high in e.get("dofs") or []}
             for axis in ("transX", "transY", "transZ", "rotX", "rotY", "rotZ"):
@@ -109,3 +125,17 @@ def write_loops(layer, obj, joint_path, body_path) -> None:
                 apply(prim, f"PhysicsLimitAPI:{axis}")
                 attribute(prim, f"limit:{axis}:physics:low", "Float", float(low))
                 attribute(prim, f"limit:{axis}:physics:high", "Float", float(high))
+
+
+def same(read, kept, tol: float = 1e-6) -> bool:
+    """Whether an entry read from a file is ``kept`` (the metadata's) to the file's float32
+    precision: the same structure, numbers within ``tol`` (relative, or absolute near 0)."""
+    if isinstance(read, dict) and isinstance(kept, dict):
+        return set(read) == set(kept) and all(same(read[k], kept[k], tol) for k in read)
+    if isinstance(read, list) and isinstance(kept, list):
+        return len(read) == len(kept) and all(
+            same(a, b, tol) for a, b in zip(read, kept, strict=True))
+    if isinstance(read, float | int) and isinstance(kept, float | int) \
+            and not isinstance(read, bool) and not isinstance(kept, bool):
+        return abs(read - kept) <= tol * max(1.0, abs(kept))
+    return read == kept

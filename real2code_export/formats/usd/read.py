@@ -27,7 +27,7 @@ from ...model import (
 )
 from ...repairs import massless_moving_parts, unusable_mimics
 from . import articulation as art_
-from . import d6, loop
+from . import d6, drive, loop
 from .body import read_inertial
 from .conventions import (
     FLOATING_JOINT,
@@ -124,7 +124,7 @@ def load(path: str | Path) -> ArticulatedObject:
                            moves=body not in still))
 
     joint_names: set[str] = set()
-    joints, joint_at, chains = [], {}, []
+    joints, joint_at, chains, drives = [], {}, [], []
     for e in art.edges:
         if e.dofs is None:
             made = [_joint(ctx, e, joint_names)]
@@ -135,6 +135,8 @@ def load(path: str | Path) -> ArticulatedObject:
                 chains.append(f"<{e.path}> ({', '.join(d.name for d in e.dofs)})")
         joint_at[e.path] = made[0].name
         joints += made
+        if e.desc is not None:
+            drives.append((e, made))
     if chains:
         warn(f"{path}: generic joints (D6) of several free axes split into chains of massless "
              f"parts, an axis each: {'; '.join(chains)}")
@@ -157,6 +159,7 @@ def load(path: str | Path) -> ArticulatedObject:
                               f"{METADATA} is not JSON: {e}") from e
     if art.loops:
         metadata = _with_loops(ctx, art.loops, metadata)
+    metadata = _with_drives(ctx, drives, metadata)
     obj = ArticulatedObject(name, parts, joints, metadata)
     for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
         warn(f"{path}: joint {joint_name!r}: {message}")
@@ -397,6 +400,47 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
     return joints, [Part(n) for n in ends[1:-1]]
 
 
+def _with_drives(ctx: Context, made: list, metadata: dict) -> dict:
+    """``metadata`` with the joints' drives (:mod:`.drive`; ``made``: each parsed joint and
+    the model joints made of it), warned; a drive our writer wrote back replaces its own
+    entry."""
+    found, idle = [], []
+    for e, joints in made:
+        prim = ctx.stage.GetPrimAtPath(e.path)
+        if e.dofs is None:
+            j = joints[0]
+            kind = "angular" if j.type.angular else "linear"
+            axes = {kind: (j.name, kind)} if j.type.movable else {}
+        elif d6.is_ball(e.dofs) or not e.dofs:
+            axes = {}
+        else:
+            dofs = e.dofs[::-1] if e.reversed else e.dofs
+            axes = {d.name: (j.name, "angular" if d.angular else "linear")
+                    for d, j in zip(dofs, joints, strict=True)}
+        entries, unused = drive.read_drives(prim, axes, ctx.mpu, ctx.kpu)
+        found += entries
+        idle += [f"<{e.path}> {instance}" for instance in unused]
+    if not found and not idle:
+        return metadata
+    if found:
+        warn(f"{ctx.path}: drives (PhysicsDriveAPI: a simulator's actuator targets and gains) "
+             f"of joints {', '.join(sorted({f['joint'] for f in found}))}: the model has no "
+             f"actuators; kept in the metadata {drive.DRIVES_KEY!r} and written back to USD "
+             "(the other formats carry them as metadata only)")
+    if idle:
+        warn(f"{ctx.path}: drives on no free axis (a locked one, a fixed or ball joint) "
+             f"ignored: {', '.join(idle)}")
+    earlier = {(k.get("joint"), k.get("instance")): k
+               for k in metadata.get(drive.DRIVES_KEY, []) if isinstance(k, dict)}
+    # our float64 copy where the file's float32 values agree with it (as for the joints)
+    found = [earlier[(f["joint"], f["instance"])] if drive.same(
+        f, earlier.get((f["joint"], f["instance"]))) else f for f in found]
+    ours = {(f["joint"], f["instance"]) for f in found}
+    kept = [k for k in metadata.get(drive.DRIVES_KEY, [])
+            if not isinstance(k, dict) or (k.get("joint"), k.get("instance")) not in ours]
+    return {**metadata, drive.DRIVES_KEY: kept + found}
+
+
 def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
     """``metadata`` with the joints that close kinematic loops (a four-bar's last joint; the
     model is a tree): each kept as it is under ``loop.LOOPS_KEY`` (:mod:`.loop`), which the
@@ -415,11 +459,16 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
         frames = [ctx.to_part[body] @ art_.joint_frame(e.desc, side, ctx.mpu)
                   for side, body in ((0, e.body0), (1, e.body1))]
         found[name] = loop.described(name, e, frames, [ctx.names[e.body0], ctx.names[e.body1]],
-                                     ctx.mpu)
+                                     ctx.stage.GetPrimAtPath(e.path), ctx.mpu, ctx.kpu)
         warn(f"{ctx.path}: joint prim <{e.path}> ({e.kind.value}) closes a kinematic loop: "
              f"not a joint of the model (a tree); kept in the metadata {loop.LOOPS_KEY!r} and "
              f"written to MJCF as an equality connect of {ctx.names[e.body0]!r} and "
              f"{ctx.names[e.body1]!r} at its anchor (URDF and glTF do not act on it)")
+    earlier = {k.get("name"): k for k in metadata.get(loop.LOOPS_KEY, [])
+               if isinstance(k, dict)}
+    # our float64 copy where the file's float32 frames agree with it (as for the joints)
+    found = {name: earlier[name] if loop.same(entry, earlier.get(name)) else entry
+             for name, entry in found.items()}
     kept = [k for k in metadata.get(loop.LOOPS_KEY, [])
             if not isinstance(k, dict) or k.get("name") not in found]
     sections = dict(metadata.get(ELEMENTS_KEY, {}))

@@ -25,6 +25,7 @@ from ...model import (
 from .. import output_file
 from .body import in_parent_body, write_body, write_frame
 from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
+from .drive import write_drives
 from .geometry import MeshAssets, move_mesh_arrays, write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
 from .layer import apply, attribute, new_layer
@@ -95,6 +96,8 @@ def _author(obj: ArticulatedObject):
     taken = {j.name for j in obj.joints} | {world_joint}
     write_loops(layer, obj, lambda name: f"{base}/{PHYSICS}/{sanitize_name(name, taken)}",
                 path_of.__getitem__)
+    write_drives(layer, obj, lambda name: layer.GetPrimAtPath(f"{base}/{PHYSICS}/{name}")
+                 if name in {j.name for j in obj.joints} else None)
     return layer
 
 
