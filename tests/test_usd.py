@@ -1230,3 +1230,34 @@ def test_joint_drives_are_kept_and_written_back(tmp_path):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Real2CodeWarning)
             assert load_any(out).metadata["usd_drives"] == obj.metadata["usd_drives"]
+
+
+def test_kept_loops_and_drives_that_are_not_ours_are_refused_or_said(tmp_path):
+    """The USD writer writes back the loop-closing joints and drives the reader keeps; an
+    entry it cannot read is an error naming the metadata entry, one naming a part or joint
+    the object no longer has is warned about and not written."""
+    from real2code_export.errors import ModelError
+
+    obj = small_cabinet()
+    loop = {"name": "closing", "type": "revolute", "body0": "body", "body1": "drawer",
+            "frame0": {"translation": [0.0, 0.0, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
+            "frame1": {"translation": [0.0, 0.0, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
+            "axis": "Z", "limits": None}
+    obj.metadata["loop_joints"] = [{k: v for k, v in loop.items() if k != "frame1"}]
+    with pytest.raises(ModelError, match=r"metadata 'loop_joints'\[0\].*not a joint as the "
+                                         r"USD reader keeps it \(missing or wrong: 'frame1'\)"):
+        usd.save(obj, tmp_path / "a", write_meshes=False)
+    obj.metadata["loop_joints"] = [{**loop, "body1": "gone"}]
+    obj.metadata["usd_drives"] = [{"joint": "no_such_joint", "instance": "angular",
+                                   "attributes": {"stiffness": 1.0}}]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        usd.save(obj, tmp_path / "b", write_meshes=False)
+    said = "\n".join(str(w.message) for w in caught)
+    assert "part(s) ['gone'] are not the object's: not written" in said
+    assert "joint 'no_such_joint' is not a joint prim of the object" in said
+    obj.metadata["usd_drives"] = [{"joint": "drawer_slide", "instance": "sideways",
+                                   "attributes": {}}]
+    obj.metadata.pop("loop_joints")
+    with pytest.raises(ModelError, match=r"metadata 'usd_drives'\[0\].*instance 'sideways'"):
+        usd.save(obj, tmp_path / "c", write_meshes=False)
