@@ -1011,8 +1011,8 @@ def test_a_generic_joint_is_the_joint_its_free_axes_make(tmp_path):
     each about its axis as the ones before turned it: as Newton's importer and MuJoCo's
     several joints of a body take it) through massless intermediate parts (warned). The
     bodies' poses give the values; a joint running child -> parent is the chain reversed.
-    The MJCF export holds a chain as one body of several joints; every export reads back
-    equal and agrees with the others."""
+    The MJCF export holds a chain as one body of several joints, the USD export as the
+    generic joint again; every export reads back equal and agrees with the others."""
     import mujoco
 
     from real2code_export.check import check_files
@@ -1069,6 +1069,14 @@ def test_a_generic_joint_is_the_joint_its_free_axes_make(tmp_path):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Real2CodeWarning)
             assert not differences(obj, load_any(out)), fmt
+    # USD: a chain in the generic joint's order is that generic joint again, no bodies
+    # between; the reversed one (rotations before the slide) stays joints and bodies
+    exported = Usd.Stage.Open(str(written["usd"]))
+    kinds = {p.GetName(): p.GetTypeName()
+             for p in exported.GetPrimAtPath("/robot/Physics").GetChildren()}
+    assert kinds["hip"] == kinds["neck"] == "PhysicsJoint" and "hip_rotX" not in kinds
+    assert kinds["ankle_rotY"] == "PhysicsRevoluteJoint" and "ankle" not in kinds
+    assert not exported.GetPrimAtPath("/robot/Geometry/link_0_hip_rotX")
     # one body of several joints where the joints after the first stand at 0 (a later one
     # elsewhere would be written as its ref, which MuJoCo reads as a turned frame)
     model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
@@ -1172,8 +1180,8 @@ def test_joint_drives_are_kept_and_written_back(tmp_path):
     """Drives (PhysicsDriveAPI: a simulator's actuator targets and gains) have no place in
     the model: kept in the metadata in SI (a centimetre stage here; angles in degrees, as
     UsdPhysics states them), warned, written back to USD on the joint they drive (a generic
-    joint's axis drive on that axis's joint), read back the same; a drive on a locked axis
-    drives nothing: said."""
+    joint's on its axis's instance), read back the same; a drive on a locked axis drives
+    nothing: said."""
     from pxr import Gf, UsdGeom
 
     path = tmp_path / "driven.usda"
@@ -1222,10 +1230,12 @@ def test_joint_drives_are_kept_and_written_back(tmp_path):
         ("elbow", "angular"): pytest.approx(
             {"type": "force", "stiffness": 2e-4, "damping": 5e-5, "targetPosition": 30.0})}
     written = export(obj, tmp_path / "out", formats=["usd", "mjcf"])
-    exported = Usd.Stage.Open(str(written["usd"]))
-    prim = exported.GetPrimAtPath("/arm/Physics/shoulder_rotZ")
-    assert "PhysicsDriveAPI:angular" in prim.GetAppliedSchemas()
-    assert prim.GetAttribute("drive:angular:physics:stiffness").Get() == pytest.approx(4e-4)
+    exported = Usd.Stage.Open(str(written["usd"]))  # (the shoulder a generic joint again)
+    prim = exported.GetPrimAtPath("/arm/Physics/shoulder")
+    assert "PhysicsDriveAPI:rotZ" in prim.GetAppliedSchemas()
+    assert prim.GetAttribute("drive:rotZ:physics:stiffness").Get() == pytest.approx(4e-4)
+    prim = exported.GetPrimAtPath("/arm/Physics/elbow")
+    assert prim.GetAttribute("drive:angular:physics:stiffness").Get() == pytest.approx(2e-4)
     for out in written.values():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Real2CodeWarning)

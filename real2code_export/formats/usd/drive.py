@@ -56,8 +56,9 @@ def read_drives(prim, joints: dict[str, tuple[str, str]], mpu: float,
 
 
 def write_drives(layer, obj, joint_prim) -> None:
-    """Each kept drive on its joint's prim (``joint_prim(name)``: the prim spec, or None
-    where the joint has none: a drive of a joint the object no longer has is warned)."""
+    """Each kept drive on its joint's prim (``joint_prim(name)``: (the prim spec, the drive
+    instance there, None for the entry's own: a generic joint's axis takes its axis's), or
+    None where the joint has none: a drive of a joint the object no longer has is warned)."""
     from ...errors import ModelError, warn
 
     entries = obj.metadata.get(DRIVES_KEY, [])
@@ -73,12 +74,13 @@ def write_drives(layer, obj, joint_prim) -> None:
         except (KeyError, TypeError, ValueError) as err:
             raise ModelError(f"{where}[{k}]", f"not a drive as the USD reader keeps it "
                              f"(missing or wrong: {err})") from err
-        prim = joint_prim(joint)
-        if prim is None:
+        found = joint_prim(joint)
+        if found is None or not found[0]:
             warn(f"USD: {where}[{k}]: joint {joint!r} is not a joint prim of the object: its "
                  "drive is not written")
             continue
-        write_drive(prim, instance, {**values, **({"type": str(attributes["type"])}
+        prim, own = found
+        write_drive(prim, own or instance, {**values, **({"type": str(attributes["type"])}
                                                  if "type" in attributes else {})})
 
 

@@ -388,6 +388,7 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
     ends = [parent, *(sanitize_name(f"{child}_{n}", taken_parts) for n in names[:-1]), child]
     joints = []
     for k, ((dof, q), joint_name) in enumerate(zip(order, names, strict=True)):
+        q = _choose_state(q, authored_value(prim, f"{STATE}:{dof.name}"), dof.kind, where)
         limits = None
         if dof.lower is not None:
             scale = math.pi / 180.0 if dof.angular else mpu
