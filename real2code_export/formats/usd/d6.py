@@ -161,7 +161,9 @@ def chains(obj) -> list[Chain]:
                 break
             chain.append(nxt)
             part = nxt.child
-        found = _chain(chain, names)
+        # the longest run that is one (a bare part may follow the generic joint's child)
+        found = next((c for n in range(len(chain), 1, -1)
+                      if (c := _chain(chain[:n], names)) is not None), None)
         if found is not None:
             out.append(found)
     inner = {j.name for c in out for j in c.joints[1:]}  # (a chain's tail is one too)
