@@ -457,10 +457,20 @@ def _implicit_world(ref_poses, ref_index, probe_poses, index) -> str | None:
     return None
 
 
+def _intermediate(name: str, parts, joints: set[str]) -> bool:
+    """Whether part ``name`` is a massless intermediate part ``<part>_<joint>`` of a body
+    with several joints (the MJCF reader's, a USD generic joint's) that the reference holds
+    as one body with those joints (an MJCF export merges them back): its joints and the
+    body's pose are compared, the frame between them has no body there."""
+    return any(name.startswith(f"{part}_") and name[len(part) + 1:] in joints
+               for part in parts)
+
+
 def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotation,
                    mismatches) -> list[PartResult]:
     ref_parts = list(probes[ref].parts)
     ref_index = {name: k for k, name in reversed(list(enumerate(ref_parts)))}
+    ref_joints = {j.name for j in probes[ref].joints}
     part_results = {name: PartResult(name) for name in ref_index}
     for i, probe in enumerate(probes):
         if i == ref:
@@ -477,7 +487,8 @@ def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotatio
                 mismatches.append(Mismatch("missing_part", names[i], name,
                                            f"part {name!r} is missing (found in {names[ref]})"))
         for name in index:
-            if name not in ref_index and name != implicit and not extra_allowed:
+            if name not in ref_index and name != implicit and not extra_allowed \
+                    and not _intermediate(name, ref_index, ref_joints):
                 mismatches.append(Mismatch("extra_part", names[i], name,
                                            f"part {name!r} is not in the reference {names[ref]}"))
         common = [name for name in ref_index if name in index]

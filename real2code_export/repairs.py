@@ -98,6 +98,11 @@ def _fmt(values) -> str:
     return "[" + ", ".join(f"{v:.6g}" for v in values) + "]"
 
 
+def negligible_inertial() -> Inertial:
+    """What :func:`massless_moving_parts` gives a moving part without mass."""
+    return Inertial(NEGLIGIBLE_MASS, np.zeros(3), _sphere(NEGLIGIBLE_MASS))
+
+
 def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
     """Give every movable joint's child something to move: where the child and the parts
     fixed to it have no mass at all, the child gets a negligible mass (NEGLIGIBLE_MASS, a
@@ -108,7 +113,7 @@ def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
         if joint.type is JointType.FIXED or rigid_group_mass(tree, joint.child) > 0:
             continue
         part = tree.parts[joint.child]
-        part.inertial = Inertial(NEGLIGIBLE_MASS, np.zeros(3), _sphere(NEGLIGIBLE_MASS))
+        part.inertial = negligible_inertial()
         changed.append((joint.name, f"moves part {joint.child!r}, which has no mass (nor any "
                         f"part fixed to it): given {NEGLIGIBLE_MASS:g} kg (a "
                         f"{2 * POINT_MASS_RADIUS * 1e3:g} mm sphere) as MuJoCo's boundmass "

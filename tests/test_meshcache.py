@@ -115,7 +115,7 @@ def test_stl_files_read_ahead_on_threads_are_read_once_and_the_same(tmp_path, mo
     parsed = []
     parse = meshfiles._read_unscaled
     monkeypatch.setattr(meshfiles, "_read_unscaled", lambda *a: parsed.append(a[0]) or parse(*a))
-    for path, mesh in zip(paths, alone):
+    for path, mesh in zip(paths[:3], alone, strict=True):
         read = read_mesh(path)
         assert np.array_equal(read.vertices, mesh.vertices)
         assert np.array_equal(read.faces, mesh.faces)

@@ -721,6 +721,57 @@ def test_floating_base_through_every_format(tmp_path):
     assert back.root.name == "odom" and not differences(obj, back)
 
 
+def test_free_bodies_below_a_root_of_another_name_hang_from_an_added_world_link(tmp_path):
+    """A floating joint from a root part not named ``world`` (a USD scene's body the world
+    holds, with free bodies beside it): MuJoCo's URDF import allows a free joint only from
+    a link named ``world`` ("free joint can only be used on top level"), so the writer adds
+    one, fixed to the root part at the origin, both marked real2code:added. MuJoCo and
+    Pinocchio load the export, which agrees with the MJCF one; our reader takes the link out
+    again. A marked link that is not what the writer adds is read as it stands, warned; a
+    part named ``world`` below the root is refused, named."""
+    import mujoco
+
+    from real2code_export.check import check_files
+    from real2code_export.errors import ModelError
+    from real2code_export.formats import export
+
+    source = tmp_path / "scene.urdf"
+    source.write_text((FIXTURES / "floating_base.urdf").read_text().replace(
+        '<link name="world"/>', '<link name="anchor"><inertial><mass value="2.0"/><inertia '
+        'ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>').replace(
+        '<parent link="world"/>', '<parent link="anchor"/>'))
+    obj = urdf.load(source)
+    assert obj.root.name == "anchor" and obj.joint("free").parent == "anchor"
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf"])
+    text = written["urdf"].read_text()
+    assert '<link name="world" real2code:added="true"/>' in text
+    assert '<joint name="world_to_anchor" type="fixed" real2code:added="true">' in text
+    model = mujoco.MjModel.from_xml_path(str(written["urdf"]))
+    free = model.joint("free")
+    assert int(free.type[0]) == mujoco.mjtJoint.mjJNT_FREE
+    assert int(model.body_parentid[int(free.bodyid[0])]) == 0  # a top-level body
+    assert pinocchio_matches(obj, written["urdf"], np.random.default_rng(0)) < 1e-6
+    assert not differences(obj, urdf.load(written["urdf"]))
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+    edited = tmp_path / "edited.urdf"
+    edited.write_text(text.replace('<origin xyz="0.0 0.0 0.0" rpy="0.0 0.0 0.0"/>\n'
+                                   '    <parent link="world"/>',
+                                   '<origin xyz="0.0 0.0 1.0" rpy="0.0 0.0 0.0"/>\n'
+                                   '    <parent link="world"/>', 1))
+    assert edited.read_text() != text
+    with pytest.warns(Real2CodeWarning, match="<link name='world'>: marked real2code:added "
+                                              "but not as our writer adds it"):
+        back = urdf.load(edited)
+    assert back.root.name == "world" and back.joint("world_to_anchor").type.value == "fixed"
+
+    obj.parts[-1].name = "world"
+    obj.joints[-1].child = "world"
+    with pytest.raises(ModelError, match="part 'world'.*only from a link named 'world'"):
+        urdf.save(obj, tmp_path / "refused", write_meshes=False)
+
+
 def test_mimic_joints_through_every_format(tmp_path):
     """<mimic> is carried: MJCF as a joint equality (MuJoCo applies it), URDF as <mimic>, USD
     as NewtonMimicAPI, glTF and object.json in our metadata; a mimic of a joint that does not

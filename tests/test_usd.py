@@ -867,3 +867,407 @@ def test_a_foreign_body_whose_xform_is_scaled(tmp_path):
     with pytest.raises(FormatError, match=r"prim </cartpole/cart>: rigid body transform has "
                                           "shear"):
         usd.load(stage_with(sheared))
+
+
+def _scene_stage(path, anchored: bool):
+    """Boxes no joint holds (free bodies) beside, if ``anchored``, a body fixed to the world
+    with a flap hinged to it (Newton's sensor_contact_scene; without it, its palletizer)."""
+    from pxr import Gf, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/scene").GetPrim())
+    bodies = [("crate_0", (1.0, 0.0, 0.3)), ("crate_1", (-1.0, 0.5, 0.3)),
+              ("crate_2", (0.0, -1.0, 0.6))]
+    if anchored:
+        bodies = [("anchor", (0.0, 0.0, 1.0)), ("flap", (0.0, 0.2, 1.0))] + bodies
+    for name, at in bodies:
+        body = UsdGeom.Xform.Define(stage, f"/scene/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+        body.AddOrientOp().Set(Gf.Quatf(0.9659258, 0.0, 0.0, 0.2588190))  # 30 deg about Z
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+        cube = UsdGeom.Cube.Define(stage, f"/scene/{name}/box")
+        cube.CreateSizeAttr(0.1)
+        UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+    if anchored:
+        fixed = UsdPhysics.FixedJoint.Define(stage, "/scene/anchor_joint")
+        fixed.CreateBody1Rel().SetTargets(["/scene/anchor"])
+        fixed.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 1.0))
+        fixed.CreateLocalRot0Attr(Gf.Quatf(0.9659258, 0.0, 0.0, 0.2588190))
+        hinge = UsdPhysics.RevoluteJoint.Define(stage, "/scene/hinge")
+        hinge.CreateBody0Rel().SetTargets(["/scene/anchor"])
+        hinge.CreateBody1Rel().SetTargets(["/scene/flap"])
+        hinge.CreateAxisAttr("X")
+        hinge.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.1, 0.0))
+        hinge.CreateLocalPos1Attr(Gf.Vec3f(0.0, -0.1, 0.0))
+        hinge.CreateLowerLimitAttr(-45.0)
+        hinge.CreateUpperLimitAttr(45.0)
+    stage.GetRootLayer().Save()
+    return path
+
+
+@pytest.mark.parametrize("anchored", [True, False], ids=["anchored", "all_free"])
+def test_a_scene_of_free_bodies_in_every_format(tmp_path, anchored):
+    """A scene of free bodies (rigid bodies no joint holds), beside a body the world holds
+    or alone. Alone, none is more fixed than another: each floats from a massless part
+    'world' (warned). Beside one, they float from it, the root; the URDF export then hangs
+    them from an added link ``world``, the only parent MuJoCo's URDF import allows a free
+    joint. Every export reads back equal and agrees with the others in its own tools."""
+    import mujoco
+
+    from real2code_export.check import check_files
+
+    path = _scene_stage(tmp_path / "scene.usda", anchored)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(path)
+    said = [str(w.message) for w in caught]
+    root = "anchor" if anchored else "world"
+    assert obj.root.name == root
+    free = [j for j in obj.joints if j.type.value == "floating"]
+    assert sorted(j.child for j in free) == ["crate_0", "crate_1", "crate_2"] and all(
+        j.parent == root for j in free)
+    assert any("form 3 groups no joint connects: each is free" in m for m in said) \
+        != anchored, said
+    np.testing.assert_allclose(forward_kinematics(obj)["crate_2"][:3, 3], [0.0, -1.0, 0.6],
+                               atol=1e-6)
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
+    for fmt, out in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            assert not differences(obj, load_any(out)), fmt
+    model = mujoco.MjModel.from_xml_path(str(written["urdf"]))
+    assert sum(int(t) == mujoco.mjtJoint.mjJNT_FREE for t in model.jnt_type) == 3
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+
+def _d6_stage(path, joints, distance: bool = False):
+    """A base fixed to the world and, per entry of ``joints`` (name, free axes with their
+    range in degrees or metres, None for no limit; the values the child stands at; whether
+    body0 is the child), a child body on a generic joint (PhysicsJoint, a D6) whose other
+    axes are locked (low > high), its frames rotated and off both bodies' origins."""
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.formats.usd import d6
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/robot").GetPrim())
+
+    def body(name, pose):
+        xform = UsdGeom.Xform.Define(stage, f"/robot/{name}")
+        xform.AddTransformOp().Set(Gf.Matrix4d(pose.T.tolist()))
+        UsdPhysics.RigidBodyAPI.Apply(xform.GetPrim())
+        UsdPhysics.MassAPI.Apply(xform.GetPrim()).CreateMassAttr(1.0)
+        cube = UsdGeom.Cube.Define(stage, f"/robot/{name}/box")
+        cube.CreateSizeAttr(0.1)
+        UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+
+    base = tf.make(tf.axis_angle_matrix([0.0, 0.0, 1.0], 0.4), [0.0, 0.0, 1.0])
+    body("base", base)
+    fixed = UsdPhysics.FixedJoint.Define(stage, "/robot/to_world")
+    fixed.CreateBody1Rel().SetTargets(["/robot/base"])
+    fixed.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 1.0))
+    fixed.CreateLocalRot0Attr(Gf.Quatf(*tf.matrix_to_quat(base[:3, :3]).tolist()))
+    r0 = tf.axis_angle_matrix(np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0), 0.3)
+    r1 = tf.axis_angle_matrix(np.array([0.0, 1.0, 1.0]) / math.sqrt(2.0), -0.6)
+    t0, t1 = tf.make(r0, [0.1, 0.2, -0.1]), tf.make(r1, [0.0, 0.05, 0.15])
+    for k, (name, free, values, reversed_) in enumerate(joints):
+        dofs = [d6.Dof(a, a[-1], a.startswith("rot")) for a in d6.ORDER if a in free]
+        at = np.array(values, float)
+        moved = d6.motion(dofs, [math.radians(v) if d.angular else v
+                                 for d, v in zip(dofs, at, strict=True)])
+        child = f"link_{k}"  # (body1 = body0 T0 M(q) T1^-1, whichever body0 is)
+        body(child, base @ t0 @ (tf.inverse(moved) if reversed_ else moved) @ tf.inverse(t1))
+        joint = UsdPhysics.Joint.Define(stage, f"/robot/{name}")
+        ends = ["/robot/base", f"/robot/{child}"][::-1 if reversed_ else 1]
+        frames = [t0, t1][::-1 if reversed_ else 1]
+        joint.CreateBody0Rel().SetTargets([ends[0]])
+        joint.CreateBody1Rel().SetTargets([ends[1]])
+        for side, frame in enumerate(frames):
+            quat = Gf.Quatf(*tf.matrix_to_quat(frame[:3, :3]).tolist())
+            getattr(joint, f"CreateLocalPos{side}Attr")(Gf.Vec3f(*frame[:3, 3].tolist()))
+            getattr(joint, f"CreateLocalRot{side}Attr")(quat)
+        for axis in d6.ORDER + (("distance",) if distance else ()):
+            if axis in free and free[axis] is None:
+                continue  # no PhysicsLimitAPI: free
+            low, high = free.get(axis) or (1.0, -1.0)  # locked
+            limit = UsdPhysics.LimitAPI.Apply(joint.GetPrim(), axis)
+            limit.CreateLowAttr(low)
+            limit.CreateHighAttr(high)
+    stage.GetRootLayer().Save()
+    return path
+
+
+def test_a_generic_joint_is_the_joint_its_free_axes_make(tmp_path):
+    """A generic joint (a D6: PhysicsJoint, each axis locked by a limit whose low is above
+    its high) is, by its free axes: one rotation a revolute joint, one translation a
+    prismatic one, the three rotations unlimited a ball, none a fixed joint; else a chain
+    of joints, one per free axis in Newton's order (translations, then rotations X, Y, Z,
+    each about its axis as the ones before turned it: as Newton's importer and MuJoCo's
+    several joints of a body take it) through massless intermediate parts (warned). The
+    bodies' poses give the values; a joint running child -> parent is the chain reversed.
+    The MJCF export holds a chain as one body of several joints, the USD export as the
+    generic joint again; every export reads back equal and agrees with the others."""
+    import mujoco
+
+    from real2code_export.check import check_files
+
+    joints = [
+        ("hip", {"rotX": (-45.0, 30.0), "rotZ": (-60.0, 35.0)}, (20.0, -30.0), False),
+        ("knee", {"rotY": (-150.0, 0.0)}, (-40.0,), False),
+        ("wrist", {"rotZ": None}, (70.0,), True),
+        ("rail", {"transY": (-0.2, 0.3)}, (0.1,), False),
+        ("shoulder", {"rotX": None, "rotY": None, "rotZ": None}, (0.0, 0.0, 0.0), False),
+        ("ankle", {"transX": None, "rotX": (-10.0, 50.0), "rotY": (-50.0, 50.0)},
+         (0.05, 25.0, -15.0), True),
+        ("weld", {}, (), False),
+        ("neck", {"rotY": (-30.0, 30.0), "rotZ": None}, (15.0, 0.0), False),
+    ]
+    path = _d6_stage(tmp_path / "robot.usda", joints)
+    with pytest.warns(Real2CodeWarning, match=r"generic joints \(D6\) of several free axes split"):
+        obj = usd.load(path)
+    kinds = {j.name: j.type.value for j in obj.joints}
+    assert {k: kinds[k] for k in ("knee", "wrist", "rail", "shoulder", "weld")} == {
+        "knee": "revolute", "wrist": "continuous", "rail": "prismatic", "shoulder": "ball",
+        "weld": "fixed"}
+    hip = [obj.joint("hip_rotX"), obj.joint("hip_rotZ")]
+    assert [(j.parent, j.child) for j in hip] == [("base", "link_0_hip_rotX"),
+                                                 ("link_0_hip_rotX", "link_0")]
+    assert obj.part("link_0_hip_rotX").inertial.mass == pytest.approx(1e-6)
+    assert (hip[1].limits.lower, hip[1].limits.upper) == pytest.approx(
+        (math.radians(-60.0), math.radians(35.0)))
+    ankle = [obj.joint(n) for n in ("ankle_rotY", "ankle_rotX", "ankle_transX")]  # reversed
+    assert [(j.parent, j.child) for j in ankle] == [
+        ("base", "link_5_ankle_rotY"), ("link_5_ankle_rotY", "link_5_ankle_rotX"),
+        ("link_5_ankle_rotX", "link_5")]
+    for name, free, values, _ in joints:  # the values the bodies stand at
+        if name in ("shoulder", "weld"):
+            continue
+        got = [obj.joint(f"{name}_{a}" if len(free) > 1 else name).state for a in free]
+        expected = [math.radians(v) if a.startswith("rot") else v
+                    for a, v in zip(free, values, strict=True)]
+        assert got == pytest.approx(expected, abs=1e-6), name
+    # the model poses the child as the D6 does: T0 M(q) T1^-1 from the base body (which,
+    # the root, stands where its fixed joint puts it: the root part's frame is the world's)
+    q = {"hip_rotX": 0.2, "hip_rotZ": -0.7}
+    fk = forward_kinematics(obj, {**obj.observed_configuration(), **q})
+    r0 = tf.axis_angle_matrix(np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0), 0.3)
+    base = tf.make(tf.axis_angle_matrix([0.0, 0.0, 1.0], 0.4), [0.0, 0.0, 1.0])
+    expected = base @ tf.make(r0, [0.1, 0.2, -0.1]) @ tf.make(
+        tf.axis_angle_matrix([1.0, 0.0, 0.0], 0.2) @ tf.axis_angle_matrix([0.0, 0.0, 1.0], -0.7))
+    # (the part frame is the child body's frame at the joint: localRot1 turned, no offset)
+    expected = expected @ tf.make(tf.axis_angle_matrix(np.array([0.0, 1.0, 1.0]) / math.sqrt(2.0), -0.6)).T
+    np.testing.assert_allclose(fk["link_0"], expected, atol=1e-6)
+
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
+    for fmt, out in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            assert not differences(obj, load_any(out)), fmt
+    # USD: a chain in the generic joint's order is that generic joint again, no bodies
+    # between; the reversed one (rotations before the slide) stays joints and bodies
+    exported = Usd.Stage.Open(str(written["usd"]))
+    kinds = {p.GetName(): p.GetTypeName()
+             for p in exported.GetPrimAtPath("/robot/Physics").GetChildren()}
+    assert kinds["hip"] == kinds["neck"] == "PhysicsJoint" and "hip_rotX" not in kinds
+    assert kinds["ankle_rotY"] == "PhysicsRevoluteJoint" and "ankle" not in kinds
+    assert not exported.GetPrimAtPath("/robot/Geometry/link_0_hip_rotX")
+    # one body of several joints where the joints after the first stand at 0 (a later one
+    # elsewhere would be written as its ref, which MuJoCo reads as a turned frame)
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert [int(model.body(b).jntnum[0]) for b in ("link_7", "link_0", "link_5")] == [2, 1, 1]
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+    with pytest.raises(FormatError, match=r"joint prim </robot/hip>: a generic joint with a "
+                                          "distance limit cannot be represented"):
+        usd.load(_d6_stage(tmp_path / "rope.usda", joints[:1], distance=True))
+
+
+@pytest.mark.parametrize("closing", ["revolute", "generic"])
+def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path, closing):
+    """A four-bar: four bodies, four hinges, one too many for a tree. The joint the file
+    excludes from the articulation (physics:excludeFromArticulation) is the one left out
+    of the tree, even where the walk from the root would meet another last: kept in the
+    metadata, written back to USD excluded from the articulation, and carried to MuJoCo as
+    an equality connect at its anchor (warned), which holds at the written pose; every
+    export reads back equal and agrees with the others. The closing joint a hinge, or a
+    generic joint (D6) whose one free axis is the hinge's."""
+    import mujoco
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.check import check_files
+
+    path = tmp_path / "fourbar.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/fourbar").GetPrim())
+    for name, at in (("base", (0.5, 0.0, 0.0)), ("crank", (0.0, 0.0, 0.5)),
+                     ("coupler", (0.5, 0.0, 1.0)), ("rocker", (1.0, 0.0, 0.5))):
+        body = UsdGeom.Xform.Define(stage, f"/fourbar/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    fixed = UsdPhysics.FixedJoint.Define(stage, "/fourbar/ground")
+    fixed.CreateBody1Rel().SetTargets(["/fourbar/base"])
+    fixed.CreateLocalPos0Attr(Gf.Vec3f(0.5, 0.0, 0.0))
+    for name, body0, body1, pos0, pos1 in (
+            ("A", "base", "crank", (-0.5, 0, 0), (0, 0, -0.5)),
+            ("B", "crank", "coupler", (0, 0, 0.5), (-0.5, 0, 0)),
+            ("C", "base", "rocker", (0.5, 0, 0), (0, 0, -0.5)),
+            ("D", "rocker", "coupler", (0, 0, 0.5), (0.5, 0, 0))):
+        generic = name == "B" and closing == "generic"
+        hinge = (UsdPhysics.Joint if generic else UsdPhysics.RevoluteJoint).Define(
+            stage, f"/fourbar/{name}")
+        hinge.CreateBody0Rel().SetTargets([f"/fourbar/{body0}"])
+        hinge.CreateBody1Rel().SetTargets([f"/fourbar/{body1}"])
+        if generic:  # every axis locked (low above high) but rotY
+            for axis in ("transX", "transY", "transZ", "rotX", "rotZ"):
+                limit = UsdPhysics.LimitAPI.Apply(hinge.GetPrim(), axis)
+                limit.CreateLowAttr(1.0)
+                limit.CreateHighAttr(-1.0)
+        else:
+            hinge.CreateAxisAttr("Y")
+        hinge.CreateLocalPos0Attr(Gf.Vec3f(*pos0))
+        hinge.CreateLocalPos1Attr(Gf.Vec3f(*pos1))
+        hinge.CreateExcludeFromArticulationAttr(name == "B")
+        if name == "B":  # a drive on the closing joint (its axis's instance), kept with it
+            drive = UsdPhysics.DriveAPI.Apply(hinge.GetPrim(), "rotY" if generic else "angular")
+            drive.CreateStiffnessAttr(3.0)
+    stage.GetRootLayer().Save()
+    with pytest.warns(Real2CodeWarning, match=r"joint prim </fourbar/B> \(continuous\) closes "
+                                              "a kinematic loop"):
+        obj = usd.load(path)
+    assert sorted(j.name for j in obj.joints) == ["A", "C", "D"]
+    (loop,) = obj.metadata["loop_joints"]
+    assert (loop["name"], loop["body0"], loop["body1"]) == ("B", "crank", "coupler")
+    generic_b = closing == "generic"
+    assert loop["type"] == ("generic" if generic_b else "continuous")
+    assert loop["drives"] == [{"instance": "rotY" if generic_b else "angular",
+                               "attributes": {"stiffness": 3.0}}]
+    written = export(obj, tmp_path / "out", formats=["mjcf", "urdf", "usd", "gltf"])
+    for fmt, out in written.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            back = load_any(out)
+        assert not differences(obj, back), fmt
+        assert back.metadata["loop_joints"] == obj.metadata["loop_joints"], fmt
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert model.neq == 1 and int(model.eq_type[0]) == mujoco.mjtEq.mjEQ_CONNECT
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    residual = data.efc_pos[data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
+    np.testing.assert_allclose(residual, 0.0, atol=1e-9)
+    exported = Usd.Stage.Open(str(written["usd"]))
+    closing = UsdPhysics.Joint(exported.GetPrimAtPath("/fourbar/Physics/B"))
+    assert closing.GetPrim().GetTypeName() == ("PhysicsJoint" if generic_b else
+                                               "PhysicsRevoluteJoint")
+    assert closing.GetExcludeFromArticulationAttr().Get() is True
+    assert closing.GetPrim().GetAttribute(
+        f"drive:{'rotY' if generic_b else 'angular'}:physics:stiffness").Get() == 3.0
+    assert [str(t) for t in closing.GetBody1Rel().GetTargets()] == ["/fourbar/Geometry/coupler"]
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+
+def test_joint_drives_are_kept_and_written_back(tmp_path):
+    """Drives (PhysicsDriveAPI: a simulator's actuator targets and gains) have no place in
+    the model: kept in the metadata in SI (a centimetre stage here; angles in degrees, as
+    UsdPhysics states them), warned, written back to USD on the joint they drive (a generic
+    joint's on its axis's instance), read back the same; a drive on a locked axis drives
+    nothing: said."""
+    from pxr import Gf, UsdGeom
+
+    path = tmp_path / "driven.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/arm").GetPrim())
+    for name, x in (("base", 0.0), ("upper", 10.0), ("lower", 20.0)):
+        body = UsdGeom.Xform.Define(stage, f"/arm/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(x, 0.0, 0.0))
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    UsdPhysics.FixedJoint.Define(stage, "/arm/root").CreateBody1Rel().SetTargets(["/arm/base"])
+    elbow = UsdPhysics.RevoluteJoint.Define(stage, "/arm/elbow")
+    shoulder = UsdPhysics.Joint.Define(stage, "/arm/shoulder")
+    for joint, ends in ((shoulder, ("base", "upper")), (elbow, ("upper", "lower"))):
+        joint.CreateBody0Rel().SetTargets([f"/arm/{ends[0]}"])
+        joint.CreateBody1Rel().SetTargets([f"/arm/{ends[1]}"])
+        joint.CreateLocalPos0Attr(Gf.Vec3f(10.0, 0.0, 0.0))
+    elbow.CreateAxisAttr("Z")
+    for axis in ("transX", "transY", "transZ", "rotX"):  # rotY, rotZ free
+        limit = UsdPhysics.LimitAPI.Apply(shoulder.GetPrim(), axis)
+        limit.CreateLowAttr(1.0)
+        limit.CreateHighAttr(-1.0)
+    for joint, instance, gains in ((elbow, "angular", (2.0, 0.5)), (shoulder, "rotZ", (4.0, 1.0)),
+                                   (shoulder, "transX", (1.0, 1.0))):
+        drive = UsdPhysics.DriveAPI.Apply(joint.GetPrim(), instance)
+        drive.CreateTypeAttr("force")
+        drive.CreateStiffnessAttr(gains[0])
+        drive.CreateDampingAttr(gains[1])
+        drive.CreateTargetPositionAttr(30.0)
+        drive.CreateMaxForceAttr(float("inf"))  # no limit: not kept
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(path)
+    said = "\n".join(str(w.message) for w in caught)
+    assert "drives (PhysicsDriveAPI" in said and "of joints elbow, shoulder_rotZ" in said
+    assert "drives on no free axis (a locked one, a fixed or ball joint) ignored: " \
+           "</arm/shoulder> transX" in said
+    drives = {(d["joint"], d["instance"]): d["attributes"] for d in obj.metadata["usd_drives"]}
+    # N cm / degree -> N m / degree: 1e-4 (kg cm^2 s^-2 -> kg m^2 s^-2)
+    assert drives == {
+        ("shoulder_rotZ", "angular"): pytest.approx(
+            {"type": "force", "stiffness": 4e-4, "damping": 1e-4, "targetPosition": 30.0}),
+        ("elbow", "angular"): pytest.approx(
+            {"type": "force", "stiffness": 2e-4, "damping": 5e-5, "targetPosition": 30.0})}
+    written = export(obj, tmp_path / "out", formats=["usd", "mjcf"])
+    exported = Usd.Stage.Open(str(written["usd"]))  # (the shoulder a generic joint again)
+    prim = exported.GetPrimAtPath("/arm/Physics/shoulder")
+    assert "PhysicsDriveAPI:rotZ" in prim.GetAppliedSchemas()
+    assert prim.GetAttribute("drive:rotZ:physics:stiffness").Get() == pytest.approx(4e-4)
+    prim = exported.GetPrimAtPath("/arm/Physics/elbow")
+    assert prim.GetAttribute("drive:angular:physics:stiffness").Get() == pytest.approx(2e-4)
+    for out in written.values():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Real2CodeWarning)
+            assert load_any(out).metadata["usd_drives"] == obj.metadata["usd_drives"]
+
+
+def test_kept_loops_and_drives_that_are_not_ours_are_refused_or_said(tmp_path):
+    """The USD writer writes back the loop-closing joints and drives the reader keeps; an
+    entry it cannot read is an error naming the metadata entry, one naming a part or joint
+    the object no longer has is warned about and not written."""
+    from real2code_export.errors import ModelError
+
+    obj = small_cabinet()
+    loop = {"name": "closing", "type": "revolute", "body0": "body", "body1": "drawer",
+            "frame0": {"translation": [0.0, 0.0, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
+            "frame1": {"translation": [0.0, 0.0, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
+            "axis": "Z", "limits": None}
+    obj.metadata["loop_joints"] = [{k: v for k, v in loop.items() if k != "frame1"}]
+    with pytest.raises(ModelError, match=r"metadata 'loop_joints'\[0\].*not a joint as the "
+                                         r"USD reader keeps it \(missing or wrong: 'frame1'\)"):
+        usd.save(obj, tmp_path / "a", write_meshes=False)
+    obj.metadata["loop_joints"] = [{**loop, "body1": "gone"}]
+    obj.metadata["usd_drives"] = [{"joint": "no_such_joint", "instance": "angular",
+                                   "attributes": {"stiffness": 1.0}}]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        usd.save(obj, tmp_path / "b", write_meshes=False)
+    said = "\n".join(str(w.message) for w in caught)
+    assert "part(s) ['gone'] are not the object's: not written" in said
+    assert "joint 'no_such_joint' is not a joint prim of the object" in said
+    obj.metadata["usd_drives"] = [{"joint": "drawer_slide", "instance": "sideways",
+                                   "attributes": {}}]
+    obj.metadata.pop("loop_joints")
+    with pytest.raises(ModelError, match=r"metadata 'usd_drives'\[0\].*instance 'sideways'"):
+        usd.save(obj, tmp_path / "c", write_meshes=False)

@@ -82,8 +82,9 @@ class UsdProbe:
                 if kind.name == "RigidBody":
                     bodies.append(str(p))
                 elif kind.name.endswith("Joint"):
+                    # (a generic joint only beside the articulation, closing a loop: below)
                     if kind.name not in ("RevoluteJoint", "PrismaticJoint", "FixedJoint",
-                                         "SphericalJoint"):
+                                         "SphericalJoint", "D6Joint"):
                         raise CheckError(f"{path}: joint <{p}>: {kind.name} is not supported")
                     joints.append((str(p), kind.name, d))
         if not bodies:
@@ -108,23 +109,37 @@ class UsdProbe:
         for k, (_, _, d) in enumerate(joints):
             for end in dict.fromkeys((str(d.body0), str(d.body1))):
                 at.setdefault(end, []).append(k)
-        walked, reached = set(), {WORLD}
-        frontier = collections.deque([WORLD])
-        unreached = iter(bodies)  # (in stage order: the first one not reached is a root)
-        while True:
+        walked, reached, order = set(), {WORLD}, [WORLD]
+        # a joint excluded from the articulation (physics:excludeFromArticulation) is walked
+        # after every other; one closing a loop is a constraint beside the tree, not posed
+        excluded = {k for k, (_, _, d) in enumerate(joints) if d.excludeFromArticulation}
+
+        def walk(frontier: collections.deque, excluded_too: bool) -> None:
             while frontier:
                 body = frontier.popleft()
                 for k in at.get(body, ()):
-                    if k in walked:
+                    if k in walked or (k in excluded and not excluded_too):
                         continue
                     walked.add(k)
-                    link = self._link(joints[k], body, mpu)
-                    if link.child in reached:
+                    ends = {str(joints[k][2].body0), str(joints[k][2].body1)}
+                    if k in excluded and ends <= reached:
+                        continue  # closes a loop
+                    links = self._d6_links(joints[k], body, mpu, path) \
+                        if joints[k][1] == "D6Joint" else [self._link(joints[k], body, mpu)]
+                    child = links[-1].child
+                    if child in reached:
                         raise CheckError(f"{path}: joint <{joints[k][0]}> closes a kinematic "
                                          "loop")
-                    reached.add(link.child)
-                    frontier.append(link.child)
-                    self._links.append(link)
+                    reached.add(child)
+                    order.append(child)
+                    frontier.append(child)
+                    self._links += links
+
+        unreached = iter(bodies)  # (in stage order: the first one not reached is a root)
+        frontier = collections.deque([WORLD])
+        while True:
+            walk(frontier, False)
+            walk(collections.deque(order), True)
             root = next((b for b in unreached if b not in reached), None)
             if root is None:
                 break
@@ -132,6 +147,7 @@ class UsdProbe:
             m[:3, 3] *= mpu
             self._roots[root] = self._world @ m
             reached.add(root)
+            order.append(root)
             frontier.append(root)
 
         self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links
@@ -162,6 +178,49 @@ class UsdProbe:
         return _Link(prim_path.rsplit("/", 1)[-1], kind, parent, child, to_joint,
                      tf.inverse(child_frame), axis if forward else -axis,
                      tf.make(translation=child_frame[:3, 3]), lower, upper)
+
+    def _d6_links(self, item, parent: str, mpu: float, path) -> list[_Link]:
+        """A generic joint (D6) as the links of its free axes (formats.usd.d6: translations,
+        then rotations X, Y, Z, each about its axis as the ones before turned it), named
+        ``<joint>_<axis>`` when there are several, through frames reported as the parts
+        ``<child>_<joint>_<axis>`` (the joint frame turned back to the child's, as the
+        model's intermediate parts stand); none free: fixed; three rotations, none limited:
+        a ball. Walked from body1, the chain runs backwards, its axes negated."""
+        from ..formats.usd import d6
+
+        prim_path, _, d = item
+        name = prim_path.rsplit("/", 1)[-1]
+        dofs = d6.free_dofs(d, path, f"joint prim <{prim_path}>")
+        t0 = _frame(d.localPose0Position, d.localPose0Orientation, mpu)
+        t1 = _frame(d.localPose1Position, d.localPose1Orientation, mpu)
+        forward = str(d.body0) == parent
+        to_joint, child_frame = (t0, t1) if forward else (t1, t0)
+        child = str(d.body1) if forward else str(d.body0)
+        offset = tf.make(translation=child_frame[:3, 3])
+        if not dofs or d6.is_ball(dofs):
+            return [_Link(name, "ball" if dofs else "fixed", parent, child, to_joint,
+                          tf.inverse(child_frame), AXES["X"], offset)]
+        steps = dofs if forward else dofs[::-1]
+        sign = 1.0 if forward else -1.0
+        turned_back = tf.make(child_frame[:3, :3].T)
+        links, above = [], parent
+        for k, dof in enumerate(steps):
+            last = k == len(steps) - 1
+            joint = f"{name}_{dof.name}" if len(steps) > 1 else name
+            below = child if last else f"{child}#{joint}"
+            if not last:
+                self._names[below] = f"{self._names[child]}_{joint}"
+                self.parts.append(self._names[below])
+            scale = math.pi / 180.0 if dof.angular else mpu
+            bounds = (None, None) if dof.lower is None else (dof.lower * scale,
+                                                             dof.upper * scale)
+            links.append(_Link(joint, dof.kind.value, above, below,
+                               to_joint if k == 0 else np.eye(4),
+                               tf.inverse(child_frame) if last else np.eye(4),
+                               AXES[dof.token] * sign, offset if last else turned_back,
+                               *bounds))
+            above = below
+        return links
 
     def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
         values = [float(q.get(j.name, 0.0)) for j in self.joints]

@@ -24,8 +24,9 @@ def body_chains(obj: ArticulatedObject) -> dict[str, list[Joint]]:
     """First joint's name -> the joints of one MJCF body (two or more), for each chain of
     intermediate parts to merge. A part is merged when it has no geometry and at most the
     negligible mass the reader's repair gives it, one joint in and one out (hinge, slide or
-    ball; the one out only translates, as the reader makes it), and is named
-    ``<last part>_<joint in>``."""
+    ball; the one out only translates, as the reader makes it, and stands at 0), and is
+    named ``<last part>_<joint in>``. (A later joint away from 0 would be written as its
+    ``ref``, which the reader takes back as a turned origin: such a chain stays bodies.)"""
     tree = obj.tree()
     final_of: dict[str, str | None] = {}  # part -> the chain's last part (None: not merged)
 
@@ -35,7 +36,7 @@ def body_chains(obj: ArticulatedObject) -> dict[str, list[Joint]]:
             out = tree.children[name]
             into = tree.parent.get(name)
             if (into is not None and len(out) == 1 and _in_body(into) and _in_body(out[0])
-                    and _placeholder(tree.parts[name])
+                    and _placeholder(tree.parts[name]) and out[0].state == 0.0
                     and np.allclose(out[0].origin[:3, :3], np.eye(3), rtol=0, atol=1e-12)):
                 last = final(out[0].child) or out[0].child
                 if name == f"{last}_{into.name}":

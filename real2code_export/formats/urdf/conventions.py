@@ -18,6 +18,12 @@ DEFAULT_EFFORT = 1000.0  # N m (revolute) or N (prismatic)
 DEFAULT_VELOCITY = 100.0  # rad/s or m/s
 UNKNOWN = "none"
 
+# The link MuJoCo's URDF import takes as its world body (the only parent it allows a free
+# joint); the writer adds one, marked real2code:added, above a root part of another name
+# whose free bodies hang from it (write.world_link), and the reader takes it out again.
+WORLD_LINK = "world"
+ADDED = "added"
+
 # The children of <robot> the model has no place for (<transmission>, <gazebo>, Drake's
 # <frame>, ...) are kept, as XML text in document order, under this key of the object's
 # metadata: every format carries the metadata, and the URDF writer writes them back.

@@ -67,6 +67,7 @@ from .structure import (
     BALL_TYPE,
     PLANAR,
     check_tree,
+    fold_added_world,
     identifiers,
     joint_elements,
     joint_ends,
@@ -106,6 +107,7 @@ def load(path: str | Path, *, faithful_collision: bool = False,
     links = link_elements(ctx, robot)
     joints = joint_elements(ctx, robot, links)
     check_tree(ctx, links, joints)
+    fold_added_world(ctx, links, joints)
     name = _robot_name(ctx, robot)
     part_names = identifiers(ctx, links)
     joint_names = identifiers(ctx, joints)

@@ -12,6 +12,7 @@ from lxml import etree
 
 from ...model import NAME_PATTERN, sanitize_name
 from .context import Context, label
+from .conventions import ADDED, PREFIX, ns
 
 # URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
 # real2code:type="ball"); planar is read as two slides and a hinge.
@@ -226,6 +227,47 @@ def check_tree(ctx: Context, links: dict[str, etree._Element],
         raise ctx.error(label(second), f"a second root: this link has no parent joint and link "
                         f"{roots[0]!r} (line {links[roots[0]].sourceline}) is already the root; "
                         f"a URDF is one tree (roots: {roots})", second.sourceline)
+
+
+def fold_added_world(ctx: Context, links: dict[str, etree._Element],
+                     joints: dict[str, etree._Element]) -> None:
+    """Take out the ``world`` link and fixed joint our writer adds above a root part whose
+    free bodies hang from it (``write.world_link``, both marked ``real2code:added``): the
+    floating joints from ``world`` hang from that root part again, at the same origins.
+    Marks that do not describe exactly that (an edited file) are warned about and the file
+    is read as it stands. Changes ``links`` and ``joints`` (and the joints' <parent>)."""
+    for name, link in list(links.items()):
+        if link.get(ns(ADDED)) != "true":
+            continue
+        added = [el for el in joints.values()
+                 if el.get(ns(ADDED)) == "true" and joint_ends(el)[0] == name]
+        below = [el for el in joints.values() if joint_ends(el)[0] == name]
+        fixed = added[0] if len(added) == 1 else None
+        if (fixed is None or fixed.get("type") != "fixed" or len(link)
+                or any(joint_ends(el)[1] == name for el in joints.values())
+                or not _identity_origin(fixed)
+                or any(el.get("type") != "floating" for el in below if el is not fixed)):
+            ctx.warn(label(link), f"marked {PREFIX}:{ADDED} but not as our writer adds it (a "
+                     "bare root link, one fixed joint at the origin to the root part, floating "
+                     "joints): read as it stands", link.sourceline)
+            continue
+        root = joint_ends(fixed)[1]
+        for el in below:
+            if el is not fixed:
+                el.find("parent").set("link", root)
+        del links[name]
+        del joints[fixed.get("name")]
+
+
+def _identity_origin(joint: etree._Element) -> bool:
+    origin = joint.find("origin")
+    if origin is None:
+        return True
+    try:
+        values = [float(v) for key in ("xyz", "rpy") for v in (origin.get(key) or "0 0 0").split()]
+    except ValueError:
+        return False
+    return len(values) == 6 and not any(values)
 
 
 def identifiers(ctx: Context, elements: dict[str, etree._Element]) -> dict[str, str]:

@@ -36,17 +36,20 @@ from ...model import (
     Mesh,
     Part,
     metadata_json,
+    sanitize_name,
     validate,
 )
 from ...primitives import Primitive, ShapeKind
 from .. import output_file
 from .conventions import (
+    ADDED,
     DEFAULT_EFFORT,
     DEFAULT_VELOCITY,
     ELEMENTS_KEY,
     NAMESPACE,
     PREFIX,
     UNKNOWN,
+    WORLD_LINK,
     ns,
     number,
     numbers,
@@ -97,10 +100,47 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
         warn(f"URDF: {obj.name!r}: URDF has no {' or '.join(kinds)}: {len(as_meshes)} shape(s) "
              f"written as their tessellation's mesh ({MESH_DIR}/<part>_<visual|collision>_<k>"
              f"_shape.obj), marked {PREFIX}:shape for our reader")
+    world = world_link(obj)
+    if world is not None:
+        link, fixed = world
+        robot.append(link)
+        robot.append(fixed)
     for joint in obj.joints:
-        robot.append(_joint(joint))
+        el = _joint(joint)
+        if world is not None and joint.type is JointType.FLOATING:
+            el.find("parent").set("link", WORLD_LINK)
+        robot.append(el)
     robot.extend(elements)
     return etree.tostring(robot, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+
+
+def world_link(obj: ArticulatedObject) -> tuple[etree._Element, etree._Element] | None:
+    """A link ``world`` and a fixed joint from it to the root part, for an object whose free
+    bodies (floating joints) hang from a root part of another name (a USD scene: a body the
+    world holds, and bodies no joint holds). MuJoCo's URDF import takes a link named
+    ``world`` as its world body and allows a floating (free) joint only from it ("free joint
+    can only be used on top level"); Pinocchio makes each a free flyer either way. The free
+    bodies hang from ``world`` at the same origins (the root part stands at the world's
+    origin); both elements are marked ``real2code:added`` and our reader takes them out
+    again (None: the object needs neither)."""
+    root = obj.root.name
+    if root == WORLD_LINK or not any(j.type is JointType.FLOATING for j in obj.joints):
+        return None
+    if any(p.name == WORLD_LINK for p in obj.parts):
+        raise ModelError(f"part {WORLD_LINK!r}", f"URDF: the free bodies of {obj.name!r} hang "
+                         f"from its root part {root!r}, which MuJoCo's URDF import allows only "
+                         f"from a link named {WORLD_LINK!r}: that name is another part's")
+    link = etree.Element("link")
+    link.set("name", WORLD_LINK)
+    link.set(ns(ADDED), "true")
+    joint = etree.Element("joint")
+    joint.set("name", sanitize_name(f"{WORLD_LINK}_to_{root}", {j.name for j in obj.joints}))
+    joint.set("type", JointType.FIXED.value)
+    joint.set(ns(ADDED), "true")
+    _sub(joint, "origin", ("xyz", numbers((0.0, 0.0, 0.0))), ("rpy", numbers((0.0, 0.0, 0.0))))
+    _sub(joint, "parent", ("link", WORLD_LINK))
+    _sub(joint, "child", ("link", root))
+    return link, joint
 
 
 def _kept_elements(obj: ArticulatedObject) -> list[etree._Element]:

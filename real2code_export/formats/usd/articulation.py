@@ -5,20 +5,25 @@ from the part fixed to the world. No prim names or paths are assumed.
 
 The world: one fixed joint to the world -> its body is the root, placed by that joint; no
 joint to the world -> the single body without a parent is the root, fixed where it stands
-(warned); several joints to the world, or a moving one -> a massless part "world" becomes
-the root (warned). A body no joint connects to the root is free (UsdPhysics' free body): a
-floating joint from the root part holds it.
+(warned), unless the joints leave the bodies in several groups (a scene of free bodies: a
+palletizer's crates), each of which is then free; several joints to the world, or a moving
+one -> a massless part "world" becomes the root (warned). A body no joint connects to the root is free (UsdPhysics' free body): a
+floating joint from the root part holds it. A joint between two bodies the walk from the
+root has reached already closes a kinematic loop: kept aside (``Articulation.loops``; the
+file's ``physics:excludeFromArticulation`` joints are walked last, so they are the ones). A
+generic joint (D6) carries its free degrees of freedom (:mod:`.d6`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import JointType
+from . import d6
 from .conventions import load_physics
 
 WORLD = ""  # the parser's body path for the world side of a joint
@@ -36,6 +41,7 @@ class Edge:
     body0: str
     body1: str
     reversed: bool = False  # True when body1 is the parent in the tree
+    dofs: list | None = None  # a generic joint's (D6) free degrees of freedom (d6.Dof)
 
     @property
     def parent(self) -> str:
@@ -53,6 +59,7 @@ class Articulation:
     edges: list[Edge]  # tree joints, in stage order, oriented
     root: str  # a body path, or WORLD for a virtual world part
     root_placement: np.ndarray | None  # pose of the root body in the world, from its joint
+    loops: list[Edge] = field(default_factory=list)  # joints closing kinematic loops
 
 
 def parse(stage, path, mpu: float) -> Articulation:
@@ -105,9 +112,9 @@ def welded(art: Articulation) -> set[str]:
 
 def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
     element = f"joint prim <{prim_path}>"
-    if kind_name not in KINDS:
+    if kind_name not in KINDS and kind_name != "D6Joint":
         raise FormatError(path, element, f"{kind_name} cannot be represented (only revolute, "
-                          "prismatic, spherical and fixed joints)")
+                          "prismatic, spherical, fixed and generic (D6) joints)")
     sides = []
     for k, body, rel in ((0, desc.body0, desc.rel0), (1, desc.body1, desc.rel1)):
         body, rel = str(body), str(rel)
@@ -118,6 +125,9 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
         raise FormatError(path, element, "neither body0 nor body1 is a rigid body")
     if not desc.jointEnabled:
         warn(f"{path}: {element}: joint is disabled (physics:jointEnabled = 0); kept")
+    if kind_name == "D6Joint":
+        dofs = d6.free_dofs(desc, path, element)
+        return Edge(prim_path, desc, d6.kind(dofs), sides[0], sides[1], dofs=dofs)
     kind = KINDS[kind_name]
     if kind is None:  # revolute: continuous when its limit is off or infinite
         lim = desc.limit
@@ -149,24 +159,44 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
         warn(f"{path}: {len(world_edges)} joint(s) to the world "
              f"({', '.join(e.path for e in world_edges)}): a massless part 'world' is the root")
         root = WORLD
+    elif len(groups := _groups(bodies, edges)) > 1:
+        # A scene: bodies no joint holds to the world or to each other are free (UsdPhysics'
+        # free bodies), none more than another; each group's first body floats from a
+        # massless world part.
+        warn(f"{path}: no joint fixes a body to the world and the {len(bodies)} bodies form "
+             f"{len(groups)} groups no joint connects: each is free (a floating joint from a "
+             "massless part 'world')")
+        root = WORLD
     else:
         root = bodies[0]
         warn(f"{path}: no joint fixes the object to the world; the first body <{root}> is "
              "taken as fixed where it stands")
-    # breadth first from the root: orient every joint parent -> child
-    reached, frontier, tree = {root}, [root], []
+    # Breadth first from the root: orient every joint parent -> child. A joint between two
+    # bodies already reached closes a kinematic loop: it is kept aside (``loops``). Joints
+    # the file excludes from the articulation (physics:excludeFromArticulation, the author's
+    # loop closers) are walked after every other, so that they are the ones kept aside.
+    reached, order, tree, loops = {root}, [root], [], []
     pending = list(edges)
-    while True:
+
+    def walk(frontier: list[str], excluded_too: bool) -> None:
         while frontier:
             body = frontier.pop(0)
-            for e in [x for x in pending if body in (x.body0, x.body1)]:
+            for e in [x for x in pending if body in (x.body0, x.body1)
+                      and (excluded_too or not x.desc.excludeFromArticulation)]:
                 pending.remove(e)
                 e.reversed = e.body1 == body
                 if e.child in reached:
-                    raise FormatError(path, f"joint prim <{e.path}>", "closes a kinematic loop")
+                    loops.append(e)
+                    continue
                 reached.add(e.child)
+                order.append(e.child)
                 frontier.append(e.child)
                 tree.append(e)
+
+    start = [root]
+    while True:
+        walk(start, False)
+        walk(list(order), True)
         # A body no joint reaches is free; of its group, the one that is no joint's body1.
         unreached = [b for b in bodies if b not in reached]
         if not unreached:
@@ -175,5 +205,18 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
         free = next((b for b in unreached if b not in held), unreached[0])
         tree.append(Edge(free, None, JointType.FLOATING, root, free))
         reached.add(free)
-        frontier.append(free)
-    return Articulation(bodies, {}, tree, root, root_placement)
+        order.append(free)
+        start = [free]
+    return Articulation(bodies, {}, tree, root, root_placement, loops)
+
+
+def _groups(bodies: list[str], edges: list[Edge]) -> list[set[str]]:
+    """The bodies in groups the joints connect (none of them to the world)."""
+    group = {b: {b} for b in bodies}
+    for e in edges:
+        a, b = group[e.body0], group[e.body1]
+        if a is not b:
+            a |= b
+            for body in b:
+                group[body] = a
+    return list({id(g): g for g in group.values()}.values())

@@ -117,7 +117,7 @@ def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
     attribute(prim, "physics:localPos1", "Point3f", Gf.Vec3f(0.0, 0.0, 0.0))
     attribute(prim, "physics:localRot1", "Quatf", Gf.Quatf(*f.rot1.tolist()))
     if kind is JointType.BALL:
-        _write_dynamics(prim, joint.dynamics, angular=True)
+        write_dynamics(prim, joint.dynamics, angular=True)
         if joint.cone_limit is not None:  # about X, as mujoco-usd-converter writes a range
             warn(f"USD: joint {joint.name!r}: the ball's cone limit is written as both cone "
                  "angles about X, which bound X's swing, not the twist about it that the "
@@ -151,7 +151,7 @@ def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
     if joint.velocity_limit is not None:
         custom(VELOCITY, joint.velocity_limit)
 
-    _write_dynamics(prim, joint.dynamics, angular, ref=to_file(joint.state))
+    write_dynamics(prim, joint.dynamics, angular, ref=to_file(joint.state))
     if joint.velocity_limit is not None:
         attribute(prim, "newton:velocityLimit", "Float", as_float32(to_file(joint.velocity_limit)))
     return prim
@@ -174,7 +174,7 @@ def read_free_dynamics(body_prim) -> Dynamics:
     return Dynamics(**{f: authored_value(body_prim, a) or 0.0 for f, a in FREE_DYNAMICS.items()})
 
 
-def _write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) -> None:
+def write_dynamics(prim, d: Dynamics, angular: bool, ref: float | None = None) -> None:
     """NewtonJointAPI's and MjcJointAPI's damping, friction, armature (and stiffness, spring
     reference, ``mjc:ref`` for a joint with one value). Newton's attributes are floats, as
     its schema declares them (newton-usd-schemas generatedSchema.usda)."""

@@ -19,13 +19,15 @@ from ...model import (
     Dynamics,
     Joint,
     JointType,
+    Limits,
     Mesh,
     Part,
     sanitize_name,
     validate,
 )
-from ...repairs import unusable_mimics
+from ...repairs import massless_moving_parts, unusable_mimics
 from . import articulation as art_
+from . import d6, drive, loop
 from .body import read_inertial
 from .conventions import (
     FLOATING_JOINT,
@@ -122,10 +124,24 @@ def load(path: str | Path) -> ArticulatedObject:
                            moves=body not in still))
 
     joint_names: set[str] = set()
-    joints = [_joint(ctx, e, joint_names) for e in art.edges]
+    joints, joint_at, chains, drives = [], {}, [], []
+    for e in art.edges:
+        if e.dofs is None:
+            made = [_joint(ctx, e, joint_names)]
+        else:  # a generic joint (D6): one joint, or a chain through massless parts
+            made, between = _generic_joint(ctx, e, joint_names, taken)
+            parts += between
+            if between:
+                chains.append(f"<{e.path}> ({', '.join(d.name for d in e.dofs)})")
+        joint_at[e.path] = made[0].name
+        joints += made
+        if e.desc is not None:
+            drives.append((e, made))
+    if chains:
+        warn(f"{path}: generic joints (D6) of several free axes split into chains of massless "
+             f"parts, an axis each: {'; '.join(chains)}")
     frames = [found for body in art.bodies
               for found in _frames(ctx, body, prims[body], taken, joint_names, in_frame)]
-    joint_at = {e.path: j.name for e, j in zip(art.edges, joints, strict=True)}
     for j in joints:  # a mimic's leader: from its prim path to its joint's name
         if j.mimic is not None:
             j.mimic.joint = joint_at.get(j.mimic.joint, j.mimic.joint)
@@ -141,8 +157,11 @@ def load(path: str | Path) -> ArticulatedObject:
         except json.JSONDecodeError as e:
             raise FormatError(path, f"prim <{root_prim.GetPath()}>",
                               f"{METADATA} is not JSON: {e}") from e
+    if art.loops:
+        metadata = _with_loops(ctx, art.loops, metadata)
+    metadata = _with_drives(ctx, drives, metadata)
     obj = ArticulatedObject(name, parts, joints, metadata)
-    for joint_name, message in unusable_mimics(obj):
+    for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
         warn(f"{path}: joint {joint_name!r}: {message}")
     try:
         return validate(obj)
@@ -337,6 +356,141 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
                  drive_limits=drive_limits,
                  dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where),
                  mimic=read_mimic(prim, kind.angular, mpu))
+
+
+def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
+                   taken_parts: set[str]) -> tuple[list[Joint], list[Part]]:
+    """The model's joints of a generic joint (D6, :mod:`.d6`) and the massless parts between
+    them: origin and axes as for a revolute joint (:func:`_joint`), each free axis's value
+    from the bodies' poses. A joint that runs child -> parent is the chain reversed, its axes
+    negated."""
+    prim = ctx.stage.GetPrimAtPath(e.path)
+    where = f"{ctx.path}: joint prim <{e.path}>"
+    mpu, kpu = ctx.mpu, ctx.kpu
+    t0, t1 = art_.joint_frame(e.desc, 0, mpu), art_.joint_frame(e.desc, 1, mpu)
+    parent_frame = t1 if e.reversed else t0
+    parent_quat, child_quat = (_quat(e.desc, 1), _quat(e.desc, 0)) if e.reversed \
+        else (_quat(e.desc, 0), _quat(e.desc, 1))
+    origin = ctx.to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
+    parent, child, name = ctx.names[e.parent], ctx.names[e.child], prim.GetName()
+    if not e.dofs or d6.is_ball(e.dofs):
+        kind = JointType.BALL if e.dofs else JointType.FIXED
+        dynamics = read_dynamics(prim, True, mpu, kpu, where) if e.dofs else Dynamics()
+        return [Joint(sanitize_name(name, taken), kind, parent, child, origin=origin,
+                      dynamics=dynamics)], []
+    moved = tf.inverse(ctx.world[e.body0] @ t0) @ (ctx.world[e.body1] @ t1)
+    values, off = d6.values_of(e.dofs, moved)
+    if off > 1e-5:
+        warn(f"{where}: the bodies violate the joint by {off:.3g} at their written poses")
+    order = list(zip(e.dofs, values, strict=True))[::-1 if e.reversed else 1]
+    chain = len(order) > 1
+    names = [sanitize_name(f"{name}_{dof.name}" if chain else name, taken) for dof, _ in order]
+    ends = [parent, *(sanitize_name(f"{child}_{n}", taken_parts) for n in names[:-1]), child]
+    joints = []
+    for k, ((dof, q), joint_name) in enumerate(zip(order, names, strict=True)):
+        q = _choose_state(q, authored_value(prim, f"{STATE}:{dof.name}"), dof.kind, where)
+        limits = None
+        if dof.lower is not None:
+            scale = math.pi / 180.0 if dof.angular else mpu
+            limits = Limits(dof.lower * scale, dof.upper * scale)
+            q = _into_limits(q, limits, dof.kind, where)
+        joints.append(Joint(
+            joint_name, dof.kind, ends[k], ends[k + 1], origin=origin if k == 0 else np.eye(4),
+            axis=axis_in_body1(child_quat, dof.token) * (-1.0 if e.reversed else 1.0),
+            limits=limits, state=q, dynamics=read_dynamics(prim, dof.angular, mpu, kpu, where)))
+    return joints, [Part(n) for n in ends[1:-1]]
+
+
+def _with_drives(ctx: Context, made: list, metadata: dict) -> dict:
+    """``metadata`` with the joints' drives (:mod:`.drive`; ``made``: each parsed joint and
+    the model joints made of it), warned; a drive our writer wrote back replaces its own
+    entry."""
+    found, idle = [], []
+    for e, joints in made:
+        prim = ctx.stage.GetPrimAtPath(e.path)
+        if e.dofs is None:
+            j = joints[0]
+            kind = "angular" if j.type.angular else "linear"
+            axes = {kind: (j.name, kind)} if j.type.movable else {}
+        elif d6.is_ball(e.dofs) or not e.dofs:
+            axes = {}
+        else:
+            dofs = e.dofs[::-1] if e.reversed else e.dofs
+            axes = {d.name: (j.name, "angular" if d.angular else "linear")
+                    for d, j in zip(dofs, joints, strict=True)}
+        entries, unused = drive.read_drives(prim, axes, ctx.mpu, ctx.kpu)
+        found += entries
+        idle += [f"<{e.path}> {instance}" for instance in unused]
+    if not found and not idle:
+        return metadata
+    if found:
+        warn(f"{ctx.path}: drives (PhysicsDriveAPI: a simulator's actuator targets and gains) "
+             f"of joints {', '.join(sorted({f['joint'] for f in found}))}: the model has no "
+             f"actuators; kept in the metadata {drive.DRIVES_KEY!r} and written back to USD "
+             "(the other formats carry them as metadata only)")
+    if idle:
+        warn(f"{ctx.path}: drives on no free axis (a locked one, a fixed or ball joint) "
+             f"ignored: {', '.join(idle)}")
+    earlier = {(k.get("joint"), k.get("instance")): k
+               for k in metadata.get(drive.DRIVES_KEY, []) if isinstance(k, dict)}
+    # our float64 copy where the file's float32 values agree with it (as for the joints)
+    found = [earlier[(f["joint"], f["instance"])] if drive.same(
+        f, earlier.get((f["joint"], f["instance"]))) else f for f in found]
+    ours = {(f["joint"], f["instance"]) for f in found}
+    kept = [k for k in metadata.get(drive.DRIVES_KEY, [])
+            if not isinstance(k, dict) or (k.get("joint"), k.get("instance")) not in ours]
+    return {**metadata, drive.DRIVES_KEY: kept + found}
+
+
+def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
+    """``metadata`` with the joints that close kinematic loops (a four-bar's last joint; the
+    model is a tree): each kept as it is under ``loop.LOOPS_KEY`` (:mod:`.loop`), which the
+    USD writer writes back, and carried to MuJoCo as an equality ``connect`` of the two
+    parts at its anchor (MuJoCo's way to close a loop: the two bodies held together at that
+    point, free to turn there; a hinge's axis is not held) in the kept MJCF elements the
+    MJCF writer writes back. Warned: URDF and glTF do not act on them. A loop our writer
+    wrote back replaces its own entry."""
+    from lxml import etree
+
+    from ..mjcf.kept import ELEMENTS_KEY
+
+    found = {}
+    for e in loops:
+        name = sanitize_name(ctx.stage.GetPrimAtPath(e.path).GetName())
+        frames = [ctx.to_part[body] @ art_.joint_frame(e.desc, side, ctx.mpu)
+                  for side, body in ((0, e.body0), (1, e.body1))]
+        found[name] = loop.described(name, e, frames, [ctx.names[e.body0], ctx.names[e.body1]],
+                                     ctx.stage.GetPrimAtPath(e.path), ctx.mpu, ctx.kpu)
+        warn(f"{ctx.path}: joint prim <{e.path}> ({e.kind.value}) closes a kinematic loop: "
+             f"not a joint of the model (a tree); kept in the metadata {loop.LOOPS_KEY!r} and "
+             f"written to MJCF as an equality connect of {ctx.names[e.body0]!r} and "
+             f"{ctx.names[e.body1]!r} at its anchor (URDF and glTF do not act on it)")
+    earlier = {k.get("name"): k for k in metadata.get(loop.LOOPS_KEY, [])
+               if isinstance(k, dict)}
+    # our float64 copy where the file's float32 frames agree with it (as for the joints)
+    found = {name: earlier[name] if loop.same(entry, earlier.get(name)) else entry
+             for name, entry in found.items()}
+    kept = [k for k in metadata.get(loop.LOOPS_KEY, [])
+            if not isinstance(k, dict) or k.get("name") not in found]
+    sections = dict(metadata.get(ELEMENTS_KEY, {}))
+    try:
+        equality = etree.fromstring(sections["equality"]) if "equality" in sections \
+            else etree.Element("equality")
+    except (etree.XMLSyntaxError, TypeError, ValueError) as err:
+        raise FormatError(ctx.path, f"{METADATA} {ELEMENTS_KEY!r}", f"its equality section is "
+                          f"not XML: {err}") from err
+    for el in list(equality):
+        if el.tag == "connect" and el.get("name") in found:
+            equality.remove(el)
+    for name, entry in found.items():
+        connect = etree.SubElement(equality, "connect")
+        connect.set("name", name)
+        connect.set("body1", entry["body0"])
+        connect.set("body2", entry["body1"])
+        connect.set("anchor", " ".join(repr(float(v)) for v in entry["frame0"]["translation"]))
+    etree.indent(equality, space="  ")
+    sections["equality"] = etree.tostring(equality, encoding="unicode")
+    return {**metadata, loop.LOOPS_KEY: kept + list(found.values()), ELEMENTS_KEY: sections}
 
 
 def _quat(desc, side: int) -> np.ndarray:

@@ -23,11 +23,14 @@ from ...model import (
     validate,
 )
 from .. import output_file
+from . import d6
 from .body import in_parent_body, write_body, write_frame
 from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
+from .drive import write_drives
 from .geometry import LateNormals, MeshAssets, move_mesh_arrays, write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
 from .layer import apply, attribute, new_layer
+from .loop import write_loops
 
 
 def _layer(obj: ArticulatedObject):
@@ -53,11 +56,15 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
     world = forward_kinematics(written, obj.observed_configuration())
     in_body = in_parent_body(obj)  # parents first
     frames = set(in_body)
+    # chains the reader made of a generic joint (D6): written back as one, no bodies between
+    generic = d6.chains(obj)
+    between = {part for c in generic for part in c.between}
+    in_generic = {j.name: c for c in generic for j in c.joints}
     visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
     assets = MeshAssets(layer, base, obj, normals)  # assets placed more than once: once
     path_of = {}  # part -> its prim: a body's, or a frame's in its parent's prim
     for part in obj.parts:
-        if part.name in frames:
+        if part.name in frames or part.name in between:
             continue
         body = path_of[part.name] = f"{base}/{GEOMETRY}/{part.name}"
         write_body(layer, body, part, world[part.name])
@@ -84,6 +91,13 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
     for j in obj.joints:
         if j.child in frames:
             continue
+        if j.name in in_generic:
+            chain = in_generic[j.name]
+            if j is chain.joints[0]:
+                d6.write_chain(layer, f"{base}/{PHYSICS}/{chain.name}", chain,
+                               f"{base}/{GEOMETRY}/{j.parent}",
+                               f"{base}/{GEOMETRY}/{chain.joints[-1].child}")
+            continue
         if j.type is JointType.FLOATING:  # a free body: no joint holds it; its name kept
             body = layer.GetPrimAtPath(f"{base}/{GEOMETRY}/{j.child}")
             attribute(body, FLOATING_JOINT, "String", j.name, custom=True)
@@ -93,6 +107,18 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
                             f"{base}/{GEOMETRY}/{j.parent}", f"{base}/{GEOMETRY}/{j.child}")
         if j.mimic is not None:
             write_mimic(joint, j.mimic, f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
+    taken = {j.name for j in obj.joints} | {world_joint}
+    write_loops(layer, obj, lambda name: f"{base}/{PHYSICS}/{sanitize_name(name, taken)}",
+                path_of.__getitem__)
+    def driven(name: str):  # a joint's prim and the drive instance it takes there
+        if name in in_generic:  # a generic joint's axis
+            chain = in_generic[name]
+            return layer.GetPrimAtPath(f"{base}/{PHYSICS}/{chain.name}"), \
+                chain.dofs[[j.name for j in chain.joints].index(name)].name
+        known = name in {j.name for j in obj.joints}
+        return (layer.GetPrimAtPath(f"{base}/{PHYSICS}/{name}"), None) if known else None
+
+    write_drives(layer, obj, driven)
     return layer
 
 
