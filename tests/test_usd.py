@@ -820,8 +820,8 @@ def test_a_foreign_body_whose_xform_is_scaled(tmp_path):
     """A rigid body's Xform scaled along its own axes (Newton's cartpole: the cart a unit
     cube under ``xformOp:scale = (0.2, 0.25, 0.2)``): the body is where its translation
     and rotation put it, its shapes are scaled (as PhysX and Newton's importer take them:
-    the cart's cube is 0.2 x 0.25 x 0.2 m) and so are the joints' positions in it. A body
-    whose Xform shears is refused, naming it."""
+    the cart's cube is 0.2 x 0.25 x 0.2 m) and so are the joints' positions and its
+    authored centre of mass in it. A body whose Xform shears is refused, naming it."""
     from pxr import Gf, UsdGeom
 
     def stage_with(cart_ops):
@@ -835,7 +835,9 @@ def test_a_foreign_body_whose_xform_is_scaled(tmp_path):
         cart = UsdGeom.Xform.Define(stage, "/cartpole/cart")
         cart_ops(cart)
         UsdPhysics.RigidBodyAPI.Apply(cart.GetPrim())
-        UsdPhysics.MassAPI.Apply(cart.GetPrim()).CreateMassAttr(1.0)
+        mass = UsdPhysics.MassAPI.Apply(cart.GetPrim())
+        mass.CreateMassAttr(1.0)
+        mass.CreateCenterOfMassAttr(Gf.Vec3f(0.5, 0.0, -0.2))  # in the cart's scaled space
         cube = UsdGeom.Cube.Define(stage, "/cartpole/cart/box")
         cube.CreateSizeAttr(1.0)
         UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
@@ -860,6 +862,8 @@ def test_a_foreign_body_whose_xform_is_scaled(tmp_path):
     np.testing.assert_allclose(corners.min(axis=0), [-0.1, -0.125, 0.9], atol=1e-9)
     np.testing.assert_allclose(corners.max(axis=0), [0.1, 0.125, 1.1], atol=1e-9)
     assert obj.part("cart").inertial.mass == pytest.approx(1.0)
+    np.testing.assert_allclose(world[:3, :3] @ obj.part("cart").inertial.com + world[:3, 3],
+                               [0.1, 0.0, 0.96], atol=1e-7)  # scaled as Newton's importer
 
     def sheared(cart):
         cart.AddTransformOp().Set(Gf.Matrix4d(1, 0, 0, 0, 0.5, 1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 1))

@@ -88,12 +88,16 @@ SIMULATOR_DENSITY = 1000.0
 
 
 def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu: float,
-                  where: str, colliders: list[Mesh] | None = None) -> Inertial | None:
+                  where: str, colliders: list[Mesh] | None = None,
+                  scale: np.ndarray | None = None) -> Inertial | None:
     """The part's inertial in the part frame, SI units. ``to_part`` maps body -> part frame
     (metres); ``meshes`` (part frame) are used only to fill what the file leaves to the
     simulator to compute (a warning says so). A rigid body with no mass authored has the
     mass its ``colliders`` (part frame) give it at the authored density, else
-    :data:`SIMULATOR_DENSITY`, as the simulators compute it (warned)."""
+    :data:`SIMULATOR_DENSITY`, as the simulators compute it (warned). ``scale``: a scaled
+    body's own scale (:func:`.read._rigid_and_scale`): its authored centre of mass is in its
+    scaled local space, so scaled with it, as Newton's importer and OpenUSD's descriptors
+    take it (its inertia is as authored)."""
     from pxr import UsdPhysics
 
     if not prim.HasAPI(UsdPhysics.MassAPI):
@@ -108,6 +112,8 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
         return None
     com = api.GetCenterOfMassAttr().Get()
     com = None if com is None or not np.all(np.isfinite(com)) else np.array(com, float) * mpu
+    if com is not None and scale is not None:
+        com = com * scale
     tensor = prim.GetAttribute("newton:inertia").Get() if prim.HasAttribute("newton:inertia") \
         else None
     inertia = None

@@ -246,7 +246,8 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
         visual = Mesh.join_colored(visuals, runs) if len(visuals) > 1 or len(runs[0]) > 1 \
             else visuals[0]
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
-                             f"{path}: {where}", colliders=collision if moves else None)
+                             f"{path}: {where}", colliders=collision if moves else None,
+                             scale=ctx.scale.get(str(prim.GetPath())))
     images = read_images(prim, visual_prims, path)
     if images and (visual is None or visual.uv is None or len(visuals) > 1):
         warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
