@@ -189,9 +189,11 @@ def _scaled(ctx: Context, prim) -> np.ndarray:
 
 
 def _rigid(m: np.ndarray, path, prim_path: str) -> np.ndarray:
+    """``m``, a free body's pose in its root part, checked rigid (both poses are, their
+    scales taken out by :func:`_rigid_and_scale`: this names the body should one not be)."""
     if not tf.is_rotation(m[:3, :3], tol=1e-5):
-        raise FormatError(path, f"prim <{prim_path}>", "rigid body transform has scale or "
-                          "shear; scaled bodies are not supported")
+        raise FormatError(path, f"prim <{prim_path}>", "the free body's pose in the root "
+                          "part is not rigid (it scales or shears)")
     return m
 
 
