@@ -1225,6 +1225,42 @@ def test_a_package_not_found_is_resolved_where_its_path_lies_above_the_urdf(tmp_
         urdf.load(source)
 
 
+def test_a_urdfs_stl_files_are_read_ahead_and_warnings_said_once(tmp_path, monkeypatch):
+    """The STL files a URDF's links name are parsed two at a time before the links are read
+    (``meshfiles.read_ahead``): none is parsed again as its link is read, and a filename
+    resolved with a warning (a package found nowhere, its path above the URDF) is left to
+    the link, which says it once."""
+    from real2code_export import meshfiles
+
+    root = tmp_path / "arm_description"
+    (root / "meshes").mkdir(parents=True)
+    for name, extents in (("base", (0.1, 0.2, 0.3)), ("arm", (0.3, 0.1, 0.1)),
+                          ("tip", (0.05, 0.05, 0.2))):
+        trimesh.creation.box(extents).export(root / "meshes" / f"{name}.stl")
+    source = root / "urdf" / "arm.urdf"
+    source.parent.mkdir()
+    links = "".join(f"""<link name="{name}">{INERTIAL}<visual><geometry><mesh
+      filename="{uri}"/></geometry></visual></link>""" for name, uri in (
+        ("base", "package://arm_description/meshes/base.stl"),
+        ("arm", "../meshes/arm.stl"), ("tip", "package://elsewhere/meshes/tip.stl")))
+    joints = "".join(f"""<joint name="{child}_joint" type="fixed"><parent link="{parent}"/>
+      <child link="{child}"/></joint>""" for parent, child in (("base", "arm"), ("arm", "tip")))
+    source.write_text(f'<robot name="arm">{links}{joints}</robot>')
+    meshfiles._READ.entries.clear()
+    meshfiles._READ.used = 0
+    parsed = []
+    parse = meshfiles._read_unscaled
+    monkeypatch.setattr(meshfiles, "_read_unscaled", lambda *a: parsed.append(a[0].name)
+                        or parse(*a))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = urdf.load(source)
+    assert parsed == ["tip.stl"]  # base and arm read ahead; tip resolved with a warning
+    said = [str(w.message) for w in caught if "no package 'elsewhere'" in str(w.message)]
+    assert len(said) == 1, said
+    assert [len(obj.part(n).visual.faces) for n in ("base", "arm", "tip")] == [12, 12, 12]
+
+
 def test_meshes_in_the_folder_a_mujoco_compiler_meshdir_names(tmp_path):
     """A URDF prepared for MuJoCo names its meshes relative to ``<mujoco><compiler
     meshdir>``, where MuJoCo looks for them: found there, said in a warning; a mesh in

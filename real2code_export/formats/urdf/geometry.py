@@ -21,7 +21,7 @@ import numpy as np
 from lxml import etree
 
 from ... import transforms as tf
-from ...meshfiles import read_mesh_file
+from ...meshfiles import read_ahead, read_mesh_file
 from ...model import Mesh
 from ...primitives import SIZE_COUNT, Primitive, ShapeKind
 from .context import Context, label
@@ -133,13 +133,15 @@ def package_search_path() -> list[Path]:
     return folders
 
 
-def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) -> Path:
+def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, *,
+                     quiet: bool = False) -> Path | None:
     """The file a mesh ``filename`` refers to (existence is checked by the reader).
 
     ``package://NAME/REST`` and ``model://NAME/REST``: the first folder named NAME holding
     REST, looked for in the URDF's own folder and its parents (a package inside a source or
     install tree), then in the search path (:func:`package_search_path`); failing that, the
-    nearest of those parents holding REST itself (warned)."""
+    nearest of those parents holding REST itself (warned). ``quiet``: None where it would
+    warn, note or refuse (a look ahead, :func:`read_meshes_ahead`)."""
     scheme = next((s for s in ("package://", "model://") if filename.startswith(s)), None)
     if scheme is not None:
         package, _, rest = filename[len(scheme):].partition("/")
@@ -153,6 +155,8 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) 
         # No such package, but REST lies under a folder above the URDF (a package renamed
         # or copied without its name): the nearest one, as yourdfpy resolves it.
         found = next((f for f in (here, *here.parents) if (f / rest).is_file()), None)
+        if quiet:
+            return None
         if found is not None:
             ctx.warn(owner, f"{filename!r}: no package {package!r} found; {rest!r} taken from "
                      f"{found}, the nearest folder above the URDF holding it", line)
@@ -170,9 +174,25 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None) 
     if not beside.exists() and ctx.meshdir is not None:  # where MuJoCo looks for it
         inside = ctx.path.parent / ctx.meshdir / path
         if inside.exists():
+            if quiet:
+                return None
             ctx.note("meshdir", repr(filename))
             return inside
     return beside
+
+
+def read_meshes_ahead(ctx: Context, links) -> None:
+    """The STL files the ``links`` (their elements) name, parsed two at a time before the
+    links are read (:func:`~real2code_export.meshfiles.read_ahead`), where their filenames
+    resolve plainly; the rest are read, warned about or refused in turn, as before."""
+    paths = []
+    for link in links:
+        for shape in link.iterfind("*/geometry/mesh"):
+            filename = shape.get("filename")
+            path = resolve_filename(ctx, filename, "", None, quiet=True) if filename else None
+            if path is not None:
+                paths.append(path)
+    read_ahead(paths)
 
 
 def _file_mesh(ctx: Context, shape: etree._Element, owner: str) -> tuple[Mesh, Path]:

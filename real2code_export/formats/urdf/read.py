@@ -60,6 +60,7 @@ from .geometry import (
     material_color,
     mesh_area,
     origin_matrix,
+    read_meshes_ahead,
     robot_materials,
     shape_mesh,
 )
@@ -112,6 +113,7 @@ def load(path: str | Path, *, faithful_collision: bool = False,
     part_names = identifiers(ctx, links)
     joint_names = identifiers(ctx, joints)
     materials = robot_materials(ctx, robot)
+    read_meshes_ahead(ctx, links.values())
     parts = [_part(ctx, el, part_names[raw], materials, faithful_collision,
                    hull_collision or faithful_collision) for raw, el in links.items()]
     joint_list, joint_el = [], {}  # (the element each joint of the model comes from)
