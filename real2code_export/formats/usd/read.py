@@ -455,7 +455,9 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
     wrote back replaces its own entry."""
     from lxml import etree
 
-    from ..mjcf.kept import ELEMENTS_KEY
+    from .. import FORMATS
+
+    kept_key = FORMATS["mjcf"].kept_elements  # (the registry's: no format imports another)
 
     found = {}
     for e in loops:
@@ -475,12 +477,12 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
              for name, entry in found.items()}
     kept = [k for k in metadata.get(loop.LOOPS_KEY, [])
             if not isinstance(k, dict) or k.get("name") not in found]
-    sections = dict(metadata.get(ELEMENTS_KEY, {}))
+    sections = dict(metadata.get(kept_key, {}))
     try:
         equality = etree.fromstring(sections["equality"]) if "equality" in sections \
             else etree.Element("equality")
     except (etree.XMLSyntaxError, TypeError, ValueError) as err:
-        raise FormatError(ctx.path, f"{METADATA} {ELEMENTS_KEY!r}", f"its equality section is "
+        raise FormatError(ctx.path, f"{METADATA} {kept_key!r}", f"its equality section is "
                           f"not XML: {err}") from err
     for el in list(equality):
         if el.tag == "connect" and el.get("name") in found:
@@ -493,7 +495,7 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
         connect.set("anchor", " ".join(repr(float(v)) for v in entry["frame0"]["translation"]))
     etree.indent(equality, space="  ")
     sections["equality"] = etree.tostring(equality, encoding="unicode")
-    return {**metadata, loop.LOOPS_KEY: kept + list(found.values()), ELEMENTS_KEY: sections}
+    return {**metadata, loop.LOOPS_KEY: kept + list(found.values()), kept_key: sections}
 
 
 def _quat(desc, side: int) -> np.ndarray:
