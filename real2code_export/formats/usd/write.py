@@ -137,7 +137,7 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     data = move_mesh_arrays(layer)
     if data is not None:
         relative = mesh_layer_path(obj.name)
-        atomic.write_with(out_dir / relative, lambda tmp: _export(data, tmp))
+        atomic.write_with(out_dir / relative, lambda tmp: _export_on_one_thread(data, tmp))
         layer.subLayerPaths.append(f"./{relative}")
     return atomic.write_with(output_file("usd", out_dir, obj.name), lambda tmp: _export(layer, tmp))
 
@@ -146,6 +146,21 @@ def mesh_layer_path(name: str) -> str:
     """Where object ``name``'s binary mesh layer lies, relative to its .usda (in the mesh
     folder, so that no folder of exports holds a second model file for batch or check)."""
     return f"{MESH_DIR}/{name}.usdc"
+
+
+def _export_on_one_thread(layer, path: Path) -> None:
+    """:func:`_export`, USD's own threads held to one: its binary (crate) writer on several
+    laid the same arrays out in another order now and then on a busy machine (the same
+    content, other bytes: 2 of ~3000 files in session 28's runs, on d240c31 as since), and
+    an export is to be the same bytes every time."""
+    from pxr import Work
+
+    limit = Work.GetConcurrencyLimit()
+    Work.SetConcurrencyLimit(1)
+    try:
+        _export(layer, path)
+    finally:
+        Work.SetConcurrencyLimit(limit)
 
 
 def _export(layer, path: Path) -> None:
