@@ -25,7 +25,7 @@ from .capture import Capture
 from .fuse import axis_mean, normal_map, point_map
 from .obb import OBB, part_obb
 from .ransac import fit_plane
-from .segment.prompting import Segmentation, label_views, numbered_by_size
+from .segment.prompting import Segmentation, label_views
 
 
 @dataclass(frozen=True)
@@ -78,6 +78,8 @@ class CompartmentOptions:
     panels_apart_deg: float = 20.0  # a label holding two turned panels this far apart ...
     panel_width_voxels: float = 5.0  # ... each this many spacings wide both ways (not a
     # door's edge strip) is two swung panels (two flaps on one rail opened opposite ways)
+    carcass_share: float = 0.5  # the largest label one flat panel, the carcass is the largest
+    # label of at least this share of its points that is not one (choose_carcass)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -104,14 +106,61 @@ def carcass_box(points: np.ndarray, voxel: float,
     return part_obb(points[keep])
 
 
+def carcass_first(labels: np.ndarray) -> np.ndarray:
+    """The same partition numbered 1..n, the carcass (label 1) kept 1, the others by size
+    (ties keep their order). Every rule renumbers so, which carries the carcass
+    :func:`choose_carcass` chose through the stage by identity: numbered by size alone, a
+    box's lid swung open, larger than either half of a body the masks cut in two, became
+    the carcass again after the first rule that moved anything."""
+    sizes = np.bincount(labels)
+    order = [k for k in np.argsort(-sizes, kind="stable") if sizes[k] > 0 and k != 1]
+    if len(sizes) > 1 and sizes[1] > 0:
+        order.insert(0, 1)
+    remap = np.zeros(len(sizes), dtype=int)
+    remap[order] = np.arange(1, len(order) + 1)
+    return remap[labels]
+
+
+def choose_carcass(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                   options: CompartmentOptions = CompartmentOptions(),
+                   normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """The labels with the carcass as label 1: the largest label unless that is one flat
+    panel (:func:`_one_panel`), then the largest that is not, when it holds at least
+    ``carcass_share`` as many points (a body the masks cut in two, each half near the
+    size of the lid). A carcass is a box of walls; a panel swung open (a box's lid, a
+    refrigerator's door) can outnumber a body cut in pieces, and every rule measures
+    against the carcass's box: on a hand-held path the box 100189's lid (5,533 points)
+    was the largest label, its body in two (4,905 and 4,472), and the body's half stood
+    out of the lid's box as a part of its own. Where every label near that size is a
+    panel (a laptop's base and screen) label 1 stays. Needs the measured ``normals``.
+    Returns the labels (:func:`carcass_first`) and what was chosen."""
+    if normals is None or labels.max() < 2:
+        return labels, []
+    sizes = np.bincount(labels)
+    by_size = [k for k in np.argsort(-sizes, kind="stable") if k > 0 and sizes[k] >= 30]
+    if not by_size or not _one_panel(cloud[labels == by_size[0]],
+                                     normals[labels == by_size[0]], voxel, options):
+        return labels, []
+    for k in by_size[1:]:
+        if sizes[k] < options.carcass_share * sizes[by_size[0]]:
+            break
+        if not _one_panel(cloud[labels == k], normals[labels == k], voxel, options):
+            out = np.where(labels == k, 1, np.where(labels == 1, k, labels))
+            return carcass_first(out), [{"part": int(k), "points": int(sizes[k]),
+                                         "carcass_not_panel": int(by_size[0])}]
+    return labels, []
+
+
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
-    """``seg`` with drawers left in the carcass's label found, a label holding two swung
+    """``seg`` with the carcass chosen (:func:`choose_carcass`), stray stretches of it in
+    moving parts' labels given back, drawers left in the carcass's label found, a label holding two swung
     panels split, open panels' points in other labels given to them, then the compartments behind open doors given back to the
     carcass, what of the carcass stands out past its walls given to the parts it touches,
     enclosed pieces given back to the carcass, a part lying in another's box or behind its
     front merged into it, a door's two faces merged, the compartment past a door swung
-    square given back, a label with two drawers' fronts split, and pieces of the
+    square given back, parts in the box with no front on the opening given back, a label
+    with two drawers' fronts split, and pieces of the
     carcass's shell standing past its box merged into it (its cloud's labels and every
     view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
@@ -121,8 +170,11 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                 for f in capture.frames]
     normals = axis_mean(seg.points, np.concatenate([p for p, _ in measured]),
                         np.concatenate([n for _, n in measured]))
-    labels, found = find_level_fronts(seg.points, seg.point_labels, seg.spacing, options,
-                                      normals)
+    labels, chosen = choose_carcass(seg.points, seg.point_labels, seg.spacing, options,
+                                    normals)
+    labels, stray = return_stray_pieces(seg.points, labels, seg.spacing, options, normals)
+    labels, found = find_level_fronts(seg.points, labels, seg.spacing, options, normals)
+    found = chosen + stray + found
     labels, parted = split_panels(seg.points, labels, seg.spacing, options, normals)
     found += parted
     labels, claimed = claim_panels(seg.points, labels, seg.spacing, options, normals)
@@ -139,6 +191,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += behind
     labels, past = return_past_square_panels(seg.points, labels, seg.spacing, options, normals)
     moved += past
+    labels, frontless = return_frontless(seg.points, labels, seg.spacing, options, normals)
+    moved += frontless
     labels, split = split_fronts(seg.points, labels, seg.spacing, options, normals)
     moved += split
     labels, shell = merge_shell(seg.points, labels, seg.spacing, options, normals)
@@ -151,6 +205,79 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                    n_parts=int(labels.max()), point_labels=labels,
                    details={**seg.details, "parts": int(labels.max()),
                             "returned_to_carcass": moved})
+
+
+def return_stray_pieces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                        options: CompartmentOptions = CompartmentOptions(),
+                        normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A piece of a moving part's label lying apart from the label's main piece, in the
+    carcass's box and outside the main piece's outline seen along each of the box's axes,
+    goes to the label it touches most: a stretch of the carcass (a table's leg, a rail) the
+    masks gave the part.
+
+    Pieces: points linked within ``panel_link_voxels`` spacings; the main piece the
+    largest; a stray one at least ``front_points`` points, at most ``claim_most`` of the
+    main piece, more than ``behind_voxels`` spacings from it, ``enclosed_inside`` of it in
+    the carcass's box (grown by ``enclosed_margin_voxels`` spacings), and seen along every
+    axis of the box no more than ``nested_share`` of it within ``nested_margin_voxels``
+    spacings of the main piece's points. On a hand-held path a table's drawer label held
+    the table's back leg (164 points, 64 cm behind the drawer, touching the carcass at its
+    top only: too little for :func:`pipeline.segment.pieces.reassign_detached`), its box
+    spanned the table's depth and the drawer's slide read 90 degrees off. A part's own
+    pieces lie within its outline seen along one axis: a drawer's back panel cut from its
+    front seen along the slide, a door's handle seen across the door, a panel cut in two by
+    an occluder seen along the cut (both halves span the same stretch of its other side).
+    Returns the labels, renumbered (the carcass first), and what moved."""
+    from scipy.spatial import cKDTree
+
+    from .segment.pieces import linked_components
+
+    out = labels.copy()
+    moved: list[dict] = []
+    if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = carcass_box(cloud[labels == 1], voxel, options)
+    local = (cloud - body.center) @ body.R
+    link = options.panel_link_voxels * voxel
+    margin = options.nested_margin_voxels * voxel
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        if len(index) < 2 * options.front_points:
+            continue
+        piece = linked_components(cloud[index], link)
+        sizes = np.bincount(piece)
+        main = int(np.argmax(sizes))
+        own = index[piece == main]
+        near_main = cKDTree(cloud[own])
+        for p in np.nonzero((sizes >= options.front_points)
+                            & (sizes <= options.claim_most * sizes[main]))[0]:
+            members = index[piece == p]
+            if (near_main.query(cloud[members])[0].min() <= options.behind_voxels * voxel
+                    or body.contains(cloud[members], tol=options.enclosed_margin_voxels
+                                     * voxel).mean() < options.enclosed_inside):
+                continue
+            seen = [[b for b in range(3) if b != a] for a in range(3)]
+            if any(_share_within(local[members][:, ab], local[own][:, ab], margin)
+                   > options.nested_share for ab in seen):
+                continue  # within the main piece's outline seen along one axis: its own
+            others = np.nonzero(out != k)[0]
+            touching = others[np.unique(np.concatenate(cKDTree(cloud[others]).query_ball_point(
+                cloud[members], link)).astype(int))] if len(others) else others
+            if len(touching) == 0:
+                continue
+            to = int(np.bincount(out[touching]).argmax())
+            out[members] = to
+            moved.append({"part": k, "points": len(members), "stray_to": to})
+    return carcass_first(out), moved
+
+
+def _share_within(points: np.ndarray, outline: np.ndarray, margin: float) -> float:
+    """The share of ``points`` within ``margin`` of ``outline``'s points (both seen in the
+    same two coordinates)."""
+    from scipy.spatial import cKDTree
+
+    return float(np.isfinite(cKDTree(outline).query(points, distance_upper_bound=margin)[0])
+                 .mean())
 
 
 def settle(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -187,7 +314,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                         normals: np.ndarray | None = None,
                         ) -> tuple[np.ndarray, list[dict]]:
     """Points of a swung-open door's part that are the compartment behind it go back to the
-    carcass (label 1, the largest part).
+    carcass (label 1).
 
     The mask network's commonest error: prompted on an open door it also takes the inside of
     the compartment the door reveals, which the carcass's own masks leave out, so no vote
@@ -203,7 +330,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     measured ``normals`` (:func:`pipeline.fuse.axis_mean`), only the plane's points that
     face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
     capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
-    Returns the labels, renumbered by size, and what was moved, per part."""
+    Returns the labels, renumbered (the carcass first), and what was moved, per part."""
     from scipy.spatial import cKDTree
 
     out = labels.copy()
@@ -232,7 +359,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if back.any():
             out[index[back]] = 1
             moved.append({"part": k, "points": int(back.sum()), "panel_turn_deg": round(turn, 1)})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -255,7 +382,7 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     measured against its box every wall of the body is a turned panel (on PartNet-Mobility
     dev's phone-LiDAR ring the box 100189's body label holding two walls was split, 5
     movable joints for 1). Runs before the rules that read a label's panel. Needs the
-    measured ``normals``. Returns the labels, renumbered by size, and what split."""
+    measured ``normals``. Returns the labels, renumbered (the carcass first), and what split."""
     out = labels.copy()
     moved: list[dict] = []
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -285,7 +412,7 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         new = index[_nearer_panel_second(cloud[index], planes, options.panel_voxels * voxel)]
         out[new] = int(out.max()) + 1
         moved.append({"part": k, "points": len(new), "panels_apart_deg": round(apart, 1)})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def _one_panel(points: np.ndarray, normals: np.ndarray, voxel: float,
@@ -373,7 +500,7 @@ def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     (``claim_most``: a procedural cabinet's two doors on one hinge line, open 76 and 83
     degrees, the nearer square of them no turned panel of its own, lost 726 of 764 points).
     Needs the measured ``normals``: without them a turned plane cuts the carcass's walls
-    along lines that would be taken too. Returns the labels, renumbered by size, and what
+    along lines that would be taken too. Returns the labels, renumbered (the carcass first), and what
     moved, per part and source label."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -419,7 +546,7 @@ def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             out[taken] = k
             moved.append({"part": k, "points": len(taken), "claimed_from": int(source),
                           "panel_turn_deg": round(turn, 1)})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def _facing(normals: np.ndarray, panel: np.ndarray, body) -> tuple[np.ndarray, np.ndarray]:
@@ -485,7 +612,7 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     kind: the others read the open faces off the box that the protruding pieces still
     stretch (on a phone-LiDAR ring a table's drawer read as deep behind its bottom face
     until 210 such points left the box). Needs the measured ``normals``. Returns the
-    labels, renumbered by size, and what moved, per piece."""
+    labels, renumbered (the carcass first), and what moved, per piece."""
     from scipy.spatial import cKDTree
 
     from .segment.pieces import linked_components
@@ -535,14 +662,14 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if to is not None and touching[to] > share_touching(inside, cloud[members]):
             out[members] = to
             moved.append({"part": to, "points": len(members), "protruding": True})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     options: CompartmentOptions = CompartmentOptions(),
                     evidence: tuple[str, ...] | None = None,
                     ) -> tuple[np.ndarray, list[dict]]:
-    """Small parts lying wholly inside the carcass's box (label 1, the largest part) go back
+    """Small parts lying wholly inside the carcass's box (label 1) go back
     to it: pieces of its shell that the masks cut out as parts of their own.
 
     A part is only seen to move when it is seen out of place: a drawer pulled out stands
@@ -564,7 +691,7 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     part nearest them (given to the carcass, they stretch its box). Other parts of more
     than ``enclosed_share`` of the carcass's points (a whole side wall) are left alone.
     ``evidence``: only parts with one of these kinds go back (:func:`settle`). Returns the
-    labels, renumbered by size, and what was moved."""
+    labels, renumbered (the carcass first), and what was moved."""
     out = labels.copy()
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -581,7 +708,7 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             kind = next(name for name in kinds if evidence is None or name in evidence)
             moved.append({"part": k, "points": len(index), "enclosed": True,
                           **({} if kind == "small" else {kind: kinds[kind]})})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def enclosed_parts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -677,7 +804,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     no piece of it but a part beside it that the larger's mixed label reaches around (on
     a hand-held path a drawer's own label lay in the box of one holding a door swung
     square and the other drawer); a side or a body cut from its front has no such front.
-    Returns the labels, renumbered by size, and what merged."""
+    Returns the labels, renumbered (the carcass first), and what merged."""
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
@@ -707,7 +834,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "merged_into": int(into)})
                 break
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def _front_owner(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray,
@@ -762,7 +889,7 @@ def merge_faces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     ``enclosed_inside`` quantiles, grown by as much: the larger holds the door's bins and
     edges). Two doors on one hinge line swung alike lie in one plane side by side, not
     within each other's outline; double doors swung open turn opposite ways. Needs the
-    measured ``normals``. Returns the labels, renumbered by size, and what merged."""
+    measured ``normals``. Returns the labels, renumbered (the carcass first), and what merged."""
     from scipy.spatial import cKDTree
 
     out = labels.copy()
@@ -802,7 +929,7 @@ def merge_faces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "faces_of": int(large)})
                 break
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -859,7 +986,7 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 out[labels == k] = front
                 moved.append({"part": k, "points": len(points), "behind": front})
                 break
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def _box(points: np.ndarray):
@@ -905,7 +1032,7 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
     its door's plane, in the door's label on a hand-held path: 1,561 points that pulled the
     hinge's line into the carcass). Runs after :func:`merge_nested` and
     :func:`merge_behind`, which give a drawer's side or body cut from its front back to it.
-    Needs the measured ``normals``. Returns the labels, renumbered by size, and what moved."""
+    Needs the measured ``normals``. Returns the labels, renumbered (the carcass first), and what moved."""
     from .ransac import fit_plane
 
     out = labels.copy()
@@ -932,7 +1059,47 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
         if deep.any():
             out[index[deep]] = 1
             moved.append({"part": k, "points": int(deep.sum()), "past_square_panel": True})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
+
+
+def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                     options: CompartmentOptions = CompartmentOptions(),
+                     normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A moving part lying in the carcass's box with no front on any face parts stand out
+    past is the carcass's: a divider or an inner wall the masks gave a label of its own.
+
+    A door or drawer seen shut shows its front at the opening (:func:`_fronts`: points
+    facing out of the face, at it, a patch wider than ``behind_voxels`` spacings both
+    ways); seen open it stands out of the box. A part with ``enclosed_inside`` of its
+    points in the box (grown by ``enclosed_margin_voxels`` spacings) and no front on any
+    open face (:func:`open_faces`) is neither: on a hand-held path a cabinet's divider
+    (734 points, 3.5 % of the carcass, above :func:`return_enclosed`'s ``small``; facing
+    sideways, as tall as the box, half its depth, flush with the opening) kept a slide.
+    Runs after :func:`merge_nested` and :func:`merge_behind`, which give a drawer's body
+    cut from its front back to it. With no part standing out there is no open face and
+    nothing moves. Needs the measured ``normals``. Returns the labels, renumbered (the
+    carcass first), and what moved."""
+    out = labels.copy()
+    moved: list[dict] = []
+    frame = _carcass_frame(cloud, labels, voxel, options, normals)
+    if frame is None:
+        return out, moved
+    body, local, square = frame
+    margin = options.enclosed_margin_voxels * voxel
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    faces = open_faces(local, labels, body.extent, margin,
+                       [k for k in parts if inside[k] < options.enclosed_inside])
+    for k in parts:
+        if not faces or inside[k] < options.enclosed_inside:
+            continue
+        index = np.nonzero(labels == k)[0]
+        if any(_fronts(local, square, index, face, body.extent, voxel, options)
+               for face in faces):
+            continue
+        out[index] = 1
+        moved.append({"part": k, "points": len(index), "frontless": True})
+    return carcass_first(out), moved
 
 
 def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -958,7 +1125,7 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     (:func:`_seam_fronts`). Every point of the label then goes to the front nearest it
     across the face (a drawer's sides and bottom lie behind its own front). A turned panel
     is no drawer and is left alone; so are two drawers pulled out alike (one front). Needs
-    the measured ``normals``. Returns the labels, renumbered by size, and what was split."""
+    the measured ``normals``. Returns the labels, renumbered (the carcass first), and what was split."""
     from scipy.spatial import cKDTree
 
     out = labels.copy()
@@ -1006,7 +1173,7 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         moved.append({"part": k, "points": len(index), "fronts": len(kept),
                       "split_m": [round(float(np.median(local[f, a])), 3) for f in kept],
                       **({"beside": [len(p) for p in beside]} if beside else {})})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def _beside_fronts(cloud: np.ndarray, index: np.ndarray, far: np.ndarray, body, axis: int,
@@ -1183,7 +1350,7 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     walls (and the walls hide its sides); a door or a lid standing out spans the face one
     way only, or is a turned panel (left alone). A drawer whose front covers the carcass's
     whole face and whose sides run along its walls within a spacing would go to the
-    carcass. Returns the labels, renumbered by size, and what merged."""
+    carcass. Returns the labels, renumbered (the carcass first), and what merged."""
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -1209,7 +1376,7 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             out[index] = 1
             moved.append({"part": k, "points": len(index), "shell": True,
                           "on_sides": round(on_sides, 2)})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -1238,7 +1405,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     does a small piece of the carcass in a label of its own (what :func:`return_enclosed`
     gives back: on a phone-LiDAR ring a patch of a cabinet's floor "found" two pieces of
     the floor beside it). Needs the measured ``normals``.
-    Returns the labels, renumbered by size, and what was found."""
+    Returns the labels, renumbered (the carcass first), and what was found."""
     from scipy.spatial import cKDTree
 
     from .segment.pieces import linked_components
@@ -1297,7 +1464,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     out[part] = int(out.max()) + 1
                     moved.append({"part": k, "points": len(part), "level_front": True,
                                   "side": [a, sign]})
-    return numbered_by_size(out), moved
+    return carcass_first(out), moved
 
 
 def _on_own_front(members: np.ndarray, own, apart: float,

@@ -1056,6 +1056,111 @@ def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_foun
     assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
+def test_a_stretch_of_the_carcass_apart_from_a_drawer_in_its_label_goes_back():
+    """A drawer pulled 15 cm out of a carcass, its label also holding a post at the
+    carcass's back corner (a table's leg: apart from the drawer, in the carcass's box,
+    beside the drawer's outline seen along every axis, touching the carcass's back wall):
+    the post goes to the carcass. The drawer's back panel, cut from its front (no sides
+    seen) and as far from it, lies within the front's outline seen along the slide and
+    stays; so does everything without the post."""
+    from pipeline.compartments import return_stray_pieces
+
+    y, z = (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    front = _grid(0.3, 0.24, (0.45, 0.05, -0.3), y, z)
+    back = _grid(0.26, 0.12, (0.0, 0.07, -0.28), y, z)
+    post = _grid(0.04, 0.5, (-0.28, -0.36, -0.3), y, z)
+    cloud = np.concatenate([carcass, front, back, post])
+    n = np.cumsum([0, len(carcass), len(front), len(back), len(post)])
+    labels = np.concatenate([np.ones(len(carcass), int), np.full(len(cloud) - n[1], 2)])
+    out, moved = return_stray_pieces(cloud, labels, 0.02)
+    assert (out[n[3]:] == 1).all() and (out[:n[1]] == 1).all()
+    assert (out[n[1]:n[3]] == 2).all()  # the drawer's front and back panel
+    assert moved == [{"part": 2, "points": len(post), "stray_to": 1}]
+    kept = np.concatenate([np.ones(len(carcass), int), np.full(n[3] - n[1], 2)])
+    assert return_stray_pieces(cloud[:n[3]], kept, 0.02)[1] == []
+
+
+def test_a_divider_inside_the_carcass_with_no_front_on_the_opening_goes_back():
+    """A door swung 90 degrees past a carcass's front (x = 0.3); inside, a divider (facing
+    sideways, as tall as the box, 40 % of its depth, flush with the opening: 8 % of the
+    carcass, above the share :func:`return_enclosed` takes by size, thin across the box)
+    in a label of its own: it shows no front on the opening and goes back. A drawer front
+    seen shut, flush with the opening, stays; with no part standing out (no open face)
+    nothing moves, and nothing without measured normals."""
+    from pipeline.compartments import return_enclosed, return_frontless
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    door = (_grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z), y)  # swung square
+    divider = (_grid(0.24, 0.8, (0.06, 0.1, -0.4), x, z), y)
+    shut = (_grid(0.3, 0.3, (0.29, -0.35, -0.36), y, z), x)  # a drawer front, flush
+    box_normals = np.where((np.abs(carcass[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(carcass[:, 1]) - 0.4) < 1e-9)[:, None],
+                                    y, z))
+    cloud, normals = _facing(door, divider, shut)
+    cloud, normals = np.concatenate([carcass, cloud]), np.concatenate([box_normals, normals])
+    n = np.cumsum([0, len(carcass), len(door[0]), len(divider[0]), len(shut[0])])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]], labels[n[3]:] = 2, 3, 4
+    assert len(divider[0]) > 0.03 * len(carcass)
+    assert return_enclosed(cloud, labels, 0.02)[1] == []  # not small, thick, deep nor through
+    out, moved = return_frontless(cloud, labels, 0.02, normals=normals)
+    assert moved == [{"part": 3, "points": len(divider[0]), "frontless": True}]
+    assert (out[:n[1]] == 1).all() and (out[n[2]:n[3]] == 1).all()
+    assert len(set(out[n[1]:n[2]]) | set(out[n[3]:])) == 2 and 1 not in out[n[1]:n[2]]
+    assert 1 not in out[n[3]:]  # the shut drawer's front
+    assert return_frontless(cloud, labels, 0.02)[1] == []  # needs the measured normals
+    closed = np.concatenate([np.arange(n[1]), np.arange(n[2], n[4])])
+    assert return_frontless(cloud[closed], labels[closed] - (labels[closed] > 2),
+                            0.02, normals=normals[closed])[1] == []
+
+
+def test_the_carcass_is_carried_through_the_rules_by_identity_not_size():
+    """A box's lid swung open is the largest label and one flat panel; its body, cut by
+    the masks in two halves (each a box of walls, each smaller than the lid), is not: the
+    larger half is the carcass (label 1), and a rule run after that keeps it label 1
+    though the lid outnumbers it (a patch inside the half's box goes back to it). Where
+    the largest label is no panel, or every label near its size is one, nothing changes."""
+    from pipeline.compartments import choose_carcass, return_enclosed
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    walls = [(_grid(0.6, 0.4, (-0.3, -0.2, -0.15), x, y), z),  # floor
+             (_grid(0.6, 0.3, (-0.3, -0.2, -0.15), x, z), y),
+             (_grid(0.6, 0.3, (-0.3, 0.2, -0.15), x, z), y),
+             (_grid(0.4, 0.3, (-0.3, -0.2, -0.15), y, z), x),
+             (_grid(0.4, 0.3, (0.3, -0.2, -0.15), y, z), x)]
+    body, body_normals = _facing(*walls)
+    a = np.radians(100)  # hinged at the back top edge, swung up past vertical
+    lid = _grid(0.6, 0.4, (-0.3, 0.2, 0.15), x, (0, -np.cos(a), np.sin(a)), step=0.012)
+    patch = _grid(0.06, 0.06, (-0.25, -0.1, -0.14), x, y)  # a patch of the floor
+    cloud = np.concatenate([lid, body, patch])
+    normals = np.concatenate([np.tile((0, np.sin(a), np.cos(a)), (len(lid), 1)),
+                              body_normals, np.tile(z, (len(patch), 1))])
+    n = np.cumsum([0, len(lid), len(body), len(patch)])
+    half = np.where(body[:, 0] < 0.02, 2, 3)  # the masks' cut across the body
+    labels = np.concatenate([np.ones(len(lid), int), half, np.full(len(patch), 4)])
+    sizes = np.bincount(labels)
+    assert sizes[1] > sizes[2] >= sizes[3]  # numbered by size: the lid first
+    chosen, moved = choose_carcass(cloud, labels, 0.02, normals=normals)
+    assert (chosen[n[1]:n[2]][half == 2] == 1).all() and (chosen[:n[1]] == 2).all()
+    assert moved == [{"part": 2, "points": int(sizes[2]), "carcass_not_panel": 1}]
+    out, enclosed = return_enclosed(cloud, chosen, 0.02)
+    assert [m["part"] for m in enclosed] == [4]
+    assert (out[n[2]:] == 1).all() and (out[n[1]:n[2]][half == 2] == 1).all()
+    assert (out[:n[1]] == 2).all()  # the lid, though the largest, is not the carcass
+    # the largest label no panel: unchanged; without measured normals: unchanged
+    whole = np.concatenate([np.full(len(lid), 2), np.ones(len(body), int),
+                            np.full(len(patch), 3)])
+    assert choose_carcass(cloud, whole, 0.02, normals=normals)[1] == []
+    assert choose_carcass(cloud, labels, 0.02)[1] == []
+    # every label near the lid's size a panel (a laptop's screen and base): unchanged
+    slab = np.concatenate([lid, _grid(0.6, 0.4, (-0.3, -0.2, -0.15), x, y, step=0.013)])
+    slab_normals = np.concatenate([normals[:n[1]], np.tile(z, (len(slab) - n[1], 1))])
+    two = np.concatenate([np.ones(n[1], int), np.full(len(slab) - n[1], 2)])
+    assert choose_carcass(slab, two, 0.02, normals=slab_normals)[1] == []
+
+
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
     """The two guards of :func:`find_level_fronts`: a level piece of the carcass's label
     that is the part's own front (most of it next to the front, across its whole width) or
