@@ -193,6 +193,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += past
     labels, frontless = return_frontless(seg.points, labels, seg.spacing, options, normals)
     moved += frontless
+    labels, face = return_face_fronts(seg.points, labels, seg.spacing, options, normals)
+    moved += face
     labels, split = split_fronts(seg.points, labels, seg.spacing, options, normals)
     moved += split
     labels, shell = merge_shell(seg.points, labels, seg.spacing, options, normals)
@@ -1099,6 +1101,46 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             continue
         out[index] = 1
         moved.append({"part": k, "points": len(index), "frontless": True})
+    return carcass_first(out), moved
+
+
+def return_face_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                       options: CompartmentOptions = CompartmentOptions(),
+                       normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A label standing out past a face of the carcass's box whose one front
+    (:func:`_fronts`) lies level with the face, while the label reaches more than
+    ``behind_voxels`` spacings past that front out of the box, holds a stretch of the
+    carcass's face: that front goes back to the carcass.
+
+    A part standing out shows its front where it stands (a drawer pulled out, at its
+    outer end); a door swung open is a turned panel or shows only its edges (no front).
+    On a ring in a room a drawer pulled out 13 cm below a door swung 21 degrees, its own
+    front hidden by the door, shared a label with the carcass's face frame beside the
+    door (222 of the label's 798 points, facing out of the face, level with it): mostly
+    the carcass's, the label stood for no part and the drawer's joint was lost. Two
+    fronts at two depths (a drawer shut beside one pulled out, both fronts seen) are
+    :func:`split_fronts`'s and stay; a shut drawer's front alone in the label of a
+    drawer whose own front is hidden would go to the carcass. Needs the measured
+    ``normals``. Returns the labels,
+    renumbered (the carcass first), and what moved."""
+    out = labels.copy()
+    moved: list[dict] = []
+    frame = _carcass_frame(cloud, labels, voxel, options, normals)
+    if frame is None:
+        return out, moved
+    body, local, square = frame
+    behind = options.behind_voxels * voxel
+    margin = options.enclosed_margin_voxels * voxel
+    for k, index, (a, sign), _ in _standing(cloud, labels, body, local, voxel, options,
+                                            normals):
+        fronts = _fronts(local, square, index, (a, sign), body.extent, voxel, options)
+        if len(fronts) != 1:
+            continue
+        level = float(np.median(sign * local[fronts[0], a]))
+        reach = float(np.quantile(sign * local[index, a], options.enclosed_inside))
+        if level <= body.extent[a] + margin and reach - level > behind:
+            out[fronts[0]] = 1
+            moved.append({"part": k, "points": len(fronts[0]), "face_front": True})
     return carcass_first(out), moved
 
 

@@ -1116,6 +1116,51 @@ def test_a_divider_inside_the_carcass_with_no_front_on_the_opening_goes_back():
                             0.02, normals=normals[closed])[1] == []
 
 
+def test_a_stretch_of_the_carcass_face_in_a_pulled_out_drawers_label_goes_back():
+    """A drawer pulled 20 cm out of a carcass, its front hidden (a door swung in front of
+    it): its label holds the drawer's bottom, standing out, and a stretch of the carcass's
+    face frame beside it (facing out, level with the face): that stretch, the label's one
+    front, goes back. A label whose one front stands out with it (the drawer's own front
+    seen) keeps everything; so does one with two fronts at two depths (a drawer shut
+    beside one pulled out: :func:`split_fronts`'s)."""
+    from pipeline.compartments import (
+        CompartmentOptions,
+        _carcass_frame,
+        _fronts,
+        return_face_fronts,
+    )
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    box_normals = np.where((np.abs(carcass[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(carcass[:, 1]) - 0.4) < 1e-9)[:, None],
+                                    y, z))
+    frame = (_grid(0.1, 0.3, (0.3, -0.4, 0.0), y, z), x)  # the face frame, level with it
+    bottom = (_grid(0.6, 0.3, (-0.1, -0.2, -0.3), x, y), z)  # the drawer's, 20 cm out
+    front = (_grid(0.3, 0.2, (0.5, -0.2, -0.3), y, z), x)  # the drawer's own front
+    shut = (_grid(0.25, 0.2, (0.3, 0.1, -0.3), y, z), x)  # a sibling's, shut
+
+    def labelled(*pieces):
+        cloud, normals = _facing(*pieces)
+        return (np.concatenate([carcass, cloud]), np.concatenate([box_normals, normals]),
+                np.concatenate([np.ones(len(carcass), int), np.full(len(cloud), 2)]))
+
+    cloud, normals, labels = labelled(bottom, frame)
+    out, moved = return_face_fronts(cloud, labels, 0.02, normals=normals)
+    assert moved == [{"part": 2, "points": len(frame[0]), "face_front": True}]
+    assert (out[len(carcass) + len(bottom[0]):] == 1).all()
+    assert (out[len(carcass):len(carcass) + len(bottom[0])] == 2).all()
+    assert return_face_fronts(cloud, labels, 0.02)[1] == []  # needs the measured normals
+    for pieces in ((bottom, front), (bottom, front, shut)):
+        cloud, normals, labels = labelled(*pieces)
+        body, local, square = _carcass_frame(cloud, labels, 0.02, CompartmentOptions(),
+                                             normals)
+        fronts = _fronts(local, square, np.nonzero(labels == 2)[0], (0, 1), body.extent,
+                         0.02, CompartmentOptions())
+        assert len(fronts) == len(pieces) - 1
+        assert return_face_fronts(cloud, labels, 0.02, normals=normals)[1] == []
+
+
 def test_the_carcass_is_carried_through_the_rules_by_identity_not_size():
     """A box's lid swung open is the largest label and one flat panel; its body, cut by
     the masks in two halves (each a box of walls, each smaller than the lid), is not: the
