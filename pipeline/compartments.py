@@ -78,6 +78,8 @@ class CompartmentOptions:
     panels_apart_deg: float = 20.0  # a label holding two turned panels this far apart ...
     panel_width_voxels: float = 5.0  # ... each this many spacings wide both ways (not a
     # door's edge strip) is two swung panels (two flaps on one rail opened opposite ways)
+    handle_facing: float = 0.5  # what stands past a label's front facing out as it does
+    # at least this share, is a handle, not a part standing out (return_face_fronts)
     carcass_share: float = 0.5  # the largest label one flat panel, the carcass is the largest
     # label of at least this share of its points that is not one (choose_carcass)
 
@@ -1114,6 +1116,10 @@ def return_face_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
 
     A part standing out shows its front where it stands (a drawer pulled out, at its
     outer end); a door swung open is a turned panel or shows only its edges (no front).
+    Past the front: at least ``front_points`` of the label's points, fewer than
+    ``handle_facing`` of them facing out as the front does (a drawer's sides and bottom
+    do not; a shut drawer's handle, 7 cm out of its front, does: on a hand-held path a
+    cabinet's drawer 1.8 cm out lost its front to a first version that read reach alone).
     On a ring in a room a drawer pulled out 13 cm below a door swung 21 degrees, its own
     front hidden by the door, shared a label with the carcass's face frame beside the
     door (222 of the label's 798 points, facing out of the face, level with it): mostly
@@ -1137,8 +1143,9 @@ def return_face_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if len(fronts) != 1:
             continue
         level = float(np.median(sign * local[fronts[0], a]))
-        reach = float(np.quantile(sign * local[index, a], options.enclosed_inside))
-        if level <= body.extent[a] + margin and reach - level > behind:
+        beyond = index[sign * local[index, a] > level + behind]
+        if (level <= body.extent[a] + margin and len(beyond) >= options.front_points
+                and square[beyond, a].mean() < options.handle_facing):
             out[fronts[0]] = 1
             moved.append({"part": k, "points": len(fronts[0]), "face_front": True})
     return carcass_first(out), moved

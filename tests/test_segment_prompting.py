@@ -1151,6 +1151,11 @@ def test_a_stretch_of_the_carcass_face_in_a_pulled_out_drawers_label_goes_back()
     assert (out[len(carcass) + len(bottom[0]):] == 1).all()
     assert (out[len(carcass):len(carcass) + len(bottom[0])] == 2).all()
     assert return_face_fronts(cloud, labels, 0.02)[1] == []  # needs the measured normals
+    # a drawer shut, its front level with the face and its handle 7 cm out (facing out
+    # as the front does), in a label with the face frame: nothing past the front but that
+    handle = (_grid(0.2, 0.04, (0.37, -0.15, -0.2), y, z), x)
+    cloud, normals, labels = labelled((shut[0] - (0, 0.3, 0), x), handle, frame)
+    assert return_face_fronts(cloud, labels, 0.02, normals=normals)[1] == []
     for pieces in ((bottom, front), (bottom, front, shut)):
         cloud, normals, labels = labelled(*pieces)
         body, local, square = _carcass_frame(cloud, labels, 0.02, CompartmentOptions(),
