@@ -53,8 +53,8 @@ from pipeline.predictors.evaluate import (  # noqa: E402
     score_object,
 )
 
-STEPS = ("choose_carcass", "return_stray_pieces", "find_level_fronts", "split_panels",
-         "claim_panels", "return_compartments", "give_protrusions", "return_enclosed",
+STEPS = ("return_stray_pieces", "find_level_fronts", "split_panels", "claim_panels",
+         "return_compartments", "give_protrusions", "return_enclosed",
          "merge_nested", "merge_faces", "merge_behind", "return_past_square_panels",
          "return_frontless", "return_face_fronts", "split_fronts",
          "merge_shell")  # return_to_carcass's order

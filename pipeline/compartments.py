@@ -25,7 +25,7 @@ from .capture import Capture
 from .fuse import axis_mean, normal_map, point_map
 from .obb import OBB, part_obb
 from .ransac import fit_plane
-from .segment.prompting import Segmentation, label_views
+from .segment.prompting import Segmentation, label_views, numbered_by_size
 
 
 @dataclass(frozen=True)
@@ -80,8 +80,6 @@ class CompartmentOptions:
     # door's edge strip) is two swung panels (two flaps on one rail opened opposite ways)
     handle_facing: float = 0.5  # what stands past a label's front facing out as it does
     # at least this share, is a handle, not a part standing out (return_face_fronts)
-    carcass_share: float = 0.5  # the largest label one flat panel, the carcass is the largest
-    # label of at least this share of its points that is not one (choose_carcass)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -108,61 +106,17 @@ def carcass_box(points: np.ndarray, voxel: float,
     return part_obb(points[keep])
 
 
-def carcass_first(labels: np.ndarray) -> np.ndarray:
-    """The same partition numbered 1..n, the carcass (label 1) kept 1, the others by size
-    (ties keep their order). Every rule renumbers so, which carries the carcass
-    :func:`choose_carcass` chose through the stage by identity: numbered by size alone, a
-    box's lid swung open, larger than either half of a body the masks cut in two, became
-    the carcass again after the first rule that moved anything."""
-    sizes = np.bincount(labels)
-    order = [k for k in np.argsort(-sizes, kind="stable") if sizes[k] > 0 and k != 1]
-    if len(sizes) > 1 and sizes[1] > 0:
-        order.insert(0, 1)
-    remap = np.zeros(len(sizes), dtype=int)
-    remap[order] = np.arange(1, len(order) + 1)
-    return remap[labels]
-
-
-def choose_carcass(cloud: np.ndarray, labels: np.ndarray, voxel: float,
-                   options: CompartmentOptions = CompartmentOptions(),
-                   normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
-    """The labels with the carcass as label 1: the largest label unless that is one flat
-    panel (:func:`_one_panel`), then the largest that is not, when it holds at least
-    ``carcass_share`` as many points (a body the masks cut in two, each half near the
-    size of the lid). A carcass is a box of walls; a panel swung open (a box's lid, a
-    refrigerator's door) can outnumber a body cut in pieces, and every rule measures
-    against the carcass's box: on a hand-held path the box 100189's lid (5,533 points)
-    was the largest label, its body in two (4,905 and 4,472), and the body's half stood
-    out of the lid's box as a part of its own. Where every label near that size is a
-    panel (a laptop's base and screen) label 1 stays. Needs the measured ``normals``.
-    Returns the labels (:func:`carcass_first`) and what was chosen."""
-    if normals is None or labels.max() < 2:
-        return labels, []
-    sizes = np.bincount(labels)
-    by_size = [k for k in np.argsort(-sizes, kind="stable") if k > 0 and sizes[k] >= 30]
-    if not by_size or not _one_panel(cloud[labels == by_size[0]],
-                                     normals[labels == by_size[0]], voxel, options):
-        return labels, []
-    for k in by_size[1:]:
-        if sizes[k] < options.carcass_share * sizes[by_size[0]]:
-            break
-        if not _one_panel(cloud[labels == k], normals[labels == k], voxel, options):
-            out = np.where(labels == k, 1, np.where(labels == 1, k, labels))
-            return carcass_first(out), [{"part": int(k), "points": int(sizes[k]),
-                                         "carcass_not_panel": int(by_size[0])}]
-    return labels, []
-
-
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
-    """``seg`` with the carcass chosen (:func:`choose_carcass`), stray stretches of it in
-    moving parts' labels given back, drawers left in the carcass's label found, a label holding two swung
+    """``seg`` with stray stretches of the carcass in moving parts' labels given back,
+    drawers left in the carcass's label found, a label holding two swung
     panels split, open panels' points in other labels given to them, then the compartments behind open doors given back to the
     carcass, what of the carcass stands out past its walls given to the parts it touches,
     enclosed pieces given back to the carcass, a part lying in another's box or behind its
     front merged into it, a door's two faces merged, the compartment past a door swung
-    square given back, parts in the box with no front on the opening given back, a label
-    with two drawers' fronts split, and pieces of the
+    square given back, parts in the box with no front on the opening and a standing
+    label's front level with the face given back, a label with two drawers' fronts split,
+    and pieces of the
     carcass's shell standing past its box merged into it (its cloud's labels and every
     view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
@@ -172,11 +126,10 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                 for f in capture.frames]
     normals = axis_mean(seg.points, np.concatenate([p for p, _ in measured]),
                         np.concatenate([n for _, n in measured]))
-    labels, chosen = choose_carcass(seg.points, seg.point_labels, seg.spacing, options,
-                                    normals)
-    labels, stray = return_stray_pieces(seg.points, labels, seg.spacing, options, normals)
+    labels, stray = return_stray_pieces(seg.points, seg.point_labels, seg.spacing, options,
+                                        normals)
     labels, found = find_level_fronts(seg.points, labels, seg.spacing, options, normals)
-    found = chosen + stray + found
+    found = stray + found
     labels, parted = split_panels(seg.points, labels, seg.spacing, options, normals)
     found += parted
     labels, claimed = claim_panels(seg.points, labels, seg.spacing, options, normals)
@@ -231,7 +184,7 @@ def return_stray_pieces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     pieces lie within its outline seen along one axis: a drawer's back panel cut from its
     front seen along the slide, a door's handle seen across the door, a panel cut in two by
     an occluder seen along the cut (both halves span the same stretch of its other side).
-    Returns the labels, renumbered (the carcass first), and what moved."""
+    Returns the labels, renumbered by size, and what moved."""
     from scipy.spatial import cKDTree
 
     from .segment.pieces import linked_components
@@ -272,7 +225,7 @@ def return_stray_pieces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             to = int(np.bincount(out[touching]).argmax())
             out[members] = to
             moved.append({"part": k, "points": len(members), "stray_to": to})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def _share_within(points: np.ndarray, outline: np.ndarray, margin: float) -> float:
@@ -318,7 +271,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                         normals: np.ndarray | None = None,
                         ) -> tuple[np.ndarray, list[dict]]:
     """Points of a swung-open door's part that are the compartment behind it go back to the
-    carcass (label 1).
+    carcass (label 1, the largest part).
 
     The mask network's commonest error: prompted on an open door it also takes the inside of
     the compartment the door reveals, which the carcass's own masks leave out, so no vote
@@ -334,7 +287,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     measured ``normals`` (:func:`pipeline.fuse.axis_mean`), only the plane's points that
     face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
     capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
-    Returns the labels, renumbered (the carcass first), and what was moved, per part."""
+    Returns the labels, renumbered by size, and what was moved, per part."""
     from scipy.spatial import cKDTree
 
     out = labels.copy()
@@ -363,7 +316,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if back.any():
             out[index[back]] = 1
             moved.append({"part": k, "points": int(back.sum()), "panel_turn_deg": round(turn, 1)})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -386,7 +339,7 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     measured against its box every wall of the body is a turned panel (on PartNet-Mobility
     dev's phone-LiDAR ring the box 100189's body label holding two walls was split, 5
     movable joints for 1). Runs before the rules that read a label's panel. Needs the
-    measured ``normals``. Returns the labels, renumbered (the carcass first), and what split."""
+    measured ``normals``. Returns the labels, renumbered by size, and what split."""
     out = labels.copy()
     moved: list[dict] = []
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -416,7 +369,7 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         new = index[_nearer_panel_second(cloud[index], planes, options.panel_voxels * voxel)]
         out[new] = int(out.max()) + 1
         moved.append({"part": k, "points": len(new), "panels_apart_deg": round(apart, 1)})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def _one_panel(points: np.ndarray, normals: np.ndarray, voxel: float,
@@ -504,7 +457,7 @@ def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     (``claim_most``: a procedural cabinet's two doors on one hinge line, open 76 and 83
     degrees, the nearer square of them no turned panel of its own, lost 726 of 764 points).
     Needs the measured ``normals``: without them a turned plane cuts the carcass's walls
-    along lines that would be taken too. Returns the labels, renumbered (the carcass first), and what
+    along lines that would be taken too. Returns the labels, renumbered by size, and what
     moved, per part and source label."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -550,7 +503,7 @@ def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             out[taken] = k
             moved.append({"part": k, "points": len(taken), "claimed_from": int(source),
                           "panel_turn_deg": round(turn, 1)})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def _facing(normals: np.ndarray, panel: np.ndarray, body) -> tuple[np.ndarray, np.ndarray]:
@@ -616,7 +569,7 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     kind: the others read the open faces off the box that the protruding pieces still
     stretch (on a phone-LiDAR ring a table's drawer read as deep behind its bottom face
     until 210 such points left the box). Needs the measured ``normals``. Returns the
-    labels, renumbered (the carcass first), and what moved, per piece."""
+    labels, renumbered by size, and what moved, per piece."""
     from scipy.spatial import cKDTree
 
     from .segment.pieces import linked_components
@@ -666,14 +619,14 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if to is not None and touching[to] > share_touching(inside, cloud[members]):
             out[members] = to
             moved.append({"part": to, "points": len(members), "protruding": True})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     options: CompartmentOptions = CompartmentOptions(),
                     evidence: tuple[str, ...] | None = None,
                     ) -> tuple[np.ndarray, list[dict]]:
-    """Small parts lying wholly inside the carcass's box (label 1) go back
+    """Small parts lying wholly inside the carcass's box (label 1, the largest part) go back
     to it: pieces of its shell that the masks cut out as parts of their own.
 
     A part is only seen to move when it is seen out of place: a drawer pulled out stands
@@ -695,7 +648,7 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     part nearest them (given to the carcass, they stretch its box). Other parts of more
     than ``enclosed_share`` of the carcass's points (a whole side wall) are left alone.
     ``evidence``: only parts with one of these kinds go back (:func:`settle`). Returns the
-    labels, renumbered (the carcass first), and what was moved."""
+    labels, renumbered by size, and what was moved."""
     out = labels.copy()
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -712,7 +665,7 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             kind = next(name for name in kinds if evidence is None or name in evidence)
             moved.append({"part": k, "points": len(index), "enclosed": True,
                           **({} if kind == "small" else {kind: kinds[kind]})})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def enclosed_parts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -808,7 +761,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     no piece of it but a part beside it that the larger's mixed label reaches around (on
     a hand-held path a drawer's own label lay in the box of one holding a door swung
     square and the other drawer); a side or a body cut from its front has no such front.
-    Returns the labels, renumbered (the carcass first), and what merged."""
+    Returns the labels, renumbered by size, and what merged."""
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
@@ -838,7 +791,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "merged_into": int(into)})
                 break
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def _front_owner(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray,
@@ -893,7 +846,7 @@ def merge_faces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     ``enclosed_inside`` quantiles, grown by as much: the larger holds the door's bins and
     edges). Two doors on one hinge line swung alike lie in one plane side by side, not
     within each other's outline; double doors swung open turn opposite ways. Needs the
-    measured ``normals``. Returns the labels, renumbered (the carcass first), and what merged."""
+    measured ``normals``. Returns the labels, renumbered by size, and what merged."""
     from scipy.spatial import cKDTree
 
     out = labels.copy()
@@ -933,7 +886,7 @@ def merge_faces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 moved.append({"part": int(small), "points": int(sizes[small]),
                               "faces_of": int(large)})
                 break
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -990,7 +943,7 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 out[labels == k] = front
                 moved.append({"part": k, "points": len(points), "behind": front})
                 break
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def _box(points: np.ndarray):
@@ -1036,7 +989,7 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
     its door's plane, in the door's label on a hand-held path: 1,561 points that pulled the
     hinge's line into the carcass). Runs after :func:`merge_nested` and
     :func:`merge_behind`, which give a drawer's side or body cut from its front back to it.
-    Needs the measured ``normals``. Returns the labels, renumbered (the carcass first), and what moved."""
+    Needs the measured ``normals``. Returns the labels, renumbered by size, and what moved."""
     from .ransac import fit_plane
 
     out = labels.copy()
@@ -1063,7 +1016,7 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
         if deep.any():
             out[index[deep]] = 1
             moved.append({"part": k, "points": int(deep.sum()), "past_square_panel": True})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -1103,7 +1056,7 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             continue
         out[index] = 1
         moved.append({"part": k, "points": len(index), "frontless": True})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def return_face_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -1128,7 +1081,7 @@ def return_face_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     :func:`split_fronts`'s and stay; a shut drawer's front alone in the label of a
     drawer whose own front is hidden would go to the carcass. Needs the measured
     ``normals``. Returns the labels,
-    renumbered (the carcass first), and what moved."""
+    renumbered by size, and what moved."""
     out = labels.copy()
     moved: list[dict] = []
     frame = _carcass_frame(cloud, labels, voxel, options, normals)
@@ -1148,7 +1101,7 @@ def return_face_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 and square[beyond, a].mean() < options.handle_facing):
             out[fronts[0]] = 1
             moved.append({"part": k, "points": len(fronts[0]), "face_front": True})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -1174,7 +1127,7 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     (:func:`_seam_fronts`). Every point of the label then goes to the front nearest it
     across the face (a drawer's sides and bottom lie behind its own front). A turned panel
     is no drawer and is left alone; so are two drawers pulled out alike (one front). Needs
-    the measured ``normals``. Returns the labels, renumbered (the carcass first), and what was split."""
+    the measured ``normals``. Returns the labels, renumbered by size, and what was split."""
     from scipy.spatial import cKDTree
 
     out = labels.copy()
@@ -1222,7 +1175,7 @@ def split_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         moved.append({"part": k, "points": len(index), "fronts": len(kept),
                       "split_m": [round(float(np.median(local[f, a])), 3) for f in kept],
                       **({"beside": [len(p) for p in beside]} if beside else {})})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def _beside_fronts(cloud: np.ndarray, index: np.ndarray, far: np.ndarray, body, axis: int,
@@ -1399,7 +1352,7 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     walls (and the walls hide its sides); a door or a lid standing out spans the face one
     way only, or is a turned panel (left alone). A drawer whose front covers the carcass's
     whole face and whose sides run along its walls within a spacing would go to the
-    carcass. Returns the labels, renumbered (the carcass first), and what merged."""
+    carcass. Returns the labels, renumbered by size, and what merged."""
     out = labels.copy()
     moved: list[dict] = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
@@ -1425,7 +1378,7 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             out[index] = 1
             moved.append({"part": k, "points": len(index), "shell": True,
                           "on_sides": round(on_sides, 2)})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -1454,7 +1407,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     does a small piece of the carcass in a label of its own (what :func:`return_enclosed`
     gives back: on a phone-LiDAR ring a patch of a cabinet's floor "found" two pieces of
     the floor beside it). Needs the measured ``normals``.
-    Returns the labels, renumbered (the carcass first), and what was found."""
+    Returns the labels, renumbered by size, and what was found."""
     from scipy.spatial import cKDTree
 
     from .segment.pieces import linked_components
@@ -1513,7 +1466,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     out[part] = int(out.max()) + 1
                     moved.append({"part": k, "points": len(part), "level_front": True,
                                   "side": [a, sign]})
-    return carcass_first(out), moved
+    return numbered_by_size(out), moved
 
 
 def _on_own_front(members: np.ndarray, own, apart: float,

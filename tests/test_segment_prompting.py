@@ -1166,51 +1166,6 @@ def test_a_stretch_of_the_carcass_face_in_a_pulled_out_drawers_label_goes_back()
         assert return_face_fronts(cloud, labels, 0.02, normals=normals)[1] == []
 
 
-def test_the_carcass_is_carried_through_the_rules_by_identity_not_size():
-    """A box's lid swung open is the largest label and one flat panel; its body, cut by
-    the masks in two halves (each a box of walls, each smaller than the lid), is not: the
-    larger half is the carcass (label 1), and a rule run after that keeps it label 1
-    though the lid outnumbers it (a patch inside the half's box goes back to it). Where
-    the largest label is no panel, or every label near its size is one, nothing changes."""
-    from pipeline.compartments import choose_carcass, return_enclosed
-
-    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
-    walls = [(_grid(0.6, 0.4, (-0.3, -0.2, -0.15), x, y), z),  # floor
-             (_grid(0.6, 0.3, (-0.3, -0.2, -0.15), x, z), y),
-             (_grid(0.6, 0.3, (-0.3, 0.2, -0.15), x, z), y),
-             (_grid(0.4, 0.3, (-0.3, -0.2, -0.15), y, z), x),
-             (_grid(0.4, 0.3, (0.3, -0.2, -0.15), y, z), x)]
-    body, body_normals = _facing(*walls)
-    a = np.radians(100)  # hinged at the back top edge, swung up past vertical
-    lid = _grid(0.6, 0.4, (-0.3, 0.2, 0.15), x, (0, -np.cos(a), np.sin(a)), step=0.012)
-    patch = _grid(0.06, 0.06, (-0.25, -0.1, -0.14), x, y)  # a patch of the floor
-    cloud = np.concatenate([lid, body, patch])
-    normals = np.concatenate([np.tile((0, np.sin(a), np.cos(a)), (len(lid), 1)),
-                              body_normals, np.tile(z, (len(patch), 1))])
-    n = np.cumsum([0, len(lid), len(body), len(patch)])
-    half = np.where(body[:, 0] < 0.02, 2, 3)  # the masks' cut across the body
-    labels = np.concatenate([np.ones(len(lid), int), half, np.full(len(patch), 4)])
-    sizes = np.bincount(labels)
-    assert sizes[1] > sizes[2] >= sizes[3]  # numbered by size: the lid first
-    chosen, moved = choose_carcass(cloud, labels, 0.02, normals=normals)
-    assert (chosen[n[1]:n[2]][half == 2] == 1).all() and (chosen[:n[1]] == 2).all()
-    assert moved == [{"part": 2, "points": int(sizes[2]), "carcass_not_panel": 1}]
-    out, enclosed = return_enclosed(cloud, chosen, 0.02)
-    assert [m["part"] for m in enclosed] == [4]
-    assert (out[n[2]:] == 1).all() and (out[n[1]:n[2]][half == 2] == 1).all()
-    assert (out[:n[1]] == 2).all()  # the lid, though the largest, is not the carcass
-    # the largest label no panel: unchanged; without measured normals: unchanged
-    whole = np.concatenate([np.full(len(lid), 2), np.ones(len(body), int),
-                            np.full(len(patch), 3)])
-    assert choose_carcass(cloud, whole, 0.02, normals=normals)[1] == []
-    assert choose_carcass(cloud, labels, 0.02)[1] == []
-    # every label near the lid's size a panel (a laptop's screen and base): unchanged
-    slab = np.concatenate([lid, _grid(0.6, 0.4, (-0.3, -0.2, -0.15), x, y, step=0.013)])
-    slab_normals = np.concatenate([normals[:n[1]], np.tile(z, (len(slab) - n[1], 1))])
-    two = np.concatenate([np.ones(n[1], int), np.full(len(slab) - n[1], 2)])
-    assert choose_carcass(slab, two, 0.02, normals=slab_normals)[1] == []
-
-
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
     """The two guards of :func:`find_level_fronts`: a level piece of the carcass's label
     that is the part's own front (most of it next to the front, across its whole width) or
