@@ -1062,7 +1062,8 @@ def test_a_stretch_of_the_carcass_apart_from_a_drawer_in_its_label_goes_back():
     beside the drawer's outline seen along every axis, touching the carcass's back wall):
     the post goes to the carcass. The drawer's back panel, cut from its front (no sides
     seen) and as far from it, lies within the front's outline seen along the slide and
-    stays; so does everything without the post."""
+    stays; so does everything without the post, and a drawer's side cut from its front
+    that overlaps the front's outline in part."""
     from pipeline.compartments import return_stray_pieces
 
     y, z = (0, 1, 0), (0, 0, 1)
@@ -1079,6 +1080,14 @@ def test_a_stretch_of_the_carcass_apart_from_a_drawer_in_its_label_goes_back():
     assert moved == [{"part": 2, "points": len(post), "stray_to": 1}]
     kept = np.concatenate([np.ones(len(carcass), int), np.full(n[3] - n[1], 2)])
     assert return_stray_pieces(cloud[:n[3]], kept, 0.02)[1] == []
+    # a drawer's side cut from its front, 80 % within the front's outline seen along the
+    # slide (its lower end reaching the floor below the front): the drawer's, it stays
+    x = (1, 0, 0)
+    tall = _grid(0.3, 0.4, (0.45, 0.05, -0.3), y, z)
+    side = _grid(0.2, 0.18, (0.1, 0.35, -0.38), x, z)
+    cloud = np.concatenate([carcass, tall, side])
+    labels = np.concatenate([np.ones(len(carcass), int), np.full(len(tall) + len(side), 2)])
+    assert return_stray_pieces(cloud, labels, 0.02)[1] == []
 
 
 def test_a_divider_inside_the_carcass_with_no_front_on_the_opening_goes_back():
