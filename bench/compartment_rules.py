@@ -53,9 +53,11 @@ from pipeline.predictors.evaluate import (  # noqa: E402
     score_object,
 )
 
-STEPS = ("find_level_fronts", "split_panels", "claim_panels", "return_compartments",
-         "give_protrusions", "return_enclosed", "merge_nested", "merge_faces", "merge_behind",
-         "return_past_square_panels", "split_fronts", "merge_shell")  # return_to_carcass's order
+STEPS = ("return_stray_pieces", "find_level_fronts", "split_panels", "claim_panels",
+         "return_compartments", "give_protrusions", "return_enclosed",
+         "merge_nested", "merge_faces", "merge_behind", "return_past_square_panels",
+         "return_frontless", "return_face_fronts", "split_fronts",
+         "merge_shell")  # return_to_carcass's order
 ENCLOSED_KINDS = ("small", "thick", "deep_m", "through")
 
 

@@ -78,6 +78,8 @@ class CompartmentOptions:
     panels_apart_deg: float = 20.0  # a label holding two turned panels this far apart ...
     panel_width_voxels: float = 5.0  # ... each this many spacings wide both ways (not a
     # door's edge strip) is two swung panels (two flaps on one rail opened opposite ways)
+    handle_facing: float = 0.5  # what stands past a label's front facing out as it does
+    # at least this share, is a handle, not a part standing out (return_face_fronts)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -106,12 +108,15 @@ def carcass_box(points: np.ndarray, voxel: float,
 
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
-    """``seg`` with drawers left in the carcass's label found, a label holding two swung
+    """``seg`` with stray stretches of the carcass in moving parts' labels given back,
+    drawers left in the carcass's label found, a label holding two swung
     panels split, open panels' points in other labels given to them, then the compartments behind open doors given back to the
     carcass, what of the carcass stands out past its walls given to the parts it touches,
     enclosed pieces given back to the carcass, a part lying in another's box or behind its
     front merged into it, a door's two faces merged, the compartment past a door swung
-    square given back, a label with two drawers' fronts split, and pieces of the
+    square given back, parts in the box with no front on the opening and a standing
+    label's front level with the face given back, a label with two drawers' fronts split,
+    and pieces of the
     carcass's shell standing past its box merged into it (its cloud's labels and every
     view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
@@ -121,8 +126,10 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                 for f in capture.frames]
     normals = axis_mean(seg.points, np.concatenate([p for p, _ in measured]),
                         np.concatenate([n for _, n in measured]))
-    labels, found = find_level_fronts(seg.points, seg.point_labels, seg.spacing, options,
-                                      normals)
+    labels, stray = return_stray_pieces(seg.points, seg.point_labels, seg.spacing, options,
+                                        normals)
+    labels, found = find_level_fronts(seg.points, labels, seg.spacing, options, normals)
+    found = stray + found
     labels, parted = split_panels(seg.points, labels, seg.spacing, options, normals)
     found += parted
     labels, claimed = claim_panels(seg.points, labels, seg.spacing, options, normals)
@@ -139,6 +146,10 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += behind
     labels, past = return_past_square_panels(seg.points, labels, seg.spacing, options, normals)
     moved += past
+    labels, frontless = return_frontless(seg.points, labels, seg.spacing, options, normals)
+    moved += frontless
+    labels, face = return_face_fronts(seg.points, labels, seg.spacing, options, normals)
+    moved += face
     labels, split = split_fronts(seg.points, labels, seg.spacing, options, normals)
     moved += split
     labels, shell = merge_shell(seg.points, labels, seg.spacing, options, normals)
@@ -151,6 +162,83 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
                    n_parts=int(labels.max()), point_labels=labels,
                    details={**seg.details, "parts": int(labels.max()),
                             "returned_to_carcass": moved})
+
+
+def return_stray_pieces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                        options: CompartmentOptions = CompartmentOptions(),
+                        normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A piece of a moving part's label lying apart from the label's main piece, in the
+    carcass's box and apart from the main piece's outline seen along each of the box's axes,
+    goes to the label it touches most: a stretch of the carcass (a table's leg, a rail) the
+    masks gave the part.
+
+    Pieces: points linked within ``panel_link_voxels`` spacings; the main piece the
+    largest; a stray one at least ``front_points`` points, at most ``claim_most`` of the
+    main piece, more than ``behind_voxels`` spacings from it, ``enclosed_inside`` of it in
+    the carcass's box (grown by ``enclosed_margin_voxels`` spacings), and seen along every
+    axis of the box apart from the main piece (no more than ``1 - nested_share`` of it
+    within ``nested_margin_voxels`` spacings of its points, as :func:`_apart` judges
+    fronts). On a hand-held path a table's drawer label held
+    the table's back leg (164 points, 64 cm behind the drawer, touching the carcass at its
+    top only: too little for :func:`pipeline.segment.pieces.reassign_detached`), its box
+    spanned the table's depth and the drawer's slide read 90 degrees off. A part's own
+    pieces overlap its outline seen along one axis: a drawer's back panel cut from its
+    front seen along the slide, a door's handle seen across the door, a panel cut in two by
+    an occluder seen along the cut (both halves span the same stretch of its other side);
+    a procedural cabinet's drawer's own 334-point piece, 83 % within its front's outline
+    seen along one axis, went to the carcass while the rule asked only that it not lie
+    wholly within (90 %), and the drawer's third label, no longer in its box, kept a joint.
+    Returns the labels, renumbered by size, and what moved."""
+    from scipy.spatial import cKDTree
+
+    from .segment.pieces import linked_components
+
+    out = labels.copy()
+    moved: list[dict] = []
+    if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
+        return out, moved
+    body = carcass_box(cloud[labels == 1], voxel, options)
+    local = (cloud - body.center) @ body.R
+    link = options.panel_link_voxels * voxel
+    margin = options.nested_margin_voxels * voxel
+    for k in range(2, int(labels.max()) + 1):
+        index = np.nonzero(labels == k)[0]
+        if len(index) < 2 * options.front_points:
+            continue
+        piece = linked_components(cloud[index], link)
+        sizes = np.bincount(piece)
+        main = int(np.argmax(sizes))
+        own = index[piece == main]
+        near_main = cKDTree(cloud[own])
+        for p in np.nonzero((sizes >= options.front_points)
+                            & (sizes <= options.claim_most * sizes[main]))[0]:
+            members = index[piece == p]
+            if (near_main.query(cloud[members])[0].min() <= options.behind_voxels * voxel
+                    or body.contains(cloud[members], tol=options.enclosed_margin_voxels
+                                     * voxel).mean() < options.enclosed_inside):
+                continue
+            seen = [[b for b in range(3) if b != a] for a in range(3)]
+            if any(_share_within(local[members][:, ab], local[own][:, ab], margin)
+                   > 1.0 - options.nested_share for ab in seen):
+                continue  # not apart from the main piece's outline along one axis: its own
+            others = np.nonzero(out != k)[0]
+            touching = others[np.unique(np.concatenate(cKDTree(cloud[others]).query_ball_point(
+                cloud[members], link)).astype(int))] if len(others) else others
+            if len(touching) == 0:
+                continue
+            to = int(np.bincount(out[touching]).argmax())
+            out[members] = to
+            moved.append({"part": k, "points": len(members), "stray_to": to})
+    return numbered_by_size(out), moved
+
+
+def _share_within(points: np.ndarray, outline: np.ndarray, margin: float) -> float:
+    """The share of ``points`` within ``margin`` of ``outline``'s points (both seen in the
+    same two coordinates)."""
+    from scipy.spatial import cKDTree
+
+    return float(np.isfinite(cKDTree(outline).query(points, distance_upper_bound=margin)[0])
+                 .mean())
 
 
 def settle(cloud: np.ndarray, labels: np.ndarray, voxel: float,
@@ -932,6 +1020,91 @@ def return_past_square_panels(cloud: np.ndarray, labels: np.ndarray, voxel: floa
         if deep.any():
             out[index[deep]] = 1
             moved.append({"part": k, "points": int(deep.sum()), "past_square_panel": True})
+    return numbered_by_size(out), moved
+
+
+def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                     options: CompartmentOptions = CompartmentOptions(),
+                     normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A moving part lying in the carcass's box with no front on any face parts stand out
+    past is the carcass's: a divider or an inner wall the masks gave a label of its own.
+
+    A door or drawer seen shut shows its front at the opening (:func:`_fronts`: points
+    facing out of the face, at it, a patch wider than ``behind_voxels`` spacings both
+    ways); seen open it stands out of the box. A part with ``enclosed_inside`` of its
+    points in the box (grown by ``enclosed_margin_voxels`` spacings) and no front on any
+    open face (:func:`open_faces`) is neither: on a hand-held path a cabinet's divider
+    (734 points, 3.5 % of the carcass, above :func:`return_enclosed`'s ``small``; facing
+    sideways, as tall as the box, half its depth, flush with the opening) kept a slide.
+    Runs after :func:`merge_nested` and :func:`merge_behind`, which give a drawer's body
+    cut from its front back to it. With no part standing out there is no open face and
+    nothing moves. Needs the measured ``normals``. Returns the labels, renumbered (the
+    carcass first), and what moved."""
+    out = labels.copy()
+    moved: list[dict] = []
+    frame = _carcass_frame(cloud, labels, voxel, options, normals)
+    if frame is None:
+        return out, moved
+    body, local, square = frame
+    margin = options.enclosed_margin_voxels * voxel
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    faces = open_faces(local, labels, body.extent, margin,
+                       [k for k in parts if inside[k] < options.enclosed_inside])
+    for k in parts:
+        if not faces or inside[k] < options.enclosed_inside:
+            continue
+        index = np.nonzero(labels == k)[0]
+        if any(_fronts(local, square, index, face, body.extent, voxel, options)
+               for face in faces):
+            continue
+        out[index] = 1
+        moved.append({"part": k, "points": len(index), "frontless": True})
+    return numbered_by_size(out), moved
+
+
+def return_face_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                       options: CompartmentOptions = CompartmentOptions(),
+                       normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A label standing out past a face of the carcass's box whose one front
+    (:func:`_fronts`) lies level with the face, while the label reaches more than
+    ``behind_voxels`` spacings past that front out of the box, holds a stretch of the
+    carcass's face: that front goes back to the carcass.
+
+    A part standing out shows its front where it stands (a drawer pulled out, at its
+    outer end); a door swung open is a turned panel or shows only its edges (no front).
+    Past the front: at least ``front_points`` of the label's points, fewer than
+    ``handle_facing`` of them facing out as the front does (a drawer's sides and bottom
+    do not; a shut drawer's handle, 7 cm out of its front, does: on a hand-held path a
+    cabinet's drawer 1.8 cm out lost its front to a first version that read reach alone).
+    On a ring in a room a drawer pulled out 13 cm below a door swung 21 degrees, its own
+    front hidden by the door, shared a label with the carcass's face frame beside the
+    door (222 of the label's 798 points, facing out of the face, level with it): mostly
+    the carcass's, the label stood for no part and the drawer's joint was lost. Two
+    fronts at two depths (a drawer shut beside one pulled out, both fronts seen) are
+    :func:`split_fronts`'s and stay; a shut drawer's front alone in the label of a
+    drawer whose own front is hidden would go to the carcass. Needs the measured
+    ``normals``. Returns the labels,
+    renumbered by size, and what moved."""
+    out = labels.copy()
+    moved: list[dict] = []
+    frame = _carcass_frame(cloud, labels, voxel, options, normals)
+    if frame is None:
+        return out, moved
+    body, local, square = frame
+    behind = options.behind_voxels * voxel
+    margin = options.enclosed_margin_voxels * voxel
+    for k, index, (a, sign), _ in _standing(cloud, labels, body, local, voxel, options,
+                                            normals):
+        fronts = _fronts(local, square, index, (a, sign), body.extent, voxel, options)
+        if len(fronts) != 1:
+            continue
+        level = float(np.median(sign * local[fronts[0], a]))
+        beyond = index[sign * local[index, a] > level + behind]
+        if (level <= body.extent[a] + margin and len(beyond) >= options.front_points
+                and square[beyond, a].mean() < options.handle_facing):
+            out[fronts[0]] = 1
+            moved.append({"part": k, "points": len(fronts[0]), "face_front": True})
     return numbered_by_size(out), moved
 
 

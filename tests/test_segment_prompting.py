@@ -1056,6 +1056,125 @@ def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_foun
     assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
+def test_a_stretch_of_the_carcass_apart_from_a_drawer_in_its_label_goes_back():
+    """A drawer pulled 15 cm out of a carcass, its label also holding a post at the
+    carcass's back corner (a table's leg: apart from the drawer, in the carcass's box,
+    beside the drawer's outline seen along every axis, touching the carcass's back wall):
+    the post goes to the carcass. The drawer's back panel, cut from its front (no sides
+    seen) and as far from it, lies within the front's outline seen along the slide and
+    stays; so does everything without the post, and a drawer's side cut from its front
+    that overlaps the front's outline in part."""
+    from pipeline.compartments import return_stray_pieces
+
+    y, z = (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    front = _grid(0.3, 0.24, (0.45, 0.05, -0.3), y, z)
+    back = _grid(0.26, 0.12, (0.0, 0.07, -0.28), y, z)
+    post = _grid(0.04, 0.5, (-0.28, -0.36, -0.3), y, z)
+    cloud = np.concatenate([carcass, front, back, post])
+    n = np.cumsum([0, len(carcass), len(front), len(back), len(post)])
+    labels = np.concatenate([np.ones(len(carcass), int), np.full(len(cloud) - n[1], 2)])
+    out, moved = return_stray_pieces(cloud, labels, 0.02)
+    assert (out[n[3]:] == 1).all() and (out[:n[1]] == 1).all()
+    assert (out[n[1]:n[3]] == 2).all()  # the drawer's front and back panel
+    assert moved == [{"part": 2, "points": len(post), "stray_to": 1}]
+    kept = np.concatenate([np.ones(len(carcass), int), np.full(n[3] - n[1], 2)])
+    assert return_stray_pieces(cloud[:n[3]], kept, 0.02)[1] == []
+    # a drawer's side cut from its front, 80 % within the front's outline seen along the
+    # slide (its lower end reaching the floor below the front): the drawer's, it stays
+    x = (1, 0, 0)
+    tall = _grid(0.3, 0.4, (0.45, 0.05, -0.3), y, z)
+    side = _grid(0.2, 0.18, (0.1, 0.35, -0.38), x, z)
+    cloud = np.concatenate([carcass, tall, side])
+    labels = np.concatenate([np.ones(len(carcass), int), np.full(len(tall) + len(side), 2)])
+    assert return_stray_pieces(cloud, labels, 0.02)[1] == []
+
+
+def test_a_divider_inside_the_carcass_with_no_front_on_the_opening_goes_back():
+    """A door swung 90 degrees past a carcass's front (x = 0.3); inside, a divider (facing
+    sideways, as tall as the box, 40 % of its depth, flush with the opening: 8 % of the
+    carcass, above the share :func:`return_enclosed` takes by size, thin across the box)
+    in a label of its own: it shows no front on the opening and goes back. A drawer front
+    seen shut, flush with the opening, stays; with no part standing out (no open face)
+    nothing moves, and nothing without measured normals."""
+    from pipeline.compartments import return_enclosed, return_frontless
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    door = (_grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z), y)  # swung square
+    divider = (_grid(0.24, 0.8, (0.06, 0.1, -0.4), x, z), y)
+    shut = (_grid(0.3, 0.3, (0.29, -0.35, -0.36), y, z), x)  # a drawer front, flush
+    box_normals = np.where((np.abs(carcass[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(carcass[:, 1]) - 0.4) < 1e-9)[:, None],
+                                    y, z))
+    cloud, normals = _facing(door, divider, shut)
+    cloud, normals = np.concatenate([carcass, cloud]), np.concatenate([box_normals, normals])
+    n = np.cumsum([0, len(carcass), len(door[0]), len(divider[0]), len(shut[0])])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]], labels[n[3]:] = 2, 3, 4
+    assert len(divider[0]) > 0.03 * len(carcass)
+    assert return_enclosed(cloud, labels, 0.02)[1] == []  # not small, thick, deep nor through
+    out, moved = return_frontless(cloud, labels, 0.02, normals=normals)
+    assert moved == [{"part": 3, "points": len(divider[0]), "frontless": True}]
+    assert (out[:n[1]] == 1).all() and (out[n[2]:n[3]] == 1).all()
+    assert len(set(out[n[1]:n[2]]) | set(out[n[3]:])) == 2 and 1 not in out[n[1]:n[2]]
+    assert 1 not in out[n[3]:]  # the shut drawer's front
+    assert return_frontless(cloud, labels, 0.02)[1] == []  # needs the measured normals
+    closed = np.concatenate([np.arange(n[1]), np.arange(n[2], n[4])])
+    assert return_frontless(cloud[closed], labels[closed] - (labels[closed] > 2),
+                            0.02, normals=normals[closed])[1] == []
+
+
+def test_a_stretch_of_the_carcass_face_in_a_pulled_out_drawers_label_goes_back():
+    """A drawer pulled 20 cm out of a carcass, its front hidden (a door swung in front of
+    it): its label holds the drawer's bottom, standing out, and a stretch of the carcass's
+    face frame beside it (facing out, level with the face): that stretch, the label's one
+    front, goes back. A label whose one front stands out with it (the drawer's own front
+    seen) keeps everything; so does one with two fronts at two depths (a drawer shut
+    beside one pulled out: :func:`split_fronts`'s)."""
+    from pipeline.compartments import (
+        CompartmentOptions,
+        _carcass_frame,
+        _fronts,
+        return_face_fronts,
+    )
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    box_normals = np.where((np.abs(carcass[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(carcass[:, 1]) - 0.4) < 1e-9)[:, None],
+                                    y, z))
+    frame = (_grid(0.1, 0.3, (0.3, -0.4, 0.0), y, z), x)  # the face frame, level with it
+    bottom = (_grid(0.6, 0.3, (-0.1, -0.2, -0.3), x, y), z)  # the drawer's, 20 cm out
+    front = (_grid(0.3, 0.2, (0.5, -0.2, -0.3), y, z), x)  # the drawer's own front
+    shut = (_grid(0.25, 0.2, (0.3, 0.1, -0.3), y, z), x)  # a sibling's, shut
+
+    def labelled(*pieces):
+        cloud, normals = _facing(*pieces)
+        return (np.concatenate([carcass, cloud]), np.concatenate([box_normals, normals]),
+                np.concatenate([np.ones(len(carcass), int), np.full(len(cloud), 2)]))
+
+    cloud, normals, labels = labelled(bottom, frame)
+    out, moved = return_face_fronts(cloud, labels, 0.02, normals=normals)
+    assert moved == [{"part": 2, "points": len(frame[0]), "face_front": True}]
+    assert (out[len(carcass) + len(bottom[0]):] == 1).all()
+    assert (out[len(carcass):len(carcass) + len(bottom[0])] == 2).all()
+    assert return_face_fronts(cloud, labels, 0.02)[1] == []  # needs the measured normals
+    # a drawer shut, its front level with the face and its handle 7 cm out (facing out
+    # as the front does), in a label with the face frame: nothing past the front but that
+    handle = (_grid(0.2, 0.04, (0.37, -0.15, -0.2), y, z), x)
+    cloud, normals, labels = labelled((shut[0] - (0, 0.3, 0), x), handle, frame)
+    assert return_face_fronts(cloud, labels, 0.02, normals=normals)[1] == []
+    for pieces in ((bottom, front), (bottom, front, shut)):
+        cloud, normals, labels = labelled(*pieces)
+        body, local, square = _carcass_frame(cloud, labels, 0.02, CompartmentOptions(),
+                                             normals)
+        fronts = _fronts(local, square, np.nonzero(labels == 2)[0], (0, 1), body.extent,
+                         0.02, CompartmentOptions())
+        assert len(fronts) == len(pieces) - 1
+        assert return_face_fronts(cloud, labels, 0.02, normals=normals)[1] == []
+
+
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
     """The two guards of :func:`find_level_fronts`: a level piece of the carcass's label
     that is the part's own front (most of it next to the front, across its whole width) or
