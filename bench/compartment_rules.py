@@ -54,8 +54,8 @@ from pipeline.predictors.evaluate import (  # noqa: E402
 )
 
 STEPS = ("find_level_fronts", "split_panels", "claim_panels", "return_compartments",
-         "give_protrusions", "return_enclosed", "merge_nested", "merge_faces", "merge_behind",
-         "return_past_square_panels", "split_fronts", "merge_shell")  # return_to_carcass's order
+         "give_protrusions", "give_past_walls", "return_enclosed", "merge_nested", "merge_faces",
+         "merge_behind", "return_past_square_panels", "split_fronts", "merge_shell")  # return_to_carcass's order
 ENCLOSED_KINDS = ("small", "thick", "deep_m", "through")
 
 

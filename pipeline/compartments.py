@@ -104,11 +104,100 @@ def carcass_box(points: np.ndarray, voxel: float,
     return part_obb(points[keep])
 
 
+def carcass_of(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+               options: CompartmentOptions = CompartmentOptions(),
+               normals: np.ndarray | None = None) -> OBB:
+    """The carcass's box (label 1, :func:`carcass_box`) that the rules measure against,
+    drawn in to its walls on a face where a part's points in its label stretch it
+    (:func:`within_walls`; with the measured ``normals`` only)."""
+    carcass = labels == 1
+    body = carcass_box(cloud[carcass], voxel, options)
+    if normals is None:
+        return body
+    return within_walls(body, cloud[carcass], normals[carcass], cloud[labels > 1], voxel,
+                        options)
+
+
+def within_walls(body: OBB, points: np.ndarray, normals: np.ndarray, parts: np.ndarray,
+                 voxel: float, options: CompartmentOptions = CompartmentOptions()) -> OBB:
+    """The carcass's box ``body`` with each face that the carcass's label (``points``, with
+    their measured ``normals``) reaches far past its walls, where the moving parts'
+    points (``parts``) past the walls outnumber the label's, drawn in to the walls: there
+    the label holds a part's points, not the carcass's.
+
+    The walls: the label's points facing along one of the box's axes (within
+    ``panel_min_angle``), grouped by depth along it (a gap of more than ``behind_voxels``
+    spacings parts two groups), each group of at least ``front_points`` and
+    ``front_share`` of them, spanning more than ``behind_voxels`` spacings both ways across
+    the axis (a carcass's sides, top, back and floor; a front's rim where it is seen
+    whole). A face lies more than ``behind_voxels`` spacings past every wall's points (the
+    walls' extent, grown by ``wall_margin_voxels`` spacings) only where the label holds
+    points that no wall holds: the carcass's own overhang (a table top past its sides, a
+    back seen edge-on) is more of the label's than of the parts' there, and stays; a
+    drawer pulled out whose points the masks left in the carcass's label lies past the
+    face the other parts stand out past. On a hand-held phone-LiDAR path a 7-drawer
+    table's label held 270 points of its top drawer and 80 of another, pulled out 27 cm
+    past the table's front: the box reached as far, every drawer's label lay inside it,
+    no face was open, and four pieces of the carcass kept slides."""
+    local = (points - body.center) @ body.R
+    square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
+    walls = carcass_walls(local, square, voxel, options)
+    if not walls:
+        return body
+    behind = options.behind_voxels * voxel
+    margin = options.wall_margin_voxels * voxel
+    others = (parts - body.center) @ body.R
+    low, high = -body.extent.copy(), body.extent.copy()
+    for a in range(3):
+        for sign in (1, -1):
+            # the second wall out: a part's side along one wall stretches that wall alone
+            reach = sorted(float(np.max(sign * local[w, a])) for _, w in walls)
+            face = reach[-2 if len(reach) > 1 else -1] + margin
+            if body.extent[a] - face <= behind:
+                continue
+            if (np.count_nonzero(sign * others[:, a] > face)
+                    > np.count_nonzero(sign * local[:, a] > face)):
+                if sign > 0:
+                    high[a] = face
+                else:
+                    low[a] = -face
+    if np.array_equal(low, -body.extent) and np.array_equal(high, body.extent):
+        return body
+    return OBB(body.center + body.R @ ((low + high) / 2), body.R, (high - low) / 2)
+
+
+def carcass_walls(local: np.ndarray, square: np.ndarray, voxel: float,
+                  options: CompartmentOptions = CompartmentOptions(),
+                  ) -> list[tuple[int, np.ndarray]]:
+    """The carcass's walls (:func:`within_walls`), each as (the axis it faces along, its
+    points' indices): its points facing along one of its box's axes (``square``: per point
+    and axis), grouped by depth along it (a gap of more than ``behind_voxels`` spacings
+    parts two groups), each group of at least ``front_points`` and ``front_share`` of
+    them, spanning more than ``behind_voxels`` spacings both ways across the axis.
+    ``local``: the points in the box's frame."""
+    behind = options.behind_voxels * voxel
+    walls = []
+    for a in range(3):
+        facing = np.nonzero(square[:, a])[0]
+        if len(facing) == 0:
+            continue
+        across = [b for b in range(3) if b != a]
+        depth = np.sort(local[facing, a])
+        cuts = np.nonzero(np.diff(depth) > behind)[0]
+        bounds = np.concatenate([[-np.inf], (depth[cuts] + depth[cuts + 1]) / 2, [np.inf]])
+        group = np.searchsorted(bounds, local[facing, a]) - 1
+        least = max(options.front_points, options.front_share * len(facing))
+        walls += [(a, w) for w in (facing[group == g] for g in range(len(bounds) - 1))
+                  if len(w) >= least and np.ptp(local[w][:, across], axis=0).min() > behind]
+    return walls
+
+
 def return_to_carcass(capture: Capture, seg: Segmentation,
                       options: CompartmentOptions = CompartmentOptions()) -> Segmentation:
     """``seg`` with drawers left in the carcass's label found, a label holding two swung
     panels split, open panels' points in other labels given to them, then the compartments behind open doors given back to the
     carcass, what of the carcass stands out past its walls given to the parts it touches,
+    what of its label lies past the walls where parts stand out given to a part,
     enclosed pieces given back to the carcass, a part lying in another's box or behind its
     front merged into it, a door's two faces merged, the compartment past a door swung
     square given back, a label with two drawers' fronts split, and pieces of the
@@ -128,8 +217,10 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     labels, claimed = claim_panels(seg.points, labels, seg.spacing, options, normals)
     labels, moved = return_compartments(seg.points, labels, seg.spacing, options, normals)
     labels, protruding = give_protrusions(seg.points, labels, seg.spacing, options, normals)
-    moved = found + claimed + moved + protruding
-    labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
+    labels, walled = give_past_walls(seg.points, labels, seg.spacing, options, normals)
+    moved = found + claimed + moved + protruding + walled
+    labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options,
+                                       normals=normals)
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options, normals)
     moved += nested
@@ -143,7 +234,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += split
     labels, shell = merge_shell(seg.points, labels, seg.spacing, options, normals)
     moved += shell
-    labels, settled = settle(seg.points, labels, seg.spacing, options)
+    labels, settled = settle(seg.points, labels, seg.spacing, options, normals)
     moved += settled
     if not moved:  # the labels stand (already numbered by size): no views to redo
         return replace(seg, details={**seg.details, "returned_to_carcass": []})
@@ -155,7 +246,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
 
 def settle(cloud: np.ndarray, labels: np.ndarray, voxel: float,
            options: CompartmentOptions = CompartmentOptions(),
-           ) -> tuple[np.ndarray, list[dict]]:
+           normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
     """:func:`return_enclosed` again once the other rules have run, up to
     ``settle_rounds`` times, until it moves nothing, taking back only parts whose front
     lies deep behind the open faces (``deep_m``).
@@ -175,7 +266,7 @@ def settle(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     for _ in range(options.settle_rounds):
         labels, enclosed = return_enclosed(cloud, labels, voxel, options,
-                                           evidence=("deep_m",))
+                                           evidence=("deep_m",), normals=normals)
         if not enclosed:
             break
         moved += enclosed
@@ -210,7 +301,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         panel = turned_panel(cloud[index], body, voxel, options,
@@ -263,7 +354,7 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = np.nonzero(labels == 1)[0]
     if _one_panel(cloud[carcass], normals[carcass], voxel, options):
         return out, moved  # a lid, not a carcass: every wall of the body is turned from it
-    body = carcass_box(cloud[carcass], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         first = turned_panel(cloud[index], body, voxel, options, normals[index])
@@ -383,7 +474,7 @@ def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved = []
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     panels, own = {}, np.zeros(len(cloud), dtype=bool)  # own: on its own label's open panel
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
@@ -495,7 +586,7 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = labels == 1
     if normals is None or labels.max() < 2 or np.count_nonzero(carcass) < 4:
         return out, moved
-    body = carcass_box(cloud[carcass], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     margin = options.wall_margin_voxels * voxel
@@ -538,10 +629,75 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     return numbered_by_size(out), moved
 
 
+def give_past_walls(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                    options: CompartmentOptions = CompartmentOptions(),
+                    normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """The carcass's points past a face of its box that :func:`within_walls` drew in to its
+    walls are a part's: each piece of them (points joined through points this close:
+    ``panel_link_voxels`` spacings) goes to the moving part more of its points touch than
+    touch the carcass inside the face, else becomes a part of its own (at least
+    ``front_points``; fewer stay); what lies on a wall's plane (:func:`carcass_walls`,
+    within ``panel_voxels`` spacings, facing along it) stays: a table top overhanging the
+    front past its sides. Left in the carcass's label they stretch the box the
+    joint predictor reads the carcass by, past the drawers pulled out, and it read a
+    7-drawer table's slides across the drawers (all 90 degrees off on a hand-held
+    phone-LiDAR path). Needs the measured ``normals``. Returns the labels, renumbered by
+    size, and what moved, per piece."""
+    from scipy.spatial import cKDTree
+
+    from .segment.pieces import linked_components
+
+    out = labels.copy()
+    moved: list[dict] = []
+    carcass = labels == 1
+    if normals is None or labels.max() < 2 or np.count_nonzero(carcass) < 4:
+        return out, moved
+    whole = carcass_box(cloud[carcass], voxel, options)
+    body = within_walls(whole, cloud[carcass], normals[carcass], cloud[labels > 1], voxel,
+                        options)
+    if body is whole:
+        return out, moved
+    # past a drawn-in face, not the strays carcass_box leaves out, nor a wall's own plane
+    # going on past it (a table top overhanging its front)
+    past = carcass & ~body.contains(cloud) & whole.contains(cloud, tol=voxel)
+    local = (cloud - whole.center) @ whole.R
+    square = np.abs(normals @ whole.R) >= np.cos(np.radians(options.panel_min_angle))
+    index = np.nonzero(carcass)[0]
+    for a, wall in carcass_walls(local[index], square[index], voxel, options):
+        past &= ~(square[:, a] & (np.abs(local[:, a] - np.median(local[index[wall], a]))
+                                  <= options.panel_voxels * voxel))
+    standing = np.nonzero(past)[0]
+    if len(standing) == 0:
+        return out, moved
+    link = options.panel_link_voxels * voxel
+    piece = linked_components(cloud[standing], link)
+    inside = cKDTree(cloud[carcass & ~past])
+    parts = {k: cKDTree(cloud[labels == k]) for k in range(2, int(labels.max()) + 1)
+             if np.any(labels == k)}
+
+    def share_touching(tree, points: np.ndarray) -> float:
+        return float(np.isfinite(tree.query(points, distance_upper_bound=link)[0]).mean())
+
+    top = int(labels.max())
+    for p in range(int(piece.max()) + 1):
+        members = standing[piece == p]
+        touching = {k: share_touching(tree, cloud[members]) for k, tree in parts.items()}
+        to = max(touching, key=touching.get, default=None)
+        if to is not None and touching[to] > share_touching(inside, cloud[members]):
+            out[members] = to
+            moved.append({"part": to, "points": len(members), "past_walls": True})
+        elif len(members) >= options.front_points:
+            top += 1
+            out[members] = top
+            moved.append({"part": top, "points": len(members), "past_walls": True,
+                          "own": True})
+    return numbered_by_size(out), moved
+
+
 def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     options: CompartmentOptions = CompartmentOptions(),
                     evidence: tuple[str, ...] | None = None,
-                    ) -> tuple[np.ndarray, list[dict]]:
+                    normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
     """Small parts lying wholly inside the carcass's box (label 1, the largest part) go back
     to it: pieces of its shell that the masks cut out as parts of their own.
 
@@ -563,13 +719,14 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     front seen shut reaches in so far). A returned part's points outside the box go to the
     part nearest them (given to the carcass, they stretch its box). Other parts of more
     than ``enclosed_share`` of the carcass's points (a whole side wall) are left alone.
-    ``evidence``: only parts with one of these kinds go back (:func:`settle`). Returns the
-    labels, renumbered by size, and what was moved."""
+    ``evidence``: only parts with one of these kinds go back (:func:`settle`); with the
+    measured ``normals`` the box is drawn in to the carcass's walls (:func:`carcass_of`).
+    Returns the labels, renumbered by size, and what was moved."""
     out = labels.copy()
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     margin = options.enclosed_margin_voxels * voxel
     for k, kinds in enclosed_parts(cloud, labels, voxel, options, body).items():
         index = np.nonzero(labels == k)[0]
@@ -682,7 +839,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     sizes = np.bincount(labels)
     parts = [k for k in np.argsort(sizes, kind="stable") if k >= 2 and sizes[k] >= 4]
     boxes = {k: _box(cloud[labels == k]) for k in parts}
@@ -769,7 +926,7 @@ def merge_faces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if normals is None or labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     margin = options.nested_margin_voxels * voxel
     sizes = np.bincount(labels)
     panels = {}
@@ -831,7 +988,7 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     local = (cloud - body.center) @ body.R
     margin = options.enclosed_margin_voxels * voxel
     parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
@@ -879,7 +1036,7 @@ def _carcass_frame(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     is square to the box's axes; None without normals or a carcass to measure against."""
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return None
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     return body, local, square
@@ -1188,7 +1345,7 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_box(cloud[labels == 1], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     local = (cloud - body.center) @ body.R
     margin = options.enclosed_margin_voxels * voxel
     for k, index, (a, sign), inside in _standing(cloud, labels, body, local, voxel, options,
@@ -1248,7 +1405,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = np.nonzero(labels == 1)[0]
     if normals is None or labels.max() < 2 or len(carcass) < 4:
         return out, moved
-    body = carcass_box(cloud[carcass], voxel, options)
+    body = carcass_of(cloud, labels, voxel, options, normals)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     behind = options.behind_voxels * voxel

@@ -1056,6 +1056,60 @@ def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_foun
     assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
+def _drawers_out_of_a_table():
+    """A carcass open at the front (x = 0.3) whose top overhangs the front by 6 cm, and three
+    drawers pulled 25 cm out side by side, 8 cm apart: each a front facing out and a
+    bottom. Points, their normals, and each piece's slice: the carcass, the drawers."""
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+               (_grid(0.66, 0.8, (-0.3, -0.4, 0.4), x, y), z)]  # the top, 6 cm over
+    drawers = [[(_grid(0.2, 0.14, (0.55, y0, -0.3), y, z), x),
+                (_grid(0.44, 0.2, (0.1, y0, -0.3), x, y), z)] for y0 in (-0.38, -0.1, 0.18)]
+    cloud, normals = _facing(*carcass, *(piece for d in drawers for piece in d))
+    n = np.cumsum([0, sum(len(p) for p, _ in carcass),
+                   *(sum(len(p) for p, _ in d) for d in drawers)])
+    return cloud, normals, [slice(n[i], n[i + 1]) for i in range(len(n) - 1)]
+
+
+def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_walls():
+    """Of three drawers pulled out of a table, the masks left one in the carcass's label: its
+    box reaches the drawers' fronts, 25 cm past the table's walls, so no drawer stands out
+    of it. Drawn in to its walls (the second wall out: the sides and floor end at the
+    front, the top 6 cm past it), the box leaves the other two standing out, and the
+    drawer's points past the walls become a part of their own; the top's overhang, on the
+    top's plane, stays. With no drawer in a label of its own standing out there, and
+    without measured normals, the box is the label's."""
+    from pipeline.compartments import carcass_box, carcass_of, give_past_walls
+
+    cloud, normals, (carcass, a, b, c) = _drawers_out_of_a_table()
+    labels = np.ones(len(cloud), int)
+    labels[a], labels[b] = 2, 3
+    whole = carcass_box(cloud[labels == 1], 0.02)
+    assert np.isclose(whole.center[0] + whole.extent[0], 0.55, atol=1e-6)
+    body = carcass_of(cloud, labels, 0.02, normals=normals)
+    assert np.isclose(body.center[0] + body.extent[0], 0.32, atol=1e-6)
+    assert np.allclose([body.center[0] - body.extent[0], *body.extent[1:]],
+                       [-0.3, *whole.extent[1:]], atol=1e-6)
+    out, moved = give_past_walls(cloud, labels, 0.02, normals=normals)
+    past = np.zeros(len(cloud), bool)
+    past[c] = cloud[c, 0] > 0.32
+    assert len(set(out[past])) == 1 and out[past][0] not in (1, out[a][0], out[b][0])
+    assert (out[~past & (labels == 1)] == 1).all()  # the top's overhang too
+    assert moved == [{"part": int(out[past][0]), "points": int(past.sum()),
+                      "past_walls": True, "own": True}]
+    assert np.all(cloud[carcass][:, 0] <= 0.36 + 1e-9)
+    # nothing stands out: the box is the label's, nothing moves
+    alone = np.ones(len(cloud), int)
+    assert np.allclose(carcass_of(cloud, alone, 0.02, normals=normals).extent,
+                       carcass_box(cloud, 0.02).extent)
+    assert give_past_walls(cloud, alone, 0.02, normals=normals)[1] == []
+    assert np.allclose(carcass_of(cloud, labels, 0.02).extent, whole.extent)
+    assert give_past_walls(cloud, labels, 0.02)[1] == []
+
+
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
     """The two guards of :func:`find_level_fronts`: a level piece of the carcass's label
     that is the part's own front (most of it next to the front, across its whole width) or
