@@ -150,9 +150,14 @@ def within_walls(body: OBB, points: np.ndarray, normals: np.ndarray, parts: np.n
     low, high = -body.extent.copy(), body.extent.copy()
     for a in range(3):
         for sign in (1, -1):
-            # the second wall out: a part's side along one wall stretches that wall alone
-            reach = sorted(float(np.max(sign * local[w, a])) for _, w in walls)
-            face = reach[-2 if len(reach) > 1 else -1] + margin
+            # a wall facing out of the face is at it; else the second wall out along it (a
+            # part's side lying along one wall stretches that wall alone)
+            out = [float(np.max(sign * local[w, a])) for f, w in walls
+                   if f == a and np.median(sign * local[w, a]) > 0]
+            reach = sorted(float(np.max(sign * local[w, a])) for f, w in walls if f != a)
+            if len(reach) > 1:
+                out.append(reach[-2])
+            face = max(out or reach or [body.extent[a]]) + margin
             if body.extent[a] - face <= behind:
                 continue
             if (np.count_nonzero(sign * others[:, a] > face)

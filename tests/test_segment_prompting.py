@@ -1108,6 +1108,21 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     assert give_past_walls(cloud, alone, 0.02, normals=normals)[1] == []
     assert np.allclose(carcass_of(cloud, labels, 0.02).extent, whole.extent)
     assert give_past_walls(cloud, labels, 0.02)[1] == []
+    # a front rim facing out is the front, however short of it the other walls are seen
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    short = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+             (_grid(0.48, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+             (_grid(0.48, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+             (_grid(0.48, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+             (_grid(0.48, 0.8, (-0.3, -0.4, 0.4), x, y), z),
+             (_grid(0.8, 0.8, (0.3, -0.4, -0.4), y, z)[::3], x)]  # the rim, 12 cm proud
+    rimmed, rimmed_normals = _facing(*short)
+    rimmed = np.concatenate([rimmed, cloud[a], cloud[b]])
+    rimmed_normals = np.concatenate([rimmed_normals, normals[a], normals[b]])
+    kept = np.r_[np.ones(len(rimmed) - len(cloud[a]) - len(cloud[b]), int),
+                 np.full(len(cloud[a]), 2), np.full(len(cloud[b]), 3)]
+    assert np.allclose(carcass_of(rimmed, kept, 0.02, normals=rimmed_normals).extent,
+                       carcass_box(rimmed[kept == 1], 0.02).extent)
 
 
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
