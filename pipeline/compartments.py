@@ -78,6 +78,9 @@ class CompartmentOptions:
     panels_apart_deg: float = 20.0  # a label holding two turned panels this far apart ...
     panel_width_voxels: float = 5.0  # ... each this many spacings wide both ways (not a
     # door's edge strip) is two swung panels (two flaps on one rail opened opposite ways)
+    past_walls_share: float = 0.1  # at most this share of the carcass's label lying past a
+    # face beyond its walls, where parts stand out, is a part's (more is its own surface,
+    # its walls seen short of it: on hand-held phone views 12 % of a fridge's label)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -122,8 +125,9 @@ def within_walls(body: OBB, points: np.ndarray, normals: np.ndarray, parts: np.n
                  voxel: float, options: CompartmentOptions = CompartmentOptions()) -> OBB:
     """The carcass's box ``body`` with each face that the carcass's label (``points``, with
     their measured ``normals``) reaches far past its walls, where the moving parts'
-    points (``parts``) past the walls outnumber the label's, drawn in to the walls: there
-    the label holds a part's points, not the carcass's.
+    points (``parts``) past the walls outnumber the label's and the label's are at most
+    ``past_walls_share`` of it, drawn in to the walls: there the label holds a part's
+    points, not the carcass's.
 
     The walls: the label's points facing along one of the box's axes (within
     ``panel_min_angle``), grouped by depth along it (a gap of more than ``behind_voxels``
@@ -160,8 +164,9 @@ def within_walls(body: OBB, points: np.ndarray, normals: np.ndarray, parts: np.n
             face = max(out or reach or [body.extent[a]]) + margin
             if body.extent[a] - face <= behind:
                 continue
-            if (np.count_nonzero(sign * others[:, a] > face)
-                    > np.count_nonzero(sign * local[:, a] > face)):
+            past = np.count_nonzero(sign * local[:, a] > face)
+            if (past <= options.past_walls_share * len(points)
+                    and np.count_nonzero(sign * others[:, a] > face) > past):
                 if sign > 0:
                     high[a] = face
                 else:

@@ -1080,9 +1080,15 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     of it. Drawn in to its walls (the second wall out: the sides and floor end at the
     front, the top 6 cm past it), the box leaves the other two standing out, and the
     drawer's points past the walls become a part of their own; the top's overhang, on the
-    top's plane, stays. With no drawer in a label of its own standing out there, and
-    without measured normals, the box is the label's."""
-    from pipeline.compartments import carcass_box, carcass_of, give_past_walls
+    top's plane, stays. With no drawer in a label of its own standing out there, without
+    measured normals, with a front rim facing out, or with much of the label past the walls
+    (its own surface, the walls seen short of it), the box is the label's."""
+    from pipeline.compartments import (
+        CompartmentOptions,
+        carcass_box,
+        carcass_of,
+        give_past_walls,
+    )
 
     cloud, normals, (carcass, a, b, c) = _drawers_out_of_a_table()
     labels = np.ones(len(cloud), int)
@@ -1123,6 +1129,10 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
                  np.full(len(cloud[a]), 2), np.full(len(cloud[b]), 3)]
     assert np.allclose(carcass_of(rimmed, kept, 0.02, normals=rimmed_normals).extent,
                        carcass_box(rimmed[kept == 1], 0.02).extent)
+    # more of the label past its walls than past_walls_share (here 2 %; the drawer and
+    # the overhang are 5 % of it): its own surface, the walls seen short of it
+    strict = CompartmentOptions(past_walls_share=0.02)
+    assert np.allclose(carcass_of(cloud, labels, 0.02, strict, normals).extent, whole.extent)
 
 
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
