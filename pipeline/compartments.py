@@ -646,7 +646,9 @@ def give_past_walls(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     walls are a part's: each piece of them (points joined through points this close:
     ``panel_link_voxels`` spacings) goes to the moving part more of its points touch than
     touch the carcass inside the face, else becomes a part of its own (at least
-    ``front_points``; fewer stay); what lies on a wall's plane (:func:`carcass_walls`,
+    ``enclosed_share`` of the carcass's points, no smaller than a part :func:`return_enclosed`
+    leaves alone; fewer stay: on hand-held views a cabinet's top edge seen past walls seen
+    short, 38 points); what lies on a wall's plane (:func:`carcass_walls`,
     within ``panel_voxels`` spacings, facing along it) stays: a table top overhanging the
     front past its sides. Left in the carcass's label they stretch the box the
     joint predictor reads the carcass by, past the drawers pulled out, and it read a
@@ -696,7 +698,7 @@ def give_past_walls(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if to is not None and touching[to] > share_touching(inside, cloud[members]):
             out[members] = to
             moved.append({"part": to, "points": len(members), "past_walls": True})
-        elif len(members) >= options.front_points:
+        elif len(members) >= options.enclosed_share * np.count_nonzero(carcass):
             top += 1
             out[members] = top
             moved.append({"part": top, "points": len(members), "past_walls": True,

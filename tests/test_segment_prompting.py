@@ -1058,7 +1058,7 @@ def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_foun
 
 def _drawers_out_of_a_table():
     """A carcass open at the front (x = 0.3) whose top overhangs the front by 6 cm, and three
-    drawers pulled 25 cm out side by side, 8 cm apart: each a front facing out and a
+    drawers pulled 35 cm out side by side, 8 cm apart: each a front facing out and a
     bottom. Points, their normals, and each piece's slice: the carcass, the drawers."""
     x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
     carcass = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
@@ -1066,8 +1066,8 @@ def _drawers_out_of_a_table():
                (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y),
                (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), z),
                (_grid(0.66, 0.8, (-0.3, -0.4, 0.4), x, y), z)]  # the top, 6 cm over
-    drawers = [[(_grid(0.2, 0.14, (0.55, y0, -0.3), y, z), x),
-                (_grid(0.44, 0.2, (0.1, y0, -0.3), x, y), z)] for y0 in (-0.38, -0.1, 0.18)]
+    drawers = [[(_grid(0.2, 0.2, (0.65, y0, -0.3), y, z), x),
+                (_grid(0.54, 0.2, (0.1, y0, -0.3), x, y), z)] for y0 in (-0.38, -0.1, 0.18)]
     cloud, normals = _facing(*carcass, *(piece for d in drawers for piece in d))
     n = np.cumsum([0, sum(len(p) for p, _ in carcass),
                    *(sum(len(p) for p, _ in d) for d in drawers)])
@@ -1076,7 +1076,7 @@ def _drawers_out_of_a_table():
 
 def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_walls():
     """Of three drawers pulled out of a table, the masks left one in the carcass's label: its
-    box reaches the drawers' fronts, 25 cm past the table's walls, so no drawer stands out
+    box reaches the drawers' fronts, 35 cm past the table's walls, so no drawer stands out
     of it. Drawn in to its walls (the second wall out: the sides and floor end at the
     front, the top 6 cm past it), the box leaves the other two standing out, and the
     drawer's points past the walls become a part of their own; the top's overhang, on the
@@ -1094,7 +1094,7 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     labels = np.ones(len(cloud), int)
     labels[a], labels[b] = 2, 3
     whole = carcass_box(cloud[labels == 1], 0.02)
-    assert np.isclose(whole.center[0] + whole.extent[0], 0.55, atol=1e-6)
+    assert np.isclose(whole.center[0] + whole.extent[0], 0.65, atol=1e-6)
     body = carcass_of(cloud, labels, 0.02, normals=normals)
     assert np.isclose(body.center[0] + body.extent[0], 0.32, atol=1e-6)
     assert np.allclose([body.center[0] - body.extent[0], *body.extent[1:]],
@@ -1107,6 +1107,12 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     assert moved == [{"part": int(out[past][0]), "points": int(past.sum()),
                       "past_walls": True, "own": True}]
     assert np.all(cloud[carcass][:, 0] <= 0.36 + 1e-9)
+    # a piece past the walls smaller than enclosed_share of the carcass (the drawer's front
+    # alone, its bottom unseen) touching no part stays: no part is made of it
+    seen = np.ones(len(cloud), bool)
+    seen[c] = ~(past[c] & (cloud[c, 0] < 0.65 - 1e-9))
+    assert np.count_nonzero(past & seen) < 0.03 * np.count_nonzero((labels == 1) & seen)
+    assert give_past_walls(cloud[seen], labels[seen], 0.02, normals=normals[seen])[1] == []
     # nothing stands out: the box is the label's, nothing moves
     alone = np.ones(len(cloud), int)
     assert np.allclose(carcass_of(cloud, alone, 0.02, normals=normals).extent,
@@ -1130,7 +1136,7 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     assert np.allclose(carcass_of(rimmed, kept, 0.02, normals=rimmed_normals).extent,
                        carcass_box(rimmed[kept == 1], 0.02).extent)
     # more of the label past its walls than past_walls_share (here 2 %; the drawer and
-    # the overhang are 5 % of it): its own surface, the walls seen short of it
+    # the overhang are 6 % of it): its own surface, the walls seen short of it
     strict = CompartmentOptions(past_walls_share=0.02)
     assert np.allclose(carcass_of(cloud, labels, 0.02, strict, normals).extent, whole.extent)
 
