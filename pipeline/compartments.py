@@ -107,27 +107,14 @@ def carcass_box(points: np.ndarray, voxel: float,
     return part_obb(points[keep])
 
 
-def carcass_of(cloud: np.ndarray, labels: np.ndarray, voxel: float,
-               options: CompartmentOptions = CompartmentOptions(),
-               normals: np.ndarray | None = None) -> OBB:
-    """The carcass's box (label 1, :func:`carcass_box`) that the rules measure against,
-    drawn in to its walls on a face where a part's points in its label stretch it
-    (:func:`within_walls`; with the measured ``normals`` only)."""
-    carcass = labels == 1
-    body = carcass_box(cloud[carcass], voxel, options)
-    if normals is None:
-        return body
-    return within_walls(body, cloud[carcass], normals[carcass], cloud[labels > 1], voxel,
-                        options)
-
-
 def within_walls(body: OBB, points: np.ndarray, normals: np.ndarray, parts: np.ndarray,
                  voxel: float, options: CompartmentOptions = CompartmentOptions()) -> OBB:
     """The carcass's box ``body`` with each face that the carcass's label (``points``, with
     their measured ``normals``) reaches far past its walls, where the moving parts'
     points (``parts``) past the walls outnumber the label's and the label's are at most
     ``past_walls_share`` of it, drawn in to the walls: there the label holds a part's
-    points, not the carcass's.
+    points, not the carcass's (:func:`give_past_walls` gives them away; the other rules
+    then measure the label's own box, no longer stretched).
 
     The walls: the label's points facing along one of the box's axes (within
     ``panel_min_angle``), grouped by depth along it (a gap of more than ``behind_voxels``
@@ -229,8 +216,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     labels, protruding = give_protrusions(seg.points, labels, seg.spacing, options, normals)
     labels, walled = give_past_walls(seg.points, labels, seg.spacing, options, normals)
     moved = found + claimed + moved + protruding + walled
-    labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options,
-                                       normals=normals)
+    labels, enclosed = return_enclosed(seg.points, labels, seg.spacing, options)
     moved += enclosed
     labels, nested = merge_nested(seg.points, labels, seg.spacing, options, normals)
     moved += nested
@@ -244,7 +230,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += split
     labels, shell = merge_shell(seg.points, labels, seg.spacing, options, normals)
     moved += shell
-    labels, settled = settle(seg.points, labels, seg.spacing, options, normals)
+    labels, settled = settle(seg.points, labels, seg.spacing, options)
     moved += settled
     if not moved:  # the labels stand (already numbered by size): no views to redo
         return replace(seg, details={**seg.details, "returned_to_carcass": []})
@@ -256,7 +242,7 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
 
 def settle(cloud: np.ndarray, labels: np.ndarray, voxel: float,
            options: CompartmentOptions = CompartmentOptions(),
-           normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+           ) -> tuple[np.ndarray, list[dict]]:
     """:func:`return_enclosed` again once the other rules have run, up to
     ``settle_rounds`` times, until it moves nothing, taking back only parts whose front
     lies deep behind the open faces (``deep_m``).
@@ -276,7 +262,7 @@ def settle(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     for _ in range(options.settle_rounds):
         labels, enclosed = return_enclosed(cloud, labels, voxel, options,
-                                           evidence=("deep_m",), normals=normals)
+                                           evidence=("deep_m",))
         if not enclosed:
             break
         moved += enclosed
@@ -311,7 +297,7 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         panel = turned_panel(cloud[index], body, voxel, options,
@@ -364,7 +350,7 @@ def split_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = np.nonzero(labels == 1)[0]
     if _one_panel(cloud[carcass], normals[carcass], voxel, options):
         return out, moved  # a lid, not a carcass: every wall of the body is turned from it
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[carcass], voxel, options)
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         first = turned_panel(cloud[index], body, voxel, options, normals[index])
@@ -484,7 +470,7 @@ def claim_panels(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved = []
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     panels, own = {}, np.zeros(len(cloud), dtype=bool)  # own: on its own label's open panel
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
@@ -596,7 +582,7 @@ def give_protrusions(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = labels == 1
     if normals is None or labels.max() < 2 or np.count_nonzero(carcass) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[carcass], voxel, options)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     margin = options.wall_margin_voxels * voxel
@@ -709,7 +695,7 @@ def give_past_walls(cloud: np.ndarray, labels: np.ndarray, voxel: float,
 def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     options: CompartmentOptions = CompartmentOptions(),
                     evidence: tuple[str, ...] | None = None,
-                    normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+                    ) -> tuple[np.ndarray, list[dict]]:
     """Small parts lying wholly inside the carcass's box (label 1, the largest part) go back
     to it: pieces of its shell that the masks cut out as parts of their own.
 
@@ -731,14 +717,13 @@ def return_enclosed(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     front seen shut reaches in so far). A returned part's points outside the box go to the
     part nearest them (given to the carcass, they stretch its box). Other parts of more
     than ``enclosed_share`` of the carcass's points (a whole side wall) are left alone.
-    ``evidence``: only parts with one of these kinds go back (:func:`settle`); with the
-    measured ``normals`` the box is drawn in to the carcass's walls (:func:`carcass_of`).
-    Returns the labels, renumbered by size, and what was moved."""
+    ``evidence``: only parts with one of these kinds go back (:func:`settle`). Returns the
+    labels, renumbered by size, and what was moved."""
     out = labels.copy()
     moved = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     margin = options.enclosed_margin_voxels * voxel
     for k, kinds in enclosed_parts(cloud, labels, voxel, options, body).items():
         index = np.nonzero(labels == k)[0]
@@ -851,7 +836,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     sizes = np.bincount(labels)
     parts = [k for k in np.argsort(sizes, kind="stable") if k >= 2 and sizes[k] >= 4]
     boxes = {k: _box(cloud[labels == k]) for k in parts}
@@ -938,7 +923,7 @@ def merge_faces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if normals is None or labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     margin = options.nested_margin_voxels * voxel
     sizes = np.bincount(labels)
     panels = {}
@@ -1000,7 +985,7 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 3 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     local = (cloud - body.center) @ body.R
     margin = options.enclosed_margin_voxels * voxel
     parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
@@ -1048,7 +1033,7 @@ def _carcass_frame(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     is square to the box's axes; None without normals or a carcass to measure against."""
     if normals is None or labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return None
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     return body, local, square
@@ -1357,7 +1342,7 @@ def merge_shell(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     moved: list[dict] = []
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[labels == 1], voxel, options)
     local = (cloud - body.center) @ body.R
     margin = options.enclosed_margin_voxels * voxel
     for k, index, (a, sign), inside in _standing(cloud, labels, body, local, voxel, options,
@@ -1417,7 +1402,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     carcass = np.nonzero(labels == 1)[0]
     if normals is None or labels.max() < 2 or len(carcass) < 4:
         return out, moved
-    body = carcass_of(cloud, labels, voxel, options, normals)
+    body = carcass_box(cloud[carcass], voxel, options)
     local = (cloud - body.center) @ body.R
     square = np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     behind = options.behind_voxels * voxel

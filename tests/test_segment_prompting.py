@@ -1086,16 +1086,21 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     from pipeline.compartments import (
         CompartmentOptions,
         carcass_box,
-        carcass_of,
         give_past_walls,
+        within_walls,
     )
+
+    def walled(cloud, labels, normals, options=None):
+        options = options or CompartmentOptions()
+        return within_walls(carcass_box(cloud[labels == 1], 0.02, options), cloud[labels == 1],
+                            normals[labels == 1], cloud[labels > 1], 0.02, options)
 
     cloud, normals, (carcass, a, b, c) = _drawers_out_of_a_table()
     labels = np.ones(len(cloud), int)
     labels[a], labels[b] = 2, 3
     whole = carcass_box(cloud[labels == 1], 0.02)
     assert np.isclose(whole.center[0] + whole.extent[0], 0.65, atol=1e-6)
-    body = carcass_of(cloud, labels, 0.02, normals=normals)
+    body = walled(cloud, labels, normals)
     assert np.isclose(body.center[0] + body.extent[0], 0.32, atol=1e-6)
     assert np.allclose([body.center[0] - body.extent[0], *body.extent[1:]],
                        [-0.3, *whole.extent[1:]], atol=1e-6)
@@ -1115,10 +1120,9 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     assert give_past_walls(cloud[seen], labels[seen], 0.02, normals=normals[seen])[1] == []
     # nothing stands out: the box is the label's, nothing moves
     alone = np.ones(len(cloud), int)
-    assert np.allclose(carcass_of(cloud, alone, 0.02, normals=normals).extent,
+    assert np.allclose(walled(cloud, alone, normals).extent,
                        carcass_box(cloud, 0.02).extent)
     assert give_past_walls(cloud, alone, 0.02, normals=normals)[1] == []
-    assert np.allclose(carcass_of(cloud, labels, 0.02).extent, whole.extent)
     assert give_past_walls(cloud, labels, 0.02)[1] == []
     # a front rim facing out is the front, however short of it the other walls are seen
     x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
@@ -1133,12 +1137,12 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     rimmed_normals = np.concatenate([rimmed_normals, normals[a], normals[b]])
     kept = np.r_[np.ones(len(rimmed) - len(cloud[a]) - len(cloud[b]), int),
                  np.full(len(cloud[a]), 2), np.full(len(cloud[b]), 3)]
-    assert np.allclose(carcass_of(rimmed, kept, 0.02, normals=rimmed_normals).extent,
+    assert np.allclose(walled(rimmed, kept, rimmed_normals).extent,
                        carcass_box(rimmed[kept == 1], 0.02).extent)
     # more of the label past its walls than past_walls_share (here 2 %; the drawer and
     # the overhang are 6 % of it): its own surface, the walls seen short of it
     strict = CompartmentOptions(past_walls_share=0.02)
-    assert np.allclose(carcass_of(cloud, labels, 0.02, strict, normals).extent, whole.extent)
+    assert np.allclose(walled(cloud, labels, normals, strict).extent, whole.extent)
 
 
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():
