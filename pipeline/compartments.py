@@ -80,7 +80,9 @@ class CompartmentOptions:
     # door's edge strip) is two swung panels (two flaps on one rail opened opposite ways)
     past_walls_share: float = 0.1  # at most this share of the carcass's label lying past a
     # face beyond its walls, where parts stand out, is a part's (more is its own surface,
-    # its walls seen short of it: on hand-held phone views 12 % of a fridge's label)
+    # its walls seen short of it: on hand-held phone views 12 % of a fridge's label) ...
+    past_walls_held: float = 0.5  # ... a piece of it touching no part is one of its own
+    # when at most this share of it touches the carcass (more goes on from the carcass)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -631,10 +633,12 @@ def give_past_walls(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     """The carcass's points past a face of its box that :func:`within_walls` drew in to its
     walls are a part's: each piece of them (points joined through points this close:
     ``panel_link_voxels`` spacings) goes to the moving part more of its points touch than
-    touch the carcass inside the face, else becomes a part of its own (at least
-    ``enclosed_share`` of the carcass's points, no smaller than a part :func:`return_enclosed`
-    leaves alone; fewer stay: on hand-held views a cabinet's top edge seen past walls seen
-    short, 38 points); what lies on a wall's plane (:func:`carcass_walls`,
+    touch the carcass inside the face, else becomes a part of its own when no more than
+    ``past_walls_held`` of it touches the carcass (more goes on from the carcass's own
+    surface: on the phone-LiDAR ring a cabinet's side, its wall not found, 435 points, 91 %
+    touching) and it holds at least ``enclosed_share`` of the carcass's points (no smaller
+    than a part :func:`return_enclosed` leaves alone: on hand-held views a cabinet's top
+    edge seen past walls seen short, 38 points); others stay; what lies on a wall's plane (:func:`carcass_walls`,
     within ``panel_voxels`` spacings, facing along it) stays: a table top overhanging the
     front past its sides. Left in the carcass's label they stretch the box the
     joint predictor reads the carcass by, past the drawers pulled out, and it read a
@@ -681,10 +685,12 @@ def give_past_walls(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         members = standing[piece == p]
         touching = {k: share_touching(tree, cloud[members]) for k, tree in parts.items()}
         to = max(touching, key=touching.get, default=None)
-        if to is not None and touching[to] > share_touching(inside, cloud[members]):
+        held = share_touching(inside, cloud[members])
+        if to is not None and touching[to] > held:
             out[members] = to
             moved.append({"part": to, "points": len(members), "past_walls": True})
-        elif len(members) >= options.enclosed_share * np.count_nonzero(carcass):
+        elif (held <= options.past_walls_held
+              and len(members) >= options.enclosed_share * np.count_nonzero(carcass)):
             top += 1
             out[members] = top
             moved.append({"part": top, "points": len(members), "past_walls": True,

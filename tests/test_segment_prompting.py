@@ -1118,6 +1118,19 @@ def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_wa
     seen[c] = ~(past[c] & (cloud[c, 0] < 0.65 - 1e-9))
     assert np.count_nonzero(past & seen) < 0.03 * np.count_nonzero((labels == 1) & seen)
     assert give_past_walls(cloud[seen], labels[seen], 0.02, normals=normals[seen])[1] == []
+    # a piece past the walls going on from the carcass (its floor 8 cm further out, its
+    # normals not square) stays, at any size (here enclosed_share 1 %): most of it touches
+    # the carcass; taken only where past_walls_held lets it
+    ledge = _grid(0.06, 0.8, (0.32, -0.4, -0.4), (1, 0, 0), (0, 1, 0))
+    more = np.concatenate([cloud, ledge])
+    more_normals = np.concatenate([normals, np.zeros((len(ledge), 3))])
+    more_labels = np.r_[labels, np.ones(len(ledge), int)]
+    small = CompartmentOptions(enclosed_share=0.01)
+    out, moved = give_past_walls(more, more_labels, 0.02, small, more_normals)
+    assert (out[len(cloud):] == 1).all() and [m["points"] for m in moved] == [past.sum()]
+    loose = CompartmentOptions(enclosed_share=0.01, past_walls_held=1.0)
+    out = give_past_walls(more, more_labels, 0.02, loose, more_normals)[0]
+    assert (out[len(cloud):][ledge[:, 0] > 0.33] != 1).all()
     # nothing stands out: the box is the label's, nothing moves
     alone = np.ones(len(cloud), int)
     assert np.allclose(walled(cloud, alone, normals).extent,
