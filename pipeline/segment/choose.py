@@ -30,7 +30,7 @@ MODES = ("auto", *SHIPPED)  # or a weights file's path
 # 5 of 5 joints right, against 7 for 6 and 5 of 5) and, since session 28's
 # give_past_walls, on hand-held phone views of 6-15 parts (0.75 / 22.7 degrees -> 0.83 /
 # 14.7), but worse on hand-held phone views of 4-5 parts (type 0.61 -> 0.56, precision
-# 0.44 -> 0.35) and on the phone ring's 2-part hinge lines (axis 0.09 -> 1.07 degrees):
+# 0.47 -> 0.35) and on the phone ring's 2-part hinge lines (axis 0.09 -> 1.07 degrees):
 # docs/evaluation.md, sessions 26 to 28.
 DEFAULT = "clean"
 
