@@ -54,7 +54,7 @@ from pipeline.predictors.evaluate import (  # noqa: E402
 )
 
 STEPS = ("return_stray_pieces", "find_level_fronts", "split_panels", "claim_panels",
-         "return_compartments", "give_protrusions", "return_enclosed",
+         "return_compartments", "give_protrusions", "give_past_walls", "return_enclosed",
          "merge_nested", "merge_faces", "merge_behind", "return_past_square_panels",
          "return_frontless", "return_face_fronts", "split_fronts",
          "merge_shell")  # return_to_carcass's order

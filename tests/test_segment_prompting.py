@@ -1173,6 +1173,106 @@ def test_a_stretch_of_the_carcass_face_in_a_pulled_out_drawers_label_goes_back()
                          0.02, CompartmentOptions())
         assert len(fronts) == len(pieces) - 1
         assert return_face_fronts(cloud, labels, 0.02, normals=normals)[1] == []
+def _drawers_out_of_a_table():
+    """A carcass open at the front (x = 0.3) whose top overhangs the front by 6 cm, and three
+    drawers pulled 35 cm out side by side, 8 cm apart: each a front facing out and a
+    bottom. Points, their normals, and each piece's slice: the carcass, the drawers."""
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+               (_grid(0.66, 0.8, (-0.3, -0.4, 0.4), x, y), z)]  # the top, 6 cm over
+    drawers = [[(_grid(0.2, 0.2, (0.65, y0, -0.3), y, z), x),
+                (_grid(0.54, 0.2, (0.1, y0, -0.3), x, y), z)] for y0 in (-0.38, -0.1, 0.18)]
+    cloud, normals = _facing(*carcass, *(piece for d in drawers for piece in d))
+    n = np.cumsum([0, sum(len(p) for p, _ in carcass),
+                   *(sum(len(p) for p, _ in d) for d in drawers)])
+    return cloud, normals, [slice(n[i], n[i + 1]) for i in range(len(n) - 1)]
+
+
+def test_a_drawer_left_in_the_carcass_label_does_not_stretch_its_box_past_the_walls():
+    """Of three drawers pulled out of a table, the masks left one in the carcass's label: its
+    box reaches the drawers' fronts, 35 cm past the table's walls, so no drawer stands out
+    of it. Drawn in to its walls (the second wall out: the sides and floor end at the
+    front, the top 6 cm past it), the box leaves the other two standing out, and the
+    drawer's points past the walls become a part of their own; the top's overhang, on the
+    top's plane, stays. With no drawer in a label of its own standing out there, without
+    measured normals, with a front rim facing out, or with much of the label past the walls
+    (its own surface, the walls seen short of it), the box is the label's."""
+    from pipeline.compartments import (
+        CompartmentOptions,
+        carcass_box,
+        give_past_walls,
+        within_walls,
+    )
+
+    def walled(cloud, labels, normals, options=None):
+        options = options or CompartmentOptions()
+        return within_walls(carcass_box(cloud[labels == 1], 0.02, options), cloud[labels == 1],
+                            normals[labels == 1], cloud[labels > 1], 0.02, options)
+
+    cloud, normals, (carcass, a, b, c) = _drawers_out_of_a_table()
+    labels = np.ones(len(cloud), int)
+    labels[a], labels[b] = 2, 3
+    whole = carcass_box(cloud[labels == 1], 0.02)
+    assert np.isclose(whole.center[0] + whole.extent[0], 0.65, atol=1e-6)
+    body = walled(cloud, labels, normals)
+    assert np.isclose(body.center[0] + body.extent[0], 0.32, atol=1e-6)
+    assert np.allclose([body.center[0] - body.extent[0], *body.extent[1:]],
+                       [-0.3, *whole.extent[1:]], atol=1e-6)
+    out, moved = give_past_walls(cloud, labels, 0.02, normals=normals)
+    past = np.zeros(len(cloud), bool)
+    past[c] = cloud[c, 0] > 0.32
+    assert len(set(out[past])) == 1 and out[past][0] not in (1, out[a][0], out[b][0])
+    assert (out[~past & (labels == 1)] == 1).all()  # the top's overhang too
+    assert moved == [{"part": int(out[past][0]), "points": int(past.sum()),
+                      "past_walls": True, "own": True}]
+    assert np.all(cloud[carcass][:, 0] <= 0.36 + 1e-9)
+    # a piece past the walls smaller than enclosed_share of the carcass (the drawer's front
+    # alone, its bottom unseen) touching no part stays: no part is made of it
+    seen = np.ones(len(cloud), bool)
+    seen[c] = ~(past[c] & (cloud[c, 0] < 0.65 - 1e-9))
+    assert np.count_nonzero(past & seen) < 0.03 * np.count_nonzero((labels == 1) & seen)
+    assert give_past_walls(cloud[seen], labels[seen], 0.02, normals=normals[seen])[1] == []
+    # a piece past the walls going on from the carcass (its floor 8 cm further out, its
+    # normals not square) stays, at any size (here enclosed_share 1 %): most of it touches
+    # the carcass; taken only where past_walls_held lets it
+    ledge = _grid(0.06, 0.8, (0.32, -0.4, -0.4), (1, 0, 0), (0, 1, 0))
+    more = np.concatenate([cloud, ledge])
+    more_normals = np.concatenate([normals, np.zeros((len(ledge), 3))])
+    more_labels = np.r_[labels, np.ones(len(ledge), int)]
+    small = CompartmentOptions(enclosed_share=0.01)
+    out, moved = give_past_walls(more, more_labels, 0.02, small, more_normals)
+    assert (out[len(cloud):] == 1).all() and [m["points"] for m in moved] == [past.sum()]
+    loose = CompartmentOptions(enclosed_share=0.01, past_walls_held=1.0)
+    out = give_past_walls(more, more_labels, 0.02, loose, more_normals)[0]
+    assert (out[len(cloud):][ledge[:, 0] > 0.33] != 1).all()
+    # nothing stands out: the box is the label's, nothing moves
+    alone = np.ones(len(cloud), int)
+    assert np.allclose(walled(cloud, alone, normals).extent,
+                       carcass_box(cloud, 0.02).extent)
+    assert give_past_walls(cloud, alone, 0.02, normals=normals)[1] == []
+    assert give_past_walls(cloud, labels, 0.02)[1] == []
+    # a front rim facing out is the front, however short of it the other walls are seen
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    short = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+             (_grid(0.48, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+             (_grid(0.48, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+             (_grid(0.48, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+             (_grid(0.48, 0.8, (-0.3, -0.4, 0.4), x, y), z),
+             (_grid(0.8, 0.8, (0.3, -0.4, -0.4), y, z)[::3], x)]  # the rim, 12 cm proud
+    rimmed, rimmed_normals = _facing(*short)
+    rimmed = np.concatenate([rimmed, cloud[a], cloud[b]])
+    rimmed_normals = np.concatenate([rimmed_normals, normals[a], normals[b]])
+    kept = np.r_[np.ones(len(rimmed) - len(cloud[a]) - len(cloud[b]), int),
+                 np.full(len(cloud[a]), 2), np.full(len(cloud[b]), 3)]
+    assert np.allclose(walled(rimmed, kept, rimmed_normals).extent,
+                       carcass_box(rimmed[kept == 1], 0.02).extent)
+    # more of the label past its walls than past_walls_share (here 2 %; the drawer and
+    # the overhang are 6 % of it): its own surface, the walls seen short of it
+    strict = CompartmentOptions(past_walls_share=0.02)
+    assert np.allclose(walled(cloud, labels, normals, strict).extent, whole.extent)
 
 
 def test_a_level_front_is_a_sibling_only_apart_from_the_part_and_as_tall_as_a_front():

@@ -26,11 +26,12 @@ SHIPPED = {"clean": WEIGHTS, "noisy": NOISY_WEIGHTS}
 MODES = ("auto", *SHIPPED)  # or a weights file's path
 # The shipped network for every capture unless asked: ``auto`` measured better on noisy
 # rings (PartNet-Mobility dev's phone-LiDAR ring, session 27: type 0.83 / 0.78 / 0.75 ->
-# 1.00 / 0.94 / 0.92 in 3, 4-5 and 6-15 parts) and, since the compartments stage splits a
-# label holding two swung panels, on the room demo's capture (6 parts for 6, 5 of 5 joints
-# right, against 7 for 6 and 5 of 5), but worse on hand-held phone views of many parts
-# (6-15: 0.75 / 22.7 degrees -> 0.67 / 45.2; the table 32052): docs/evaluation.md,
-# sessions 26 and 27.
+# 1.00 / 0.94 / 0.92 in 3, 4-5 and 6-15 parts), on the room demo's capture (6 parts for 6,
+# 5 of 5 joints right, against 7 for 6 and 5 of 5) and, since session 28's
+# give_past_walls, on hand-held phone views of 6-15 parts (0.75 / 22.7 degrees -> 0.83 /
+# 14.7), but worse on hand-held phone views of 4-5 parts (type 0.61 -> 0.56, precision
+# 0.47 -> 0.35) and on the phone ring's 2-part hinge lines (axis 0.09 -> 1.07 degrees):
+# docs/evaluation.md, sessions 26 to 28.
 DEFAULT = "clean"
 
 

@@ -51,7 +51,7 @@ def add_mask_weights_option(s) -> None:
                    metavar="|".join(MASK_WEIGHTS) + "|PATH",
                    help="the mask network (with learned segmentation): clean (default) the "
                    "shipped one; noisy the one trained on noisy sensors (better on noisy rings, "
-                   "worse on hand-held views of many parts: docs/evaluation.md); auto takes "
+                   "worse on hand-held views of 4-5 parts: docs/evaluation.md); auto takes "
                    "noisy where the depth cleanup measures the capture's depth noisy and clean "
                    "otherwise; or a weights file (python -m pipeline.segment.train)")
 
