@@ -54,13 +54,11 @@ def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
     from ...errors import Real2CodeError
 
     given = []
-    read_ahead(path for path in files.values() if path.suffix.lower() == ".stl"
-               and path.is_file() and _mujoco_reads_stl(path))
-    for spec_mesh, path in files.items():
-        suffix = path.suffix.lower()
-        if suffix not in _GIVEN_FORMATS or not path.is_file() \
-                or (suffix == ".stl" and not _mujoco_reads_stl(path)):
-            continue
+    readable = {spec_mesh: path for spec_mesh, path in files.items()
+                if path.suffix.lower() in _GIVEN_FORMATS and path.is_file()
+                and (path.suffix.lower() != ".stl" or _mujoco_reads_stl(path))}
+    read_ahead(readable.values())  # (its STL files, two at a time)
+    for spec_mesh, path in readable.items():
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
             try:

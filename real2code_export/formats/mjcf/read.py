@@ -102,10 +102,9 @@ def _compiled_without_hulls(spec):
     """``spec.compile()``, without the convex hull (qhull) MuJoCo builds of every mesh a
     colliding geom uses, which nothing read here uses: the geoms compile with collisions
     off, their ``contype`` and ``conaffinity`` given back to the spec and the model after.
-    Every body's mass, inertia and frame, every geom's and mesh's, compile the same (179
-    Menagerie, Genesis, pybullet and Newton MJCF files, ``tests/test_mjcf.py``; a mesh
-    with ``inertia="convex"`` still gets its hull, for its mass); a quarter of the compile
-    of the 25 Menagerie models (docs/benchmarks.md, session 28)."""
+    Every body's mass, inertia and frame, every geom's and mesh's, compile the same
+    (``tests/test_mjcf.py``; a mesh with ``inertia="convex"`` still gets its hull, for its
+    mass); MuJoCo's hulls are about a quarter of a robot's compile (docs/benchmarks.md)."""
     colliding = [(geom, geom.contype, geom.conaffinity) for geom in spec.geoms
                  if geom.contype or geom.conaffinity]
     for geom, _, _ in colliding:

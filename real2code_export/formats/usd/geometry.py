@@ -374,9 +374,9 @@ class LateNormals:
     """The visual meshes' creased normals computed on other threads while the layer is
     authored: each mesh's primvars are authored where it is written (so the layer's
     properties keep their order: the same text) and filled by :meth:`finish`. Sorting a
-    mesh's edges and corners, most of the work and a sixth of a Menagerie model's USD
-    export, runs in numpy without the GIL, so it goes on beside the authoring, on a second
-    core where there is one (docs/benchmarks.md, session 28). A context: its threads end
+    mesh's edges and corners, most of the work and about a sixth of a robot's USD export,
+    runs in numpy without the GIL, so it goes on beside the authoring, on a second core
+    where there is one (docs/benchmarks.md). A context: its threads end
     with it (a later fork, :mod:`real2code_export.forked`, needs none alive)."""
 
     def __init__(self, workers: int = 2) -> None:
