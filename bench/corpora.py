@@ -3,7 +3,7 @@ a user would pick instead, one run, same machine, same load.
 
     bench/setup_converters.sh            # urdf-usd-converter, mujoco-usd-converter (own venv)
     .venv/bin/python bench/corpora.py [--corpus urdf|mjcf|both] [--limit N] [--markdown F]
-                                      [--usd-only]
+                                      [--usd-only] [--server]
 
 Per file: ``real2code export FILE --out D`` (all four formats, one process, as a user runs
 it), then ``real2code check D/*`` (four exports, 100 configurations), ``real2code export
@@ -14,9 +14,10 @@ CPU the command used), the medians and totals per corpus and the ratios converte
 one ratio the converter can be compared on; with ``--floor`` also, per file, each tool's floor
 (:data:`FLOOR`: its interpreter importing what it writes USD with and MuJoCo compiling the
 file, nothing written), the CPU no export of that file by either tool can go below.
-``--server``: with ``--usd-only``, our USD export also run through ``real2code server`` (started
-once, in a folder of its own, its start timed: the cold first command), each file's command
-beside the one on its own; a command's CPU there is the caller's and the server's fork's.
+``--server``: our commands also run through ``real2code server`` (started once, in a folder
+of its own, its start timed: the cold first command), each file's command beside the one on
+its own: the USD export with ``--usd-only``, else the export to four formats and the check of
+its four exports; a command's CPU there is the caller's and the server's fork's.
 """
 
 from __future__ import annotations
@@ -138,11 +139,18 @@ def run_file(path: Path, converter: str, usd_only: bool = False,
             files = sorted(str(p) for p in Path(tmp, "ours").iterdir() if p.is_file())
             check, check_cpu, rc_check, _ = timed([*REAL2CODE, "check", *files], ALONE)
             row.update(check_s=check, check_cpu=check_cpu, check_rc=rc_check)
+            if server is not None:
+                warm, warm_cpu, rc_warm, _ = server.timed([*REAL2CODE, "export", str(path),
+                                                           "--out", f"{tmp}/warm4"])
+                check, check_cpu, rc_check, _ = server.timed([*REAL2CODE, "check", *files])
+                row.update(warm4_s=warm, warm4_cpu=warm_cpu, warm4_rc=rc_warm,
+                           warm_check_s=check, warm_check_cpu=check_cpu,
+                           warm_check_rc=rc_check)
         # the converter's output alone (USD), as a user after a USD file runs it
         usd, usd_cpu, rc_usd, _ = timed([*REAL2CODE, "export", str(path), "--to", "usd",
                                          "--out", f"{tmp}/usd"], ALONE)
         row.update(usd_s=usd, usd_cpu=usd_cpu, usd_rc=rc_usd)
-        if server is not None:
+        if server is not None and usd_only:
             warm, warm_cpu, rc_warm, _ = server.timed([*REAL2CODE, "export", str(path), "--to",
                                                        "usd", "--out", f"{tmp}/warm"])
             row.update(warm_s=warm, warm_cpu=warm_cpu, warm_rc=rc_warm)
@@ -186,7 +194,7 @@ def usd_summary(name: str, rows: list[dict], ours: str = "usd") -> str:
             f"{sum(x > 1 for x in walls)} / {sum(x >= 2 for x in walls)} |")
 
 
-def summary(name: str, rows: list[dict]) -> str:
+def summary(name: str, rows: list[dict], server: bool = False) -> str:
     ok = [r for r in rows if r["export_rc"] == 0]
     conv_ok = [r for r in rows if r["converter_rc"] == 0]
     both = _both(rows, "export_rc")
@@ -199,7 +207,18 @@ def summary(name: str, rows: list[dict]) -> str:
             f"{conv / ours:.2f} ({conv_cpu / ours_cpu:.2f}) | "
             f"{conv / usd:.2f} ({conv_cpu / usd_cpu:.2f}) | "
             f"{sum(r['export_s'] for r in both):.0f} / {sum(r['converter_s'] for r in both):.0f}"
-            f" | {_median(ok, 'check_s'):.2f} ({_median(ok, 'check_cpu'):.2f}) |")
+            f" | {_median(ok, 'check_s'):.2f} ({_median(ok, 'check_cpu'):.2f}) |"
+            + (_server_cells({k: _median(ok, k) for k in ("warm4_s", "warm4_cpu",
+                                                          "warm_check_s", "warm_check_cpu")})
+               + f" {sum(r['warm_check_s'] < 1 for r in ok)} of {len(ok)} |"
+               if server else ""))
+
+
+def _server_cells(r: dict) -> str:
+    """The two ``--server`` cells of a full run's row: the export to four formats and the
+    check in the server."""
+    return (f" {r['warm4_s']:.2f} ({r['warm4_cpu']:.2f}) | "
+            f"{r['warm_check_s']:.2f} ({r['warm_check_cpu']:.2f}) |")
 
 
 def main() -> None:
@@ -212,10 +231,8 @@ def main() -> None:
     p.add_argument("--usd-only", action="store_true",
                    help="only `real2code export --to usd` and the converter")
     p.add_argument("--server", action="store_true",
-                   help="with --usd-only: our export through `real2code server` too")
+                   help="our commands through `real2code server` too")
     args = p.parse_args()
-    if args.server and not args.usd_only:
-        sys.exit("--server goes with --usd-only")
     if not (CONVERTERS / "urdf_usd_converter").exists():
         sys.exit("run bench/setup_converters.sh first")
     byte_compile(REPO / "real2code_export")
@@ -238,14 +255,18 @@ def main() -> None:
                   + floor.replace(" floor", " median floor").replace(" above", " median above"),
                   "|---|---|---|---|---|---|---|---|---|---|---|" + "---|---|" * args.floor]
     else:
+        warm = (" ours in the server: export, 4 formats | check |" if args.server else "")
         lines += ["| file | ours: export, 4 formats | ours: check | ours: export --to usd | "
                   "converter (USD) | converter / ours (4 formats) | converter / ours (USD) | "
-                  "exit ours / converter |", "|---|---|---|---|---|---|---|---|"]
+                  "exit ours / converter |" + warm,
+                  "|---|---|---|---|---|---|---|---|" + "---|---|" * args.server]
         totals = ["| corpus | files | we export | converter exits clean | both convert "
                   "(the rest over these) | median export, 4 formats | median export --to usd | "
                   "median converter | converter / ours (4 formats, medians) | converter / ours "
-                  "(USD, medians) | total ours / converter (s) | median check |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "(USD, medians) | total ours / converter (s) | median check |"
+                  + (" median in the server: export, 4 formats | check | checks under 1 s "
+                     "in the server |" if args.server else ""),
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|" + "---|" * 3 * args.server]
     server = Server() if args.server else None
     if server is not None:
         lines.insert(1, f"\nreal2code server start (the cold first command): "
@@ -273,18 +294,21 @@ def main() -> None:
                     f"{r['converter_rc']} |")
             if args.usd_only and args.floor:
                 line += " " + _floor_cells(r)
-            if server is not None:
+            if server is not None and not args.usd_only:
+                line += _server_cells(r) if "warm_check_s" in r else " - | - |"
+            elif server is not None:
                 line += (f" {r['warm_s']:.2f} ({r['warm_cpu']:.2f}) | "
                          f"{r['converter_s'] / r['warm_s']:.2f}, "
                          f"{r['converter_cpu'] / r['warm_cpu']:.2f} |")
             print(line, flush=True)
             lines.append(line)
-        totals.append(usd_summary(name, rows) if args.usd_only else summary(name, rows))
+        totals.append(usd_summary(name, rows) if args.usd_only
+                      else summary(name, rows, server is not None))
         if args.usd_only and args.floor:
             totals[-1] += " " + _floor_cells({k: _median(_both(rows, "usd_rc"), k) for k in (
                 "floor_ours_cpu", "floor_converter_cpu", "above_ours_cpu",
                 "above_converter_cpu")})
-        if server is not None:
+        if server is not None and args.usd_only:
             totals.append(usd_summary(name, rows, "warm"))
     if server is not None:
         server.stop()
