@@ -162,8 +162,9 @@ def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
     spec = _build(obj, meshdir=MESH_DIR, model_dir=out_dir)
     text = to_xml(spec, obj)
     sections = obj.metadata.get(ELEMENTS_KEY)
-    if isinstance(sections, dict) and sections:
-        text = _with_kept(obj, text, sections, out_dir)
+    sections = sections if isinstance(sections, dict) else {}
+    if sections or any(j.drive is not None for j in obj.joints):
+        text = _with_kept(obj, text, with_drives(obj, sections), out_dir)
     return atomic.write_text(output_file("mjcf", out_dir, obj.name), text)
 
 
@@ -190,6 +191,36 @@ def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path)
     if left:
         metadata[ELEMENTS_KEY] = left
     return _replace_metadata(text, metadata)
+
+
+def with_drives(obj: ArticulatedObject, sections: dict) -> dict:
+    """The kept sections with the model's drives as actuators in the ``actuator`` section:
+    each at its marker (where the file it was read from had it), the rest first, in joint
+    order; a marker of a joint without a drive is left out."""
+    from lxml import etree
+
+    from .actuator import actuator_element
+    from .kept import drive_of_marker
+
+    driven = {j.name: j.drive for j in obj.joints if j.drive is not None}
+    kept = sections.get("actuator")
+    if not driven or (kept is not None and not isinstance(kept, str)):
+        return sections  # (a section that is not text: refused with the others)
+    section = etree.Element("actuator") if kept is None else etree.fromstring(kept)
+    placed = set()
+    for el in list(section):
+        if isinstance(el.tag, str):
+            continue
+        joint = drive_of_marker(el.text or "")
+        if joint is not None and joint in driven and joint not in placed:
+            section.replace(el, actuator_element(driven[joint], joint))
+            placed.add(joint)
+        else:
+            section.remove(el)
+    for at, joint in enumerate(j for j in driven if j not in placed):
+        section.insert(at, actuator_element(driven[joint], joint))
+    etree.indent(section, space="  ")
+    return {**sections, "actuator": etree.tostring(section, encoding="unicode")}
 
 
 def _replace_metadata(text: str, metadata: dict) -> str:
@@ -543,6 +574,9 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
                              data=[joint.velocity_limit])
         if joint.effort_limit is not None and not joint.effort_limit > 0:
             spec.add_numeric(name=custom_name(joint.name, "effort"), data=[joint.effort_limit])
+        if joint.drive is not None and joint.drive.target != 0:  # MuJoCo's ctrl starts at 0
+            spec.add_numeric(name=custom_name(joint.name, "drive_target"),
+                             data=[joint.drive.target])
     for part in parts:
         # no geom to carry its colour, or geoms of several colours none of which is the
         # part's own (a mesh file's colours: the part's is their mean)
