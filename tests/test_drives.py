@@ -243,3 +243,26 @@ def test_physx_and_newton_hold_the_usd_drive_as_mujoco_holds_the_mjcf(held, engi
     except EngineUnavailable as e:
         pytest.skip(str(e))
     assert float(trajectory.q[-1, 0]) == pytest.approx(reference, abs=1e-4)
+
+
+def test_check_compares_drives_between_exports_and_with_the_source(arm, tmp_path):
+    """``check`` reads each file's drives in its own tool (MuJoCo's compiled actuators,
+    UsdPhysics' drives) and compares them with the source's: equal after an export; a
+    drive whose gain changed in the USD is a mismatch naming the joint."""
+    from pxr import Usd
+
+    from real2code_export.check import check_files
+
+    obj, _ = _load(arm)
+    written = export(obj, tmp_path / "out", ["mjcf", "usd"])
+    files = list(written.values())
+    report = check_files(files, source=arm, n_configurations=3, validate=False, warned=[])
+    assert not [m for m in report.mismatches if m.kind == "drive"], report.mismatches
+    stage = Usd.Stage.Open(str(written["usd"]))
+    elbow = next(p for p in stage.Traverse() if p.GetName() == "elbow")
+    elbow.GetAttribute("drive:angular:physics:damping").Set(1.0)
+    stage.GetRootLayer().Save()
+    report = check_files(files, source=arm, n_configurations=3, validate=False, warned=[])
+    (drive,) = [m for m in report.mismatches if m.kind == "drive"]
+    assert drive.name == "elbow" and "damping 12.0 !=" in drive.message, drive.message
+    assert not report.ok
