@@ -266,3 +266,24 @@ def test_check_compares_drives_between_exports_and_with_the_source(arm, tmp_path
     (drive,) = [m for m in report.mismatches if m.kind == "drive"]
     assert drive.name == "elbow" and "damping 12.0 !=" in drive.message, drive.message
     assert not report.ok
+
+
+def test_mjcf_drives_out_of_joint_order_keep_their_order(tmp_path):
+    """Actuators that are all drives, listed in another order than their joints: their
+    places are marked, so the MJCF export lists them as the file did (ctrl indices); in
+    joint order, nothing is kept."""
+    import mujoco
+
+    body = ('<body name="b{k}" pos="0.1 0 0"><joint name="j{k}" axis="0 1 0"/>'
+            '<geom type="sphere" size="0.02"/>')
+    tree = "".join(body.format(k=k) for k in range(3)) + "</body>" * 3
+    for order, kept in (((2, 0, 1), True), ((0, 1, 2), False)):
+        motors = "".join(f'<motor name="m{k}" joint="j{k}"/>' for k in order)
+        path = tmp_path / f"chain{''.join(map(str, order))}.xml"
+        path.write_text(f'<mujoco><worldbody>{tree}</worldbody><actuator>{motors}</actuator>'
+                        '</mujoco>')
+        obj, _ = _load(path)
+        assert ("mjcf_elements" in obj.metadata) == kept
+        out = export(obj, tmp_path / path.stem, ["mjcf"])["mjcf"]
+        model = mujoco.MjModel.from_xml_path(str(out))
+        assert [model.actuator(i).name for i in range(model.nu)] == [f"m{k}" for k in order]
