@@ -1,6 +1,7 @@
-"""What an MJCF file holds that the model has no place for (actuators, tendons, sensors,
-equality constraints other than the mimics the reader takes, and the default classes those
-use), kept as the file writes it, and written back by the MJCF writer.
+"""What an MJCF file holds that the model has no place for (actuators other than the joint
+drives the reader takes, :mod:`.actuator`; tendons, sensors, equality constraints other than
+the mimics the reader takes, and the default classes those use), kept as the file writes
+it, and written back by the MJCF writer.
 
 The sections are read from the file itself (its ``<include>`` files inlined, as MuJoCo
 inlines them) and stored in the object's metadata under :data:`ELEMENTS_KEY` (tag -> XML

@@ -8,8 +8,9 @@ intermediate parts the reader makes for a body with several joints merged back i
 (:mod:`.structure`); a mimic a joint equality. Each body has its explicit
 inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
 one colliding mesh geom per convex piece (group 3); shapes (box, cylinder, ...) are geoms of
-their type. The actuators, tendons, sensors and equalities an MJCF reader kept in the metadata
-are written back where MuJoCo compiles them (:mod:`.kept`). Every parent/child pair is excluded from
+their type. A joint's drive is an actuator (:mod:`.actuator`); the actuators, tendons, sensors
+and equalities an MJCF reader kept in the metadata are written back where MuJoCo compiles them
+(:mod:`.kept`), the drives among the actuators where the file read had them. Every parent/child pair is excluded from
 contact. Every hinge and slide has ``ref`` = its state and its body is written at that pose, so
 that MuJoCo starts there (qpos0) and joint values mean the same as in the model
 (:func:`_placed_joints`). What MJCF has no place for is kept in the keyframe "observed" (the
