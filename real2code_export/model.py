@@ -552,6 +552,7 @@ class Joint:
     # effort and velocity limits where ``limits`` is None (a joint without a range)
     drive_limits: DriveLimits | None = None
     # a ball joint's cone (rad): the largest rotation from its rest, about any axis (MuJoCo's
+    # range; 0: the ball held at its rest, as MuJoCo compiles a limited ball without a range);
     # ball range); None: free
     cone_limit: float | None = None
     # the actuator driving the joint's one axis (a revolute, continuous or prismatic joint)
@@ -908,8 +909,8 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
             if j.type is not JointType.BALL:
                 raise ModelError(el, f"a {j.type.value} joint takes no cone limit (a ball's)")
             _finite(j.cone_limit, el, "cone limit")
-            if j.cone_limit <= 0:
-                raise ModelError(el, f"cone limit must be > 0 rad, got {j.cone_limit}")
+            if j.cone_limit < 0:  # (0: held at its rest, MuJoCo's limited ball of no range)
+                raise ModelError(el, f"cone limit must be >= 0 rad, got {j.cone_limit}")
         if j.drive_limits is not None:
             if j.limits is not None or j.type not in (JointType.CONTINUOUS,
                                                       JointType.PRISMATIC):

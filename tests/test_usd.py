@@ -1284,3 +1284,46 @@ def test_kept_loops_and_drives_that_are_not_ours_are_refused_or_said(tmp_path):
     obj.metadata.pop("loop_joints")
     with pytest.raises(ModelError, match=r"metadata 'usd_drives'\[0\].*instance 'sideways'"):
         usd.save(obj, tmp_path / "c", write_meshes=False)
+
+
+HELD_BALL = """<mujoco model="held">
+  <default><joint limited="true" damping="1"/></default>
+  <worldbody>
+    <body name="base" pos="0 0 1">
+      <geom type="sphere" size="0.05"/>
+      <body name="link" pos="0.2 0 0">
+        <joint name="ankle" type="ball"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_ball_limited_without_a_range_is_held_at_rest_in_every_format(tmp_path):
+    """A ball under ``limited="true"`` with no range: MuJoCo compiles a cone of 0, the ball
+    held at its rest. The model keeps a cone limit of 0; USD writes a generic joint with its
+    translations locked and its rotations limited to [0, 0] (a spherical joint's cone of 0
+    would leave the twist free), read back as the held ball; glTF locks every axis; every
+    export reads back the same and agrees with the source, dynamics included."""
+    from real2code_export.check import check_files
+
+    source = tmp_path / "held.xml"
+    source.write_text(HELD_BALL)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = load_any(source)
+        assert obj.joint("ankle").cone_limit == 0.0
+        written = export(obj, tmp_path / "out", ["json", "mjcf", "urdf", "usd", "gltf"])
+        for fmt, path in written.items():
+            assert not differences(obj, load_any(path)), fmt
+        report = check_files(list(written.values()), source=source, n_configurations=3,
+                             validate=False, warned=[])
+    assert not report.mismatches, report.mismatches
+    stage = Usd.Stage.Open(str(written["usd"]))
+    prim = stage.GetPrimAtPath("/held/Physics/ankle")
+    assert prim.GetTypeName() == "PhysicsJoint"
+    for axis in ("rotX", "rotY", "rotZ"):
+        assert (prim.GetAttribute(f"limit:{axis}:physics:low").Get(),
+                prim.GetAttribute(f"limit:{axis}:physics:high").Get()) == (0.0, 0.0)

@@ -380,7 +380,7 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
         kind = JointType.BALL if e.dofs else JointType.FIXED
         dynamics = read_dynamics(prim, True, mpu, kpu, where) if e.dofs else Dynamics()
         return [Joint(sanitize_name(name, taken), kind, parent, child, origin=origin,
-                      dynamics=dynamics)], []
+                      dynamics=dynamics, cone_limit=0.0 if d6.is_held_ball(e.dofs) else None)], []
     moved = tf.inverse(ctx.world[e.body0] @ t0) @ (ctx.world[e.body1] @ t1)
     values, off = d6.values_of(e.dofs, moved)
     if off > 1e-5:
