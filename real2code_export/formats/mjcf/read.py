@@ -247,9 +247,10 @@ class _Reader:
         moved = {m.body(b).name: frame for b, frame in self.frames.items()
                  if b and m.body(b).name and not np.array_equal(frame, np.eye(4))}
         moved_notes: list[str] = []
+        markers = self._drive_markers(joints)  # (else every actuator is a drive, in order)
         kept = unread_sections(self.path, self.mimics, renames, moved, moved_notes,
-                               self.drives, self._drive_markers(joints)) \
-            if self._has_unread() or self.drives else {}
+                               self.drives, markers) \
+            if self._has_unread() or markers else {}
         for note in moved_notes:
             warn(f"{self.path}: kept element {note}")
         left = obj.metadata.get(ELEMENTS_KEY)  # what a writer of ours could not write back

@@ -107,10 +107,13 @@ def write_drives(layer, obj, joint_prim) -> None:
         write_drive(prim, own or instance, {**values, **({"type": str(attributes["type"])}
                                                  if "type" in attributes else {})})
     for j in obj.joints:
-        if j.drive is not None:
-            prim, own = joint_prim(j.name)
+        found = joint_prim(j.name) if j.drive is not None else None
+        if j.drive is not None and (found is None or not found[0]):
+            warn(f"USD: object {obj.name!r}: joint {j.name!r} has no joint prim: its drive "
+                 "is not written")
+        elif j.drive is not None:
             kind = "angular" if j.type.angular else "linear"
-            write_model_drive(prim, own or kind, j.drive, j.type.angular)
+            write_model_drive(found[0], found[1] or kind, j.drive, j.type.angular)
 
 
 def write_drive(prim, instance: str, attributes: dict) -> None:
