@@ -287,3 +287,24 @@ def test_mjcf_drives_out_of_joint_order_keep_their_order(tmp_path):
         out = export(obj, tmp_path / path.stem, ["mjcf"])["mjcf"]
         model = mujoco.MjModel.from_xml_path(str(out))
         assert [model.actuator(i).name for i in range(model.nu)] == [f"m{k}" for k in order]
+
+
+def test_a_drive_that_is_not_its_kind_is_refused_naming_file_and_joint(arm, tmp_path):
+    """object.json and URDF: a drive that is not one of the model's laws is refused with the
+    file and the joint."""
+    import json
+
+    from real2code_export.errors import FormatError
+
+    obj, _ = _load(arm)
+    written = export(obj, tmp_path / "out", ["json", "urdf"])
+    doc = json.loads(written["json"].read_text())
+    joint = next(j for j in doc["joints"] if j["name"] == "elbow")
+    joint["drive"]["stiffness"] = 5.0  # a velocity drive with a stiffness
+    written["json"].write_text(json.dumps(doc))
+    with pytest.raises(FormatError, match=r"object.json.*joint 'elbow' drive.*velocity drive"):
+        load(written["json"])
+    text = written["urdf"].read_text().replace('kind="velocity"', 'kind="torque"')
+    written["urdf"].write_text(text)
+    with pytest.raises(FormatError, match=r"arm.urdf.*joint name='elbow'.*kind 'torque'"):
+        _load(written["urdf"])
