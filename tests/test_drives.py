@@ -139,6 +139,9 @@ def test_drives_in_every_format_read_back_the_same(arm, tmp_path):
     for fmt, path in written.items():
         back, _ = _load(path)
         assert not [x for x in differences(obj, back) if "drive" in x], fmt
+    # the USD's float32 read as the shortest decimal it rounds: kp="50" comes back 50
+    drive = _load(written["usd"])[0].joint("shoulder").drive
+    assert (drive.stiffness, drive.target) == (50.0, 0.4)
     stage = Usd.Stage.Open(str(written["usd"]))
     shoulder = next(p for p in stage.Traverse() if p.GetName() == "shoulder")
     get = shoulder.GetAttribute

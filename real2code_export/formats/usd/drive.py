@@ -154,10 +154,10 @@ def drive_from_usd(attributes: dict, angular: bool,
                       "joint's inertia: no other format has one)")
     per_degree = 180.0 / math.pi if angular else 1.0  # stiffness, damping: per degree
     degree = math.pi / 180.0 if angular else 1.0  # targets: degrees
-    stiffness = attributes.get("stiffness", 0.0) * per_degree
-    damping = attributes.get("damping", 0.0) * per_degree
-    position = attributes.get("targetPosition", 0.0) * degree
-    velocity = attributes.get("targetVelocity", 0.0) * degree
+    stiffness = _shortest(attributes.get("stiffness", 0.0), per_degree)
+    damping = _shortest(attributes.get("damping", 0.0), per_degree)
+    position = _shortest(attributes.get("targetPosition", 0.0), degree)
+    velocity = _shortest(attributes.get("targetVelocity", 0.0), degree)
     ours = ours or {}
     if stiffness < 0 or damping < 0:
         return None, "a negative stiffness or damping"
@@ -174,12 +174,29 @@ def drive_from_usd(attributes: dict, angular: bool,
             return None, "a target without a gain"
         kind, target = DriveKind.EFFORT, ours.get("target", 0.0)
     force = attributes.get("maxForce")
+    force = None if force is None else _shortest(force, 1.0)
     if force is not None and force <= 0:
         return None, "a maxForce of 0"
     drive = Drive(kind, stiffness, damping, target, force, ours.get("targetRange"),
                   ours.get("name"), ours.get("gear", 1.0))
     problem = drive.problem()
     return (None, problem) if problem else (drive, "")
+
+
+def _shortest(stated: float, scale: float) -> float:
+    """``stated * scale``, as the shortest decimal the file's float32 ``stated`` is the
+    rounding of (an MJCF ``kp="50"`` written per degree comes back 50, not 50.00000025); the
+    product itself where ``stated`` is no float32 (a stage in other units, scaled)."""
+    import numpy as np
+
+    value = stated * scale
+    if float(np.float32(stated)) != stated:
+        return value
+    for digits in range(1, 18):
+        candidate = float(f"{value:.{digits}g}")
+        if np.float32(candidate / scale) == np.float32(stated):
+            return candidate
+    return value
 
 
 def usd_from_drive(drive: Drive, angular: bool) -> tuple[dict, dict]:
