@@ -38,7 +38,8 @@ WORLD = "world"  # the world frame, as a part where a tool names it (URDF link, 
 
 @dataclass(frozen=True)
 class Mismatch:
-    kind: str  # missing_joint | joint_kind | joint_limits | missing_part | extra_part | pose
+    # missing_joint | joint_kind | joint_limits | missing_part | extra_part | pose | drive
+    kind: str
     probe: str  # the probe's display name
     name: str  # the joint or part concerned
     message: str
@@ -199,9 +200,12 @@ def check_files(
     finish = start_validation(list(paths)) if validate else list
     report, probes = _compare(paths, n_configurations, seed, tol_position, tol_rotation,
                               reference, source)
+    compiled = _compiled_mjcf(probes, [*paths, *([source] if source is not None else [])])
+    _compare_drives(report, probes, [*([source] if source is not None else []), *paths],
+                    tol_dynamics, compiled, _opened(probes, paths))
     if source is not None:
-        _compare_dynamics(report, source, tol_dynamics, warned,
-                          _compiled_mjcf(probes, [*paths, source]), _opened(probes, paths))
+        _compare_dynamics(report, source, tol_dynamics, warned, compiled,
+                          _opened(probes, paths))
     validations = finish()  # the probes still open: USD's validator reuses their parsed layers
     del probes
     for v in validations:
@@ -282,6 +286,41 @@ def _compare_dynamics(report: CheckReport, source: str | Path, tol: float,
                               for d in left]
         if left and probe is not None:
             probe.ok = False
+
+
+def _compare_drives(report: CheckReport, probes: list[Probe], paths: list, tol: float,
+                    compiled: dict[Path, object], opened: dict[Path, Probe]) -> None:
+    """Every file's joint drives, as its tool reads them (``probes.drives``: MJCF and USD),
+    against the first such file's (the source, when given), into ``report``: a drive in
+    one and not the other of a joint both have, or one that differs beyond ``tol`` (the
+    model's tolerance equality), is a mismatch."""
+    from .probes.drives import file_drives
+
+    read = [(Path(p), d) for p in paths
+            if (d := file_drives(Path(p), compiled, opened)) is not None]
+    if len(read) < 2:
+        return
+    joints = {Path(p.path): set() for p in probes}
+    for p in probes:
+        joints[Path(p.path)] |= {j.name for j in p.joints}
+    names = dict(zip((id(p) for p in probes), _display_names(probes), strict=True))
+    (ref_path, reference), others = read[0], read[1:]
+    for path, drives in others:
+        probe = next((p for p in probes if Path(p.path) == path), None)
+        label = names[id(probe)] if probe is not None else path.name
+        for joint in sorted(joints.get(ref_path, set()) & joints.get(path, set())):
+            a, b = reference.get(joint), drives.get(joint)
+            if a is None and b is None:
+                continue
+            problem = "drive in only one" if a is None or b is None else \
+                "; ".join(a.differences(b, tol))
+            if problem:
+                report.mismatches.append(Mismatch(
+                    "drive", label, joint, f"joint {joint!r}: drive of {ref_path.name}, then "
+                    f"of {path.name}: {problem}"))
+                for r in report.probes:
+                    if r.name == label:
+                        r.ok = False
 
 
 def _repair_warnings(source: str | Path) -> list[str]:

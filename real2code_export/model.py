@@ -454,6 +454,87 @@ class Mimic:
     offset: float = 0.0
 
 
+class DriveKind(StrEnum):
+    POSITION = "position"  # holds a position target: stiffness (and damping)
+    VELOCITY = "velocity"  # holds a velocity target: damping only
+    EFFORT = "effort"  # applies the target as a force (a motor): no gains
+
+
+@dataclass
+class Drive:
+    """An actuator on a joint's one axis (MJCF ``<position>``, ``<velocity>``, ``<motor>``;
+    USD ``PhysicsDriveAPI``), every value at the joint in SI units, angles in radians:
+    the force it applies (N m for an angular joint, N for a slide), clamped to
+    ``force_limit`` when set, is
+
+    - position: ``stiffness * (target - q) - damping * qdot``
+      (stiffness N m/rad or N/m, damping N m s/rad or N s/m);
+    - velocity: ``damping * (target - qdot)`` (target rad/s or m/s);
+    - effort: ``target`` itself (a motor's command).
+
+    ``target`` is the command the drive starts with (USD's target; MuJoCo's ctrl, 0 unless
+    set); ``target_range`` bounds the command (MuJoCo's ctrlrange, in the same joint units).
+    ``name`` and ``gear`` are the MJCF actuator's (its name; the ratio its ``ctrl`` is in:
+    ctrl = gear * target, and the values above have it folded in), kept so that an MJCF
+    file comes back with the same actuator names and command scale."""
+
+    kind: DriveKind
+    stiffness: float = 0.0
+    damping: float = 0.0
+    target: float = 0.0
+    force_limit: float | None = None
+    target_range: tuple[float, float] | None = None
+    name: str | None = None
+    gear: float = 1.0
+
+    def __post_init__(self) -> None:
+        self.kind = DriveKind(self.kind)
+        self.stiffness, self.damping = float(self.stiffness), float(self.damping)
+        self.target, self.gear = float(self.target), float(self.gear)
+        if self.force_limit is not None:
+            self.force_limit = float(self.force_limit)
+        if self.target_range is not None:
+            self.target_range = (float(self.target_range[0]), float(self.target_range[1]))
+
+    def problem(self) -> str | None:
+        """What makes the drive not one of its kind (None when it is one)."""
+        values = [self.stiffness, self.damping, self.target, self.gear,
+                  *(() if self.force_limit is None else (self.force_limit,)),
+                  *(self.target_range or ())]
+        if not all(math.isfinite(v) for v in values):
+            return f"drive values must be finite, got {values}"
+        if self.stiffness < 0 or self.damping < 0:
+            return f"drive stiffness and damping must be >= 0, got {self.stiffness}, " \
+                   f"{self.damping}"
+        if self.kind is DriveKind.POSITION and self.stiffness <= 0:
+            return "a position drive needs a stiffness > 0"
+        if self.kind is DriveKind.VELOCITY and (self.stiffness != 0 or self.damping <= 0):
+            return "a velocity drive has no stiffness and a damping > 0"
+        if self.kind is DriveKind.EFFORT and (self.stiffness or self.damping):
+            return "an effort drive has no stiffness nor damping"
+        if self.force_limit is not None and self.force_limit <= 0:
+            return f"drive force limit must be > 0, got {self.force_limit}"
+        if self.target_range is not None and self.target_range[0] > self.target_range[1]:
+            return f"drive target range {list(self.target_range)} is inverted"
+        if self.gear == 0:
+            return "drive gear must not be 0"
+        return None
+
+    def differences(self, other: Drive, tol: float) -> list[str]:
+        """What differs beyond ``tol`` (relative and absolute) between two drives."""
+        out = []
+        if self.kind != other.kind:
+            out.append(f"kind {self.kind.value} != {other.kind.value}")
+        if self.name != other.name:
+            out.append(f"name {self.name!r} != {other.name!r}")
+        for attr in ("stiffness", "damping", "target", "gear", "force_limit", "target_range"):
+            u, v = getattr(self, attr), getattr(other, attr)
+            if (u is None) != (v is None) or (u is not None and not np.allclose(
+                    u, v, atol=tol, rtol=tol)):
+                out.append(f"{attr} {u} != {v}")
+        return out
+
+
 @dataclass(eq=False)
 class Joint:
     name: str
@@ -471,8 +552,11 @@ class Joint:
     # effort and velocity limits where ``limits`` is None (a joint without a range)
     drive_limits: DriveLimits | None = None
     # a ball joint's cone (rad): the largest rotation from its rest, about any axis (MuJoCo's
+    # range; 0: the ball held at its rest, as MuJoCo compiles a limited ball without a range);
     # ball range); None: free
     cone_limit: float | None = None
+    # the actuator driving the joint's one axis (a revolute, continuous or prismatic joint)
+    drive: Drive | None = None
 
     @property
     def effort_limit(self) -> float | None:
@@ -768,6 +852,7 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
             validate_inertial(p.inertial, el)
 
     joint_names: set[str] = set()
+    drive_names: set[str] = set()
     child_of: dict[str, str] = {}
     for j in obj.joints:
         el = f"joint {j.name!r}"
@@ -824,8 +909,8 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
             if j.type is not JointType.BALL:
                 raise ModelError(el, f"a {j.type.value} joint takes no cone limit (a ball's)")
             _finite(j.cone_limit, el, "cone limit")
-            if j.cone_limit <= 0:
-                raise ModelError(el, f"cone limit must be > 0 rad, got {j.cone_limit}")
+            if j.cone_limit < 0:  # (0: held at its rest, MuJoCo's limited ball of no range)
+                raise ModelError(el, f"cone limit must be >= 0 rad, got {j.cone_limit}")
         if j.drive_limits is not None:
             if j.limits is not None or j.type not in (JointType.CONTINUOUS,
                                                       JointType.PRISMATIC):
@@ -837,6 +922,18 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
                     raise ModelError(el, f"{attr} limit must be finite and >= 0, got {v}")
         if not j.type.movable and j.state != 0.0:
             raise ModelError(el, f"a {j.type.value} joint has no state")
+        if j.drive is not None:
+            if not j.type.movable:
+                raise ModelError(el, f"a {j.type.value} joint takes no drive (a drive moves "
+                                     "one axis: revolute, continuous or prismatic)")
+            problem = j.drive.problem()
+            if problem is not None:
+                raise ModelError(el, problem)
+            if j.drive.name is not None:
+                if not j.drive.name or j.drive.name in drive_names:
+                    raise ModelError(el, f"drive name {j.drive.name!r} is empty or already "
+                                         "another joint's drive's")
+                drive_names.add(j.drive.name)
 
     by_name = {j.name: j for j in obj.joints}
     for j in obj.joints:
@@ -1011,6 +1108,10 @@ def differences(a: ArticulatedObject, b: ArticulatedObject, tol: float = 1e-6) -
                 x.mimic is not None and (x.mimic.joint != y.mimic.joint or not close(
                     [x.mimic.multiplier, x.mimic.offset], [y.mimic.multiplier, y.mimic.offset]))):
             out.append(f"{el}: mimic {x.mimic} != {y.mimic}")
+        if (x.drive is None) != (y.drive is None):
+            out.append(f"{el}: drive present in only one")
+        elif x.drive is not None:
+            out.extend(f"{el}: drive {d}" for d in x.drive.differences(y.drive, tol))
     return out
 
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from .errors import FormatError
-from .model import Mimic
+from .model import Drive, DriveKind, Mimic
 from .primitives import Primitive, ShapeKind
 
 
@@ -75,6 +75,37 @@ def shape_from_json(d: Any, path: Path, el: str) -> Primitive:
     if problem is not None:
         raise FormatError(path, el, problem)
     return shape
+
+
+def drive_json(drive: Drive) -> dict:
+    """A joint's drive as JSON (object.json and glTF extras), SI units, radians."""
+    return {"kind": drive.kind.value, "stiffness": drive.stiffness, "damping": drive.damping,
+            "target": drive.target, "force_limit": drive.force_limit,
+            "target_range": None if drive.target_range is None else list(drive.target_range),
+            "name": drive.name, "gear": drive.gear}
+
+
+def drive_from_json(d, path, el: str) -> Drive:
+    el = f"{el} drive"
+    kind = choice(d, "kind", DriveKind, path, el, "drive kind")
+
+    def optional(key: str, default: float | None) -> float | None:
+        value = d.get(key, default)
+        return None if value is None else number(value, path, el, key)
+
+    rng = d.get("target_range")
+    if rng is not None:
+        rng = tuple(vector(rng, 2, path, el, "target_range"))
+    name = d.get("name")
+    if name is not None and not isinstance(name, str):
+        raise FormatError(path, el, f"name must be a string, got {name!r}")
+    drive = Drive(kind, optional("stiffness", 0.0), optional("damping", 0.0),
+                  optional("target", 0.0), optional("force_limit", None), rng, name,
+                  optional("gear", 1.0))
+    problem = drive.problem()
+    if problem is not None:
+        raise FormatError(path, el, problem)
+    return drive
 
 
 def mimic_json(mimic: Mimic) -> dict:

@@ -709,7 +709,7 @@ THIRD_PARTY = """<mujoco model="third party">
       </body>
     </body>
   </worldbody>
-  <actuator><motor joint="slide"/></actuator>
+  <actuator><motor joint="slide"/><general joint="slide" dyntype="integrator"/></actuator>
 </mujoco>
 """
 
@@ -741,8 +741,12 @@ def test_third_party_structure_names_and_repairs(third_party):
     np.testing.assert_allclose(base_pose[:3, 3], [0, 0, 0.5])
     np.testing.assert_allclose(base_pose[:3, :3], tf.axis_angle_matrix([0, 0, 1], np.radians(30)),
                                atol=1e-12)
-    # The actuator has no place in the model: kept as MuJoCo writes it, in the metadata.
-    assert 'joint="slide"' in obj.metadata["mjcf_elements"]["actuator"]
+    # The motor is the slide's drive; the integrator has no place in the model: kept as
+    # MuJoCo writes it, in the metadata, after the marker of the drive's place.
+    assert obj.joint("slide").drive.kind.value == "effort"
+    kept = obj.metadata["mjcf_elements"]["actuator"]
+    assert 'dyntype="integrator"' in kept and "<motor" not in kept
+    assert kept.index("real2code:drive slide") < kept.index("<general")
     assert "kept as metadata 'mjcf_elements'" in said
     for expected in ("'base frame' -> 'base_frame'",
                      "'lid hinge' -> 'lid_hinge'", "1 actuator"):

@@ -232,9 +232,11 @@ def test_ball_and_floating_joints_are_held_at_their_origin_and_validated():
     ball.limits = Limits(-1, 1)
     with pytest.raises(ModelError, match="'shoulder'.*ball joint takes no limits"):
         validate(obj)
-    ball.limits, ball.cone_limit = None, 0.0
-    with pytest.raises(ModelError, match="'shoulder'.*cone limit must be > 0"):
+    ball.limits, ball.cone_limit = None, -0.1
+    with pytest.raises(ModelError, match="'shoulder'.*cone limit must be >= 0"):
         validate(obj)
+    ball.cone_limit = 0.0  # held at its rest (MuJoCo's limited ball without a range)
+    validate(obj)
     ball.cone_limit, free.cone_limit = 0.5, 0.5
     with pytest.raises(ModelError, match="'free'.*floating joint takes no cone limit"):
         validate(obj)

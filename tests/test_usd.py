@@ -1181,11 +1181,12 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
 
 
 def test_joint_drives_are_kept_and_written_back(tmp_path):
-    """Drives (PhysicsDriveAPI: a simulator's actuator targets and gains) have no place in
-    the model: kept in the metadata in SI (a centimetre stage here; angles in degrees, as
-    UsdPhysics states them), warned, written back to USD on the joint they drive (a generic
-    joint's on its axis's instance), read back the same; a drive on a locked axis drives
-    nothing: said."""
+    """A force drive (PhysicsDriveAPI) is the model joint's drive (a generic joint's on its
+    axis's joint), in SI per radian (a centimetre stage here, gains per degree as UsdPhysics
+    states them); one the model's drives cannot be (an acceleration drive: PhysX scales it by
+    the joint's inertia) is kept in the metadata as UsdPhysics states it, warned. Both are
+    written back to USD on the joint they drive, and read back the same; the model drive is
+    an MJCF actuator too; a drive on a locked axis drives nothing: said."""
     from pxr import Gf, UsdGeom
 
     path = tmp_path / "driven.usda"
@@ -1210,10 +1211,11 @@ def test_joint_drives_are_kept_and_written_back(tmp_path):
         limit = UsdPhysics.LimitAPI.Apply(shoulder.GetPrim(), axis)
         limit.CreateLowAttr(1.0)
         limit.CreateHighAttr(-1.0)
-    for joint, instance, gains in ((elbow, "angular", (2.0, 0.5)), (shoulder, "rotZ", (4.0, 1.0)),
-                                   (shoulder, "transX", (1.0, 1.0))):
+    for joint, instance, gains, kind in (
+            (elbow, "angular", (2.0, 0.5), "acceleration"), (shoulder, "rotZ", (4.0, 1.0), "force"),
+            (shoulder, "transX", (1.0, 1.0), "force")):
         drive = UsdPhysics.DriveAPI.Apply(joint.GetPrim(), instance)
-        drive.CreateTypeAttr("force")
+        drive.CreateTypeAttr(kind)
         drive.CreateStiffnessAttr(gains[0])
         drive.CreateDampingAttr(gains[1])
         drive.CreateTargetPositionAttr(30.0)
@@ -1223,27 +1225,34 @@ def test_joint_drives_are_kept_and_written_back(tmp_path):
         warnings.simplefilter("always")
         obj = usd.load(path)
     said = "\n".join(str(w.message) for w in caught)
-    assert "drives (PhysicsDriveAPI" in said and "of joints elbow, shoulder_rotZ" in said
+    assert "drives (PhysicsDriveAPI) the model's drives cannot be: elbow (a drive of type " \
+           "'acceleration'" in said
     assert "drives on no free axis (a locked one, a fixed or ball joint) ignored: " \
            "</arm/shoulder> transX" in said
     drives = {(d["joint"], d["instance"]): d["attributes"] for d in obj.metadata["usd_drives"]}
     # N cm / degree -> N m / degree: 1e-4 (kg cm^2 s^-2 -> kg m^2 s^-2)
-    assert drives == {
-        ("shoulder_rotZ", "angular"): pytest.approx(
-            {"type": "force", "stiffness": 4e-4, "damping": 1e-4, "targetPosition": 30.0}),
-        ("elbow", "angular"): pytest.approx(
-            {"type": "force", "stiffness": 2e-4, "damping": 5e-5, "targetPosition": 30.0})}
+    assert drives == {("elbow", "angular"): pytest.approx(
+        {"type": "acceleration", "stiffness": 2e-4, "damping": 5e-5, "targetPosition": 30.0})}
+    rot_z = obj.joint("shoulder_rotZ").drive  # per radian: 180 / pi times per degree
+    assert (rot_z.kind.value, rot_z.target, rot_z.force_limit) == ("position",
+                                                                  pytest.approx(np.pi / 6), None)
+    assert [rot_z.stiffness, rot_z.damping] == pytest.approx(np.array([4e-4, 1e-4]) * 180 / np.pi)
+    assert obj.joint("elbow").drive is None
     written = export(obj, tmp_path / "out", formats=["usd", "mjcf"])
     exported = Usd.Stage.Open(str(written["usd"]))  # (the shoulder a generic joint again)
     prim = exported.GetPrimAtPath("/arm/Physics/shoulder")
     assert "PhysicsDriveAPI:rotZ" in prim.GetAppliedSchemas()
     assert prim.GetAttribute("drive:rotZ:physics:stiffness").Get() == pytest.approx(4e-4)
+    assert prim.GetAttribute("drive:rotZ:physics:targetPosition").Get() == pytest.approx(30.0)
     prim = exported.GetPrimAtPath("/arm/Physics/elbow")
     assert prim.GetAttribute("drive:angular:physics:stiffness").Get() == pytest.approx(2e-4)
+    assert prim.GetAttribute("drive:angular:physics:type").Get() == "acceleration"
     for out in written.values():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Real2CodeWarning)
-            assert load_any(out).metadata["usd_drives"] == obj.metadata["usd_drives"]
+            back = load_any(out)
+        assert back.metadata["usd_drives"] == obj.metadata["usd_drives"]
+        assert not back.joint("shoulder_rotZ").drive.differences(rot_z, 1e-6)
 
 
 def test_kept_loops_and_drives_that_are_not_ours_are_refused_or_said(tmp_path):
@@ -1275,3 +1284,46 @@ def test_kept_loops_and_drives_that_are_not_ours_are_refused_or_said(tmp_path):
     obj.metadata.pop("loop_joints")
     with pytest.raises(ModelError, match=r"metadata 'usd_drives'\[0\].*instance 'sideways'"):
         usd.save(obj, tmp_path / "c", write_meshes=False)
+
+
+HELD_BALL = """<mujoco model="held">
+  <default><joint limited="true" damping="1"/></default>
+  <worldbody>
+    <body name="base" pos="0 0 1">
+      <geom type="sphere" size="0.05"/>
+      <body name="link" pos="0.2 0 0">
+        <joint name="ankle" type="ball"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_ball_limited_without_a_range_is_held_at_rest_in_every_format(tmp_path):
+    """A ball under ``limited="true"`` with no range: MuJoCo compiles a cone of 0, the ball
+    held at its rest. The model keeps a cone limit of 0; USD writes a generic joint with its
+    translations locked and its rotations limited to [0, 0] (a spherical joint's cone of 0
+    would leave the twist free), read back as the held ball; glTF locks every axis; every
+    export reads back the same and agrees with the source, dynamics included."""
+    from real2code_export.check import check_files
+
+    source = tmp_path / "held.xml"
+    source.write_text(HELD_BALL)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = load_any(source)
+        assert obj.joint("ankle").cone_limit == 0.0
+        written = export(obj, tmp_path / "out", ["json", "mjcf", "urdf", "usd", "gltf"])
+        for fmt, path in written.items():
+            assert not differences(obj, load_any(path)), fmt
+        report = check_files(list(written.values()), source=source, n_configurations=3,
+                             validate=False, warned=[])
+    assert not report.mismatches, report.mismatches
+    stage = Usd.Stage.Open(str(written["usd"]))
+    prim = stage.GetPrimAtPath("/held/Physics/ankle")
+    assert prim.GetTypeName() == "PhysicsJoint"
+    for axis in ("rotX", "rotY", "rotZ"):
+        assert (prim.GetAttribute(f"limit:{axis}:physics:low").Get(),
+                prim.GetAttribute(f"limit:{axis}:physics:high").Get()) == (0.0, 0.0)

@@ -41,6 +41,8 @@ from ..model import (
 )
 from ..model_json import (
     choice,
+    drive_from_json,
+    drive_json,
     member,
     mimic_from_json,
     mimic_json,
@@ -148,6 +150,7 @@ def to_dict(obj: ArticulatedObject) -> dict[str, Any]:
                 **({} if j.drive_limits is None else {"drive_limits": {
                     "effort": j.drive_limits.effort, "velocity": j.drive_limits.velocity}}),
                 **({} if j.cone_limit is None else {"cone_limit": j.cone_limit}),
+                **({} if j.drive is None else {"drive": drive_json(j.drive)}),
             }
         )
     return {
@@ -292,6 +295,7 @@ def from_dict(data: dict[str, Any], path: Path) -> ArticulatedObject:
             drive_limits=drive_limits,
             cone_limit=None if jd.get("cone_limit") is None
             else number(jd["cone_limit"], path, el, "cone limit"),
+            drive=None if jd.get("drive") is None else drive_from_json(jd["drive"], path, el),
         ))
     obj = ArticulatedObject(name=member(data, "name", path, "object"), parts=parts, joints=joints,
                             metadata=dict(data.get("metadata") or {}))

@@ -130,7 +130,14 @@ def usd_dynamics(probe) -> SchemaDynamics:
     out.group = {names[p]: (names[k] if k != WORLD else WORLD)
                  for p, k in _union(fixed, list(rigid)).items() if p != WORLD}
     for path, kind, d in joints:
-        if kind in ("RevoluteJoint", "PrismaticJoint", "SphericalJoint"):
+        if kind == "D6Joint":  # a ball (free, or held at rest: formats.usd.d6) is one joint
+            from ..formats.usd import d6
+
+            dofs = d6.free_dofs(d, path, f"joint prim <{path}>")
+            if dofs and d6.is_ball(dofs):
+                out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(
+                    stage.GetPrimAtPath(path), "D6Joint", d, mpu, d6.is_held_ball(dofs))
+        elif kind in ("RevoluteJoint", "PrismaticJoint", "SphericalJoint"):
             out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(stage.GetPrimAtPath(path), kind,
                                                              d, mpu)
     return out
@@ -162,13 +169,17 @@ def _usd_mass(prim, kpu: float, mpu: float
             np.zeros(3) if com is None else com), missing
 
 
-def _usd_joint(prim, kind: str, desc, mpu: float) -> list[tuple[str, str, object]]:
+def _usd_joint(prim, kind: str, desc, mpu: float,
+               held: bool = False) -> list[tuple[str, str, object]]:
+    """What a joint prim states (``held``: a generic joint that is a ball held at rest)."""
     angular = kind != "PrismaticJoint"
     items: list[tuple[str, str, object]] = [(f"{q} ({a})", q, _authored(prim, a))
                                             for a, q in MJC]
     per_degree = math.pi / 180.0 if angular else 1.0
     items += [(f"{q} ({a})", q, _authored(prim, a) / (per_degree if q == "damping" else 1.0))
               for a, q in NEWTON]
+    if kind == "D6Joint":  # a ball: its rotations limited to [0, 0] hold it, else free
+        return items + _range("limit:rot*:physics:low, high", (0.0, 0.0) if held else None)
     if kind == "SphericalJoint":  # its cone: the smaller cone angle, as the reader keeps it
         lim = desc.limit
         cones = (float(lim.lower), float(lim.upper))
@@ -247,11 +258,14 @@ def gltf_dynamics(probe) -> SchemaDynamics:
             continue
         desc = described[joint["joint"]]
         axis = free_axis(desc)
-        if axis is not None and axis.kind == "fixed":
+        name = desc.get("name") or n.get("name") or f"node_{i}"
+        # (every axis locked is a weld, or our ball held at its rest: its extras say which)
+        held = axis is not None and axis.kind == "fixed" and \
+            extras.get(name, {}).get("type") == "ball"
+        if axis is not None and axis.kind == "fixed" and not held:
             fixed.append((body_of(i), body_of(joint.get("connectedNode"))))
             continue
-        name = desc.get("name") or n.get("name") or f"node_{i}"
-        out.joints[name] = _gltf_joint(desc, axis, extras.get(name, {}))
+        out.joints[name] = _gltf_joint(desc, None if held else axis, extras.get(name, {}))
     out.group = {name_of[b]: (name_of[k] if k != WORLD else WORLD)
                  for b, k in _union(fixed, list(name_of)).items() if b != WORLD}
     return out
@@ -276,9 +290,12 @@ def _gltf_joint(desc: dict, axis, extras: dict) -> list[tuple[str, str, object]]
     if axis is not None:
         limited = axis.lower is not None and axis.upper is not None
         items += _range("limits", (axis.lower, axis.upper) if limited else None)
-    else:  # a ball: its cone, a 2-D angular limit
+    else:  # a ball: its cone, a 2-D angular limit (every rotation locked: a cone of 0)
         cones = [float(lim["max"]) for lim in desc.get("limits") or []
-                 if len(lim.get("angularAxes") or []) == 2 and "max" in lim]
+                 if len(lim.get("angularAxes") or []) == 2 and "max" in lim] + [
+            0.0 for lim in desc.get("limits") or []
+            if sorted(lim.get("angularAxes") or []) == [0, 1, 2]
+            and float(lim.get("min", -1)) == 0.0 and float(lim.get("max", 1)) == 0.0]
         items += _range("2-D angular limit", (0.0, min(cones)) if cones else None)
     return items
 

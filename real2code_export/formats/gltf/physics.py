@@ -109,7 +109,8 @@ def joint_description(joint: Joint) -> dict:
     """The ``physicsJoints`` entry: limits on the attachment frames and the passive drive."""
     lock = {"min": 0.0, "max": 0.0}
     t = joint.type
-    if t is JointType.FIXED:
+    # (a ball of cone 0 is held at its rest: every axis locked, its extras say it is a ball)
+    if t is JointType.FIXED or (t is JointType.BALL and joint.cone_limit == 0.0):
         limits = [{"linearAxes": [0, 1, 2], **lock}, {"angularAxes": [0, 1, 2], **lock}]
     elif t is JointType.BALL:  # every rotation free, or the X axis within a cone
         limits = [{"linearAxes": [0, 1, 2], **lock}]

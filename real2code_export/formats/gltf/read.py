@@ -31,7 +31,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
-from ...model_json import mimic_from_json, shape_from_json
+from ...model_json import drive_from_json, mimic_from_json, shape_from_json
 from .conventions import KHR_PHYSICS, SCHEMA, SCHEMA_VERSION, khr, node_matrix, ours
 from .document import Document, rigid
 from .khr_physics import load_khr
@@ -260,7 +260,9 @@ def _our_joint(doc: Document, i: int, part_nodes: dict[str, int]) -> Joint:
                      origin=origin, axis=_vector(d.get("axis", [0, 0, 1]), 3, doc, el, "axis"),
                      limits=limits, dynamics=dynamics, state=float(d.get("state", 0.0)),
                      mimic=mimic, drive_limits=drive_limits,
-                     cone_limit=None if d.get("cone_limit") is None else float(d["cone_limit"]))
+                     cone_limit=None if d.get("cone_limit") is None else float(d["cone_limit"]),
+                     drive=None if d.get("drive") is None
+                     else drive_from_json(d["drive"], doc.path, el))
     except (KeyError, TypeError, ValueError, AttributeError) as e:
         raise FormatError(doc.path, el, f"bad joint metadata ({type(e).__name__}: {e})") from e
 

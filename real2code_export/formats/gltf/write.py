@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import atomic
+from ...errors import warn
 from ...meshfiles import write_object_meshes
 from ...model import (
     UNBOUNDED_SLIDE_SPAN,
@@ -49,7 +50,7 @@ from ...model import (
     metadata_json,
     validate,
 )
-from ...model_json import mimic_json, shape_json
+from ...model_json import drive_json, mimic_json, shape_json
 from ...placements import placed_pieces, shared_assets
 from .. import output_file
 from . import physics
@@ -240,6 +241,8 @@ def _joint_extras(joint: Joint) -> dict:
                                if (v := getattr(joint.drive_limits, k)) is not None}
     if joint.cone_limit is not None:
         out["cone_limit"] = float(joint.cone_limit)
+    if joint.drive is not None:  # (KHR_physics_rigid_bodies' drives hold the joint damping)
+        out["drive"] = drive_json(joint.drive)
     return {EXTRAS_KEY: out}
 
 
@@ -461,6 +464,10 @@ def build(obj: ArticulatedObject) -> bytes:
 def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = True) -> Path:
     """Write ``out_dir/<name>.glb`` (and, if ``write_meshes``, the shared mesh files)."""
     validate(obj)
+    driven = [j.name for j in obj.joints if j.drive is not None]
+    if driven:  # KHR_physics_rigid_bodies' joint drives hold the joints' damping
+        warn(f"glTF: {obj.name!r}: joint drives (actuators) kept in the joints' extras only, "
+             f"read by our reader: {', '.join(driven)}")
     out_dir = Path(out_dir)
     if write_meshes:
         write_object_meshes(obj, out_dir)

@@ -1,6 +1,7 @@
-"""What an MJCF file holds that the model has no place for (actuators, tendons, sensors,
-equality constraints other than the mimics the reader takes, and the default classes those
-use), kept as the file writes it, and written back by the MJCF writer.
+"""What an MJCF file holds that the model has no place for (actuators other than the joint
+drives the reader takes, :mod:`.actuator`; tendons, sensors, equality constraints other than
+the mimics the reader takes, and the default classes those use), kept as the file writes
+it, and written back by the MJCF writer.
 
 The sections are read from the file itself (its ``<include>`` files inlined, as MuJoCo
 inlines them) and stored in the object's metadata under :data:`ELEMENTS_KEY` (tag -> XML
@@ -33,10 +34,16 @@ WRITE_ORDER = ("default", "tendon", "equality", "actuator", "sensor")
 def unread_sections(path: Path, mimics: set[tuple[str, str]],
                     renames: dict[str, str] | None = None,
                     moved: dict[str, np.ndarray] | None = None,
-                    notes: list[str] | None = None) -> dict[str, str]:
+                    notes: list[str] | None = None,
+                    drives: dict[int, str] | None = None,
+                    drive_markers: bool = False) -> dict[str, str]:
     """Tag -> XML text of each kept section (the file's sections of that tag merged) that has
     something left once the joint equalities read as mimics, ``(joint1, joint2)`` as named
-    in the file, are taken out; with them, the file's default classes (``default``). The
+    in the file, and the actuators read as drives (``drives``: the actuator's index in the
+    file -> the model joint it drives) are taken out; with them, the file's default classes
+    (``default``). With ``drive_markers`` each drive's actuator leaves a comment
+    (:func:`drive_marker`) where it stood, so that the writer puts it back in the file's
+    order among the kept ones (an actuator's index is its ``ctrl`` index). The
     bodies, joints and sites they refer to are named as the model names them (``renames``:
     file name -> model name, for the names the reader changed); points given in the frame of
     a body whose part frame the reader moved (``moved``: file name -> part-from-body
@@ -48,8 +55,10 @@ def unread_sections(path: Path, mimics: set[tuple[str, str]],
     except (OSError, etree.XMLSyntaxError):  # MuJoCo read it: nothing of ours to report
         return {}
     out = {}
+    drives = drives or {}
     for tag in KEPT_TAGS:
         merged = etree.Element(tag)
+        index = 0  # the actuator's, in file order (MuJoCo numbers them so)
         for section in root.iter(tag):
             if section.getparent() is not root:
                 continue
@@ -59,8 +68,15 @@ def unread_sections(path: Path, mimics: set[tuple[str, str]],
                 if tag == "equality" and el.tag == "joint" and \
                         (el.get("joint1"), el.get("joint2")) in mimics:
                     continue
+                if tag == "actuator":
+                    index += 1
+                    if index - 1 in drives:
+                        if drive_markers:
+                            merged.append(etree.Comment(drive_marker(drives[index - 1])))
+                        continue
                 merged.append(el)
-        if len(merged):
+        if any(isinstance(el.tag, str) for el in merged) or (
+                tag == "actuator" and len(merged)):
             _follow_moved_bodies(merged, moved or {}, notes if notes is not None else [])
             _rename_references(merged, renames or {})
             out[tag] = _text(merged, etree)
@@ -74,6 +90,17 @@ def unread_sections(path: Path, mimics: set[tuple[str, str]],
         if len(defaults):
             out["default"] = _text(defaults, etree)
     return out
+
+
+def drive_marker(joint: str) -> str:
+    """The comment that stands for the drive of ``joint`` in a kept actuator section."""
+    return f" real2code:drive {joint} "
+
+
+def drive_of_marker(comment: str) -> str | None:
+    """The joint a drive marker's text names, or None for another comment."""
+    head, _, joint = comment.strip().partition(" ")
+    return joint.strip() or None if head == "real2code:drive" else None
 
 
 def _follow_moved_bodies(section, moved: dict[str, np.ndarray], notes: list[str]) -> None:

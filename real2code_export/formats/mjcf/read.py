@@ -45,6 +45,7 @@ from ...model import (
 )
 from ...mujoco_files import spec_from_file
 from ...repairs import balanced_inertia, massless_moving_parts
+from .actuator import drive_of
 from .conventions import (
     COLLISION_GROUP,
     KEYFRAME,
@@ -190,6 +191,7 @@ class _Reader:
     taken_parts: set[str] = field(default_factory=set)
     joint_of: dict[int, Joint] = field(default_factory=dict)  # MuJoCo joint id -> model joint
     mimics: set[tuple[str, str]] = field(default_factory=set)  # (joint1, joint2) in the file
+    drives: dict[int, str] = field(default_factory=dict)  # actuator id -> the joint it drives
     renamed: dict[str, set[str]] = field(default_factory=dict)  # file name -> model name(s)
 
     def read(self) -> ArticulatedObject:
@@ -235,6 +237,7 @@ class _Reader:
         joints += self._sites(parts, joint_names, world_used, top[0] if top else 0)
         name = self._object_name()
         self._read_mimics()
+        self._read_drives(joints)
         self._report_ignored()
         for kind, names in self.notes.items():
             warn(f"{self.path}: {kind}: {', '.join(names)}")
@@ -244,8 +247,10 @@ class _Reader:
         moved = {m.body(b).name: frame for b, frame in self.frames.items()
                  if b and m.body(b).name and not np.array_equal(frame, np.eye(4))}
         moved_notes: list[str] = []
-        kept = unread_sections(self.path, self.mimics, renames, moved, moved_notes) \
-            if self._has_unread() else {}
+        markers = self._drive_markers(joints)  # (else every actuator is a drive, in order)
+        kept = unread_sections(self.path, self.mimics, renames, moved, moved_notes,
+                               self.drives, markers) \
+            if self._has_unread() or markers else {}
         for note in moved_notes:
             warn(f"{self.path}: kept element {note}")
         left = obj.metadata.get(ELEMENTS_KEY)  # what a writer of ours could not write back
@@ -646,6 +651,34 @@ class _Reader:
             follower.mimic = Mimic(leader.name, a1, y0 + a0 - a1 * x0)
             self.mimics.add((m.joint(int(m.eq_obj1id[e])).name, m.joint(int(m.eq_obj2id[e])).name))
 
+    def _read_drives(self, joints: list[Joint]) -> None:
+        """Actuators that are a drive of one joint (:mod:`.actuator`) as that joint's drive,
+        the first on a joint; the others stay kept (warned with them, by why)."""
+        m = self.model
+        for i in range(m.nu):
+            drive, why = drive_of(m, i)
+            joint = self.joint_of.get(int(m.actuator_trnid[i, 0])) if drive else None
+            if drive is not None and joint is None:
+                drive, why = None, "on a joint the model holds otherwise"
+            if drive is not None and joint.drive is not None:
+                drive, why = None, "a second actuator on the joint"
+            if drive is None:
+                label = m.actuator(i).name or f"id {i}"
+                self.note("actuators kept as MJCF, not drives of the model (no other format "
+                          "acts on them)", f"{label!r} ({why})")
+                continue
+            target = self._custom_number(joint.name, "drive_target")  # (MuJoCo's ctrl: 0)
+            drive.target = 0.0 if target is None else target
+            joint.drive = drive
+            self.drives[i] = joint.name
+
+    def _drive_markers(self, joints: list[Joint]) -> bool:
+        """Whether the kept actuators need markers where the drives stood: some stay kept,
+        or the drives' order is not their joints' (the order the writer writes them in)."""
+        order = {j.name: k for k, j in enumerate(joints)}
+        places = [order[name] for _, name in sorted(self.drives.items())]
+        return len(self.drives) < self.model.nu or places != sorted(places)
+
     def _report_ignored(self) -> None:
         import mujoco
 
@@ -684,7 +717,7 @@ class _Reader:
 
     def _unread_counts(self) -> dict[str, int]:
         m = self.model
-        return {"actuator": m.nu, "tendon": m.ntendon,
+        return {"actuator": m.nu - len(self.drives), "tendon": m.ntendon,
                 "equality constraint": m.neq - len(self.mimics), "sensor": m.nsensor}
 
     def _has_unread(self) -> bool:

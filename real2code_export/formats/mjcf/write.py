@@ -8,8 +8,9 @@ intermediate parts the reader makes for a body with several joints merged back i
 (:mod:`.structure`); a mimic a joint equality. Each body has its explicit
 inertial (``fullinertia``), a non-colliding visual mesh geom (group 2, the part colour) and
 one colliding mesh geom per convex piece (group 3); shapes (box, cylinder, ...) are geoms of
-their type. The actuators, tendons, sensors and equalities an MJCF reader kept in the metadata
-are written back where MuJoCo compiles them (:mod:`.kept`). Every parent/child pair is excluded from
+their type. A joint's drive is an actuator (:mod:`.actuator`); the actuators, tendons, sensors
+and equalities an MJCF reader kept in the metadata are written back where MuJoCo compiles them
+(:mod:`.kept`), the drives among the actuators where the file read had them. Every parent/child pair is excluded from
 contact. Every hinge and slide has ``ref`` = its state and its body is written at that pose, so
 that MuJoCo starts there (qpos0) and joint values mean the same as in the model
 (:func:`_placed_joints`). What MJCF has no place for is kept in the keyframe "observed" (the
@@ -162,8 +163,9 @@ def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
     spec = _build(obj, meshdir=MESH_DIR, model_dir=out_dir)
     text = to_xml(spec, obj)
     sections = obj.metadata.get(ELEMENTS_KEY)
-    if isinstance(sections, dict) and sections:
-        text = _with_kept(obj, text, sections, out_dir)
+    sections = sections if isinstance(sections, dict) else {}
+    if sections or any(j.drive is not None for j in obj.joints):
+        text = _with_kept(obj, text, with_drives(obj, sections), out_dir)
     return atomic.write_text(output_file("mjcf", out_dir, obj.name), text)
 
 
@@ -190,6 +192,36 @@ def _with_kept(obj: ArticulatedObject, text: str, sections: dict, out_dir: Path)
     if left:
         metadata[ELEMENTS_KEY] = left
     return _replace_metadata(text, metadata)
+
+
+def with_drives(obj: ArticulatedObject, sections: dict) -> dict:
+    """The kept sections with the model's drives as actuators in the ``actuator`` section:
+    each at its marker (where the file it was read from had it), the rest first, in joint
+    order; a marker of a joint without a drive is left out."""
+    from lxml import etree
+
+    from .actuator import actuator_element
+    from .kept import drive_of_marker
+
+    driven = {j.name: j.drive for j in obj.joints if j.drive is not None}
+    kept = sections.get("actuator")
+    if not driven or (kept is not None and not isinstance(kept, str)):
+        return sections  # (a section that is not text: refused with the others)
+    section = etree.Element("actuator") if kept is None else etree.fromstring(kept)
+    placed = set()
+    for el in list(section):
+        if isinstance(el.tag, str):
+            continue
+        joint = drive_of_marker(el.text or "")
+        if joint is not None and joint in driven and joint not in placed:
+            section.replace(el, actuator_element(driven[joint], joint))
+            placed.add(joint)
+        else:
+            section.remove(el)
+    for at, joint in enumerate(j for j in driven if j not in placed):
+        section.insert(at, actuator_element(driven[joint], joint))
+    etree.indent(section, space="  ")
+    return {**sections, "actuator": etree.tostring(section, encoding="unicode")}
 
 
 def _replace_metadata(text: str, metadata: dict) -> str:
@@ -543,6 +575,9 @@ def _add_custom(spec, obj: ArticulatedObject, parts: list[Part], joints: list[Jo
                              data=[joint.velocity_limit])
         if joint.effort_limit is not None and not joint.effort_limit > 0:
             spec.add_numeric(name=custom_name(joint.name, "effort"), data=[joint.effort_limit])
+        if joint.drive is not None and joint.drive.target != 0:  # MuJoCo's ctrl starts at 0
+            spec.add_numeric(name=custom_name(joint.name, "drive_target"),
+                             data=[joint.drive.target])
     for part in parts:
         # no geom to carry its colour, or geoms of several colours none of which is the
         # part's own (a mesh file's colours: the part's is their mean)

@@ -38,6 +38,8 @@ from ...model import (
     DEFAULT_COLOR,
     UNBOUNDED_LIMIT,
     ArticulatedObject,
+    Drive,
+    DriveKind,
     DriveLimits,
     Dynamics,
     Inertial,
@@ -437,7 +439,7 @@ def _joint(ctx: Context, el: etree._Element, name: str, part_names: dict[str, st
     parent, child = joint_ends(el)
     joint = Joint(name=name, type=jtype, parent=part_names[parent], child=part_names[child],
                   origin=origin_matrix(ctx, el, owner),
-                  mimic=_mimic(ctx, el, owner, joint_names))
+                  mimic=_mimic(ctx, el, owner, joint_names), drive=_drive(ctx, el, owner))
     if jtype.multi_dof:
         joint.dynamics = _dynamics(ctx, el, owner)
     if jtype is JointType.BALL and el.get(ns("cone_limit")) is not None:
@@ -523,6 +525,29 @@ def _drive_limits(ctx: Context, el: etree._Element, owner: str,
     known = _effort_velocity(ctx, el, owner, name)
     return None if known["effort"] is None and known["velocity"] is None else \
         DriveLimits(**known)
+
+
+def _drive(ctx: Context, el: etree._Element, owner: str) -> Drive | None:
+    """Our writer's ``<real2code:drive>`` in a ``<joint>`` (``write.drive_element``)."""
+    found = el.find(ns("drive"))
+    if found is None:
+        return None
+    kind = found.get("kind")
+    if kind not in {k.value for k in DriveKind}:
+        raise ctx.error(owner, f"<real2code:drive> kind {kind!r} is not one of "
+                        f"{[k.value for k in DriveKind]}", found.sourceline)
+    values = {attr: ctx.number(found, attr, owner, default=1.0 if attr == "gear" else 0.0)
+              for attr in ("stiffness", "damping", "target", "gear")}
+    limit = None if found.get("force_limit") is None else \
+        ctx.number(found, "force_limit", owner)
+    target_range = None if found.get("target_range") is None else \
+        tuple(float(v) for v in ctx.floats(found, "target_range", owner, count=2))
+    drive = Drive(DriveKind(kind), force_limit=limit, target_range=target_range,
+                  name=found.get("name"), **values)
+    problem = drive.problem()
+    if problem is not None:
+        raise ctx.error(owner, f"<real2code:drive>: {problem}", found.sourceline)
+    return drive
 
 
 def _mimic(ctx: Context, el: etree._Element, owner: str,

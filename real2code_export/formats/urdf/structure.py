@@ -25,6 +25,7 @@ READ_TAGS = ("link", "joint", "material", "mujoco")
 # the children of <link> and <joint> the reader reads (URDF 1.0 and 1.1's capsule aside)
 LINK_TAGS = ("inertial", "visual", "collision")
 JOINT_TAGS = ("origin", "parent", "child", "axis", "limit", "dynamics", "mimic")
+DRIVE_TAG = ns("drive")  # our writer's joint drive (write.drive_element)
 
 
 def parse(ctx: Context) -> etree._Element:
@@ -125,7 +126,7 @@ def unread_children(robot: etree._Element) -> list[etree._Element]:
 def unread_in(elements) -> list[etree._Element]:
     """The children of <link> and <joint> ``elements`` the model has no place for (a joint's
     <safety_controller> and <calibration>, a link's <self_collision_checking>, ...)."""
-    known = {"link": LINK_TAGS, "joint": JOINT_TAGS}
+    known = {"link": LINK_TAGS, "joint": (*JOINT_TAGS, DRIVE_TAG)}
     return [child for el in elements for child in el.iterchildren(etree.Element)
             if child.tag not in known[el.tag]]
 

@@ -30,6 +30,7 @@ from ...meshfiles import (
 from ...model import (
     UNBOUNDED_LIMIT,
     ArticulatedObject,
+    Drive,
     Joint,
     JointType,
     Limits,
@@ -70,6 +71,11 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
     """Write ``out_dir/<obj.name>.urdf`` (and, if ``write_meshes``, the mesh files)."""
     validate(obj)
     warn_maps_not_referenced(obj, "URDF")
+    driven = [j.name for j in obj.joints if j.drive is not None]
+    if driven:
+        warn(f"URDF: {obj.name!r}: joint drives (actuators) have no place in URDF (a "
+             "<transmission> holds no gains): kept as <real2code:drive> in their <joint>, "
+             f"read by our reader only: {', '.join(driven)}")
     out_dir = Path(out_dir)
     text = to_bytes(obj)
     if write_meshes:
@@ -322,6 +328,27 @@ def _joint(joint: Joint) -> etree._Element:
         m = joint.mimic
         _sub(el, "mimic", ("joint", m.joint), ("multiplier", number(m.multiplier)),
              ("offset", number(m.offset)))
+    if joint.drive is not None:
+        el.append(drive_element(joint.drive))
+    return el
+
+
+def drive_element(drive: Drive) -> etree._Element:
+    """A joint's drive as ``<real2code:drive>`` in its ``<joint>`` (URDF has no actuator with
+    gains: a ``<transmission>``'s standard form names a joint and an interface only),
+    SI units, radians; attributes left out are the model's defaults (none: no limit)."""
+    el = etree.Element(ns("drive"))
+    el.set("kind", drive.kind.value)
+    for attr in ("stiffness", "damping", "target", "gear"):
+        value = getattr(drive, attr)
+        if value != (1.0 if attr == "gear" else 0.0):
+            el.set(attr, number(value))
+    if drive.force_limit is not None:
+        el.set("force_limit", number(drive.force_limit))
+    if drive.target_range is not None:
+        el.set("target_range", numbers(drive.target_range))
+    if drive.name is not None:
+        el.set("name", drive.name)
     return el
 
 

@@ -88,8 +88,16 @@ def kind(dofs: list[Dof]) -> JointType:
 
 
 def is_ball(dofs: list[Dof]) -> bool:
+    """The three rotations free, or all three limited to [0, 0]: a ball held at its rest
+    (:func:`is_held_ball`; how the USD writer writes a ball whose cone is 0, as a spherical
+    joint's cone of 0 would leave the twist free)."""
+    return [d.name for d in dofs] == ["rotX", "rotY", "rotZ"] and (
+        all(d.lower is None for d in dofs) or is_held_ball(dofs))
+
+
+def is_held_ball(dofs: list[Dof]) -> bool:
     return [d.name for d in dofs] == ["rotX", "rotY", "rotZ"] and all(
-        d.lower is None for d in dofs)
+        d.lower == 0.0 and d.upper == 0.0 for d in dofs)
 
 
 def is_chain(dofs: list[Dof]) -> bool:

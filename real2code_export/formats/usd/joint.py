@@ -107,7 +107,11 @@ def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
     from pxr import Gf
 
     kind = joint.type
-    prim = define(layer, path, _JOINT_TYPES.get(kind, "PhysicsRevoluteJoint"))
+    held = kind is JointType.BALL and joint.cone_limit == 0.0
+    # a ball held at rest: a generic joint, every axis locked but the rotations, limited to
+    # [0, 0] (a spherical joint's cone of 0 bounds the swing, not the twist); read back a ball
+    prim = define(layer, path, "PhysicsJoint" if held else
+                  _JOINT_TYPES.get(kind, "PhysicsRevoluteJoint"))
     if body0 is not None:
         relationship(prim, "physics:body0", body0)
     relationship(prim, "physics:body1", body1)
@@ -116,7 +120,14 @@ def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
     attribute(prim, "physics:localRot0", "Quatf", Gf.Quatf(*f.rot0.tolist()))
     attribute(prim, "physics:localPos1", "Point3f", Gf.Vec3f(0.0, 0.0, 0.0))
     attribute(prim, "physics:localRot1", "Quatf", Gf.Quatf(*f.rot1.tolist()))
-    if kind is JointType.BALL:
+    if held:
+        write_dynamics(prim, joint.dynamics, angular=True)
+        for axis in ("transX", "transY", "transZ", "rotX", "rotY", "rotZ"):
+            apply(prim, f"PhysicsLimitAPI:{axis}")
+            low, high = (1.0, -1.0) if axis.startswith("trans") else (0.0, 0.0)  # locked
+            attribute(prim, f"limit:{axis}:physics:low", "Float", low)
+            attribute(prim, f"limit:{axis}:physics:high", "Float", high)
+    elif kind is JointType.BALL:
         write_dynamics(prim, joint.dynamics, angular=True)
         if joint.cone_limit is not None:  # about X, as mujoco-usd-converter writes a range
             warn(f"USD: joint {joint.name!r}: the ball's cone limit is written as both cone "

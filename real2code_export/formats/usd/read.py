@@ -380,7 +380,7 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
         kind = JointType.BALL if e.dofs else JointType.FIXED
         dynamics = read_dynamics(prim, True, mpu, kpu, where) if e.dofs else Dynamics()
         return [Joint(sanitize_name(name, taken), kind, parent, child, origin=origin,
-                      dynamics=dynamics)], []
+                      dynamics=dynamics, cone_limit=0.0 if d6.is_held_ball(e.dofs) else None)], []
     moved = tf.inverse(ctx.world[e.body0] @ t0) @ (ctx.world[e.body1] @ t1)
     values, off = d6.values_of(e.dofs, moved)
     if off > 1e-5:
@@ -405,10 +405,11 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
 
 
 def _with_drives(ctx: Context, made: list, metadata: dict) -> dict:
-    """``metadata`` with the joints' drives (:mod:`.drive`; ``made``: each parsed joint and
-    the model joints made of it), warned; a drive our writer wrote back replaces its own
-    entry."""
-    found, idle = [], []
+    """The joints' drives (:mod:`.drive`; ``made``: each parsed joint and the model joints
+    made of it): each a model joint's :class:`Drive` where it is one of the model's laws,
+    else kept in ``metadata`` (returned, warned); a drive our writer wrote back from the
+    metadata replaces its own entry."""
+    found, idle, converted, refused = [], [], [], []
     for e, joints in made:
         prim = ctx.stage.GetPrimAtPath(e.path)
         if e.dofs is None:
@@ -422,15 +423,25 @@ def _with_drives(ctx: Context, made: list, metadata: dict) -> dict:
             axes = {d.name: (j.name, "angular" if d.angular else "linear")
                     for d, j in zip(dofs, joints, strict=True)}
         entries, unused = drive.read_drives(prim, axes, ctx.mpu, ctx.kpu)
-        found += entries
+        by_name = {j.name: j for j in joints}
+        ours = {name: drive.read_ours(prim, instance) for instance, (name, _) in axes.items()}
+        for entry in entries:
+            model, why = drive.drive_from_usd(entry["attributes"],
+                                              entry["instance"] == "angular",
+                                              ours.get(entry["joint"]))
+            if model is None:
+                found.append(entry)
+                refused.append(f"{entry['joint']} ({why})")
+            else:
+                by_name[entry["joint"]].drive = model
+                converted.append(entry["joint"])
         idle += [f"<{e.path}> {instance}" for instance in unused]
-    if not found and not idle:
+    if not found and not idle and not converted:
         return metadata
     if found:
-        warn(f"{ctx.path}: drives (PhysicsDriveAPI: a simulator's actuator targets and gains) "
-             f"of joints {', '.join(sorted({f['joint'] for f in found}))}: the model has no "
-             f"actuators; kept in the metadata {drive.DRIVES_KEY!r} and written back to USD "
-             "(the other formats carry them as metadata only)")
+        warn(f"{ctx.path}: drives (PhysicsDriveAPI) the model's drives cannot be: "
+             f"{', '.join(refused)}; kept in the metadata {drive.DRIVES_KEY!r} and written "
+             "back to USD (the other formats carry them as metadata only)")
     if idle:
         warn(f"{ctx.path}: drives on no free axis (a locked one, a fixed or ball joint) "
              f"ignored: {', '.join(idle)}")
@@ -439,10 +450,12 @@ def _with_drives(ctx: Context, made: list, metadata: dict) -> dict:
     # our float64 copy where the file's float32 values agree with it (as for the joints)
     found = [earlier[(f["joint"], f["instance"])] if drive.same(
         f, earlier.get((f["joint"], f["instance"]))) else f for f in found]
-    ours = {(f["joint"], f["instance"]) for f in found}
+    ours_kept = {(f["joint"], f["instance"]) for f in found}
     kept = [k for k in metadata.get(drive.DRIVES_KEY, [])
-            if not isinstance(k, dict) or (k.get("joint"), k.get("instance")) not in ours]
-    return {**metadata, drive.DRIVES_KEY: kept + found}
+            if not isinstance(k, dict) or ((k.get("joint"), k.get("instance")) not in ours_kept
+                                           and k.get("joint") not in converted)]
+    out = {k: v for k, v in metadata.items() if k != drive.DRIVES_KEY}
+    return {**out, drive.DRIVES_KEY: kept + found} if kept + found else out
 
 
 def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
