@@ -135,8 +135,11 @@ def thickened(mesh: Mesh, *, min_thickness: float = DEFAULT_MIN_THICKNESS) -> Me
     would give it (no qhull: nothing is hulled here)."""
     if len(mesh.faces) == 0:
         return Mesh(mesh.vertices, mesh.faces)
-    used, faces = np.unique(mesh.faces, return_inverse=True)
-    faces = faces.reshape(-1, 3)
+    # np.unique's answer (the used vertices in order, the faces renumbered) from a mask: no
+    # sort (a robot's meshes use every vertex they have; a sort of their faces was half of this)
+    used = np.zeros(len(mesh.vertices), dtype=bool)
+    used[mesh.faces] = True
+    faces = (np.cumsum(used) - 1)[mesh.faces]
     points = mesh.vertices[used]
     thick = _thickened(points, min_thickness)
     copies = len(thick) // len(points)

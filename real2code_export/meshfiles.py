@@ -423,7 +423,7 @@ def read_ahead(paths) -> None:
     whose capture is not thread-safe); a file that fails is left to :func:`read_mesh_file`,
     which says why and where. OBJ and Collada parsers hold the GIL: read in turn, as before."""
     todo: dict[tuple, tuple[Path, bytes]] = {}
-    for path in map(Path, paths):
+    for path in dict.fromkeys(map(Path, paths)):  # (a visual's file is often its collision's)
         if path.suffix.lower() != ".stl" or not path.is_file():
             continue
         data = path.read_bytes()
@@ -592,12 +592,15 @@ def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
     colours = np.array(palette, dtype=np.float64).reshape(-1, 4)
     known = index >= 0
     color = None
-    if known.any():
+    used = colours[index[known]]
+    if known.any() and np.all(used == used[0]) and _has_area(mesh, known):
+        # one colour (most files): the mean is it, channel by channel, as below; the faces'
+        # areas are not needed (computing them was a twentieth of a robot's USD export)
+        color = tuple(float(v) for v in used[0])
+    elif known.any():
         tri = mesh.vertices[mesh.faces[known]]
-        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
-                                    axis=1)
+        area = _areas(tri)
         if area.sum() > 0:
-            used = colours[index[known]]
             mean = np.clip(area @ used / area.sum(), 0.0, 1.0)  # (round-off can pass 1)
             # a channel all faces agree on is that value (an alpha of 1 stays opaque)
             mean = np.where(np.all(used == used[0], axis=0), used[0], mean)
@@ -612,6 +615,20 @@ def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
     runs = tuple((int(n), None if key[s] < 0 else palette[key[s]])
                  for s, n in zip(starts, lengths, strict=True))
     return {"color": color, "runs": runs}
+
+
+def _areas(tri: np.ndarray) -> np.ndarray:
+    return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+
+
+def _has_area(mesh: Mesh, known: np.ndarray) -> bool:
+    """Whether the ``known`` faces' areas sum to more than 0, told from their first few:
+    one of those with an area, and coordinates under 1e50 (nothing in any face's area
+    overflows: none is NaN, none warns), is enough; else False (the caller sums them all)."""
+    vertices = mesh.vertices
+    if not (len(vertices) and np.abs(vertices).max() < 1e50):  # (NaN compares False)
+        return False
+    return bool(np.any(_areas(vertices[mesh.faces[known][:16]]) > 0))
 
 
 _STL_RECORD = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])

@@ -1303,3 +1303,20 @@ def test_a_mesh_file_named_by_several_links_is_one_placed_asset(tmp_path):
     assert all(p.asset is placements[0].asset for p in placements)
     written = export(obj, tmp_path / "out", ["usd"])
     assert written["usd"].read_text().count("references = </cart/MeshAssets/mesh_0>") == 3
+
+
+def test_a_mesh_files_one_colour_needs_a_face_with_area_not_the_first():
+    """A file's colour (meshfiles._face_colours): one colour over its faces is that colour
+    where some face, not only the first few, has an area; none without any; two colours
+    weighed by their faces' areas."""
+    from real2code_export.meshfiles import _face_colours
+
+    red, blue = (1.0, 0.0, 0.0, 1.0), (0.0, 0.0, 1.0, 1.0)
+    flat = [[0, 0, 0]] * 20  # degenerate: no area
+    vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 3]])
+    mesh = Mesh(vertices, np.array(flat + [[0, 1, 2]]))
+    assert _face_colours(mesh, np.zeros(21, np.int64), [red])["color"] == red
+    assert _face_colours(Mesh(vertices, np.array(flat)), np.zeros(20, np.int64),
+                         [red])["color"] is None
+    two = Mesh(vertices, np.array([[0, 1, 2], [0, 1, 3]]))  # areas 0.5 and 1.5
+    assert _face_colours(two, np.array([0, 1]), [red, blue])["color"] == (0.25, 0.0, 0.75, 1.0)

@@ -33,6 +33,17 @@ class Context:
     # A <mujoco><compiler meshdir|assetdir> extension: the folder (relative to the URDF) in
     # which MuJoCo looks for a relative mesh filename.
     meshdir: str | None = None
+    # package:// and model:// filenames resolved plainly (found in a package folder), by
+    # filename: the look ahead and the read resolve each, visuals and collisions share them.
+    packaged: dict[str, Path] = field(default_factory=dict)
+    _folder: Path | None = field(default=None, repr=False)
+
+    def folder(self) -> Path:
+        """The URDF's folder, its links resolved (once per read: every package:// filename
+        is looked for from it, and resolving a path is a system call per folder in it)."""
+        if self._folder is None:
+            self._folder = self.path.resolve().parent
+        return self._folder
 
     def note(self, kind: str, name: str) -> None:
         self.notes.setdefault(kind, []).append(name)

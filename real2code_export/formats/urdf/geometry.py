@@ -144,13 +144,17 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
     warn, note or refuse (a look ahead, :func:`read_meshes_ahead`)."""
     scheme = next((s for s in ("package://", "model://") if filename.startswith(s)), None)
     if scheme is not None:
+        if filename in ctx.packaged:
+            return ctx.packaged[filename]
         package, _, rest = filename[len(scheme):].partition("/")
-        here = ctx.path.resolve().parent
+        here = ctx.folder()
         search = package_search_path()
         for folder in (here, *here.parents, *search):
             if folder.name == package and (folder / rest).exists():
+                ctx.packaged[filename] = folder / rest
                 return folder / rest
             if (folder / package / rest).exists():
+                ctx.packaged[filename] = folder / package / rest
                 return folder / package / rest
         # No such package, but REST lies under a folder above the URDF (a package renamed
         # or copied without its name): the nearest one, as yourdfpy resolves it.
@@ -274,14 +278,16 @@ def file_colors(ctx: Context, path: Path, n_faces: int) -> list[tuple[int, RGBA 
     return list(read.runs) or [(n_faces, read.color)]
 
 
-def average_color(colored: list[tuple[RGBA, float]]) -> RGBA | None:
-    """Area-weighted average of (colour, area) pairs; exactly the colour when all agree."""
+def average_color(colored: list[tuple[RGBA, Mesh]]) -> RGBA | None:
+    """Area-weighted average of (colour, mesh) pairs, each weighed by its mesh's area;
+    exactly the colour when all agree (then no area is computed: a robot's visuals mostly
+    agree, and summing their triangles' areas was a twentieth of its USD export)."""
     if not colored:
         return None
     first = colored[0][0]
     if all(c == first for c, _ in colored):
         return first
-    weights = np.array([max(a, 0.0) for _, a in colored])
+    weights = np.array([max(mesh_area(m), 0.0) for _, m in colored])
     colors = np.array([c for c, _ in colored])
     if weights.sum() <= 0:
         weights = np.ones(len(colored))

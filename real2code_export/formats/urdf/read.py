@@ -60,7 +60,6 @@ from .geometry import (
     average_color,
     file_colors,
     material_color,
-    mesh_area,
     origin_matrix,
     read_meshes_ahead,
     robot_materials,
@@ -307,7 +306,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         if color is None and file is not None:
             color = ctx.files[file].color
         if color is not None:
-            colored.append((color, mesh_area(mesh)))
+            colored.append((color, mesh))
         if file is not None and ctx.files[file].texture is not None:
             textures.append(ctx.files[file].texture)
     collision = _collision(ctx, el, name, visuals, faithful_collision and _from_visual(el),
