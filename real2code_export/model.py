@@ -95,6 +95,19 @@ class Placement:
         return Placement(self.asset, pose, self.vertex + vertices, self.face + faces)
 
 
+def corner_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``points.min(axis=0)`` and ``points.max(axis=0)`` of (N, 3) points, bit for bit (a
+    zero's sign too: that reduction keeps the last of equal values, so this does), from the
+    columns copied to rows: numpy reduces an (N, 3) array down its rows three numbers at a
+    time, 30 to 50 times slower (4 ms for 20,000 points, where copy and reduce take 0.1)."""
+    columns = np.asarray(points).T.copy()
+    low, high = columns.min(axis=1), columns.max(axis=1)
+    for out in (low, high):
+        for j in np.flatnonzero(out == 0):
+            out[j] = columns[j][np.flatnonzero(columns[j] == 0)[-1]]
+    return low, high
+
+
 @dataclass(eq=False)
 class Mesh:
     """A triangle mesh: float64 vertices (N, 3), int64 faces (M, 3) and, for a textured
@@ -241,7 +254,7 @@ class Mesh:
                     self.colors, placements)
 
     def bounds(self) -> np.ndarray:
-        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+        return np.stack(corner_bounds(self.vertices))
 
     def to_trimesh(self):
         import trimesh
@@ -750,6 +763,8 @@ def sanitize_name(raw: str, taken: set[str] | None = None) -> str:
 
 # -- validation ------------------------------------------------------------------------------
 def _finite(values, element: str, what: str) -> None:
+    if type(values) is float and math.isfinite(values):  # (a joint's dynamics: no array)
+        return
     arr = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(arr)):
         raise ModelError(element, f"{what} is not finite: {arr.tolist()}")

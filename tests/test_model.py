@@ -17,6 +17,7 @@ from real2code_export.model import (
     Joint,
     JointType,
     Mesh,
+    corner_bounds,
     differences,
     forward_kinematics,
     sample_configuration,
@@ -319,3 +320,19 @@ def test_placements_follow_the_mesh_through_concatenate_transform_and_remainder(
         assert len(moved.remainder().placements) == 2 and _placements_hold(moved.remainder())
     mirrored = pieces[0].transformed(np.diag([-1.0, 1.0, 1.0, 1.0]))
     assert mirrored.placements == ()
+
+
+def test_corner_bounds_are_numpys_down_the_rows_bit_for_bit():
+    """The quick corners are ``min(axis=0)`` / ``max(axis=0)`` exactly, a zero's sign
+    included (the .usda's extent text shows it), for float32 and float64 points."""
+    rng = np.random.default_rng(0)
+    values = np.array([0.0, -0.0, 1.0, -1.0, 2.5])
+    for k in range(300):
+        dtype = np.float32 if k % 2 else np.float64
+        points = rng.choice(values[: 2 + k % 4], size=(int(rng.integers(1, 3000)), 3))
+        if k % 5 == 0:
+            points = rng.normal(size=points.shape)
+        points = points.astype(dtype)
+        low, high = corner_bounds(points)
+        assert low.tobytes() == points.min(axis=0).tobytes()
+        assert high.tobytes() == points.max(axis=0).tobytes()

@@ -1327,3 +1327,22 @@ def test_a_ball_limited_without_a_range_is_held_at_rest_in_every_format(tmp_path
     for axis in ("rotX", "rotY", "rotZ"):
         assert (prim.GetAttribute(f"limit:{axis}:physics:low").Get(),
                 prim.GetAttribute(f"limit:{axis}:physics:high").Get()) == (0.0, 0.0)
+
+
+def test_snapped_quat_iterates_in_floats_as_on_arrays():
+    """The fixed-point iteration in Python floats does numpy's operations: quantised,
+    canonical and renormalised agree with the array helpers bit for bit, and the answer is
+    their fixed point."""
+    from real2code_export.formats.usd import conventions as c
+
+    rng = np.random.default_rng(3)
+    for k in range(2000):
+        q = rng.normal(size=4)
+        q[rng.integers(0, 4, size=k % 3)] = 0.0
+        if k % 5 == 0:
+            q[rng.integers(0, 4)] = 1e-9 * rng.normal()  # below 2^-16: the fine grid
+        q /= np.linalg.norm(q)
+        assert np.array(c._quantised_floats(q.tolist())).tobytes() == c._quantised(q).tobytes()
+        assert np.array(c._canonical_floats(q.tolist())).tobytes() == c._canonical(q).tobytes()
+        snapped = c.snapped_quat(tf.quat_to_matrix(q))
+        assert c._renormalised(snapped).tobytes() == snapped.tobytes()

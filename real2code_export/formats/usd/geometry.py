@@ -41,7 +41,15 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import FormatError, warn
-from ...model import DEFAULT_COLOR, ArticulatedObject, Mesh, Part, Placement, Texture
+from ...model import (
+    DEFAULT_COLOR,
+    ArticulatedObject,
+    Mesh,
+    Part,
+    Placement,
+    Texture,
+    corner_bounds,
+)
 from ...normals import CreasedNormals, creased_normals
 from ...placements import placed_pieces, shared_assets, whole_placement
 from ...primitives import Primitive, ShapeKind
@@ -69,7 +77,7 @@ def _define_mesh(layer, path: str, mesh: Mesh, *schemas: str):
               Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32)))
     attribute(prim, "faceVertexIndices", "IntArray",
               Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.faces.reshape(-1), dtype=np.int32)))
-    attribute(prim, "extent", "Float3Array", extent(vertices.min(axis=0), vertices.max(axis=0)))
+    attribute(prim, "extent", "Float3Array", extent(*corner_bounds(vertices)))
     # flat triangles, not Catmull-Clark
     attribute(prim, "subdivisionScheme", "Token", "none", uniform=True)
     return prim
