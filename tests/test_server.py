@@ -164,6 +164,29 @@ def test_identity_tells_stale_code_from_another_runtime(tmp_path):
     assert serving.mismatch(mine, mine, "code") is None
 
 
+def test_a_start_from_another_checkouts_folder_serves_this_package(tmp_path):
+    """The server is this installation's whatever folder ``server start`` runs in: a
+    package of the same name there (another checkout) is not the one it imports."""
+    runtime = tmp_path / "runtime"
+    runtime.mkdir(mode=0o700)
+    other = tmp_path / "checkout" / "real2code_export"
+    (other / "cli").mkdir(parents=True)
+    (other / "__init__.py").write_text("raise ImportError('another checkout')\n")
+    (other / "cli" / "__init__.py").write_text("")
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(runtime)}
+    env.pop(serving.ENV_SWITCH, None)
+    # -P: the caller imports this package, not the folder's, as the console script does
+    start = [sys.executable, "-P", "-m", "real2code_export.cli", "server"]
+    done = subprocess.run([*start, "start", "--idle-timeout", "1"], env=env,
+                          cwd=other.parent, capture_output=True, text=True, timeout=120)
+    try:
+        assert done.returncode == 0, done.stderr
+        assert "real2code server started" in done.stdout
+    finally:
+        subprocess.run([*start, "stop"], env=env, cwd=other.parent, capture_output=True,
+                       timeout=120)
+
+
 def test_a_folder_open_to_others_is_refused(tmp_path):
     tmp_path.chmod(0o755)
     assert "open to other users" in serving.private(tmp_path)

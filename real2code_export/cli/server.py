@@ -70,6 +70,10 @@ def cmd_start(args) -> int:
             [sys.executable, "-m", "real2code_export.cli", "server", "run",
              "--idle-timeout", str(args.idle_timeout)],
             stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+            # `-m` puts its folder first on the path: started in the caller's folder, a
+            # checkout there would be the server's package, not this one (another
+            # installation: it would listen on another socket)
+            cwd=installation.package.parent,
             start_new_session=True)  # not the terminal's: Ctrl-C here does not stop it
     deadline = time.monotonic() + 60.0
     while time.monotonic() < deadline:
