@@ -292,8 +292,14 @@ def _aligned_box(points: np.ndarray, surface: Surface, own: OBB, frame: np.ndarr
     turns = [best_turn(surface, frame, axis) for axis in range(3)]
     turn_scores = [alignment(surface, f) for _, f in turns]
     best = int(np.argmax(turn_scores))
-    if max(square_score, turn_scores[best], own_score) < MIN_SQUARE:
-        return own  # not boxy (a round top, a blob): no frame is better founded than its own
+    if (max(square_score, turn_scores[best], own_score) < MIN_SQUARE
+            and max(square_score, turn_scores[best]) < own_score + SQUARE_MARGIN):
+        # not boxy (a round top, a blob): no frame is better founded than its own. Noisy
+        # normals lower every frame's score alike, so a frame far squarer than the part's
+        # own still wins: on hand-held phone-LiDAR views a drawer's own box, turned 19
+        # degrees about its slide, scored 0.03 against the carcass's frame's 0.37, was kept
+        # and read as a hinge
+        return own
     if square_score >= max(own_score, turn_scores[best]) - SQUARE_MARGIN:
         return square
     if turn_scores[best] >= own_score - SQUARE_MARGIN:

@@ -90,3 +90,55 @@ def test_frame_fit_in_the_world_frame_is_the_bounding_box():
     box = frame_aligned_obb(pts, np.eye(3), "all")
     assert np.allclose(box.center, (pts.min(0) + pts.max(0)) / 2)
     assert np.allclose(2 * box.extent, np.ptp(pts, axis=0))
+
+
+def _noisy_normals(points, half, rotation, center, deg, seed):
+    """The outward normals of a box's faces at its surface points, each tipped at random
+    by about ``deg`` degrees (noisy depth's normals)."""
+    rng = np.random.default_rng(seed)
+    local = (points - center) @ rotation
+    face = np.argmax(np.abs(local) / half, axis=1)
+    normals = np.zeros_like(local)
+    normals[np.arange(len(local)), face] = np.sign(local[np.arange(len(local)), face])
+    normals += rng.normal(0.0, np.radians(deg), normals.shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return normals @ rotation.T
+
+
+def test_a_drawer_with_noisy_normals_gets_the_carcass_axes_not_its_turned_box():
+    # on noisy depth every frame scores low (normals scattered by 6 degrees), below the
+    # score that says a part is boxy; the drawer's own box, turned by stray points about
+    # its slide axis, scores far lower still than the carcass's frame, which it must take
+    carcass_half = np.array([0.3, 0.4, 0.5])
+    carcass = _box_points([0, 0, 0.5], carcass_half)
+    carcass_normals = _noisy_normals(carcass, carcass_half, np.eye(3), [0, 0, 0.5], 2, 4)
+    half, center = np.array([0.2, 0.35, 0.05]), np.array([0.5, 0.0, 0.3])
+    body = _box_points(center, half, n=3000, seed=5)
+    normals = _noisy_normals(body, half, np.eye(3), center, 6, 6)
+    stray = center + np.array([[0.0, 0.35, 0.25], [0.05, 0.34, 0.25], [0.0, -0.35, -0.25],
+                               [-0.05, -0.34, -0.25]])
+    drawer = np.vstack([body, stray])
+    drawer_normals = np.vstack([normals, np.tile([0.0, 0.0, 1.0], (4, 1))])
+    slide = np.array([1.0, 0.0, 0.0])
+    own = part_obb(drawer)
+    assert _best_angle(own, [0.0, 0.0, 1.0]) > 12.0  # turned about the slide
+    surface = Surface.of((drawer, drawer_normals))
+    assert max(alignment(surface, np.eye(3)), alignment(surface, own.R)) < 0.4
+    boxes = aligned_boxes([carcass, drawer], observed=[(carcass, carcass_normals),
+                                                       (drawer, drawer_normals)])
+    assert _best_angle(boxes[1], [0.0, 0.0, 1.0]) < 0.05
+    assert _best_angle(boxes[1], slide) < 0.05
+
+
+def test_a_round_part_with_noisy_normals_keeps_its_own_box():
+    # no frame squarer than its own: a round part keeps the box that fits it
+    carcass = _box_points([0, 0, 0.5], [0.3, 0.4, 0.5])
+    rng = np.random.default_rng(7)
+    direction = rng.normal(size=(3000, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    ball = [0.0, 0.0, 1.2] + 0.15 * direction
+    normals = direction + rng.normal(0.0, np.radians(10), direction.shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    boxes = aligned_boxes([carcass, ball], observed=[carcass, (ball, normals)])
+    own = part_obb(ball)
+    assert np.allclose(boxes[1].R, own.R) and np.allclose(boxes[1].extent, own.extent)
