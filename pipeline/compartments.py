@@ -85,6 +85,10 @@ class CompartmentOptions:
     # its walls seen short of it: on hand-held phone views 12 % of a fridge's label) ...
     past_walls_held: float = 0.5  # ... a piece of it touching no part is one of its own
     # when at most this share of it touches the carcass (more goes on from the carcass)
+    front_cover: float = 0.3  # a front a part in the box shows (return_frontless) is a
+    # surface holding a point in at least this share of its outline's cells a spacing wide
+    # (a shut front does; the carcass's face frame and shelf edges past a divider are
+    # strips: 11 % on a hand-held path)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -1196,6 +1200,10 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     open face (:func:`open_faces`) is neither: on a hand-held path a cabinet's divider
     (734 points, 3.5 % of the carcass, above :func:`return_enclosed`'s ``small``; facing
     sideways, as tall as the box, half its depth, flush with the opening) kept a slide.
+    A front is a surface: its points fill at least ``front_cover`` of its outline's cells
+    (:func:`_cover`); on the same path the divider's label also held 111 points of the
+    carcass's face frame and shelves' front edges at the opening, a "front" 31 cm wide and
+    98 cm tall filling 11 % of it, and kept its slide (a shut front seen fills 40 to 100 %).
     Runs after :func:`merge_nested` and :func:`merge_behind`, which give a drawer's body
     cut from its front back to it. With no part standing out there is no open face and
     nothing moves. Needs the measured ``normals``. Returns the labels, renumbered (the
@@ -1215,8 +1223,10 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if not faces or inside[k] < options.enclosed_inside:
             continue
         index = np.nonzero(labels == k)[0]
-        if any(_fronts(local, square, index, face, body.extent, voxel, options)
-               for face in faces):
+        if any(_cover(local[f][:, [b for b in range(3) if b != face[0]]], voxel)
+               >= options.front_cover
+               for face in faces for f in _fronts(local, square, index, face, body.extent,
+                                                  voxel, options)):
             continue
         out[index] = 1
         moved.append({"part": k, "points": len(index), "frontless": True})
@@ -1418,6 +1428,15 @@ def _fronts(local: np.ndarray, square: np.ndarray, index: np.ndarray, face: tupl
             if len(f) >= least and float(np.median(sign * local[f, a]))
             >= extent[a] - options.behind_voxels * voxel
             and np.ptp(local[f][:, across], axis=0).min() > options.behind_voxels * voxel]
+
+
+def _cover(points: np.ndarray, voxel: float) -> float:
+    """The share of the cells a spacing wide in the extent of ``points`` (on a face, in its
+    two axes) that hold one of them: near 1 for a surface seen, low for strips and edges
+    spread across a face."""
+    cells = np.unique(np.floor((points - points.min(axis=0)) / voxel).astype(int), axis=0)
+    span = np.floor(np.ptp(points, axis=0) / voxel).astype(int) + 1
+    return len(cells) / float(np.prod(span))
 
 
 def _apart(front: np.ndarray, other: np.ndarray, apart: float,
