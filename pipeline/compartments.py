@@ -86,9 +86,9 @@ class CompartmentOptions:
     past_walls_held: float = 0.5  # ... a piece of it touching no part is one of its own
     # when at most this share of it touches the carcass (more goes on from the carcass)
     front_cover: float = 0.3  # a front a part in the box shows (return_frontless) is a
-    # surface holding a point in at least this share of its outline's cells a spacing wide
-    # (a shut front does; the carcass's face frame and shelf edges past a divider are
-    # strips: 11 % on a hand-held path)
+    # surface: its label's points at its depth fill at least this share of its outline's
+    # cells a spacing wide (a front seen does, 48 % and up on phone LiDAR; the carcass's
+    # face frame and shelf edges past a divider are strips: 13 % on a hand-held path)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -1200,10 +1200,12 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     open face (:func:`open_faces`) is neither: on a hand-held path a cabinet's divider
     (734 points, 3.5 % of the carcass, above :func:`return_enclosed`'s ``small``; facing
     sideways, as tall as the box, half its depth, flush with the opening) kept a slide.
-    A front is a surface: its points fill at least ``front_cover`` of its outline's cells
-    (:func:`_cover`); on the same path the divider's label also held 111 points of the
-    carcass's face frame and shelves' front edges at the opening, a "front" 31 cm wide and
-    98 cm tall filling 11 % of it, and kept its slide (a shut front seen fills 40 to 100 %).
+    A front is a surface: the label's points at its depth fill at least ``front_cover`` of
+    its outline (:func:`_front_cover`); on the same path the divider's label also held 111
+    points of the carcass's face frame and shelves' front edges at the opening, a "front"
+    31 cm wide and 98 cm tall filling 13 % of it, and kept its slide (the fronts of the
+    moving parts of PartNet-Mobility dev's cabinets and tables seen on rings and hand-held
+    paths, clean or phone LiDAR, fill 48 to 100 %).
     Runs after :func:`merge_nested` and :func:`merge_behind`, which give a drawer's body
     cut from its front back to it. With no part standing out there is no open face and
     nothing moves. Needs the measured ``normals``. Returns the labels, renumbered (the
@@ -1223,8 +1225,7 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if not faces or inside[k] < options.enclosed_inside:
             continue
         index = np.nonzero(labels == k)[0]
-        if any(_cover(local[f][:, [b for b in range(3) if b != face[0]]], voxel)
-               >= options.front_cover
+        if any(_front_cover(local, index, f, face[0], voxel, options) >= options.front_cover
                for face in faces for f in _fronts(local, square, index, face, body.extent,
                                                   voxel, options)):
             continue
@@ -1430,13 +1431,22 @@ def _fronts(local: np.ndarray, square: np.ndarray, index: np.ndarray, face: tupl
             and np.ptp(local[f][:, across], axis=0).min() > options.behind_voxels * voxel]
 
 
-def _cover(points: np.ndarray, voxel: float) -> float:
-    """The share of the cells a spacing wide in the extent of ``points`` (on a face, in its
-    two axes) that hold one of them: near 1 for a surface seen, low for strips and edges
-    spread across a face."""
-    cells = np.unique(np.floor((points - points.min(axis=0)) / voxel).astype(int), axis=0)
-    span = np.floor(np.ptp(points, axis=0) / voxel).astype(int) + 1
-    return len(cells) / float(np.prod(span))
+def _front_cover(local: np.ndarray, index: np.ndarray, front: np.ndarray, axis: int,
+                 voxel: float, options: CompartmentOptions) -> float:
+    """The share of a front's outline on the face of axis ``axis`` (the extent of its points
+    ``front`` across it, in cells a spacing wide) that holds a point of its label
+    (``index``) within ``behind_voxels`` spacings of the front's depth, whatever way the
+    point faces (noisy depth blurs normals, not where the surface is): near 1 for a surface
+    seen, low for strips and edges spread across a face. ``local``: every point in the
+    carcass's box frame."""
+    across = [b for b in range(3) if b != axis]
+    lo, hi = local[front][:, across].min(axis=0), local[front][:, across].max(axis=0)
+    points = local[index]
+    near = points[(np.abs(points[:, axis] - np.median(local[front, axis]))
+                   <= options.behind_voxels * voxel)
+                  & np.all((points[:, across] >= lo) & (points[:, across] <= hi), axis=1)]
+    cells = np.unique(np.floor((near[:, across] - lo) / voxel).astype(int), axis=0)
+    return len(cells) / float(np.prod(np.floor((hi - lo) / voxel) + 1))
 
 
 def _apart(front: np.ndarray, other: np.ndarray, apart: float,

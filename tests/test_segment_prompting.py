@@ -1128,8 +1128,9 @@ def test_a_divider_inside_the_carcass_with_no_front_on_the_opening_goes_back():
 def test_a_dividers_label_holding_strips_of_the_face_frame_goes_back():
     """The divider of the test above in a label that also holds strips of the carcass's
     face frame and shelves' front edges at the opening (facing out of it, flush with it,
-    spread over a stretch 28 cm wide and 80 cm tall: a "front" by :func:`_fronts`, filling
-    a sixth of its outline): no surface, so the label goes back. A drawer front seen shut
+    spread over a stretch 28 cm wide and 80 cm tall: a "front" by :func:`_fronts`, its
+    label's points at its depth, the divider's edge with them, filling a fifth of its
+    outline): no surface, so the label goes back. A drawer front seen shut
     fills its outline and stays; so does the label with its strips when
     ``front_cover`` asks nothing of a front."""
     from pipeline.compartments import CompartmentOptions, return_frontless
