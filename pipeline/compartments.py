@@ -1587,7 +1587,11 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     least ``front_points`` of them, reaching that face of the box (within ``behind_voxels``
     spacings: the drawer left in the carcass's label stretches the box to itself) and
     ``behind_voxels`` spacings past the carcass's own walls facing that way (the median of
-    its points facing along the axis on that side). Level: within ``behind_voxels``
+    its points facing along the axis on that side) or past where its walls end
+    (:func:`_walls_reach`): a table open at the front has few points of its own facing out
+    of it, and on a hand-held path the drawer left in its label (152 points facing out,
+    against the table's 52) was that median; the table's side and top end at its front,
+    15 cm behind the drawers. Level: within ``behind_voxels``
     spacings of it; each piece of them (points linked within ``panel_link_voxels``
     spacings) of at least ``front_points`` points, away from the part's own front on the
     face (:func:`_on_own_front`), as tall and as wide as ``front_span`` of the part's
@@ -1616,6 +1620,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     behind = options.behind_voxels * voxel
     apart = options.nested_margin_voxels * voxel
     margin = options.enclosed_margin_voxels * voxel
+    wall_reach = _walls_reach(local[carcass], square[carcass], body.extent, voxel, options)
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         patch = (len(index) <= options.enclosed_share * len(carcass)  # the carcass's own,
@@ -1633,7 +1638,8 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 front = float(np.quantile(sign * local[facing, a], 0.9))
                 walls = carcass[square[carcass, a] & (sign * local[carcass, a] > 0)]
                 if (front < body.extent[a] - behind or len(walls) == 0
-                        or front - float(np.median(sign * local[walls, a])) < behind):
+                        or front - min(float(np.median(sign * local[walls, a])),
+                                       wall_reach[a, (1 - sign) // 2]) < behind):
                     continue
                 level = walls[np.abs(sign * local[walls, a] - front) <= behind]
                 level = level[out[level] == 1]
@@ -1660,6 +1666,36 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     moved.append({"part": k, "points": len(part), "level_front": True,
                                   "side": [a, sign]})
     return numbered_by_size(out), moved
+
+
+def _walls_reach(local: np.ndarray, square: np.ndarray, extent: np.ndarray, voxel: float,
+                 options: CompartmentOptions) -> np.ndarray:
+    """How far the carcass's walls (:func:`carcass_walls`) reach out of each face of its box
+    (``[axis, 0]`` the + face, ``[axis, 1]`` the - face), as :func:`within_walls` reads
+    them: a wall facing out of the face is at it (its farthest point); else the second
+    farthest of the walls facing along the other axes, each by its points on its own plane
+    (within ``panel_voxels`` spacings of its median: a part's side lying along a wall, a
+    spacing or two off it, stretches neither); the box's extent where neither is found.
+    ``local``: the carcass's points in the box's frame."""
+    reach = np.tile(extent[:, None], (1, 2)).astype(float)
+    walls = carcass_walls(local, square, voxel, options)
+    for a in range(3):
+        for side, sign in ((0, 1), (1, -1)):
+            out = [float(np.max(sign * local[w, a])) for f, w in walls
+                   if f == a and np.median(sign * local[w, a]) > 0]
+            far = []
+            for f, w in walls:
+                if f == a:
+                    continue
+                on = w[np.abs(local[w, f] - np.median(local[w, f]))
+                       <= options.panel_voxels * voxel]
+                if len(on):
+                    far.append(float(np.max(sign * local[on, a])))
+            if out:
+                reach[a, side] = max(out)
+            elif len(far) > 1:
+                reach[a, side] = sorted(far)[-2]
+    return reach
 
 
 def _on_own_front(members: np.ndarray, own, apart: float,
