@@ -85,6 +85,10 @@ class CompartmentOptions:
     # its walls seen short of it: on hand-held phone views 12 % of a fridge's label) ...
     past_walls_held: float = 0.5  # ... a piece of it touching no part is one of its own
     # when at most this share of it touches the carcass (more goes on from the carcass)
+    front_cover: float = 0.3  # a front a part in the box shows (return_frontless) is a
+    # surface: its label's points at its depth fill at least this share of its outline's
+    # cells a spacing wide (a front seen does, 48 % and up on phone LiDAR; the carcass's
+    # face frame and shelf edges past a divider are strips: 13 % on a hand-held path)
 
 
 def carcass_box(points: np.ndarray, voxel: float,
@@ -1196,6 +1200,12 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     open face (:func:`open_faces`) is neither: on a hand-held path a cabinet's divider
     (734 points, 3.5 % of the carcass, above :func:`return_enclosed`'s ``small``; facing
     sideways, as tall as the box, half its depth, flush with the opening) kept a slide.
+    A front is a surface: the label's points at its depth fill at least ``front_cover`` of
+    its outline (:func:`_front_cover`); on the same path the divider's label also held 111
+    points of the carcass's face frame and shelves' front edges at the opening, a "front"
+    31 cm wide and 98 cm tall filling 13 % of it, and kept its slide (the fronts of the
+    moving parts of PartNet-Mobility dev's cabinets and tables seen on rings and hand-held
+    paths, clean or phone LiDAR, fill 48 to 100 %).
     Runs after :func:`merge_nested` and :func:`merge_behind`, which give a drawer's body
     cut from its front back to it. With no part standing out there is no open face and
     nothing moves. Needs the measured ``normals``. Returns the labels, renumbered (the
@@ -1215,8 +1225,9 @@ def return_frontless(cloud: np.ndarray, labels: np.ndarray, voxel: float,
         if not faces or inside[k] < options.enclosed_inside:
             continue
         index = np.nonzero(labels == k)[0]
-        if any(_fronts(local, square, index, face, body.extent, voxel, options)
-               for face in faces):
+        if any(_front_cover(local, index, f, face[0], voxel, options) >= options.front_cover
+               for face in faces for f in _fronts(local, square, index, face, body.extent,
+                                                  voxel, options)):
             continue
         out[index] = 1
         moved.append({"part": k, "points": len(index), "frontless": True})
@@ -1420,6 +1431,24 @@ def _fronts(local: np.ndarray, square: np.ndarray, index: np.ndarray, face: tupl
             and np.ptp(local[f][:, across], axis=0).min() > options.behind_voxels * voxel]
 
 
+def _front_cover(local: np.ndarray, index: np.ndarray, front: np.ndarray, axis: int,
+                 voxel: float, options: CompartmentOptions) -> float:
+    """The share of a front's outline on the face of axis ``axis`` (the extent of its points
+    ``front`` across it, in cells a spacing wide) that holds a point of its label
+    (``index``) within ``behind_voxels`` spacings of the front's depth, whatever way the
+    point faces (noisy depth blurs normals, not where the surface is): near 1 for a surface
+    seen, low for strips and edges spread across a face. ``local``: every point in the
+    carcass's box frame."""
+    across = [b for b in range(3) if b != axis]
+    lo, hi = local[front][:, across].min(axis=0), local[front][:, across].max(axis=0)
+    points = local[index]
+    near = points[(np.abs(points[:, axis] - np.median(local[front, axis]))
+                   <= options.behind_voxels * voxel)
+                  & np.all((points[:, across] >= lo) & (points[:, across] <= hi), axis=1)]
+    cells = np.unique(np.floor((near[:, across] - lo) / voxel).astype(int), axis=0)
+    return len(cells) / float(np.prod(np.floor((hi - lo) / voxel) + 1))
+
+
 def _apart(front: np.ndarray, other: np.ndarray, apart: float,
            options: CompartmentOptions) -> bool:
     """Whether two fronts (their points on the face, in its two axes) lie apart on it: of
@@ -1558,7 +1587,11 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     least ``front_points`` of them, reaching that face of the box (within ``behind_voxels``
     spacings: the drawer left in the carcass's label stretches the box to itself) and
     ``behind_voxels`` spacings past the carcass's own walls facing that way (the median of
-    its points facing along the axis on that side). Level: within ``behind_voxels``
+    its points facing along the axis on that side) or past where its walls end
+    (:func:`_walls_reach`): a table open at the front has few points of its own facing out
+    of it, and on a hand-held path the drawer left in its label (152 points facing out,
+    against the table's 52) was that median; the table's side and top end at its front,
+    15 cm behind the drawers. Level: within ``behind_voxels``
     spacings of it; each piece of them (points linked within ``panel_link_voxels``
     spacings) of at least ``front_points`` points, away from the part's own front on the
     face (:func:`_on_own_front`), as tall and as wide as ``front_span`` of the part's
@@ -1587,6 +1620,7 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     behind = options.behind_voxels * voxel
     apart = options.nested_margin_voxels * voxel
     margin = options.enclosed_margin_voxels * voxel
+    wall_reach = _walls_reach(local[carcass], square[carcass], body.extent, voxel, options)
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         patch = (len(index) <= options.enclosed_share * len(carcass)  # the carcass's own,
@@ -1604,7 +1638,8 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 front = float(np.quantile(sign * local[facing, a], 0.9))
                 walls = carcass[square[carcass, a] & (sign * local[carcass, a] > 0)]
                 if (front < body.extent[a] - behind or len(walls) == 0
-                        or front - float(np.median(sign * local[walls, a])) < behind):
+                        or front - min(float(np.median(sign * local[walls, a])),
+                                       wall_reach[a, (1 - sign) // 2]) < behind):
                     continue
                 level = walls[np.abs(sign * local[walls, a] - front) <= behind]
                 level = level[out[level] == 1]
@@ -1631,6 +1666,36 @@ def find_level_fronts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                     moved.append({"part": k, "points": len(part), "level_front": True,
                                   "side": [a, sign]})
     return numbered_by_size(out), moved
+
+
+def _walls_reach(local: np.ndarray, square: np.ndarray, extent: np.ndarray, voxel: float,
+                 options: CompartmentOptions) -> np.ndarray:
+    """How far the carcass's walls (:func:`carcass_walls`) reach out of each face of its box
+    (``[axis, 0]`` the + face, ``[axis, 1]`` the - face), as :func:`within_walls` reads
+    them: a wall facing out of the face is at it (its farthest point); else the second
+    farthest of the walls facing along the other axes, each by its points on its own plane
+    (within ``panel_voxels`` spacings of its median: a part's side lying along a wall, a
+    spacing or two off it, stretches neither); the box's extent where neither is found.
+    ``local``: the carcass's points in the box's frame."""
+    reach = np.tile(extent[:, None], (1, 2)).astype(float)
+    walls = carcass_walls(local, square, voxel, options)
+    for a in range(3):
+        for side, sign in ((0, 1), (1, -1)):
+            out = [float(np.max(sign * local[w, a])) for f, w in walls
+                   if f == a and np.median(sign * local[w, a]) > 0]
+            far = []
+            for f, w in walls:
+                if f == a:
+                    continue
+                on = w[np.abs(local[w, f] - np.median(local[w, f]))
+                       <= options.panel_voxels * voxel]
+                if len(on):
+                    far.append(float(np.max(sign * local[on, a])))
+            if out:
+                reach[a, side] = max(out)
+            elif len(far) > 1:
+                reach[a, side] = sorted(far)[-2]
+    return reach
 
 
 def _on_own_front(members: np.ndarray, own, apart: float,

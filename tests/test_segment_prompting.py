@@ -1056,6 +1056,39 @@ def test_a_drawer_left_in_the_carcass_label_beside_one_pulled_out_as_far_is_foun
     assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
 
 
+def test_a_drawer_left_in_the_carcass_label_is_found_past_the_walls_reach():
+    """Two drawers pulled 15 cm out of a carcass open at the front with no rim (a table's
+    top, sides and floor; its front rail unseen); the masks left one in the carcass's
+    label, whose points facing out of the front are then that drawer's front alone (their
+    median is no wall). The carcass's walls facing the other ways end at the front (the
+    second farthest, each on its own plane: the top overhangs 6 cm), and the drawer's
+    front stands past them: the level front beside it is found. Pushed shut, level with
+    the walls' ends, nothing is."""
+    from pipeline.compartments import find_level_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    box = np.concatenate([_open_box(), _grid(0.06, 0.8, (0.3, -0.4, 0.4), x, y)])
+    box_normals = np.where((np.abs(box[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(box[:, 1]) - 0.4) < 1e-9)[:, None], y, z))
+
+    def drawer(y0):
+        return [(_grid(0.25, 0.2, (0.45, y0, -0.3), y, z), x),
+                (_grid(0.45, 0.25, (0.0, y0, -0.3), x, y), z)]
+
+    cloud, normals = _facing(*drawer(-0.3), *drawer(0.05))
+    cloud, normals = np.concatenate([box, cloud]), np.concatenate([box_normals, normals])
+    n = np.cumsum([0, len(box), sum(len(p) for p, _ in drawer(-0.3))])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]] = 2
+    out, moved = find_level_fronts(cloud, labels, 0.02, normals=normals)
+    assert [m["level_front"] for m in moved] == [True]
+    assert (out[n[2]:] == out[n[2]]).all() and out[n[2]] not in (1, out[n[1]])
+    assert (out[:n[1]] == 1).all()
+    shut = cloud.copy()
+    shut[n[1]:, 0] -= 0.15
+    assert find_level_fronts(shut, labels, 0.02, normals=normals)[1] == []
+
+
 def test_a_stretch_of_the_carcass_apart_from_a_drawer_in_its_label_goes_back():
     """A drawer pulled 15 cm out of a carcass, its label also holding a post at the
     carcass's back corner (a table's leg: apart from the drawer, in the carcass's box,
@@ -1123,6 +1156,39 @@ def test_a_divider_inside_the_carcass_with_no_front_on_the_opening_goes_back():
     closed = np.concatenate([np.arange(n[1]), np.arange(n[2], n[4])])
     assert return_frontless(cloud[closed], labels[closed] - (labels[closed] > 2),
                             0.02, normals=normals[closed])[1] == []
+
+
+def test_a_dividers_label_holding_strips_of_the_face_frame_goes_back():
+    """The divider of the test above in a label that also holds strips of the carcass's
+    face frame and shelves' front edges at the opening (facing out of it, flush with it,
+    spread over a stretch 28 cm wide and 80 cm tall: a "front" by :func:`_fronts`, its
+    label's points at its depth, the divider's edge with them, filling a fifth of its
+    outline): no surface, so the label goes back. A drawer front seen shut
+    fills its outline and stays; so does the label with its strips when
+    ``front_cover`` asks nothing of a front."""
+    from pipeline.compartments import CompartmentOptions, return_frontless
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    box_normals = np.where((np.abs(carcass[:, 0] + 0.3) < 1e-9)[:, None], x,
+                           np.where((np.abs(np.abs(carcass[:, 1]) - 0.4) < 1e-9)[:, None],
+                                    y, z))
+    door = (_grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z), y)  # swung square
+    divider = (_grid(0.24, 0.8, (0.06, 0.1, -0.4), x, z), y)
+    edges = [(_grid(0.26, 0.0, (0.29, 0.1, h), y, z), x) for h in (-0.4, -0.1, 0.2, 0.4)]
+    rim = (_grid(0.0, 0.8, (0.29, 0.38, -0.4), y, z), x)  # the frame's upright
+    shut = (_grid(0.3, 0.3, (0.29, -0.35, -0.36), y, z), x)  # a drawer front, flush
+    cloud, normals = _facing(door, divider, *edges, rim, shut)
+    cloud, normals = np.concatenate([carcass, cloud]), np.concatenate([box_normals, normals])
+    n = np.cumsum([0, len(carcass), len(door[0]), len(divider[0])
+                   + sum(len(p) for p, _ in edges) + len(rim[0]), len(shut[0])])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]], labels[n[3]:] = 2, 3, 4
+    out, moved = return_frontless(cloud, labels, 0.02, normals=normals)
+    assert moved == [{"part": 3, "points": int(n[3] - n[2]), "frontless": True}]
+    assert (out[n[2]:n[3]] == 1).all() and 1 not in out[n[3]:]  # the shut front stays
+    loose = CompartmentOptions(front_cover=0.0)
+    assert return_frontless(cloud, labels, 0.02, loose, normals)[1] == []
 
 
 def test_a_stretch_of_the_carcass_face_in_a_pulled_out_drawers_label_goes_back():
