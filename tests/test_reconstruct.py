@@ -107,8 +107,9 @@ def test_command_with_learned_segmentation(capture_dir, tmp_path, capsys):
     assert args.func(args) == 0
     text = capsys.readouterr().out
     assert "segmentation (learned)" in text and "AGREE" in text
-    # an exact render: the clean-trained network, said and recorded with the noise measured
-    assert "mask network: clean (segmenter.pt; the default; depth noise" in text
+    # an exact render: the default (auto) takes the clean-trained network, said and recorded
+    # with the noise measured
+    assert "mask network: clean (segmenter.pt; auto, the default: depth noise" in text
     report = json.loads((tmp_path / "o" / "report.json").read_text())
     assert report["mask_weights"]["used"] == "clean" and not report["depth_cleanup"]["noisy"]
     truth = load(read_capture(capture_dir).ground_truth_path())

@@ -24,15 +24,15 @@ from .learned import WEIGHTS
 NOISY_WEIGHTS = WEIGHTS.with_name("segmenter_noisy.pt")
 SHIPPED = {"clean": WEIGHTS, "noisy": NOISY_WEIGHTS}
 MODES = ("auto", *SHIPPED)  # or a weights file's path
-# The shipped network for every capture unless asked: ``auto`` measured better on noisy
-# rings (PartNet-Mobility dev's phone-LiDAR ring, session 27: type 0.83 / 0.78 / 0.75 ->
-# 1.00 / 0.94 / 0.92 in 3, 4-5 and 6-15 parts), on the room demo's capture (6 parts for 6,
-# 5 of 5 joints right, against 7 for 6 and 5 of 5) and, since session 28's
-# give_past_walls, on hand-held phone views of 6-15 parts (0.75 / 22.7 degrees -> 0.83 /
-# 14.7), but worse on hand-held phone views of 4-5 parts (type 0.61 -> 0.56, precision
-# 0.47 -> 0.35) and on the phone ring's 2-part hinge lines (axis 0.09 -> 1.07 degrees):
-# docs/evaluation.md, sessions 26 to 28.
-DEFAULT = "clean"
+# ``auto`` unless asked (session 29): exact depth gets the shipped network as before, and
+# noisy depth the noise-trained one, which on PartNet-Mobility dev's phone-LiDAR views
+# (merged main 4d44a4e) is better in 7 of 8 buckets: the ring's 3, 4-5 and 6-15 parts
+# (type / axis 0.83 / 15.5 -> 0.94 / 5.4 and 0.83 / 15.5 -> 0.92 / 7.8 in 4-5 and 6-15,
+# precision 0.75 / 0.79 / 0.62 -> 1.00 / 0.89 / 0.79) and every hand-held bucket (6-15
+# parts 0.83 / 22.7 -> 1.00 / 0.7); it loses the ring's 2-part hinge line (axis 0.09 ->
+# 1.07 degrees, one refrigerator door's line 0.21 m off against 0.17); on the room demo's
+# capture 6 parts for 6 against 7: docs/evaluation.md, sessions 26 to 29.
+DEFAULT = "auto"
 
 
 @dataclass(frozen=True)
@@ -61,7 +61,8 @@ def choose(mask_weights: str | Path, cleanup: dict) -> Choice:
         noisy = measured_noisy(cleanup)
         used = "noisy" if noisy else "clean"
         threshold = cleanup.get("min_noise_rel", CleanupOptions().min_noise_rel)
-        why = (f"depth noise {noise:.5f} of range measured, "
+        why = (f"{'auto, the default' if mode == DEFAULT else 'auto'}: depth noise "
+               f"{noise:.5f} of range measured, "
                f"{'at or above' if noisy else 'below'} the cleanup's {threshold:g}")
         return Choice(mode, used, SHIPPED[used], why, noise)
     if mode in SHIPPED:

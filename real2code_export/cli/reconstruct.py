@@ -21,7 +21,7 @@ CAMERA_PATHS, CAMERA_DISTANCES = ("ring", "half-ring", "handheld", "front-arc"),
     ("near", "mid", "far")
 CAPTURE_PRESETS = ("clean", "phone-lidar", "structured-light", "time-of-flight")
 MASK_WEIGHTS = ("auto", "clean", "noisy")  # pipeline.segment.choose.MODES, or a file
-MASK_WEIGHTS_DEFAULT = "clean"  # pipeline.segment.choose.DEFAULT (why: there)
+MASK_WEIGHTS_DEFAULT = "auto"  # pipeline.segment.choose.DEFAULT (why: there)
 # (segmentation, completion) of evaluate reconstruction, by the names its --settings takes
 EVALUATION_SETTINGS = {"gt+completion": ("gt", "learned"),
                        "gt+segment-only": ("gt", "segment_only"),
