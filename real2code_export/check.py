@@ -201,11 +201,11 @@ def check_files(
     report, probes = _compare(paths, n_configurations, seed, tol_position, tol_rotation,
                               reference, source)
     compiled = _compiled_mjcf(probes, [*paths, *([source] if source is not None else [])])
+    opened = _opened(probes, paths)
     _compare_drives(report, probes, [*([source] if source is not None else []), *paths],
-                    tol_dynamics, compiled, _opened(probes, paths))
+                    tol_dynamics, compiled, opened)
     if source is not None:
-        _compare_dynamics(report, source, tol_dynamics, warned, compiled,
-                          _opened(probes, paths))
+        _compare_dynamics(report, source, tol_dynamics, warned, compiled, opened)
     validations = finish()  # the probes still open: USD's validator reuses their parsed layers
     del probes
     for v in validations:

@@ -100,16 +100,13 @@ def actuator_element(drive: Drive, joint: str):
     if drive.name is not None:
         el.set("name", drive.name)
     el.set("joint", joint)
-    if drive.kind is DriveKind.EFFORT:  # the gain 1: its scale is the gear
-        attributes = {}
-        gear = g
-    else:
-        gear = g
-        attributes = {"kp": drive.stiffness / (g * g), "kv": drive.damping / (g * g)} \
-            if drive.kind is DriveKind.POSITION else {"kv": drive.damping / (g * g)}
+    # an effort drive's gain is 1: its scale is the gear
+    attributes = {} if drive.kind is DriveKind.EFFORT else \
+        {"kp": drive.stiffness / (g * g), "kv": drive.damping / (g * g)} \
+        if drive.kind is DriveKind.POSITION else {"kv": drive.damping / (g * g)}
     for key, value in attributes.items():
         el.set(key, _number(value))
-    el.set("gear", _number(gear))
+    el.set("gear", _number(g))
     if drive.target_range is None:
         el.set("ctrllimited", "false")
     else:
