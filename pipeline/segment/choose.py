@@ -31,7 +31,8 @@ MODES = ("auto", *SHIPPED)  # or a weights file's path
 # precision 0.75 / 0.79 / 0.62 -> 1.00 / 0.89 / 0.79) and every hand-held bucket (6-15
 # parts 0.83 / 22.7 -> 1.00 / 0.7); it loses the ring's 2-part hinge line (axis 0.09 ->
 # 1.07 degrees, one refrigerator door's line 0.21 m off against 0.17); on the room demo's
-# capture 6 parts for 6 against 7: docs/evaluation.md, sessions 26 to 29.
+# capture 6 parts for 6 (the shipped network 7, measured in session 27): docs/evaluation.md,
+# sessions 26 to 29.
 DEFAULT = "auto"
 
 
