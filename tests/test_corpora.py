@@ -50,7 +50,6 @@ REFUSED = {
     "pybullet/husky/husky.urdf": "is not a list of numbers (unexpanded xacro",  # $(optenv ...)
     "pybullet/quadruped/microtaur/microtaur.urdf": "must have 3 number(s)",  # rpy of 4
     "pybullet/racecar/racecar_differential.urdf": "must have 1 or 3 number(s)",  # scale of 4
-    "pybullet/differential/diff_ring.urdf": "mesh file not found",
     "pybullet/kuka_iiwa/model_for_sdf.urdf": "mesh file not found",  # meshes/coarse not shipped
     # MuJoCo itself refuses these MJCF files (written for MuJoCo 1.x or broken).
     "pybullet/mjcf/ground.xml": "not found in tendon",

@@ -1225,6 +1225,61 @@ def test_a_package_not_found_is_resolved_where_its_path_lies_above_the_urdf(tmp_
         urdf.load(source)
 
 
+def test_mesh_paths_written_from_an_asset_root_above_the_urdf(tmp_path):
+    """Asset collections name meshes from the folder their loader is given, not from the
+    URDF ('arm_description/meshes/base.obj' in arm_description/arm.urdf): a relative path
+    not beside the URDF is taken from the nearest folder above it holding it, said once
+    with that folder; a path climbing out with '..' is not searched, and a path found
+    nowhere is refused naming the link, as before."""
+    root = tmp_path / "assets"
+    write_obj(root / "arm_description" / "meshes" / "base.obj", box((0.1, 0.2, 0.3)))
+    write_obj(root / "arm_description" / "meshes" / "tip.obj", box((0.05, 0.05, 0.2)))
+    source = root / "arm_description" / "arm.urdf"
+    links = "".join(f"""<link name="{name}">{INERTIAL}<visual><geometry><mesh
+      filename="arm_description/meshes/{name}.obj"/></geometry></visual></link>"""
+                    for name in ("base", "tip"))
+    source.write_text(f"""<robot name="arm">{links}<joint name="j" type="fixed">
+      <parent link="base"/><child link="tip"/></joint></robot>""")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = urdf.load(source)
+    said = [str(w.message) for w in caught if "not found beside the URDF" in str(w.message)]
+    assert len(said) == 1, said
+    assert "'arm_description/meshes/base.obj', 'arm_description/meshes/tip.obj'" in said[0]
+    assert f"taken from {root.resolve()}," in said[0]
+    assert [len(obj.part(n).visual.faces) for n in ("base", "tip")] == [12, 12]
+    # '../meshes/tip.obj' lies under assets/.. (from the folder above the URDF's), not beside
+    write_obj(tmp_path / "meshes" / "tip.obj", box((0.05, 0.05, 0.2)))
+    for missing in ("arm_description/meshes/other.obj", "../meshes/tip.obj"):
+        source.write_text(f"""<robot name="arm"><link name="base">{INERTIAL}<visual><geometry>
+          <mesh filename="{missing}"/></geometry></visual></link></robot>""")
+        with pytest.raises(FormatError, match="<link name='base'>: mesh file not found"):
+            urdf.load(source)
+
+
+def test_an_inertial_without_inertia_is_a_zero_tensor_repaired(tmp_path):
+    """``<inertial>`` with a ``<mass>`` and no ``<inertia>``: urdfdom logs an error and keeps
+    the mass (Pinocchio loads the link with no rotational inertia), MuJoCo refuses the file.
+    Read as a zero tensor, repaired as every zero tensor is (a tiny solid sphere), the mass
+    kept, both steps warned with the link."""
+    source = tmp_path / "cart.urdf"
+    source.write_text("""<robot name="cart"><link name="world"/>
+      <joint name="slide" type="prismatic"><parent link="world"/><child link="cart"/>
+        <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <link name="cart"><inertial><origin xyz="0 0 0.1"/><mass value="2"/></inertial>
+        <visual><geometry><box size="0.2 0.1 0.1"/></geometry></visual></link>
+    </robot>""")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = urdf.load(source)
+    said = "\n".join(str(w.message) for w in caught)
+    assert "<link name='cart'>: <inertial> has no <inertia>: read as a zero tensor" in said
+    assert "<link name='cart'>: inertia tensor is zero" in said
+    inertial = obj.part("cart").inertial
+    assert inertial.mass == 2.0 and np.allclose(inertial.com, [0, 0, 0.1])
+    assert np.all(np.linalg.eigvalsh(inertial.inertia) > 0)
+
+
 def test_a_urdfs_stl_files_are_read_ahead_and_warnings_said_once(tmp_path, monkeypatch):
     """The STL files a URDF's links name are parsed two at a time before the links are read
     (``meshfiles.read_ahead``): none is parsed again as its link is read, and a filename

@@ -1,7 +1,8 @@
 """<visual>/<collision> contents: origins, shapes (mesh files or primitives) and colours.
 
 Mesh filenames are relative to the URDF (or, failing that, to the folder a MuJoCo
-``<mujoco><compiler meshdir>`` extension names, as MuJoCo reads them), ``file://`` paths, or
+``<mujoco><compiler meshdir>`` extension names, as MuJoCo reads them, or to an asset root
+above the URDF or on the search path, warned), ``file://`` paths, or
 ``package://name/rest`` /
 ``model://name/rest`` (resolved by searching the URDF's parent folders, then
 ``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``: there is no ROS
@@ -175,13 +176,29 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
     if path.is_absolute():
         return path
     beside = ctx.path.parent / path
-    if not beside.exists() and ctx.meshdir is not None:  # where MuJoCo looks for it
+    if beside.exists():
+        return beside
+    if ctx.meshdir is not None:  # where MuJoCo looks for it
         inside = ctx.path.parent / ctx.meshdir / path
         if inside.exists():
             if quiet:
                 return None
             ctx.note("meshdir", repr(filename))
             return inside
+    # Asset collections name meshes from the folder their loader is given (an asset root
+    # above the file: 'robot_description/meshes/link.obj' from the URDF in
+    # robot_description/), not from the URDF: the nearest folder above it, or on the search
+    # path, holding the path (never one climbing out with '..'), warned.
+    if ".." not in path.parts:
+        found = next((f for f in (*ctx.folder().parents, *package_search_path())
+                      if (f / path).is_file()), None)
+        if found is not None:
+            if quiet:
+                return None
+            named = ctx.asset_roots.setdefault(found, [])
+            if repr(filename) not in named:  # a visual and its collision name the same file
+                named.append(repr(filename))
+            return found / path
     return beside
 
 

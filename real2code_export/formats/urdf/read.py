@@ -272,6 +272,10 @@ def _report_notes(ctx: Context) -> None:
     }
     for kind, names in ctx.notes.items():
         ctx.warn(None, messages[kind].format(", ".join(names)))
+    for root, names in ctx.asset_roots.items():
+        ctx.warn(None, f"mesh files {', '.join(names)} not found beside the URDF: taken from "
+                 f"{root}, the nearest folder above it (or on the search path, --package-path) "
+                 "holding their paths (the asset root they are written from)")
 
 
 # -- links ----------------------------------------------------------------------------------------
@@ -400,9 +404,16 @@ def _inertial(ctx: Context, el: etree._Element, owner: str) -> Inertial | None:
         return None
     inertia_el = el.find("inertia")
     if inertia_el is None:
-        raise ctx.error(owner, "<inertial> has no <inertia>", el.sourceline)
-    ixx, ixy, ixz, iyy, iyz, izz = (ctx.number(inertia_el, a, owner)
-                                    for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+        # urdfdom logs an error and keeps the mass (Pinocchio loads the link with no
+        # rotational inertia); MuJoCo refuses the file. Read as a zero tensor, which the
+        # balancing below repairs as any zero tensor, warned.
+        ctx.warn(owner, "<inertial> has no <inertia>: read as a zero tensor, as Pinocchio "
+                 "reads it", el.sourceline)
+        ixx = ixy = ixz = iyy = iyz = izz = 0.0
+        inertia_el = el  # the element the repairs below name
+    else:
+        ixx, ixy, ixz, iyy, iyz, izz = (ctx.number(inertia_el, a, owner)
+                                        for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     frame = origin_matrix(ctx, el, owner)
     rot = frame[:3, :3]
