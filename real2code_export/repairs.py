@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import ArticulatedObject, Inertial, JointType, rigid_group_mass
+from .model import ArticulatedObject, Inertial, JointType, Mimic, rigid_group_mass
 
 # Principal moments below this fraction of the largest one are raised to it: far below any
 # physical body's anisotropy, enough to keep the tensor positive definite in float64.
@@ -118,6 +118,37 @@ def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
                         f"part fixed to it): given {NEGLIGIBLE_MASS:g} kg (a "
                         f"{2 * POINT_MASS_RADIUS * 1e3:g} mm sphere) as MuJoCo's boundmass "
                         "would"))
+    return changed
+
+
+def composed_mimic_chains(obj: ArticulatedObject) -> list[tuple[str, str]]:
+    """Couple a follower whose leader follows a third joint (MJCF joint equalities chained,
+    each of which MuJoCo applies; URDF mimics chained) to the chain's first leader directly:
+    q = m1 (m2 q_lead + o2) + o1 is one mimic with multiplier m1 m2 and offset m1 o2 + o1, the
+    same coupling, which every format's mimic holds (URDF's and USD's name a leader that
+    follows nothing). A cycle, or a chain to a joint that does not exist, is left to
+    :func:`unusable_mimics` or the model's validation. Changes ``obj`` in place; returns
+    (joint name, message) for each mimic changed."""
+    joints = {j.name: j for j in obj.joints}
+    changed = []
+    for joint in obj.joints:
+        mimic = joint.mimic
+        if mimic is None:
+            continue
+        multiplier, offset, path = mimic.multiplier, mimic.offset, [mimic.joint]
+        leader = joints.get(mimic.joint)
+        while leader is not None and leader.mimic is not None and leader.name not in path[:-1] \
+                and leader is not joint:
+            step = leader.mimic
+            multiplier, offset = multiplier * step.multiplier, multiplier * step.offset + offset
+            path.append(step.joint)
+            leader = joints.get(step.joint)
+        if len(path) == 1 or leader is None or leader.mimic is not None:
+            continue  # no chain, or one that ends nowhere or turns round: not composed
+        joint.mimic = Mimic(leader.name, multiplier, offset)
+        changed.append((joint.name, f"mimics {' which mimics '.join(map(repr, path))}: "
+                        f"coupled to {leader.name!r} directly (multiplier {multiplier:g}, "
+                        f"offset {offset:g}), the same coupling"))
     return changed
 
 

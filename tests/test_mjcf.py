@@ -26,6 +26,7 @@ from real2code_export.model import (
     JointType,
     Limits,
     Mesh,
+    Mimic,
     Part,
     differences,
     forward_kinematics,
@@ -1000,6 +1001,73 @@ def test_joint_refs_are_where_the_export_starts_in_mujoco(tmp_path):
         for body in ("torso", "arm", "tip"):
             np.testing.assert_allclose(mj[body], fk[body], atol=1e-12, err_msg=body)
     assert not differences(obj, mjcf.load(path))
+
+
+CHAINED_EQUALITIES = """<mujoco model="chain">
+  <worldbody>
+    <body name="a"><joint name="j1" axis="0 0 1"/><geom type="box" size=".1 .02 .02" mass="1"/>
+      <body name="b" pos=".2 0 0"><joint name="j2" axis="0 0 1"/>
+        <geom type="box" size=".1 .02 .02" mass="1"/>
+        <body name="c" pos=".2 0 0"><joint name="j3" axis="0 0 1"/>
+          <geom type="box" size=".1 .02 .02" mass="1"/></body></body></body>
+  </worldbody>
+  <equality>
+    <joint joint1="j2" joint2="j1" polycoef="0.1 -0.5 0 0 0"/>
+    <joint joint1="j3" joint2="j2"/>
+  </equality>
+</mujoco>
+"""
+
+
+def test_chained_joint_equalities_are_one_coupling_to_the_first_leader(tmp_path):
+    """Joint equalities chained (j3 = j2, j2 = 0.1 - 0.5 j1: MuJoCo applies each) read as
+    mimics of the chain's first leader (j3 = 0.1 - 0.5 j1), the same coupling, warned; the
+    MJCF export holds it: at a configuration meeting the source's equalities the export's
+    are met too, and off it both are violated alike."""
+    source = write(tmp_path / "chain.xml", CHAINED_EQUALITIES)
+    with pytest.warns(Real2CodeWarning, match=r"joint 'j3': mimics 'j2' which mimics 'j1': "
+                      r"coupled to 'j1' directly \(multiplier -0.5, offset 0.1\)"):
+        obj = mjcf.load(source)
+    assert obj.joint("j3").mimic == Mimic("j1", -0.5, 0.1)
+    assert obj.joint("j2").mimic == Mimic("j1", -0.5, 0.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        path = mjcf.save(obj, tmp_path / "out")
+    for j3_off in (0.0, 0.2):
+        residuals = []
+        for model in (mujoco.MjModel.from_xml_path(str(p)) for p in (source, path)):
+            data = mujoco.MjData(model)
+            j1 = 0.3
+            data.qpos[[model.joint(n).qposadr[0] for n in ("j1", "j2", "j3")]] = \
+                [j1, 0.1 - 0.5 * j1, 0.1 - 0.5 * j1 + j3_off]
+            mujoco.mj_forward(model, data)
+            rows = data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+            residuals.append(np.abs(data.efc_pos[rows]).max())
+        if j3_off == 0.0:
+            assert max(residuals) < 1e-12, residuals
+        else:
+            assert min(residuals) == pytest.approx(j3_off), residuals
+
+
+def test_a_tactile_sensor_whose_body_collides_is_read(tmp_path):
+    """MuJoCo's compiler wants a colliding geom on a tactile sensor's body, which the reader's
+    compile without collision hulls (every geom's collisions off) lacks: such a file is
+    compiled as written and read (it was refused, "Touch sensor requires a body with at
+    least one collision geom"), the pad's mass and joint as MuJoCo has them."""
+    source = write(tmp_path / "tactile.xml", """<mujoco model="tactile">
+  <asset><mesh name="plate" builtin="plate" params="5 5" scale=".05 .05 .01"/></asset>
+  <worldbody>
+    <body name="pad" pos="0 0 0.1"><joint name="z" type="slide" axis="0 0 1" range="-0.1 0.1"/>
+      <geom type="box" size=".05 .05 .01" mass="0.1"/>
+      <geom name="skin" type="mesh" mesh="plate" mass="0" contype="0" conaffinity="0"/></body>
+  </worldbody>
+  <sensor><tactile geom="skin" mesh="plate"/></sensor>
+</mujoco>""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = mjcf.load(source)
+    assert obj.part("pad").inertial.mass == pytest.approx(0.1)
+    assert obj.joint("z").type is JointType.PRISMATIC
 
 
 def test_joint_states_in_every_format(tmp_path):

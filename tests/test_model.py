@@ -272,6 +272,26 @@ def test_mimics_are_validated_and_unusable_ones_dropped_with_a_reason():
     assert name == "follow" and "'x' dropped (it does not exist)" in message
 
 
+def test_chained_mimics_are_composed_into_one_coupling_and_cycles_left():
+    """A follower of a follower is coupled to the chain's first leader with the product of
+    the multipliers (q3 = 2 (-0.5 q1 + 0.1) + 0.3); a cycle is not composed (left to
+    unusable_mimics and validation)."""
+    from real2code_export.model import Joint, Limits, Mimic
+    from real2code_export.repairs import composed_mimic_chains
+
+    one, two, three = (Joint(f"j{k}", "revolute", "base" if k == 1 else f"p{k - 1}", f"p{k}",
+                             limits=Limits(-1, 1)) for k in (1, 2, 3))
+    two.mimic, three.mimic = Mimic("j1", -0.5, 0.1), Mimic("j2", 2.0, 0.3)
+    obj = _arm(one, two, three)
+    (name, message), = composed_mimic_chains(obj)
+    assert name == "j3" and "mimics 'j2' which mimics 'j1'" in message
+    assert three.mimic == Mimic("j1", -1.0, pytest.approx(0.5))
+    validate(obj)
+    one.mimic, two.mimic, three.mimic = Mimic("j2"), Mimic("j1"), Mimic("j2")
+    assert composed_mimic_chains(obj) == []
+    assert (one.mimic, two.mimic, three.mimic) == (Mimic("j2"), Mimic("j1"), Mimic("j2"))
+
+
 def test_merging_fixed_joints_keeps_every_field_of_the_joints_below():
     from real2code_export.model import DriveLimits, Limits, Mimic
     from real2code_export.simplify import merge_fixed_joints

@@ -44,7 +44,7 @@ from ...model import (
     validate,
 )
 from ...mujoco_files import spec_from_file
-from ...repairs import balanced_inertia, massless_moving_parts
+from ...repairs import balanced_inertia, composed_mimic_chains, massless_moving_parts
 from .actuator import drive_of
 from .conventions import (
     COLLISION_GROUP,
@@ -112,9 +112,15 @@ def _compiled_without_hulls(spec):
         geom.contype = geom.conaffinity = 0
     try:
         model = spec.compile()
+    except ValueError:
+        # What the compiler checks of the collisions themselves (a touch or tactile sensor
+        # wants a colliding geom on its body) fails with them off: compiled as written.
+        model = None
     finally:
         for geom, contype, conaffinity in colliding:
             geom.contype, geom.conaffinity = contype, conaffinity
+    if model is None:
+        return spec.compile()
     for geom, contype, conaffinity in colliding:
         if geom.id >= 0:  # (a geom MuJoCo dropped has no id)
             model.geom_contype[geom.id], model.geom_conaffinity[geom.id] = contype, conaffinity
@@ -258,7 +264,7 @@ class _Reader:
             kept = merge_sections(kept, left)
         if kept:
             obj.metadata[ELEMENTS_KEY] = kept
-        for joint_name, message in massless_moving_parts(obj):
+        for joint_name, message in composed_mimic_chains(obj) + massless_moving_parts(obj):
             warn(f"{self.path}: joint {joint_name!r}: {message}")
         try:
             return validate(obj)

@@ -53,7 +53,12 @@ from ...model import (
     validate,
     validate_inertial,
 )
-from ...repairs import balanced_inertia, massless_moving_parts, unusable_mimics
+from ...repairs import (
+    balanced_inertia,
+    composed_mimic_chains,
+    massless_moving_parts,
+    unusable_mimics,
+)
 from .context import Context, label
 from .conventions import ELEMENTS_KEY, UNKNOWN, ns
 from .geometry import (
@@ -134,7 +139,8 @@ def load(path: str | Path, *, faithful_collision: bool = False,
             for el in unread))
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
                             metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
-    for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
+    for joint_name, message in (massless_moving_parts(obj) + composed_mimic_chains(obj)
+                                + unusable_mimics(obj)):
         el = joint_el[joint_name]
         ctx.warn(label(el), message, el.sourceline)
     lines = {f"part {part_names[r]!r}": el for r, el in links.items()}
