@@ -719,6 +719,140 @@ def Xform "pendulum"
                                    atol=TOL)
 
 
+def test_a_joint_to_a_static_collider_holds_to_the_world_at_its_frame(tmp_path):
+    """A joint whose body0 is a prim without PhysicsRigidBodyAPI (a static collider, as
+    OpenUSD's own UsdPhysics examples write it): UsdPhysics holds the joint to the world at
+    that prim's frame, its local position in the prim's space (scaled), its rotation turned
+    by the prim's. Read so (it crashed the reader), warned; the hinge where UsdPhysics puts it."""
+    path = tmp_path / "hinged.usda"
+    path.write_text("""#usda 1.0
+(
+    defaultPrim = "World"
+    upAxis = "Z"
+    metersPerUnit = 1
+)
+def Xform "World"
+{
+    def Cube "Wall" (prepend apiSchemas = ["PhysicsCollisionAPI"])
+    {
+        double size = 1
+        double3 xformOp:translate = (1, 0, 2)
+        float3 xformOp:rotateXYZ = (0, 0, 90)
+        float3 xformOp:scale = (2, 0.5, 1)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ", "xformOp:scale"]
+    }
+    def Cube "Flap" (prepend apiSchemas = ["PhysicsCollisionAPI", "PhysicsRigidBodyAPI",
+                                           "PhysicsMassAPI"])
+    {
+        double size = 0.2
+        float physics:mass = 1
+        double3 xformOp:translate = (0.75, 0.5, 2)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def PhysicsRevoluteJoint "hinge"
+    {
+        rel physics:body0 = </World/Wall>
+        rel physics:body1 = </World/Flap>
+        uniform token physics:axis = "X"
+        point3f physics:localPos0 = (0.25, 0.5, 0)
+        point3f physics:localPos1 = (0, 0, 0)
+        quatf physics:localRot0 = (0.70710677, 0, 0, -0.70710677)
+        float physics:lowerLimit = -45
+        float physics:upperLimit = 45
+    }
+}
+""")
+    with pytest.warns(Real2CodeWarning, match=r"joint prim </World/hinge>: body0 </World/Wall> "
+                      r"is no rigid body \(a static prim\)"):
+        obj = usd.load(path)
+    hinge = obj.joint("hinge")
+    assert (hinge.parent, hinge.child) == ("world", "Flap")
+    # Wall: scale (2, 0.5, 1), then 90 degrees about Z, then (1, 0, 2): its local (0.25, 0.5,
+    # 0) is (0.5, 0.25, 0) scaled, (-0.25, 0.5, 0) turned, (0.75, 0.5, 2) placed; localRot0
+    # turns back the wall's 90 degrees, so the hinge axis X stays the world's X.
+    frame = forward_kinematics(obj, {"hinge": 0.0})["Flap"]
+    np.testing.assert_allclose(frame[:3, 3], [0.75, 0.5, 2.0], atol=1e-6)
+    np.testing.assert_allclose(frame[:3, :3] @ hinge.axis, [1.0, 0.0, 0.0], atol=1e-6)
+
+
+def test_a_colliders_own_mass_counts_in_its_bodys(tmp_path):
+    """A body with no mass authored on it whose colliders carry PhysicsMassAPI themselves
+    (OpenUSD's nested-articulation example: "explicit mass on the collider contributes to
+    implicit mass on the body"): each collider at its own mass, the rest at the default
+    density, summed about their joint centre of mass (was: every collider at the default
+    density, the authored mass ignored)."""
+    path = tmp_path / "arm.usda"
+    path.write_text("""#usda 1.0
+(
+    defaultPrim = "World"
+    upAxis = "Z"
+    metersPerUnit = 1
+    kilogramsPerUnit = 1
+)
+def Xform "World"
+{
+    def Xform "Arm" (prepend apiSchemas = ["PhysicsRigidBodyAPI"])
+    {
+        def Cube "Heavy" (prepend apiSchemas = ["PhysicsCollisionAPI", "PhysicsMassAPI"])
+        {
+            double size = 0.1
+            float physics:mass = 2
+            double3 xformOp:translate = (0.5, 0, 0)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+        def Cube "Plain" (prepend apiSchemas = ["PhysicsCollisionAPI"])
+        {
+            double size = 0.1
+            double3 xformOp:translate = (-0.5, 0, 0)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+    }
+    def PhysicsRevoluteJoint "pivot"
+    {
+        rel physics:body1 = </World/Arm>
+        uniform token physics:axis = "Z"
+    }
+}
+""")
+    with pytest.warns(Real2CodeWarning, match=r"prim </World/Arm>: mass not authored: computed "
+                      r"from its 2 collider\(s\), 1 at their own mass or density"):
+        obj = usd.load(path)
+    inertial = obj.part("Arm").inertial
+    plain = 1000.0 * 0.1**3  # the default density
+    assert inertial.mass == pytest.approx(2.0 + plain)
+    np.testing.assert_allclose(inertial.com, [(2.0 * 0.5 - plain * 0.5) / (2.0 + plain), 0, 0],
+                               atol=1e-9)
+    box = 0.1**2 / 6.0  # a cube's moment per kg about its centre
+    assert inertial.inertia[0, 0] == pytest.approx((2.0 + plain) * box)
+
+
+def test_a_prim_of_a_type_no_schema_defines_is_said(tmp_path):
+    """A joint typed ``DistancePhysicsJoint`` (an old spelling, in OpenUSD's own examples):
+    UsdPhysics' parser, and so PhysX and Newton, skip it; the reader names it in a warning
+    rather than passing over it in silence."""
+    path = tmp_path / "typo.usda"
+    path.write_text("""#usda 1.0
+(
+    defaultPrim = "World"
+    metersPerUnit = 1
+)
+def Xform "World"
+{
+    def Cube "Box" (prepend apiSchemas = ["PhysicsCollisionAPI", "PhysicsRigidBodyAPI"])
+    {
+        double size = 0.1
+    }
+    def DistancePhysicsJoint "Tether"
+    {
+        rel physics:body1 = </World/Box>
+    }
+}
+""")
+    with pytest.warns(Real2CodeWarning, match=r"prims of a type no schema defines, which "
+                      r"UsdPhysics' parser skips: </World/Tether> \(DistancePhysicsJoint\)"):
+        usd.load(path)
+
+
 # -- bad input ------------------------------------------------------------------------------
 def test_missing_file(tmp_path):
     missing = tmp_path / "nothing.usda"

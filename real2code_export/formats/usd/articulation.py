@@ -42,6 +42,9 @@ class Edge:
     body1: str
     reversed: bool = False  # True when body1 is the parent in the tree
     dofs: list | None = None  # a generic joint's (D6) free degrees of freedom (d6.Dof)
+    # A side whose prim is no rigid body (a static collider, an Xform: UsdPhysics holds the
+    # joint to the world there): that prim's world transform (translation in metres).
+    static: dict[int, np.ndarray] = field(default_factory=dict)
 
     @property
     def parent(self) -> str:
@@ -71,8 +74,15 @@ def parse(stage, path, mpu: float) -> Articulation:
     except Tf.ErrorException as e:
         raise FormatError(path, None, f"UsdPhysics cannot parse the stage: {e}") from e
     # (instance proxies too: UsdPhysics parses the colliders of instanceable prims)
-    order = {str(p.GetPath()): i for i, p in enumerate(
-        Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))}
+    prims = list(Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))
+    order = {str(p.GetPath()): i for i, p in enumerate(prims)}
+    # A prim typed by no schema (a misspelt or retired type: "DistancePhysicsJoint") is
+    # skipped by UsdPhysics' parser, and so by PhysX and Newton: said, not passed over.
+    unknown = [f"<{p.GetPath()}> ({p.GetTypeName()})" for p in prims
+               if p.GetTypeName() and p.GetPrimTypeInfo().GetSchemaType().isUnknown]
+    if unknown:
+        warn(f"{path}: prims of a type no schema defines, which UsdPhysics' parser skips: "
+             f"{', '.join(unknown)}; not read")
     bodies, shapes, edges = [], {}, []
     for kind, (paths, descs) in parsed.items():
         name = kind.name
@@ -90,6 +100,8 @@ def parse(stage, path, mpu: float) -> Articulation:
                 edges.append(_edge(stage, path, p, d, name))
     if not bodies:
         raise FormatError(path, None, "no rigid bodies (PhysicsRigidBodyAPI) found")
+    for e in edges:
+        _static_sides(stage, path, e, set(bodies), mpu)
     bodies.sort(key=order.__getitem__)
     for body_shapes in shapes.values():
         body_shapes.sort(key=order.__getitem__)
@@ -136,13 +148,68 @@ def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:
     return Edge(prim_path, desc, kind, sides[0], sides[1])
 
 
-def joint_frame(desc, side: int, mpu: float) -> np.ndarray:
-    """The parsed joint frame in body0 (side 0) or body1 (side 1), positions in metres."""
+def _static_sides(stage, path, e: Edge, bodies: set[str], mpu: float) -> None:
+    """A side whose body is a prim without PhysicsRigidBodyAPI (UsdPhysics' parser names it;
+    the schema holds such a joint to the static world, at that prim's frame): the world
+    side, with the prim's world transform kept for its frame (:func:`joint_frame`)."""
+    from pxr import Usd, UsdGeom
+
+    for side in (0, 1):
+        body = e.body0 if side == 0 else e.body1
+        if body == WORLD or body in bodies:
+            continue
+        prim = stage.GetPrimAtPath(body)
+        m = np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(
+            Usd.TimeCode.Default()), dtype=float).T if prim.IsA(UsdGeom.Xformable) \
+            else np.eye(4)
+        m[:3, 3] *= mpu
+        e.static[side] = m
+        if side == 0:
+            e.body0 = WORLD
+        else:
+            e.body1 = WORLD
+        warn(f"{path}: joint prim <{e.path}>: body{side} <{body}> is no rigid body (a static "
+             "prim): the joint holds to the world at that prim's frame, as UsdPhysics has it")
+    if e.body0 == WORLD and e.body1 == WORLD:
+        raise FormatError(path, f"joint prim <{e.path}>",
+                          "neither body0 nor body1 is a rigid body")
+
+
+def joint_frame(e: Edge, side: int, mpu: float) -> np.ndarray:
+    """The parsed joint frame in body0 (side 0) or body1 (side 1), positions in metres; a
+    static side's (:func:`_static_sides`) in the world, through the prim's rotation and
+    translation (UsdPhysics' parser has scaled the local position by the prim's scale)."""
     from .conventions import pose
 
-    if side == 0:
-        return pose(desc.localPose0Position, desc.localPose0Orientation, mpu)
-    return pose(desc.localPose1Position, desc.localPose1Orientation, mpu)
+    desc = e.desc
+    local = pose(desc.localPose0Position, desc.localPose0Orientation, mpu) if side == 0 \
+        else pose(desc.localPose1Position, desc.localPose1Orientation, mpu)
+    static = e.static.get(side)
+    if static is None:
+        return local
+    rotation = _rotation_of(static[:3, :3])
+    return tf.make(rotation @ local[:3, :3], rotation @ local[:3, 3] + static[:3, 3])
+
+
+def joint_quat(e: Edge, side: int) -> np.ndarray:
+    """The joint frame's rotation in body0 (side 0) or body1 (side 1), as a (w, x, y, z)
+    quaternion; a static side's in the world (:func:`joint_frame`)."""
+    q = e.desc.localPose0Orientation if side == 0 else e.desc.localPose1Orientation
+    quat = np.array([q.GetReal(), *q.GetImaginary()], dtype=float)
+    static = e.static.get(side)
+    if static is None:
+        return quat
+    return tf.matrix_to_quat(_rotation_of(static[:3, :3]) @ tf.quat_to_matrix(quat))
+
+
+def _rotation_of(linear: np.ndarray) -> np.ndarray:
+    """The rotation of a rotation-and-scale matrix (its polar factor)."""
+    u, _, vt = np.linalg.svd(linear)
+    rot = u @ vt
+    if np.linalg.det(rot) < 0:  # a mirroring scale: the rotation of its unmirrored part
+        u[:, -1] *= -1
+        rot = u @ vt
+    return rot
 
 
 def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulation:
@@ -153,8 +220,8 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
         edges = [x for x in edges if x is not e]
         root = e.body1 or e.body0
         world_side, body_side = (0, 1) if e.body1 else (1, 0)
-        root_placement = joint_frame(e.desc, world_side, mpu) @ tf.inverse(
-            joint_frame(e.desc, body_side, mpu))
+        root_placement = joint_frame(e, world_side, mpu) @ tf.inverse(
+            joint_frame(e, body_side, mpu))
     elif world_edges:
         warn(f"{path}: {len(world_edges)} joint(s) to the world "
              f"({', '.join(e.path for e in world_edges)}): a massless part 'world' is the root")

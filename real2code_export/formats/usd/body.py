@@ -89,24 +89,28 @@ SIMULATOR_DENSITY = 1000.0
 
 def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu: float,
                   where: str, colliders: list[Mesh] | None = None,
-                  scale: np.ndarray | None = None) -> Inertial | None:
+                  scale: np.ndarray | None = None,
+                  collider_mass: list[tuple[float, float]] | None = None) -> Inertial | None:
     """The part's inertial in the part frame, SI units. ``to_part`` maps body -> part frame
     (metres); ``meshes`` (part frame) are used only to fill what the file leaves to the
     simulator to compute (a warning says so). A rigid body with no mass authored has the
     mass its ``colliders`` (part frame) give it at the authored density, else
-    :data:`SIMULATOR_DENSITY`, as the simulators compute it (warned). ``scale``: a scaled
+    :data:`SIMULATOR_DENSITY`, as the simulators compute it (warned); ``collider_mass``, one
+    (mass kg, density kg/m^3) per collider, 0 where not authored: a collider's own
+    PhysicsMassAPI (UsdPhysics sums the colliders, each at its own mass or density, the
+    body's density, else the default). ``scale``: a scaled
     body's own scale (:func:`.read._rigid_and_scale`): its authored centre of mass is in its
     scaled local space, so scaled with it, as Newton's importer and OpenUSD's descriptors
     take it (its inertia is as authored)."""
     from pxr import UsdPhysics
 
     if not prim.HasAPI(UsdPhysics.MassAPI):
-        return _from_colliders(prim, colliders or [], mpu, kpu, where)
+        return _from_colliders(prim, colliders or [], mpu, kpu, where, collider_mass)
     api = UsdPhysics.MassAPI(prim)
     mass = float(api.GetMassAttr().Get() or 0.0) * kpu
     if mass <= 0.0:
         if colliders:
-            return _from_colliders(prim, colliders, mpu, kpu, where)
+            return _from_colliders(prim, colliders, mpu, kpu, where, collider_mass)
         warn(f"{where}: mass not authored (the simulator would compute it from density); "
              "the part gets no inertial")
         return None
@@ -143,25 +147,50 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
     return Inertial(mass, com, inertia)
 
 
-def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float,
-                    where: str) -> Inertial | None:
-    """A rigid body's mass properties as a simulator computes them where no mass is
-    authored; None for a prim that is no rigid body (our frames: massless by design) or
-    where no colliders are given (none, or a body that cannot move: its mass moves
-    nothing)."""
+def collider_mass(shape, mpu: float, kpu: float) -> tuple[float, float]:
+    """A collider prim's own PhysicsMassAPI mass (kg) and density (kg/m^3), 0 where not
+    authored (:func:`read_inertial`)."""
     from pxr import UsdPhysics
 
-    from ...inertia import inertial_from_meshes
+    if not shape.HasAPI(UsdPhysics.MassAPI):
+        return 0.0, 0.0
+    api = UsdPhysics.MassAPI(shape)
+    return (max(float(api.GetMassAttr().Get() or 0.0), 0.0) * kpu,
+            max(float(api.GetDensityAttr().Get() or 0.0), 0.0) * kpu / mpu**3)
+
+
+def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float, where: str,
+                    own: list[tuple[float, float]] | None = None) -> Inertial | None:
+    """A rigid body's mass properties as a simulator computes them where no mass is
+    authored on it: its colliders', each at its own mass or density where it has one
+    (``own``), else the body's density, else the default; None for a prim that is no rigid
+    body (our frames: massless by design) or where no colliders are given (none, or a body
+    that cannot move: its mass moves nothing)."""
+    from pxr import UsdPhysics
+
+    from ...inertia import combine_inertials, inertial_from_meshes
 
     if not prim.HasAPI(UsdPhysics.RigidBodyAPI) or not colliders:
         return None
     authored = float(UsdPhysics.MassAPI(prim).GetDensityAttr().Get() or 0.0) \
         if prim.HasAPI(UsdPhysics.MassAPI) else 0.0
     density = authored * kpu / mpu**3 if authored > 0.0 else SIMULATOR_DENSITY
-    warn(f"{where}: mass not authored: computed from its {len(colliders)} collider(s) at "
-         f"{density:g} kg/m^3 ({'authored' if authored > 0.0 else 'the simulators default'}), "
-         "as PhysX and Newton compute it")
-    return inertial_from_meshes(colliders, density)
+    own = own or [(0.0, 0.0)] * len(colliders)
+    weighed = sum(1 for mass, dens in own if mass > 0.0 or dens > 0.0)
+    warn(f"{where}: mass not authored: computed from its {len(colliders)} collider(s)"
+         + (f", {weighed} at their own mass or density (PhysicsMassAPI) and the rest"
+            if weighed else "")
+         + f" at {density:g} kg/m^3 ({'authored' if authored > 0.0 else 'the simulators default'}"
+         "), as PhysX and Newton compute it")
+    if not weighed:
+        return inertial_from_meshes(colliders, density)
+    pieces = []
+    for mesh, (mass, dens) in zip(colliders, own, strict=True):
+        piece = inertial_from_meshes([mesh], dens if dens > 0.0 else density)
+        if mass > 0.0:  # its mass as authored, distributed as its shape is
+            piece = Inertial(mass, piece.com, piece.inertia * (mass / piece.mass))
+        pieces.append((piece, np.eye(4)))
+    return combine_inertials(pieces)
 
 
 def _hull_mass_properties(meshes: list[Mesh], mass: float) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ from ...model import (
 from ...repairs import massless_moving_parts, unusable_mimics
 from . import articulation as art_
 from . import d6, drive, loop
-from .body import read_inertial
+from .body import collider_mass, read_inertial
 from .conventions import (
     FLOATING_JOINT,
     FRAME_JOINT,
@@ -104,7 +104,7 @@ def load(path: str | Path) -> ArticulatedObject:
         if e.desc is None:  # a free body: its part frame is its body frame
             ctx.to_part[e.child] = np.eye(4)
             continue
-        child_frame = art_.joint_frame(e.desc, 0 if e.reversed else 1, mpu)
+        child_frame = art_.joint_frame(e, 0 if e.reversed else 1, mpu)
         ctx.to_part[e.child] = tf.make(translation=-child_frame[:3, 3])
 
     taken: set[str] = set()
@@ -213,20 +213,20 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
     def placed(p) -> np.ndarray:
         return to_part @ units @ body_scale @ relative_transform(ctx.xforms, p, prim)
 
-    collision = []
+    collision, own_mass = [], []  # own_mass: each collider's PhysicsMassAPI (mass, density)
     for sp in shape_paths:
         shape = ctx.stage.GetPrimAtPath(sp)
         if shape.IsA(UsdGeom.Mesh):
             mesh = ellipsoid_collider(shape, placed(shape))
-            collision.append(mesh if mesh is not None else
-                             read_placed_mesh(shape, placed(shape), path, f"prim <{sp}>",
-                                              ctx.assets))
+            mesh = mesh if mesh is not None else read_placed_mesh(
+                shape, placed(shape), path, f"prim <{sp}>", ctx.assets)
         else:
             mesh = shape_mesh(shape, placed(shape))
             if mesh is None:
                 warn(f"{path}: collider <{sp}> ({shape.GetTypeName()}) cannot be meshed; ignored")
-            else:
-                collision.append(mesh)
+                continue
+        collision.append(mesh)
+        own_mass.append(collider_mass(shape, ctx.mpu, ctx.kpu))
     shown = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
     visual_prims = [p for p in _own_descendants(prim)
                     if p.IsA(UsdGeom.Gprim) and not p.HasAPI(UsdPhysics.CollisionAPI)
@@ -249,7 +249,7 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
             else visuals[0]
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
                              f"{path}: {where}", colliders=collision if moves else None,
-                             scale=ctx.scale.get(str(prim.GetPath())))
+                             scale=ctx.scale.get(str(prim.GetPath())), collider_mass=own_mass)
     images = read_images(prim, visual_prims, path)
     if images and (visual is None or visual.uv is None or len(visuals) > 1):
         warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
@@ -335,10 +335,10 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     prim = ctx.stage.GetPrimAtPath(e.path)
     where = f"{ctx.path}: joint prim <{e.path}>"
     kind = e.kind
-    t0, t1 = art_.joint_frame(e.desc, 0, mpu), art_.joint_frame(e.desc, 1, mpu)
+    t0, t1 = art_.joint_frame(e, 0, mpu), art_.joint_frame(e, 1, mpu)
     parent_frame = t1 if e.reversed else t0
-    parent_quat, child_quat = (_quat(e.desc, 1), _quat(e.desc, 0)) if e.reversed \
-        else (_quat(e.desc, 0), _quat(e.desc, 1))
+    parent_quat, child_quat = (art_.joint_quat(e, 1), art_.joint_quat(e, 0)) if e.reversed \
+        else (art_.joint_quat(e, 0), art_.joint_quat(e, 1))
     origin = ctx.to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
     if not kind.movable:
         dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.multi_dof else None
@@ -370,10 +370,10 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
     prim = ctx.stage.GetPrimAtPath(e.path)
     where = f"{ctx.path}: joint prim <{e.path}>"
     mpu, kpu = ctx.mpu, ctx.kpu
-    t0, t1 = art_.joint_frame(e.desc, 0, mpu), art_.joint_frame(e.desc, 1, mpu)
+    t0, t1 = art_.joint_frame(e, 0, mpu), art_.joint_frame(e, 1, mpu)
     parent_frame = t1 if e.reversed else t0
-    parent_quat, child_quat = (_quat(e.desc, 1), _quat(e.desc, 0)) if e.reversed \
-        else (_quat(e.desc, 0), _quat(e.desc, 1))
+    parent_quat, child_quat = (art_.joint_quat(e, 1), art_.joint_quat(e, 0)) if e.reversed \
+        else (art_.joint_quat(e, 0), art_.joint_quat(e, 1))
     origin = ctx.to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
     parent, child, name = ctx.names[e.parent], ctx.names[e.child], prim.GetName()
     if not e.dofs or d6.is_ball(e.dofs):
@@ -475,7 +475,7 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
     found = {}
     for e in loops:
         name = sanitize_name(ctx.stage.GetPrimAtPath(e.path).GetName())
-        frames = [ctx.to_part[body] @ art_.joint_frame(e.desc, side, ctx.mpu)
+        frames = [ctx.to_part[body] @ art_.joint_frame(e, side, ctx.mpu)
                   for side, body in ((0, e.body0), (1, e.body1))]
         found[name] = loop.described(name, e, frames, [ctx.names[e.body0], ctx.names[e.body1]],
                                      ctx.stage.GetPrimAtPath(e.path), ctx.mpu, ctx.kpu)
@@ -509,11 +509,6 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
     etree.indent(equality, space="  ")
     sections["equality"] = etree.tostring(equality, encoding="unicode")
     return {**metadata, loop.LOOPS_KEY: kept + list(found.values()), kept_key: sections}
-
-
-def _quat(desc, side: int) -> np.ndarray:
-    q = desc.localPose0Orientation if side == 0 else desc.localPose1Orientation
-    return np.array([q.GetReal(), *q.GetImaginary()], dtype=float)
 
 
 def _choose_state(from_poses: float, exact: float | None, kind: JointType, where: str) -> float:
