@@ -154,7 +154,8 @@ def composed_mimic_chains(obj: ArticulatedObject) -> list[tuple[str, str]]:
 
 def unusable_mimics(obj: ArticulatedObject) -> list[tuple[str, str]]:
     """Drop the mimics no simulator can apply: a leader that does not exist, is not a
-    one-value joint or mimics another itself, or a follower that is not one (urdfdom loads
+    one-value joint or mimics another itself (a cycle, once :func:`composed_mimic_chains`
+    has composed the chains), or a follower that is not one (urdfdom loads
     such files; the followers then move on their own). Changes ``obj`` in place; returns
     (joint name, message) for each mimic dropped."""
     joints = {j.name: j for j in obj.joints}
