@@ -3,7 +3,9 @@ and back.
 
 Written (following the extension's current draft and its reference Blender exporter):
 - every non-root part that is its own rigid body carries ``motion`` (mass, centre of mass,
-  principal inertia and its orientation); the root part is static (fixed to the world);
+  principal inertia and its orientation; a moving part with no mass of its own, the summed
+  mass properties of the parts welded below it, which are then no bodies of their own:
+  :func:`bodies`); the root part is static (fixed to the world);
 - each collision piece is a ``collider`` node under its part. A piece that is a box is a
   ``KHR_implicit_shapes`` box, the collider node's transform placing it; any other piece's
   ``geometry`` names a mesh-only node outside the scene (``convexHull``: the pieces are
@@ -31,7 +33,7 @@ import numpy as np
 
 from ... import transforms as tf
 from ...errors import warn
-from ...model import Dynamics, Joint, JointType, Mesh, Part
+from ...model import Dynamics, Inertial, Joint, JointType, Mesh, Tree
 from .conventions import quat_xyzw
 
 LOCK = 1e-9  # a limit with |min|, |max| below this locks its axes
@@ -75,18 +77,53 @@ def as_box(piece: Mesh) -> tuple[list[float], np.ndarray] | None:
     return [float(x) for x in size], pose
 
 
-def has_body(joint: Joint | None, part: Part) -> bool:
-    """A non-root part (``joint``: its parent joint, None for the root) is its own rigid body
-    when it moves or has mass; a massless part on a fixed joint simply belongs to its
-    parent's body (the extension's node-tree rule)."""
-    if joint is None:
-        return False
-    return joint.type is not JointType.FIXED or part.inertial is not None
+def bodies(tree: Tree) -> dict[str, Inertial | None]:
+    """The parts that are rigid bodies of their own, each with the mass properties its
+    ``motion`` states (in the part frame). A non-root part is its own body when it moves or
+    has mass; a massless part on a fixed joint simply belongs to its parent's body (the
+    extension's node-tree rule). A moving part with no mass of its own carries the parts
+    fixed below it (a free body whose mass lies in a body welded under it, as MJCF writes
+    one): the extension can state no zero mass (zero means infinite, none "compute it from
+    the colliders"), so that group is one body with the parts' summed mass properties."""
+    from ...inertia import combine_inertials
+
+    out: dict[str, Inertial | None] = {}
+    for name, joint in tree.parent.items():
+        inertial = tree.parts[name].inertial
+        if joint.type is JointType.FIXED:
+            if inertial is not None and not _carried(tree, joint):
+                out[name] = inertial
+            continue
+        welded = _welded_below(tree, name) if inertial is None else []
+        out[name] = combine_inertials(welded) if welded else inertial
+    return out
 
 
-def motion(part: Part) -> dict:
+def _carried(tree: Tree, joint: Joint) -> bool:
+    """Whether a part on a fixed ``joint`` is carried by the moving massless part it is
+    welded to (:func:`bodies`); parts welded to the root are bodies of their own."""
+    while joint is not None and joint.type is JointType.FIXED:
+        joint = tree.parent.get(joint.parent)
+    return joint is not None and tree.parts[joint.child].inertial is None
+
+
+def _welded_below(tree: Tree, name: str) -> list[tuple[Inertial, np.ndarray]]:
+    """The mass properties of the parts fixed below part ``name``, each with its frame in
+    the part's."""
+    out, stack = [], [(name, np.eye(4))]
+    while stack:
+        parent, pose = stack.pop()
+        for j in tree.children[parent]:
+            if j.type is JointType.FIXED:
+                child_pose = pose @ j.origin
+                if tree.parts[j.child].inertial is not None:
+                    out.append((tree.parts[j.child].inertial, child_pose))
+                stack.append((j.child, child_pose))
+    return out
+
+
+def motion(inertial: Inertial | None) -> dict:
     out: dict = {}
-    inertial = part.inertial
     if inertial is not None:
         moments, axes = inertial.principal()
         out = {

@@ -315,6 +315,7 @@ def build(obj: ArticulatedObject) -> bytes:
     b = _Builder()
     g = b.g
     tree = obj.tree()
+    bodies = physics.bodies(tree)  # part -> what its motion states
     physics_joints: list[dict] = []
     shapes: list[dict] = []  # KHR_implicit_shapes, for box collision pieces
     animated: list[tuple[Joint, int]] = []  # each movable joint and the node it moves
@@ -375,9 +376,10 @@ def build(obj: ArticulatedObject) -> bytes:
                 rotation=quat_xyzw(placement.pose[:3, :3]),
                 extras={EXTRAS_KEY: {"placement": k}}))
         attach = None
-        body = physics.has_body(joint, part)
+        body = part.name in bodies
         if body:
-            b.gltf.nodes[node].extensions = {KHR_PHYSICS: {"motion": physics.motion(part)}}
+            b.gltf.nodes[node].extensions = {KHR_PHYSICS: {
+                "motion": physics.motion(bodies[part.name])}}
         for k, piece in enumerate(part.collision):
             children.append(add_collider(part, k, piece))
         if body:
@@ -427,7 +429,7 @@ def build(obj: ArticulatedObject) -> bytes:
         child = tree.parts[joint.child]
         attach = joint_index = None
         # A floating part is a free body: a rigid body no physics joint holds.
-        if physics.has_body(joint, child) and joint.type is not JointType.FLOATING:
+        if child.name in bodies and joint.type is not JointType.FLOATING:
             attach = b.node(f"{joint.name}_attach_parent",
                             rotation=quat_xyzw(physics.attachment_rotation(joint)),
                             extras={EXTRAS_KEY: {"attachment": joint.name}})
