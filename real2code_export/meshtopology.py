@@ -53,10 +53,20 @@ def stable_argsort(keys: np.ndarray) -> np.ndarray:
 
 def unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.unique(keys, return_inverse=True)`` of integer ``keys``, the same two arrays
-    (the inverse of the flattened keys), by a stable sort (:func:`stable_argsort`):
-    ``np.unique`` sorts them by quicksort, half as quick on a mesh's keys, which come partly
-    ordered (edge and corner keys of a g1 link: 3.0 -> 1.6 ms)."""
+    (the inverse of the flattened keys). Keys within a span of at most twice their number
+    (a mesh's vertex indices, its corners' (vertex, smoothing group) keys) are counted, not
+    sorted: a mark per value in the span, each key's rank the count of marks before it;
+    others are sorted stably (:func:`stable_argsort`; ``np.unique`` sorts them by
+    quicksort, half as quick on a mesh's keys, which come partly ordered)."""
     keys = np.asarray(keys).reshape(-1)
+    if len(keys) and keys.dtype.kind in "iu":
+        low, high = int(keys.min()), int(keys.max())
+        if high - low < 2 * len(keys):
+            offset = (keys - keys.dtype.type(low)).astype(np.intp)  # (in their own type)
+            present = np.zeros(high - low + 1, dtype=bool)
+            present[offset] = True
+            rank = np.cumsum(present) - 1
+            return (np.flatnonzero(present) + low).astype(keys.dtype), rank[offset]
     order = stable_argsort(keys)
     ordered = keys[order]
     starts = np.empty(len(keys), dtype=bool)

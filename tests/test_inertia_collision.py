@@ -499,3 +499,21 @@ def test_stable_argsort_is_numpys_stable_sort(dtype):
     negative = rng.integers(-(2**40), 2**40, 5000)
     negative[::7] = negative[0]
     np.testing.assert_array_equal(stable_argsort(negative), np.argsort(negative, kind="stable"))
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64, np.uint32])
+def test_unique_inverse_is_numpys_unique(dtype):
+    """meshtopology.unique_inverse: np.unique's values (their dtype too) and inverse, where
+    the keys are counted (a span under twice their number) and where they are sorted."""
+    from real2code_export.meshtopology import unique_inverse
+
+    rng = np.random.default_rng(5)
+    for keys in (rng.integers(0, 900, 1000), rng.integers(7, 10, 50),  # counted
+                 rng.integers(0, 10**6, 1000), np.array([3, 10**9, 3]),  # sorted
+                 np.array([4]), np.zeros(0, dtype=np.int64)):
+        keys = keys.astype(dtype)
+        got, inverse = unique_inverse(keys)
+        want, want_inverse = np.unique(keys, return_inverse=True)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(inverse, want_inverse.reshape(-1))
