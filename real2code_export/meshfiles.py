@@ -608,7 +608,7 @@ def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
     # runs of equal colour (materials of one colour are one run)
     key = np.array([-1 if k < 0 else palette.index(palette[k]) for k in range(len(palette))]
                    + [-1])[index]
-    if len(set(key.tolist())) < 2:
+    if not len(key) or np.all(key == key[0]):  # (one value, or none: no runs)
         return {"color": color, "runs": ()}
     starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     lengths = np.diff(np.r_[starts, len(key)])
