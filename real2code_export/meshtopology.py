@@ -77,6 +77,22 @@ def unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ordered[starts], inverse
 
 
+def face_cross_products(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3): each face's (b - a) x (c - a), as ``np.cross`` computes it (the same products
+    and differences, so the same floats) on contiguous columns rather than strided views of
+    an (F, 3, 3) gather: half its time on a robot's meshes (creased normals, a file's faces' areas)."""
+    columns = vertices.T.copy()  # (3, V): x, y, z
+    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+    u = [columns[k][b] - columns[k][a] for k in range(3)]
+    v = [columns[k][c] - columns[k][a] for k in range(3)]
+    out = np.empty((len(faces), 3))
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        np.multiply(u[i], v[j], out=out[:, k])
+        out[:, k] -= u[j] * v[i]
+    return out
+
+
 def merged(vertices: np.ndarray, faces: np.ndarray, digits: int = MERGE_DIGITS
            ) -> tuple[np.ndarray, np.ndarray]:
     """The vertices the faces use, those equal after rounding to ``digits`` decimals made

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .meshtopology import Edges, component_labels, unique_inverse
+from .meshtopology import Edges, component_labels, face_cross_products, unique_inverse
 from .model import Mesh
 
 CREASE_ANGLE = np.radians(30.0)
@@ -42,7 +42,7 @@ def _creased_normals(mesh: Mesh) -> CreasedNormals:
     vertices = mesh.vertices.astype(np.float32).astype(np.float64)
     faces = mesh.faces
     n_faces = len(faces)
-    face_normals = _cross(vertices, faces)  # area-weighted
+    face_normals = face_cross_products(vertices, faces)  # area-weighted
     group = smoothing_groups(faces, face_normals)
     # one split vertex per (model vertex, smoothing group); unreferenced vertices kept too
     n_groups = int(group.max()) + 2 if n_faces else 1
@@ -88,18 +88,3 @@ def smoothing_groups(faces: np.ndarray, cross: np.ndarray) -> np.ndarray:
     smooth = pairs[np.abs(np.arccos(np.clip(dots, -1.0, 1.0))) < CREASE_ANGLE]
     return component_labels(len(faces), smooth)
 
-
-def _cross(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(F, 3): each face's (b - a) x (c - a), as ``np.cross`` computes it (the same products
-    and differences, so the same floats) on contiguous columns rather than strided views of
-    an (F, 3, 3) gather: half its time on a robot's meshes."""
-    columns = vertices.T.copy()  # (3, V): x, y, z
-    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-    u = [columns[k][b] - columns[k][a] for k in range(3)]
-    v = [columns[k][c] - columns[k][a] for k in range(3)]
-    out = np.empty((len(faces), 3))
-    for k in range(3):
-        i, j = (k + 1) % 3, (k + 2) % 3
-        np.multiply(u[i], v[j], out=out[:, k])
-        out[:, k] -= u[j] * v[i]
-    return out

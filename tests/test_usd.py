@@ -1349,9 +1349,9 @@ def test_snapped_quat_iterates_in_floats_as_on_arrays():
 
 
 def test_creased_normals_face_cross_products_are_numpys():
-    """normals._cross: each face's (b - a) x (c - a) bit for bit as np.cross gives it (the
-    creased normals, and so every exported file, stay the same)."""
-    from real2code_export.normals import _cross
+    """meshtopology.face_cross_products: each face's (b - a) x (c - a) bit for bit as
+    np.cross gives it (the creased normals, and so every exported file, stay the same)."""
+    from real2code_export.meshtopology import face_cross_products as _cross
 
     rng = np.random.default_rng(11)
     vertices = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-6, 3, (500, 1))
