@@ -84,8 +84,20 @@ def matrix_to_quat(r: np.ndarray) -> np.ndarray:
         s = 2.0 * math.sqrt(1.0 + r22 - r00 - r11)
         q = [(r10 - r01) / s, (r02 + r20) / s, (r12 + r21) / s, 0.25 * s]
     q = np.array(q)
-    q /= math.sqrt(q.dot(q))  # what np.linalg.norm computes, without its checks
+    q /= short_norm(q.tolist())
     return -q if q[0] < 0 else q
+
+
+def short_norm(values: list[float]) -> float:
+    """``np.linalg.norm`` of a short vector (a quaternion), the same float: the squares
+    added in order, as BLAS's dot adds so few numbers (``tests/test_transforms.py`` holds
+    them equal), in Python floats. Not numpy's dot: it calls BLAS with the GIL let go, and
+    with the creased normals' thread busy beside a USD export's authoring, taking it back
+    was most of this function's time there (sampled)."""
+    total = 0.0
+    for v in values:
+        total += v * v
+    return math.sqrt(total)
 
 
 def orthonormalize(r: np.ndarray) -> np.ndarray:

@@ -27,3 +27,16 @@ def test_matrix_to_quat_of_many_rotations():
     for q in rng.normal(size=(500, 4)):
         r = tf.quat_to_matrix(q)
         np.testing.assert_allclose(tf.quat_to_matrix(tf.matrix_to_quat(r)), r, atol=1e-12)
+
+
+def test_short_norm_is_numpys_norm_bit_for_bit():
+    """transforms.short_norm: np.linalg.norm's float for quaternions and 3-vectors (the
+    squares added in order, as BLAS adds so few), so matrix_to_quat and the USD writer's
+    quaternions stay the same."""
+    rng = np.random.default_rng(17)
+    for n in (3, 4):
+        vectors = rng.normal(size=(20000, n)) * 10.0 ** rng.integers(-8, 8, (20000, 1))
+        vectors[::7, 0] = 0.0
+        for v in vectors:
+            assert tf.short_norm(v.tolist()) == np.linalg.norm(v)
+    assert tf.short_norm([0.0, 0.0, 0.0, 0.0]) == 0.0
