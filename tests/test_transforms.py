@@ -40,3 +40,18 @@ def test_short_norm_is_numpys_norm_bit_for_bit():
         for v in vectors:
             assert tf.short_norm(v.tolist()) == np.linalg.norm(v)
     assert tf.short_norm([0.0, 0.0, 0.0, 0.0]) == 0.0
+
+
+def test_is_rotation_is_allclose_to_the_identity_as_numpy_tells_it():
+    """transforms.is_rotation: np.allclose(r.T @ r, I, atol=tol)'s answer (and det > 0),
+    at the tolerance's edge too."""
+    rng = np.random.default_rng(23)
+    for k in range(3000):
+        r = tf.quat_to_matrix(rng.normal(size=4))
+        r = r + rng.normal(size=(3, 3)) * 10.0 ** rng.uniform(-9, -5)
+        if k % 10 == 0:
+            r[rng.integers(3), rng.integers(3)] = [np.inf, np.nan, 1e200][k % 3]
+        want = (bool(np.all(np.isfinite(r))) and np.allclose(r.T @ r, np.eye(3), atol=1e-6)
+                and np.linalg.det(r) > 0)
+        assert tf.is_rotation(r) == want
+    assert not tf.is_rotation(-np.eye(3)) and tf.is_rotation(np.eye(3))
