@@ -55,3 +55,17 @@ def test_is_rotation_is_allclose_to_the_identity_as_numpy_tells_it():
                 and np.linalg.det(r) > 0)
         assert tf.is_rotation(r) == want
     assert not tf.is_rotation(-np.eye(3)) and tf.is_rotation(np.eye(3))
+
+
+def test_allclose_to_finite_is_numpys_allclose():
+    """transforms.allclose_to_finite: np.allclose's answer where the second array is
+    finite, a NaN or infinity in the first included."""
+    rng = np.random.default_rng(29)
+    for k in range(3000):
+        b = rng.normal(size=(3, 3)) * 10.0 ** rng.integers(-6, 6)
+        a = b + rng.normal(size=(3, 3)) * 10.0 ** rng.uniform(-12, -3)
+        if k % 9 == 0:
+            a[rng.integers(3), rng.integers(3)] = [np.inf, -np.inf, np.nan][k % 3]
+        atol = [1e-8, 1e-9, 1e-6][k % 3]
+        assert tf.allclose_to_finite(a, b, atol=atol) == np.allclose(a, b, atol=atol)
+    assert tf.allclose_to_finite(np.array([0, 0, 0, 1.0]), (0.0, 0.0, 0.0, 1.0))
