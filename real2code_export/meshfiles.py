@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .errors import FormatError, NoTrianglesError, warn
-from .meshtopology import unique_inverse, used_indices
+from .meshtopology import face_cross_products, unique_inverse, used_indices
 from .model import RGBA, ArticulatedObject, Mesh, Part, Texture
 from .placements import placed_pieces, shared_assets, whole_placement
 
@@ -598,8 +598,8 @@ def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
         # areas are not needed (computing them was a twentieth of a robot's USD export)
         color = tuple(float(v) for v in used[0])
     elif known.any():
-        tri = mesh.vertices[mesh.faces[known]]
-        area = _areas(tri)
+        area = 0.5 * np.linalg.norm(face_cross_products(mesh.vertices, mesh.faces[known]),
+                                    axis=1)  # (as _areas: the same floats)
         if area.sum() > 0:
             mean = np.clip(area @ used / area.sum(), 0.0, 1.0)  # (round-off can pass 1)
             # a channel all faces agree on is that value (an alpha of 1 stays opaque)
@@ -608,7 +608,7 @@ def _face_colours(mesh: Mesh, index: np.ndarray, palette: list[RGBA]) -> dict:
     # runs of equal colour (materials of one colour are one run)
     key = np.array([-1 if k < 0 else palette.index(palette[k]) for k in range(len(palette))]
                    + [-1])[index]
-    if len(set(key.tolist())) < 2:
+    if not len(key) or np.all(key == key[0]):  # (one value, or none: no runs)
         return {"color": color, "runs": ()}
     starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     lengths = np.diff(np.r_[starts, len(key)])

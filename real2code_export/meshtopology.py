@@ -32,13 +32,42 @@ def used_indices(indices: np.ndarray) -> np.ndarray:
     return np.flatnonzero(np.bincount(flat)) if len(flat) else np.zeros(0, dtype=np.intp)
 
 
+def stable_argsort(keys: np.ndarray) -> np.ndarray:
+    """``np.argsort(keys, kind="stable")`` of 1-D integer ``keys``, the same permutation.
+    Where each key's position fits beside it in an int64 (key * len + position: no two
+    alike), numpy's default sort of those, which needs no stability and runs vectorised
+    (x86-simd-sort): a third of the stable sort's time on a mesh's edge keys (go1's largest
+    link, 1.05 M corners: 139 -> 47 ms); else the stable sort itself."""
+    keys = np.asarray(keys)
+    n = len(keys)
+    if n > 1 and keys.dtype.kind in "iu":
+        low, high = int(keys.min()), int(keys.max())
+        if (high - low + 1) * n < 2**63:  # (Python integers: no overflow in the test)
+            tagged = keys.astype(np.int64)
+            tagged -= low
+            tagged *= n
+            tagged += np.arange(n, dtype=np.int64)
+            return np.argsort(tagged)
+    return np.argsort(keys, kind="stable")
+
+
 def unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.unique(keys, return_inverse=True)`` of integer ``keys``, the same two arrays
-    (the inverse of the flattened keys), by numpy's stable sort: ``np.unique`` sorts them by
-    quicksort, half as quick on a mesh's keys, which come partly ordered (edge and corner
-    keys of a g1 link: 3.0 -> 1.6 ms)."""
+    (the inverse of the flattened keys). Keys within a span of at most twice their number
+    (a mesh's vertex indices, its corners' (vertex, smoothing group) keys) are counted, not
+    sorted: a mark per value in the span, each key's rank the count of marks before it;
+    others are sorted stably (:func:`stable_argsort`; ``np.unique`` sorts them by
+    quicksort, half as quick on a mesh's keys, which come partly ordered)."""
     keys = np.asarray(keys).reshape(-1)
-    order = np.argsort(keys, kind="stable")
+    if len(keys) and keys.dtype.kind in "iu":
+        low, high = int(keys.min()), int(keys.max())
+        if high - low < 2 * len(keys):
+            offset = (keys - keys.dtype.type(low)).astype(np.intp)  # (in their own type)
+            present = np.zeros(high - low + 1, dtype=bool)
+            present[offset] = True
+            rank = np.cumsum(present) - 1
+            return (np.flatnonzero(present) + low).astype(keys.dtype), rank[offset]
+    order = stable_argsort(keys)
     ordered = keys[order]
     starts = np.empty(len(keys), dtype=bool)
     starts[:1] = True
@@ -46,6 +75,22 @@ def unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     inverse = np.empty(len(keys), dtype=np.intp)
     inverse[order] = np.cumsum(starts) - 1
     return ordered[starts], inverse
+
+
+def face_cross_products(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3): each face's (b - a) x (c - a), as ``np.cross`` computes it (the same products
+    and differences, so the same floats) on contiguous columns rather than strided views of
+    an (F, 3, 3) gather: half its time on a robot's meshes (creased normals, a file's faces' areas)."""
+    columns = vertices.T.copy()  # (3, V): x, y, z
+    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+    u = [columns[k][b] - columns[k][a] for k in range(3)]
+    v = [columns[k][c] - columns[k][a] for k in range(3)]
+    out = np.empty((len(faces), 3))
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        np.multiply(u[i], v[j], out=out[:, k])
+        out[:, k] -= u[j] * v[i]
+    return out
 
 
 def merged(vertices: np.ndarray, faces: np.ndarray, digits: int = MERGE_DIGITS
@@ -89,7 +134,7 @@ class Edges:
         a, b = self.directed[:, 0], self.directed[:, 1]
         lo, hi = np.minimum(a, b), np.maximum(a, b)  # (min(axis=1) on pairs: 30x slower)
         keys = lo * n + hi
-        self.order = np.argsort(keys, kind="stable")  # (see unique_inverse; ties by corner)
+        self.order = stable_argsort(keys)  # (ties by corner)
         sorted_keys = keys[self.order]
         self.starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
         self.sizes = np.diff(np.r_[self.starts, len(keys)])
@@ -135,7 +180,11 @@ def component_labels(count: int, pairs: np.ndarray) -> np.ndarray:
             break
         # hook each root under the smallest root it touches
         np.minimum.at(parent, np.maximum(a, b)[apart], np.minimum(a, b)[apart])
-    return unique_inverse(parent)[1]
+    # every node's parent is now its component's root, the smallest node in it (roots
+    # hook under smaller ones only): a root's label is the count of roots before it
+    # (np.unique's inverse of ``parent``, without its sort)
+    rank = np.cumsum(parent == np.arange(count)) - 1
+    return rank[parent]
 
 
 def _tetra_volumes(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -770,6 +770,9 @@ def _finite(values, element: str, what: str) -> None:
         raise ModelError(element, f"{what} is not finite: {arr.tolist()}")
 
 
+_HOMOGENEOUS_ROW = np.array([0.0, 0.0, 0.0, 1.0])  # a rigid transform's last row
+
+
 def validate_inertial(inertial: Inertial, element: str, tol: float = 1e-9) -> None:
     if not math.isfinite(inertial.mass) or inertial.mass <= 0:
         raise ModelError(element, f"mass must be positive and finite, got {inertial.mass}")
@@ -777,7 +780,7 @@ def validate_inertial(inertial: Inertial, element: str, tol: float = 1e-9) -> No
     _finite(inertial.inertia, element, "inertia")
     inertia = inertial.inertia
     scale = max(float(np.abs(inertia).max()), 1e-30)
-    if not np.allclose(inertia, inertia.T, atol=1e-9 * scale):
+    if not tf.allclose_to_finite(inertia, inertia.T, atol=1e-9 * scale):  # (finite: above)
         raise ModelError(element, "inertia tensor is not symmetric")
     moments = np.linalg.eigvalsh(inertia)
     if moments[0] <= 0:
@@ -887,7 +890,8 @@ def validate(obj: ArticulatedObject) -> ArticulatedObject:
             )
         child_of[j.child] = j.name
         _finite(j.origin, el, "origin")
-        if not np.allclose(j.origin[3], [0, 0, 0, 1]) or not tf.is_rotation(j.origin[:3, :3]):
+        if not tf.allclose_to_finite(j.origin[3], _HOMOGENEOUS_ROW) \
+                or not tf.is_rotation(j.origin[:3, :3]):
             raise ModelError(el, "origin is not a rigid transform (rotation must be orthonormal)")
         _finite(j.axis, el, "axis")
         norm = float(np.linalg.norm(j.axis))

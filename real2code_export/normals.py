@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .meshtopology import Edges, component_labels, unique_inverse
+from .meshtopology import Edges, component_labels, face_cross_products, unique_inverse
 from .model import Mesh
 
 CREASE_ANGLE = np.radians(30.0)
@@ -42,8 +42,7 @@ def _creased_normals(mesh: Mesh) -> CreasedNormals:
     vertices = mesh.vertices.astype(np.float32).astype(np.float64)
     faces = mesh.faces
     n_faces = len(faces)
-    tri = vertices[faces]
-    face_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted
+    face_normals = face_cross_products(vertices, faces)  # area-weighted
     group = smoothing_groups(faces, face_normals)
     # one split vertex per (model vertex, smoothing group); unreferenced vertices kept too
     n_groups = int(group.max()) + 2 if n_faces else 1
@@ -84,8 +83,8 @@ def smoothing_groups(faces: np.ndarray, cross: np.ndarray) -> np.ndarray:
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]  # a degenerate face touching itself
     norm = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
     valid = norm > 1e-13  # trimesh's zero: a degenerate face's normal is 0, never smooth
-    unit = np.zeros_like(cross)
-    unit[valid] = cross[valid] / norm[valid, None]
+    unit = np.divide(cross, norm[:, None], out=np.zeros_like(cross), where=valid[:, None])
     dots = np.dot(unit[pairs[:, 0]] * unit[pairs[:, 1]], [1.0, 1.0, 1.0])
     smooth = pairs[np.abs(np.arccos(np.clip(dots, -1.0, 1.0))) < CREASE_ANGLE]
     return component_labels(len(faces), smooth)
+

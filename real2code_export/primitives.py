@@ -66,7 +66,8 @@ class Primitive:
                     f"({SIZE_NAMES[self.kind]}), got {len(self.size)}")
         if not np.all(np.isfinite(self.size)) or np.any(self.size <= 0):
             return f"{self.kind.value} sizes must be finite and > 0, got {self.size.tolist()}"
-        if (not np.all(np.isfinite(self.pose)) or not np.allclose(self.pose[3], [0, 0, 0, 1])
+        if (not np.all(np.isfinite(self.pose))
+                or not tf.allclose_to_finite(self.pose[3], (0.0, 0.0, 0.0, 1.0))
                 or not tf.is_rotation(self.pose[:3, :3])):
             return f"{self.kind.value} pose is not a rigid transform"
         return None

@@ -481,3 +481,39 @@ def test_pieces_mode_on_a_triangle_soup_falls_back_to_one_hull():
     with pytest.warns(Real2CodeWarning, match="loose components"):
         (piece,) = collision_pieces(soup, "pieces")
     assert_convex_solid(piece)
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64, np.uint16])
+def test_stable_argsort_is_numpys_stable_sort(dtype):
+    """meshtopology.stable_argsort: numpy's stable permutation (ties in input order), by the
+    tagged quick sort where key and position fit an int64 and by the stable sort where not."""
+    from real2code_export.meshtopology import stable_argsort
+
+    rng = np.random.default_rng(3)
+    for keys in (rng.integers(0, 50, 10_000), np.repeat(np.arange(7)[::-1], 300),
+                 np.arange(1000), np.zeros(5), np.array([4]), np.zeros(0)):
+        keys = keys.astype(dtype)
+        np.testing.assert_array_equal(stable_argsort(keys), np.argsort(keys, kind="stable"))
+    wide = np.array([2**62, -(2**62), 5, 5, -(2**62), 2**62], dtype=np.int64)  # no room
+    np.testing.assert_array_equal(stable_argsort(wide), np.argsort(wide, kind="stable"))
+    negative = rng.integers(-(2**40), 2**40, 5000)
+    negative[::7] = negative[0]
+    np.testing.assert_array_equal(stable_argsort(negative), np.argsort(negative, kind="stable"))
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64, np.uint32])
+def test_unique_inverse_is_numpys_unique(dtype):
+    """meshtopology.unique_inverse: np.unique's values (their dtype too) and inverse, where
+    the keys are counted (a span under twice their number) and where they are sorted."""
+    from real2code_export.meshtopology import unique_inverse
+
+    rng = np.random.default_rng(5)
+    for keys in (rng.integers(0, 900, 1000), rng.integers(7, 10, 50),  # counted
+                 rng.integers(0, 10**6, 1000), np.array([3, 10**9, 3]),  # sorted
+                 np.array([4]), np.zeros(0, dtype=np.int64)):
+        keys = keys.astype(dtype)
+        got, inverse = unique_inverse(keys)
+        want, want_inverse = np.unique(keys, return_inverse=True)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(inverse, want_inverse.reshape(-1))

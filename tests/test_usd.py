@@ -1480,3 +1480,19 @@ def test_snapped_quat_iterates_in_floats_as_on_arrays():
         assert np.array(c._canonical_floats(q.tolist())).tobytes() == c._canonical(q).tobytes()
         snapped = c.snapped_quat(tf.quat_to_matrix(q))
         assert c._renormalised(snapped).tobytes() == snapped.tobytes()
+
+
+def test_creased_normals_face_cross_products_are_numpys():
+    """meshtopology.face_cross_products: each face's (b - a) x (c - a) bit for bit as
+    np.cross gives it (the creased normals, and so every exported file, stay the same)."""
+    from real2code_export.meshtopology import face_cross_products as _cross
+
+    rng = np.random.default_rng(11)
+    vertices = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-6, 3, (500, 1))
+    vertices[7] = vertices[3]  # degenerate faces too
+    faces = rng.integers(0, 500, (2000, 3))
+    faces[:5, 1] = faces[:5, 0]
+    tri = vertices[faces]
+    want = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    assert np.array_equal(_cross(vertices, faces), want)
+    assert _cross(vertices, faces[:0]).shape == (0, 3)

@@ -17,7 +17,7 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, NoTrianglesError, warn
 from ...meshfiles import MESH_SUFFIXES, STL_HEADER, binary_stl_triangles, read_ahead, read_mesh
-from ...model import Mesh
+from ...model import Mesh, corner_bounds
 from ...primitives import Primitive, ShapeKind
 
 # Mesh files (meshfiles.MESH_SUFFIXES) are read here as MuJoCo does; others (e.g. MuJoCo's
@@ -160,9 +160,12 @@ def _mesh_asset(model, mesh_id: int, source: Path, element: str,
         centring = pose(model.mesh_pos[mesh_id], model.mesh_quat[mesh_id])
         # Same place as MuJoCo's vertices (float32)? Else (legacy refpos/refquat, a reader
         # that saw another file) MuJoCo's own vertices are the truth.
-        moved = mesh.transformed(tf.inverse(centring)).bounds()
+        # (the file's vertices moved as Mesh.transformed moves them, without the mesh)
+        to_geom = np.asarray(tf.inverse(centring), dtype=np.float64)
+        moved = np.stack(corner_bounds(mesh.vertices @ to_geom[:3, :3].T + to_geom[:3, 3]))
         scale = max(float(np.abs(compiled).max(initial=0.0)), 1e-3)
-        if len(compiled) and np.allclose(moved, _bounds(compiled), rtol=0.0, atol=1e-5 * scale):
+        if len(compiled) and np.allclose(moved, np.stack(corner_bounds(compiled)), rtol=0.0,
+                                         atol=1e-5 * scale):
             return mesh, tf.inverse(centring)
     faces = np.asarray(model.mesh_face[fstart:fstart + fcount], dtype=np.int64)
     if len(faces) == 0:
@@ -194,10 +197,6 @@ def _file_mesh(model, mesh_id: int, source: Path, element: str,
                  f"convex hull taken as MuJoCo takes it ({int(model.mesh_facenum[mesh_id])} "
                  "triangles)")
     return None
-
-
-def _bounds(vertices: np.ndarray) -> np.ndarray:
-    return np.stack([vertices.min(axis=0), vertices.max(axis=0)])
 
 
 def _mesh_path(model, mesh_id: int) -> Path | None:

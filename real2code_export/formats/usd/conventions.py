@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import contextlib
 import itertools
-import math
 import re
 import struct
 from pathlib import Path
@@ -188,8 +187,7 @@ def snapped_quat(rotation: np.ndarray) -> np.ndarray:
     # joint frame and shape placed has one)
     c = _canonical_floats(_quantised_floats(q.tolist()))
     for _ in range(3):
-        a = np.array(c)
-        norm = math.sqrt(a.dot(a))  # what np.linalg.norm computes
+        norm = tf.short_norm(c)  # what np.linalg.norm computes
         n = _canonical_floats(_quantised_floats([v / norm for v in c]))
         if n == c:
             return np.array(c)
