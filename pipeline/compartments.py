@@ -384,6 +384,13 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     measured ``normals`` (:func:`pipeline.fuse.axis_mean`), only the plane's points that
     face along it count: RANSAC also fits planes that cut across a box's edges (on the demo
     capture a drawer's got one, turned 13 degrees, and lost its front to the carcass).
+    A compartment lies within the carcass's walls (:func:`within_walls`, with the
+    ``normals``): what of those points lies past them, where the carcass's label stretches
+    its box out past its walls, is a part standing out behind the door's swing, and becomes
+    a part of its own where at least ``front_points`` of it face along the box's axes (on
+    a hand-held path a cabinet's inner drawer pulled 14 cm out behind a door swung 21
+    degrees: the door's label held its front, the carcass's label a strip of the door 23 cm
+    past the front, and the drawer went to the carcass whole).
     Returns the labels, renumbered by size, and what was moved, per part."""
     from scipy.spatial import cKDTree
 
@@ -392,6 +399,12 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     if labels.max() < 2 or np.count_nonzero(labels == 1) < 4:
         return out, moved
     body = carcass_box(cloud[labels == 1], voxel, options)
+    carcass = labels == 1
+    walls = body if normals is None else \
+        within_walls(body, cloud[carcass], normals[carcass], cloud[labels > 1], voxel, options)
+    square_to_box = None if normals is None else np.any(
+        np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle)), axis=1)
+    top = int(labels.max())
     for k in range(2, int(labels.max()) + 1):
         index = np.nonzero(labels == k)[0]
         panel = turned_panel(cloud[index], body, voxel, options,
@@ -410,6 +423,14 @@ def return_compartments(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             apart = np.isinf(cKDTree(pts[inliers]).query(pts, distance_upper_bound=link)[0])
             off_panel |= (square >= tight) & (along < tight) & apart
         back = off_panel & body.contains(pts, tol=voxel)
+        # past the walls: no compartment, a part standing out behind the door's swing
+        past = back & ~walls.contains(pts, tol=voxel)
+        if (square_to_box is not None and np.count_nonzero(past & square_to_box[index])
+                >= options.front_points):
+            top += 1
+            out[index[past]] = top
+            back &= ~past
+            moved.append({"part": top, "points": int(past.sum()), "past_walls_of": k})
         if back.any():
             out[index[back]] = 1
             moved.append({"part": k, "points": int(back.sum()), "panel_turn_deg": round(turn, 1)})

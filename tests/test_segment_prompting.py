@@ -329,6 +329,50 @@ def test_a_swung_doors_edges_beside_its_hinge_stay_with_the_door():
     assert moved[0]["points"] == bled.sum()
 
 
+def test_a_drawer_behind_a_swung_door_past_the_walls_is_no_compartment():
+    """A carcass open at the front (x = 0.3), a door swung 25 degrees, and behind its swing
+    a drawer pulled 14 cm out. The door's label took the drawer and half the back wall (the
+    compartment seen past it); the carcass's label took a strip of the door, so its box
+    reaches 34 cm past the walls. The back wall goes back to the carcass; the drawer's
+    front and what of it lies past the walls (where no compartment is) become a part of
+    their own; its bottom inside the walls goes to the carcass as before."""
+    from pipeline.compartments import return_compartments
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    a = np.radians(25)
+    along, facing = np.array((np.sin(a), np.cos(a), 0)), np.array((np.cos(a), -np.sin(a), 0))
+    carcass = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+               (_grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y), z)]
+    door = (_grid(0.8, 0.8, (0.3, -0.4, -0.4), along, z), facing)
+    drawer = [(_grid(0.24, 0.2, (0.44, 0.1, -0.3), y, z), x),  # its front, 14 cm out
+              (_grid(0.63, 0.24, (-0.19, 0.1, -0.3), x, y), z)]  # its bottom
+    cloud, normals = _facing(*carcass, door, *drawer)
+    n_carcass = sum(len(p) for p, _ in carcass)
+    n_door = len(door[0])
+    truth = np.r_[np.ones(n_carcass, int), np.full(n_door, 2),
+                  np.full(len(cloud) - n_carcass - n_door, 3)]
+    labels = truth.copy()
+    labels[truth == 3] = 2  # the door's masks took the drawer ...
+    bled = (np.arange(len(cloud)) < len(carcass[0][0])) & (cloud[:, 1] > 0.0)
+    labels[bled] = 2  # ... and the back wall past it
+    strip = (truth == 2) & (cloud[:, 2] > 0.35)
+    labels[strip] = 1  # the carcass's masks took the door's top edge
+    assert cloud[strip][:, 0].max() > 0.6
+    out, moved = return_compartments(cloud, labels, 0.02, normals=normals)
+    past = (truth == 3) & (cloud[:, 0] > 0.34)
+    assert (out[bled] == 1).all() and (out[(truth == 3) & ~past] == 1).all()
+    assert len(set(out[past])) == 1 and out[past][0] not in (1, out[truth == 2][0])
+    assert (out[(truth == 2) & ~strip] == out[truth == 2][0]).all()
+    assert moved[0] == {"part": int(labels.max()) + 1, "points": int(past.sum()),
+                        "past_walls_of": 2}
+    # without measured normals the walls are not found: all of it goes back, as before
+    out = return_compartments(cloud, labels, 0.02)[0]
+    assert (out[truth == 3] == 1).all()
+
+
 def _panel(x0, x1, z0, z1, y, step):
     xs, zs = np.meshgrid(np.arange(x0, x1, step), np.arange(z0, z1, step))
     return np.column_stack([xs.ravel(), np.full(xs.size, y), zs.ravel()])
