@@ -872,11 +872,36 @@ def enclosed_parts(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     local = (cloud - body.center) @ body.R
     parts = [k for k in range(2, int(labels.max()) + 1) if np.any(labels == k)]
     inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    standing = [k for k in parts if inside[k] < options.enclosed_inside]
+    for k in standing:
+        if inside[k] >= options.thick_inside:
+            inside[k] += _held_past(cloud, labels, body, margin, k, standing, voxel, options)
     faces = open_faces(local, labels, body.extent, margin,
                        [k for k in parts if inside[k] < options.enclosed_inside])
     return {k: enclosed_kinds(local[labels == k], body.extent, faces, inside[k],
                               int(carcass.sum()), voxel, options)
             for k in parts if inside[k] >= options.thick_inside}
+
+
+def _held_past(cloud: np.ndarray, labels: np.ndarray, body: OBB, margin: float, k: int,
+               standing: list[int], voxel: float, options: CompartmentOptions) -> float:
+    """The share of part ``k``'s points that lie out of the carcass's box ``body`` (grown by
+    ``margin``) touching another part standing out of it (within ``panel_link_voxels``
+    spacings): the masks' border with that part, not ``k`` standing out
+    (:func:`enclosed_parts` counts them as inside; :func:`return_enclosed` gives them to
+    the part nearest them). On a phone-LiDAR ring a strip of a cabinet's side wall, its
+    depth front to back, held 45 points (3 %) of the drawer pulled out beside it, past
+    the face the drawer stands out of, and kept a slide of its own."""
+    from scipy.spatial import cKDTree
+
+    index = np.nonzero(labels == k)[0]
+    out = index[~body.contains(cloud[index], tol=margin)]
+    others = np.isin(labels, [j for j in standing if j != k])
+    if len(out) == 0 or not others.any():
+        return 0.0
+    near, _ = cKDTree(cloud[others]).query(cloud[out], distance_upper_bound=options
+                                           .panel_link_voxels * voxel)
+    return float(np.count_nonzero(np.isfinite(near))) / len(index)
 
 
 def enclosed_kinds(local: np.ndarray, extent: np.ndarray, faces: list[tuple[int, int]],

@@ -233,6 +233,36 @@ def best_turn(surface: Surface, frame: np.ndarray, axis: int, span_deg: float = 
     return best, _turned(frame, axis, best)
 
 
+def fitted_frame(surface: Surface, frame: np.ndarray, span_deg: float = 10.0,
+                 min_gain: float = 0.01, rounds: int = 3) -> np.ndarray:
+    """``frame`` turned onto its faces all at once: each axis to the mean of the normals
+    within ``span_deg`` of it (sign-matched), the rotation nearest those three (orthogonal
+    Procrustes), repeated ``rounds`` times; kept only where it raises the alignment by
+    ``min_gain`` and turns no axis past ``span_deg``. A frame tilted a little about two axes
+    at once, on noisy normals, gains too little from either turn alone (:func:`best_turn`
+    keeps none) but enough from both: on phone-LiDAR views a refrigerator's body, no box
+    (its smallest box tilted 2 degrees), gained 0.007 and 0.009 from its two turns, 0.016
+    from the fit."""
+    fit = frame.copy()
+    for _ in range(rounds):
+        sums = []
+        for a in range(3):
+            cos = surface.normals @ fit[:, a]
+            near = np.abs(cos) >= np.cos(np.radians(span_deg))
+            sums.append((surface.weights[near, None] * surface.normals[near]
+                         * np.sign(cos[near])[:, None]).sum(axis=0))
+        target = np.stack(sums, axis=1)
+        if np.linalg.matrix_rank(target) < 3:
+            return frame.copy()
+        u, _, vt = np.linalg.svd(target)
+        fit = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+    turn = np.degrees(np.arccos(np.clip(np.abs(np.sum(fit * frame, axis=0)), 0.0, 1.0)))
+    if turn.max() > span_deg or \
+            alignment(surface, fit) < alignment(surface, frame) + min_gain:
+        return frame.copy()
+    return fit
+
+
 MIN_SQUARE = 0.4  # below this alignment in every frame a part is not boxy: volumes decide
 SQUARE_MARGIN = 0.05  # the carcass's frame wins unless the part's own is this much squarer
 
@@ -256,7 +286,8 @@ def aligned_boxes(parts: list, tolerance: float = 0.1, observed: list | None = N
     marched on a grid in its part's own box and its faces follow that grid, right or wrong.
     For a part with too few points to tell, volumes decide (the carcass's frame when the box
     grows by at most ``tolerance``, else one axis held). The largest part's own frame is
-    first squared to its faces the same way (a turn of at most 10 degrees about each axis).
+    first squared to its faces the same way (a turn of at most 10 degrees about each axis),
+    then to all of them at once (:func:`fitted_frame`).
     Boxes of exact, square parts are unchanged."""
     points = [_points(p.vertices if hasattr(p, "vertices") else p) for p in parts]
     surfaces = [Surface.of(p) for p in (observed if observed is not None else points)]
@@ -268,6 +299,7 @@ def aligned_boxes(parts: list, tolerance: float = 0.1, observed: list | None = N
     if alignment(surfaces[root], frame) >= MIN_SQUARE:
         for axis in range(3):
             frame = best_turn(surfaces[root], frame, axis, span_deg=10.0)[1]
+        frame = fitted_frame(surfaces[root], frame)
     out = []
     for i, (pts, surface, own) in enumerate(zip(points, surfaces, boxes, strict=True)):
         if i == root:

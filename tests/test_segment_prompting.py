@@ -864,6 +864,36 @@ def test_a_piece_deep_behind_the_open_face_is_the_carcass_at_any_size():
     assert return_enclosed(closed, kept, voxel=0.02)[1] == []
 
 
+def test_a_strip_of_the_carcass_holding_a_few_points_of_a_drawer_beside_it_goes_back():
+    """A strip of the carcass's side, front to back (7 % of the carcass, thin across the
+    box), in a label of its own that also took a few points (3 %) of the drawer pulled out
+    beside it, past the face the drawer stands out of: those points are the masks' border
+    with the drawer, not the strip standing out; the strip goes back to the carcass and
+    they go to the drawer. A drawer pulled out a little, its front past the face touching
+    no other part, stays."""
+    from pipeline.compartments import return_enclosed
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    drawer = np.concatenate([_grid(0.7, 0.3, (0.45, -0.36, -0.3), y, z),  # its front
+                             _grid(0.55, 0.3, (-0.1, -0.36, -0.3), x, z),  # its side
+                             _grid(0.55, 0.7, (-0.1, -0.36, -0.3), x, y)])  # its bottom
+    strip = _grid(0.56, 0.3, (-0.28, -0.38, 0.02), x, z)  # a liner of the side wall
+    border = _grid(0.1, 0.04, (0.34, -0.365, -0.04), x, z)  # the drawer's, past the face
+    shut = _grid(0.3, 0.3, (0.301, 0.05, 0.05), y, z)  # a drawer seen shut, out 1 mm
+    cloud = np.concatenate([carcass, drawer, strip, border, shut])
+    n = np.cumsum([0, len(carcass), len(drawer), len(strip), len(border), len(shut)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[4]], labels[n[4]:] = 2, 3, 4
+    share = len(border) / (len(strip) + len(border))
+    assert 0.02 < share < 0.05 and len(strip) > 0.03 * len(carcass)
+    out, moved = return_enclosed(cloud, labels, voxel=0.02)
+    assert (out[n[2]:n[3]] == 1).all()  # the strip: the carcass's
+    assert (out[n[3]:n[4]] == out[n[1]]).all()  # its border points: the drawer's
+    assert [m["part"] for m in moved] == [3]
+    assert len(np.unique(out[n[4]:])) == 1 and out[n[4]] not in (1, out[n[1]])
+
+
 def test_settling_takes_back_a_deep_patch_but_not_a_small_drawer_seen_shut():
     """Once the other rules have run, a patch of the carcass's inside deep behind the open
     face goes back to it, as in the first pass; a small drawer front flush with the opening
