@@ -1375,3 +1375,97 @@ def test_a_mesh_files_one_colour_needs_a_face_with_area_not_the_first():
                          [red])["color"] is None
     two = Mesh(vertices, np.array([[0, 1, 2], [0, 1, 3]]))  # areas 0.5 and 1.5
     assert _face_colours(two, np.array([0, 1]), [red, blue])["color"] == (0.25, 0.0, 0.75, 1.0)
+
+
+XACRO_MACROS = """<?xml version="1.0"?>
+<robot xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:macro name="segment" params="name parent z">
+    <link name="${name}">
+      <inertial><origin xyz="0 0 ${link_len / 2}"/><mass value="0.5"/>
+        <inertia ixx="0.007" ixy="0" ixz="0" iyy="0.007" iyz="0" izz="0.001"/></inertial>
+      <visual><origin xyz="0 0 ${link_len / 2}"/>
+        <geometry><cylinder radius="0.03" length="${link_len}"/></geometry></visual>
+    </link>
+    <joint name="${name}_joint" type="revolute">
+      <parent link="${parent}"/><child link="${name}"/>
+      <origin xyz="0 0 ${z}"/><axis xyz="0 1 0"/>
+      <limit lower="-1.5" upper="1.5" effort="10" velocity="2"/>
+    </joint>
+  </xacro:macro>
+</robot>
+"""
+
+XACRO_ROBOT = """<?xml version="1.0"?>
+<robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:property name="link_len" value="0.4"/>
+  <xacro:arg name="with_tip" default="true"/>
+  <xacro:include filename="$(find arm_description)/urdf/macros.xacro"/>
+  <link name="base">""" + INERTIAL + """
+    <visual><geometry><mesh filename="package://arm_description/meshes/base.stl"/></geometry>
+    </visual>
+  </link>
+  <xacro:segment name="upper" parent="base" z="0.15"/>
+  <xacro:segment name="lower" parent="upper" z="${link_len}"/>
+  <xacro:if value="$(arg with_tip)">
+    <xacro:segment name="tip" parent="lower" z="${link_len / 2}"/>
+  </xacro:if>
+</robot>
+"""
+
+
+def test_a_xacro_file_is_read_as_the_urdf_it_expands_to(tmp_path):
+    """``robot.urdf.xacro`` (ROS's macros: properties, args, an include found by ``$(find
+    PKG)``, macros, conditionals): expanded by ROS's xacro package, ``$(find)`` resolved as
+    ``package://`` is (a folder of that name above the file), and read as that URDF; the
+    check against the xacro source expands it too (MuJoCo and Pinocchio read no xacro)."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export
+
+    pytest.importorskip("xacro")
+    root = tmp_path / "arm_description"
+    (root / "urdf").mkdir(parents=True)
+    (root / "meshes").mkdir()
+    trimesh.creation.box((0.1, 0.2, 0.3)).export(root / "meshes" / "base.stl")
+    (root / "urdf" / "macros.xacro").write_text(XACRO_MACROS)
+    source = root / "urdf" / "arm.urdf.xacro"
+    source.write_text(XACRO_ROBOT)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = urdf.load(source)
+        written = export(obj, tmp_path / "out", ["urdf", "mjcf"])
+    assert [p.name for p in obj.parts] == ["base", "upper", "lower", "tip"]
+    tip = obj.joint("tip_joint")
+    np.testing.assert_allclose(tip.origin[:3, 3], [0, 0, 0.2])
+    assert obj.part("tip").inertial.mass == 0.5
+    pytest.importorskip("pinocchio")
+    report = check_files(list(written.values()), source=source, n_configurations=10,
+                         validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+
+
+def test_a_xacro_file_that_does_not_expand_is_refused_naming_it(tmp_path):
+    """A property never defined, a package ``$(find)`` finds nowhere: refused with the file
+    and xacro's own message; an error in the URDF it expands to names the line of that URDF
+    (as ``xacro FILE`` prints it), not of the xacro file."""
+    pytest.importorskip("xacro")
+    source = tmp_path / "bad.urdf.xacro"
+    source.write_text(XACRO_ROBOT.replace('<xacro:include filename="$(find arm_description)'
+                                          '/urdf/macros.xacro"/>', ""))
+    with pytest.raises(FormatError, match=r"bad\.urdf\.xacro.*xacro cannot expand it"):
+        urdf.load(source)
+    source.write_text(XACRO_ROBOT.replace("arm_description)", "no_such_package)"))
+    with pytest.raises(FormatError, match=r"\$\(find no_such_package\): no folder named"):
+        urdf.load(source)
+    source.write_text("""<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">
+      <link name="$(arg with_tip)"/></robot>""")
+    with pytest.raises(FormatError, match=r"undefined argument with_tip \(an argument without"):
+        urdf.load(source)
+    source.write_text("""<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">
+      <xacro:property name="lower" value="-1"/>
+      <link name="a"/><link name="b"/>
+      <joint name="j" type="revolute"><parent link="a"/><child link="b"/>
+        <limit lower="${lower}" upper="oops" effort="1" velocity="1"/></joint></robot>""")
+    with pytest.raises(FormatError, match=r"upper='oops'.*\(line \d+ of the URDF `xacro "
+                       r"bad\.urdf\.xacro` prints\)") as err:
+        urdf.load(source)
+    assert err.value.line is None

@@ -87,6 +87,8 @@ def register(fmt: Format) -> Format:
 
 
 _P = "real2code_export.probes."
+# ROS's macro files for URDF, read as the URDF they expand to (formats/urdf/xacro_file.py)
+XACRO_SUFFIX = ".xacro"
 for _fmt in (
     Format("json", "object.json", "The project's own lossless format",
            "real2code_export.formats.object_json", (".json",), probes=(_P + "model",),
@@ -94,7 +96,8 @@ for _fmt in (
     Format("mjcf", "MJCF", "MuJoCo", "real2code_export.formats.mjcf", (".xml", ".mjcf"),
            requires=("mujoco",), probes=(_P + "mujoco",), kept_elements="mjcf_elements"),
     Format("urdf", "URDF", "URDF (ROS, Pinocchio, Isaac, ...)", "real2code_export.formats.urdf",
-           (".urdf",), requires=("lxml.etree",), probes=(_P + "mujoco", _P + "pinocchio"),
+           (".urdf", XACRO_SUFFIX), requires=("lxml.etree",),
+           probes=(_P + "mujoco", _P + "pinocchio"),
            kept_elements="urdf_elements"),
     Format("usd", "USD", "USD with UsdPhysics joints", "real2code_export.formats.usd",
            (".usda", ".usd", ".usdc"), requires=("pxr.Sdf",),

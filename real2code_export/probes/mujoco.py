@@ -128,15 +128,22 @@ def _unnamed_joint(model, j: int) -> str:
     return f"{part}_joint"
 
 
+def _is_xacro(path: Path) -> bool:
+    from ..formats.urdf.xacro_file import is_xacro
+
+    return is_xacro(path)
+
+
 def urdf_kinematics(path: Path) -> str:
     """The URDF's text without <visual>/<collision>: its kinematics and masses, which is
     all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada)."""
     from lxml import etree
 
     from ..formats.urdf.structure import read_past
+    from ..formats.urdf.xacro_file import document
 
     try:  # what MuJoCo's own XML parser reads past, as the URDF reader does
-        root = read_past(path.read_bytes())[0]
+        root = read_past(document(path))[0]  # (a xacro file: the URDF it expands to)
     except etree.XMLSyntaxError as e:
         raise CheckError(f"{path}: MuJoCo refused it: malformed XML: {e}") from e
     for el in root.findall("link/visual") + root.findall("link/collision"):
@@ -169,7 +176,9 @@ def open_probes(path: str | Path, *, source: bool = False) -> list[MujocoProbe]:
     try:
         # qhull prints pages on a degenerate mesh; MuJoCo's own error says it in a line.
         with captured_c_output():
-            spec = source_urdf_spec(path) if source and is_urdf else spec_from_file(path)
+            # (a xacro file is read as the URDF it expands to, which MuJoCo cannot do)
+            spec = source_urdf_spec(path) if is_urdf and (source or _is_xacro(path)) \
+                else spec_from_file(path)
             # Every link/body must stay a body to be compared (MuJoCo's URDF default merges
             # bodies attached by fixed joints); visual-only geoms do not move anything.
             spec.compiler.fusestatic = False

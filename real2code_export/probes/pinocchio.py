@@ -113,9 +113,15 @@ class TooManyDofs(CheckError):
 def build_model(path: Path):
     import pinocchio as pin
 
+    from ..formats.urdf.xacro_file import document, is_xacro
+
     with captured_c_output() as printed:
         try:
-            model, error = pin.buildModelFromUrdf(str(path)), None
+            if is_xacro(path):  # the URDF it expands to (urdfdom reads no xacro)
+                model = pin.buildModelFromXML(document(path).decode("utf-8"))
+            else:
+                model = pin.buildModelFromUrdf(str(path))
+            error = None
         except (ValueError, RuntimeError) as e:
             model, error = None, e
     # urdfdom says why on stderr ("limit has no effort"); its "at line N in parser.cpp"

@@ -14,6 +14,7 @@ from ...errors import FormatError, warn
 from ...meshfiles import MeshFile
 from ...model import Mesh
 from .conventions import NAMESPACE, PREFIX
+from .xacro_file import is_xacro
 
 
 def label(el: etree._Element) -> str:
@@ -52,9 +53,17 @@ class Context:
         self.notes.setdefault(kind, []).append(name)
 
     def error(self, owner: str | None, message: str, line: int | None) -> FormatError:
+        message, line = self._expanded(message, line)
         return FormatError(self.path, owner, message, line)
 
+    def _expanded(self, message: str, line: int | None) -> tuple[str, int | None]:
+        """A line of a xacro file's expansion is no line of the file: said as such."""
+        if line is None or not is_xacro(self.path):
+            return message, line
+        return f"{message} (line {line} of the URDF `xacro {self.path.name}` prints)", None
+
     def warn(self, owner: str | None, message: str, line: int | None = None) -> None:
+        message, line = self._expanded(message, line)
         where = f"{self.path}:{line}" if line is not None else str(self.path)
         warn(f"{where}: {owner}: {message}" if owner else f"{where}: {message}")
 

@@ -14,7 +14,6 @@ none.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -27,6 +26,7 @@ from ...model import Mesh
 from ...primitives import SIZE_COUNT, Primitive, ShapeKind
 from .context import Context, label
 from .conventions import PREFIX, ns
+from .packages import package_search_path
 
 RGBA = tuple[float, float, float, float]
 
@@ -122,16 +122,6 @@ def _marked_shape(ctx: Context, shape: etree._Element, owner: str) -> Mesh | Non
                         shape.sourceline)
     size = _positive(ctx, shape, ns("size"), owner, SIZE_COUNT[ShapeKind(kind)])
     return Mesh.of_primitive(Primitive(kind, np.atleast_1d(size)))
-
-
-def package_search_path() -> list[Path]:
-    """Folders named by ``ROS_PACKAGE_PATH`` (ROS) and ``GZ_SIM_RESOURCE_PATH`` /
-    ``GAZEBO_MODEL_PATH`` (Gazebo's ``model://``), in that order; ``real2code
-    --package-path`` prepends to the first."""
-    folders = []
-    for var in ("ROS_PACKAGE_PATH", "GZ_SIM_RESOURCE_PATH", "GAZEBO_MODEL_PATH"):
-        folders += [Path(p) for p in os.environ.get(var, "").split(os.pathsep) if p]
-    return folders
 
 
 def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, *,

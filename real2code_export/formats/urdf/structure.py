@@ -13,6 +13,7 @@ from lxml import etree
 from ...model import NAME_PATTERN, sanitize_name
 from .context import Context, label
 from .conventions import ADDED, PREFIX, ns
+from .xacro_file import document
 
 # URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
 # real2code:type="ball"); planar is read as two slides and a hinge.
@@ -35,7 +36,7 @@ def parse(ctx: Context) -> etree._Element:
     parser = etree.XMLParser(remove_comments=True, remove_pis=True, resolve_entities=False,
                              no_network=True)
     try:
-        robot, repairs = read_past(ctx.path.read_bytes(), parser, base_url=str(ctx.path))
+        robot, repairs = read_past(document(ctx.path), parser, base_url=str(ctx.path))
     except etree.XMLSyntaxError as e:
         raise ctx.error(None, f"malformed XML: {e.msg}", e.lineno) from e
     for message, line in repairs:

@@ -1,0 +1,79 @@
+"""A xacro file (``robot.urdf.xacro``: ROS's macro language for URDF) read as the URDF it
+expands to. The expansion is ROS's own ``xacro`` package (PyPI, no ROS needed) with its
+``$(find NAME)`` resolved here, as the URDF reader resolves ``package://NAME``: a folder
+named NAME (or holding one) among the file's parent folders, then the search path
+(``--package-path``, ``ROS_PACKAGE_PATH``): xacro's own ``find`` asks ROS 2's package index,
+which a machine without ROS does not have.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+
+from ...errors import FormatError
+from .. import XACRO_SUFFIX
+from .packages import find_package, package_search_path
+
+
+def is_xacro(path: Path) -> bool:
+    return path.suffix.lower() == XACRO_SUFFIX
+
+
+def document(path: Path) -> bytes:
+    """The URDF a file holds: a xacro file's expansion, any other file's bytes."""
+    return expand(path) if is_xacro(path) else path.read_bytes()
+
+
+def expand(path: Path) -> bytes:
+    """The URDF ``path`` (a xacro file) expands to, with xacro's default arguments;
+    FormatError naming the file (and xacro's message) where it cannot be expanded."""
+    try:
+        import xacro
+        from xacro import substitution_args
+    except ImportError as e:
+        raise FormatError(path, None, "a xacro file needs the xacro package "
+                          "(pip install xacro)") from e
+
+    def find(name: str) -> str:
+        folder = find_package(name, path.resolve().parent)
+        if folder is None:
+            raise substitution_args.SubstitutionException(
+                f"$(find {name}): no folder named {name!r} (or holding one) above the file "
+                f"nor on the search path {[str(f) for f in package_search_path()]} "
+                "(--package-path, ROS_PACKAGE_PATH)")
+        return str(folder)
+
+    # xacro has no hook for finding packages: its module function is replaced while this
+    # file expands (xacrodoc, a wrapper made for the same use, replaces it for good).
+    with _replaced(substitution_args, "_eval_find", find):
+        try:
+            doc = xacro.process_file(str(path))
+        except Exception as e:  # xacro raises its own, expat's, NameError, KeyError...
+            raise FormatError(path, None, f"xacro cannot expand it: {_message(e)}") from e
+    # as the xacro command prints it, so that a line number here is one in its output
+    return doc.toprettyxml(indent="  ", encoding="utf-8")
+
+
+def _message(e: Exception) -> str:
+    from xacro.substitution_args import ArgException
+
+    inner = getattr(e, "exc", None)  # xacro wraps the error it met in its own
+    if isinstance(inner, Exception):
+        e = inner
+    text = str(e).strip() or type(e).__name__
+    if isinstance(e, ArgException):
+        return (f"undefined argument {text} (an argument without a default: arguments on "
+                "the command line, NAME:=VALUE, are not taken here; expand the file with "
+                "xacro first)")
+    return text if not isinstance(e, (NameError, KeyError)) else f"{type(e).__name__}: {text}"
+
+
+@contextlib.contextmanager
+def _replaced(module, name: str, value):
+    old = getattr(module, name)
+    setattr(module, name, value)
+    try:
+        yield
+    finally:
+        setattr(module, name, old)
