@@ -1469,3 +1469,28 @@ def test_a_xacro_file_that_does_not_expand_is_refused_naming_it(tmp_path):
                        r"bad\.urdf\.xacro` prints\)") as err:
         urdf.load(source)
     assert err.value.line is None
+
+
+def test_xacro_arguments_are_given_on_the_command_line(tmp_path, monkeypatch, capsys):
+    """``--xacro-arg NAME:=VALUE`` (as the xacro command takes them): an argument without a
+    default is refused naming the option, given it expands, and the check of the exports
+    against the xacro source expands it with the same arguments."""
+    from real2code_export.cli import EXIT_ERROR, EXIT_OK, run
+    from real2code_export.formats.urdf.packages import XACRO_ARGS_VARIABLE
+
+    pytest.importorskip("xacro")
+    pytest.importorskip("pinocchio")
+    monkeypatch.delenv(XACRO_ARGS_VARIABLE, raising=False)
+    source = tmp_path / "two.urdf.xacro"
+    source.write_text("""<robot name="two" xmlns:xacro="http://www.ros.org/wiki/xacro">
+      <link name="base">""" + INERTIAL + """</link><link name="tip">""" + INERTIAL + """</link>
+      <joint name="slide" type="prismatic"><parent link="base"/><child link="tip"/>
+        <axis xyz="1 0 0"/><limit lower="0" upper="$(arg reach)" effort="1" velocity="1"/>
+      </joint></robot>""")
+    out = tmp_path / "out"
+    assert run(["export", str(source), "--to", "mjcf", "--out", str(out)]) == EXIT_ERROR
+    assert "give it with --xacro-arg reach:=VALUE" in capsys.readouterr().err
+    assert run(["export", str(source), "--to", "mjcf,urdf", "--out", str(out), "--check",
+                "--xacro-arg", "reach:=0.25"]) == EXIT_OK
+    back = urdf.load(out / "two.urdf")
+    assert back.joint("slide").limits.upper == pytest.approx(0.25)

@@ -55,16 +55,26 @@ def add_parsers(sub) -> None:
 def _add_source_options(parser) -> None:
     parser.add_argument("--package-path", action="append", default=[], metavar="DIR",
                         help="a folder holding ROS packages, for package:// and model:// mesh "
-                             "URIs (repeatable; searched before ROS_PACKAGE_PATH)")
+                             "URIs and xacro's $(find) (repeatable; searched before "
+                             "ROS_PACKAGE_PATH)")
+    parser.add_argument("--xacro-arg", action="append", default=[], metavar="NAME:=VALUE",
+                        help="an argument of a .xacro input, as the xacro command takes it "
+                             "(repeatable)")
 
 
 def _use_package_path(args) -> None:
+    """The source options, where the readers (and the check's tools, in processes forked
+    from this one) look for them: ROS_PACKAGE_PATH, and the xacro arguments' variable."""
     import os
+
+    from ..formats.urdf.packages import XACRO_ARGS_VARIABLE
 
     if args.package_path:
         folders = [str(Path(p).resolve()) for p in args.package_path]
         rest = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
         os.environ["ROS_PACKAGE_PATH"] = os.pathsep.join(folders + rest)
+    if args.xacro_arg:
+        os.environ[XACRO_ARGS_VARIABLE] = "\n".join(args.xacro_arg)
 
 
 def cmd_export(args) -> int:

@@ -1,5 +1,6 @@
 """Where a URDF's packages are: the folders ``package://NAME`` and xacro's ``$(find NAME)``
-are looked for in (there is no ROS package index here)."""
+are looked for in (there is no ROS package index here); and the arguments a xacro file is
+expanded with (``real2code --xacro-arg``)."""
 
 from __future__ import annotations
 
@@ -26,3 +27,20 @@ def find_package(name: str, start: Path) -> Path | None:
         if (folder / name).is_dir():
             return folder / name
     return None
+
+
+# ``real2code --xacro-arg NAME:=VALUE`` (repeatable) puts its arguments here, one a line, for
+# the reader and the check's tools, as ``--package-path`` puts its folders in ROS_PACKAGE_PATH.
+XACRO_ARGS_VARIABLE = "REAL2CODE_XACRO_ARGS"
+
+
+def xacro_arguments() -> dict[str, str]:
+    """The xacro arguments given (:data:`XACRO_ARGS_VARIABLE`), NAME -> VALUE; ValueError
+    naming one that is not NAME:=VALUE."""
+    out = {}
+    for item in os.environ.get(XACRO_ARGS_VARIABLE, "").splitlines():
+        name, sep, value = item.partition(":=")
+        if not sep or not name.strip():
+            raise ValueError(f"--xacro-arg {item!r} is not NAME:=VALUE")
+        out[name.strip()] = value
+    return out

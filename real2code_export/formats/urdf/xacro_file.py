@@ -13,7 +13,7 @@ from pathlib import Path
 
 from ...errors import FormatError
 from .. import XACRO_SUFFIX
-from .packages import find_package, package_search_path
+from .packages import find_package, package_search_path, xacro_arguments
 
 
 def is_xacro(path: Path) -> bool:
@@ -26,8 +26,9 @@ def document(path: Path) -> bytes:
 
 
 def expand(path: Path) -> bytes:
-    """The URDF ``path`` (a xacro file) expands to, with xacro's default arguments;
-    FormatError naming the file (and xacro's message) where it cannot be expanded."""
+    """The URDF ``path`` (a xacro file) expands to, with the arguments given
+    (:func:`.packages.xacro_arguments`) and xacro's defaults for the rest; FormatError
+    naming the file (and xacro's message) where it cannot be expanded."""
     try:
         import xacro
         from xacro import substitution_args
@@ -46,9 +47,13 @@ def expand(path: Path) -> bytes:
 
     # xacro has no hook for finding packages: its module function is replaced while this
     # file expands (xacrodoc, a wrapper made for the same use, replaces it for good).
+    try:
+        arguments = xacro_arguments()
+    except ValueError as e:
+        raise FormatError(path, None, str(e)) from e
     with _replaced(substitution_args, "_eval_find", find):
         try:
-            doc = xacro.process_file(str(path))
+            doc = xacro.process_file(str(path), mappings=arguments)
         except Exception as e:  # xacro raises its own, expat's, NameError, KeyError...
             raise FormatError(path, None, f"xacro cannot expand it: {_message(e)}") from e
     # as the xacro command prints it, so that a line number here is one in its output
@@ -63,9 +68,8 @@ def _message(e: Exception) -> str:
         e = inner
     text = str(e).strip() or type(e).__name__
     if isinstance(e, ArgException):
-        return (f"undefined argument {text} (an argument without a default: arguments on "
-                "the command line, NAME:=VALUE, are not taken here; expand the file with "
-                "xacro first)")
+        return (f"undefined argument {text} (an argument without a default: give it with "
+                f"--xacro-arg {text}:=VALUE)")
     return text if not isinstance(e, (NameError, KeyError)) else f"{type(e).__name__}: {text}"
 
 
