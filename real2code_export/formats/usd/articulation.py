@@ -187,7 +187,7 @@ def joint_frame(e: Edge, side: int, mpu: float) -> np.ndarray:
     static = e.static.get(side)
     if static is None:
         return local
-    rotation = _rotation_of(static[:3, :3])
+    rotation = tf.orthonormalize(static[:3, :3])
     return tf.make(rotation @ local[:3, :3], rotation @ local[:3, 3] + static[:3, 3])
 
 
@@ -199,17 +199,7 @@ def joint_quat(e: Edge, side: int) -> np.ndarray:
     static = e.static.get(side)
     if static is None:
         return quat
-    return tf.matrix_to_quat(_rotation_of(static[:3, :3]) @ tf.quat_to_matrix(quat))
-
-
-def _rotation_of(linear: np.ndarray) -> np.ndarray:
-    """The rotation of a rotation-and-scale matrix (its polar factor)."""
-    u, _, vt = np.linalg.svd(linear)
-    rot = u @ vt
-    if np.linalg.det(rot) < 0:  # a mirroring scale: the rotation of its unmirrored part
-        u[:, -1] *= -1
-        rot = u @ vt
-    return rot
+    return tf.matrix_to_quat(tf.orthonormalize(static[:3, :3]) @ tf.quat_to_matrix(quat))
 
 
 def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulation:
