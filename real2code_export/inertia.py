@@ -26,7 +26,7 @@ import numpy as np
 
 from . import meshcache, meshtopology
 from .errors import InputError, warn
-from .model import Inertial, Mesh
+from .model import Inertial, JointType, Mesh, Tree
 
 # Furniture (the main category here) is wood, plywood, particleboard or MDF: roughly
 # 400-800 kg/m^3. 500 is a middle value that also allows for hollow/cored panels.
@@ -226,6 +226,38 @@ def combine_inertials(items: Sequence[tuple[Inertial, np.ndarray]]) -> Inertial:
     inertia = np.trace(second_c) * np.eye(3) - second_c
     # Sums of valid tensors stay valid; only symmetrise the round-off.
     return Inertial(mass, com, 0.5 * (inertia + inertia.T))
+
+
+def carrier(tree: Tree, name: str) -> str | None:
+    """The moving part with no mass of its own that part ``name`` is welded under (fixed
+    joints all the way up to its joint), or None: not welded (``name`` moves itself or is the
+    root), welded to the root, or under a part with mass. Such a part carries the mass of
+    the parts welded below it (a free body whose mass lies in a body welded under it, as
+    MJCF writes one): formats that can state no "no mass" (UsdPhysics, KHR_physics_rigid_
+    bodies: zero means "compute it", none "a default") write the group as one body with
+    their summed mass properties (:func:`welded_below`), else the simulator gives the moving
+    part a mass of its own."""
+    joint = tree.parent.get(name)
+    if joint is None or joint.type is not JointType.FIXED:
+        return None
+    while joint is not None and joint.type is JointType.FIXED:
+        joint = tree.parent.get(joint.parent)
+    return joint.child if joint is not None and tree.parts[joint.child].inertial is None \
+        else None
+
+
+def welded_below(tree: Tree, name: str) -> list[tuple[str, np.ndarray]]:
+    """The parts fixed below part ``name`` (through fixed joints only), each with its frame
+    in ``name``'s part frame."""
+    out, stack = [], [(name, np.eye(4))]
+    while stack:
+        parent, pose = stack.pop()
+        for j in tree.children[parent]:
+            if j.type is JointType.FIXED:
+                child_pose = pose @ j.origin
+                out.append((j.child, child_pose))
+                stack.append((j.child, child_pose))
+    return out
 
 
 def box_inertial(extents: Sequence[float] | np.ndarray, *, mass: float | None = None,

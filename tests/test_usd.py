@@ -35,7 +35,7 @@ pxr = pytest.importorskip("pxr")
 # Newton's schemas (NewtonJointAPI, NewtonMassAPI), as our reader registers them before opening
 # a stage: the writer authors the file through Sdf and registers nothing.
 import newton_usd_schemas  # noqa: E402, F401
-from pxr import Sdf, Usd, UsdPhysics, UsdValidation  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdValidation  # noqa: E402
 
 TOL = 1e-6
 VALIDATOR_KEYWORDS = ["UsdPhysicsValidators", "UsdGeomValidators", "UsdShadeValidators",
@@ -326,6 +326,77 @@ def test_a_chain_of_massless_fixed_parts_belongs_to_the_body_it_hangs_from(tmp_p
     back = usd.load(path)
     assert differences(obj, back, TOL) == []
     assert back.joint("lowest_joint").parent == "lower"
+
+
+def test_a_massless_moving_body_states_the_mass_welded_below_it(tmp_path):
+    """A free body with no mass of its own whose mass lies in a body welded under it and a
+    handle welded under that (as MJCF writes a kettle): its rigid body stated no mass and
+    had no collider, so PhysX gave it 1 kg (ovphysx read 1.0 for it) and the object weighed
+    1.88 kg for 0.88. The welded parts are Xforms in its body, which states their summed
+    mass properties; each prim keeps its part's own (``real2code:own*``), so the model
+    reads back the same. The schema's view (what PhysX reads) agrees with the source, and
+    flags the old form: a moving rigid body with neither mass nor collider."""
+    from real2code_export.check import check_files
+    from real2code_export.probes.schema_dynamics import usd_dynamics
+
+    source = tmp_path / "kettle.xml"
+    source.write_text("""<mujoco model="kettle">
+  <worldbody>
+    <body name="kettle" pos="0.3 0 0.5">
+      <freejoint name="free"/>
+      <body name="shell" pos="0 0.1 0.05" euler="0 0 30">
+        <geom type="box" size=".05 .08 .1" mass="0.8"/>
+        <body name="handle" pos="0 0 0.12" euler="0 90 0">
+          <geom type="capsule" size=".01 .03" mass="0.08"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = load_any(source)
+    path = usd.save(obj, tmp_path / "out", write_meshes=False)
+    _, parsed = _parsed(path)
+    assert sorted(p.rsplit("/", 1)[1] for p in parsed["RigidBody"]) == ["kettle", "world"]
+    stage = Usd.Stage.Open(str(path))
+    kettle = UsdPhysics.MassAPI(stage.GetPrimAtPath("/kettle/Geometry/kettle"))
+    assert kettle.GetMassAttr().Get() == pytest.approx(0.88)
+    def point(t, p):
+        return t[:3, :3] @ p + t[:3, 3]
+
+    shell, handle = obj.joint("kettle_to_shell").origin, obj.joint("shell_to_handle").origin
+    expected = (point(shell, obj.part("shell").inertial.com) * 0.8
+                + point(shell @ handle, obj.part("handle").inertial.com) * 0.08) / 0.88
+    np.testing.assert_allclose(kettle.GetCenterOfMassAttr().Get(), expected, atol=1e-6)
+    view = usd_dynamics(open_probes(path)[0])
+    assert view.unstated == {}
+    back = usd.load(path)
+    assert back.part("kettle").inertial is None
+    assert differences(obj, back, TOL) == []
+    report = check_files([path], source=source, n_configurations=5)
+    assert report.ok, [m.message for m in report.mismatches]
+    # the old form, two bodies held by a fixed joint, the moving one stating nothing
+    stage = Usd.Stage.CreateNew(str(tmp_path / "old.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    bodies = []
+    for name in ("kettle", "shell"):
+        prim = UsdGeom.Xform.Define(stage, f"/old/{name}").GetPrim()
+        UsdPhysics.RigidBodyAPI.Apply(prim)
+        bodies.append(prim)
+    UsdPhysics.MassAPI.Apply(bodies[1]).CreateMassAttr(0.88)
+    UsdPhysics.MassAPI(bodies[1]).CreateCenterOfMassAttr(Gf.Vec3f(0, 0, 0))
+    UsdPhysics.MassAPI(bodies[1]).CreateDiagonalInertiaAttr(Gf.Vec3f(1e-3, 1e-3, 1e-3))
+    UsdPhysics.MassAPI(bodies[1]).CreatePrincipalAxesAttr(Gf.Quatf(1, 0, 0, 0))
+    weld = UsdPhysics.FixedJoint.Define(stage, "/old/weld")
+    weld.CreateBody0Rel().SetTargets([bodies[0].GetPath()])
+    weld.CreateBody1Rel().SetTargets([bodies[1].GetPath()])
+    stage.SetDefaultPrim(stage.GetPrimAtPath("/old"))
+    stage.Save()
+    view = usd_dynamics(open_probes(tmp_path / "old.usda")[0])
+    assert "PhysX gives such a body 1 kg" in view.unstated["kettle"]
 
 
 def test_a_mesh_is_written_once(tmp_path):

@@ -113,6 +113,7 @@ def usd_dynamics(probe) -> SchemaDynamics:
                 joints.append((str(p), kind.name, d))
     poses = probe.body_poses(np.zeros((1, len(probe.joints))))
     names = {p: stage.GetPrimAtPath(p).GetName() for p in rigid}
+    massless = []  # bodies with neither a mass nor a collider
     for path, desc in rigid.items():
         name = names[path]
         (mass, inertia, com), missing = _usd_mass(stage.GetPrimAtPath(path), kpu, mpu)
@@ -120,7 +121,9 @@ def usd_dynamics(probe) -> SchemaDynamics:
             out.unstated[name] = (f"{missing} not stated (PhysicsMassAPI); a simulator "
                                   f"computes it from its {len(desc.collisions)} "
                                   "collider(s) at a density")
-        # (without colliders what is stated stands: no mass, or a point mass)
+        elif missing == "mass":  # OpenUSD's mass computation fails on it: PhysX says 1 kg
+            massless.append(name)
+        # (a mass without a centre of mass or inertia, and no colliders: a point mass)
         pose = poses[path][0]
         out.bodies[name] = (mass, pose[:3, :3] @ inertia @ pose[:3, :3].T,
                             pose[:3, :3] @ com + pose[:3, 3])
@@ -129,6 +132,10 @@ def usd_dynamics(probe) -> SchemaDynamics:
              for _, kind, d in joints if kind == "FixedJoint"]
     out.group = {names[p]: (names[k] if k != WORLD else WORLD)
                  for p, k in _union(fixed, list(rigid)).items() if p != WORLD}
+    for name in massless:  # (held by the world, its mass moves nothing)
+        if out.group[name] != WORLD:
+            out.unstated[name] = ("no mass stated (PhysicsMassAPI) and no collider: PhysX "
+                                  "gives such a body 1 kg")
     for path, kind, d in joints:
         if kind == "D6Joint":  # a ball (free, or held at rest: formats.usd.d6) is one joint
             from ..formats.usd import d6

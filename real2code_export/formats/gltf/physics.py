@@ -82,43 +82,21 @@ def bodies(tree: Tree) -> dict[str, Inertial | None]:
     ``motion`` states (in the part frame). A non-root part is its own body when it moves or
     has mass; a massless part on a fixed joint simply belongs to its parent's body (the
     extension's node-tree rule). A moving part with no mass of its own carries the parts
-    fixed below it (a free body whose mass lies in a body welded under it, as MJCF writes
-    one): the extension can state no zero mass (zero means infinite, none "compute it from
-    the colliders"), so that group is one body with the parts' summed mass properties."""
-    from ...inertia import combine_inertials
+    fixed below it (:func:`inertia.carrier`): the extension can state no zero mass (zero
+    means infinite, none "compute it from the colliders"), so that group is one body with
+    the parts' summed mass properties."""
+    from ...inertia import carrier, combine_inertials, welded_below
 
     out: dict[str, Inertial | None] = {}
     for name, joint in tree.parent.items():
         inertial = tree.parts[name].inertial
         if joint.type is JointType.FIXED:
-            if inertial is not None and not _carried(tree, joint):
+            if inertial is not None and carrier(tree, name) is None:
                 out[name] = inertial
             continue
-        welded = _welded_below(tree, name) if inertial is None else []
+        welded = [(tree.parts[part].inertial, pose) for part, pose in welded_below(tree, name)
+                  if tree.parts[part].inertial is not None] if inertial is None else []
         out[name] = combine_inertials(welded) if welded else inertial
-    return out
-
-
-def _carried(tree: Tree, joint: Joint) -> bool:
-    """Whether a part on a fixed ``joint`` is carried by the moving massless part it is
-    welded to (:func:`bodies`); parts welded to the root are bodies of their own."""
-    while joint is not None and joint.type is JointType.FIXED:
-        joint = tree.parent.get(joint.parent)
-    return joint is not None and tree.parts[joint.child].inertial is None
-
-
-def _welded_below(tree: Tree, name: str) -> list[tuple[Inertial, np.ndarray]]:
-    """The mass properties of the parts fixed below part ``name``, each with its frame in
-    the part's."""
-    out, stack = [], [(name, np.eye(4))]
-    while stack:
-        parent, pose = stack.pop()
-        for j in tree.children[parent]:
-            if j.type is JointType.FIXED:
-                child_pose = pose @ j.origin
-                if tree.parts[j.child].inertial is not None:
-                    out.append((tree.parts[j.child].inertial, child_pose))
-                stack.append((j.child, child_pose))
     return out
 
 

@@ -22,8 +22,6 @@ PHYSX_LINK_DAMPING = ("physxRigidBody:linearDamping", "physxRigidBody:angularDam
 
 
 def write_body(layer, path: str, part: Part, world: np.ndarray):
-    from pxr import Gf
-
     prim = define(layer, path, "Xform", "PhysicsRigidBodyAPI")
     place(prim, world)
     # PhysX damps every body it is not told otherwise about (angular 0.05): our parts move
@@ -31,9 +29,15 @@ def write_body(layer, path: str, part: Part, world: np.ndarray):
     apply(prim, PHYSX_RIGID_BODY)
     for name in PHYSX_LINK_DAMPING:
         attribute(prim, name, "Float", LINK_DAMPING)
-    inertial = part.inertial
-    if inertial is None:
-        return prim
+    if part.inertial is not None:
+        write_mass(prim, part.inertial)
+    return prim
+
+
+def write_mass(prim, inertial: Inertial) -> None:
+    """A body's PhysicsMassAPI (and NewtonMassAPI's full tensor) in its frame."""
+    from pxr import Gf
+
     apply(prim, "PhysicsMassAPI")
     attribute(prim, "physics:mass", "Float", as_float32(inertial.mass))
     attribute(prim, "physics:centerOfMass", "Point3f", Gf.Vec3f(*inertial.com.tolist()))
@@ -41,25 +45,31 @@ def write_body(layer, path: str, part: Part, world: np.ndarray):
     attribute(prim, "physics:diagonalInertia", "Float3", Gf.Vec3f(*moments.tolist()))
     attribute(prim, "physics:principalAxes", "Quatf", quatf(axes))
     apply(prim, "NewtonMassAPI")
-    i = inertial.inertia
-    attribute(prim, "newton:inertia", "DoubleArray",
-              [float(i[0, 0]), float(i[1, 1]), float(i[2, 2]), float(i[0, 1]), float(i[0, 2]),
-               float(i[1, 2])])
-    return prim
+    attribute(prim, "newton:inertia", "DoubleArray", _six(inertial.inertia))
+
+
+def _six(i: np.ndarray) -> list[float]:  # xx yy zz xy xz yz
+    return [float(i[0, 0]), float(i[1, 1]), float(i[2, 2]), float(i[0, 1]), float(i[0, 2]),
+            float(i[1, 2])]
 
 
 def in_parent_body(obj: ArticulatedObject) -> list[str]:
     """The parts written as an Xform in their parent's body (or in such an Xform), parents
-    first: fixed, massless, and all that hangs from them so too (a frame; a link with only
-    geometry; a chain of them, as Unitree's collision-only calf links). Their geometry is
-    the body's in every simulator; the Xform keeps their name, frame and look for the round
+    first: fixed, massless or carried (:func:`inertia.carrier`: welded under a moving part
+    with no mass of its own, whose body then states their summed mass,
+    :func:`carry_welded_mass`), and all that hangs from them so too (a frame; a link with
+    only geometry; a chain of them, as Unitree's collision-only calf links; the body welded
+    under a massless free body, as MJCF writes a free object). Their geometry is the body's
+    in every simulator; the Xform keeps their name, frame, look and own mass for the round
     trip."""
+    from ...inertia import carrier
+
     tree = obj.tree()
 
-    def held(name: str) -> bool:  # the part and everything below it: fixed and massless
+    def held(name: str) -> bool:  # the part and everything below it: fixed, no mass of its own
         joint = tree.parent.get(name)
         return joint is not None and joint.type is JointType.FIXED \
-            and tree.parts[name].inertial is None \
+            and (tree.parts[name].inertial is None or carrier(tree, name) is not None) \
             and all(held(j.child) for j in tree.children[name])
 
     inside = [j.child for j in obj.joints if held(j.child)]  # in the joints' order
@@ -69,6 +79,68 @@ def in_parent_body(obj: ArticulatedObject) -> list[str]:
         out += ready
         inside = [n for n in inside if n not in ready]
     return out
+
+
+def carry_welded_mass(layer, obj: ArticulatedObject, frames: list[str],
+                      path_of: dict[str, str]) -> None:
+    """The bodies holding frames with mass (``frames``: the parts written as Xforms in
+    their parent's body, parents first; ``path_of``: part -> its prim) state the summed mass
+    properties of their own part and those frames in PhysicsMassAPI, the only mass PhysX
+    and Newton read (a moving body with none gets a default of 1 kg); each of those prims
+    keeps its part's own values in ``real2code:own*`` for our reader."""
+    from ...inertia import combine_inertials
+
+    tree = obj.tree()
+    body_of: dict[str, tuple[str, np.ndarray]] = {}  # frame -> its body part, its pose there
+    held: dict[str, list[str]] = {}
+    for name in frames:
+        joint = tree.parent[name]
+        body, pose = body_of.get(joint.parent, (joint.parent, np.eye(4)))
+        body_of[name] = body, pose @ joint.origin
+        if tree.parts[name].inertial is not None:
+            held.setdefault(body, []).append(name)
+    for body, names in held.items():
+        own = tree.parts[body].inertial
+        pieces = [(tree.parts[n].inertial, body_of[n][1]) for n in names]
+        prim = layer.GetPrimAtPath(path_of[body])
+        write_mass(prim, combine_inertials(pieces + ([(own, np.eye(4))] if own else [])))
+        for name in [body, *names]:
+            write_own_mass(layer.GetPrimAtPath(path_of[name]), tree.parts[name].inertial)
+
+
+def write_own_mass(prim, inertial: Inertial | None) -> None:
+    """A part's own mass properties on its prim (:data:`.conventions.OWN_MASS`)."""
+    from pxr import Gf
+
+    from .conventions import OWN_CENTER_OF_MASS, OWN_INERTIA, OWN_MASS
+
+    attribute(prim, OWN_MASS, "Double", 0.0 if inertial is None else inertial.mass,
+              custom=True)
+    if inertial is not None:
+        attribute(prim, OWN_CENTER_OF_MASS, "Double3", Gf.Vec3d(*inertial.com.tolist()),
+                  custom=True)
+        attribute(prim, OWN_INERTIA, "DoubleArray", _six(inertial.inertia), custom=True)
+
+
+def read_own_mass(prim, mpu: float, kpu: float) -> tuple[bool, Inertial | None]:
+    """Whether ``prim`` states its part's own mass properties apart from its PhysicsMassAPI
+    (:func:`write_own_mass`), and what they are (SI, the prim's frame: our frames and bodies
+    are their parts' frames)."""
+    from .conventions import OWN_CENTER_OF_MASS, OWN_INERTIA, OWN_MASS
+
+    attr = prim.GetAttribute(OWN_MASS)
+    if not attr or attr.Get() is None:
+        return False, None
+    mass = float(attr.Get()) * kpu
+    if mass <= 0.0:
+        return True, None
+    com, tensor = prim.GetAttribute(OWN_CENTER_OF_MASS), prim.GetAttribute(OWN_INERTIA)
+    if not com or com.Get() is None or not tensor or tensor.Get() is None \
+            or len(tensor.Get()) != 6:
+        return False, None  # not ours whole: PhysicsMassAPI's, as any reader takes it
+    xx, yy, zz, xy, xz, yz = (float(v) * kpu * mpu * mpu for v in tensor.Get())
+    return True, Inertial(mass, np.array(com.Get(), float) * mpu,
+                          np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]))
 
 
 def write_frame(layer, path: str, joint):

@@ -48,6 +48,13 @@ WORLD_JOINT = "world_fixed"
 METADATA = f"{NAMESPACE}:metadata"  # the object's metadata (JSON) on the object prim
 FLOATING_JOINT = f"{NAMESPACE}:floatingJoint"  # on a free body: its floating joint's name
 FRAME_JOINT = f"{NAMESPACE}:fixedJoint"  # on a frame (an Xform in a body): its joint's name
+# a part's own mass properties where the prim's PhysicsMassAPI states a welded group's (a
+# body carrying the parts welded below it) or the prim is no body (those parts' frames):
+# mass (kg; 0: the part has none), centre of mass (m, part frame), inertia (kg m^2, about
+# the centre of mass: xx yy zz xy xz yz, as newton:inertia)
+OWN_MASS = f"{NAMESPACE}:ownMass"
+OWN_CENTER_OF_MASS = f"{NAMESPACE}:ownCenterOfMass"
+OWN_INERTIA = f"{NAMESPACE}:ownInertia"
 
 
 # -- opening ---------------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from ...errors import FormatError, ModelError, warn
 from ...model import (
     ArticulatedObject,
     Dynamics,
+    Inertial,
     Joint,
     JointType,
     Limits,
@@ -28,7 +29,7 @@ from ...model import (
 from ...repairs import massless_moving_parts, unusable_mimics
 from . import articulation as art_
 from . import d6, drive, loop
-from .body import collider_mass, read_inertial
+from .body import collider_mass, read_inertial, read_own_mass
 from .conventions import (
     FLOATING_JOINT,
     FRAME_JOINT,
@@ -250,6 +251,11 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
     inertial = read_inertial(prim, to_part, collision or visuals, ctx.mpu, ctx.kpu,
                              f"{path}: {where}", colliders=collision if moves else None,
                              scale=ctx.scale.get(str(prim.GetPath())), collider_mass=own_mass)
+    stated, own = read_own_mass(prim, ctx.mpu, ctx.kpu)
+    if stated:  # a body stating its welded group's mass, or a frame in it (carry_welded_mass)
+        inertial = None if own is None else Inertial(
+            own.mass, to_part[:3, :3] @ own.com + to_part[:3, 3],
+            to_part[:3, :3] @ own.inertia @ to_part[:3, :3].T)
     images = read_images(prim, visual_prims, path)
     if images and (visual is None or visual.uv is None or len(visuals) > 1):
         warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "

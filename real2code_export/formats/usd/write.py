@@ -5,7 +5,10 @@ layer of the mesh arrays (``meshes/<name>.usdc``), each written atomically. A ma
 fixed to its parent with nothing but such parts hanging from it (a frame; a URDF ``ee_link``
 with only a collision box; a chain of collision-only links) is an Xform in its parent's body
 (or in such an Xform), its geometry below it, no rigid body of its own: UsdPhysics has no way to say "no mass" (0 means "compute it"), and PhysX would give it
-a mass from its colliders' density or a default one (:func:`.body.in_parent_body`)."""
+a mass from its colliders' density or a default one (:func:`.body.in_parent_body`). So are
+the parts welded under a moving part with no mass of its own (an MJCF free body whose mass
+lies in a body welded below it), its body stating their summed mass
+(:func:`.body.carry_welded_mass`)."""
 
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from ...model import (
 )
 from .. import output_file
 from . import d6
-from .body import in_parent_body, write_body, write_frame
+from .body import carry_welded_mass, in_parent_body, write_body, write_frame
 from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
 from .drive import write_drives
 from .geometry import LateNormals, MeshAssets, move_mesh_arrays, write_part_geometry
@@ -82,6 +85,7 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
         path_of[name] = path
         write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}", visuals,
                             assets)
+    carry_welded_mass(layer, obj, [n for n in in_body if n in frames], path_of)
 
     world_joint = sanitize_name(WORLD_JOINT, {j.name for j in obj.joints})
     root_part = obj.root.name
