@@ -1443,6 +1443,43 @@ def test_a_xacro_file_is_read_as_the_urdf_it_expands_to(tmp_path):
     assert report.ok, [m.message for m in report.mismatches]
 
 
+def test_a_xacro_expansion_is_reused_while_no_file_it_read_changes(tmp_path):
+    """An export with its check reads the source three or four times (the reader, MuJoCo's
+    and Pinocchio's probes): the expansion is made once, and made again when the xacro file
+    or a file it includes changes, or the arguments do."""
+    import xacro
+
+    from real2code_export.formats.urdf import xacro_file
+    from real2code_export.formats.urdf.packages import XACRO_ARGS_VARIABLE
+
+    root = tmp_path / "arm_description"
+    (root / "urdf").mkdir(parents=True)
+    (root / "meshes").mkdir()
+    trimesh.creation.box((0.1, 0.2, 0.3)).export(root / "meshes" / "base.stl")
+    macros = root / "urdf" / "macros.xacro"
+    macros.write_text(XACRO_MACROS)
+    source = root / "urdf" / "arm.urdf.xacro"
+    source.write_text(XACRO_ROBOT)
+    calls = []
+    real = xacro.process_file
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return real(*args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(xacro, "process_file", counted)
+        patch.delenv(XACRO_ARGS_VARIABLE, raising=False)
+        first = xacro_file.expand(source)
+        assert xacro_file.expand(source) is first and len(calls) == 1
+        macros.write_text(XACRO_MACROS.replace('mass value="0.5"', 'mass value="0.7"'))
+        changed = xacro_file.expand(source)
+        assert len(calls) == 2 and b'value="0.7"' in changed
+        patch.setenv(XACRO_ARGS_VARIABLE, "with_tip:=false")
+        without_tip = xacro_file.expand(source)
+        assert len(calls) == 3 and b'"tip"' not in without_tip
+
+
 def test_a_xacro_file_that_does_not_expand_is_refused_naming_it(tmp_path):
     """A property never defined, a package ``$(find)`` finds nowhere: refused with the file
     and xacro's own message; an error in the URDF it expands to names the line of that URDF

@@ -9,6 +9,7 @@ which a machine without ROS does not have.
 from __future__ import annotations
 
 import contextlib
+import zlib
 from pathlib import Path
 
 from ...errors import FormatError
@@ -25,6 +26,12 @@ def document(path: Path) -> bytes:
     return expand(path) if is_xacro(path) else path.read_bytes()
 
 
+# (resolved file, arguments, search path) -> (each file read and its stamp, the expansion):
+# an export with its check reads the source three or four times (the reader, MuJoCo's and
+# Pinocchio's probes), each expansion 20-50 ms; a hit stands while no file it read changed
+_EXPANDED: dict[tuple, tuple[tuple[tuple[str, tuple[int, int] | None], ...], bytes]] = {}
+
+
 def expand(path: Path) -> bytes:
     """The URDF ``path`` (a xacro file) expands to, with the arguments given
     (:func:`.packages.xacro_arguments`) and xacro's defaults for the rest; FormatError
@@ -35,6 +42,33 @@ def expand(path: Path) -> bytes:
     except ImportError as e:
         raise FormatError(path, None, "a xacro file needs the xacro package "
                           "(pip install xacro)") from e
+    try:
+        arguments = xacro_arguments()
+    except ValueError as e:
+        raise FormatError(path, None, str(e)) from e
+    key = (str(path.resolve()), tuple(sorted(arguments.items())),
+           tuple(str(f) for f in package_search_path()))
+    hit = _EXPANDED.get(key)
+    if hit is not None and all(_stamp(f) == stamp for f, stamp in hit[0]):
+        return hit[1]
+    included = len(xacro.all_includes)  # (xacro lists every file it reads, never clearing)
+    out = _expand(path, arguments, xacro, substitution_args)
+    read = [str(path), *xacro.all_includes[included:]]
+    _EXPANDED[key] = tuple((f, _stamp(f)) for f in dict.fromkeys(read)), out
+    return out
+
+
+def _stamp(file: str) -> tuple[int, int] | None:
+    """A file's size and checksum (its content: a time stamp may not tick between two
+    writes), None where it is gone."""
+    try:
+        data = Path(file).read_bytes()
+    except OSError:
+        return None
+    return len(data), zlib.crc32(data)
+
+
+def _expand(path: Path, arguments: dict[str, str], xacro, substitution_args) -> bytes:
 
     def find(name: str) -> str:
         folder = find_package(name, path.resolve().parent)
@@ -47,10 +81,6 @@ def expand(path: Path) -> bytes:
 
     # xacro has no hook for finding packages: its module function is replaced while this
     # file expands (xacrodoc, a wrapper made for the same use, replaces it for good).
-    try:
-        arguments = xacro_arguments()
-    except ValueError as e:
-        raise FormatError(path, None, str(e)) from e
     with _replaced(substitution_args, "_eval_find", find):
         try:
             doc = xacro.process_file(str(path), mappings=arguments)
