@@ -670,8 +670,9 @@ def test_usdc_and_registry(tmp_path):
 
 def test_a_file_from_another_tool(tmp_path):
     """No custom attributes, a reversed joint (body0 = child), joint frames on both sides
-    (localPos1 != 0), a Y axis, the child written at 30 degrees, no joint to the world: the
-    importer and the probe must agree with each other at every configuration."""
+    (localPos1 != 0), a Y axis, the child written at 30 degrees, no joint to the world (free,
+    as PhysX and Newton simulate it: a floating base): the importer and the probe must agree
+    with each other at every configuration."""
     text = """#usda 1.0
 (
     defaultPrim = "thing"
@@ -727,11 +728,13 @@ def Xform "thing"
         warnings.simplefilter("always")
         obj = usd.load(path)
     assert [str(w.message).split(": ", 1)[1] for w in caught] == [
-        "no joint fixes the object to the world; the first body </thing/base> is taken as "
-        "fixed where it stands"]
+        "no joint fixes the object to the world: it is free, as UsdPhysics' simulators take "
+        "it (its first body </thing/base> floats from a massless part 'world')"]
     (probe,) = open_probes(path)
     hinge = obj.joint("lid_hinge")
     assert (hinge.parent, hinge.child, hinge.type.value) == ("base", "lid", "revolute")
+    free = obj.parent_joint("base")
+    assert (free.parent, free.type.value) == ("world", "floating")
     assert hinge.state == pytest.approx(math.radians(30), abs=1e-6)
     assert (hinge.limits.lower, hinge.limits.upper) == pytest.approx((-math.pi / 2, math.pi / 4))
     assert obj.part("lid").visual.faces.shape == (2, 3)  # the quad, fanned
@@ -739,7 +742,8 @@ def Xform "thing"
     rng = np.random.default_rng(3)
     for q in [obj.observed_configuration()] + [sample_configuration(obj, rng) for _ in range(20)]:
         expected, got = forward_kinematics(obj, q), probe.poses(q)
-        for name in expected:
+        assert sorted(got) == ["base", "lid"]  # (the world part is not in the file)
+        for name in got:
             np.testing.assert_allclose(got[name], expected[name], atol=TOL, err_msg=name)
 
 
@@ -1149,6 +1153,70 @@ def test_a_scene_of_free_bodies_in_every_format(tmp_path, anchored):
             assert not differences(obj, load_any(out)), fmt
     model = mujoco.MjModel.from_xml_path(str(written["urdf"]))
     assert sum(int(t) == mujoco.mjtJoint.mjJNT_FREE for t in model.jnt_type) == 3
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+
+@pytest.mark.parametrize("kinematic", [False, True], ids=["dynamic", "kinematic"])
+def test_one_group_no_joint_holds_is_free_unless_kinematic(tmp_path, kinematic):
+    """A body with a flap hinged to it and no joint to the world (an ant, a humanoid, a
+    prop: PhysX and Newton simulate it falling): free, from a massless part 'world', so the
+    MJCF export has a free joint (it was fixed where it stands: a floating base welded to
+    the world). A kinematic first body (``physics:kinematicEnabled``: moved by the user, not
+    the simulation) stays the root, fixed where it stands; each warned."""
+    import mujoco
+
+    from real2code_export.check import check_files
+
+    path = _scene_stage(tmp_path / "scene.usda", True)
+    stage = Usd.Stage.Open(str(path))
+    stage.RemovePrim("/scene/anchor_joint")
+    for crate in ("crate_0", "crate_1", "crate_2"):
+        stage.RemovePrim(f"/scene/{crate}")
+    if kinematic:
+        UsdPhysics.RigidBodyAPI(stage.GetPrimAtPath("/scene/anchor")) \
+            .CreateKinematicEnabledAttr(True)
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(path)
+    said = " ".join(str(w.message) for w in caught)
+    if kinematic:
+        assert obj.root.name == "anchor" and "kinematic (physics:kinematicEnabled): taken " \
+            "as fixed where it stands" in said
+    else:  # (where the file puts it)
+        assert obj.root.name == "world" and obj.parent_joint("anchor").type.value == "floating"
+        assert "it is free, as UsdPhysics' simulators take it" in said
+        np.testing.assert_allclose(forward_kinematics(obj)["anchor"][:3, 3], [0.0, 0.0, 1.0],
+                                   atol=1e-6)
+    written = export(obj, tmp_path / "out", formats=["mjcf", "usd"])
+    model = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert sum(int(t) == mujoco.mjtJoint.mjJNT_FREE for t in model.jnt_type) == (not kinematic)
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+
+def test_a_diagonal_inertia_without_principal_axes_is_in_the_body_axes(tmp_path):
+    """``physics:diagonalInertia`` authored and ``principalAxes`` left at its fallback, the
+    zero quaternion (Newton's own test assets write bodies so): the diagonal in the body's
+    axes, as Newton's importer takes it (the reader made a NaN tensor of it and refused the
+    file: "inertia is not finite"); the check's schema view reads it so too."""
+    from real2code_export.check import check_files
+
+    path = _scene_stage(tmp_path / "scene.usda", True)
+    stage = Usd.Stage.Open(str(path))
+    for crate in ("crate_0", "crate_1", "crate_2"):
+        stage.RemovePrim(f"/scene/{crate}")
+    for name in ("anchor", "flap"):
+        UsdPhysics.MassAPI(stage.GetPrimAtPath(f"/scene/{name}")).CreateDiagonalInertiaAttr(
+            Gf.Vec3f(0.01, 0.02, 0.03))
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = usd.load(path)
+    np.testing.assert_allclose(obj.part("flap").inertial.inertia, np.diag([0.01, 0.02, 0.03]),
+                               atol=1e-9)
+    written = export(obj, tmp_path / "out", formats=["mjcf", "usd"])
     report = check_files(list(written.values()), n_configurations=5, validate=False)
     assert report.ok, report.mismatches
 

@@ -4,10 +4,12 @@ joints and collision shapes; this module checks them and orients the joints into
 from the part fixed to the world. No prim names or paths are assumed.
 
 The world: one fixed joint to the world -> its body is the root, placed by that joint; no
-joint to the world -> the single body without a parent is the root, fixed where it stands
-(warned), unless the joints leave the bodies in several groups (a scene of free bodies: a
-palletizer's crates), each of which is then free; several joints to the world, or a moving
-one -> a massless part "world" becomes the root (warned). A body no joint connects to the root is free (UsdPhysics' free body): a
+joint to the world -> the bodies are free, as PhysX and Newton simulate them: a massless
+part "world" is the root and the first body floats from it (a floating base: an ant), or
+each group the joints connect does (a scene of free bodies: a palletizer's crates), warned;
+a kinematic first body (``physics:kinematicEnabled``) is the root, fixed where it stands
+(warned); several joints to the world, or a moving one -> a massless part "world" becomes
+the root (warned). A body no joint connects to the root is free (UsdPhysics' free body): a
 floating joint from the root part holds it. A joint between two bodies the walk from the
 root has reached already closes a kinematic loop: kept aside (``Articulation.loops``; the
 file's ``physics:excludeFromArticulation`` joints are walked last, so they are the ones). A
@@ -83,13 +85,15 @@ def parse(stage, path, mpu: float) -> Articulation:
     if unknown:
         warn(f"{path}: prims of a type no schema defines, which UsdPhysics' parser skips: "
              f"{', '.join(unknown)}; not read")
-    bodies, shapes, edges = [], {}, []
+    bodies, shapes, edges, kinematic = [], {}, [], set()
     for kind, (paths, descs) in parsed.items():
         name = kind.name
         for p, d in zip(paths, descs, strict=True):
             p = str(p)
             if name == "RigidBody":
                 bodies.append(p)
+                if d.kinematicBody:
+                    kinematic.add(p)
             elif name.endswith("Shape"):
                 body = str(d.rigidBody)
                 if body:
@@ -105,7 +109,7 @@ def parse(stage, path, mpu: float) -> Articulation:
     bodies.sort(key=order.__getitem__)
     for body_shapes in shapes.values():
         body_shapes.sort(key=order.__getitem__)
-    art = _tree(path, bodies, edges, mpu)
+    art = _tree(path, bodies, edges, mpu, kinematic)
     art.edges.sort(key=lambda e: order[e.path])
     art.shapes = shapes
     return art
@@ -202,9 +206,11 @@ def joint_quat(e: Edge, side: int) -> np.ndarray:
     return tf.matrix_to_quat(tf.orthonormalize(static[:3, :3]) @ tf.quat_to_matrix(quat))
 
 
-def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulation:
+def _tree(path, bodies: list[str], edges: list[Edge], mpu: float,
+          kinematic: set[str]) -> Articulation:
     world_edges = [e for e in edges if WORLD in (e.body0, e.body1)]
     root_placement = None
+    floats = None  # the first body that floats from the world part, where one is chosen
     if len(world_edges) == 1 and world_edges[0].kind is JointType.FIXED:
         e = world_edges[0]
         edges = [x for x in edges if x is not e]
@@ -224,10 +230,17 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
              f"{len(groups)} groups no joint connects: each is free (a floating joint from a "
              "massless part 'world')")
         root = WORLD
-    else:
+    elif bodies[0] in kinematic:  # moved by the user, not by the simulation
         root = bodies[0]
-        warn(f"{path}: no joint fixes the object to the world; the first body <{root}> is "
-             "taken as fixed where it stands")
+        warn(f"{path}: no joint fixes the object to the world; its first body <{root}> is "
+             "kinematic (physics:kinematicEnabled): taken as fixed where it stands")
+    else:
+        # One group no joint holds: PhysX and Newton simulate it free (a floating base: an
+        # ant, a humanoid, a prop), so it is free here, from its first body.
+        root, floats = WORLD, bodies[0]
+        warn(f"{path}: no joint fixes the object to the world: it is free, as UsdPhysics' "
+             f"simulators take it (its first body <{floats}> floats from a massless part "
+             "'world')")
     # Breadth first from the root: orient every joint parent -> child. A joint between two
     # bodies already reached closes a kinematic loop: it is kept aside (``loops``). Joints
     # the file excludes from the articulation (physics:excludeFromArticulation, the author's
@@ -259,7 +272,8 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float) -> Articulatio
         if not unreached:
             break
         held = {e.body1 for e in pending}
-        free = next((b for b in unreached if b not in held), unreached[0])
+        free = floats if floats in unreached else \
+            next((b for b in unreached if b not in held), unreached[0])
         tree.append(Edge(free, None, JointType.FLOATING, root, free))
         reached.add(free)
         order.append(free)
