@@ -154,9 +154,12 @@ def _usd_mass(prim, kpu: float, mpu: float
               ) -> tuple[tuple[float, np.ndarray, np.ndarray], str | None]:
     """(mass, inertia about the centre of mass, centre of mass) in the body's frame in SI as
     PhysicsMassAPI states them, and which of them it leaves to the simulator (None: none).
-    UsdPhysics' fallbacks mean "computed": mass 0, centre of mass -inf, diagonal inertia 0,
-    principal axes (0, 0, 0, 0); what is left open reads as 0 (the origin, no inertia)."""
+    UsdPhysics' fallbacks mean "computed": mass 0, centre of mass -inf, diagonal inertia 0;
+    what is left open reads as 0 (the origin, no inertia). Principal axes left at theirs
+    (0, 0, 0, 0) beside a diagonal are the identity, as Newton's importer takes them."""
     from pxr import UsdPhysics
+
+    from ..formats.usd.body import principal_axes
 
     api = UsdPhysics.MassAPI(prim) if prim.HasAPI(UsdPhysics.MassAPI) else None
     mass = max(float(api.GetMassAttr().Get() or 0.0), 0.0) * kpu if api else 0.0
@@ -164,11 +167,9 @@ def _usd_mass(prim, kpu: float, mpu: float
     com = np.asarray(com, float) * mpu if com is not None and np.all(np.isfinite(com)) \
         else None
     diagonal = api.GetDiagonalInertiaAttr().Get() if api else None
-    axes = api.GetPrincipalAxesAttr().Get() if api else None
     inertia = None
-    if diagonal is not None and np.any(np.asarray(diagonal) > 0) and axes is not None \
-            and (axes.GetReal() != 0 or any(axes.GetImaginary())):
-        turn = tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()])
+    if diagonal is not None and np.any(np.asarray(diagonal) > 0):
+        turn = principal_axes(api)  # (left at its fallback: the identity, as Newton has it)
         inertia = turn @ np.diag(np.asarray(diagonal, float) * kpu * mpu * mpu) @ turn.T
     missing = "mass" if mass <= 0.0 else "centre of mass or inertia" \
         if com is None or inertia is None else None

@@ -199,8 +199,7 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
     else:
         diagonal = api.GetDiagonalInertiaAttr().Get()
         if diagonal is not None and np.any(np.asarray(diagonal) > 0):
-            axes = api.GetPrincipalAxesAttr().Get()
-            r = tf.quat_to_matrix([axes.GetReal(), *axes.GetImaginary()]) if axes else np.eye(3)
+            r = principal_axes(api)
             inertia = r @ np.diag(np.asarray(diagonal, float)) @ r.T
     if inertia is not None:
         inertia = inertia * kpu * mpu * mpu
@@ -217,6 +216,17 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
         com = hull_com if com is None else com
         inertia = hull_inertia if inertia is None else inertia
     return Inertial(mass, com, inertia)
+
+
+def principal_axes(api) -> np.ndarray:
+    """The rotation a PhysicsMassAPI's ``principalAxes`` states: the identity where it is
+    left at its fallback, the zero quaternion (only the diagonal authored), or is no
+    rotation, as Newton's importer takes it (the quaternion normalised otherwise)."""
+    axes = api.GetPrincipalAxesAttr().Get()
+    q = np.array([axes.GetReal(), *axes.GetImaginary()], float) if axes is not None else None
+    if q is None or not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-6:
+        return np.eye(3)
+    return tf.quat_to_matrix(q / np.linalg.norm(q))
 
 
 def collider_mass(shape, mpu: float, kpu: float) -> tuple[float, float]:
