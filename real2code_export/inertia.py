@@ -20,6 +20,7 @@ positive-definite tensor that satisfies the triangle inequality.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -27,6 +28,7 @@ import numpy as np
 from . import meshcache, meshtopology
 from .errors import InputError, warn
 from .model import Inertial, JointType, Mesh, Tree
+from .primitives import Primitive, ShapeKind
 
 # Furniture (the main category here) is wood, plywood, particleboard or MDF: roughly
 # 400-800 kg/m^3. 500 is a middle value that also allows for hollow/cored panels.
@@ -100,7 +102,18 @@ def _as_volume(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
 
 def _mesh_moments(mesh: Mesh, density: float, shell_thickness: float) -> _Moments:
     """Solid when the whole mesh is a closed volume (this handles hollows and nesting right);
-    otherwise each closed connected component is a solid and every other face a shell."""
+    otherwise each closed connected component is a solid and every other face a shell. A
+    round shape the mesh keeps (sphere, ellipsoid, cylinder, capsule) is its exact solid, as
+    MuJoCo and PhysX compute it: its tessellation holds up to 3 % less volume (a humanoid's
+    capsules and spheres read from USD colliders weighed 2.7 to 3.4 % light)."""
+    round_shapes = [p for p in mesh.primitives if p.kind in _ROUND]
+    if round_shapes:
+        total = _zero_moments()
+        for shape in round_shapes:
+            total = _add(total, _shape_moments(shape, density))
+        rest = _without(mesh, round_shapes)
+        return total if rest is None else _add(total, _mesh_moments(rest, density,
+                                                                    shell_thickness))
     if len(mesh.faces) == 0:
         return _zero_moments()
     # Coincident vertices merged: OBJ files split them at seams, and no PartNet piece would
@@ -118,6 +131,45 @@ def _mesh_moments(mesh: Mesh, density: float, shell_thickness: float) -> _Moment
             open_faces[component] = False
     shell = _shell_moments(vertices, faces[open_faces], density * shell_thickness)
     return _add(total, shell)
+
+
+_ROUND = frozenset({ShapeKind.SPHERE, ShapeKind.ELLIPSOID, ShapeKind.CYLINDER,
+                    ShapeKind.CAPSULE})
+
+
+def _shape_moments(shape: Primitive, density: float) -> _Moments:
+    """Exact moments of a solid round shape of uniform ``density`` at its pose."""
+    size = shape.size
+    if shape.kind is ShapeKind.CAPSULE:  # a cylinder and two hemispheres
+        r, h = size
+        tube, ball = density * math.pi * r * r * h, density * 4.0 / 3.0 * math.pi * r ** 3
+        mass = tube + ball
+        axial = tube * r * r / 2.0 + ball * 2.0 * r * r / 5.0
+        across = tube * (3.0 * r * r + h * h) / 12.0 + ball * (
+            2.0 * r * r / 5.0 + h * h / 4.0 + 3.0 * h * r / 8.0)
+        moments = np.array([across, across, axial])
+    elif shape.kind is ShapeKind.CYLINDER:
+        r, h = size
+        mass = density * math.pi * r * r * h
+        across = mass * (3.0 * r * r + h * h) / 12.0
+        moments = np.array([across, across, mass * r * r / 2.0])
+    else:  # a sphere, an ellipsoid
+        a, b, c = (size[0],) * 3 if shape.kind is ShapeKind.SPHERE else size
+        mass = density * 4.0 / 3.0 * math.pi * a * b * c
+        moments = mass / 5.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+    rot, centre = shape.pose[:3, :3], shape.pose[:3, 3]
+    inertia = rot @ np.diag(moments) @ rot.T
+    second = 0.5 * np.trace(inertia) * np.eye(3) - inertia  # about the centre
+    return mass, mass * centre, second + mass * np.outer(centre, centre)
+
+
+def _without(mesh: Mesh, shapes: list[Primitive]) -> Mesh | None:
+    """``mesh`` without the tessellations of ``shapes`` (some of its primitives), the
+    others kept (None when no face is left)."""
+    rest = mesh.remainder()
+    others = [p for p in mesh.primitives if p not in shapes]
+    pieces = ([rest] if rest is not None else []) + [Mesh.of_primitive(p) for p in others]
+    return Mesh.concatenate(pieces) if pieces else None
 
 
 def _closed_components(faces: np.ndarray) -> list[np.ndarray]:
