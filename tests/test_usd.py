@@ -1221,6 +1221,114 @@ def test_a_diagonal_inertia_without_principal_axes_is_in_the_body_axes(tmp_path)
     assert report.ok, report.mismatches
 
 
+def _mujoco_stage(path):
+    """An MJCF body with two hinges at anchors of their own, written as mujoco-usd-converter
+    writes one: two PhysicsRevoluteJoints between the same two bodies (MuJoCo's order), an
+    MjcActuator on the first (a position servo with MuJoCo's spec values: a dampratio in
+    biasPrm[2] and inheritrange), one on a site; names that are no identifier encoded by
+    usd-exchange (``tn__``) with the source's in ``displayName``. Returns the MJCF it
+    states."""
+    from pxr import Gf, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/arm").GetPrim())
+    rest = (0.1, 0.0, 0.5)
+    for name, at, shown in (("base", (0.0, 0.0, 0.5), None),
+                            ("tn__upperarm_kE", (0.1, 0.0, 0.5), "upper-arm")):
+        body = UsdGeom.Xform.Define(stage, f"/arm/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        mass = UsdPhysics.MassAPI.Apply(body.GetPrim())
+        mass.CreateMassAttr(1.0)
+        mass.CreateCenterOfMassAttr(Gf.Vec3f(0.0, 0.0, 0.1))
+        mass.CreateDiagonalInertiaAttr(Gf.Vec3f(0.01, 0.01, 0.002))
+        if shown:
+            body.GetPrim().SetDisplayName(shown)
+    UsdGeom.Xform.Define(stage, "/arm/tn__upperarm_kE/tip").AddTranslateOp().Set(
+        Gf.Vec3d(0.0, 0.0, 0.3))
+    fixed = UsdPhysics.FixedJoint.Define(stage, "/arm/to_world")
+    fixed.CreateBody1Rel().SetTargets(["/arm/base"])
+    fixed.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 0.5))
+    anchors = {"shoulder_x": ((0.0, 0.0, 0.05), "X"), "tn__shoulderz_wB": ((0.02, 0.0, 0.0), "Z")}
+    for name, (anchor, axis) in anchors.items():
+        joint = UsdPhysics.RevoluteJoint.Define(stage, f"/arm/tn__upperarm_kE/{name}")
+        joint.CreateBody0Rel().SetTargets(["/arm/base"])
+        joint.CreateBody1Rel().SetTargets(["/arm/tn__upperarm_kE"])
+        joint.CreateAxisAttr(axis)
+        joint.CreateLocalPos0Attr(Gf.Vec3f(*(np.array(anchor) + np.array(rest)
+                                              - np.array([0.0, 0.0, 0.5]))))
+        joint.CreateLocalPos1Attr(Gf.Vec3f(*anchor))
+        joint.CreateLowerLimitAttr(-90.0)
+        joint.CreateUpperLimitAttr(60.0)
+    stage.GetPrimAtPath("/arm/tn__upperarm_kE/tn__shoulderz_wB").SetDisplayName("shoulder-z")
+    servo = stage.DefinePrim("/arm/servo", "MjcActuator")
+    servo.CreateAttribute("mjc:gainPrm", Sdf.ValueTypeNames.DoubleArray).Set([40.0] + [0.0] * 9)
+    servo.CreateAttribute("mjc:biasType", Sdf.ValueTypeNames.Token).Set("affine")
+    servo.CreateAttribute("mjc:biasPrm", Sdf.ValueTypeNames.DoubleArray).Set(
+        [0.0, -40.0, 0.7] + [0.0] * 7)  # (a dampratio: MuJoCo's compiler makes it a kv)
+    servo.CreateAttribute("mjc:inheritRange", Sdf.ValueTypeNames.Double).Set(1.0)
+    servo.CreateRelationship("mjc:target").SetTargets(["/arm/tn__upperarm_kE/shoulder_x"])
+    pusher = stage.DefinePrim("/arm/pusher", "MjcActuator")
+    pusher.CreateAttribute("mjc:gear", Sdf.ValueTypeNames.DoubleArray).Set([0, 0, 1, 0, 0, 0])
+    pusher.CreateRelationship("mjc:target").SetTargets(["/arm/tn__upperarm_kE/tip"])
+    stage.GetRootLayer().Save()
+    return """<mujoco><compiler angle="radian"/><worldbody><body name="base" pos="0 0 0.5">
+      <inertial pos="0 0 0.1" mass="1" diaginertia="0.01 0.01 0.002"/>
+      <body name="upper_arm" pos="0.1 0 0">
+        <inertial pos="0 0 0.1" mass="1" diaginertia="0.01 0.01 0.002"/>
+        <joint name="shoulder_x" pos="0 0 0.05" axis="1 0 0" range="-1.5708 1.0472"/>
+        <joint name="shoulder_z" pos="0.02 0 0" axis="0 0 1" range="-1.5708 1.0472"/>
+        <site name="tip" pos="0 0 0.3"/>
+      </body></body></worldbody>
+      <actuator><position joint="shoulder_x" kp="40" dampratio="0.7" inheritrange="1"/>
+        <general site="tip" gear="0 0 1 0 0 0"/></actuator></mujoco>"""
+
+
+def test_usd_from_mujocos_converter_reads_as_the_mjcf_it_came_from(tmp_path):
+    """A USD file as mujoco-usd-converter writes an MJCF body of two joints: read as a
+    chain through a massless part (the MJCF reader's form), the bodies where MuJoCo puts
+    them at every configuration (they were one joint and a loop closer: a degree of freedom
+    lost); the MjcActuator servo the drive MuJoCo compiles (its dampratio's damping from the
+    joint's inertia, its range from the joint's), the one on a site kept as MJCF; the
+    source's names from ``displayName`` where the prim's is usd-exchange's encoding."""
+    import mujoco
+
+    from real2code_export.formats.mjcf.kept import ELEMENTS_KEY
+
+    xml = _mujoco_stage(tmp_path / "arm.usda")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(tmp_path / "arm.usda")
+    said = " ".join(str(w.message) for w in caught)
+    assert "join the same two bodies: read as one body's joints" in said
+    assert [p.name for p in obj.parts] == ["base", "upper_arm", "upper_arm_shoulder_x", "tip"]
+    assert [j.name for j in obj.movable_joints] == ["shoulder_x", "shoulder_z"]
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    servo = obj.joint("shoulder_x").drive
+    assert servo.stiffness == pytest.approx(m.actuator_gainprm[0, 0])
+    assert servo.damping == pytest.approx(-m.actuator_biasprm[0, 2], rel=1e-6)
+    np.testing.assert_allclose(servo.target_range, m.actuator_ctrlrange[0], atol=1e-5)
+    assert "<general" in obj.metadata[ELEMENTS_KEY]["actuator"] and 'site="tip"' in \
+        obj.metadata[ELEMENTS_KEY]["actuator"]
+    rng = np.random.default_rng(5)
+    anchor = np.array([0.02, 0.0, 0.0])  # the part's frame: the last joint's anchor
+    for _ in range(10):
+        q = {"shoulder_x": rng.uniform(-1.5, 1.0), "shoulder_z": rng.uniform(-1.5, 1.0)}
+        d.qpos[:] = [q["shoulder_x"], q["shoulder_z"]]
+        mujoco.mj_kinematics(m, d)
+        pose = forward_kinematics(obj, q)["upper_arm"]
+        body = np.eye(4)
+        body[:3, :3] = d.xmat[2].reshape(3, 3)
+        body[:3, 3] = d.xpos[2]
+        np.testing.assert_allclose(pose, body @ tf.make(translation=anchor), atol=1e-6)
+    written = export(obj, tmp_path / "out", formats=["mjcf"])
+    back = mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    assert back.nu == 2 and back.body("upper_arm").jntnum[0] == 2  # one body again
+
+
 def _d6_stage(path, joints, distance: bool = False):
     """A base fixed to the world and, per entry of ``joints`` (name, free axes with their
     range in degrees or metres, None for no limit; the values the child stands at; whether

@@ -25,7 +25,7 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, warn
 from ...model import JointType
-from . import d6
+from . import d6, mjc_actuator
 from .conventions import load_physics
 
 WORLD = ""  # the parser's body path for the world side of a joint
@@ -47,6 +47,9 @@ class Edge:
     # A side whose prim is no rigid body (a static collider, an Xform: UsdPhysics holds the
     # joint to the world there): that prim's world transform (translation in metres).
     static: dict[int, np.ndarray] = field(default_factory=dict)
+    # Hinges and slides stacked after this one between the same two bodies, in stage order:
+    # one MJCF body's joints as mujoco-usd-converter writes them (:func:`_stacked`)
+    stack: list[Edge] = field(default_factory=list)
 
     @property
     def parent(self) -> str:
@@ -81,7 +84,8 @@ def parse(stage, path, mpu: float) -> Articulation:
     # A prim typed by no schema (a misspelt or retired type: "DistancePhysicsJoint") is
     # skipped by UsdPhysics' parser, and so by PhysX and Newton: said, not passed over.
     unknown = [f"<{p.GetPath()}> ({p.GetTypeName()})" for p in prims
-               if p.GetTypeName() and p.GetPrimTypeInfo().GetSchemaType().isUnknown]
+               if p.GetTypeName() and p.GetPrimTypeInfo().GetSchemaType().isUnknown
+               and p.GetTypeName() != mjc_actuator.TYPE_NAME]  # (read by .mjc_actuator)
     if unknown:
         warn(f"{path}: prims of a type no schema defines, which UsdPhysics' parser skips: "
              f"{', '.join(unknown)}; not read")
@@ -109,7 +113,15 @@ def parse(stage, path, mpu: float) -> Articulation:
     bodies.sort(key=order.__getitem__)
     for body_shapes in shapes.values():
         body_shapes.sort(key=order.__getitem__)
+    edges = _stacked(path, sorted(edges, key=lambda e: order[e.path]))
     art = _tree(path, bodies, edges, mpu, kinematic)
+    for e in art.edges:  # a stack walked child -> parent: its order is not MuJoCo's
+        if e.stack and e.reversed:
+            warn(f"{path}: joint prims {', '.join(f'<{x.path}>' for x in e.stack)} stacked "
+                 f"on <{e.path}> run from the tree's child to its parent: not read as one "
+                 "body's joints")
+            art.loops += e.stack
+            e.stack = []
     art.edges.sort(key=lambda e: order[e.path])
     art.shapes = shapes
     return art
@@ -124,6 +136,32 @@ def welded(art: Articulation) -> set[str]:
         if not more:
             return out
         out |= more
+
+
+def _stacked(path, edges: list[Edge]) -> list[Edge]:
+    """``edges`` (in stage order) with the hinges and slides between the same two rigid
+    bodies (body0 the same, body1 the same) gathered on the first (:attr:`Edge.stack`):
+    mujoco-usd-converter writes an MJCF body's joints so, each about its own anchor, and
+    MuJoCo applies them in order (Newton's importer merges them into one joint as well).
+    They were read as one joint and loop closers (degrees of freedom lost)."""
+    movable = (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
+    groups: dict[tuple[str, str], list[Edge]] = {}
+    for e in edges:
+        if e.dofs is None and e.kind in movable and WORLD not in (e.body0, e.body1) \
+                and not e.desc.excludeFromArticulation:
+            groups.setdefault((e.body0, e.body1), []).append(e)
+    out = []
+    for e in edges:
+        group = groups.get((e.body0, e.body1), [])
+        if len(group) > 1 and e in group:
+            if e is not group[0]:
+                continue
+            e.stack = group[1:]
+            warn(f"{path}: joint prims {', '.join(f'<{x.path}>' for x in group)} join the same "
+                 "two bodies: read as one body's joints in that order (MJCF's, as "
+                 "mujoco-usd-converter writes them), a chain of massless parts between them")
+        out.append(e)
+    return out
 
 
 def _edge(stage, path, prim_path: str, desc, kind_name: str) -> Edge:

@@ -57,6 +57,17 @@ OWN_CENTER_OF_MASS = f"{NAMESPACE}:ownCenterOfMass"
 OWN_INERTIA = f"{NAMESPACE}:ownInertia"
 
 
+def source_name(prim) -> str:
+    """A prim's name as its source had it: usd-exchange (NVIDIA's converters, Isaac Sim's
+    importers) writes a name that is no valid identifier encoded (``tn__`` + its valid
+    characters + a code of the rest: ``tn__leftfoot_YF`` for ``left-foot``) with the name
+    itself as the prim's ``displayName``; elsewhere the prim's name."""
+    name = prim.GetName()
+    if name.startswith("tn__"):
+        return prim.GetDisplayName() or name
+    return name
+
+
 # -- opening ---------------------------------------------------------------------------------
 _PARSE_ERROR = re.compile(r":(\d+):\d+: (.*?)(?: in <([^>]*)>)?'?$", re.MULTILINE)
 

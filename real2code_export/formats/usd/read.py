@@ -28,7 +28,7 @@ from ...model import (
 )
 from ...repairs import massless_moving_parts, unusable_mimics
 from . import articulation as art_
-from . import d6, drive, loop
+from . import d6, drive, loop, mjc_actuator
 from .body import collider_mass, read_inertial, read_own_mass
 from .conventions import (
     FLOATING_JOINT,
@@ -36,6 +36,7 @@ from .conventions import (
     METADATA,
     open_stage,
     relative_transform,
+    source_name,
     stage_units,
     world_transforms,
 )
@@ -105,7 +106,9 @@ def load(path: str | Path) -> ArticulatedObject:
         if e.desc is None:  # a free body: its part frame is its body frame
             ctx.to_part[e.child] = np.eye(4)
             continue
-        child_frame = art_.joint_frame(e, 0 if e.reversed else 1, mpu)
+        # (stacked joints: the last one's anchor, as the MJCF reader places the body's part)
+        child_frame = art_.joint_frame(e.stack[-1] if e.stack else e, 0 if e.reversed else 1,
+                                       mpu)
         ctx.to_part[e.child] = tf.make(translation=-child_frame[:3, 3])
 
     taken: set[str] = set()
@@ -116,7 +119,7 @@ def load(path: str | Path) -> ArticulatedObject:
     in_frame: dict[str, list[str]] = {}  # our frame's path -> the colliders below it
     still = art_.welded(art)
     for body in art.bodies:
-        ctx.names[body] = sanitize_name(prims[body].GetName(), taken)
+        ctx.names[body] = sanitize_name(source_name(prims[body]), taken)
         shapes = []
         for s in art.shapes.get(body, []):
             frame = _frame_of(ctx, s)
@@ -127,6 +130,14 @@ def load(path: str | Path) -> ArticulatedObject:
     joint_names: set[str] = set()
     joints, joint_at, chains, drives = [], {}, [], []
     for e in art.edges:
+        if e.stack:  # one MJCF body's joints: a chain through massless parts
+            made, between = _stacked_joints(ctx, e, joint_names, taken)
+            parts += between
+            for member, joint in zip([e, *e.stack], made, strict=True):
+                joint_at[member.path] = joint.name
+                drives.append((member, [joint]))
+            joints += made
+            continue
         if e.dofs is None:
             made = [_joint(ctx, e, joint_names)]
         else:  # a generic joint (D6): one joint, or a chain through massless parts
@@ -150,7 +161,7 @@ def load(path: str | Path) -> ArticulatedObject:
     joints += [joint for _, joint in frames]
 
     root_prim = stage.GetDefaultPrim() or next(iter(stage.GetPseudoRoot().GetChildren()), None)
-    name = sanitize_name(root_prim.GetName() if root_prim else path.stem)
+    name = sanitize_name(source_name(root_prim) if root_prim else path.stem)
     metadata = {}
     if root_prim and root_prim.HasAttribute(METADATA):
         try:
@@ -165,9 +176,10 @@ def load(path: str | Path) -> ArticulatedObject:
     for joint_name, message in massless_moving_parts(obj) + unusable_mimics(obj):
         warn(f"{path}: joint {joint_name!r}: {message}")
     try:
-        return validate(obj)
+        validate(obj)
     except ModelError as e:
         raise FormatError(path, e.element, e.message) from e
+    return mjc_actuator.read_actuators(path, stage, obj, joint_at)
 
 
 def _rigid_and_scale(m: np.ndarray, path, prim_path: str) -> tuple[np.ndarray, np.ndarray]:
@@ -288,7 +300,7 @@ def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str
         if not tf.is_rotation(local[:3, :3], tol=1e-5):
             warn(f"{ctx.path}: {where}: an empty Xform with scale or shear is no frame; ignored")
             continue
-        name = sanitize_name(p.GetName(), taken)
+        name = sanitize_name(source_name(p), taken)
         origin = to_parent @ scale @ local @ np.linalg.inv(scale)
         kept = p.GetAttribute(FRAME_JOINT).Get() if p.HasAttribute(FRAME_JOINT) else None
         joint = sanitize_name(kept if isinstance(kept, str) and kept else
@@ -348,7 +360,7 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     origin = ctx.to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
     if not kind.movable:
         dynamics = read_dynamics(prim, True, mpu, kpu, where) if kind.multi_dof else None
-        return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent],
+        return Joint(sanitize_name(source_name(prim), taken), kind, names[e.parent],
                      names[e.child], origin=origin, dynamics=dynamics or Dynamics(),
                      cone_limit=read_cone_limit(e.desc, where) if kind is JointType.BALL
                      else None)
@@ -360,11 +372,46 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     limits, drive_limits = read_limits(e.desc, kind, prim, mpu, kpu, where)
     if limits is not None:
         state = _into_limits(state, limits, kind, where)
-    return Joint(sanitize_name(prim.GetName(), taken), kind, names[e.parent], names[e.child],
+    return Joint(sanitize_name(source_name(prim), taken), kind, names[e.parent], names[e.child],
                  origin=origin, axis=axis, limits=limits, state=state,
                  drive_limits=drive_limits,
                  dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where),
                  mimic=read_mimic(prim, kind.angular, mpu))
+
+
+def _stacked_joints(ctx: Context, e: art_.Edge, taken: set[str],
+                    taken_parts: set[str]) -> tuple[list[Joint], list[Part]]:
+    """The joints stacked between two bodies (``e`` and :attr:`~.articulation.Edge.stack`:
+    one MJCF body's joints) as the MJCF reader makes a body of several joints: a chain
+    through massless parts ``<body>_<joint>``, each joint about its anchor in the frame the
+    ones before it moved (the first placed as any joint, each next one from the previous
+    anchor to its own, in the child body's axes); the child's part frame is at the last
+    anchor. The states are each joint's own; the bodies' poses are checked against them."""
+    members = [e, *e.stack]
+    parent, child = ctx.names[e.parent], ctx.names[e.child]
+    joints, between, previous = [], [], None
+    for k, member in enumerate(members):
+        joint = _joint(ctx, member, taken)
+        anchor = art_.joint_frame(member, 1, ctx.mpu)[:3, 3]
+        last = k == len(members) - 1
+        link = child if last else sanitize_name(f"{child}_{joint.name}", taken_parts)
+        if previous is not None:
+            joint.origin = tf.make(translation=anchor - previous)
+        joint.parent, joint.child = parent, link
+        joints.append(joint)
+        if not last:
+            between.append(Part(link))
+        parent, previous = link, anchor
+    placed = np.eye(4)
+    for joint in joints:
+        placed = placed @ joint.transform(joint.state)
+    written = ctx.to_part[e.parent] @ tf.inverse(ctx.world[e.parent]) @ ctx.world[e.child] \
+        @ tf.inverse(ctx.to_part[e.child])
+    off = float(np.abs(placed - written).max())
+    if off > 1e-5:
+        warn(f"{ctx.path}: joint prims {', '.join(f'<{m.path}>' for m in members)}: the "
+             f"bodies' written poses differ from the joints' states by {off:.3g}")
+    return joints, between
 
 
 def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
@@ -381,7 +428,7 @@ def _generic_joint(ctx: Context, e: art_.Edge, taken: set[str],
     parent_quat, child_quat = (art_.joint_quat(e, 1), art_.joint_quat(e, 0)) if e.reversed \
         else (art_.joint_quat(e, 0), art_.joint_quat(e, 1))
     origin = ctx.to_part[e.parent] @ rest_origin(parent_frame[:3, 3], parent_quat, child_quat)
-    parent, child, name = ctx.names[e.parent], ctx.names[e.child], prim.GetName()
+    parent, child, name = ctx.names[e.parent], ctx.names[e.child], source_name(prim)
     if not e.dofs or d6.is_ball(e.dofs):
         kind = JointType.BALL if e.dofs else JointType.FIXED
         dynamics = read_dynamics(prim, True, mpu, kpu, where) if e.dofs else Dynamics()
@@ -480,7 +527,7 @@ def _with_loops(ctx: Context, loops: list, metadata: dict) -> dict:
 
     found = {}
     for e in loops:
-        name = sanitize_name(ctx.stage.GetPrimAtPath(e.path).GetName())
+        name = sanitize_name(source_name(ctx.stage.GetPrimAtPath(e.path)))
         frames = [ctx.to_part[body] @ art_.joint_frame(e, side, ctx.mpu)
                   for side, body in ((0, e.body0), (1, e.body1))]
         found[name] = loop.described(name, e, frames, [ctx.names[e.body0], ctx.names[e.body1]],
