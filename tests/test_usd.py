@@ -1329,6 +1329,52 @@ def test_usd_from_mujocos_converter_reads_as_the_mjcf_it_came_from(tmp_path):
     assert back.nu == 2 and back.body("upper_arm").jntnum[0] == 2  # one body again
 
 
+def test_usd_from_the_urdf_converter_is_repaired_as_its_urdf_is(tmp_path):
+    """What urdf-usd-converter writes of robot files as they ship: a sensor link's all-zero
+    tensor and a tensor off the triangle inequality (repaired and warned, as the URDF and
+    MJCF readers repair them: the reader refused the file), a revolute joint whose limits
+    are 0 and 0 (a URDF <limit> with effort and velocity only: PhysX and Newton hold it
+    there, MuJoCo refuses the range: a fixed joint), a flat collider mesh (MuJoCo refuses
+    to hull it: thickened, as the URDF reader does). The MJCF export compiles and agrees."""
+    import mujoco
+    from pxr import Gf
+
+    from real2code_export.check import check_files
+
+    path = _scene_stage(tmp_path / "scene.usda", True)
+    stage = Usd.Stage.Open(str(path))
+    for crate in ("crate_0", "crate_1"):
+        stage.RemovePrim(f"/scene/{crate}")
+    stage.GetPrimAtPath("/scene/flap").CreateAttribute(  # (as the converter writes it)
+        "newton:inertia", Sdf.ValueTypeNames.DoubleArray).Set([0.0] * 6)
+    anchor = UsdPhysics.MassAPI(stage.GetPrimAtPath("/scene/anchor"))
+    anchor.CreateDiagonalInertiaAttr(Gf.Vec3f(0.001, 0.001, 0.01))
+    hinge = UsdPhysics.RevoluteJoint(stage.GetPrimAtPath("/scene/hinge"))
+    hinge.CreateLowerLimitAttr(0.0)
+    hinge.CreateUpperLimitAttr(0.0)
+    stage.RemovePrim("/scene/crate_2/box")
+    plate = UsdGeom.Mesh.Define(stage, "/scene/crate_2/plate")
+    plate.CreatePointsAttr([(0, 0, 0), (0.2, 0, 0), (0.2, 0.1, 0), (0, 0.1, 0)])
+    plate.CreateFaceVertexCountsAttr([4])
+    plate.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    UsdPhysics.CollisionAPI.Apply(plate.GetPrim())
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(path)
+    said = " ".join(str(w.message) for w in caught)
+    assert "prim </scene/flap>: inertia tensor is zero" in said
+    assert "prim </scene/anchor>: inertia tensor violates the triangle inequality" in said
+    assert "hold the joint there; read as a fixed joint at q = 0" in said
+    assert obj.joint("hinge").type.value == "fixed"
+    plate_mesh = obj.part("crate_2").collision[0]
+    assert np.ptp(plate_mesh.vertices[:, 2]) > 0  # a volume to hull
+    written = export(obj, tmp_path / "out", formats=["mjcf", "usd"])
+    mujoco.MjModel.from_xml_path(str(written["mjcf"]))
+    report = check_files(list(written.values()), n_configurations=5, validate=False)
+    assert report.ok, report.mismatches
+
+
 def _d6_stage(path, joints, distance: bool = False):
     """A base fixed to the world and, per entry of ``joints`` (name, free axes with their
     range in degrees or metres, None for no limit; the values the child stands at; whether

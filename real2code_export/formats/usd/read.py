@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import transforms as tf
+from ...collision import thickened
 from ...errors import FormatError, ModelError, warn
 from ...model import (
     ArticulatedObject,
@@ -26,7 +27,7 @@ from ...model import (
     sanitize_name,
     validate,
 )
-from ...repairs import massless_moving_parts, unusable_mimics
+from ...repairs import balanced_inertia, massless_moving_parts, unusable_mimics
 from . import articulation as art_
 from . import d6, drive, loop, mjc_actuator
 from .body import collider_mass, read_inertial, read_own_mass
@@ -231,8 +232,8 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
         shape = ctx.stage.GetPrimAtPath(sp)
         if shape.IsA(UsdGeom.Mesh):
             mesh = ellipsoid_collider(shape, placed(shape))
-            mesh = mesh if mesh is not None else read_placed_mesh(
-                shape, placed(shape), path, f"prim <{sp}>", ctx.assets)
+            mesh = mesh if mesh is not None else _with_volume(read_placed_mesh(
+                shape, placed(shape), path, f"prim <{sp}>", ctx.assets))
         else:
             mesh = shape_mesh(shape, placed(shape))
             if mesh is None:
@@ -268,6 +269,13 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
         inertial = None if own is None else Inertial(
             own.mass, to_part[:3, :3] @ own.com + to_part[:3, 3],
             to_part[:3, :3] @ own.inertia @ to_part[:3, :3].T)
+    if inertial is not None:  # as the URDF and MJCF readers repair what simulators accept
+        try:
+            inertial, change = balanced_inertia(inertial)
+        except ValueError as e:
+            raise FormatError(path, where, str(e)) from e
+        if change is not None:
+            warn(f"{path}: {where}: {change}")
     images = read_images(prim, visual_prims, path)
     if images and (visual is None or visual.uv is None or len(visuals) > 1):
         warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
@@ -276,6 +284,16 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
     texture = images.pop("texture", None)
     return Part(name, visual=visual, collision=collision, inertial=inertial,
                 color=read_color(prim, visual_prims, path), texture=texture, maps=images)
+
+
+def _with_volume(mesh: Mesh) -> Mesh:
+    """A collider mesh with no volume (a flat plate, coplanar points) as the hull PhysX
+    takes of it has one: thickened as the URDF reader thickens such a piece
+    (``collision.thickened``; MuJoCo refuses to hull coplanar points); any other as read."""
+    if mesh.primitives or len(mesh.faces) == 0:
+        return mesh
+    thick = thickened(mesh)
+    return thick if len(thick.faces) > len(mesh.faces) else mesh
 
 
 def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str],
@@ -370,9 +388,19 @@ def _joint(ctx: Context, e: art_.Edge, taken: set[str]) -> Joint:
     state = _choose_state(state_from_motion(motion, kind, token, where),
                           authored_value(prim, STATE), kind, where)
     limits, drive_limits = read_limits(e.desc, kind, prim, mpu, kpu, where)
+    name = sanitize_name(source_name(prim), taken)
+    if limits is not None and limits.lower == limits.upper:
+        # PhysX and Newton hold such a joint at that value (MuJoCo refuses the empty range;
+        # urdf-usd-converter writes a URDF <limit> of 0 and 0 so)
+        value = limits.lower
+        warn(f"{where}: physics:lowerLimit == upperLimit ({e.desc.limit.lower:g}): PhysX "
+             f"and Newton hold the joint there; read as a fixed joint at q = {value:g}")
+        held = Joint(name, kind, names[e.parent], names[e.child], origin=origin, axis=axis)
+        return Joint(name, JointType.FIXED, names[e.parent], names[e.child],
+                     origin=held.transform(value))
     if limits is not None:
         state = _into_limits(state, limits, kind, where)
-    return Joint(sanitize_name(source_name(prim), taken), kind, names[e.parent], names[e.child],
+    return Joint(name, kind, names[e.parent], names[e.child],
                  origin=origin, axis=axis, limits=limits, state=state,
                  drive_limits=drive_limits,
                  dynamics=read_dynamics(prim, kind.angular, mpu, kpu, where),
