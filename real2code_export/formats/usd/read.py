@@ -292,8 +292,11 @@ def _with_volume(mesh: Mesh) -> Mesh:
     (``collision.thickened``; MuJoCo refuses to hull coplanar points); any other as read."""
     if mesh.primitives or len(mesh.faces) == 0:
         return mesh
-    thick = thickened(mesh)
-    return thick if len(thick.faces) > len(mesh.faces) else mesh
+    points = mesh.vertices - mesh.vertices.mean(axis=0)
+    spans = np.linalg.svd(points, compute_uv=False) if len(points) > 2 else np.zeros(1)
+    if len(spans) == 3 and spans[2] > 1e-9 * max(float(spans[0]), 1e-300):
+        return mesh  # (thin is not flat: a panel's hull has a volume; kept as written)
+    return thickened(mesh)
 
 
 def _frames(ctx: Context, body: str, prim, taken: set[str], joint_names: set[str],
