@@ -5,8 +5,8 @@ Mesh filenames are relative to the URDF (or, failing that, to the folder a MuJoC
 above the URDF or on the search path, warned), ``file://`` paths, or
 ``package://name/rest`` /
 ``model://name/rest`` (resolved by searching the URDF's parent folders, then
-``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``: there is no ROS
-package index here). Primitives are kept as the model's shapes (with their fixed
+``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``, else, as ROS finds
+a package, the folder whose ``package.xml`` names it: there is no ROS package index here). Primitives are kept as the model's shapes (with their fixed
 tessellation, :mod:`real2code_export.primitives`). A visual's colour is its URDF material, else the area-weighted diffuse
 colour of the OBJ's own MTL materials (PartNet ships MTLs; read with the geometry), else
 none.
@@ -26,7 +26,7 @@ from ...model import Mesh
 from ...primitives import SIZE_COUNT, Primitive, ShapeKind
 from .context import Context, label
 from .conventions import PREFIX, ns
-from .packages import package_search_path
+from .packages import find_package, manifest_packages, package_search_path
 
 RGBA = tuple[float, float, float, float]
 
@@ -147,6 +147,12 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
             if (folder / package / rest).exists():
                 ctx.packaged[filename] = folder / package / rest
                 return folder / package / rest
+        # ROS's own rule: the folder whose package.xml names the package
+        manifests = list(manifest_packages(package, here)) if scheme == "package://" else []
+        for folder in manifests:
+            if (folder / rest).exists():
+                ctx.packaged[filename] = folder / rest
+                return folder / rest
         # No such package, but REST lies under a folder above the URDF (a package renamed
         # or copied without its name): the nearest one, as yourdfpy resolves it.
         found = next((f for f in (here, *here.parents) if (f / rest).is_file()), None)
@@ -156,10 +162,15 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
             ctx.warn(owner, f"{filename!r}: no package {package!r} found; {rest!r} taken from "
                      f"{found}, the nearest folder above the URDF holding it", line)
             return found / rest
+        package_folder = find_package(package, here)
+        if package_folder is not None:  # the package is there, the file is not
+            raise ctx.error(owner, f"cannot resolve {filename!r}: package {package!r} is "
+                            f"{package_folder}, which holds no {rest!r} (mesh file not found)",
+                            line)
         raise ctx.error(owner, f"cannot resolve {filename!r}: no parent folder of the URDF is "
-                        f"named {package!r} (or holds one) with {rest!r} in it, nor any folder "
-                        f"of the search path {[str(f) for f in search]} (ROS_PACKAGE_PATH, "
-                        "--package-path)", line)
+                        f"named {package!r} (or holds one, or has a package.xml naming it) "
+                        f"with {rest!r} in it, nor any folder of the search path "
+                        f"{[str(f) for f in search]} (ROS_PACKAGE_PATH, --package-path)", line)
     if filename.startswith("file://"):
         return Path(unquote(filename[len("file://"):]))
     path = Path(filename)
