@@ -1566,3 +1566,28 @@ def test_a_urdf_named_xml_is_read_as_urdf(tmp_path):
                          validate=False)
     assert report.ok, [m.message for m in report.mismatches]
     assert {p.label for p in report.probes if p.is_reference} == {"source MuJoCo (URDF)"}
+
+
+def test_a_link_weighed_from_a_flat_visual_mesh_loads_in_mujoco(tmp_path):
+    """A link without <inertial> whose visual is one flat triangle off the axes (a decal, a
+    Collada test asset): its mass properties are a thin shell's, whose largest moment is
+    the sum of the other two; written as text with products of inertia, MuJoCo's URDF
+    import found that 1e-16 short of A + B = C and refused the URDF export. The two smaller
+    moments now keep a margin, and every export loads in MuJoCo."""
+    from real2code_export.formats import export
+    from real2code_export.probes.mujoco import open_probes
+
+    (tmp_path / "decal.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    source = tmp_path / "decal.urdf"
+    source.write_text("""<robot name="decal"><link name="base"/><link name="decal">
+      <visual><geometry><mesh filename="decal.obj"/></geometry></visual></link>
+      <joint name="hinge" type="continuous"><parent link="base"/><child link="decal"/>
+        <axis xyz="0 0 1"/></joint></robot>""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = urdf.load(source)
+        written = export(obj, tmp_path / "out", ["urdf", "mjcf"])
+    moments = np.linalg.eigvalsh(obj.part("decal").inertial.inertia)
+    assert moments[0] + moments[1] > moments[2] * (1 + 1e-7)
+    for path in written.values():  # (a flat mesh compiled as a shell, as check does)
+        assert open_probes(path)[0].parts
