@@ -1565,7 +1565,8 @@ def test_a_urdf_named_xml_is_read_as_urdf(tmp_path):
     report = check_files(list(written.values()), source=source, n_configurations=5,
                          validate=False)
     assert report.ok, [m.message for m in report.mismatches]
-    assert {p.label for p in report.probes if p.is_reference} == {"source MuJoCo (URDF)"}
+    assert {p.label for p in report.probes if p.label.startswith("source")} == {
+        "source MuJoCo (URDF)", "source Pinocchio (URDF)"}
 
 
 def test_a_link_weighed_from_a_flat_visual_mesh_loads_in_mujoco(tmp_path):
@@ -1591,3 +1592,56 @@ def test_a_link_weighed_from_a_flat_visual_mesh_loads_in_mujoco(tmp_path):
     assert moments[0] + moments[1] > moments[2] * (1 + 1e-7)
     for path in written.values():  # (a flat mesh compiled as a shell, as check does)
         assert open_probes(path)[0].parts
+
+
+def test_a_limit_with_one_bound_is_read_as_the_urdf_specification_reads_it(tmp_path):
+    """``<limit upper="0.5" effort velocity>`` (lower omitted): the URDF specification,
+    urdfdom (ROS, Pinocchio) and urdf-usd-converter take the missing bound as 0, MuJoCo's
+    import leaves the joint unlimited. Read as the specification says, warned; the check
+    against the source compares MuJoCo's import with the same bound, so the exports agree
+    with the source in both tools (they disagreed: "revolute, continuous in source MuJoCo")."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export
+
+    source = tmp_path / "half.urdf"
+    source.write_text(f"""<robot name="half"><link name="base">{INERTIAL}</link>
+      <link name="arm">{INERTIAL}</link><link name="tip">{INERTIAL}</link>
+      <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/>
+        <axis xyz="0 1 0"/><limit upper="0.5" effort="1" velocity="1"/></joint>
+      <joint name="slide" type="prismatic"><parent link="arm"/><child link="tip"/>
+        <origin xyz="0.3 0 0"/><limit lower="-0.2" effort="1" velocity="1"/></joint>
+      </robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<limit> with one bound in joints 'shoulder' "
+                      r"\(lower 0\), 'slide' \(upper 0\): the other is 0"):
+        obj = urdf.load(source)
+    assert (obj.joint("shoulder").limits.lower, obj.joint("shoulder").limits.upper) == (0, 0.5)
+    assert (obj.joint("slide").limits.lower, obj.joint("slide").limits.upper) == (-0.2, 0)
+    written = export(obj, tmp_path / "out", ["mjcf", "urdf"])
+    pytest.importorskip("pinocchio")
+    report = check_files(list(written.values()), source=source, n_configurations=10,
+                         validate=False)
+    assert {p.label for p in report.probes if p.label.startswith("source")} == {
+        "source MuJoCo (URDF)", "source Pinocchio (URDF)"}
+    assert report.ok, [m.message for m in report.mismatches]
+
+
+def test_a_relative_file_uri_is_read_beside_the_urdf_and_a_url_refused(tmp_path, monkeypatch):
+    """``file://meshes/box.obj`` (no file URI: its path does not start with '/'), which
+    urdf-usd-converter reads relative to the URDF: read so, warned (the working folder
+    decided before); ``https://...`` is refused naming the URL (it was "mesh file not found"
+    of a path made of it)."""
+    write_obj(tmp_path / "robot" / "meshes" / "box.obj", box((0.1, 0.2, 0.3)))
+    source = tmp_path / "robot" / "box.urdf"
+    source.write_text(f"""<robot name="box"><link name="base">{INERTIAL}<visual><geometry>
+      <mesh filename="file://meshes/box.obj"/></geometry></visual></link></robot>""")
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    with pytest.warns(Real2CodeWarning, match=r"<link name='base'>: 'file://meshes/box.obj': "
+                      "a file:// URI with a relative path; read relative to the URDF"):
+        obj = urdf.load(source)
+    assert len(obj.part("base").visual.faces) == 12
+    source.write_text(source.read_text().replace("file://meshes/box.obj",
+                                                 "https://example.com/meshes/box.obj"))
+    with pytest.raises(FormatError, match=r"box.urdf:\d+: <link name='base'>: mesh filename "
+                       r"'https://example.com/meshes/box.obj' is a URL"):
+        urdf.load(source)

@@ -14,6 +14,7 @@ none.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -29,6 +30,8 @@ from .conventions import PREFIX, ns
 from .packages import find_package, manifest_packages, package_search_path
 
 RGBA = tuple[float, float, float, float]
+# A URI of another scheme than package://, model:// or file:// (https://...)
+_URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*://")
 
 
 def origin_matrix(ctx: Context, el: etree._Element, owner: str) -> np.ndarray:
@@ -172,8 +175,22 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
                         f"with {rest!r} in it, nor any folder of the search path "
                         f"{[str(f) for f in search]} (ROS_PACKAGE_PATH, --package-path)", line)
     if filename.startswith("file://"):
-        return Path(unquote(filename[len("file://"):]))
-    path = Path(filename)
+        path = Path(unquote(filename[len("file://"):]))
+        if path.is_absolute():
+            return path
+        # 'file://meshes/a.stl' is no file URI (its path would start with '/'; 'meshes'
+        # would be a host): read relative to the URDF, as urdf-usd-converter reads it, where
+        # the working folder decided before
+        if not quiet:
+            ctx.warn(owner, f"{filename!r}: a file:// URI with a relative path; read "
+                     "relative to the URDF", line)
+    elif _URL.match(filename):
+        if quiet:
+            return None
+        raise ctx.error(owner, f"mesh filename {filename!r} is a URL: mesh files are read "
+                        "from disk, not downloaded (download it and name the file)", line)
+    else:
+        path = Path(filename)
     if path.is_absolute():
         return path
     beside = ctx.path.parent / path

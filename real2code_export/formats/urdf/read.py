@@ -260,6 +260,9 @@ def _report_notes(ctx: Context) -> None:
         "renamed": "names changed to identifiers: {}",
         "limit": "<limit> without effort and/or velocity (urdfdom refuses that) in joints {}: "
                  "kept as unknown",
+        "half_range": "<limit> with one bound in joints {}: the other is 0, as the URDF "
+                      "specification and urdfdom (ROS, Pinocchio) read it (MuJoCo's import "
+                      "leaves such a joint unlimited)",
         "limit_dropped": "<limit> ignored on fixed joints {}",
         "swing_dropped": "<limit> ignored on spherical joints {} (Bullet's swing spans and "
                          "twist: no format holds them, the ball is free)",
@@ -649,6 +652,9 @@ def _axis(ctx: Context, el: etree._Element, owner: str) -> np.ndarray:
 def _limits(ctx: Context, el: etree._Element, owner: str, name: str) -> Limits:
     lower = ctx.number(el, "lower", owner, default=0.0)
     upper = ctx.number(el, "upper", owner, default=0.0)
+    missing = [a for a in ("lower", "upper") if el.get(a) is None]
+    if len(missing) == 1:  # (neither: an empty range, read as MuJoCo reads it)
+        ctx.note("half_range", f"{name!r} ({missing[0]} 0)")
     return Limits(lower=lower, upper=upper, **_effort_velocity(ctx, el, owner, name))
 
 
