@@ -1645,3 +1645,41 @@ def test_a_relative_file_uri_is_read_beside_the_urdf_and_a_url_refused(tmp_path,
     with pytest.raises(FormatError, match=r"box.urdf:\d+: <link name='base'>: mesh filename "
                        r"'https://example.com/meshes/box.obj' is a URL"):
         urdf.load(source)
+
+
+def test_a_floating_joint_below_a_welded_link_hangs_from_the_root(tmp_path):
+    """A floating body below a link the base holds by fixed joints (a cup on a table welded
+    to the base): Pinocchio loads it, MuJoCo refuses a free joint below the top level,
+    urdf-usd-converter makes the body free. Hung from the root at the same pose (the
+    origins composed), warned; the exports load in MuJoCo and agree with the source. Below
+    a link that moves it is still refused (its coordinates would change)."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export
+
+    source = tmp_path / "table.urdf"
+    source.write_text(f"""<robot name="table"><link name="base">{INERTIAL}</link>
+      <link name="top">{INERTIAL}</link><link name="cup">{INERTIAL}</link>
+      <joint name="legs" type="fixed"><parent link="base"/><child link="top"/>
+        <origin xyz="0 0 0.7" rpy="0 0 0.5"/></joint>
+      <joint name="cup_free" type="floating"><parent link="top"/><child link="cup"/>
+        <origin xyz="0.2 0 0.05"/></joint></robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<joint name='cup_free'>: a floating joint "
+                      r"below 'top', which the root part 'base' holds by fixed joints "
+                      r"\('legs'\): hung from 'base' at the same pose"):
+        obj = urdf.load(source)
+    cup = obj.joint("cup_free")
+    assert cup.parent == "base"
+    np.testing.assert_allclose(cup.origin[:3, 3],
+                               [0.2 * np.cos(0.5), 0.2 * np.sin(0.5), 0.75], atol=1e-12)
+    written = export(obj, tmp_path / "out", ["mjcf", "urdf"])
+    pytest.importorskip("pinocchio")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)  # (MuJoCo refuses the source)
+        report = check_files(list(written.values()), source=source, n_configurations=5,
+                             validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+    assert {p.label for p in report.probes} >= {"MuJoCo (MJCF)", "MuJoCo (URDF)"}
+    source.write_text(source.read_text().replace('type="fixed"', 'type="continuous"'))
+    with pytest.raises(FormatError, match=r"<joint name='cup_free'>: a floating joint must "
+                       "hang from the root part"):
+        urdf.load(source)

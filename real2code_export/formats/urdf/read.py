@@ -56,6 +56,7 @@ from ...model import (
 from ...repairs import (
     balanced_inertia,
     composed_mimic_chains,
+    floating_joints_from_the_root,
     massless_moving_parts,
     unusable_mimics,
 )
@@ -139,7 +140,8 @@ def load(path: str | Path, *, faithful_collision: bool = False,
             for el in unread))
     obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
                             metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
-    for joint_name, message in (massless_moving_parts(obj) + composed_mimic_chains(obj)
+    for joint_name, message in (floating_joints_from_the_root(obj)
+                                + massless_moving_parts(obj) + composed_mimic_chains(obj)
                                 + unusable_mimics(obj)):
         el = joint_el[joint_name]
         ctx.warn(label(el), message, el.sourceline)
