@@ -1683,3 +1683,19 @@ def test_a_floating_joint_below_a_welded_link_hangs_from_the_root(tmp_path):
     with pytest.raises(FormatError, match=r"<joint name='cup_free'>: a floating joint must "
                        "hang from the root part"):
         urdf.load(source)
+
+
+def test_an_srdf_is_refused_saying_what_it_is(tmp_path):
+    """MoveIt's SRDF has a <robot> root too (pr2_description's ``srdf/robot.xml`` beside its
+    URDF ``urdf/robot.xml``): refused naming it an SRDF, not only "has no <link>"."""
+    from real2code_export.formats import load
+
+    source = tmp_path / "robot.xml"
+    source.write_text("""<?xml version="1.0"?>
+<robot name="arm"><virtual_joint name="world_joint" type="fixed" parent_frame="world"
+    child_link="base"/>
+  <group name="arm"><chain base_link="base" tip_link="tip"/></group>
+  <disable_collisions link1="base" link2="tip" reason="Adjacent"/></robot>""")
+    with pytest.raises(FormatError, match=r"robot.xml:2: <robot name='arm'>: has no <link> "
+                       r"\(it holds <disable_collisions>, <group>, <virtual_joint>: an SRDF"):
+        load(source)

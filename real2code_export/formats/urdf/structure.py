@@ -148,8 +148,24 @@ def _named(ctx: Context, robot: etree._Element, tag: str) -> dict[str, etree._El
 def link_elements(ctx: Context, robot: etree._Element) -> dict[str, etree._Element]:
     links = _named(ctx, robot, "link")
     if not links:
-        raise ctx.error(label(robot), "has no <link>" + _xacro_calls(robot), robot.sourceline)
+        raise ctx.error(label(robot), "has no <link>" + (_xacro_calls(robot) or _srdf(robot)),
+                        robot.sourceline)
     return links
+
+
+# What a MoveIt SRDF (semantic robot description; its root is <robot> too) holds instead
+SRDF_ELEMENTS = ("group", "group_state", "end_effector", "virtual_joint", "disable_collisions",
+                 "passive_joint", "disable_default_collisions")
+
+
+def _srdf(robot: etree._Element) -> str:
+    """A URDF without links that is an SRDF (``robot.srdf``, ``srdf/robot.xml``: MoveIt's
+    groups and collision pairs of a robot, whose links are in its URDF)."""
+    found = sorted({el.tag for el in robot if isinstance(el.tag, str) and el.tag in SRDF_ELEMENTS})
+    if not found:
+        return ""
+    return (f" (it holds {', '.join(f'<{t}>' for t in found)}: an SRDF, MoveIt's semantic "
+            "description of a robot, not the robot; convert the URDF it describes)")
 
 
 XACRO_NAMESPACE = "http://ros.org/wiki/xacro"
