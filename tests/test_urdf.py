@@ -851,10 +851,12 @@ def test_a_robot_of_xacro_macro_calls_is_refused_saying_so(tmp_path, declared):
         urdf.load(source)
 
 
-def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
-    """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
-    Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
-    names each, never drops it silently."""
+def test_children_of_links_and_joints_no_format_holds_are_kept(tmp_path):
+    """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's soft
+    limits and homing references, Bullet's contact) have no place in the model: kept in the
+    metadata, warned, and written back into their element by the URDF writer, also after a
+    trip through MJCF (they were named and dropped); a <material>'s <texture> is not read,
+    named."""
     text = (FIXTURES / "floating_base.urdf").read_text().replace(
         "</robot>", '<material name="skin"><texture filename="skin.png"/></material>'
         '<material name="bare"><color rgba="1 0 0 1"/><texture/></material></robot>'
@@ -867,13 +869,34 @@ def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
     source = tmp_path / "extra.urdf"
     source.write_text(text)
     with pytest.warns(Real2CodeWarning) as said:
-        urdf.load(source)
+        obj = urdf.load(source)
     said = " ".join(str(w.message) for w in said)
-    assert re.search(r"not read \(no format holds them\): <contact> in <link name='arm'> "
-                     r"\(line \d+\), <safety_controller> in <joint name='elbow'> \(line \d+\), "
-                     r"<calibration> in <joint name='elbow'>", said), said
+    assert re.search(r"kept as metadata 'urdf_elements' \(the URDF writer writes them back "
+                     r"into their element; no other format acts on them\): <contact> in "
+                     r"<link name='arm'> \(line \d+\), <safety_controller> in <joint "
+                     r"name='elbow'> \(line \d+\), <calibration> in <joint name='elbow'>",
+                     said), said
     assert "<material name='skin'>: <texture filename='skin.png'> not read" in said, said
     assert "<material name='bare'>" not in said  # an empty <texture/> holds nothing to read
+    from lxml import etree
+
+    from real2code_export.formats import mjcf
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        via_mjcf = urdf.load(urdf.save(mjcf.load(mjcf.save(obj, tmp_path / "mjcf")),
+                                       tmp_path / "via_mjcf"))
+    with warnings.catch_warnings(record=True) as again:
+        warnings.simplefilter("always")
+        back = urdf.load(urdf.save(obj, tmp_path / "out"))
+    assert not [w for w in again if "kept as metadata" in str(w.message)]  # (ours, marked)
+    for read in (back, via_mjcf):
+        assert read.metadata["urdf_elements"] == obj.metadata["urdf_elements"]
+    robot = etree.parse(str(tmp_path / "via_mjcf" / f"{obj.name}.urdf")).getroot()
+    elbow = robot.find("joint[@name='elbow']")
+    assert elbow.find("safety_controller").get("soft_lower_limit") == "-1"
+    assert elbow.find("calibration").get("rising") == "0"
+    assert robot.find("link[@name='arm']/contact/lateral_friction").get("value") == "1"
 
 
 def test_visuals_of_several_colours_are_kept_in_every_format(tmp_path):

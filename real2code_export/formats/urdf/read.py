@@ -61,7 +61,7 @@ from ...repairs import (
     unusable_mimics,
 )
 from .context import Context, label
-from .conventions import ELEMENTS_KEY, UNKNOWN, ns
+from .conventions import ELEMENTS_KEY, KEPT, KEPT_IN, NAMESPACE, PREFIX, UNKNOWN, ns
 from .geometry import (
     average_color,
     file_colors,
@@ -133,13 +133,20 @@ def load(path: str | Path, *, faithful_collision: bool = False,
         joint_list += chain
         joint_el.update((j.name, el) for j in chain)
     _report_notes(ctx)
+    metadata = _with_unread_elements(ctx, robot, _metadata(ctx, robot))
     unread = unread_in([*links.values(), *joints.values()])
-    if unread:  # (no format, ours included, has a place for them)
-        ctx.warn(None, "not read (no format holds them): " + ", ".join(
-            f"<{etree.QName(el).localname}> in {label(el.getparent())} (line {el.sourceline})"
-            for el in unread))
-    obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
-                            metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
+    found = [el for el in unread if el.get(ns(KEPT)) is None]  # (not our writer's)
+    if found:  # (no other format has a place for them; the URDF writer writes them back)
+        ctx.warn(None, f"kept as metadata {ELEMENTS_KEY!r} (the URDF writer writes them back "
+                 "into their element; no other format acts on them): " + ", ".join(
+                     f"<{etree.QName(el).localname}> in {label(el.getparent())} "
+                     f"(line {el.sourceline})" for el in found))
+    if unread:
+        names = {"link": {raw: part_names[raw] for raw in links},
+                 "joint": {raw: joint_names[raw] for raw in joints}}
+        metadata = {**metadata, ELEMENTS_KEY: [*metadata.get(ELEMENTS_KEY, []), *(
+            _kept_in(el, names) for el in unread)]}
+    obj = ArticulatedObject(name=name, parts=parts, joints=joint_list, metadata=metadata)
     for joint_name, message in (floating_joints_from_the_root(obj)
                                 + massless_moving_parts(obj) + composed_mimic_chains(obj)
                                 + unusable_mimics(obj)):
@@ -242,6 +249,18 @@ def _with_unread_elements(ctx: Context, robot: etree._Element, metadata: dict) -
              "other format acts on them): " + ", ".join(
                  f"<{etree.QName(el).localname}> (line {el.sourceline})" for el in unread))
     return {**metadata, ELEMENTS_KEY: [_element_text(el) for el in unread]}
+
+
+def _kept_in(el: etree._Element, names: dict[str, dict[str, str]]) -> str:
+    """A child of a <link> or <joint> the model has no place for, as XML text wrapped in
+    <real2code:in link|joint="NAME"> (``conventions.KEPT_IN``; NAME the model's)."""
+    owner = el.getparent()
+    wrapper = etree.Element(f"{{{NAMESPACE}}}{KEPT_IN}", nsmap={PREFIX: NAMESPACE})
+    wrapper.set(owner.tag, names[owner.tag][owner.get("name")])
+    kept = copy.deepcopy(el)
+    kept.attrib.pop(ns(KEPT), None)
+    wrapper.append(kept)
+    return _element_text(wrapper)
 
 
 def _element_text(el: etree._Element) -> str:
