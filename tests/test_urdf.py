@@ -1722,3 +1722,20 @@ def test_an_srdf_is_refused_saying_what_it_is(tmp_path):
     with pytest.raises(FormatError, match=r"robot.xml:2: <robot name='arm'>: has no <link> "
                        r"\(it holds <disable_collisions>, <group>, <virtual_joint>: an SRDF"):
         load(source)
+
+
+def test_collada_lines_are_named_not_dropped_in_silence(tmp_path):
+    """A Collada mesh with a <lines> primitive beside its triangles (edges a CAD exporter
+    left in: moveit's panda link5-7): the triangles are read, the lines (no surface to show
+    or collide) are named in a warning with the file (they were skipped in silence;
+    urdf-usd-converter warns too)."""
+    with_lines = COLLADA_MM.replace("</triangles>", """</triangles>
+    <lines count="1"><input semantic="VERTEX" source="#verts" offset="0"/><p>0 1</p></lines>""")
+    (tmp_path / "part.dae").write_text(with_lines)
+    path = tmp_path / "robot.urdf"
+    path.write_text(f'<robot name="dae"><link name="base">{INERTIAL}<visual><geometry>'
+                    '<mesh filename="part.dae"/></geometry></visual></link></robot>')
+    with pytest.warns(Real2CodeWarning, match=r"part\.dae: 1 Collada <lines>/<linestrips> "
+                      r"primitive\(s\), edges with no surface: not read"):
+        obj = urdf.load(path)
+    assert len(obj.part("base").visual.faces) == 1
