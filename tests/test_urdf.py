@@ -1739,3 +1739,25 @@ def test_collada_lines_are_named_not_dropped_in_silence(tmp_path):
                       r"primitive\(s\), edges with no surface: not read"):
         obj = urdf.load(path)
     assert len(obj.part("base").visual.faces) == 1
+
+
+def test_children_of_visuals_no_reader_reads_are_named(tmp_path):
+    """Custom data inside a <visual> or <collision> (urdf-usd-converter's
+    verifying_elements.urdf: <custom>, <verbose>): the model merges a link's visuals into its
+    part, so there is no element to keep them in; named in a warning, not dropped in
+    silence. Our own namespace's elements are ours, not named."""
+    source = tmp_path / "custom.urdf"
+    source.write_text(f"""<robot name="custom" xmlns:real2code="urn:real2code-export:urdf:1">
+      <link name="base">{INERTIAL}
+        <visual><custom><item value="1"/></custom><geometry><box size="1 1 1"/></geometry>
+        </visual>
+        <collision><geometry><box size="1 1 1"/></geometry><verbose value="v"/>
+          <real2code:note/></collision></link></robot>""")
+    with pytest.warns(Real2CodeWarning) as said:
+        urdf.load(source)
+    said = " ".join(str(w.message) for w in said)
+    assert re.search(r"not read \(in a visual, collision or inertial, which the model merges "
+                     r"into its part: no element to keep them in\): <custom> in the <visual> "
+                     r"of <link name='base'> \(line 3\), <verbose> in the <collision> of "
+                     r"<link name='base'> \(line 5\)", said), said
+    assert "<note>" not in said

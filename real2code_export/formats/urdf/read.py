@@ -83,6 +83,7 @@ from .structure import (
     parse,
     unread_children,
     unread_in,
+    unread_in_parts,
 )
 
 # An axis this close to unit length is kept as written, so that what we write reads back
@@ -133,6 +134,13 @@ def load(path: str | Path, *, faithful_collision: bool = False,
         joint_list += chain
         joint_el.update((j.name, el) for j in chain)
     _report_notes(ctx)
+    dropped = unread_in_parts(links.values())
+    if dropped:
+        ctx.warn(None, "not read (in a visual, collision or inertial, which the model merges "
+                 "into its part: no element to keep them in): " + ", ".join(
+                     f"<{etree.QName(el).localname}> in the <{el.getparent().tag}> of "
+                     f"{label(el.getparent().getparent())} (line {el.sourceline})"
+                     for el in dropped))
     metadata = _with_unread_elements(ctx, robot, _metadata(ctx, robot))
     unread = unread_in([*links.values(), *joints.values()])
     found = [el for el in unread if el.get(ns(KEPT)) is None]  # (not our writer's)

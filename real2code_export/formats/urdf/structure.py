@@ -12,7 +12,7 @@ from lxml import etree
 
 from ...model import NAME_PATTERN, sanitize_name
 from .context import Context, label
-from .conventions import ADDED, PREFIX, ns
+from .conventions import ADDED, NAMESPACE, PREFIX, ns
 from .xacro_file import document
 
 # URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
@@ -122,6 +122,22 @@ def unread_children(robot: etree._Element) -> list[etree._Element]:
     """The children of <robot> the model has no place for: transmissions, Gazebo tags,
     Drake frames... (kept in the metadata by the reader, never dropped in silence)."""
     return [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
+
+
+# What urdfdom reads in a link's <inertial>, <visual> and <collision>
+PART_TAGS = {"inertial": ("origin", "mass", "inertia"),
+             "visual": ("origin", "geometry", "material"),
+             "collision": ("origin", "geometry")}
+
+
+def unread_in_parts(links) -> list[etree._Element]:
+    """The children of the <inertial>, <visual> and <collision> of the <link> elements
+    ``links`` that no reader reads (custom data a tool put there; elements of our own
+    namespace excepted), for a warning: they belong to a visual the model merges into its
+    part, so no element is there to write them back into."""
+    return [child for link in links for el in link.iterchildren(*PART_TAGS)
+            for child in el.iterchildren(etree.Element)
+            if child.tag not in PART_TAGS[el.tag] and etree.QName(child).namespace != NAMESPACE]
 
 
 def unread_in(elements) -> list[etree._Element]:
