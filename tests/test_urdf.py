@@ -1761,3 +1761,26 @@ def test_children_of_visuals_no_reader_reads_are_named(tmp_path):
                      r"of <link name='base'> \(line 3\), <verbose> in the <collision> of "
                      r"<link name='base'> \(line 5\)", said), said
     assert "<note>" not in said
+
+
+def test_a_kept_element_urdfdom_refuses_is_written_back_beside_the_joints(tmp_path):
+    """A <safety_controller> without k_velocity (urdf-usd-converter's
+    warning_no_joint_k_velocity.urdf): urdfdom refuses the whole file for it. Kept and
+    warned, but written back wrapped beside the joints, not into its joint, so that
+    Pinocchio loads the URDF export (it refused it once such elements were written back)."""
+    pinocchio = pytest.importorskip("pinocchio")
+    source = tmp_path / "soft.urdf"
+    source.write_text(f"""<robot name="soft"><link name="base">{INERTIAL}</link>
+      <link name="arm">{INERTIAL}</link>
+      <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+        <limit lower="-1" upper="1" effort="1" velocity="1"/>
+        <safety_controller k_position="3"/></joint></robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<joint name='hinge'>: <safety_controller> "
+                      r"without k_velocity \(urdfdom refuses the file for it\): kept"):
+        obj = urdf.load(source)
+    out = urdf.save(obj, tmp_path / "out")
+    model = pinocchio.buildModelFromUrdf(str(out))
+    assert model.names[1] == "hinge"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        assert urdf.load(out).metadata["urdf_elements"] == obj.metadata["urdf_elements"]

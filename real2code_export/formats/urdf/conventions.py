@@ -35,6 +35,10 @@ ELEMENTS_KEY = FORMATS["urdf"].kept_elements
 KEPT_IN = "in"
 # and marks each so written back real2code:kept="true": our reader keeps it again unwarned
 KEPT = "kept"
+# Attributes without which urdfdom refuses such a child (and the whole file: "joint safety:
+# no k_velocity"): one kept from a file urdfdom refused stays wrapped, in <robot>, where
+# URDF's readers ignore it, so that the export loads (warned by the reader).
+URDFDOM_REQUIRES = {"safety_controller": ("k_velocity",)}
 
 
 def ns(name: str) -> str:

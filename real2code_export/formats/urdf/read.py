@@ -61,7 +61,16 @@ from ...repairs import (
     unusable_mimics,
 )
 from .context import Context, label
-from .conventions import ELEMENTS_KEY, KEPT, KEPT_IN, NAMESPACE, PREFIX, UNKNOWN, ns
+from .conventions import (
+    ELEMENTS_KEY,
+    KEPT,
+    KEPT_IN,
+    NAMESPACE,
+    PREFIX,
+    UNKNOWN,
+    URDFDOM_REQUIRES,
+    ns,
+)
 from .geometry import (
     average_color,
     file_colors,
@@ -149,6 +158,12 @@ def load(path: str | Path, *, faithful_collision: bool = False,
                  "into their element; no other format acts on them): " + ", ".join(
                      f"<{etree.QName(el).localname}> in {label(el.getparent())} "
                      f"(line {el.sourceline})" for el in found))
+    for el in found:
+        missing = [a for a in URDFDOM_REQUIRES.get(el.tag, ()) if el.get(a) is None]
+        if missing:
+            ctx.warn(label(el.getparent()), f"<{el.tag}> without {', '.join(missing)} "
+                     "(urdfdom refuses the file for it): kept, written back beside the "
+                     "joints, not in this one", el.sourceline)
     if unread:
         names = {"link": {raw: part_names[raw] for raw in links},
                  "joint": {raw: joint_names[raw] for raw in joints}}

@@ -52,6 +52,7 @@ from .conventions import (
     NAMESPACE,
     PREFIX,
     UNKNOWN,
+    URDFDOM_REQUIRES,
     WORLD_LINK,
     ns,
     number,
@@ -177,13 +178,16 @@ def _placed_in_elements(obj: ArticulatedObject, elements: list[etree._Element]
                         ) -> tuple[list[etree._Element], dict[tuple[str, str], list]]:
     """The kept elements for <robot>, and those a reader found in a <link> or <joint>
     (wrapped in <real2code:in>, ``conventions.KEPT_IN``) by (tag, name) of the element they
-    go back into; a wrapper naming an element the object no longer has stays as it is."""
+    go back into; a wrapper naming an element the object no longer has, or holding one
+    urdfdom would refuse (``conventions.URDFDOM_REQUIRES``), stays as it is."""
     names = {"link": {p.name for p in obj.parts}, "joint": {j.name for j in obj.joints}}
     top, nested = [], {}
     for el in elements:
         owner = next(((tag, el.get(tag)) for tag in names if el.get(tag) in names[tag]), None) \
             if el.tag == f"{{{NAMESPACE}}}{KEPT_IN}" else None
-        if owner is None:
+        refused = any(child.get(attr) is None for child in el
+                      for attr in URDFDOM_REQUIRES.get(child.tag, ()))
+        if owner is None or refused:
             top.append(el)
             continue
         for child in el:
