@@ -862,7 +862,7 @@ def test_children_of_links_and_joints_no_format_holds_are_kept(tmp_path):
         '<material name="bare"><color rgba="1 0 0 1"/><texture/></material></robot>'
     ).replace(
         '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
-        '<safety_controller soft_lower_limit="-1" k_position="10"/><calibration rising="0"/>'
+        '<safety_controller soft_lower_limit="-1" k_position="10" k_velocity="1"/><calibration rising="0"/>'
         ).replace('<link name="arm">', '<link name="arm"><contact><lateral_friction '
                   'value="1"/></contact>')
     assert text.count("safety_controller") == 1 and text.count("<contact>") == 1
