@@ -151,8 +151,9 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
                 ctx.packaged[filename] = folder / package / rest
                 return folder / package / rest
         # ROS's own rule: the folder whose package.xml names the package
-        manifests = list(manifest_packages(package, here)) if scheme == "package://" else []
-        for folder in manifests:
+        if scheme == "package://" and package not in ctx.manifests:
+            ctx.manifests[package] = list(manifest_packages(package, here))
+        for folder in ctx.manifests.get(package, []):
             if (folder / rest).exists():
                 ctx.packaged[filename] = folder / rest
                 return folder / rest
