@@ -3,14 +3,16 @@ formats, check every export against the SOURCE file in its own tools (100 config
 1e-6; its dynamics too, ``check --reference``), and list the repairs made. The table in docs/corpora.md comes from it.
 
     .venv/bin/python bench/corpus_survey.py urdf|mjcf|pybullet|PATH... [--load-only]
-        [--markdown FILE]
+        [--markdown FILE] [--xacro-arg NAME:=VALUE]... [--package-path DIR]...
 
 ``urdf`` is example-robot-data (PyPI), ``mjcf`` the Menagerie snapshot in ../shared/data,
 ``pybullet`` the URDF and MJCF files the pybullet wheel ships (as the corpus tests take them,
 ``tests/conftest.py``); any other argument is a robot file or a folder searched for them
-(``*.urdf``, and ``*.xml`` whose root is ``<mujoco>``). A file refused is marked "refused, as
-its tools" where the source's own tools refuse it too (MuJoCo; for URDF, MuJoCo and
-Pinocchio).
+(``*.urdf``, ``*.xacro``, and ``*.xml`` whose root is ``<mujoco>`` or ``<robot>``).
+``--xacro-arg`` and ``--package-path`` are ``real2code export``'s (every xacro file is
+expanded with the arguments given). A file refused is marked "refused, as its tools" where
+the source's own tools refuse it too (MuJoCo; for URDF, MuJoCo and Pinocchio); an exception
+that is none of the tool's errors is a "crash" (a bug: the survey goes on).
 """
 
 from __future__ import annotations
@@ -81,6 +83,8 @@ def survey(path: Path, load_only: bool) -> tuple[str, str, int]:
         except Real2CodeError as e:
             status = "refused" if _its_tools_load(path) else "refused, as its tools"
             return status, str(e).replace(str(path), path.name), len(caught)
+        except Exception as e:  # a crash is a finding too: the survey goes on to the next
+            return "crash", f"{type(e).__name__}: {e}".splitlines()[0], len(caught)
         try:
             # kinematics and dynamics against the source; the reader's warnings say which
             # differences are its repairs
@@ -110,10 +114,31 @@ def _its_tools_load(path: Path) -> bool:
     return True
 
 
+def _take_options(args: list[str], option: str) -> list[str]:
+    """The values of every ``option VALUE`` in ``args``, taken out of it."""
+    values = []
+    while option in args:
+        at = args.index(option)
+        values.append(args[at + 1])
+        del args[at:at + 2]
+    return values
+
+
 def main() -> None:
+    from real2code_export.formats.urdf.packages import XACRO_ARGS_VARIABLE
+
     args = sys.argv[1:]
     if "--markdown" in args:
         del args[args.index("--markdown"):args.index("--markdown") + 2]
+    # as real2code export takes them (cli/models.py: the readers and the check's tools
+    # read these variables)
+    xacro_args = _take_options(args, "--xacro-arg")
+    if xacro_args:
+        os.environ[XACRO_ARGS_VARIABLE] = "\n".join(xacro_args)
+    folders = [str(Path(p).resolve()) for p in _take_options(args, "--package-path")]
+    if folders:
+        rest = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+        os.environ["ROS_PACKAGE_PATH"] = os.pathsep.join(folders + rest)
     args = [a for a in args if a != "--load-only"]
     load_only = "--load-only" in sys.argv
     named = {"urdf": erd_files, "mjcf": menagerie_files, "pybullet": pybullet_files}

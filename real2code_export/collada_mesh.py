@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import warn
 from .meshtopology import unique_inverse
 from .model import RGBA
 
@@ -48,6 +49,11 @@ def read_collada(path: Path, data: bytes | None = None) -> tuple[
             m.get("symbol"): m.get("target", "").removeprefix("#")
             for m in binding.iter("{*}instance_material")}
         instance.remove(binding)
+    lines = sum(1 for el in root.iter("{*}lines", "{*}linestrips")
+                if etree.QName(el.getparent()).localname == "mesh")
+    if lines:  # (edges a CAD exporter left in; the converters warn too)
+        warn(f"{path}: {lines} Collada <lines>/<linestrips> primitive(s), edges with no "
+             "surface: not read (no triangles to show or collide)")
     _positions_only(root)
     try:
         doc = collada.Collada(io.BytesIO(etree.tostring(root)),
@@ -149,7 +155,8 @@ def _walk(node, parent: np.ndarray, pieces: list, collada, colour: _Colours) -> 
 
 
 def _triangles(primitive) -> tuple[np.ndarray, np.ndarray] | None:
-    """A primitive's used vertices and triangles (polygons fan-triangulated; lines skipped)."""
+    """A primitive's used vertices and triangles (polygons fan-triangulated; lines skipped,
+    warned by :func:`read_collada`)."""
     import collada
 
     if isinstance(primitive, collada.polylist.Polylist):  # also <polygons>

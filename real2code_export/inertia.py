@@ -29,6 +29,7 @@ from . import meshcache, meshtopology
 from .errors import InputError, warn
 from .model import Inertial, JointType, Mesh, Tree
 from .primitives import Primitive, ShapeKind
+from .repairs import TRIANGLE_MARGIN
 
 # Furniture (the main category here) is wood, plywood, particleboard or MDF: roughly
 # 400-800 kg/m^3. 500 is a middle value that also allows for hollow/cored panels.
@@ -195,13 +196,19 @@ def _physical_inertia(inertia: np.ndarray, mass: float, min_size: float) -> np.n
     Principal moments are raised to at least mass * min_size^2 / 12 (what a slab
     ``min_size`` thick has about its normal-plane axes) and to a small fraction of the
     largest; then the largest is capped at the sum of the other two (equality is a flat
-    panel, so this only removes round-off)."""
+    panel, so this only removes round-off). A flat panel's two smaller moments are then
+    raised by ``repairs.TRIANGLE_MARGIN`` of the largest: at equality, a tensor with
+    products of inertia written as text and diagonalised again (MuJoCo's URDF import) can
+    come back 1e-16 short of A + B = C and be refused."""
     inertia = 0.5 * (inertia + inertia.T)
     moments, axes = np.linalg.eigh(inertia)
     floor = max(mass * min_size**2 / 12.0, _RELATIVE_MOMENT_FLOOR * max(moments[2], 0.0), 1e-30)
     moments = np.maximum(moments, floor)
     moments = np.sort(moments)
     moments[2] = min(moments[2], moments[0] + moments[1])
+    deficit = moments[2] * (1 + TRIANGLE_MARGIN) - moments[0] - moments[1]
+    if deficit > 0:
+        moments[:2] += deficit / 2
     out = (axes * moments) @ axes.T
     return 0.5 * (out + out.T)
 

@@ -121,6 +121,34 @@ def massless_moving_parts(obj: ArticulatedObject) -> list[tuple[str, str]]:
     return changed
 
 
+def floating_joints_from_the_root(obj: ArticulatedObject) -> list[tuple[str, str]]:
+    """Hang from the root part every floating joint whose parent the root holds by fixed
+    joints (a URDF's floating body below a link welded to the base: Pinocchio loads it,
+    MuJoCo allows free joints on top-level bodies only, urdf-usd-converter makes the body a
+    free rigid body): the same pose, the joint origin composed with the fixed ones above
+    it; a floating joint constrains nothing, so the motion is the same. One below a moving
+    link is left to the model's validation (its coordinates would change). Changes ``obj``
+    in place; returns (joint name, message) for each joint moved."""
+    tree = obj.tree()
+    changed = []
+    for joint in obj.joints:
+        if joint.type is not JointType.FLOATING or joint.parent not in tree.parent:
+            continue
+        origin, part, path = joint.origin, joint.parent, []
+        while part in tree.parent and tree.parent[part].type is JointType.FIXED:
+            above = tree.parent[part]
+            origin, part = above.origin @ origin, above.parent
+            path.append(above.name)
+        if part in tree.parent:  # a joint above moves
+            continue
+        changed.append((joint.name, f"a floating joint below {joint.parent!r}, which the root "
+                        f"part {part!r} holds by fixed joints ({', '.join(map(repr, path))}): "
+                        f"hung from {part!r} at the same pose (a floating joint constrains "
+                        "nothing; MuJoCo allows free joints on top-level bodies only)"))
+        joint.parent, joint.origin = part, origin
+    return changed
+
+
 def composed_mimic_chains(obj: ArticulatedObject) -> list[tuple[str, str]]:
     """Couple a follower whose leader follows a third joint (MJCF joint equalities chained,
     each of which MuJoCo applies; URDF mimics chained) to the chain's first leader directly:

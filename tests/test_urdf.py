@@ -851,29 +851,52 @@ def test_a_robot_of_xacro_macro_calls_is_refused_saying_so(tmp_path, declared):
         urdf.load(source)
 
 
-def test_children_of_links_and_joints_no_format_holds_are_named(tmp_path):
-    """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's and
-    Bullet's) have no place in any format, nor is a <material>'s <texture> read: the reader
-    names each, never drops it silently."""
+def test_children_of_links_and_joints_no_format_holds_are_kept(tmp_path):
+    """A joint's <safety_controller> and <calibration> and a link's <contact> (ROS's soft
+    limits and homing references, Bullet's contact) have no place in the model: kept in the
+    metadata, warned, and written back into their element by the URDF writer, also after a
+    trip through MJCF (they were named and dropped); a <material>'s <texture> is not read,
+    named."""
     text = (FIXTURES / "floating_base.urdf").read_text().replace(
         "</robot>", '<material name="skin"><texture filename="skin.png"/></material>'
         '<material name="bare"><color rgba="1 0 0 1"/><texture/></material></robot>'
     ).replace(
         '<joint name="elbow" type="revolute">', '<joint name="elbow" type="revolute">'
-        '<safety_controller soft_lower_limit="-1" k_position="10"/><calibration rising="0"/>'
+        '<safety_controller soft_lower_limit="-1" k_position="10" k_velocity="1"/><calibration rising="0"/>'
         ).replace('<link name="arm">', '<link name="arm"><contact><lateral_friction '
                   'value="1"/></contact>')
     assert text.count("safety_controller") == 1 and text.count("<contact>") == 1
     source = tmp_path / "extra.urdf"
     source.write_text(text)
     with pytest.warns(Real2CodeWarning) as said:
-        urdf.load(source)
+        obj = urdf.load(source)
     said = " ".join(str(w.message) for w in said)
-    assert re.search(r"not read \(no format holds them\): <contact> in <link name='arm'> "
-                     r"\(line \d+\), <safety_controller> in <joint name='elbow'> \(line \d+\), "
-                     r"<calibration> in <joint name='elbow'>", said), said
+    assert re.search(r"kept as metadata 'urdf_elements' \(the URDF writer writes them back "
+                     r"into their element; no other format acts on them\): <contact> in "
+                     r"<link name='arm'> \(line \d+\), <safety_controller> in <joint "
+                     r"name='elbow'> \(line \d+\), <calibration> in <joint name='elbow'>",
+                     said), said
     assert "<material name='skin'>: <texture filename='skin.png'> not read" in said, said
     assert "<material name='bare'>" not in said  # an empty <texture/> holds nothing to read
+    from lxml import etree
+
+    from real2code_export.formats import mjcf
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        via_mjcf = urdf.load(urdf.save(mjcf.load(mjcf.save(obj, tmp_path / "mjcf")),
+                                       tmp_path / "via_mjcf"))
+    with warnings.catch_warnings(record=True) as again:
+        warnings.simplefilter("always")
+        back = urdf.load(urdf.save(obj, tmp_path / "out"))
+    assert not [w for w in again if "kept as metadata" in str(w.message)]  # (ours, marked)
+    for read in (back, via_mjcf):
+        assert read.metadata["urdf_elements"] == obj.metadata["urdf_elements"]
+    robot = etree.parse(str(tmp_path / "via_mjcf" / f"{obj.name}.urdf")).getroot()
+    elbow = robot.find("joint[@name='elbow']")
+    assert elbow.find("safety_controller").get("soft_lower_limit") == "-1"
+    assert elbow.find("calibration").get("rising") == "0"
+    assert robot.find("link[@name='arm']/contact/lateral_friction").get("value") == "1"
 
 
 def test_visuals_of_several_colours_are_kept_in_every_format(tmp_path):
@@ -1531,3 +1554,270 @@ def test_xacro_arguments_are_given_on_the_command_line(tmp_path, monkeypatch, ca
                 "--xacro-arg", "reach:=0.25"]) == EXIT_OK
     back = urdf.load(out / "two.urdf")
     assert back.joint("slide").limits.upper == pytest.approx(0.25)
+
+
+def _manifest(folder: Path, name: str) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "package.xml").write_text(f"""<?xml version="1.0"?>
+<package format="3"><name>{name}</name><version>1.0.0</version></package>""")
+
+
+def test_a_package_is_found_by_the_name_its_package_xml_gives(tmp_path):
+    """ROS finds a package by its manifest's <name>, not its folder's (moveit_resources
+    keeps ``moveit_resources_panda_description`` in ``panda_description/``): ``package://``
+    and xacro's ``$(find)`` find the folder beside the URDF's own package whose package.xml
+    names it, with no warning (it is ROS's own rule); a file the package lacks is refused
+    naming the package's folder."""
+    repo = tmp_path / "acme_resources"
+    _manifest(repo / "arm_description", "acme_arm_description")
+    _manifest(repo / "arm_config", "acme_arm_config")
+    write_obj(repo / "arm_description" / "meshes" / "base.obj", box((0.1, 0.2, 0.3)))
+    (repo / "arm_config" / "config").mkdir()
+    source = repo / "arm_config" / "config" / "arm.urdf"
+    source.write_text(f"""<robot name="arm"><link name="base">{INERTIAL}<visual><geometry>
+      <mesh filename="package://acme_arm_description/meshes/base.obj"/></geometry></visual>
+      </link></robot>""")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = urdf.load(source)
+    assert len(obj.part("base").visual.faces) == 12
+    assert not [w for w in caught if "no package" in str(w.message)]
+    source.write_text(source.read_text().replace("base.obj", "other.obj"))
+    with pytest.raises(FormatError, match=r"package 'acme_arm_description' is .*arm_description,"
+                       r" which holds no 'meshes/other.obj' \(mesh file not found\)"):
+        urdf.load(source)
+    pytest.importorskip("xacro")
+    (repo / "arm_description" / "urdf").mkdir()
+    (repo / "arm_description" / "urdf" / "macros.xacro").write_text(XACRO_MACROS)
+    xacro_source = repo / "arm_config" / "config" / "arm.urdf.xacro"
+    xacro_source.write_text(XACRO_ROBOT.replace("$(find arm_description)",
+                                                "$(find acme_arm_description)")
+                            .replace("package://arm_description/meshes/base.stl",
+                                     "package://acme_arm_description/meshes/base.obj"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = urdf.load(xacro_source)
+    assert [p.name for p in obj.parts] == ["base", "upper", "lower", "tip"]
+
+
+def test_a_urdf_named_xml_is_read_as_urdf(tmp_path):
+    """An ``.xml`` file whose root element is <robot> (older ROS packages' ``robot.xml``,
+    pr2_description's): a URDF, as ROS's tools and MuJoCo's loader take it, read by the URDF
+    reader and checked against in MuJoCo and Pinocchio; an MJCF ``.xml`` stays MJCF."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export, format_for_path, is_format, load
+
+    source = tmp_path / "robot.xml"
+    source.write_text(f"""<?xml version="1.0"?>
+<!-- generated by xacro: <mujoco> is not the root -->
+<robot name="arm"><link name="base">{INERTIAL}</link><link name="tip">{INERTIAL}</link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="tip"/>
+    <origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>""")
+    assert format_for_path(source).name == "urdf" and is_format(source, "urdf")
+    assert not is_format(source, "mjcf")
+    assert format_for_path(tmp_path / "not_yet_written.xml").name == "mjcf"
+    obj = load(source)
+    assert obj.joint("hinge").limits.upper == 1
+    written = export(obj, tmp_path / "out", ["mjcf", "urdf"])
+    assert format_for_path(written["mjcf"]).name == "mjcf"
+    pytest.importorskip("pinocchio")
+    report = check_files(list(written.values()), source=source, n_configurations=5,
+                         validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+    assert {p.label for p in report.probes if p.label.startswith("source")} == {
+        "source MuJoCo (URDF)", "source Pinocchio (URDF)"}
+
+
+def test_a_link_weighed_from_a_flat_visual_mesh_loads_in_mujoco(tmp_path):
+    """A link without <inertial> whose visual is one flat triangle off the axes (a decal, a
+    Collada test asset): its mass properties are a thin shell's, whose largest moment is
+    the sum of the other two; written as text with products of inertia, MuJoCo's URDF
+    import found that 1e-16 short of A + B = C and refused the URDF export. The two smaller
+    moments now keep a margin, and every export loads in MuJoCo."""
+    from real2code_export.formats import export
+    from real2code_export.probes.mujoco import open_probes
+
+    (tmp_path / "decal.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    source = tmp_path / "decal.urdf"
+    source.write_text("""<robot name="decal"><link name="base"/><link name="decal">
+      <visual><geometry><mesh filename="decal.obj"/></geometry></visual></link>
+      <joint name="hinge" type="continuous"><parent link="base"/><child link="decal"/>
+        <axis xyz="0 0 1"/></joint></robot>""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = urdf.load(source)
+        written = export(obj, tmp_path / "out", ["urdf", "mjcf"])
+    moments = np.linalg.eigvalsh(obj.part("decal").inertial.inertia)
+    assert moments[0] + moments[1] > moments[2] * (1 + 1e-7)
+    for path in written.values():  # (a flat mesh compiled as a shell, as check does)
+        assert open_probes(path)[0].parts
+
+
+def test_a_limit_with_one_bound_is_read_as_the_urdf_specification_reads_it(tmp_path):
+    """``<limit upper="0.5" effort velocity>`` (lower omitted): the URDF specification,
+    urdfdom (ROS, Pinocchio) and urdf-usd-converter take the missing bound as 0, MuJoCo's
+    import leaves the joint unlimited. Read as the specification says, warned; the check
+    against the source compares MuJoCo's import with the same bound, so the exports agree
+    with the source in both tools (they disagreed: "revolute, continuous in source MuJoCo")."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export
+
+    source = tmp_path / "half.urdf"
+    source.write_text(f"""<robot name="half"><link name="base">{INERTIAL}</link>
+      <link name="arm">{INERTIAL}</link><link name="tip">{INERTIAL}</link>
+      <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/>
+        <axis xyz="0 1 0"/><limit upper="0.5" effort="1" velocity="1"/></joint>
+      <joint name="slide" type="prismatic"><parent link="arm"/><child link="tip"/>
+        <origin xyz="0.3 0 0"/><limit lower="-0.2" effort="1" velocity="1"/></joint>
+      </robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<limit> with one bound in joints 'shoulder' "
+                      r"\(lower 0\), 'slide' \(upper 0\): the other is 0"):
+        obj = urdf.load(source)
+    assert (obj.joint("shoulder").limits.lower, obj.joint("shoulder").limits.upper) == (0, 0.5)
+    assert (obj.joint("slide").limits.lower, obj.joint("slide").limits.upper) == (-0.2, 0)
+    written = export(obj, tmp_path / "out", ["mjcf", "urdf"])
+    pytest.importorskip("pinocchio")
+    report = check_files(list(written.values()), source=source, n_configurations=10,
+                         validate=False)
+    assert {p.label for p in report.probes if p.label.startswith("source")} == {
+        "source MuJoCo (URDF)", "source Pinocchio (URDF)"}
+    assert report.ok, [m.message for m in report.mismatches]
+
+
+def test_a_relative_file_uri_is_read_beside_the_urdf_and_a_url_refused(tmp_path, monkeypatch):
+    """``file://meshes/box.obj`` (no file URI: its path does not start with '/'), which
+    urdf-usd-converter reads relative to the URDF: read so, warned (the working folder
+    decided before); ``https://...`` is refused naming the URL (it was "mesh file not found"
+    of a path made of it)."""
+    write_obj(tmp_path / "robot" / "meshes" / "box.obj", box((0.1, 0.2, 0.3)))
+    source = tmp_path / "robot" / "box.urdf"
+    source.write_text(f"""<robot name="box"><link name="base">{INERTIAL}<visual><geometry>
+      <mesh filename="file://meshes/box.obj"/></geometry></visual></link></robot>""")
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    with pytest.warns(Real2CodeWarning, match=r"<link name='base'>: 'file://meshes/box.obj': "
+                      "a file:// URI with a relative path; read relative to the URDF"):
+        obj = urdf.load(source)
+    assert len(obj.part("base").visual.faces) == 12
+    source.write_text(source.read_text().replace("file://meshes/box.obj",
+                                                 "https://example.com/meshes/box.obj"))
+    with pytest.raises(FormatError, match=r"box.urdf:\d+: <link name='base'>: mesh filename "
+                       r"'https://example.com/meshes/box.obj' is a URL"):
+        urdf.load(source)
+
+
+def test_a_floating_joint_below_a_welded_link_hangs_from_the_root(tmp_path):
+    """A floating body below a link the base holds by fixed joints (a cup on a table welded
+    to the base): Pinocchio loads it, MuJoCo refuses a free joint below the top level,
+    urdf-usd-converter makes the body free. Hung from the root at the same pose (the
+    origins composed), warned; the exports load in MuJoCo and agree with the source. Below
+    a link that moves it is still refused (its coordinates would change)."""
+    from real2code_export.check import check_files
+    from real2code_export.formats import export
+
+    source = tmp_path / "table.urdf"
+    source.write_text(f"""<robot name="table"><link name="base">{INERTIAL}</link>
+      <link name="top">{INERTIAL}</link><link name="cup">{INERTIAL}</link>
+      <joint name="legs" type="fixed"><parent link="base"/><child link="top"/>
+        <origin xyz="0 0 0.7" rpy="0 0 0.5"/></joint>
+      <joint name="cup_free" type="floating"><parent link="top"/><child link="cup"/>
+        <origin xyz="0.2 0 0.05"/></joint></robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<joint name='cup_free'>: a floating joint "
+                      r"below 'top', which the root part 'base' holds by fixed joints "
+                      r"\('legs'\): hung from 'base' at the same pose"):
+        obj = urdf.load(source)
+    cup = obj.joint("cup_free")
+    assert cup.parent == "base"
+    np.testing.assert_allclose(cup.origin[:3, 3],
+                               [0.2 * np.cos(0.5), 0.2 * np.sin(0.5), 0.75], atol=1e-12)
+    written = export(obj, tmp_path / "out", ["mjcf", "urdf"])
+    pytest.importorskip("pinocchio")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)  # (MuJoCo refuses the source)
+        report = check_files(list(written.values()), source=source, n_configurations=5,
+                             validate=False)
+    assert report.ok, [m.message for m in report.mismatches]
+    assert {p.label for p in report.probes} >= {"MuJoCo (MJCF)", "MuJoCo (URDF)"}
+    source.write_text(source.read_text().replace('type="fixed"', 'type="continuous"'))
+    with pytest.raises(FormatError, match=r"<joint name='cup_free'>: a floating joint must "
+                       "hang from the root part"):
+        urdf.load(source)
+
+
+def test_an_srdf_is_refused_saying_what_it_is(tmp_path):
+    """MoveIt's SRDF has a <robot> root too (pr2_description's ``srdf/robot.xml`` beside its
+    URDF ``urdf/robot.xml``): refused naming it an SRDF, not only "has no <link>"."""
+    from real2code_export.formats import load
+
+    source = tmp_path / "robot.xml"
+    source.write_text("""<?xml version="1.0"?>
+<robot name="arm"><virtual_joint name="world_joint" type="fixed" parent_frame="world"
+    child_link="base"/>
+  <group name="arm"><chain base_link="base" tip_link="tip"/></group>
+  <disable_collisions link1="base" link2="tip" reason="Adjacent"/></robot>""")
+    with pytest.raises(FormatError, match=r"robot.xml:2: <robot name='arm'>: has no <link> "
+                       r"\(it holds <disable_collisions>, <group>, <virtual_joint>: an SRDF"):
+        load(source)
+
+
+def test_collada_lines_are_named_not_dropped_in_silence(tmp_path):
+    """A Collada mesh with a <lines> primitive beside its triangles (edges a CAD exporter
+    left in: moveit's panda link5-7): the triangles are read, the lines (no surface to show
+    or collide) are named in a warning with the file (they were skipped in silence;
+    urdf-usd-converter warns too)."""
+    with_lines = COLLADA_MM.replace("</triangles>", """</triangles>
+    <lines count="1"><input semantic="VERTEX" source="#verts" offset="0"/><p>0 1</p></lines>""")
+    (tmp_path / "part.dae").write_text(with_lines)
+    path = tmp_path / "robot.urdf"
+    path.write_text(f'<robot name="dae"><link name="base">{INERTIAL}<visual><geometry>'
+                    '<mesh filename="part.dae"/></geometry></visual></link></robot>')
+    with pytest.warns(Real2CodeWarning, match=r"part\.dae: 1 Collada <lines>/<linestrips> "
+                      r"primitive\(s\), edges with no surface: not read"):
+        obj = urdf.load(path)
+    assert len(obj.part("base").visual.faces) == 1
+
+
+def test_children_of_visuals_no_reader_reads_are_named(tmp_path):
+    """Custom data inside a <visual> or <collision> (urdf-usd-converter's
+    verifying_elements.urdf: <custom>, <verbose>): the model merges a link's visuals into its
+    part, so there is no element to keep them in; named in a warning, not dropped in
+    silence. Our own namespace's elements are ours, not named."""
+    source = tmp_path / "custom.urdf"
+    source.write_text(f"""<robot name="custom" xmlns:real2code="urn:real2code-export:urdf:1">
+      <link name="base">{INERTIAL}
+        <visual><custom><item value="1"/></custom><geometry><box size="1 1 1"/></geometry>
+        </visual>
+        <collision><geometry><box size="1 1 1"/></geometry><verbose value="v"/>
+          <real2code:note/></collision></link></robot>""")
+    with pytest.warns(Real2CodeWarning) as said:
+        urdf.load(source)
+    said = " ".join(str(w.message) for w in said)
+    assert re.search(r"not read \(in a visual, collision or inertial, which the model merges "
+                     r"into its part: no element to keep them in\): <custom> in the <visual> "
+                     r"of <link name='base'> \(line 3\), <verbose> in the <collision> of "
+                     r"<link name='base'> \(line 5\)", said), said
+    assert "<note>" not in said
+
+
+def test_a_kept_element_urdfdom_refuses_is_written_back_beside_the_joints(tmp_path):
+    """A <safety_controller> without k_velocity (urdf-usd-converter's
+    warning_no_joint_k_velocity.urdf): urdfdom refuses the whole file for it. Kept and
+    warned, but written back wrapped beside the joints, not into its joint, so that
+    Pinocchio loads the URDF export (it refused it once such elements were written back)."""
+    pinocchio = pytest.importorskip("pinocchio")
+    source = tmp_path / "soft.urdf"
+    source.write_text(f"""<robot name="soft"><link name="base">{INERTIAL}</link>
+      <link name="arm">{INERTIAL}</link>
+      <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+        <limit lower="-1" upper="1" effort="1" velocity="1"/>
+        <safety_controller k_position="3"/></joint></robot>""")
+    with pytest.warns(Real2CodeWarning, match=r"<joint name='hinge'>: <safety_controller> "
+                      r"without k_velocity \(urdfdom refuses the file for it\): kept"):
+        obj = urdf.load(source)
+    out = urdf.save(obj, tmp_path / "out")
+    model = pinocchio.buildModelFromUrdf(str(out))
+    assert model.names[1] == "hinge"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        assert urdf.load(out).metadata["urdf_elements"] == obj.metadata["urdf_elements"]

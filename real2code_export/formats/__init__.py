@@ -16,8 +16,10 @@ add-on offer it from then on.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -192,12 +194,48 @@ def suffixes(exported_only: bool = False) -> tuple[str, ...]:
 
 
 def is_format(path: str | Path, name: str) -> bool:
-    """Whether ``path`` is named as a file of format ``name`` (one of its suffixes)."""
+    """Whether ``path`` is a file of format ``name``: named with one of its suffixes (an
+    existing ``.xml`` by its root element, :func:`format_for_path`)."""
+    if Path(path).suffix.lower() == ".xml" and name in ("urdf", "mjcf"):
+        return _xml_format(Path(path)) == name
     return Path(path).suffix.lower() in FORMATS[name].suffixes
+
+
+# The root element of an XML file that is a URDF: ROS tools never cared for the suffix, and
+# older ROS packages name their URDF ``robot.xml`` (pr2_description); MuJoCo's loader, too,
+# takes an .xml file whose root is <robot> as a URDF.
+URDF_ROOT = "robot"
+
+
+def _xml_format(path: Path) -> str:
+    """``urdf`` for an existing ``.xml`` file whose root element is <robot>, else ``mjcf``
+    (the suffix's format: a file not there yet, or unreadable, is left to its reader)."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return "mjcf"
+    return "urdf" if _root_element(str(path), stat.st_mtime_ns, stat.st_size) == URDF_ROOT \
+        else "mjcf"
+
+
+@functools.lru_cache(maxsize=256)
+def _root_element(path: str, _mtime_ns: int, _size: int) -> str | None:
+    """The name of the first element of an XML file (past its declaration, comments,
+    processing instructions and DOCTYPE), from its first 64 KiB; None where none is found."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(1 << 16).decode("utf-8", "replace")
+    except OSError:
+        return None
+    head = re.sub(r"<!--.*?(-->|$)|<\?.*?(\?>|$)|<!DOCTYPE[^>]*>", "", head, flags=re.S)
+    found = re.search(r"<\s*([A-Za-z_][\w.:-]*)", head)
+    return found.group(1).split(":")[-1] if found else None
 
 
 def format_for_path(path: str | Path) -> Format:
     suffix = Path(path).suffix.lower()
+    if suffix == ".xml":
+        return FORMATS[_xml_format(Path(path))]
     for fmt in FORMATS.values():
         if suffix in fmt.suffixes:
             return fmt

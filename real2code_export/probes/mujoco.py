@@ -136,7 +136,8 @@ def _is_xacro(path: Path) -> bool:
 
 def urdf_kinematics(path: Path) -> str:
     """The URDF's text without <visual>/<collision>: its kinematics and masses, which is
-    all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada)."""
+    all a kinematic reference needs (MuJoCo opens neither ``package://`` nor Collada); a
+    <limit>'s missing bound written as the URDF specification's 0."""
     from lxml import etree
 
     from ..formats.urdf.structure import read_past
@@ -148,6 +149,12 @@ def urdf_kinematics(path: Path) -> str:
         raise CheckError(f"{path}: MuJoCo refused it: malformed XML: {e}") from e
     for el in root.findall("link/visual") + root.findall("link/collision"):
         el.getparent().remove(el)
+    # A <limit> with one bound: MuJoCo's import leaves the joint unlimited; the URDF
+    # specification, urdfdom (ROS, Pinocchio) and our reader take the other bound as 0.
+    for limit in root.findall("joint/limit"):
+        given = [limit.get(a) is not None for a in ("lower", "upper")]
+        if any(given) and not all(given):
+            limit.set("upper" if given[0] else "lower", "0")
     return etree.tostring(root, encoding="unicode")
 
 

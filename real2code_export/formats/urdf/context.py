@@ -37,6 +37,9 @@ class Context:
     # package:// and model:// filenames resolved plainly (found in a package folder), by
     # filename: the look ahead and the read resolve each, visuals and collisions share them.
     packaged: dict[str, Path] = field(default_factory=dict)
+    # The folders whose package.xml names a package, by name (a crawl of folders: once per
+    # read, not once per mesh filename)
+    manifests: dict[str, list[Path]] = field(default_factory=dict)
     # Relative mesh filenames found not beside the URDF but under a folder above it (an asset
     # root), by folder: said once per file.
     asset_roots: dict[Path, list[str]] = field(default_factory=dict)

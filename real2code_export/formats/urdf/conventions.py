@@ -28,6 +28,17 @@ ADDED = "added"
 # <frame>, ...) are kept, as XML text in document order, under this key of the object's
 # metadata: every format carries the metadata, and the URDF writer writes them back.
 ELEMENTS_KEY = FORMATS["urdf"].kept_elements
+# Children of a <link> or <joint> the model has no place for (a joint's <safety_controller>
+# and <calibration>, ROS's soft limits and homing references) are kept in the same list,
+# each wrapped in <real2code:in link|joint="NAME">, which the writer unwraps into that
+# element (or, where the object has no element of that name any more, writes as it is),
+KEPT_IN = "in"
+# and marks each so written back real2code:kept="true": our reader keeps it again unwarned
+KEPT = "kept"
+# Attributes without which urdfdom refuses such a child (and the whole file: "joint safety:
+# no k_velocity"): one kept from a file urdfdom refused stays wrapped, in <robot>, where
+# URDF's readers ignore it, so that the export loads (warned by the reader).
+URDFDOM_REQUIRES = {"safety_controller": ("k_velocity",)}
 
 
 def ns(name: str) -> str:

@@ -5,8 +5,8 @@ Mesh filenames are relative to the URDF (or, failing that, to the folder a MuJoC
 above the URDF or on the search path, warned), ``file://`` paths, or
 ``package://name/rest`` /
 ``model://name/rest`` (resolved by searching the URDF's parent folders, then
-``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``: there is no ROS
-package index here). Primitives are kept as the model's shapes (with their fixed
+``ROS_PACKAGE_PATH``, for one named ``name`` or holding a folder ``name``, else, as ROS finds
+a package, the folder whose ``package.xml`` names it: there is no ROS package index here). Primitives are kept as the model's shapes (with their fixed
 tessellation, :mod:`real2code_export.primitives`). A visual's colour is its URDF material, else the area-weighted diffuse
 colour of the OBJ's own MTL materials (PartNet ships MTLs; read with the geometry), else
 none.
@@ -14,6 +14,7 @@ none.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -26,9 +27,11 @@ from ...model import Mesh
 from ...primitives import SIZE_COUNT, Primitive, ShapeKind
 from .context import Context, label
 from .conventions import PREFIX, ns
-from .packages import package_search_path
+from .packages import find_package, manifest_packages, package_search_path
 
 RGBA = tuple[float, float, float, float]
+# A URI of another scheme than package://, model:// or file:// (https://...)
+_URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*://")
 
 
 def origin_matrix(ctx: Context, el: etree._Element, owner: str) -> np.ndarray:
@@ -147,6 +150,13 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
             if (folder / package / rest).exists():
                 ctx.packaged[filename] = folder / package / rest
                 return folder / package / rest
+        # ROS's own rule: the folder whose package.xml names the package
+        if scheme == "package://" and package not in ctx.manifests:
+            ctx.manifests[package] = list(manifest_packages(package, here))
+        for folder in ctx.manifests.get(package, []):
+            if (folder / rest).exists():
+                ctx.packaged[filename] = folder / rest
+                return folder / rest
         # No such package, but REST lies under a folder above the URDF (a package renamed
         # or copied without its name): the nearest one, as yourdfpy resolves it.
         found = next((f for f in (here, *here.parents) if (f / rest).is_file()), None)
@@ -156,13 +166,32 @@ def resolve_filename(ctx: Context, filename: str, owner: str, line: int | None, 
             ctx.warn(owner, f"{filename!r}: no package {package!r} found; {rest!r} taken from "
                      f"{found}, the nearest folder above the URDF holding it", line)
             return found / rest
+        package_folder = find_package(package, here)
+        if package_folder is not None:  # the package is there, the file is not
+            raise ctx.error(owner, f"cannot resolve {filename!r}: package {package!r} is "
+                            f"{package_folder}, which holds no {rest!r} (mesh file not found)",
+                            line)
         raise ctx.error(owner, f"cannot resolve {filename!r}: no parent folder of the URDF is "
-                        f"named {package!r} (or holds one) with {rest!r} in it, nor any folder "
-                        f"of the search path {[str(f) for f in search]} (ROS_PACKAGE_PATH, "
-                        "--package-path)", line)
+                        f"named {package!r} (or holds one, or has a package.xml naming it) "
+                        f"with {rest!r} in it, nor any folder of the search path "
+                        f"{[str(f) for f in search]} (ROS_PACKAGE_PATH, --package-path)", line)
     if filename.startswith("file://"):
-        return Path(unquote(filename[len("file://"):]))
-    path = Path(filename)
+        path = Path(unquote(filename[len("file://"):]))
+        if path.is_absolute():
+            return path
+        # 'file://meshes/a.stl' is no file URI (its path would start with '/'; 'meshes'
+        # would be a host): read relative to the URDF, as urdf-usd-converter reads it, where
+        # the working folder decided before
+        if not quiet:
+            ctx.warn(owner, f"{filename!r}: a file:// URI with a relative path; read "
+                     "relative to the URDF", line)
+    elif _URL.match(filename):
+        if quiet:
+            return None
+        raise ctx.error(owner, f"mesh filename {filename!r} is a URL: mesh files are read "
+                        "from disk, not downloaded (download it and name the file)", line)
+    else:
+        path = Path(filename)
     if path.is_absolute():
         return path
     beside = ctx.path.parent / path

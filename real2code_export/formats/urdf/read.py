@@ -56,11 +56,21 @@ from ...model import (
 from ...repairs import (
     balanced_inertia,
     composed_mimic_chains,
+    floating_joints_from_the_root,
     massless_moving_parts,
     unusable_mimics,
 )
 from .context import Context, label
-from .conventions import ELEMENTS_KEY, UNKNOWN, ns
+from .conventions import (
+    ELEMENTS_KEY,
+    KEPT,
+    KEPT_IN,
+    NAMESPACE,
+    PREFIX,
+    UNKNOWN,
+    URDFDOM_REQUIRES,
+    ns,
+)
 from .geometry import (
     average_color,
     file_colors,
@@ -82,6 +92,7 @@ from .structure import (
     parse,
     unread_children,
     unread_in,
+    unread_in_parts,
 )
 
 # An axis this close to unit length is kept as written, so that what we write reads back
@@ -132,14 +143,35 @@ def load(path: str | Path, *, faithful_collision: bool = False,
         joint_list += chain
         joint_el.update((j.name, el) for j in chain)
     _report_notes(ctx)
+    dropped = unread_in_parts(links.values())
+    if dropped:
+        ctx.warn(None, "not read (in a visual, collision or inertial, which the model merges "
+                 "into its part: no element to keep them in): " + ", ".join(
+                     f"<{etree.QName(el).localname}> in the <{el.getparent().tag}> of "
+                     f"{label(el.getparent().getparent())} (line {el.sourceline})"
+                     for el in dropped))
+    metadata = _with_unread_elements(ctx, robot, _metadata(ctx, robot))
     unread = unread_in([*links.values(), *joints.values()])
-    if unread:  # (no format, ours included, has a place for them)
-        ctx.warn(None, "not read (no format holds them): " + ", ".join(
-            f"<{etree.QName(el).localname}> in {label(el.getparent())} (line {el.sourceline})"
-            for el in unread))
-    obj = ArticulatedObject(name=name, parts=parts, joints=joint_list,
-                            metadata=_with_unread_elements(ctx, robot, _metadata(ctx, robot)))
-    for joint_name, message in (massless_moving_parts(obj) + composed_mimic_chains(obj)
+    found = [el for el in unread if el.get(ns(KEPT)) is None]  # (not our writer's)
+    if found:  # (no other format has a place for them; the URDF writer writes them back)
+        ctx.warn(None, f"kept as metadata {ELEMENTS_KEY!r} (the URDF writer writes them back "
+                 "into their element; no other format acts on them): " + ", ".join(
+                     f"<{etree.QName(el).localname}> in {label(el.getparent())} "
+                     f"(line {el.sourceline})" for el in found))
+    for el in found:
+        missing = [a for a in URDFDOM_REQUIRES.get(el.tag, ()) if el.get(a) is None]
+        if missing:
+            ctx.warn(label(el.getparent()), f"<{el.tag}> without {', '.join(missing)} "
+                     "(urdfdom refuses the file for it): kept, written back beside the "
+                     "joints, not in this one", el.sourceline)
+    if unread:
+        names = {"link": {raw: part_names[raw] for raw in links},
+                 "joint": {raw: joint_names[raw] for raw in joints}}
+        metadata = {**metadata, ELEMENTS_KEY: [*metadata.get(ELEMENTS_KEY, []), *(
+            _kept_in(el, names) for el in unread)]}
+    obj = ArticulatedObject(name=name, parts=parts, joints=joint_list, metadata=metadata)
+    for joint_name, message in (floating_joints_from_the_root(obj)
+                                + massless_moving_parts(obj) + composed_mimic_chains(obj)
                                 + unusable_mimics(obj)):
         el = joint_el[joint_name]
         ctx.warn(label(el), message, el.sourceline)
@@ -242,6 +274,18 @@ def _with_unread_elements(ctx: Context, robot: etree._Element, metadata: dict) -
     return {**metadata, ELEMENTS_KEY: [_element_text(el) for el in unread]}
 
 
+def _kept_in(el: etree._Element, names: dict[str, dict[str, str]]) -> str:
+    """A child of a <link> or <joint> the model has no place for, as XML text wrapped in
+    <real2code:in link|joint="NAME"> (``conventions.KEPT_IN``; NAME the model's)."""
+    owner = el.getparent()
+    wrapper = etree.Element(f"{{{NAMESPACE}}}{KEPT_IN}", nsmap={PREFIX: NAMESPACE})
+    wrapper.set(owner.tag, names[owner.tag][owner.get("name")])
+    kept = copy.deepcopy(el)
+    kept.attrib.pop(ns(KEPT), None)
+    wrapper.append(kept)
+    return _element_text(wrapper)
+
+
 def _element_text(el: etree._Element) -> str:
     """An element as XML text, without the layout whitespace between elements (a writer
     indents it again) or namespace declarations it does not use."""
@@ -260,6 +304,9 @@ def _report_notes(ctx: Context) -> None:
         "renamed": "names changed to identifiers: {}",
         "limit": "<limit> without effort and/or velocity (urdfdom refuses that) in joints {}: "
                  "kept as unknown",
+        "half_range": "<limit> with one bound in joints {}: the other is 0, as the URDF "
+                      "specification and urdfdom (ROS, Pinocchio) read it (MuJoCo's import "
+                      "leaves such a joint unlimited)",
         "limit_dropped": "<limit> ignored on fixed joints {}",
         "swing_dropped": "<limit> ignored on spherical joints {} (Bullet's swing spans and "
                          "twist: no format holds them, the ball is free)",
@@ -649,6 +696,9 @@ def _axis(ctx: Context, el: etree._Element, owner: str) -> np.ndarray:
 def _limits(ctx: Context, el: etree._Element, owner: str, name: str) -> Limits:
     lower = ctx.number(el, "lower", owner, default=0.0)
     upper = ctx.number(el, "upper", owner, default=0.0)
+    missing = [a for a in ("lower", "upper") if el.get(a) is None]
+    if len(missing) == 1:  # (neither: an empty range, read as MuJoCo reads it)
+        ctx.note("half_range", f"{name!r} ({missing[0]} 0)")
     return Limits(lower=lower, upper=upper, **_effort_velocity(ctx, el, owner, name))
 
 

@@ -12,7 +12,7 @@ from lxml import etree
 
 from ...model import NAME_PATTERN, sanitize_name
 from .context import Context, label
-from .conventions import ADDED, PREFIX, ns
+from .conventions import ADDED, NAMESPACE, PREFIX, ns
 from .xacro_file import document
 
 # URDF's own joint kinds the model holds (a ball joint is ours: a fixed one marked
@@ -124,6 +124,22 @@ def unread_children(robot: etree._Element) -> list[etree._Element]:
     return [el for el in robot.iterchildren(etree.Element) if el.tag not in READ_TAGS]
 
 
+# What urdfdom reads in a link's <inertial>, <visual> and <collision>
+PART_TAGS = {"inertial": ("origin", "mass", "inertia"),
+             "visual": ("origin", "geometry", "material"),
+             "collision": ("origin", "geometry")}
+
+
+def unread_in_parts(links) -> list[etree._Element]:
+    """The children of the <inertial>, <visual> and <collision> of the <link> elements
+    ``links`` that no reader reads (custom data a tool put there; elements of our own
+    namespace excepted), for a warning: they belong to a visual the model merges into its
+    part, so no element is there to write them back into."""
+    return [child for link in links for el in link.iterchildren(*PART_TAGS)
+            for child in el.iterchildren(etree.Element)
+            if child.tag not in PART_TAGS[el.tag] and etree.QName(child).namespace != NAMESPACE]
+
+
 def unread_in(elements) -> list[etree._Element]:
     """The children of <link> and <joint> ``elements`` the model has no place for (a joint's
     <safety_controller> and <calibration>, a link's <self_collision_checking>, ...)."""
@@ -148,8 +164,24 @@ def _named(ctx: Context, robot: etree._Element, tag: str) -> dict[str, etree._El
 def link_elements(ctx: Context, robot: etree._Element) -> dict[str, etree._Element]:
     links = _named(ctx, robot, "link")
     if not links:
-        raise ctx.error(label(robot), "has no <link>" + _xacro_calls(robot), robot.sourceline)
+        raise ctx.error(label(robot), "has no <link>" + (_xacro_calls(robot) or _srdf(robot)),
+                        robot.sourceline)
     return links
+
+
+# What a MoveIt SRDF (semantic robot description; its root is <robot> too) holds instead
+SRDF_ELEMENTS = ("group", "group_state", "end_effector", "virtual_joint", "disable_collisions",
+                 "passive_joint", "disable_default_collisions")
+
+
+def _srdf(robot: etree._Element) -> str:
+    """A URDF without links that is an SRDF (``robot.srdf``, ``srdf/robot.xml``: MoveIt's
+    groups and collision pairs of a robot, whose links are in its URDF)."""
+    found = sorted({el.tag for el in robot if isinstance(el.tag, str) and el.tag in SRDF_ELEMENTS})
+    if not found:
+        return ""
+    return (f" (it holds {', '.join(f'<{t}>' for t in found)}: an SRDF, MoveIt's semantic "
+            "description of a robot, not the robot; convert the URDF it describes)")
 
 
 XACRO_NAMESPACE = "http://ros.org/wiki/xacro"

@@ -47,9 +47,12 @@ from .conventions import (
     DEFAULT_EFFORT,
     DEFAULT_VELOCITY,
     ELEMENTS_KEY,
+    KEPT,
+    KEPT_IN,
     NAMESPACE,
     PREFIX,
     UNKNOWN,
+    URDFDOM_REQUIRES,
     WORLD_LINK,
     ns,
     number,
@@ -89,7 +92,7 @@ def save(obj: ArticulatedObject, out_dir: str | Path, *, write_meshes: bool = Tr
 def to_bytes(obj: ArticulatedObject) -> bytes:
     robot = etree.Element("robot", nsmap={PREFIX: NAMESPACE})
     robot.set("name", obj.name)
-    elements = _kept_elements(obj)
+    elements, nested = _placed_in_elements(obj, _kept_elements(obj))
     metadata = {k: v for k, v in obj.metadata.items() if k != ELEMENTS_KEY}
     if metadata:
         robot.set(ns("metadata"), json.dumps(metadata, sort_keys=True, allow_nan=False))
@@ -99,7 +102,9 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
     layout = MeshLayout(obj)  # an asset placed several times: one file, at each origin
     shared = layout.shared_files()  # equal meshes: one file, read and compiled once
     for part in obj.parts:
-        robot.append(_link(part, layout, shared))
+        link = _link(part, layout, shared)
+        link.extend(nested.get(("link", part.name), []))
+        robot.append(link)
     as_meshes = shape_mesh_files(obj)
     if as_meshes:
         kinds = sorted({m.primitives[0].kind.value for m in as_meshes.values()})
@@ -115,6 +120,7 @@ def to_bytes(obj: ArticulatedObject) -> bytes:
         el = _joint(joint)
         if world is not None and joint.type is JointType.FLOATING:
             el.find("parent").set("link", WORLD_LINK)
+        el.extend(nested.get(("joint", joint.name), []))
         robot.append(el)
     robot.extend(elements)
     return etree.tostring(robot, xml_declaration=True, encoding="UTF-8", pretty_print=True)
@@ -166,6 +172,28 @@ def _kept_elements(obj: ArticulatedObject) -> list[etree._Element]:
             raise ModelError(f"{where}[{k}]", f"<{el.tag}> is the model's to write")
         out.append(el)
     return out
+
+
+def _placed_in_elements(obj: ArticulatedObject, elements: list[etree._Element]
+                        ) -> tuple[list[etree._Element], dict[tuple[str, str], list]]:
+    """The kept elements for <robot>, and those a reader found in a <link> or <joint>
+    (wrapped in <real2code:in>, ``conventions.KEPT_IN``) by (tag, name) of the element they
+    go back into; a wrapper naming an element the object no longer has, or holding one
+    urdfdom would refuse (``conventions.URDFDOM_REQUIRES``), stays as it is."""
+    names = {"link": {p.name for p in obj.parts}, "joint": {j.name for j in obj.joints}}
+    top, nested = [], {}
+    for el in elements:
+        owner = next(((tag, el.get(tag)) for tag in names if el.get(tag) in names[tag]), None) \
+            if el.tag == f"{{{NAMESPACE}}}{KEPT_IN}" else None
+        refused = any(child.get(attr) is None for child in el
+                      for attr in URDFDOM_REQUIRES.get(child.tag, ()))
+        if owner is None or refused:
+            top.append(el)
+            continue
+        for child in el:
+            child.set(ns(KEPT), "true")  # (our reader keeps it again without a warning)
+            nested.setdefault(owner, []).append(child)
+    return top, nested
 
 
 def _sub(parent: etree._Element, tag: str, *attrs: tuple[str, str]) -> etree._Element:
