@@ -74,9 +74,10 @@ def _expand(path: Path, arguments: dict[str, str], xacro, substitution_args) -> 
         folder = find_package(name, path.resolve().parent)
         if folder is None:
             raise substitution_args.SubstitutionException(
-                f"$(find {name}): no folder named {name!r} (or holding one) above the file "
-                f"nor on the search path {[str(f) for f in package_search_path()]} "
-                "(--package-path, ROS_PACKAGE_PATH)")
+                f"$(find {name}): no folder named {name!r} (or holding one), nor one whose "
+                f"package.xml names it, above the file nor on the search path "
+                f"{[str(f) for f in package_search_path()]} (--package-path, "
+                "ROS_PACKAGE_PATH)")
         return str(folder)
 
     # xacro has no hook for finding packages: its module function is replaced while this
