@@ -17,8 +17,8 @@ def mjcf_drives(model) -> dict[str, Drive]:
     (MuJoCo's ctrl)."""
     import mujoco
 
-    from ..formats.mjcf.actuator import drive_of
     from ..formats.mjcf.conventions import custom_name
+    from ..mujoco_actuators import drive_of
 
     out: dict[str, Drive] = {}
     for i in range(model.nu):

@@ -7,11 +7,11 @@ activation types and parameters, gear, the ranges with their ``auto`` limits,
 ``inheritrange``, a ``dampratio`` stored as a positive ``biasPrm[2]``. What force they make
 is MuJoCo's compiler's to say (a dampratio's damping depends on the joint's inertia,
 ``inheritrange`` on its range), so each one on a hinge or slide joint is added to the
-model's MjSpec (``mjcf.write.build_spec``, in memory), compiled, and read by the MJCF
-reader's own rule (``mjcf.actuator.drive_of``). One that is no drive of the model (a site,
-tendon or body transmission, activation dynamics, a second actuator on a joint ...) is kept
-as an MJCF ``<general>`` element in the metadata the MJCF writer writes back
-(``mjcf.kept``), warned. Only the attributes a prim authors are set: the schema's fallbacks
+model's tree as MuJoCo takes it (``mujoco_actuators.kinematic_spec``), compiled, and read by
+the MJCF reader's own rule (``mujoco_actuators.drive_of``). One that is no drive of the
+model (a site, tendon or body transmission, activation dynamics, a second actuator on a
+joint ...) is kept as an MJCF ``<general>`` element in the metadata the MJCF writer writes
+back (its ``kept_elements``), warned. Only the attributes a prim authors are set: the schema's fallbacks
 are MuJoCo's defaults (usd-core does not know the schema, so they are not read from it).
 """
 
@@ -81,8 +81,9 @@ def read_actuators(path, stage, obj: ArticulatedObject,
     prims = actuator_prims(stage)
     if not prims:
         return obj
-    from ..mjcf.kept import ELEMENTS_KEY, merge_sections
+    from .. import FORMATS
 
+    kept_key = FORMATS["mjcf"].kept_elements
     joints = {j.name: j for j in obj.joints}
     on_joint, kept, why = [], [], []  # (prim, joint, attributes); (prim, element); notes
     for prim in prims:
@@ -114,14 +115,15 @@ def read_actuators(path, stage, obj: ArticulatedObject,
     if kept:
         from lxml import etree
 
-        section = etree.Element("actuator")
+        sections = dict(obj.metadata.get(kept_key, {}))
+        section = etree.fromstring(sections["actuator"]) if "actuator" in sections \
+            else etree.Element("actuator")  # (after the file's own, as MuJoCo numbers them)
         section.extend(element for _, element in kept)
-        text = etree.tostring(section, encoding="unicode")
-        obj.metadata[ELEMENTS_KEY] = merge_sections(obj.metadata.get(ELEMENTS_KEY, {}),
-                                                    {"actuator": text})
+        sections["actuator"] = etree.tostring(section, encoding="unicode")
+        obj.metadata[kept_key] = sections
         warn(f"{path}: MuJoCo actuators (MjcActuator) that are no drive of the model: "
              f"{', '.join(why)}; kept as MJCF <general> elements in the metadata "
-             f"{ELEMENTS_KEY!r}, which the MJCF export writes back")
+             f"{kept_key!r}, which the MJCF export writes back")
     return obj
 
 
@@ -167,10 +169,9 @@ def _compiled_drives(obj: ArticulatedObject, on_joint: list) -> list:
     actuator on the model (in memory: no file is written)."""
     import mujoco
 
-    from ..mjcf.actuator import drive_of
-    from ..mjcf.write import build_spec
+    from ...mujoco_actuators import drive_of, kinematic_spec
 
-    spec = build_spec(obj)
+    spec = kinematic_spec(obj)
     for prim, joint, attributes in on_joint:
         act = spec.add_actuator(name=sanitize_name(source_name(prim)), target=joint,
                                 trntype=mujoco.mjtTrn.mjTRN_JOINT)
@@ -190,5 +191,4 @@ def _compiled_drives(obj: ArticulatedObject, on_joint: list) -> list:
         m = spec.compile()
     except (ValueError, AttributeError) as e:  # MuJoCo refuses them: kept, with its reason
         return [(None, f"MuJoCo refuses the actuators: {e}")] * len(on_joint)
-    first = m.nu - len(on_joint)  # (the model's own drives come first)
-    return [drive_of(m, first + k) for k in range(len(on_joint))]
+    return [drive_of(m, k) for k in range(len(on_joint))]
