@@ -399,6 +399,45 @@ def test_a_massless_moving_body_states_the_mass_welded_below_it(tmp_path):
     assert "PhysX gives such a body 1 kg" in view.unstated["kettle"]
 
 
+def test_a_massless_flange_the_hand_hangs_from_is_no_body(tmp_path):
+    """A massless link fixed to a moving one with a hand (mass, a moving finger) hanging
+    from it (the Panda's ``panda_link8``): it was a rigid body of its own stating no mass
+    and no collider, which PhysX gives 1 kg (the check flags it now). It is an Xform in the
+    arm's body, as urdf-usd-converter writes it; the hand's joint is written from the arm's
+    body (its frame through the flange's), naming the flange (``real2code:parentPart``), and
+    reads back from the flange: the same model."""
+    from real2code_export.probes.schema_dynamics import usd_dynamics
+
+    def link(name, size):
+        return Part(name, visual=box_mesh(size), collision=[box_mesh(size)],
+                    inertial=box_inertial(size, 0.5))
+
+    flange_at = tf.make(tf.rpy_to_matrix([0.0, 0.0, -0.785]), [0.0, 0.0, 0.107])
+    obj = ArticulatedObject("arm", [Part("base"), link("link7", [0.1, 0.1, 0.2]),
+                                    Part("flange"), link("hand", [0.05, 0.2, 0.06]),
+                                    link("finger", [0.02, 0.02, 0.05])], [
+        Joint("joint7", "revolute", "base", "link7", axis=[0.0, 0.0, 1.0],
+              limits=Limits(-2.0, 2.0), origin=tf.make(translation=[0.0, 0.0, 0.3])),
+        Joint("joint8", "fixed", "link7", "flange", origin=flange_at),
+        Joint("hand_joint", "fixed", "flange", "hand",
+              origin=tf.make(tf.rpy_to_matrix([0.0, 0.3, 0.0]), [0.01, 0.0, 0.02])),
+        Joint("finger_joint", "prismatic", "hand", "finger", axis=[0.0, 1.0, 0.0],
+              limits=Limits(0.0, 0.04), origin=tf.make(translation=[0.0, 0.0, 0.06]))])
+    path = usd.save(obj, tmp_path, write_meshes=False)
+    _, parsed = _parsed(path)
+    assert sorted(p.rsplit("/", 1)[1] for p in parsed["RigidBody"]) == [
+        "base", "finger", "hand", "link7"]
+    stage = Usd.Stage.Open(str(path))
+    hand_joint = stage.GetPrimAtPath("/arm/Physics/hand_joint")
+    assert [str(t) for t in hand_joint.GetRelationship("physics:body0").GetTargets()] == [
+        "/arm/Geometry/link7"]
+    assert hand_joint.GetAttribute("real2code:parentPart").Get() == "flange"
+    assert usd_dynamics(open_probes(path)[0]).unstated == {}
+    back = usd.load(path)
+    assert back.joint("hand_joint").parent == "flange"
+    assert differences(obj, back, TOL) == []
+
+
 def test_a_mesh_is_written_once(tmp_path):
     """A collider with its part's visual mesh data, and a part whose visual mesh another
     part's already holds, refer to the mesh written first (an internal reference): the data

@@ -53,24 +53,30 @@ def _six(i: np.ndarray) -> list[float]:  # xx yy zz xy xz yz
             float(i[1, 2])]
 
 
-def in_parent_body(obj: ArticulatedObject) -> list[str]:
+def in_parent_body(obj: ArticulatedObject, generic: set[str] = frozenset()) -> list[str]:
     """The parts written as an Xform in their parent's body (or in such an Xform), parents
     first: fixed, massless or carried (:func:`inertia.carrier`: welded under a moving part
     with no mass of its own, whose body then states their summed mass,
-    :func:`carry_welded_mass`), and all that hangs from them so too (a frame; a link with
-    only geometry; a chain of them, as Unitree's collision-only calf links; the body welded
-    under a massless free body, as MJCF writes a free object). Their geometry is the body's
-    in every simulator; the Xform keeps their name, frame, look and own mass for the round
-    trip."""
+    :func:`carry_welded_mass`), whatever hangs from them (a frame; a link with only
+    geometry; a chain of them, as Unitree's collision-only calf links; the body welded under
+    a massless free body, as MJCF writes a free object; a URDF arm's massless flange link
+    the hand hangs from). Their geometry is the body's in every simulator; the Xform keeps
+    their name, frame, look and own mass for the round trip. A joint hanging from such a
+    part is written from the body holding it (:func:`hanging_pose`), as urdf-usd-converter
+    writes it: as its own rigid body the part would state no mass, and PhysX gives such a
+    body 1 kg. ``generic``: joints written as generic (D6) chains, whose first body must be
+    a rigid body: a part they hang from stays one."""
     from ...inertia import carrier
 
     tree = obj.tree()
 
-    def held(name: str) -> bool:  # the part and everything below it: fixed, no mass of its own
+    def held(name: str) -> bool:  # fixed, no mass of its own; what hangs from it can be
         joint = tree.parent.get(name)
         return joint is not None and joint.type is JointType.FIXED \
             and (tree.parts[name].inertial is None or carrier(tree, name) is not None) \
-            and all(held(j.child) for j in tree.children[name])
+            and all(held(j.child) or (j.type is not JointType.FLOATING
+                                      and j.name not in generic)
+                    for j in tree.children[name])
 
     inside = [j.child for j in obj.joints if held(j.child)]  # in the joints' order
     out: list[str] = []
@@ -78,6 +84,18 @@ def in_parent_body(obj: ArticulatedObject) -> list[str]:
         ready = [n for n in inside if tree.parent[n].parent not in inside]
         out += ready
         inside = [n for n in inside if n not in ready]
+    return out
+
+
+def hanging_pose(obj: ArticulatedObject, frames: list[str]) -> dict[str, tuple[str, np.ndarray]]:
+    """Each part written as an Xform in a body (``frames``, parents first) -> the body's part
+    and the part's pose in it."""
+    tree = obj.tree()
+    out: dict[str, tuple[str, np.ndarray]] = {}
+    for name in frames:
+        joint = tree.parent[name]
+        body, pose = out.get(joint.parent, (joint.parent, np.eye(4)))
+        out[name] = body, pose @ joint.origin
     return out
 
 
@@ -91,12 +109,10 @@ def carry_welded_mass(layer, obj: ArticulatedObject, frames: list[str],
     from ...inertia import combine_inertials
 
     tree = obj.tree()
-    body_of: dict[str, tuple[str, np.ndarray]] = {}  # frame -> its body part, its pose there
+    body_of = hanging_pose(obj, frames)  # frame -> its body part, its pose there
     held: dict[str, list[str]] = {}
     for name in frames:
-        joint = tree.parent[name]
-        body, pose = body_of.get(joint.parent, (joint.parent, np.eye(4)))
-        body_of[name] = body, pose @ joint.origin
+        body = body_of[name][0]
         if tree.parts[name].inertial is not None:
             held.setdefault(body, []).append(name)
     for body, names in held.items():

@@ -48,6 +48,9 @@ WORLD_JOINT = "world_fixed"
 METADATA = f"{NAMESPACE}:metadata"  # the object's metadata (JSON) on the object prim
 FLOATING_JOINT = f"{NAMESPACE}:floatingJoint"  # on a free body: its floating joint's name
 FRAME_JOINT = f"{NAMESPACE}:fixedJoint"  # on a frame (an Xform in a body): its joint's name
+# on a joint written from the body holding the frame it hangs from (body.in_parent_body):
+# that frame's part name
+PARENT_PART = f"{NAMESPACE}:parentPart"
 # a part's own mass properties where the prim's PhysicsMassAPI states a welded group's (a
 # body carrying the parts welded below it) or the prim is no body (those parts' frames):
 # mass (kg; 0: the part has none), centre of mass (m, part frame), inertia (kg m^2, about

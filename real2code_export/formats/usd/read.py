@@ -35,6 +35,7 @@ from .conventions import (
     FLOATING_JOINT,
     FRAME_JOINT,
     METADATA,
+    PARENT_PART,
     open_stage,
     relative_transform,
     source_name,
@@ -160,6 +161,7 @@ def load(path: str | Path) -> ArticulatedObject:
             j.mimic.joint = joint_at.get(j.mimic.joint, j.mimic.joint)
     parts += [part for part, _ in frames]
     joints += [joint for _, joint in frames]
+    _rehang(ctx, joints, joint_at)
 
     root_prim = stage.GetDefaultPrim() or next(iter(stage.GetPseudoRoot().GetChildren()), None)
     name = sanitize_name(source_name(root_prim) if root_prim else path.stem)
@@ -284,6 +286,29 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
     texture = images.pop("texture", None)
     return Part(name, visual=visual, collision=collision, inertial=inertial,
                 color=read_color(prim, visual_prims, path), texture=texture, maps=images)
+
+
+def _rehang(ctx: Context, joints: list[Joint], joint_at: dict[str, str]) -> None:
+    """A joint our writer wrote from the body holding the frame it hangs from
+    (``real2code:parentPart``, ``body.in_parent_body``) hung from that frame again: its
+    origin taken into the frame's (the frames' joints are read by now)."""
+    by_child = {j.child: j for j in joints}
+    by_name = {j.name: j for j in joints}
+    for path, name in joint_at.items():
+        attr = ctx.stage.GetPrimAtPath(path).GetAttribute(PARENT_PART)
+        frame = attr.Get() if attr and attr.HasAuthoredValue() else None
+        joint = by_name.get(name)
+        if not isinstance(frame, str) or joint is None or frame == joint.parent:
+            continue
+        pose, at = np.eye(4), frame
+        while at in by_child and at != joint.parent:
+            pose = by_child[at].origin @ pose
+            at = by_child[at].parent
+        if at != joint.parent:
+            warn(f"{ctx.path}: joint prim <{path}>: its {PARENT_PART} {frame!r} is no frame "
+                 f"in part {joint.parent!r}; the joint hangs from that part")
+            continue
+        joint.parent, joint.origin = frame, tf.inverse(pose) @ joint.origin
 
 
 def _with_volume(mesh: Mesh) -> Mesh:

@@ -12,6 +12,7 @@ lies in a body welded below it), its body stating their summed mass
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from ... import atomic
@@ -27,8 +28,17 @@ from ...model import (
 )
 from .. import output_file
 from . import d6
-from .body import carry_welded_mass, in_parent_body, write_body, write_frame
-from .conventions import FLOATING_JOINT, GEOMETRY, LOOKS, METADATA, PHYSICS, SCENE, WORLD_JOINT
+from .body import carry_welded_mass, hanging_pose, in_parent_body, write_body, write_frame
+from .conventions import (
+    FLOATING_JOINT,
+    GEOMETRY,
+    LOOKS,
+    METADATA,
+    PARENT_PART,
+    PHYSICS,
+    SCENE,
+    WORLD_JOINT,
+)
 from .drive import write_drives
 from .geometry import LateNormals, MeshAssets, move_mesh_arrays, write_part_geometry
 from .joint import as_written, write_free_dynamics, write_joint, write_mimic
@@ -57,12 +67,12 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
     base = f"/{obj.name}"
     written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
     world = forward_kinematics(written, obj.observed_configuration())
-    in_body = in_parent_body(obj)  # parents first
-    frames = set(in_body)
     # chains the reader made of a generic joint (D6): written back as one, no bodies between
     generic = d6.chains(obj)
     between = {part for c in generic for part in c.between}
     in_generic = {j.name: c for c in generic for j in c.joints}
+    in_body = in_parent_body(obj, set(in_generic))  # parents first
+    frames = set(in_body)
     visuals: dict = {}  # the visual meshes written so far, which later meshes may refer to
     assets = MeshAssets(layer, base, obj, normals)  # assets placed more than once: once
     path_of = {}  # part -> its prim: a body's, or a frame's in its parent's prim
@@ -85,7 +95,9 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
         path_of[name] = path
         write_part_geometry(layer, frame, path, f"{base}/{LOOKS}/{frame.name}", visuals,
                             assets)
-    carry_welded_mass(layer, obj, [n for n in in_body if n in frames], path_of)
+    written_frames = [n for n in in_body if n in frames]
+    carry_welded_mass(layer, obj, written_frames, path_of)
+    hanging = hanging_pose(obj, written_frames)  # frame -> the body holding it, its pose there
 
     world_joint = sanitize_name(WORLD_JOINT, {j.name for j in obj.joints})
     root_part = obj.root.name
@@ -107,8 +119,15 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
             attribute(body, FLOATING_JOINT, "String", j.name, custom=True)
             write_free_dynamics(body, j.dynamics)
             continue
-        joint = write_joint(layer, f"{base}/{PHYSICS}/{j.name}", j,
-                            f"{base}/{GEOMETRY}/{j.parent}", f"{base}/{GEOMETRY}/{j.child}")
+        if j.parent in hanging:  # from the body holding the part it hangs from
+            body, pose = hanging[j.parent]
+            joint = write_joint(layer, f"{base}/{PHYSICS}/{j.name}",
+                                replace(j, origin=pose @ j.origin), path_of[body],
+                                f"{base}/{GEOMETRY}/{j.child}")
+            attribute(joint, PARENT_PART, "String", j.parent, custom=True)
+        else:
+            joint = write_joint(layer, f"{base}/{PHYSICS}/{j.name}", j,
+                                f"{base}/{GEOMETRY}/{j.parent}", f"{base}/{GEOMETRY}/{j.child}")
         if j.mimic is not None:
             write_mimic(joint, j.mimic, f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
     taken = {j.name for j in obj.joints} | {world_joint}
