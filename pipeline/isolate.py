@@ -364,7 +364,8 @@ def foot_pixels(frame: Frame, rows: np.ndarray, cols: np.ndarray, world: np.ndar
 
 def object_points(points: np.ndarray, region: Region, boxed: bool, footprint: float,
                   options: IsolationOptions = IsolationOptions(),
-                  up: np.ndarray | None = None) -> np.ndarray:
+                  up: np.ndarray | None = None, unsure: np.ndarray | None = None,
+                  ) -> np.ndarray:
     """Which of the fused ``points`` (off the room's planes) are the object: those in the
     given box, or the cluster with most points in the region, the small clusters mostly
     inside its box (a piece cut off by a gap, a speck seen through a slit) and, given ``up``,
@@ -372,13 +373,30 @@ def object_points(points: np.ndarray, region: Region, boxed: bool, footprint: fl
     the top overhangs (from above, the gap under the overhang is hidden; on a 7-drawer
     table 8 cm between the nearest points, the body 48 % of the object's pixels), while
     clutter stands beside the object. ``footprint``: a pixel's width on the object (in a
-    small image its points lie further apart than the voxel)."""
+    small image its points lie further apart than the voxel).
+
+    ``unsure`` points (their views' depth outliers: flying pixels, a depth map's smear)
+    link no clusters: each is what the nearest other point within a cluster cell is, or
+    not the object. Noisy depth strews such points along the rays between a silhouette
+    and what lies behind it: on a phone-LiDAR ring in a room they bridged a box of clutter
+    standing 10 to 20 cm from a cabinet to it, and its 5,000 pixels were kept, segmented
+    and given a hinge."""
     inside = region.contains(points)
     if boxed:
         return inside
     voxel = options.voxel_rel * region.size()
-    labels = grid_clusters(points, max(options.cluster_voxels * voxel,
-                                       options.cluster_pixels * footprint))
+    cell = max(options.cluster_voxels * voxel, options.cluster_pixels * footprint)
+    if unsure is not None and unsure.any() and not unsure.all():
+        from scipy.spatial import cKDTree
+
+        sure = object_points(points[~unsure], region, boxed, footprint, options, up)
+        distance, nearest = cKDTree(points[~unsure]).query(points[unsure],
+                                                           distance_upper_bound=cell)
+        out = np.zeros(len(points), bool)
+        out[~unsure] = sure
+        out[unsure] = np.isfinite(distance) & sure[np.minimum(nearest, len(sure) - 1)]
+        return out
+    labels = grid_clusters(points, cell)
     counts = np.bincount(labels, weights=inside, minlength=labels.max() + 1)
     if counts.max() == 0:
         raise InputError("found no object in the capture: no points near where the cameras "
@@ -401,47 +419,56 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
     """``capture`` with depth left only on the object's pixels (a new capture unless nothing
     was dropped) and a summary: pixels dropped as room planes and as other things, and the
     object's box. ``box``: the object's world extent (lo, hi) when the user knows it."""
-    from .depth_cleanup import noise_level
+    from .depth_cleanup import is_noisy, noise_level, outliers
 
     if "object_isolation" in capture.extra:
         return capture, capture.extra["object_isolation"]
     region = object_region(capture, box, options)
     rng = np.random.default_rng(0)
-    per_frame, kept_points = [], []
+    per_frame, kept_points, kept_unsure = [], [], []
     room_planes = []
     for frame in capture.frames:
         rows, cols, world = _frame_points(frame)
         near = np.zeros_like(frame.depth)  # the noise on the object, not on a far floor
         inside = region.contains(world)
         near[rows[inside], cols[inside]] = frame.depth[rows[inside], cols[inside]]
-        tolerance, wide = plane_tolerance(frame.depth[rows, cols], inside, noise_level(near),
-                                          region, options)
+        noise = noise_level(near)
+        tolerance, wide = plane_tolerance(frame.depth[rows, cols], inside, noise, region,
+                                          options)
         plane, found = scenery_planes(world, tolerance, wide, inside, region, rng, options)
         room_planes.append(found)
-        per_frame.append((rows, cols, world, plane, wide))
+        # the cleanup's outliers (it drops them next) link no clusters; exact depth has none
+        unsure = outliers(frame.depth, noise)[rows, cols] if is_noisy(noise) else \
+            np.zeros(len(rows), bool)
+        per_frame.append((rows, cols, world, plane, wide, unsure))
     # a room plane that many views saw is the room's in every view (where a view sees
     # little of it outside the region, that view alone would take it for a face)
     shared = agreed_planes(room_planes, float(np.median(np.concatenate(
-        [w for *_, w in per_frame]))), options)
-    for _, _, world, plane, wide in per_frame:
+        [f[4] for f in per_frame]))), options)
+    for _, _, world, plane, wide, unsure in per_frame:
         for normal, offset in shared:
             plane |= np.abs(world @ normal + offset) <= wide
         kept_points.append(world[~plane])
+        kept_unsure.append(unsure[~plane])
     everything = np.concatenate(kept_points)
     if len(everything) == 0:
         raise InputError("the capture has no depth off the room's planes: no object in it")
     footprint = float(np.median([np.median(f.depth[f.depth > 0]) / f.camera.fl_x
                                  for f in capture.frames if (f.depth > 0).any()]))
     up = views_up(capture.frames, options)
-    is_object = object_points(everything, region, box is not None, footprint, options, up)
+    # in a room (its planes found) the outliers could bridge the object to what stands near
+    # it; an object alone keeps them for the cleanup to judge
+    in_room = any(room_planes) or bool(shared)
+    is_object = object_points(everything, region, box is not None, footprint, options, up,
+                              np.concatenate(kept_unsure) if in_room else None)
     if not is_object.any():
         raise InputError("found no object in the capture: nothing off the room's planes "
                          "inside the given --box")
     obj = everything[is_object]
     frames, planes_dropped, other_dropped, returned = [], 0, 0, 0
     start = 0
-    for frame, found, (rows, cols, world, plane, wide) in zip(capture.frames, room_planes,
-                                                              per_frame, strict=True):
+    for frame, found, (rows, cols, world, plane, wide, _) in zip(capture.frames, room_planes,
+                                                                 per_frame, strict=True):
         drop = plane.copy()
         n = int((~plane).sum())
         drop[~plane] = ~is_object[start:start + n]

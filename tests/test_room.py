@@ -174,6 +174,25 @@ def test_a_body_seen_apart_under_its_top_is_the_objects_and_clutter_beside_it_is
     assert kept[4000:24000].all() and not kept[:4000].any() and not kept[24000:].any()
 
 
+def test_flying_pixels_between_the_object_and_clutter_near_it_link_nothing():
+    """Noisy depth strews points along the rays between a silhouette and what lies behind
+    it: a streak of them every 2 cm across the 15 cm between a cabinet and a box of clutter
+    joins the two into one cluster. Marked as their views' outliers they link nothing: the
+    clutter is not the object, the streak's points within a cell of the cabinet are."""
+    rng = np.random.default_rng(1)
+    body = rng.uniform([-0.6, -0.3, 0.0], [0.6, 0.3, 0.9], (20000, 3))
+    clutter = rng.uniform([0.75, -0.1, 0.0], [0.95, 0.1, 0.3], (800, 3))
+    streak = np.stack([np.linspace(0.61, 0.73, 7), np.zeros(7), np.full(7, 0.2)], 1)
+    points = np.concatenate([body, clutter, streak])
+    region = Region(np.array([0.0, 0.0, 0.45]), 1.0)  # cells of 3.6 cm
+    assert object_points(points, region, False, 0.004).all()  # one cluster
+    unsure = np.zeros(len(points), bool)
+    unsure[-7:] = True
+    kept = object_points(points, region, False, 0.004, unsure=unsure)
+    assert kept[:20000].all() and not kept[20000:20800].any()
+    assert kept[-7] and not kept[-4:].any()  # beside the cabinet, and towards the clutter
+
+
 def test_the_box_option_is_checked():
     lo, hi = parse_box("0,0,0,1,2,3")
     assert lo.tolist() == [0, 0, 0] and hi.tolist() == [1, 2, 3]
