@@ -437,15 +437,17 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
                                           options)
         plane, found = scenery_planes(world, tolerance, wide, inside, region, rng, options)
         room_planes.append(found)
-        # the cleanup's outliers (it drops them next) link no clusters; exact depth has none
-        unsure = outliers(frame.depth, noise)[rows, cols] if is_noisy(noise) else \
+        # the cleanup's outliers (it drops them next) link no clusters; exact depth has none,
+        # and no smear: its foot is joined in the image alone, as before
+        noisy = is_noisy(noise)
+        unsure = outliers(frame.depth, noise)[rows, cols] if noisy else \
             np.zeros(len(rows), bool)
-        per_frame.append((rows, cols, world, plane, wide, unsure))
+        per_frame.append((rows, cols, world, plane, wide, unsure, wide if noisy else np.inf))
     # a room plane that many views saw is the room's in every view (where a view sees
     # little of it outside the region, that view alone would take it for a face)
     shared = agreed_planes(room_planes, float(np.median(np.concatenate(
         [f[4] for f in per_frame]))), options)
-    for _, _, world, plane, wide, unsure in per_frame:
+    for _, _, world, plane, wide, unsure, _ in per_frame:
         for normal, offset in shared:
             plane |= np.abs(world @ normal + offset) <= wide
         kept_points.append(world[~plane])
@@ -467,8 +469,8 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
     obj = everything[is_object]
     frames, planes_dropped, other_dropped, returned = [], 0, 0, 0
     start = 0
-    for frame, found, (rows, cols, world, plane, wide, _) in zip(capture.frames, room_planes,
-                                                                 per_frame, strict=True):
+    for frame, found, (rows, cols, world, plane, *_, step) in zip(capture.frames, room_planes,
+                                                                  per_frame, strict=True):
         drop = plane.copy()
         n = int((~plane).sum())
         drop[~plane] = ~is_object[start:start + n]
@@ -476,7 +478,7 @@ def isolate_object(capture: Capture, box: tuple[np.ndarray, np.ndarray] | None =
         other_dropped += int((drop & ~plane).sum())
         if plane.any():
             foot = foot_pixels(frame, rows, cols, world, plane, [*found, *shared], ~drop,
-                               region.contains(world), wide, options)
+                               region.contains(world), step, options)
             drop &= ~foot
             plane = plane & ~foot
             returned += int(foot.sum())
