@@ -75,6 +75,20 @@ def measured_noisy(summary: dict) -> bool:
     return any(is_noisy(n) for n in summary["noise_rel"])
 
 
+def outliers(depth: np.ndarray, noise: float,
+             options: CleanupOptions = CleanupOptions()) -> np.ndarray:
+    """Which of a frame's pixels with depth are outliers at its relative ``noise``: far
+    from the median of their neighbours, or with too few neighbours (flying pixels between
+    a silhouette and what lies behind it, specks)."""
+    out = depth.astype(np.float64)
+    near = _neighbourhood(out, 1)
+    count = (~np.isnan(near)).sum(axis=0)
+    with np.errstate(invalid="ignore"), np.errstate(all="ignore"):
+        median = np.nanmedian(np.where(count[None] > 0, near, 0.0), axis=0)
+    off = np.abs(out - median) > options.outlier_sigmas * noise * np.maximum(out, 1e-6)
+    return (out > 0) & ((count < options.min_neighbours) | off)
+
+
 def clean_depth(depth: np.ndarray, options: CleanupOptions = CleanupOptions(),
                 ) -> tuple[np.ndarray, dict]:
     """One frame's depth with outliers dropped, small holes filled and noise smoothed (all
@@ -83,12 +97,7 @@ def clean_depth(depth: np.ndarray, options: CleanupOptions = CleanupOptions(),
     if not is_noisy(noise, options):
         return depth, {"noise_rel": noise, "dropped": 0, "filled": 0}
     out = depth.astype(np.float64).copy()
-    near = _neighbourhood(out, 1)
-    count = (~np.isnan(near)).sum(axis=0)
-    with np.errstate(invalid="ignore"), np.errstate(all="ignore"):
-        median = np.nanmedian(np.where(count[None] > 0, near, 0.0), axis=0)
-    off = np.abs(out - median) > options.outlier_sigmas * noise * np.maximum(out, 1e-6)
-    drop = (out > 0) & ((count < options.min_neighbours) | off)
+    drop = outliers(out, noise, options)
     out[drop] = 0.0
     filled = 0
     for _ in range(options.fill_rounds):

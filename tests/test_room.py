@@ -74,12 +74,12 @@ def test_the_object_is_found_in_the_room(cabinet, cameras, sensor):
     assert isolate_object(isolated)[0] is isolated  # found once, whoever asks again
 
 
-def test_the_objects_foot_on_the_floor_is_kept_by_its_colour():
-    """A floor shaded across the view (its colour linear in the pixel), an object standing
-    on it: the object's bottom rows and a base plate lie on the floor's plane, in the
-    object's colour, joined to its kept pixels: they are the object's. A spot of another
-    colour on the floor apart from the object, and the floor itself beside the object,
-    stay the room's."""
+def _standing_on_a_floor():
+    """One view of an object standing on a floor shaded across the view (its colour
+    linear in the pixel): its face rising from the floor (rows 0-29, cols 20-39), its
+    bottom rows and a base plate on the floor's plane (rows 30-33), a spot of another
+    colour on the floor apart from it; each pixel's world point a centimetre from its
+    neighbours' on one surface. Returns the view's pieces for :func:`foot_pixels`."""
     h, w = 48, 64
     rows, cols = (a.ravel() for a in np.mgrid[0:h, 0:w])
     shade = np.stack(np.broadcast_arrays(60 + np.arange(w)[None, :], 90 + np.arange(h)[:, None],
@@ -89,17 +89,41 @@ def test_the_objects_foot_on_the_floor_is_kept_by_its_colour():
     foot = (rows >= 30) & (rows < 34) & (cols >= 20) & (cols < 44)  # bottom rows, a plate
     spot = (rows >= 40) & (rows < 44) & (cols >= 4) & (cols < 8)
     rgb[body.reshape(h, w) | foot.reshape(h, w) | spot.reshape(h, w)] = 215
-    world = np.stack([cols * 0.01, rows * 0.01, np.where(body, 0.1, 0.0)], 1)
-    frame = Frame(Camera(50.0, 50.0, w / 2, h / 2, w, h), np.eye(4), rgb,
+    world = np.stack([cols * 0.01, rows * 0.01, np.where(body, (30 - rows) * 0.01, 0.0)], 1)
+    frame = Frame(Camera(500.0, 500.0, w / 2, h / 2, w, h), np.eye(4), rgb,
                   np.ones((h, w), np.float32))
-    plane = ~body
     inside = (cols >= 2) & (cols < 56)  # the room beyond: cols 56 and up
     floor = [(np.array([0.0, 0.0, 1.0]), 0.0)]
-    back = foot_pixels(frame, rows, cols, world, plane, floor, body, inside)
+    return frame, rows, cols, world, body, foot, shade, inside, floor
+
+
+def test_the_objects_foot_on_the_floor_is_kept_by_its_colour():
+    """The object's bottom rows and a base plate lie on the floor's plane, in the object's
+    colour, joined to its kept pixels: they are the object's. A spot of another colour on
+    the floor apart from the object, and the floor itself beside the object, stay the
+    room's."""
+    frame, rows, cols, world, body, foot, shade, inside, floor = _standing_on_a_floor()
+    plane = ~body
+    back = foot_pixels(frame, rows, cols, world, plane, floor, body, inside, 0.02)
     assert np.array_equal(back, foot)
     # where the foot has the floor's colour, the floor keeps it
-    rgb[foot.reshape(h, w)] = shade[foot.reshape(h, w)]
-    assert not foot_pixels(frame, rows, cols, world, plane, floor, body, inside).any()
+    frame.rgb[foot.reshape(frame.rgb.shape[:2])] = shade[foot.reshape(frame.rgb.shape[:2])]
+    assert not foot_pixels(frame, rows, cols, world, plane, floor, body, inside, 0.02).any()
+
+
+def test_the_room_read_on_the_objects_silhouette_is_no_foot():
+    """A phone's depth map, upsampled from a coarser one, reads a pixel or two beside
+    each pixel: on the object's silhouette some of its pixels take the depth of the room
+    behind it, in its colour. Two columns beside the object's face, in its colour and
+    joined to it in the image, lie on the floor 40 cm behind it: the room's, while the
+    object's foot, one surface with its face, comes back."""
+    frame, rows, cols, world, body, foot, _, inside, floor = _standing_on_a_floor()
+    smear = (rows >= 5) & (rows < 25) & (cols >= 40) & (cols < 42)
+    frame.rgb[smear.reshape(frame.rgb.shape[:2])] = 215
+    world[smear] = np.stack([cols[smear] * 0.01, rows[smear] * 0.01 + 0.4,
+                             np.zeros(smear.sum())], 1)
+    back = foot_pixels(frame, rows, cols, world, ~body, floor, body, inside, 0.02)
+    assert np.array_equal(back, foot)
 
 
 def test_an_object_alone_passes_through(cabinet):
@@ -148,6 +172,25 @@ def test_a_body_seen_apart_under_its_top_is_the_objects_and_clutter_beside_it_is
     assert kept[:24000].all() and not kept[24000:].any()
     kept = object_points(points, region, False, 0.004)
     assert kept[4000:24000].all() and not kept[:4000].any() and not kept[24000:].any()
+
+
+def test_flying_pixels_between_the_object_and_clutter_near_it_link_nothing():
+    """Noisy depth strews points along the rays between a silhouette and what lies behind
+    it: a streak of them every 2 cm across the 15 cm between a cabinet and a box of clutter
+    joins the two into one cluster. Marked as their views' outliers they link nothing: the
+    clutter is not the object, the streak's points within a cell of the cabinet are."""
+    rng = np.random.default_rng(1)
+    body = rng.uniform([-0.6, -0.3, 0.0], [0.6, 0.3, 0.9], (20000, 3))
+    clutter = rng.uniform([0.75, -0.1, 0.0], [0.95, 0.1, 0.3], (800, 3))
+    streak = np.stack([np.linspace(0.61, 0.73, 7), np.zeros(7), np.full(7, 0.2)], 1)
+    points = np.concatenate([body, clutter, streak])
+    region = Region(np.array([0.0, 0.0, 0.45]), 1.0)  # cells of 3.6 cm
+    assert object_points(points, region, False, 0.004).all()  # one cluster
+    unsure = np.zeros(len(points), bool)
+    unsure[-7:] = True
+    kept = object_points(points, region, False, 0.004, unsure=unsure)
+    assert kept[:20000].all() and not kept[20000:20800].any()
+    assert kept[-7] and not kept[-4:].any()  # beside the cabinet, and towards the clutter
 
 
 def test_the_box_option_is_checked():
