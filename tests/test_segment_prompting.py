@@ -373,6 +373,67 @@ def test_a_drawer_behind_a_swung_door_past_the_walls_is_no_compartment():
     assert (out[truth == 3] == 1).all()
 
 
+def test_a_drawer_behind_a_swung_door_standing_out_of_the_box_is_a_part():
+    """A carcass open at the front (x = 0.3), a door swung 25 degrees, and behind its swing
+    a drawer pulled 14 cm out. The door's label took the drawer and half the back wall;
+    the carcass's label ends at its front. The back wall goes back to the carcass; the
+    drawer, its front and bottom past the box and its bottom inside it (within the front's
+    outline, linked to it), is a part of its own, not the carcass's compartment. A handle
+    standing 8 cm off the door, past the box too, reaches nothing inside: it stays; so do
+    the door's own shelves, which stand out farther than they reach in."""
+    from pipeline.compartments import return_compartments
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    a = np.radians(25)
+    along, facing = np.array((np.sin(a), np.cos(a), 0)), np.array((np.cos(a), -np.sin(a), 0))
+    carcass = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+               (_grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y), z)]
+    door = (_grid(0.8, 0.8, (0.3, -0.4, -0.4), along, z), facing)
+    drawer = [(_grid(0.24, 0.2, (0.44, 0.1, -0.3), y, z), x),  # its front, 14 cm out
+              (_grid(0.63, 0.24, (-0.19, 0.1, -0.3), x, y), z)]  # its bottom
+    handle = (_grid(0.06, 0.2, np.array((0.3, -0.4, -0.1)) + 0.3 * along + 0.08 * facing,
+                    along, z), facing)
+    cloud, normals = _facing(*carcass, door, *drawer, handle)
+    n_carcass = sum(len(p) for p, _ in carcass)
+    n_door, n_drawer = len(door[0]), sum(len(p) for p, _ in drawer)
+    truth = np.r_[np.ones(n_carcass, int), np.full(n_door, 2), np.full(n_drawer, 3),
+                  np.full(len(handle[0]), 2)]
+    labels = truth.copy()
+    labels[truth == 3] = 2  # the door's masks took the drawer ...
+    bled = (np.arange(len(cloud)) < len(carcass[0][0])) & (cloud[:, 1] > 0.0)
+    labels[bled] = 2  # ... and the back wall past it
+    assert (cloud[truth == 3][:, 0] > 0.32).sum() >= 30  # past the box's front
+    out, moved = return_compartments(cloud, labels, 0.02, normals=normals)
+    assert (out[bled] == 1).all()
+    assert len(set(out[truth == 3])) == 1 and out[truth == 3][0] not in (1, out[truth == 2][0])
+    assert (out[truth == 2] == out[truth == 2][0]).all()  # the door with its handle
+    assert moved[0] == {"part": int(labels.max()) + 1, "points": n_drawer,
+                        "standing_out_of": 2}
+    # the door's own shelves on its inner face, swung with it: they stand out far past the
+    # face and touch the box beside the hinge only; no part of their own
+    hinge = np.array((0.3, -0.4, 0.0))
+    shelves = [(_grid(0.7, 0.1, hinge + (0, 0, h) + 0.05 * along, along, -facing), z)
+               for h in (-0.2, 0.2)]
+    lips = [(_grid(0.7, 0.06, hinge + (0, 0, h) + 0.05 * along - 0.1 * facing, along, z),
+             facing) for h in (-0.2, 0.2)]
+    inner, inner_normals = _facing(*carcass, door, *shelves, *lips)
+    on_door = np.r_[np.ones(n_carcass, int), np.full(len(inner) - n_carcass, 2)]
+    on_door[:len(carcass[0][0])][carcass[0][0][:, 1] > 0.0] = 2
+    shelf = np.arange(len(inner)) >= n_carcass + n_door
+    assert (inner[shelf][:, 0] < 0.32).sum() >= 30 and (inner[shelf][:, 0] > 0.32).sum() >= 30
+    moved = return_compartments(inner, on_door, 0.02, normals=inner_normals)[1]
+    assert not any("standing_out_of" in m for m in moved)
+    # the drawer shut behind the door: nothing stands out, it goes back with the wall
+    shut = cloud.copy()
+    shut[truth == 3, 0] -= 0.14
+    out, moved = return_compartments(shut, labels, 0.02, normals=normals)
+    assert not any("standing_out_of" in m for m in moved)
+    assert (out[truth == 3] == 1).mean() > 0.95 and len(np.unique(out)) == 2
+
+
 def _panel(x0, x1, z0, z1, y, step):
     xs, zs = np.meshgrid(np.arange(x0, x1, step), np.arange(z0, z1, step))
     return np.column_stack([xs.ravel(), np.full(xs.size, y), zs.ravel()])
