@@ -1082,6 +1082,34 @@ def test_two_drawers_pulled_out_by_different_lengths_in_one_label_are_two_parts(
     assert split_fronts(alike, labels, 0.02, normals=normals)[1] == []
 
 
+def test_three_drawers_pulled_out_by_different_lengths_in_one_label_are_three_parts():
+    """Three drawers stacked, pulled 30, 15 and 5 cm out of a carcass, in one label. The
+    smallest front is less than ``front_share`` of the label's facing points, so the first
+    split leaves it with its neighbour; judged again as the label those two share, its
+    front is a front: three parts, each drawer's bottom with its front."""
+    from pipeline.compartments import split_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    drawers = [[(_grid(0.3, 0.3, (0.6, 0.05, 0.05), y, z), x),
+                (_grid(0.6, 0.3, (0.0, 0.05, 0.05), x, y), z)],
+               [(_grid(0.3, 0.1, (0.45, 0.05, -0.12), y, z), x),
+                (_grid(0.45, 0.3, (0.0, 0.05, -0.12), x, y), z)],
+               [(_grid(0.2, 0.08, (0.35, 0.05, -0.32), y, z), x),
+                (_grid(0.35, 0.2, (0.0, 0.05, -0.32), x, y), z)]]
+    cloud, normals = _facing((carcass, x), *drawers[0], *drawers[1], *drawers[2])
+    n = np.cumsum([0, len(carcass)] + [sum(len(p) for p, _ in d) for d in drawers])
+    fronts = [len(d[0][0]) for d in drawers]
+    assert fronts[2] < 0.15 * sum(fronts) and fronts[2] >= 30
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:] = 2
+    out, moved = split_fronts(cloud, labels, 0.02, normals=normals)
+    assert (out[:n[1]] == 1).all()
+    assert all(len(np.unique(out[n[i]:n[i + 1]])) == 1 for i in (1, 2, 3))
+    assert len(np.unique(out)) == 4
+    assert [m["fronts"] for m in moved] == [2, 2]
+
+
 def test_a_door_swung_square_to_the_face_is_not_split_at_its_edges():
     """A door swung 95 degrees stands out past the carcass's front, its panel facing
     sideways; its free edge and its hinge's strip face out of the face at two depths, 6 cm
