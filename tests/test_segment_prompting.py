@@ -1110,6 +1110,34 @@ def test_three_drawers_pulled_out_by_different_lengths_in_one_label_are_three_pa
     assert [m["fronts"] for m in moved] == [2, 2]
 
 
+def test_a_strip_along_the_seam_of_two_drawers_goes_to_them():
+    """Two drawers stacked, pulled 15 cm out, and the masks' label along the seam between
+    their fronts (a row of each, 2 cm either side of it): every point of that strip lies
+    within two spacings of the drawers' points, so each goes to the drawer nearest it. The
+    drawers, fronts 30 by 20 cm with their bottoms, have points well inside them and stay;
+    so does a small drawer's front 16 by 10 cm standing alone."""
+    from pipeline.compartments import return_seam_strips
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    low = np.concatenate([_grid(0.3, 0.18, (0.45, 0.05, -0.3), y, z),
+                          _grid(0.45, 0.3, (0.0, 0.05, -0.3), x, y)])
+    high = np.concatenate([_grid(0.3, 0.18, (0.45, 0.05, -0.1), y, z),
+                           _grid(0.45, 0.3, (0.0, 0.05, -0.1), x, y)])
+    cloud = np.concatenate([carcass, low, high])
+    truth = np.r_[np.ones(len(carcass), int), np.full(len(low), 2), np.full(len(high), 3)]
+    labels = truth.copy()
+    seam = (truth > 1) & (np.abs(cloud[:, 2] + 0.11) < 0.025) & (cloud[:, 0] > 0.44)
+    labels[seam] = 4
+    out, moved = return_seam_strips(cloud, labels, 0.02)
+    assert np.array_equal(out, truth)
+    assert moved == [{"part": 4, "points": int(seam.sum()), "seam_strip": True}]
+    assert return_seam_strips(cloud, truth, 0.02)[1] == []
+    small = np.concatenate([carcass, _grid(0.16, 0.1, (0.35, 0.05, -0.3), y, z)])
+    alone = np.r_[np.ones(len(carcass), int), np.full(len(small) - len(carcass), 2)]
+    assert return_seam_strips(small, alone, 0.02)[1] == []
+
+
 def test_a_door_swung_square_to_the_face_is_not_split_at_its_edges():
     """A door swung 95 degrees stands out past the carcass's front, its panel facing
     sideways; its free edge and its hinge's strip face out of the face at two depths, 6 cm
