@@ -1708,13 +1708,13 @@ def return_seam_strips(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     of other labels' points. The mask network's seams: on the phone-LiDAR ring a table's
     166-point label along the seams of three drawers' fronts (36 % the largest's; every
     point within 2 spacings of another label) and, on a hand-held clean path, a cabinet's
-    186-point strip of face frame between a drawer's front and the carcass (67 % the
-    carcass's) each kept a joint. A part seen as a surface has points farther inside it
-    than that: on PartNet-Mobility dev's 48 saved segmentations (rings, the room and
-    hand-held paths, clean and phone LiDAR) no label holding most of a part has 90 % of
-    its points within 3 spacings of other labels (the table's smallest drawer front, 218
-    points: 6). Limit: a front narrower than about four spacings (9 cm on phone LiDAR at
-    2.2 cm) flush among other parts would be one.
+    186-point strip along the seam of its carcass and a swung door (124 points the
+    carcass's, 62 the door's) each kept a joint. A part seen as a surface has points
+    farther inside it than that: on PartNet-Mobility dev's 48 saved segmentations (the
+    phone ring, the clean room, hand-held paths clean and phone LiDAR) no label holding
+    most of a part has 90 % of its points within 3 spacings of other labels (the table's
+    smallest drawer front, 218 points: 6). Limit: a front narrower than about four
+    spacings (9 cm on phone LiDAR at 2.2 cm) flush among other parts would be one.
     Returns the labels, renumbered by size, and what moved."""
     from scipy.spatial import cKDTree
 
