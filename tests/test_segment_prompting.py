@@ -373,6 +373,67 @@ def test_a_drawer_behind_a_swung_door_past_the_walls_is_no_compartment():
     assert (out[truth == 3] == 1).all()
 
 
+def test_a_drawer_behind_a_swung_door_standing_out_of_the_box_is_a_part():
+    """A carcass open at the front (x = 0.3), a door swung 25 degrees, and behind its swing
+    a drawer pulled 14 cm out. The door's label took the drawer and half the back wall;
+    the carcass's label ends at its front. The back wall goes back to the carcass; the
+    drawer, its front and bottom past the box and its bottom inside it (within the front's
+    outline, linked to it), is a part of its own, not the carcass's compartment. A handle
+    standing 8 cm off the door, past the box too, reaches nothing inside: it stays; so do
+    the door's own shelves, which stand out farther than they reach in."""
+    from pipeline.compartments import return_compartments
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    a = np.radians(25)
+    along, facing = np.array((np.sin(a), np.cos(a), 0)), np.array((np.cos(a), -np.sin(a), 0))
+    carcass = [(_grid(0.8, 0.8, (-0.3, -0.4, -0.4), y, z), x),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, 0.4, -0.4), x, z), y),
+               (_grid(0.6, 0.8, (-0.3, -0.4, -0.4), x, y), z),
+               (_grid(0.6, 0.8, (-0.3, -0.4, 0.4), x, y), z)]
+    door = (_grid(0.8, 0.8, (0.3, -0.4, -0.4), along, z), facing)
+    drawer = [(_grid(0.24, 0.2, (0.44, 0.1, -0.3), y, z), x),  # its front, 14 cm out
+              (_grid(0.63, 0.24, (-0.19, 0.1, -0.3), x, y), z)]  # its bottom
+    handle = (_grid(0.06, 0.2, np.array((0.3, -0.4, -0.1)) + 0.3 * along + 0.08 * facing,
+                    along, z), facing)
+    cloud, normals = _facing(*carcass, door, *drawer, handle)
+    n_carcass = sum(len(p) for p, _ in carcass)
+    n_door, n_drawer = len(door[0]), sum(len(p) for p, _ in drawer)
+    truth = np.r_[np.ones(n_carcass, int), np.full(n_door, 2), np.full(n_drawer, 3),
+                  np.full(len(handle[0]), 2)]
+    labels = truth.copy()
+    labels[truth == 3] = 2  # the door's masks took the drawer ...
+    bled = (np.arange(len(cloud)) < len(carcass[0][0])) & (cloud[:, 1] > 0.0)
+    labels[bled] = 2  # ... and the back wall past it
+    assert (cloud[truth == 3][:, 0] > 0.32).sum() >= 30  # past the box's front
+    out, moved = return_compartments(cloud, labels, 0.02, normals=normals)
+    assert (out[bled] == 1).all()
+    assert len(set(out[truth == 3])) == 1 and out[truth == 3][0] not in (1, out[truth == 2][0])
+    assert (out[truth == 2] == out[truth == 2][0]).all()  # the door with its handle
+    assert moved[0] == {"part": int(labels.max()) + 1, "points": n_drawer,
+                        "standing_out_of": 2}
+    # the door's own shelves on its inner face, swung with it: they stand out far past the
+    # face and touch the box beside the hinge only; no part of their own
+    hinge = np.array((0.3, -0.4, 0.0))
+    shelves = [(_grid(0.7, 0.1, hinge + (0, 0, h) + 0.05 * along, along, -facing), z)
+               for h in (-0.2, 0.2)]
+    lips = [(_grid(0.7, 0.06, hinge + (0, 0, h) + 0.05 * along - 0.1 * facing, along, z),
+             facing) for h in (-0.2, 0.2)]
+    inner, inner_normals = _facing(*carcass, door, *shelves, *lips)
+    on_door = np.r_[np.ones(n_carcass, int), np.full(len(inner) - n_carcass, 2)]
+    on_door[:len(carcass[0][0])][carcass[0][0][:, 1] > 0.0] = 2
+    shelf = np.arange(len(inner)) >= n_carcass + n_door
+    assert (inner[shelf][:, 0] < 0.32).sum() >= 30 and (inner[shelf][:, 0] > 0.32).sum() >= 30
+    moved = return_compartments(inner, on_door, 0.02, normals=inner_normals)[1]
+    assert not any("standing_out_of" in m for m in moved)
+    # the drawer shut behind the door: nothing stands out, it goes back with the wall
+    shut = cloud.copy()
+    shut[truth == 3, 0] -= 0.14
+    out, moved = return_compartments(shut, labels, 0.02, normals=normals)
+    assert not any("standing_out_of" in m for m in moved)
+    assert (out[truth == 3] == 1).mean() > 0.95 and len(np.unique(out)) == 2
+
+
 def _panel(x0, x1, z0, z1, y, step):
     xs, zs = np.meshgrid(np.arange(x0, x1, step), np.arange(z0, z1, step))
     return np.column_stack([xs.ravel(), np.full(xs.size, y), zs.ravel()])
@@ -1019,6 +1080,62 @@ def test_two_drawers_pulled_out_by_different_lengths_in_one_label_are_two_parts(
     alike = cloud.copy()
     alike[n[2]:, 0] -= 0.15
     assert split_fronts(alike, labels, 0.02, normals=normals)[1] == []
+
+
+def test_three_drawers_pulled_out_by_different_lengths_in_one_label_are_three_parts():
+    """Three drawers stacked, pulled 30, 15 and 5 cm out of a carcass, in one label. The
+    smallest front is less than ``front_share`` of the label's facing points, so the first
+    split leaves it with its neighbour; judged again as the label those two share, its
+    front is a front: three parts, each drawer's bottom with its front."""
+    from pipeline.compartments import split_fronts
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    drawers = [[(_grid(0.3, 0.3, (0.6, 0.05, 0.05), y, z), x),
+                (_grid(0.6, 0.3, (0.0, 0.05, 0.05), x, y), z)],
+               [(_grid(0.3, 0.1, (0.45, 0.05, -0.12), y, z), x),
+                (_grid(0.45, 0.3, (0.0, 0.05, -0.12), x, y), z)],
+               [(_grid(0.2, 0.08, (0.35, 0.05, -0.32), y, z), x),
+                (_grid(0.35, 0.2, (0.0, 0.05, -0.32), x, y), z)]]
+    cloud, normals = _facing((carcass, x), *drawers[0], *drawers[1], *drawers[2])
+    n = np.cumsum([0, len(carcass)] + [sum(len(p) for p, _ in d) for d in drawers])
+    fronts = [len(d[0][0]) for d in drawers]
+    assert fronts[2] < 0.15 * sum(fronts) and fronts[2] >= 30
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:] = 2
+    out, moved = split_fronts(cloud, labels, 0.02, normals=normals)
+    assert (out[:n[1]] == 1).all()
+    assert all(len(np.unique(out[n[i]:n[i + 1]])) == 1 for i in (1, 2, 3))
+    assert len(np.unique(out)) == 4
+    assert [m["fronts"] for m in moved] == [2, 2]
+
+
+def test_a_strip_along_the_seam_of_two_drawers_goes_to_them():
+    """Two drawers stacked, pulled 15 cm out, and the masks' label along the seam between
+    their fronts (a row of each, 2 cm either side of it): every point of that strip lies
+    within two spacings of the drawers' points, so each goes to the drawer nearest it. The
+    drawers, fronts 30 by 20 cm with their bottoms, have points well inside them and stay;
+    so does a small drawer's front 16 by 10 cm standing alone."""
+    from pipeline.compartments import return_seam_strips
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    carcass = _open_box()
+    low = np.concatenate([_grid(0.3, 0.18, (0.45, 0.05, -0.3), y, z),
+                          _grid(0.45, 0.3, (0.0, 0.05, -0.3), x, y)])
+    high = np.concatenate([_grid(0.3, 0.18, (0.45, 0.05, -0.1), y, z),
+                           _grid(0.45, 0.3, (0.0, 0.05, -0.1), x, y)])
+    cloud = np.concatenate([carcass, low, high])
+    truth = np.r_[np.ones(len(carcass), int), np.full(len(low), 2), np.full(len(high), 3)]
+    labels = truth.copy()
+    seam = (truth > 1) & (np.abs(cloud[:, 2] + 0.11) < 0.025) & (cloud[:, 0] > 0.44)
+    labels[seam] = 4
+    out, moved = return_seam_strips(cloud, labels, 0.02)
+    assert np.array_equal(out, truth)
+    assert moved == [{"part": 4, "points": int(seam.sum()), "seam_strip": True}]
+    assert return_seam_strips(cloud, truth, 0.02)[1] == []
+    small = np.concatenate([carcass, _grid(0.16, 0.1, (0.35, 0.05, -0.3), y, z)])
+    alone = np.r_[np.ones(len(carcass), int), np.full(len(small) - len(carcass), 2)]
+    assert return_seam_strips(small, alone, 0.02)[1] == []
 
 
 def test_a_door_swung_square_to_the_face_is_not_split_at_its_edges():
