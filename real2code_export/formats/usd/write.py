@@ -2,13 +2,14 @@
 mass, collision and looks, through the concept modules (body, geometry, joint) in the layout
 of ``conventions``, authored through Sdf (``layer``); deterministic text (.usda) over a binary
 layer of the mesh arrays (``meshes/<name>.usdc``), each written atomically. A massless part
-fixed to its parent with nothing but such parts hanging from it (a frame; a URDF ``ee_link``
-with only a collision box; a chain of collision-only links) is an Xform in its parent's body
-(or in such an Xform), its geometry below it, no rigid body of its own: UsdPhysics has no way to say "no mass" (0 means "compute it"), and PhysX would give it
-a mass from its colliders' density or a default one (:func:`.body.in_parent_body`). So are
-the parts welded under a moving part with no mass of its own (an MJCF free body whose mass
-lies in a body welded below it), its body stating their summed mass
-(:func:`.body.carry_welded_mass`)."""
+fixed to its parent (a frame; a URDF ``ee_link`` with only a collision box; a chain of
+collision-only links; an arm's flange the hand hangs from) is an Xform in its parent's body
+(or in such an Xform), its geometry below it, no rigid body of its own: UsdPhysics has no
+way to say "no mass" (0 means "compute it"), and PhysX would give it a mass from its
+colliders' density or a default 1 kg (:func:`.body.in_parent_body`); a joint hanging from
+it is written from the body holding it, naming it. So are the parts welded under a moving
+part with no mass of its own (an MJCF free body whose mass lies in a body welded below
+it), its body stating their summed mass (:func:`.body.carry_welded_mass`)."""
 
 from __future__ import annotations
 
