@@ -68,6 +68,7 @@ class Articulation:
     root: str  # a body path, or WORLD for a virtual world part
     root_placement: np.ndarray | None  # pose of the root body in the world, from its joint
     loops: list[Edge] = field(default_factory=list)  # joints closing kinematic loops
+    actuators: list = field(default_factory=list)  # MjcActuator prims (.mjc_actuator)
 
 
 def parse(stage, path, mpu: float) -> Articulation:
@@ -124,6 +125,7 @@ def parse(stage, path, mpu: float) -> Articulation:
             e.stack = []
     art.edges.sort(key=lambda e: order[e.path])
     art.shapes = shapes
+    art.actuators = [p for p in prims if p.GetTypeName() == mjc_actuator.TYPE_NAME]
     return art
 
 

@@ -38,14 +38,6 @@ RANGES = {"ctrlRange": "ctrlrange", "forceRange": "forcerange", "actRange": "act
           "lengthRange": "lengthrange"}
 
 
-def actuator_prims(stage) -> list:
-    """The stage's MjcActuator prims, in stage order."""
-    from pxr import Usd
-
-    return [p for p in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies())
-            if p.GetTypeName() == TYPE_NAME]
-
-
 def mjcf_attributes(prim) -> dict[str, object]:
     """The MJCF attributes a prim authors (values as numbers, lists and tokens)."""
     out: dict[str, object] = {}
@@ -73,12 +65,12 @@ def mjcf_attributes(prim) -> dict[str, object]:
     return out
 
 
-def read_actuators(path, stage, obj: ArticulatedObject,
+def read_actuators(path, stage, obj: ArticulatedObject, prims: list,
                    joint_at: dict[str, str]) -> ArticulatedObject:
-    """``obj`` with the stage's MjcActuator prims as its joints' drives where MuJoCo
-    compiles them to one (module docstring), the others kept as MJCF ``<general>``
-    elements in its metadata; ``joint_at``: joint prim path -> model joint name."""
-    prims = actuator_prims(stage)
+    """``obj`` with the stage's MjcActuator prims (``prims``, in stage order: the reader's
+    traversal found them) as its joints' drives where MuJoCo compiles them to one (module
+    docstring), the others kept as MJCF ``<general>`` elements in its metadata;
+    ``joint_at``: joint prim path -> model joint name."""
     if not prims:
         return obj
     from .. import FORMATS

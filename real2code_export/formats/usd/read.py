@@ -182,7 +182,7 @@ def load(path: str | Path) -> ArticulatedObject:
         validate(obj)
     except ModelError as e:
         raise FormatError(path, e.element, e.message) from e
-    return mjc_actuator.read_actuators(path, stage, obj, joint_at)
+    return mjc_actuator.read_actuators(path, stage, obj, art.actuators, joint_at)
 
 
 def _rigid_and_scale(m: np.ndarray, path, prim_path: str) -> tuple[np.ndarray, np.ndarray]:
