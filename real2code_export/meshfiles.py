@@ -17,12 +17,13 @@ import re
 import warnings
 from pathlib import Path
 from typing import NamedTuple
+from urllib.parse import unquote
 
 import numpy as np
 
 from .errors import FormatError, NoTrianglesError, warn
 from .meshtopology import face_cross_products, unique_inverse, used_indices
-from .model import RGBA, ArticulatedObject, Mesh, Part, Texture
+from .model import RGBA, WHITE, ArticulatedObject, Mesh, Part, Texture
 from .placements import placed_pieces, shared_assets, whole_placement
 
 
@@ -383,9 +384,11 @@ class _ReadMeshes:
                 h.update(b"|" + text)
                 for image in _MAP_LINE.findall(b"\n" + text):
                     image = mtl.parent / image.decode("utf-8", "replace").strip()
-                    if image.is_file():
-                        stat = image.stat()
-                        h.update(f"|{stat.st_size} {stat.st_mtime_ns}".encode())
+                    _hash_stat(h, image)
+        elif path.suffix.lower() == ".dae" and b"<library_images" in data:  # its images
+            for name in _INIT_FROM.findall(data):
+                _hash_stat(h, path.parent / unquote(name.decode("utf-8", "replace").strip()
+                                                    .removeprefix("file://")))
         return str(path.resolve()), h.digest()
 
     def get(self, key: tuple) -> tuple[MeshFile, list] | None:
@@ -409,8 +412,16 @@ class _ReadMeshes:
         return mesh_file, said
 
 
+def _hash_stat(h, file: Path) -> None:
+    """An image's size and time into the key ``h`` (it is read only when the mesh is)."""
+    if file.is_file():
+        stat = file.stat()
+        h.update(f"|{file} {stat.st_size} {stat.st_mtime_ns}".encode())
+
+
 _READ = _ReadMeshes(512 << 20)
 _MTLLIB = re.compile(rb"\nmtllib[ \t]+([^\r\n]+)")
+_INIT_FROM = re.compile(rb"<init_from>([^<]+)</init_from>")
 _MAP_LINE = re.compile(rb"\n[ \t]*map_\w+[ \t]+(?:-\S+[ \t]+\S+[ \t]+)*([^\r\n]+)")
 
 
@@ -505,12 +516,17 @@ def _read_obj(path: Path, data: bytes, source, element, line) -> MeshFile:
         renumber = np.cumsum(used) - 1  # a mask, not np.unique: no sort
         mesh = Mesh(vertices[used], renumber[faces].reshape(-1, 3))
     materials = reader.GetMaterials()
+    if mesh.uv is not None and _needs_obj_atlas(material, materials):
+        return _obj_atlas(path, mesh, material, materials)
     texture = _obj_texture(path, mesh, material, materials)
-    palette = [(*(float(c) for c in np.clip(list(m.diffuse)[:3], 0.0, 1.0)), 1.0)
-               for m in materials]
     known = (material >= 0) & (material < len(materials))
     return MeshFile(mesh, None, texture)._replace(
-        **_face_colours(mesh, np.where(known, material, -1), palette))
+        **_face_colours(mesh, np.where(known, material, -1), [_kd(m) for m in materials]))
+
+
+def _kd(material) -> RGBA:
+    """An MTL material's colour as trimesh reads it: ``Kd``, alpha 1."""
+    return (*(float(c) for c in np.clip(list(material.diffuse)[:3], 0.0, 1.0)), 1.0)
 
 
 _MTL_MAPS = ("normal_texname", "bump_texname", "roughness_texname", "metallic_texname",
@@ -542,6 +558,55 @@ def _obj_texture(path: Path, mesh: Mesh, material: np.ndarray, materials) -> Tex
         warn(f"{path}: texture image {image_path} not found: not kept")
         return None
     return texture_from_file(image_path)
+
+
+def _needs_obj_atlas(material: np.ndarray, materials) -> bool:
+    """Whether the OBJ's faces use two images, or an image beside faces of no image."""
+    used = [int(k) for k in used_indices(material) if k < len(materials)]
+    images = {materials[k].diffuse_texname for k in used if materials[k].diffuse_texname}
+    bare = len(used) > len(
+        [k for k in used if materials[k].diffuse_texname]) or (material < 0).any()
+    return len(images) > 1 or (len(images) == 1 and bare)
+
+
+def _obj_atlas(path: Path, mesh: Mesh, material: np.ndarray, materials) -> MeshFile:
+    """An OBJ whose faces use several images, or an image beside colours: its faces by
+    material, each image tinted by its ``Kd`` and each other colour a tile, packed into one
+    image (:mod:`.texture_atlas`; a part holds one). An image that is not there costs its
+    colour only, as viewers draw it."""
+    from .model import DEFAULT_COLOR
+    from .texture_atlas import AtlasPiece, pack
+
+    images: dict[str, Texture | None] = {}
+    pieces = []
+    starts = np.flatnonzero(np.r_[True, material[1:] != material[:-1]])
+    for start, end in zip(starts, np.r_[starts[1:], len(material)], strict=True):
+        k = int(material[start])
+        known = 0 <= k < len(materials)
+        name = materials[k].diffuse_texname if known else ""
+        color = _kd(materials[k]) if known else DEFAULT_COLOR
+        if name and name not in images:
+            image_path = path.parent / name.replace("\\", "/")
+            images[name] = texture_from_file(image_path) if image_path.is_file() else None
+            if images[name] is None:
+                warn(f"{path}: texture image {image_path} not found: not kept")
+        texture = images.get(name) if name else None
+        faces = mesh.faces[start:end]
+        used = used_indices(faces)
+        renumber = np.full(len(mesh.vertices), -1, dtype=np.int64)
+        renumber[used] = np.arange(len(used))
+        pieces.append(AtlasPiece(Mesh(mesh.vertices[used], renumber[faces], mesh.uv[used]),
+                                 texture, color))
+    if not any(p.texture is not None for p in pieces):  # (every image missing: colours)
+        known = (material >= 0) & (material < len(materials))
+        return MeshFile(mesh)._replace(**_face_colours(
+            mesh, np.where(known, material, -1), [_kd(m) for m in materials]))
+    atlas = pack(pieces)
+    warn(f"{path}: {len([n for n in images if images[n]])} image(s) and "
+         f"{len({p.color for p in pieces if p.texture is None})} other colour(s) on its faces "
+         "packed into one image (a part holds one)"
+         + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
+    return MeshFile(atlas.mesh, WHITE, atlas.texture)
 
 
 def texture_from_file(image_path: Path) -> Texture:
@@ -712,12 +777,52 @@ def _read_collada(path: Path, data: bytes, source, element, line) -> MeshFile:
     from .collada_mesh import read_collada
 
     try:
-        vertices, faces, _, runs = read_collada(path, data)
+        pieces, _ = read_collada(path, data)
     except ValueError as e:
         raise FormatError(source or path, element,
                           f"cannot read Collada (.dae) mesh {path}: {e}", line) from e
-    mesh = Mesh(vertices, faces)
-    palette = list(dict.fromkeys(rgba for _, rgba in runs if rgba is not None))
-    index = np.repeat([-1 if rgba is None else palette.index(rgba) for _, rgba in runs],
-                      [n for n, _ in runs]).astype(np.int64)
+    if any(p.image is not None for p in pieces):
+        return _textured_collada(path, pieces)
+    return _coloured_collada(pieces)
+
+
+def _coloured_collada(pieces) -> MeshFile:
+    """A Collada mesh without images: its triangles' colours as runs."""
+    mesh = Mesh.concatenate([Mesh(p.vertices, p.faces) for p in pieces]) if len(pieces) > 1 \
+        else Mesh(pieces[0].vertices, pieces[0].faces)
+    palette = list(dict.fromkeys(p.color for p in pieces if p.color is not None))
+    index = np.repeat([-1 if p.color is None else palette.index(p.color) for p in pieces],
+                      [len(p.faces) for p in pieces]).astype(np.int64)
     return MeshFile(mesh)._replace(**_face_colours(mesh, index, palette))
+
+
+def _textured_collada(path: Path, pieces) -> MeshFile:
+    """A Collada mesh with images: one image over every triangle (its pieces' colours and
+    images packed into one atlas where there are several, :mod:`.texture_atlas`), the
+    colour white (nothing tints it). An image that is not there costs its colour only."""
+    from .model import DEFAULT_COLOR
+    from .texture_atlas import AtlasPiece, needs_atlas, pack
+
+    images: dict[Path, Texture | None] = {}
+    looks = []
+    for p in pieces:
+        texture = None
+        if p.image is not None:
+            if p.image not in images:
+                images[p.image] = texture_from_file(p.image) if p.image.is_file() else None
+                if images[p.image] is None:
+                    warn(f"{path}: texture image {p.image} not found: not kept")
+            texture = images[p.image]
+        color = WHITE if texture is not None else (p.color or DEFAULT_COLOR)
+        looks.append(AtlasPiece(Mesh(p.vertices, p.faces, p.uv if texture else None),
+                                texture, color))
+    textured = [p for p in looks if p.texture is not None]
+    if not textured:
+        return _coloured_collada(pieces)
+    if not needs_atlas(looks):
+        return MeshFile(Mesh.concatenate([p.mesh for p in looks]), WHITE, textured[0].texture)
+    atlas = pack(looks)
+    warn(f"{path}: {len(images)} image(s) and {len({p.color for p in looks if not p.texture})} "
+         "other colour(s) on its triangles packed into one image (a part holds one)"
+         + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
+    return MeshFile(atlas.mesh, WHITE, atlas.texture)

@@ -37,6 +37,7 @@ UNBOUNDED_LIMIT = 1e16
 # over a span where a wrong axis or origin shows.
 UNBOUNDED_SLIDE_SPAN = 1.0
 DEFAULT_COLOR = (0.7, 0.7, 0.7, 1.0)
+WHITE = (1.0, 1.0, 1.0, 1.0)  # the tint of an image whose colours are all its own
 RGBA = tuple[float, float, float, float]
 
 

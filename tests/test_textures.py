@@ -254,3 +254,52 @@ def test_a_jpeg_texture_reaches_mujoco_as_png_with_its_pixels(tmp_path):
     assert 'file="door_texture.png"' in written["mjcf"].read_text()
     for fmt, path in written.items():
         assert not [d for d in differences(obj, load(path), 1e-6) if "texture" in d], fmt
+
+
+def test_a_urdf_material_s_texture_is_placed_by_the_mesh_s_coordinates(tmp_path):
+    """<material><texture filename> (inline, or by the robot's material of that name) on a
+    mesh with texture coordinates: its image, as rviz draws it; on a shape, or where the
+    image is not there: warned, the colour kept."""
+    from real2code_export.errors import Real2CodeWarning
+    from real2code_export.meshfiles import obj_bytes
+
+    (tmp_path / "wood.png").write_bytes(png(8, 4, seed=3))
+    (tmp_path / "door.obj").write_bytes(obj_bytes(uv_box()))  # coordinates, no MTL
+    link = """<link name="{name}"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1"
+      izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial><visual><geometry>{shape}</geometry>
+      {material}</visual></link>"""
+    mesh = '<mesh filename="door.obj"/>'
+    links = [("inline", mesh, '<material name="w"><texture filename="wood.png"/></material>'),
+             ("named", mesh, '<material name="oak"/>'),
+             ("shape", '<box size="1 1 1"/>', '<material name="oak"/>'),
+             ("missing", mesh, '<material name="m"><texture filename="gone.png"/>'
+                               '<color rgba="1 0 0 1"/></material>')]
+    joints = "".join(f'<joint name="j{k}" type="fixed"><parent link="inline"/>'
+                     f'<child link="{n}"/></joint>' for k, (n, _, _) in enumerate(links[1:]))
+    (tmp_path / "r.urdf").write_text(
+        '<robot name="r"><material name="oak"><color rgba="1 1 1 1"/>'
+        '<texture filename="wood.png"/></material>'
+        + "".join(link.format(name=n, shape=s, material=m) for n, s, m in links)
+        + joints + "</robot>")
+    with pytest.warns(Real2CodeWarning) as said:
+        obj = load(tmp_path / "r.urdf")
+    messages = " | ".join(str(w.message) for w in said)
+    wood = (tmp_path / "wood.png").read_bytes()
+    assert obj.part("inline").texture.image == wood and obj.part("named").texture.image == wood
+    assert obj.part("shape").texture is None and "no texture coordinates" in messages
+    assert obj.part("missing").texture is None and "image not found" in messages
+    assert obj.part("missing").color == (1.0, 0.0, 0.0, 1.0)
+
+
+def test_an_image_several_parts_show_is_one_gltf_image(tmp_path):
+    import pygltflib
+
+    obj = textured_cabinet()
+    door = obj.part("door")
+    obj.part("body").visual = uv_box((0.5, 0.5, 0.7))
+    obj.part("body").texture = Texture(door.texture.image, door.texture.mime, door.texture.name)
+    written = export(obj, tmp_path, ["gltf"])
+    gltf = pygltflib.GLTF2().load(str(written["gltf"]))
+    assert len(gltf.images) == 1 and len(gltf.textures) == 1
+    back = load(written["gltf"])
+    assert back.part("body").texture.image == back.part("door").texture.image == door.texture.image

@@ -90,6 +90,7 @@ class _Builder:
         self.gltf = pygltflib.GLTF2(asset=pygltflib.Asset(generator=GENERATOR, version="2.0"))
         self.blob = bytearray()
         self._written: dict[tuple, int] = {}  # (digest of the bytes, how read) -> accessor
+        self._textures: dict[tuple[bytes, str], int] = {}  # (image, name) -> texture
 
     def accessor(self, data: np.ndarray, component: int, type_: str, *, target: int | None = None,
                  bounds: bool = False) -> int:
@@ -144,7 +145,11 @@ class _Builder:
 
     def texture(self, texture: Texture) -> int:
         """The image in the binary buffer (its bytes as read: never re-encoded), one shared
-        sampler (linear, repeat), and the texture that joins them."""
+        sampler (linear, repeat), and the texture that joins them; an image several parts
+        show (a robot's four legs) is one texture."""
+        key = (texture.image, texture.name)
+        if key in self._textures:
+            return self._textures[key]
         g = self.g
         self.gltf.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(self.blob),
                                                   byteLength=len(texture.image)))
@@ -155,6 +160,7 @@ class _Builder:
             self.gltf.samplers.append(g.Sampler(magFilter=LINEAR, minFilter=LINEAR_MIPMAP_LINEAR,
                                                 wrapS=REPEAT, wrapT=REPEAT))
         self.gltf.textures.append(g.Texture(sampler=0, source=len(self.gltf.images) - 1))
+        self._textures[key] = len(self.gltf.textures) - 1
         return len(self.gltf.textures) - 1
 
     def node(self, name: str, **fields) -> int:

@@ -30,6 +30,8 @@ from ... import transforms as tf
 from ...errors import FormatError, ModelError, warn
 from ...model import (
     DEFAULT_COLOR,
+    RGBA,
+    WHITE,
     ArticulatedObject,
     DriveLimits,
     Dynamics,
@@ -45,6 +47,7 @@ from ...model import (
 )
 from ...mujoco_files import spec_from_file
 from ...repairs import balanced_inertia, composed_mimic_chains, massless_moving_parts
+from ...texture_atlas import Atlas
 from .actuator import drive_of
 from .conventions import (
     COLLISION_GROUP,
@@ -494,23 +497,35 @@ class _Reader:
             if visual else None
         if visual_mesh is not None and visual_mesh.colors:
             colour = self.custom.get((m.body(b).name, "color"), visual_mesh.colors[0][1])
+        images = self._images(name, visual, visual_mesh, shown_colours)
+        if isinstance(images, Atlas):
+            self.note("images and colours of several geoms packed into one image (a part "
+                      "holds one)" + (f": {'; '.join(images.notes)}" if images.notes else ""),
+                      name)
+            visual_mesh, colour, images = images.mesh, WHITE, {"texture": images.texture}
         return Part(
             name,
             visual=visual_mesh,
             collision=[mesh for _, mesh in colliding],
             inertial=self._inertial(b, frame, moved),
             color=tuple(float(c) for c in colour) if colour is not None else DEFAULT_COLOR,
-            **_part_images(self._images(name, [g for g, _ in visual], visual_mesh)),
+            **_part_images(images),
         )
 
-    def _images(self, name: str, geoms: list[int], visual: Mesh | None) -> dict:
-        """The visual geom's material images by the model's roles ("texture" for MuJoCo's RGB
+    def _images(self, name: str, visual: list[tuple[int, Mesh]], joined: Mesh | None,
+                colours: list[RGBA]) -> dict | Atlas:
+        """The visual geoms' material images by the model's roles ("texture" for MuJoCo's RGB
         layer; normal, occlusion, emissive; ORM as glTF's metallic-roughness map, its R the
         occlusion), read from the files MuJoCo loaded, where the mesh has the texture
-        coordinates to place them. Separate roughness or metallic layers are not kept."""
+        coordinates to place them. Geoms with colour images only, of several images or
+        beside geoms of other colours, give one image (:mod:`...texture_atlas`). Separate
+        roughness or metallic layers are not kept."""
         import mujoco
 
         from ...meshfiles import texture_from_file
+        from ...texture_atlas import AtlasPiece, needs_atlas, pack  # (Pillow on demand)
+
+        geoms = [g for g, _ in visual]
 
         role = mujoco.mjtTextureRole
         roles = {"texture": role.mjTEXROLE_RGB, "normal": role.mjTEXROLE_NORMAL,
@@ -518,6 +533,7 @@ class _Reader:
                  "metallic_roughness": role.mjTEXROLE_ORM}
         m = self.model
         found: dict[str, list[Path]] = {}
+        rgb_files: dict[int, Path] = {}  # geom -> its colour image
         for g in geoms:
             mat = int(m.geom_matid[g])
             if mat < 0:
@@ -527,14 +543,24 @@ class _Reader:
                 if tex >= 0 and int(m.tex_pathadr[tex]) >= 0:
                     raw = bytes(m.paths[int(m.tex_pathadr[tex]):]).split(b"\0", 1)[0].decode()
                     found.setdefault(ours, []).append(self._texture_file(raw))
+                    if ours == "texture":
+                        rgb_files[g] = found[ours][-1]
             if any(int(m.mat_texid[mat, r]) >= 0
                    for r in (role.mjTEXROLE_ROUGHNESS, role.mjTEXROLE_METALLIC)):
                 self.note("roughness and metallic layers not kept (the model holds them as "
                           "one packed image, MuJoCo's ORM)", name)
         if not found:
             return {}
-        if any(len(files) > 1 or not files[0].is_file() for files in found.values()) \
-                or visual is None or visual.uv is None:
+        if set(found) == {"texture"} and all(f.is_file() for f in found["texture"]):
+            images = {f: texture_from_file(f) for f in dict.fromkeys(found["texture"])}
+            pieces = []
+            for (g, mesh), colour in zip(visual, colours, strict=True):
+                file = rgb_files.get(g)
+                pieces.append(AtlasPiece(mesh, None if file is None else images[file], colour))
+            if needs_atlas(pieces) and all(p.mesh.uv is not None for p in pieces if p.texture):
+                return pack(pieces)
+        if any(len(set(files)) > 1 or not files[0].is_file() for files in found.values()) \
+                or joined is None or joined.uv is None:
             self.note("textures not kept (a part holds one material, on one mesh with texture "
                       "coordinates, from files)", name)
             return {}

@@ -22,8 +22,8 @@ import numpy as np
 from lxml import etree
 
 from ... import transforms as tf
-from ...meshfiles import read_ahead, read_mesh_file
-from ...model import Mesh
+from ...meshfiles import read_ahead, read_mesh_file, texture_from_file
+from ...model import Mesh, Texture
 from ...primitives import SIZE_COUNT, Primitive, ShapeKind
 from .context import Context, label
 from .conventions import PREFIX, ns
@@ -272,18 +272,37 @@ def robot_materials(ctx: Context, robot: etree._Element) -> dict[str, RGBA | Non
     for m in robot.iterchildren("material"):
         color = m.find("color")
         out[m.get("name", "")] = None if color is None else rgba(ctx, color, label(m))
-        _texture_not_read(ctx, m, label(m))
     return out
 
 
-def _texture_not_read(ctx: Context, material: etree._Element, owner: str) -> None:
-    """A <material>'s <texture> is not read (a part's image comes from its OBJ's MTL): said,
-    never dropped in silence."""
-    texture = material.find("texture")
-    if texture is not None and texture.get("filename"):  # (an empty <texture/> holds nothing)
-        ctx.warn(owner, f"<texture filename='{texture.get('filename')}'> not read (a part's "
-                 "image is taken from its OBJ's MTL only); the material's colour is",
-                 texture.sourceline)
+def material_image(ctx: Context, visual: etree._Element, robot: etree._Element, owner: str,
+                   mesh: Mesh) -> Texture | None:
+    """The image a visual's <material> names (``<texture filename>``, inline or in the
+    robot's material of that name), placed by the mesh's texture coordinates as rviz places
+    it; None where it names none, or (warned) where the mesh has no coordinates to place it
+    or the file is not there: the colour is kept, as viewers draw it."""
+    m = visual.find("material")
+    if m is None:
+        return None
+    texture = m.find("texture")
+    if texture is None and m.get("name"):
+        named = next((r for r in robot.iterchildren("material")
+                      if r.get("name") == m.get("name")), None)
+        texture = None if named is None else named.find("texture")
+    filename = None if texture is None else texture.get("filename")
+    if not filename:  # (an empty <texture/> holds nothing)
+        return None
+    if mesh.uv is None:
+        ctx.warn(owner, f"<texture filename='{filename}'> not read: the visual's mesh has no "
+                 "texture coordinates to place it (a shape, or a file without them); the "
+                 "material's colour is kept", texture.sourceline)
+        return None
+    path = resolve_filename(ctx, filename, owner, texture.sourceline, quiet=True)
+    if path is None or not path.is_file():
+        ctx.warn(owner, f"<texture filename='{filename}'>: image not found; the material's "
+                 "colour is kept", texture.sourceline)
+        return None
+    return texture_from_file(path)
 
 
 def material_color(ctx: Context, visual: etree._Element, materials: dict[str, RGBA | None],
@@ -294,7 +313,6 @@ def material_color(ctx: Context, visual: etree._Element, materials: dict[str, RG
         return None
     name = m.get("name")
     color = m.find("color")
-    _texture_not_read(ctx, m, owner)
     if color is not None:
         value = rgba(ctx, color, owner)
         if name:  # urdfdom lets later visuals refer to a material defined inline

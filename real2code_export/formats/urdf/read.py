@@ -37,6 +37,7 @@ from ...model import (
     AXIS_UNIT_TOLERANCE,
     DEFAULT_COLOR,
     UNBOUNDED_LIMIT,
+    WHITE,
     ArticulatedObject,
     Drive,
     DriveKind,
@@ -49,6 +50,7 @@ from ...model import (
     Mesh,
     Mimic,
     Part,
+    Texture,
     sanitize_name,
     validate,
     validate_inertial,
@@ -75,6 +77,7 @@ from .geometry import (
     average_color,
     file_colors,
     material_color,
+    material_image,
     origin_matrix,
     read_meshes_ahead,
     robot_materials,
@@ -342,30 +345,37 @@ def _placed(mesh: Mesh, transform: np.ndarray) -> Mesh:
 def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
           faithful_collision: bool, hull_collision: bool) -> Part:
     owner = label(el)
+    robot = el.getparent()
     visuals: list[Mesh] = []
     colored = []
     runs: list[list] = []  # each visual's colours over its faces (None: it states none)
     stated = []  # each visual's <material> colour (None: it states none)
-    textures = []
+    textures = []  # each visual's image (None: it has none)
+    tints = []  # each visual's colour (an image's tint; None: it states none)
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
         if mesh is None:
             continue
+        image = material_image(ctx, v, robot, owner, mesh)
+        if image is not None and file is not None and ctx.files[file].texture is not None:
+            ctx.warn(owner, f"<material> image {image.name!r} not used: the mesh file brings "
+                     "its own (as rviz draws it)", v.sourceline)
+            image = None
+        textures.append(image or (ctx.files[file].texture if file is not None else None))
         mesh = _placed(mesh, origin_matrix(ctx, v, owner))
         visuals.append(mesh)
         color = material_color(ctx, v, materials, owner)
         color = None if color is None else tuple(float(c) for c in color)
         stated.append(color)
-        if color is None and file is not None and ctx.files[file].texture is None:
+        if color is None and file is not None and textures[-1] is None:
             runs.append(file_colors(ctx, file, len(mesh.faces)))  # as viewers show the file
-        else:  # (a textured file: its image and its mean colour, in the part's colour)
+        else:  # (an image: it and its tint, in the part's colour)
             runs.append([(len(mesh.faces), color)])
         if color is None and file is not None:
             color = ctx.files[file].color
+        tints.append(color)
         if color is not None:
             colored.append((color, mesh))
-        if file is not None and ctx.files[file].texture is not None:
-            textures.append(ctx.files[file].texture)
     collision = _collision(ctx, el, name, visuals, faithful_collision and _from_visual(el),
                            hull_collision)
     inertial = _link_inertial(ctx, el, name, visuals)
@@ -380,12 +390,12 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         cut = Mesh(one.vertices, one.faces, one.uv, colors=runs[0]).color_pieces()
         visuals, runs = [m for m, _ in cut], [[(len(m.faces), c)] for m, c in cut]
     visual = Mesh.join_colored(visuals, runs) if visuals else None
-    texture = textures[0] if textures else None
-    if texture is not None and (len(textures) > 1 or visual.uv is None):
-        ctx.warn(owner, f"{len(textures)} textured visuals among {len(visuals)}: a part holds "
-                 "one image on one textured mesh; the textures are not kept, the colour is")
-        texture = None
-        visual = Mesh(visual.vertices, visual.faces, colors=visual.colors)
+    texture = next((t for t in textures if t is not None), None)
+    if texture is not None and (visual.uv is None or len({t.image for t in textures
+                                                           if t is not None}) > 1
+                                or len({c for piece in runs for _, c in piece}) > 1):
+        visual, texture = _one_image(ctx, owner, visuals, textures, tints, runs)
+        colored = [(WHITE, visual)]
     if len({c for c, _ in colored}) > 1 and not per_face:
         ctx.note("colours", f"{name!r} ({len({c for c, _ in colored})})")
     # The part's one colour (what a renderer of one colour per part draws) as before mesh
@@ -398,6 +408,29 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
             ctx.floats(el, ns("color"), owner, count=4), 0.0, 1.0))
     return Part(name=name, visual=visual, collision=collision, inertial=inertial,
                 color=color or DEFAULT_COLOR, texture=texture)
+
+
+def _one_image(ctx: Context, owner: str, visuals: list[Mesh], textures: list, tints: list,
+               runs: list[list]) -> tuple[Mesh, Texture]:
+    """A link's visuals drawn from several images, or from an image beside colours, as one
+    mesh with one image (:mod:`...texture_atlas`; a part holds one): each image tinted by its
+    visual's colour, each other colour a tile of its own."""
+    from ...texture_atlas import AtlasPiece, pack
+
+    pieces = []
+    for mesh, texture, tint, piece_runs in zip(visuals, textures, tints, runs, strict=True):
+        if texture is not None:
+            pieces.append(AtlasPiece(mesh, texture, tint or WHITE))
+            continue
+        for sub, rgba in Mesh(mesh.vertices, mesh.faces, colors=[
+                (n, c or DEFAULT_COLOR) for n, c in piece_runs]).color_pieces():
+            pieces.append(AtlasPiece(sub, None, rgba))
+    atlas = pack(pieces)
+    images = len({t.image for t in textures if t is not None})
+    ctx.warn(owner, f"{images} image(s) and {len({p.color for p in pieces if not p.texture})} "
+             "other colour(s) over its visuals packed into one image (a part holds one)"
+             + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
+    return atlas.mesh, atlas.texture
 
 
 def _collision(ctx: Context, el: etree._Element, name: str, visuals: list[Mesh],
