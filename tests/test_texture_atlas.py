@@ -352,3 +352,67 @@ def test_an_mjcf_body_of_geoms_with_their_own_images_keeps_them(tmp_path):
     before = _face_texels(base)
     for fmt, path in export(obj, tmp_path / "out", ["mjcf", "usd", "gltf"]).items():
         assert np.array_equal(_face_texels(load(path).part("base")), before), fmt
+
+
+def test_a_usd_body_of_meshes_bound_to_their_own_images_keeps_them(tmp_path):
+    """Isaac Sim's assets bind a material per mesh: a body of two meshes, each bound to its
+    own UsdPreviewSurface with an image, and a red one, reads as one part with one image."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+
+    from real2code_export.formats import export, load
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "b.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    body = UsdGeom.Xform.Define(stage, "/r/body")
+    stage.SetDefaultPrim(stage.GetPrimAtPath("/r"))
+    UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+    mass = UsdPhysics.MassAPI.Apply(body.GetPrim())
+    mass.CreateMassAttr(1.0)
+    mass.CreateDiagonalInertiaAttr(Gf.Vec3f(0.1, 0.1, 0.1))
+    mass.CreateCenterOfMassAttr(Gf.Vec3f(0, 0, 0))
+    corners = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    faces = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
+    for k, (name, size) in enumerate((("a", (4, 4)), ("b", (6, 2)), ("red", None))):
+        mesh = UsdGeom.Mesh.Define(stage, f"/r/body/{name}")
+        mesh.CreatePointsAttr([Gf.Vec3f(x, y, z + 2 * k) for x, y, z in corners])
+        mesh.CreateFaceVertexCountsAttr([3] * 4)
+        mesh.CreateFaceVertexIndicesAttr(faces)
+        material = UsdShade.Material.Define(stage, f"/r/Looks/{name}")
+        surface = UsdShade.Shader.Define(stage, f"/r/Looks/{name}/Surface")
+        surface.CreateIdAttr("UsdPreviewSurface")
+        material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+        if size is None:
+            surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set((1, 0, 0))
+        else:
+            data, _ = noise_png(*size, k)
+            (tmp_path / f"{name}.png").write_bytes(data)
+            uv = texel_centres(*size, 4, k)
+            st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+                "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+            st.Set(Vt.Vec2fArray.FromNumpy(uv.astype(np.float32)))
+            reader = UsdShade.Shader.Define(stage, f"/r/Looks/{name}/st")
+            reader.CreateIdAttr("UsdPrimvarReader_float2")
+            reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+            image = UsdShade.Shader.Define(stage, f"/r/Looks/{name}/Image")
+            image.CreateIdAttr("UsdUVTexture")
+            image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{name}.png")
+            image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+                reader.ConnectableAPI(), "result")
+            surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+                image.ConnectableAPI(), "rgb")
+        UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    stage.Save()
+    with pytest.warns(Real2CodeWarning, match="3 visual meshes packed into one image"):
+        obj = load(tmp_path / "b.usda")
+    part = obj.part("body")  # (free: hung from a massless 'world')
+    assert part.texture is not None and part.color == (1.0, 1.0, 1.0, 1.0)
+    texels = sample(decoded(part.texture), part.visual.uv)
+    high = part.visual.vertices[:, 2]
+    _, a_px = noise_png(4, 4, 0)
+    assert np.array_equal(np.sort(texels[high < 1.5], axis=0),
+                          np.sort(sample(a_px, texel_centres(4, 4, 4, 0)), axis=0))
+    assert (texels[high > 3.9, :3] == [255, 0, 0]).all()
+    before = _face_texels(part)
+    for fmt, path in export(obj, tmp_path / "out", ["usd", "gltf"]).items():
+        assert np.array_equal(_face_texels(load(path).part("body")), before), fmt

@@ -16,6 +16,8 @@ from ... import transforms as tf
 from ...collision import thickened
 from ...errors import FormatError, ModelError, warn
 from ...model import (
+    DEFAULT_COLOR,
+    WHITE,
     ArticulatedObject,
     Dynamics,
     Inertial,
@@ -248,7 +250,7 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
                     if p.IsA(UsdGeom.Gprim) and not p.HasAPI(UsdPhysics.CollisionAPI)
                     and UsdGeom.Imageable(p).ComputePurpose() in shown
                     and UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible]
-    visuals, runs = [], []  # runs: each visual's colours (geometry.color_runs)
+    visuals, runs, shown_prims = [], [], []  # runs: each visual's colours (color_runs)
     for p in visual_prims:
         where_p = f"prim <{p.GetPath()}>"
         mesh = read_placed_mesh(p, placed(p), path, where_p, ctx.assets) \
@@ -259,6 +261,7 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
             continue
         visuals.append(mesh)
         runs.append(color_runs(p, len(mesh.faces), path))
+        shown_prims.append(p)
     visual = None  # (visuals of several colours: kept per face)
     if visuals:
         visual = Mesh.join_colored(visuals, runs) if len(visuals) > 1 or len(runs[0]) > 1 \
@@ -279,13 +282,42 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
         if change is not None:
             warn(f"{path}: {where}: {change}")
     images = read_images(prim, visual_prims, path)
+    color = read_color(prim, visual_prims, path)
     if images and (visual is None or visual.uv is None or len(visuals) > 1):
-        warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
-             "texture coordinates; they are not kept, the colour is")
-        images = {}
+        atlas = _one_image(prim, shown_prims, visuals, runs, path) \
+            if set(images) == {"texture"} else None
+        if atlas is not None:
+            warn(f"{path}: {where}: the images and colours of its {len(visuals)} visual "
+                 "meshes packed into one image (a part holds one)"
+                 + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
+            visual, images, color = atlas.mesh, {"texture": atlas.texture}, WHITE
+        else:
+            warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
+                 "texture coordinates; they are not kept, the colour is")
+            images = {}
     texture = images.pop("texture", None)
     return Part(name, visual=visual, collision=collision, inertial=inertial,
-                color=read_color(prim, visual_prims, path), texture=texture, maps=images)
+                color=color, texture=texture, maps=images)
+
+
+def _one_image(prim, prims: list, visuals: list[Mesh], runs: list, path):
+    """A body's visual meshes, each with its own bound image or colours, as one mesh with one
+    image (:mod:`...texture_atlas`), or None where an image has no texture coordinates to
+    place it or a material holds more than a colour image."""
+    from ...texture_atlas import AtlasPiece, pack
+
+    pieces = []
+    for p, mesh, piece_runs in zip(prims, visuals, runs, strict=True):
+        images = read_images(p, [], path) or read_images(prim, [], path)
+        if images:
+            if set(images) != {"texture"} or mesh.uv is None:
+                return None
+            pieces.append(AtlasPiece(mesh, images["texture"], WHITE))
+            continue
+        for sub, rgba in Mesh(mesh.vertices, mesh.faces, colors=[
+                (n, c or DEFAULT_COLOR) for n, c in piece_runs]).color_pieces():
+            pieces.append(AtlasPiece(sub, None, rgba))
+    return pack(pieces)
 
 
 def _rehang(ctx: Context, joints: list[Joint], joint_at: dict[str, str]) -> None:
