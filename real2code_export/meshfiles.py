@@ -80,12 +80,20 @@ def material_relpath(part_name: str) -> str:
 
 def texture_relpath(part: Part) -> str:
     """Where a textured part's image goes, beside its meshes (every format refers to it)."""
-    return f"{MESH_DIR}/{part.name}_texture{part.texture.suffix}"
+    return image_relpath(part.texture)
 
 
 def map_relpath(part: Part, role: str) -> str:
     """Where a part's material map (``PBR_MAPS``) goes, beside its meshes."""
-    return f"{MESH_DIR}/{part.name}_{role}{part.maps[role].suffix}"
+    return image_relpath(part.maps[role])
+
+
+def image_relpath(texture: Texture) -> str:
+    """An image's file beside the meshes, named by its own name and its bytes' digest: parts
+    that show the same image (a robot's four legs) share one file, whatever their names,
+    and different images never share a name."""
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", texture.name).strip("._") or "image"
+    return f"{MESH_DIR}/{stem}_{texture.digest[:8]}{texture.suffix}"
 
 
 def image_textures(part: Part) -> dict[str, Texture]:

@@ -386,6 +386,16 @@ class Texture:
     def suffix(self) -> str:
         return IMAGE_SUFFIXES[self.mime]
 
+    @property
+    def digest(self) -> str:
+        """SHA-256 of the encoded image, hex (computed once: files are named by it)."""
+        cached = self.__dict__.get("_digest")
+        if cached is None:
+            import hashlib
+
+            cached = self.__dict__["_digest"] = hashlib.sha256(self.image).hexdigest()
+        return cached
+
     @staticmethod
     def sniff(data: bytes) -> str | None:
         """The MIME type of PNG or JPEG bytes, from their signature; None for anything else."""

@@ -250,8 +250,12 @@ def test_a_jpeg_texture_reaches_mujoco_as_png_with_its_pixels(tmp_path):
     door = obj.part("door")
     door.texture = Texture(buffer.getvalue(), "image/jpeg", "wood")
     written = export(obj, tmp_path)
-    assert (tmp_path / "meshes" / "door_texture.jpg").read_bytes() == buffer.getvalue()
-    assert 'file="door_texture.png"' in written["mjcf"].read_text()
+    from real2code_export.meshfiles import texture_relpath
+
+    relpath = texture_relpath(door)  # meshes/wood_<digest>.jpg
+    assert relpath.startswith("meshes/wood_") and relpath.endswith(".jpg")
+    assert (tmp_path / relpath).read_bytes() == buffer.getvalue()
+    assert f'file="{relpath[len("meshes/"):-4]}.png"' in written["mjcf"].read_text()
     for fmt, path in written.items():
         assert not [d for d in differences(obj, load(path), 1e-6) if "texture" in d], fmt
 
@@ -301,5 +305,8 @@ def test_an_image_several_parts_show_is_one_gltf_image(tmp_path):
     written = export(obj, tmp_path, ["gltf"])
     gltf = pygltflib.GLTF2().load(str(written["gltf"]))
     assert len(gltf.images) == 1 and len(gltf.textures) == 1
+    others = export(obj, tmp_path / "files", ["urdf", "mjcf"])  # one file, one MuJoCo asset
+    assert len(list((tmp_path / "files" / "meshes").glob("wood_*.png"))) == 1
+    assert others["mjcf"].read_text().count("<texture ") == 1
     back = load(written["gltf"])
     assert back.part("body").texture.image == back.part("door").texture.image == door.texture.image

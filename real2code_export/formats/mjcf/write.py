@@ -279,6 +279,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
     colliding = {shared[g.relpath] for part in parts for g, visual in layout.geometries(part)
                  if not visual}
     declared = set()
+    textures_declared: set[str] = set()  # (texture assets: _add_material)
     for part in parts:
         for g, visual in layout.geometries(part):
             rel = g.relpath
@@ -295,7 +296,7 @@ def _build(obj: ArticulatedObject, *, meshdir: str, in_memory: bool = False,
                 asset.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         # (in memory, for kinematics and dynamics only, no image is needed: none is added)
         if (part.texture is not None or part.maps) and not in_memory:
-            _add_material(spec, part)
+            _add_material(spec, part, textures_declared)
 
     joints = list(obj.joints_in_tree_order())
     root = obj.root
@@ -362,7 +363,7 @@ def _qpos(joint: Joint) -> list[float]:
     return [joint.state] if joint.type.movable else []
 
 
-def _add_material(spec, part: Part) -> None:
+def _add_material(spec, part: Part, declared: set[str]) -> None:
     """A material on the part's images: the colour image in the RGB role (the part's colour a
     tint, as glTF's factor is), and the maps in MuJoCo's layer roles: normal, occlusion,
     emissive, and glTF's metallic-roughness map as ORM where the occlusion map is that same
@@ -373,27 +374,26 @@ def _add_material(spec, part: Part) -> None:
     role = mujoco.mjtTextureRole
     linear, srgb = mujoco.mjtColorSpace.mjCOLORSPACE_LINEAR, mujoco.mjtColorSpace.mjCOLORSPACE_SRGB
     images = _mujoco_images(part)
-    layers = []  # (MuJoCo role, texture name, file, colour space)
+    layers = []  # (MuJoCo role, image file, colour space)
     if part.texture is not None:
-        layers.append((role.mjTEXROLE_RGB, texture_name(part), images[texture_relpath(part)],
-                       srgb))
+        layers.append((role.mjTEXROLE_RGB, images[texture_relpath(part)], srgb))
     for ours, theirs, space in (("normal", role.mjTEXROLE_NORMAL, linear),
                                 ("occlusion", role.mjTEXROLE_OCCLUSION, linear),
                                 ("emissive", role.mjTEXROLE_EMISSIVE, srgb)):
         if ours in part.maps:
-            layers.append((theirs, f"{part.name}_{ours}", images[map_relpath(part, ours)],
-                           space))
+            layers.append((theirs, images[map_relpath(part, ours)], space))
     if _orm(part):
-        layers.append((role.mjTEXROLE_ORM, f"{part.name}_occlusion",
-                       images[map_relpath(part, "occlusion")], linear))
+        layers.append((role.mjTEXROLE_ORM, images[map_relpath(part, "occlusion")], linear))
     material = spec.add_material(name=texture_name(part), rgba=float32(part.color))
     textures = list(material.textures)
-    added = set()
-    for theirs, name, relpath, space in layers:
-        if name not in added:
+    for theirs, relpath, space in layers:
+        # one texture asset per file and colour space, whichever parts show it: MuJoCo
+        # decodes each asset when it compiles (a robot's four legs: one image, not four)
+        name = _stem(relpath) + ("_linear" if space == linear else "")
+        if name not in declared:
             spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, colorspace=space,
                              file=relpath.removeprefix(MESH_DIR + "/"))
-            added.add(name)
+            declared.add(name)
         textures[theirs] = name
     material.textures = textures
 
@@ -412,12 +412,17 @@ def _write_png_copies(obj: ArticulatedObject, out_dir: Path) -> None:
 
     from PIL import Image
 
+    written = set()  # (an image several parts show: one copy)
     for part in obj.parts:
         textures = image_textures(part)
         for rel, png in _mujoco_images(part).items():
-            if png != rel:
+            if png != rel and png not in written:
+                written.add(png)
                 buffer = BytesIO()
-                Image.open(BytesIO(textures[rel].image)).save(buffer, format="PNG")
+                # (zlib's fastest level: a copy for MuJoCo only; 2x quicker than the default,
+                # a third larger)
+                Image.open(BytesIO(textures[rel].image)).save(buffer, format="PNG",
+                                                              compress_level=1)
                 atomic.write_bytes(out_dir / png, buffer.getvalue())
 
 
