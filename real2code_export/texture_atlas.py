@@ -5,8 +5,8 @@ one glTF material, one USD preview surface or one MuJoCo material does. Real fil
 more: a link whose visuals each bring their own image (PartNet-Mobility's OBJs, ANYbotics'
 Collada meshes), a Collada mesh of a textured primitive beside coloured ones, an OBJ whose MTL
 names several ``map_Kd``. Here those pieces become one mesh with one image: each image (its
-tint multiplied in) and each flat colour (a tile of one pixel) packed side by side by trimesh's
-rectangle packing, the texture coordinates moved into their tile. An image that repeats
+tint multiplied in) and each flat colour (a tile of one pixel) laid out side by side on shelves,
+the texture coordinates moved into their tile. An image that repeats
 over its triangles (coordinates past [0, 1], as tiling wood grain is mapped) is unrolled first,
 as many copies as its coordinates span, since a tile in an atlas cannot repeat.
 
@@ -107,33 +107,52 @@ def pack(pieces: list[AtlasPiece]) -> Atlas:
 
 
 def _packed(images: list, notes: list[str]):
-    """The tiles in one RGBA image by trimesh's rectangle packing, each tile's edge pixels
-    repeated :data:`PADDING` pixels out so a filtering sampler at its edge blends its own
-    colour, not a neighbour's (trimesh's ``material.pack`` pads with nothing and places
-    coordinates by ``(size - 1)``, half a texel off glTF's and OpenGL's sampling: so the
-    layout is trimesh's and the coordinates ours). Returns the image and each tile's (x, y,
-    width, height) in pixels from the bottom-left corner."""
+    """The tiles in one RGBA image (:func:`shelf_layout`), each tile's edge pixels repeated
+    :data:`PADDING` pixels out so a filtering sampler at its edge blends its own colour, not a
+    neighbour's. Returns the image and each tile's (x, y, width, height) in pixels from the
+    bottom-left corner. (trimesh's ``material.pack`` pads with nothing, maps coordinates by
+    ``(size - 1)``, half a texel off glTF's and OpenGL's sampling, and importing trimesh and
+    scipy for it was two seconds of a command: so the layout is done here.)"""
     from PIL import Image
-    from trimesh.path.packing import images as pack_rectangles
 
     scale = 1.0
     while True:
         sized = images if scale == 1.0 else [
             im.resize((max(1, round(im.size[0] * scale)), max(1, round(im.size[1] * scale))),
                       Image.Resampling.LANCZOS) if max(im.size) > 1 else im for im in images]
-        padded = [Image.fromarray(np.pad(np.asarray(im), ((PADDING, PADDING),
-                                                          (PADDING, PADDING), (0, 0)),
-                                         mode="edge"), "RGBA") for im in sized]
-        atlas, offsets = pack_rectangles(padded, seed=0, iterations=10, mode="RGBA")
-        if max(atlas.size) <= MAX_ATLAS_SIDE:
+        padded = [(im.size[0] + 2 * PADDING, im.size[1] + 2 * PADDING) for im in sized]
+        corners, (width, height) = shelf_layout(padded)
+        if max(width, height) <= MAX_ATLAS_SIDE:
             break
         scale *= 0.5
     if scale < 1.0:
         notes.append(f"images scaled to {scale:g} of their resolution to fit one atlas of at "
                      f"most {MAX_ATLAS_SIDE} pixels a side")
-    boxes = [(int(x) + PADDING, int(y) + PADDING, im.size[0], im.size[1])
-             for (x, y), im in zip(offsets, sized, strict=True)]
+    atlas = Image.new("RGBA", (width, height))
+    for im, (x, y) in zip(sized, corners, strict=True):
+        tile = np.pad(np.asarray(im), ((PADDING, PADDING), (PADDING, PADDING), (0, 0)),
+                      mode="edge")
+        atlas.paste(Image.fromarray(tile, "RGBA"), (x, height - y - tile.shape[0]))
+    boxes = [(x + PADDING, y + PADDING, im.size[0], im.size[1])
+             for (x, y), im in zip(corners, sized, strict=True)]
     return atlas, boxes
+
+
+def shelf_layout(sizes: list[tuple[int, int]]) -> tuple[list[tuple[int, int]], tuple[int, int]]:
+    """Rectangles (width, height) laid out without overlap on shelves, tallest first, each
+    shelf filled left to right up to a width near the square root of their area (next-fit
+    decreasing height): each one's bottom-left corner and the whole (width, height)."""
+    area = sum(w * h for w, h in sizes)
+    limit = max(max(w for w, _ in sizes), int(np.ceil(np.sqrt(area))))
+    corners = [(0, 0)] * len(sizes)
+    x = y = shelf = width = 0
+    for k in sorted(range(len(sizes)), key=lambda k: (-sizes[k][1], k)):
+        w, h = sizes[k]
+        if x + w > limit:  # the next shelf
+            x, y, shelf = 0, y + shelf, 0
+        corners[k] = (x, y)
+        x, shelf, width = x + w, max(shelf, h), max(width, x + w)
+    return corners, (width, y + shelf)
 
 
 def linear_to_srgb(c: np.ndarray) -> np.ndarray:

@@ -416,3 +416,17 @@ def test_a_usd_body_of_meshes_bound_to_their_own_images_keeps_them(tmp_path):
     before = _face_texels(part)
     for fmt, path in export(obj, tmp_path / "out", ["usd", "gltf"]).items():
         assert np.array_equal(_face_texels(load(path).part("body")), before), fmt
+
+
+def test_the_shelves_hold_every_tile_apart_inside_the_atlas():
+    from real2code_export.texture_atlas import shelf_layout
+
+    sizes = [tuple(int(v) for v in s)
+             for s in np.random.default_rng(0).integers(1, 300, (40, 2))] + [(9, 9)] * 5
+    corners, (width, height) = shelf_layout(sizes)
+    boxes = [(x, y, x + w, y + h) for (x, y), (w, h) in zip(corners, sizes, strict=True)]
+    assert all(0 <= a and 0 <= b and c <= width and d <= height for a, b, c, d in boxes)
+    for i, (a, b, c, d) in enumerate(boxes):
+        for e, f, g, h in boxes[i + 1:]:
+            assert c <= e or g <= a or d <= f or h <= b  # apart
+    assert width * height <= 2 * sum(w * h for w, h in sizes)  # not wasteful
