@@ -583,7 +583,7 @@ def _obj_atlas(path: Path, mesh: Mesh, material: np.ndarray, materials) -> MeshF
     image (:mod:`.texture_atlas`; a part holds one). An image that is not there costs its
     colour only, as viewers draw it."""
     from .model import DEFAULT_COLOR
-    from .texture_atlas import AtlasPiece, pack
+    from .texture_atlas import AtlasPiece, faces_of, pack
 
     images: dict[str, Texture | None] = {}
     pieces = []
@@ -599,12 +599,7 @@ def _obj_atlas(path: Path, mesh: Mesh, material: np.ndarray, materials) -> MeshF
             if images[name] is None:
                 warn(f"{path}: texture image {image_path} not found: not kept")
         texture = images.get(name) if name else None
-        faces = mesh.faces[start:end]
-        used = used_indices(faces)
-        renumber = np.full(len(mesh.vertices), -1, dtype=np.int64)
-        renumber[used] = np.arange(len(used))
-        pieces.append(AtlasPiece(Mesh(mesh.vertices[used], renumber[faces], mesh.uv[used]),
-                                 texture, color))
+        pieces.append(AtlasPiece(faces_of(mesh, int(start), int(end)), texture, color))
     if not any(p.texture is not None for p in pieces):  # (every image missing: colours)
         known = (material >= 0) & (material < len(materials))
         return MeshFile(mesh)._replace(**_face_colours(

@@ -52,6 +52,18 @@ class Atlas:
     notes: list[str]
 
 
+def faces_of(mesh: Mesh, start: int, end: int) -> Mesh:
+    """Faces ``start:end`` of ``mesh`` with the vertices (and texture coordinates) they use,
+    in order: one run of a mesh drawn by several materials."""
+    faces = mesh.faces[start:end]
+    used = np.zeros(len(mesh.vertices), dtype=bool)
+    used[faces.ravel()] = True
+    index = np.flatnonzero(used)
+    renumber = np.cumsum(used) - 1
+    return Mesh(mesh.vertices[index], renumber[faces],
+                None if mesh.uv is None else mesh.uv[index])
+
+
 def needs_atlas(pieces: list[AtlasPiece]) -> bool:
     """Whether the pieces need more than one image with one tint to be drawn as read: two
     images, or an image beside faces of another colour."""

@@ -403,7 +403,7 @@ def test_a_usd_body_of_meshes_bound_to_their_own_images_keeps_them(tmp_path):
                 image.ConnectableAPI(), "rgb")
         UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
     stage.Save()
-    with pytest.warns(Real2CodeWarning, match="3 visual meshes packed into one image"):
+    with pytest.warns(Real2CodeWarning, match=r"3 visual mesh\(es\) and their subsets packed into one image"):
         obj = load(tmp_path / "b.usda")
     part = obj.part("body")  # (free: hung from a massless 'world')
     assert part.texture is not None and part.color == (1.0, 1.0, 1.0, 1.0)
@@ -430,3 +430,51 @@ def test_the_shelves_hold_every_tile_apart_inside_the_atlas():
         for e, f, g, h in boxes[i + 1:]:
             assert c <= e or g <= a or d <= f or h <= b  # apart
     assert width * height <= 2 * sum(w * h for w, h in sizes)  # not wasteful
+
+
+def test_a_usd_mesh_whose_subsets_bind_images_keeps_them(tmp_path):
+    """GeomSubsets of the materialBind family bind two textured materials to the faces of
+    one mesh (the mesh itself binds none): read as one image, each face drawing its own
+    material's texels (they were dropped in silence)."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+
+    from real2code_export.formats import load
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    body = UsdGeom.Xform.Define(stage, "/r/body")
+    stage.SetDefaultPrim(stage.GetPrimAtPath("/r"))
+    UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+    UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    mesh = UsdGeom.Mesh.Define(stage, "/r/body/m")
+    mesh.CreatePointsAttr([Gf.Vec3f(0, 0, 0), Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 1, 0),
+                           Gf.Vec3f(0, 0, 1)])
+    mesh.CreateFaceVertexCountsAttr([3] * 4)
+    mesh.CreateFaceVertexIndicesAttr([0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        Vt.Vec2fArray([(0.1, 0.1), (0.9, 0.1), (0.1, 0.9), (0.9, 0.9)]))
+    colours = {"a": (200, 50, 50), "b": (20, 60, 220)}
+    from PIL import Image
+
+    for k, (name, rgb) in enumerate(colours.items()):
+        Image.fromarray(np.full((4, 4, 3), rgb, np.uint8)).save(tmp_path / f"{name}.png")
+        material = UsdShade.Material.Define(stage, f"/r/Looks/{name}")
+        surface = UsdShade.Shader.Define(stage, f"/r/Looks/{name}/Surface")
+        surface.CreateIdAttr("UsdPreviewSurface")
+        material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+        image = UsdShade.Shader.Define(stage, f"/r/Looks/{name}/Image")
+        image.CreateIdAttr("UsdUVTexture")
+        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{name}.png")
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+            image.ConnectableAPI(), "rgb")
+        subset = UsdGeom.Subset.Define(stage, f"/r/body/m/faces_{name}")
+        subset.CreateElementTypeAttr("face")
+        subset.CreateFamilyNameAttr("materialBind")
+        subset.CreateIndicesAttr([2 * k, 2 * k + 1])
+        UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(material)
+    stage.Save()
+    with pytest.warns(Real2CodeWarning, match="subsets packed into one image"):
+        part = load(tmp_path / "s.usda").part("body")
+    texels = sample(decoded(part.texture), part.visual.uv[part.visual.faces].mean(axis=1))
+    assert [tuple(t[:3]) for t in texels] == [colours["a"]] * 2 + [colours["b"]] * 2

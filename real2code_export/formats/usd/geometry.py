@@ -755,9 +755,9 @@ def _bound_color(p, path) -> tuple[float, float, float, float] | None:
 def color_runs(prim, n_faces: int, path) -> list[tuple[int, tuple | None]]:
     """A visual prim's colours over its ``n_faces`` triangles as runs (face count, RGBA;
     None where it states none): its bound material's colour, else a constant displayColor,
-    per face where GeomSubsets of the materialBind family bind materials to its faces (a
-    mesh of triangles only: the subsets index its faces)."""
-    from pxr import UsdGeom, UsdShade
+    per face where GeomSubsets of the materialBind family bind materials to its faces
+    (:func:`bound_runs`)."""
+    from pxr import UsdGeom
 
     own = _bound_color(prim, path)
     if own is None:
@@ -767,20 +767,30 @@ def color_runs(prim, n_faces: int, path) -> list[tuple[int, tuple | None]]:
             opacity = gprim.GetDisplayOpacityAttr().Get()
             own = _clamped((*colors[0], opacity[0] if opacity else 1.0), path,
                            str(prim.GetPath()))
+    return [(n, own if p == prim else _bound_color(p, path))
+            for n, p in bound_runs(prim, n_faces)]
+
+
+def bound_runs(prim, n_faces: int) -> list[tuple[int, object]]:
+    """Which prim's bound material draws each of a visual prim's ``n_faces`` triangles, as
+    runs (face count, prim): a GeomSubset of the materialBind family where it binds them (a
+    mesh of triangles only: the subsets index its faces), the prim itself elsewhere."""
+    from pxr import UsdGeom, UsdShade
+
     subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets() \
         if prim.IsA(UsdGeom.Mesh) else []
     counts = UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get() if subsets else None
     if not subsets or counts is None or len(counts) != n_faces or np.any(np.asarray(counts) != 3):
-        return [(n_faces, own)]
-    colours = [own]  # per face, as an index in this list
+        return [(n_faces, prim)]
+    owners = [prim]  # per face, as an index in this list
     label = np.zeros(n_faces, dtype=np.int64)
     for subset in subsets:
         faces = np.asarray(subset.GetIndicesAttr().Get() or [], dtype=np.int64)
-        colours.append(_bound_color(subset.GetPrim(), path))
-        label[faces[(faces >= 0) & (faces < n_faces)]] = len(colours) - 1
+        owners.append(subset.GetPrim())
+        label[faces[(faces >= 0) & (faces < n_faces)]] = len(owners) - 1
     starts = np.flatnonzero(np.r_[True, label[1:] != label[:-1]]) if n_faces else []
     ends = np.r_[starts[1:], n_faces] if n_faces else []
-    return [(int(e - b), colours[label[b]]) for b, e in zip(starts, ends, strict=True)]
+    return [(int(e - b), owners[label[b]]) for b, e in zip(starts, ends, strict=True)]
 
 
 def _clamped(rgba, path, where: str) -> tuple[float, float, float, float]:

@@ -45,6 +45,7 @@ from .conventions import (
     world_transforms,
 )
 from .geometry import (
+    bound_runs,
     color_runs,
     ellipsoid_collider,
     read_color,
@@ -281,42 +282,58 @@ def _part(ctx: Context, name: str, prim, shape_paths: list[str], to_part: np.nda
             raise FormatError(path, where, str(e)) from e
         if change is not None:
             warn(f"{path}: {where}: {change}")
-    images = read_images(prim, visual_prims, path)
+    drawn = [_drawn_by(p, mesh, piece_runs, path)
+             for p, mesh, piece_runs in zip(shown_prims, visuals, runs, strict=True)]
+    found = [images for piece in drawn for _, _, images in piece if images]
+    images = found[0] if found else {}
     color = read_color(prim, visual_prims, path)
-    if images and (visual is None or visual.uv is None or len(visuals) > 1):
-        atlas = _one_image(prim, shown_prims, visuals, runs, path) \
-            if set(images) == {"texture"} else None
+    one = all(images.keys() == other.keys() and all(
+        images[r].image == other[r].image for r in images) for other in found) \
+        and all(i for piece in drawn for _, _, i in piece)
+    if images and not (one and visual is not None and visual.uv is not None):
+        atlas = _one_image(visuals, drawn) \
+            if all(set(i) == {"texture"} for i in found) else None
         if atlas is not None:
             warn(f"{path}: {where}: the images and colours of its {len(visuals)} visual "
-                 "meshes packed into one image (a part holds one)"
+                 "mesh(es) and their subsets packed into one image (a part holds one)"
                  + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
             visual, images, color = atlas.mesh, {"texture": atlas.texture}, WHITE
         else:
-            warn(f"{path}: {where}: textures ({', '.join(images)}) need one visual mesh with "
-                 "texture coordinates; they are not kept, the colour is")
+            warn(f"{path}: {where}: textures ({', '.join(images)}) need texture coordinates "
+                 "on every visual mesh they draw, and colour images only where a part has "
+                 "several; they are not kept, the colour is")
             images = {}
+    images = dict(images)
     texture = images.pop("texture", None)
     return Part(name, visual=visual, collision=collision, inertial=inertial,
                 color=color, texture=texture, maps=images)
 
 
-def _one_image(prim, prims: list, visuals: list[Mesh], runs: list, path):
-    """A body's visual meshes, each with its own bound image or colours, as one mesh with one
-    image (:mod:`...texture_atlas`), or None where an image has no texture coordinates to
-    place it or a material holds more than a colour image."""
-    from ...texture_atlas import AtlasPiece, pack
+def _drawn_by(p, mesh: Mesh, colours: list, path) -> list[tuple[int, tuple | None, dict]]:
+    """What draws each run of a visual prim's faces (:func:`geometry.bound_runs`): face count,
+    colour (:func:`geometry.color_runs`) and the bound material's images (by role; the
+    material bound to the prim or inherited from its body where a subset binds none)."""
+    owners = bound_runs(p, len(mesh.faces))  # (color_runs' runs, one for one)
+    return [(n, c, read_images(q, [], path)) for (n, q), (_, c) in zip(owners, colours,
+                                                                       strict=True)]
+
+
+def _one_image(visuals: list[Mesh], drawn: list) -> object | None:
+    """A body's visual meshes, each run of faces drawn by its own image or colour, as one
+    mesh with one image (:mod:`...texture_atlas`), or None where an image has no texture
+    coordinates to place it."""
+    from ...texture_atlas import AtlasPiece, faces_of, pack
 
     pieces = []
-    for p, mesh, piece_runs in zip(prims, visuals, runs, strict=True):
-        images = read_images(p, [], path) or read_images(prim, [], path)
-        if images:
-            if set(images) != {"texture"} or mesh.uv is None:
+    for mesh, runs in zip(visuals, drawn, strict=True):
+        start = 0
+        for n, colour, images in runs:
+            piece = faces_of(mesh, start, start + n)
+            start += n
+            if images and piece.uv is None:
                 return None
-            pieces.append(AtlasPiece(mesh, images["texture"], WHITE))
-            continue
-        for sub, rgba in Mesh(mesh.vertices, mesh.faces, colors=[
-                (n, c or DEFAULT_COLOR) for n, c in piece_runs]).color_pieces():
-            pieces.append(AtlasPiece(sub, None, rgba))
+            pieces.append(AtlasPiece(piece, images.get("texture"),
+                                     WHITE if images else colour or DEFAULT_COLOR))
     return pack(pieces)
 
 
