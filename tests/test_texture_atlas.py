@@ -478,3 +478,62 @@ def test_a_usd_mesh_whose_subsets_bind_images_keeps_them(tmp_path):
         part = load(tmp_path / "s.usda").part("body")
     texels = sample(decoded(part.texture), part.visual.uv[part.visual.faces].mean(axis=1))
     assert [tuple(t[:3]) for t in texels] == [colours["a"]] * 2 + [colours["b"]] * 2
+
+
+def test_a_gltf_mesh_whose_primitives_have_their_own_images_keeps_them(tmp_path):
+    """Another tool's glTF: one mesh of two primitives, each material with its own base
+    colour image (the second tinted by its factor): one part, one image (the second
+    primitive's image was dropped in silence: the first primitive's material was read)."""
+    import pygltflib as g
+
+    from real2code_export.formats import load
+
+    blob, views, accessors = bytearray(), [], []
+
+    def view(data: bytes) -> int:
+        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data)))
+        blob.extend(data + b"\0" * (-len(data) % 4))
+        return len(views) - 1
+
+    def accessor(array: np.ndarray, kind: str, component: int) -> int:
+        accessors.append(g.Accessor(bufferView=view(array.tobytes()), componentType=component,
+                                    count=len(array), type=kind,
+                                    **({"min": array.min(0).tolist(), "max": array.max(0).tolist()}
+                                       if kind == "VEC3" else {})))
+        return len(accessors) - 1
+
+    pngs = [noise_png(4, 4, 0), noise_png(6, 2, 1)]
+    uvs = [texel_centres(4, 4, 3, 0), texel_centres(6, 2, 3, 1)]
+    primitives, materials, images, textures = [], [], [], []
+    for k, ((data, _), uv) in enumerate(zip(pngs, uvs, strict=True)):
+        positions = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32) + [0, 0, 2 * k]
+        flipped = np.column_stack([uv[:, 0], 1 - uv[:, 1]]).astype(np.float32)  # glTF: v down
+        images.append(g.Image(bufferView=view(data), mimeType="image/png"))
+        textures.append(g.Texture(source=k))
+        materials.append(g.Material(pbrMetallicRoughness=g.PbrMetallicRoughness(
+            baseColorTexture=g.TextureInfo(index=k),
+            baseColorFactor=[1.0, 1.0, 1.0, 1.0] if k == 0 else [1.0, 0.5, 0.5, 1.0])))
+        primitives.append(g.Primitive(
+            attributes=g.Attributes(POSITION=accessor(positions.astype(np.float32), "VEC3",
+                                                      g.FLOAT),
+                                    TEXCOORD_0=accessor(flipped, "VEC2", g.FLOAT)),
+            indices=accessor(np.array([0, 1, 2], np.uint32), "SCALAR", g.UNSIGNED_INT),
+            material=k))
+    gltf = g.GLTF2(asset=g.Asset(version="2.0"), scene=0, scenes=[g.Scene(nodes=[0])],
+                   nodes=[g.Node(name="thing", mesh=0)],
+                   meshes=[g.Mesh(primitives=primitives)], materials=materials,
+                   images=images, textures=textures, accessors=accessors, bufferViews=views,
+                   buffers=[g.Buffer(byteLength=len(blob))])
+    gltf.set_binary_blob(bytes(blob))
+    gltf.save_binary(str(tmp_path / "thing.glb"))
+    with pytest.warns(Real2CodeWarning, match="2 primitives packed into one image"):
+        part = load(tmp_path / "thing.glb").parts[0]
+    texels = sample(decoded(part.texture), part.visual.uv)
+    first = part.visual.vertices[:, 1] > -1  # (glTF's z is the model's -y)
+    assert first.sum() == 3
+    assert np.array_equal(np.sort(texels[first], axis=0),
+                          np.sort(sample(pngs[0][1], uvs[0]), axis=0))
+    tinted = linear_to_srgb(srgb_to_linear(sample(pngs[1][1], uvs[1])[:, :3] / 255)
+                            * [1, 0.5, 0.5]) * 255
+    assert np.abs(np.sort(texels[~first, :3], axis=0) - np.sort(tinted, axis=0)).max() \
+        <= 0.5 + 1e-9

@@ -115,6 +115,17 @@ def open_gltf(path: str | Path) -> JsonView:
     return JsonView(document, blob)
 
 
+def _placed(mesh: Mesh, transform: np.ndarray | None) -> Mesh:
+    """``mesh`` moved by ``transform`` (None: as it is); a mirroring transform flips the
+    winding back."""
+    if transform is None:
+        return mesh
+    mesh = mesh.transformed(transform)
+    if np.linalg.det(transform[:3, :3]) < 0:
+        mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1], mesh.uv, colors=mesh.colors)
+    return mesh
+
+
 class Document:
     """Node tree queries over one glTF document (world transforms in Y-up or Z-up)."""
 
@@ -185,10 +196,36 @@ class Document:
         base colours give a mesh with colour runs; consecutive primitives reading the same
         vertex accessors (our writer's colours on one visual) are one piece of their
         triangles in turn."""
+        pieces, keys, runs = [], [], []  # runs: each piece's (face count, colour) in order
+        for prim, piece in self._triangle_primitives(index, element):
+            positions, indices, source, texcoords = piece
+            key = (prim.attributes.POSITION, ours(prim.extras).get("source_vertex"),
+                   getattr(prim.attributes, "TEXCOORD_0", None))
+            run = (len(indices) // 3, self.material_color(prim.material))
+            if pieces and keys[-1] == key:  # the same vertices: one piece
+                indices = np.concatenate([pieces[-1][1], indices])
+                pieces[-1], runs[-1] = (positions, indices, source, texcoords), \
+                    runs[-1] + [run]
+            else:
+                pieces.append(piece)
+                keys.append(key)
+                runs.append([run])
+        return _placed(Mesh.join_colored([decode(*piece) for piece in pieces], runs),
+                       transform)
+
+    def primitive_meshes(self, index: int, element: str, transform: np.ndarray | None = None
+                         ) -> list[tuple[Mesh, int | None]]:
+        """Each triangle primitive of glTF mesh ``index`` as a mesh of its own (with its
+        texture coordinates), and its material: a mesh drawn by several materials."""
+        return [(_placed(decode(*piece), transform), prim.material)
+                for prim, piece in self._triangle_primitives(index, element)]
+
+    def _triangle_primitives(self, index: int, element: str):
+        """(primitive, (positions, indices, source vertices, texture coordinates)) for each
+        triangle primitive of glTF mesh ``index``, checked; others skipped, warned."""
         meshes = self.gltf.meshes or []
         if not 0 <= index < len(meshes):
             raise FormatError(self.path, element, f"mesh {index} does not exist")
-        pieces, keys, runs = [], [], []  # runs: each piece's (face count, colour) in order
         for k, prim in enumerate(meshes[index].primitives or []):
             el = f"meshes[{index}].primitives[{k}]"
             if (prim.mode if prim.mode is not None else TRIANGLES) != TRIANGLES:
@@ -214,23 +251,7 @@ class Document:
                 texcoords = self.accessors.read(texcoords)
                 if texcoords.shape != (len(positions), 2):
                     raise FormatError(self.path, el, "TEXCOORD_0 does not match POSITION")
-            key = (prim.attributes.POSITION, ours(prim.extras).get("source_vertex"),
-                   getattr(prim.attributes, "TEXCOORD_0", None))
-            run = (len(indices) // 3, self.material_color(prim.material))
-            if pieces and keys[-1] == key:  # the same vertices: one piece
-                indices = np.concatenate([pieces[-1][1], indices])
-                pieces[-1], runs[-1] = (positions, indices, source, texcoords), \
-                    runs[-1] + [run]
-            else:
-                pieces.append((positions, indices, source, texcoords))
-                keys.append(key)
-                runs.append([run])
-        mesh = Mesh.join_colored([decode(*piece) for piece in pieces], runs)
-        if transform is not None:
-            mesh = mesh.transformed(transform)
-            if np.linalg.det(transform[:3, :3]) < 0:
-                mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1], colors=mesh.colors)
-        return mesh
+            yield prim, (positions, indices, source, texcoords)
 
     def material_color(self, material: int | None) -> tuple[float, float, float, float] | None:
         """A material's base colour factor (None: no material, or none stated)."""
@@ -258,9 +279,12 @@ class Document:
         if mesh_index is None:
             return {}
         prims = self.gltf.meshes[mesh_index].primitives or []
-        if not prims or prims[0].material is None:
+        return self.material_images(prims[0].material) if prims else {}
+
+    def material_images(self, k: int | None) -> dict[str, Texture]:
+        """role -> image of material ``k`` (:meth:`images`); {} for no material."""
+        if k is None or not 0 <= k < len(self.gltf.materials or []):
             return {}
-        k = prims[0].material
         material = self.gltf.materials[k]
         pbr = material.pbrMetallicRoughness
         infos = {

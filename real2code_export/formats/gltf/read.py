@@ -19,6 +19,7 @@ import numpy as np
 from ... import transforms as tf
 from ...errors import FormatError, ModelError, warn
 from ...model import (
+    WHITE,
     ArticulatedObject,
     DriveLimits,
     Dynamics,
@@ -214,6 +215,32 @@ def _images(doc: Document, mesh_index: int | None, visual, el: str) -> dict:
     return images
 
 
+def _atlas(doc: Document, mesh_index: int | None, el: str, transform=None):
+    """Where the primitives of glTF mesh ``mesh_index`` are drawn by different base colour
+    images, or an image beside other colours, them as one mesh with one image
+    (:mod:`...texture_atlas`; a part holds one), each image tinted by its material's base
+    colour factor, as glTF draws it; else None (one image, or none; or an image without
+    TEXCOORD_0, or maps beside the images: warned, as :func:`_images` does)."""
+    from ...texture_atlas import AtlasPiece, needs_atlas, pack
+
+    if mesh_index is None:
+        return None
+    looks = []
+    for mesh, k in doc.primitive_meshes(mesh_index, el, transform):
+        images = doc.material_images(k)
+        if set(images) - {"texture"} or (images and mesh.uv is None):
+            return None
+        looks.append(AtlasPiece(mesh, images.get("texture"),
+                                doc.material_color(k) or (1.0, 1.0, 1.0, 1.0)))
+    if not needs_atlas(looks):
+        return None
+    atlas = pack(looks)
+    warn(f"{doc.path}: {el}: the images and colours of its {len(looks)} primitives packed "
+         "into one image (a part holds one)"
+         + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
+    return atlas
+
+
 def _with_shapes(mesh: Mesh, shapes: list) -> Mesh:
     """The mesh read (float32) with its shapes restored: its own triangles as read, the
     shapes' tessellations exactly (our writer puts them at the end)."""
@@ -300,9 +327,14 @@ def _load_plain(doc: Document) -> ArticulatedObject:
         frames[i] = np.eye(4) if i == root else rigid(world)
         mesh = doc.mesh(node.mesh, doc.element(i), tf.inverse(frames[i]) @ world)
         visual = mesh if len(mesh.faces) else None
-        parts.append(Part(name=names[i], visual=visual,
-                          color=doc.color(node.mesh) or (0.7, 0.7, 0.7, 1.0),
-                          **_part_images(_images(doc, node.mesh, visual, doc.element(i)))))
+        color = doc.color(node.mesh) or (0.7, 0.7, 0.7, 1.0)
+        atlas = _atlas(doc, node.mesh, doc.element(i), tf.inverse(frames[i]) @ world) \
+            if visual is not None else None
+        if atlas is not None:
+            visual, color, images = atlas.mesh, WHITE, {"texture": atlas.texture}
+        else:
+            images = _images(doc, node.mesh, visual, doc.element(i))
+        parts.append(Part(name=names[i], visual=visual, color=color, **_part_images(images)))
         if i != root:
             parent = parent_mesh_node(i)
             joints.append(Joint(name=sanitize_name(f"{names[i]}_fixed", taken), type=JointType.FIXED,
