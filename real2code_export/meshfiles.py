@@ -32,12 +32,18 @@ class MeshFile(NamedTuple):
     colour (an OBJ's MTL ``Kd``, a Collada material's diffuse colour; the area-weighted mean
     where its triangles have several), its colour image (the MTL's ``map_Kd``) and, for a
     file of several colours, its triangles' colours as runs (number of triangles, RGBA, or
-    None where a triangle has none) in their order, () otherwise."""
+    None where a triangle has none) in their order, () otherwise.
+
+    ``looks``: for a file whose triangles are drawn by several images, or by an image beside
+    colours (no ``texture`` then), runs in order of (number of triangles, image or None,
+    the image's tint or the flat colour); the part that shows it packs them with its other
+    visuals into one image (:mod:`.texture_atlas`), once."""
 
     mesh: Mesh
     color: RGBA | None = None
     texture: Texture | None = None
     runs: tuple[tuple[int, RGBA | None], ...] = ()
+    looks: tuple[tuple[int, Texture | None, RGBA], ...] = ()
 
 MESH_DIR = "meshes"
 
@@ -362,7 +368,7 @@ def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
     mesh = Mesh(mesh_file.mesh.vertices, mesh_file.mesh.faces, mesh_file.mesh.uv)
     if scale is not None:
         mesh = Mesh(mesh.vertices * np.asarray(scale, dtype=float), mesh.faces, mesh.uv)
-    return MeshFile(mesh, mesh_file.color, mesh_file.texture, mesh_file.runs)
+    return mesh_file._replace(mesh=mesh)
 
 
 class _ReadMeshes:
@@ -510,6 +516,14 @@ def _read_obj(path: Path, data: bytes, source, element, line) -> MeshFile:
     texcoords = np.array(reader.GetAttrib().texcoords, dtype=np.float64).reshape(-1, 2)
     material = np.concatenate([np.zeros(0, np.int64)]
                               + [np.array(m.material_ids, dtype=np.int64) for m in shapes])
+    materials = reader.GetMaterials()
+    if len(texcoords) and len(uv_faces) == len(faces) and uv_faces.max() < len(texcoords) \
+            and uv_faces.min() < 0 and _bare_faces_untextured(uv_faces, material, materials):
+        # faces of an image with coordinates beside faces of a colour without (the
+        # PartNet-Mobility layout): the bare corners get a coordinate nothing reads (the
+        # image's faces are then packed with the colours' as tiles: _needs_obj_atlas)
+        uv_faces = np.where(uv_faces < 0, len(texcoords), uv_faces)
+        texcoords = np.vstack([texcoords, [0.0, 0.0]])
     if len(texcoords) and len(uv_faces) == len(faces) and uv_faces.min() >= 0 \
             and uv_faces.max() < len(texcoords):
         # a vertex seen with two texture coordinates becomes two (the model keeps one UV
@@ -523,9 +537,8 @@ def _read_obj(path: Path, data: bytes, source, element, line) -> MeshFile:
         used[faces] = True
         renumber = np.cumsum(used) - 1  # a mask, not np.unique: no sort
         mesh = Mesh(vertices[used], renumber[faces].reshape(-1, 3))
-    materials = reader.GetMaterials()
     if mesh.uv is not None and _needs_obj_atlas(material, materials):
-        return _obj_atlas(path, mesh, material, materials)
+        return _obj_looks(path, mesh, material, materials)
     texture = _obj_texture(path, mesh, material, materials)
     known = (material >= 0) & (material < len(materials))
     return MeshFile(mesh, None, texture)._replace(
@@ -568,6 +581,15 @@ def _obj_texture(path: Path, mesh: Mesh, material: np.ndarray, materials) -> Tex
     return texture_from_file(image_path)
 
 
+def _bare_faces_untextured(uv_faces: np.ndarray, material: np.ndarray, materials) -> bool:
+    """Whether every face without texture coordinates is drawn by a material without an
+    image, and some face by one with: the coordinates an image needs are all there."""
+    imaged = np.array([bool(m.diffuse_texname) for m in materials] + [False])
+    face_image = imaged[np.where((material >= 0) & (material < len(materials)), material, -1)]
+    bare = (uv_faces.reshape(-1, 3) < 0).any(axis=1)
+    return bool(face_image.any()) and not (bare & face_image).any()
+
+
 def _needs_obj_atlas(material: np.ndarray, materials) -> bool:
     """Whether the OBJ's faces use two images, or an image beside faces of no image."""
     used = [int(k) for k in used_indices(material) if k < len(materials)]
@@ -577,39 +599,36 @@ def _needs_obj_atlas(material: np.ndarray, materials) -> bool:
     return len(images) > 1 or (len(images) == 1 and bare)
 
 
-def _obj_atlas(path: Path, mesh: Mesh, material: np.ndarray, materials) -> MeshFile:
-    """An OBJ whose faces use several images, or an image beside colours: its faces by
-    material, each image tinted by its ``Kd`` and each other colour a tile, packed into one
-    image (:mod:`.texture_atlas`; a part holds one). An image that is not there costs its
-    colour only, as viewers draw it."""
+def _obj_looks(path: Path, mesh: Mesh, material: np.ndarray, materials) -> MeshFile:
+    """An OBJ whose faces use several images, or an image beside colours: its runs of faces
+    by material, each image tinted by its ``Kd``, each other material its colour
+    (``MeshFile.looks``). An image that is not there costs its colour only, as viewers draw
+    it."""
     from .model import DEFAULT_COLOR
-    from .texture_atlas import AtlasPiece, faces_of, pack
+    from .texture_atlas import AtlasPiece, needs_atlas
 
     images: dict[str, Texture | None] = {}
-    pieces = []
+    looks = []
     starts = np.flatnonzero(np.r_[True, material[1:] != material[:-1]])
     for start, end in zip(starts, np.r_[starts[1:], len(material)], strict=True):
         k = int(material[start])
         known = 0 <= k < len(materials)
         name = materials[k].diffuse_texname if known else ""
-        color = _kd(materials[k]) if known else DEFAULT_COLOR
         if name and name not in images:
             image_path = path.parent / name.replace("\\", "/")
             images[name] = texture_from_file(image_path) if image_path.is_file() else None
             if images[name] is None:
                 warn(f"{path}: texture image {image_path} not found: not kept")
-        texture = images.get(name) if name else None
-        pieces.append(AtlasPiece(faces_of(mesh, int(start), int(end)), texture, color))
-    if not any(p.texture is not None for p in pieces):  # (every image missing: colours)
-        known = (material >= 0) & (material < len(materials))
-        return MeshFile(mesh)._replace(**_face_colours(
-            mesh, np.where(known, material, -1), [_kd(m) for m in materials]))
-    atlas = pack(pieces)
-    warn(f"{path}: {len([n for n in images if images[n]])} image(s) and "
-         f"{len({p.color for p in pieces if p.texture is None})} other colour(s) on its faces "
-         "packed into one image (a part holds one)"
-         + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
-    return MeshFile(atlas.mesh, WHITE, atlas.texture)
+        looks.append((int(end - start), images.get(name) if name else None,
+                      _kd(materials[k]) if known else DEFAULT_COLOR))
+    known = (material >= 0) & (material < len(materials))
+    coloured = MeshFile(mesh)._replace(**_face_colours(
+        mesh, np.where(known, material, -1), [_kd(m) for m in materials]))
+    if not any(texture is not None for _, texture, _ in looks):  # (every image missing)
+        return coloured
+    if not needs_atlas([AtlasPiece(mesh, t, c) for _, t, c in looks]):  # (one image left)
+        return coloured._replace(texture=next(t for _, t, _ in looks if t is not None))
+    return coloured._replace(looks=tuple(looks), runs=())
 
 
 def texture_from_file(image_path: Path) -> Texture:
@@ -800,11 +819,11 @@ def _coloured_collada(pieces) -> MeshFile:
 
 
 def _textured_collada(path: Path, pieces) -> MeshFile:
-    """A Collada mesh with images: one image over every triangle (its pieces' colours and
-    images packed into one atlas where there are several, :mod:`.texture_atlas`), the
-    colour white (nothing tints it). An image that is not there costs its colour only."""
+    """A Collada mesh with images: one image over every triangle, or its primitives' images
+    and colours as ``MeshFile.looks`` where there are several, the colour white (nothing
+    tints an image). An image that is not there costs its colour only."""
     from .model import DEFAULT_COLOR
-    from .texture_atlas import AtlasPiece, needs_atlas, pack
+    from .texture_atlas import AtlasPiece, needs_atlas
 
     images: dict[Path, Texture | None] = {}
     looks = []
@@ -816,16 +835,14 @@ def _textured_collada(path: Path, pieces) -> MeshFile:
                 if images[p.image] is None:
                     warn(f"{path}: texture image {p.image} not found: not kept")
             texture = images[p.image]
-        color = WHITE if texture is not None else (p.color or DEFAULT_COLOR)
-        looks.append(AtlasPiece(Mesh(p.vertices, p.faces, p.uv if texture else None),
-                                texture, color))
+        uv = p.uv if texture is not None else np.zeros((len(p.vertices), 2))  # (none drawn)
+        looks.append(AtlasPiece(Mesh(p.vertices, p.faces, uv), texture,
+                                WHITE if texture is not None else (p.color or DEFAULT_COLOR)))
     textured = [p for p in looks if p.texture is not None]
     if not textured:
         return _coloured_collada(pieces)
+    mesh = Mesh.concatenate([p.mesh for p in looks])
     if not needs_atlas(looks):
-        return MeshFile(Mesh.concatenate([p.mesh for p in looks]), WHITE, textured[0].texture)
-    atlas = pack(looks)
-    warn(f"{path}: {len(images)} image(s) and {len({p.color for p in looks if not p.texture})} "
-         "other colour(s) on its triangles packed into one image (a part holds one)"
-         + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
-    return MeshFile(atlas.mesh, WHITE, atlas.texture)
+        return MeshFile(mesh, WHITE, textured[0].texture)
+    return MeshFile(mesh, WHITE, looks=tuple((len(p.mesh.faces), p.texture, p.color)
+                                            for p in looks))

@@ -189,15 +189,31 @@ def test_a_collada_mesh_drawn_from_one_image_keeps_it_as_it_is(tmp_path):
     assert np.allclose(read.mesh.uv[corner], uv[3])
 
 
+def one_link(tmp_path, mesh_file: str, material: str = ""):
+    """The part of a URDF of one link whose one visual is ``mesh_file``."""
+    from real2code_export.formats import load
+
+    (tmp_path / "one.urdf").write_text(
+        '<robot name="r"><link name="l"><inertial><mass value="1"/><inertia ixx="0.1" '
+        'iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial><visual><geometry><mesh '
+        f'filename="{mesh_file}"/></geometry>{material}</visual></link></robot>')
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "no <collision>", Real2CodeWarning)
+        return load(tmp_path / "one.urdf").part("l")
+
+
 def test_a_collada_mesh_of_an_image_and_a_colour_becomes_one_image(tmp_path):
     from real2code_export.meshfiles import read_mesh_file
 
     uv = texel_centres(8, 8, 4, 1)
     path, _, pixels = collada_file(tmp_path, uv, red=True)
+    looks = read_mesh_file(path).looks  # the file's: packed by the part that shows it
+    assert [(n, t is not None, c) for n, t, c in looks] == [(2, True, (1, 1, 1, 1)),
+                                                         (1, False, (1, 0, 0, 1))]
     with pytest.warns(Real2CodeWarning, match="1 image.* and 1 other colour.*packed into one"):
-        read = read_mesh_file(path)
-    drawn = sample(decoded(read.texture), read.mesh.uv)
-    faces = read.mesh.faces
+        read = one_link(tmp_path, "m.dae")
+    drawn = sample(decoded(read.texture), read.visual.uv)
+    faces = read.visual.faces
     assert len(faces) == 3
     assert np.array_equal(drawn[faces[:2].ravel()],  # the wood's corners: their texels
                           sample(pixels, uv[[0, 1, 2, 1, 3, 2]]))
@@ -234,19 +250,17 @@ def two_image_obj(tmp_path) -> tuple:
 
 
 def test_an_obj_of_two_images_becomes_one_image(tmp_path):
-    from real2code_export.meshfiles import read_mesh_file
-
     path, (a_px, uv_a), (b_px, uv_b) = two_image_obj(tmp_path)
     with pytest.warns(Real2CodeWarning, match="2 image.*packed into one image"):
-        read = read_mesh_file(path)
-    drawn = sample(decoded(read.texture), read.mesh.uv)
-    left = read.mesh.vertices[:, 0] < 1.5
+        read = one_link(tmp_path, path.name)
+    drawn = sample(decoded(read.texture), read.visual.uv)
+    left = read.visual.vertices[:, 0] < 1.5
     expected = {tuple(np.round(v, 6)): c for v, c in zip(
         [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], sample(a_px, uv_a), strict=True)}
     expected |= {tuple(np.round(v, 6)): c for v, c in zip(
         [(2, 0, 0), (3, 0, 0), (3, 1, 0), (2, 1, 0)], sample(b_px, uv_b), strict=True)}
     assert left.sum() == 4
-    for vertex, texel in zip(read.mesh.vertices, drawn, strict=True):
+    for vertex, texel in zip(read.visual.vertices, drawn, strict=True):
         assert np.array_equal(texel, expected[tuple(np.round(vertex, 6))])
 
 
@@ -537,3 +551,23 @@ def test_a_gltf_mesh_whose_primitives_have_their_own_images_keeps_them(tmp_path)
                             * [1, 0.5, 0.5]) * 255
     assert np.abs(np.sort(texels[~first, :3], axis=0) - np.sort(tinted, axis=0)).max() \
         <= 0.5 + 1e-9
+
+
+def test_an_obj_of_an_image_with_coordinates_beside_a_colour_without_keeps_the_image(tmp_path):
+    """PartNet-Mobility's layout: the faces of the image's material have ``vt``, the faces of
+    a plain material have none (``f 5//1 6//1 7//1``). The image was not kept ("without
+    texture coordinates on every face"); now it is, beside the colour."""
+    data, pixels = noise_png(4, 4, 0)
+    (tmp_path / "a.png").write_bytes(data)
+    (tmp_path / "m.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd a.png\nnewmtl b\nKd 1 0 0\n")
+    uv = texel_centres(4, 4, 3, 0)
+    (tmp_path / "m.obj").write_text(
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv 3 0 0\nv 2 1 0\nvn 0 0 1\n"
+        + "".join(f"vt {u:.6f} {v:.6f}\n" for u, v in uv)
+        + "usemtl a\nf 1/1/1 2/2/1 3/3/1\nusemtl b\nf 4//1 5//1 6//1\n")
+    with pytest.warns(Real2CodeWarning, match="1 image.* and 1 other colour.*packed into one"):
+        part = one_link(tmp_path, "m.obj")
+    drawn = sample(decoded(part.texture), part.visual.uv)
+    left = part.visual.vertices[:, 0] < 1.5
+    assert np.array_equal(np.sort(drawn[left], axis=0), np.sort(sample(pixels, uv), axis=0))
+    assert (drawn[~left] == [255, 0, 0, 255]).all()

@@ -352,12 +352,15 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
     stated = []  # each visual's <material> colour (None: it states none)
     textures = []  # each visual's image (None: it has none)
     tints = []  # each visual's colour (an image's tint; None: it states none)
+    looks = []  # each visual's file's images and colours where it has several (MeshFile)
     for v in el.iterchildren("visual"):
         mesh, file = shape_mesh(ctx, v, owner)
         if mesh is None:
             continue
         image = material_image(ctx, v, robot, owner, mesh)
-        if image is not None and file is not None and ctx.files[file].texture is not None:
+        looks.append(ctx.files[file].looks if file is not None else ())
+        if image is not None and file is not None and (ctx.files[file].texture is not None
+                                                       or looks[-1]):
             ctx.warn(owner, f"<material> image {image.name!r} not used: the mesh file brings "
                      "its own (as rviz draws it)", v.sourceline)
             image = None
@@ -367,7 +370,7 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         color = material_color(ctx, v, materials, owner)
         color = None if color is None else tuple(float(c) for c in color)
         stated.append(color)
-        if color is None and file is not None and textures[-1] is None:
+        if color is None and file is not None and textures[-1] is None and not looks[-1]:
             runs.append(file_colors(ctx, file, len(mesh.faces)))  # as viewers show the file
         else:  # (an image: it and its tint, in the part's colour)
             runs.append([(len(mesh.faces), color)])
@@ -391,10 +394,11 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
         visuals, runs = [m for m, _ in cut], [[(len(m.faces), c)] for m, c in cut]
     visual = Mesh.join_colored(visuals, runs) if visuals else None
     texture = next((t for t in textures if t is not None), None)
-    if texture is not None and (visual.uv is None or len({t.image for t in textures
-                                                           if t is not None}) > 1
-                                or len({c for piece in runs for _, c in piece}) > 1):
-        visual, texture = _one_image(ctx, owner, visuals, textures, tints, runs)
+    if any(looks) or texture is not None and (
+            visual.uv is None or len({t.image for t in textures if t is not None}) > 1
+            or len({c for piece in runs for _, c in piece}) > 1):
+        visual, texture = _one_image(ctx, owner, visuals, textures, tints, runs, looks,
+                                     stated)
         colored = [(WHITE, visual)]
     if len({c for c, _ in colored}) > 1 and not per_face:
         ctx.note("colours", f"{name!r} ({len({c for c, _ in colored})})")
@@ -411,14 +415,24 @@ def _part(ctx: Context, el: etree._Element, name: str, materials: dict,
 
 
 def _one_image(ctx: Context, owner: str, visuals: list[Mesh], textures: list, tints: list,
-               runs: list[list]) -> tuple[Mesh, Texture]:
+               runs: list[list], looks: list, stated: list) -> tuple[Mesh, Texture]:
     """A link's visuals drawn from several images, or from an image beside colours, as one
     mesh with one image (:mod:`...texture_atlas`; a part holds one): each image tinted by its
-    visual's colour, each other colour a tile of its own."""
-    from ...texture_atlas import AtlasPiece, pack
+    visual's colour, each other colour a tile of its own; a file of several images and
+    colours (``MeshFile.looks``) run by run, its <material>'s colour, where stated, over
+    them as over any file's own colours."""
+    from ...texture_atlas import AtlasPiece, faces_of, pack
 
     pieces = []
-    for mesh, texture, tint, piece_runs in zip(visuals, textures, tints, runs, strict=True):
+    for mesh, texture, tint, piece_runs, file_looks, colour in zip(
+            visuals, textures, tints, runs, looks, stated, strict=True):
+        if file_looks:
+            start = 0
+            for n, image, own in file_looks:
+                pieces.append(AtlasPiece(faces_of(mesh, start, start + n), image,
+                                         colour or own))
+                start += n
+            continue
         if texture is not None:
             pieces.append(AtlasPiece(mesh, texture, tint or WHITE))
             continue
@@ -426,7 +440,7 @@ def _one_image(ctx: Context, owner: str, visuals: list[Mesh], textures: list, ti
                 (n, c or DEFAULT_COLOR) for n, c in piece_runs]).color_pieces():
             pieces.append(AtlasPiece(sub, None, rgba))
     atlas = pack(pieces)
-    images = len({t.image for t in textures if t is not None})
+    images = len({p.texture.image for p in pieces if p.texture is not None})
     ctx.warn(owner, f"{images} image(s) and {len({p.color for p in pieces if not p.texture})} "
              "other colour(s) over its visuals packed into one image (a part holds one)"
              + (f": {'; '.join(atlas.notes)}" if atlas.notes else ", every pixel kept"))
