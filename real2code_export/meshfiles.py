@@ -518,10 +518,13 @@ def _read_obj(path: Path, data: bytes, source, element, line) -> MeshFile:
                               + [np.array(m.material_ids, dtype=np.int64) for m in shapes])
     materials = reader.GetMaterials()
     if len(texcoords) and len(uv_faces) == len(faces) and uv_faces.max() < len(texcoords) \
-            and uv_faces.min() < 0 and _bare_faces_untextured(uv_faces, material, materials):
+            and uv_faces.min() < 0 and _bare_faces_untextured(uv_faces, material, materials) \
+            and any((path.parent / m.diffuse_texname.replace("\\", "/")).is_file()
+                    for m in materials if m.diffuse_texname):
         # faces of an image with coordinates beside faces of a colour without (the
         # PartNet-Mobility layout): the bare corners get a coordinate nothing reads (the
-        # image's faces are then packed with the colours' as tiles: _needs_obj_atlas)
+        # image's faces are then packed with the colours' as tiles: _needs_obj_atlas).
+        # Only where an image is there: without one the mesh is read as before, unsplit.
         uv_faces = np.where(uv_faces < 0, len(texcoords), uv_faces)
         texcoords = np.vstack([texcoords, [0.0, 0.0]])
     if len(texcoords) and len(uv_faces) == len(faces) and uv_faces.min() >= 0 \

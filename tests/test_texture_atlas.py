@@ -571,3 +571,17 @@ def test_an_obj_of_an_image_with_coordinates_beside_a_colour_without_keeps_the_i
     left = part.visual.vertices[:, 0] < 1.5
     assert np.array_equal(np.sort(drawn[left], axis=0), np.sort(sample(pixels, uv), axis=0))
     assert (drawn[~left] == [255, 0, 0, 255]).all()
+
+
+def test_without_its_image_such_an_obj_reads_as_before(tmp_path):
+    """The same OBJ where the image is not there (PartNet-Mobility copies without
+    ``images/``): no texture coordinates, corners not split, the colours kept."""
+    from real2code_export.meshfiles import read_mesh_file
+
+    (tmp_path / "m.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd gone.png\nnewmtl b\nKd 1 0 0\n")
+    (tmp_path / "m.obj").write_text(
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+        "usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 2 4 3\n")
+    with pytest.warns(Real2CodeWarning, match="not kept"):
+        read = read_mesh_file(tmp_path / "m.obj")
+    assert read.texture is None and read.mesh.uv is None and len(read.mesh.vertices) == 4
