@@ -310,3 +310,25 @@ def test_an_image_several_parts_show_is_one_gltf_image(tmp_path):
     assert others["mjcf"].read_text().count("<texture ") == 1
     back = load(written["gltf"])
     assert back.part("body").texture.image == back.part("door").texture.image == door.texture.image
+
+
+def test_a_textured_part_s_colour_tints_its_image_in_usd_as_in_gltf(tmp_path):
+    """The part's colour multiplies its image in glTF (baseColorFactor), MTL (Kd) and MuJoCo
+    (material rgba); USD's preview surface draws a connected diffuseColor from the image
+    alone, so the tint is the UsdUVTexture's scale. Read back, an image's colour is that
+    scale (white where none is authored), never the diffuseColor value the image hides."""
+    from pxr import Usd, UsdShade
+
+    obj = textured_cabinet()
+    obj.part("door").color = (0.5, 0.25, 1.0, 1.0)
+    written = export(obj, tmp_path, ["usd"])
+    stage = Usd.Stage.Open(str(written["usd"]))
+    scales = [UsdShade.Shader(p).GetInput("scale").Get() for p in stage.Traverse()
+              if p.GetName() == "Image"]
+    assert [tuple(s) for s in scales] == [(0.5, 0.25, 1.0, 1.0)]
+    assert load(written["usd"]).part("door").color == (0.5, 0.25, 1.0, 1.0)
+    for p in stage.Traverse():  # as other tools write it: no scale, a value behind the image
+        if p.GetName() == "Image":
+            p.RemoveProperty("inputs:scale")
+    stage.GetRootLayer().Save()
+    assert load(written["usd"]).part("door").color == (1.0, 1.0, 1.0, 1.0)

@@ -464,6 +464,11 @@ def _texture_network(layer, material, material_path: str, surface, part: Part) -
         if role == "normal":  # stored 0..1, a normal is -1..1
             attribute(image, "inputs:scale", "Float4", Gf.Vec4f(2, 2, 2, 1))
             attribute(image, "inputs:bias", "Float4", Gf.Vec4f(-1, -1, -1, 0))
+        if role == "texture" and tuple(part.color[:3]) != (1.0, 1.0, 1.0):
+            # the part's colour tints its image, as glTF's baseColorFactor, MTL's Kd and
+            # MuJoCo's material rgba do (the diffuseColor value is not drawn where connected)
+            r, g, b = (float(c) for c in part.color[:3])
+            attribute(image, "inputs:scale", "Float4", Gf.Vec4f(r, g, b, 1))
         names = (inputs,) if isinstance(inputs, str) else inputs
         for name, channel in zip(names, outputs, strict=True):
             output = f"outputs:{channel}"
@@ -746,10 +751,26 @@ def _bound_color(p, path) -> tuple[float, float, float, float] | None:
         return None
     diffuse, opacity = shader.GetInput("diffuseColor"), shader.GetInput("opacity")
     rgb = diffuse.Get() if diffuse else None
+    image = _diffuse_image(diffuse) if diffuse else None
+    if image is not None:  # an image draws it: its tint is the image's scale, not the value
+        scale = image.GetInput("scale")
+        value = scale.Get() if scale else None
+        rgb = tuple(value)[:3] if value is not None else (1.0, 1.0, 1.0)
     if rgb is None:
         return None
     alpha = opacity.Get() if opacity and opacity.Get() is not None else 1.0
     return _clamped((*rgb, alpha), path, str(p.GetPath()))
+
+
+def _diffuse_image(diffuse):
+    """The UsdUVTexture shader connected to a diffuseColor input, or None."""
+    from pxr import UsdShade
+
+    for src in diffuse.GetConnectedSources()[0]:
+        shader = UsdShade.Shader(src.source.GetPrim())
+        if shader and shader.GetIdAttr().Get() == "UsdUVTexture":
+            return shader
+    return None
 
 
 def color_runs(prim, n_faces: int, path) -> list[tuple[int, tuple | None]]:
