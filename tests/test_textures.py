@@ -6,6 +6,7 @@ a file cannot hold a texture, a warning says so."""
 from __future__ import annotations
 
 import io
+import warnings
 
 import numpy as np
 import pytest
@@ -332,3 +333,50 @@ def test_a_textured_part_s_colour_tints_its_image_in_usd_as_in_gltf(tmp_path):
             p.RemoveProperty("inputs:scale")
     stage.GetRootLayer().Save()
     assert load(written["usd"]).part("door").color == (1.0, 1.0, 1.0, 1.0)
+
+
+def test_a_usd_material_s_interface_inputs_give_its_image_and_colour(tmp_path):
+    """The NVIDIA converters (Isaac Sim's importers) connect a shader's inputs to the
+    Material's own inputs, where the values are: the image's file and a plain colour read
+    through those connections (the image was dropped in silence)."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+
+    (tmp_path / "wood.png").write_bytes(png(8, 4, seed=5))
+    stage = Usd.Stage.CreateNew(str(tmp_path / "m.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/r").GetPrim())
+    for k, name in enumerate(("textured", "plain")):
+        body = UsdGeom.Xform.Define(stage, f"/r/{name}")
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+        mesh = UsdGeom.Mesh.Define(stage, f"/r/{name}/mesh")
+        mesh.CreatePointsAttr([Gf.Vec3f(0, 0, 2 * k), Gf.Vec3f(1, 0, 2 * k),
+                               Gf.Vec3f(0, 1, 2 * k), Gf.Vec3f(0, 0, 2 * k + 1)])
+        mesh.CreateFaceVertexCountsAttr([3] * 4)
+        mesh.CreateFaceVertexIndicesAttr([0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
+        UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+            Vt.Vec2fArray([(0.1, 0.1), (0.9, 0.1), (0.1, 0.9), (0.9, 0.9)]))
+        material = UsdShade.Material.Define(stage, f"/r/Looks/{name}")
+        surface = UsdShade.Shader.Define(stage, f"/r/Looks/{name}/Surface")
+        surface.CreateIdAttr("UsdPreviewSurface")
+        material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+        diffuse = surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+        if name == "textured":
+            file = material.CreateInput("ColorTexture", Sdf.ValueTypeNames.Asset)
+            file.Set("./wood.png")
+            image = UsdShade.Shader.Define(stage, f"/r/Looks/{name}/ColorTexture")
+            image.CreateIdAttr("UsdUVTexture")
+            image.CreateInput("file", Sdf.ValueTypeNames.Asset).ConnectToSource(file)
+            diffuse.ConnectToSource(image.ConnectableAPI(), "rgb")
+        else:
+            colour = material.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+            colour.Set(Gf.Vec3f(0.25, 0.5, 0.75))
+            diffuse.ConnectToSource(colour)
+        UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    stage.Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        obj = load(tmp_path / "m.usda")
+    assert obj.part("textured").texture.image == (tmp_path / "wood.png").read_bytes()
+    assert obj.part("plain").color == pytest.approx((0.25, 0.5, 0.75, 1.0))

@@ -610,12 +610,14 @@ def _surface_images(shader, path) -> dict[str, Texture]:
     def source(name: str):
         """(UsdUVTexture, output name, image file) feeding input ``name``, or None."""
         put = shader.GetInput(name)
-        for src in (put.GetConnectedSources()[0] if put else []):
-            texture = UsdShade.Shader(src.source.GetPrim())
+        for attr in (put.GetValueProducingAttributes() if put else []):
+            if not UsdShade.Output.IsOutput(attr):
+                continue
+            texture = UsdShade.Shader(attr.GetPrim())
             if texture.GetIdAttr().Get() != "UsdUVTexture":
                 continue
             file = texture.GetInput("file")
-            asset = file.Get() if file else None
+            asset = _value(file) if file else None
             if asset is None or not asset.path:
                 continue
             image = Path(asset.resolvedPath or "")
@@ -623,7 +625,7 @@ def _surface_images(shader, path) -> dict[str, Texture]:
                 warn(f"{path}: <{texture.GetPath()}>: image {asset.path!r} not found; the "
                      f"{name} image is not kept")
                 return None
-            return texture, src.sourceName, image
+            return texture, UsdShade.Output(attr).GetBaseName(), image
         return None
 
     out = {}
@@ -750,27 +752,41 @@ def _bound_color(p, path) -> tuple[float, float, float, float] | None:
     if not shader:
         return None
     diffuse, opacity = shader.GetInput("diffuseColor"), shader.GetInput("opacity")
-    rgb = diffuse.Get() if diffuse else None
+    rgb = _value(diffuse) if diffuse else None
     image = _diffuse_image(diffuse) if diffuse else None
     if image is not None:  # an image draws it: its tint is the image's scale, not the value
         scale = image.GetInput("scale")
-        value = scale.Get() if scale else None
+        value = _value(scale) if scale else None
         rgb = tuple(value)[:3] if value is not None else (1.0, 1.0, 1.0)
     if rgb is None:
         return None
-    alpha = opacity.Get() if opacity and opacity.Get() is not None else 1.0
+    alpha = _value(opacity) if opacity else None
+    alpha = 1.0 if alpha is None else alpha
     return _clamped((*rgb, alpha), path, str(p.GetPath()))
 
 
 def _diffuse_image(diffuse):
-    """The UsdUVTexture shader connected to a diffuseColor input, or None."""
+    """The UsdUVTexture shader whose output gives a diffuseColor input its value, or None."""
     from pxr import UsdShade
 
-    for src in diffuse.GetConnectedSources()[0]:
-        shader = UsdShade.Shader(src.source.GetPrim())
-        if shader and shader.GetIdAttr().Get() == "UsdUVTexture":
-            return shader
+    for attr in diffuse.GetValueProducingAttributes():
+        if UsdShade.Output.IsOutput(attr):
+            shader = UsdShade.Shader(attr.GetPrim())
+            if shader and shader.GetIdAttr().Get() == "UsdUVTexture":
+                return shader
     return None
+
+
+def _value(put):
+    """A shader input's value through its connections (a Material's interface inputs, as the
+    NVIDIA converters write them: ``diffuseColor.connect = </Mat.inputs:diffuseColor>``): the
+    value of the input that produces it; None where a shader output produces it or none is
+    authored. (``UsdShade.Input.Get`` reads the input's own value only.)"""
+    from pxr import UsdShade
+
+    for attr in put.GetValueProducingAttributes():
+        return None if UsdShade.Output.IsOutput(attr) else attr.Get()
+    return put.Get()
 
 
 def color_runs(prim, n_faces: int, path) -> list[tuple[int, tuple | None]]:
