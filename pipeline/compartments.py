@@ -74,9 +74,6 @@ class CompartmentOptions:
     # stands out of the carcass's box with less than this share of its points in it ...
     beside_reach: float = 0.5  # ... and its panel spans this share of the box's depth out
     # of the face (its width; a strip of the carcass lying across the face does not)
-    stray_share: float = 0.05  # a piece of a part's label with less of its points, linked to
-    # none of its others, is a stray (the masks' spill on a neighbour: it stretches the
-    # part's box over that neighbour, which merge_nested would take for a piece of it)
     settle_rounds: int = 3  # return_enclosed again, after the others, until nothing moves
     # (and split_fronts on what it split, until nothing splits)
     panels_apart_deg: float = 20.0  # a label holding two turned panels this far apart ...
@@ -1033,9 +1030,6 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     no piece of it but a part beside it that the larger's mixed label reaches around (on
     a hand-held path a drawer's own label lay in the box of one holding a door swung
     square and the other drawer); a side or a body cut from its front has no such front.
-    The larger's box leaves out its stray pieces (:func:`_without_strays`): on a hand-held
-    phone path 31 points of a double door's second leaf in the first leaf's label, 95 cm
-    from its panel, stretched its box over the second leaf's own label, which merged.
     Returns the labels, renumbered by size, and what merged."""
     out = labels.copy()
     moved: list[dict] = []
@@ -1044,7 +1038,7 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     body = carcass_box(cloud[labels == 1], voxel, options)
     sizes = np.bincount(labels)
     parts = [k for k in np.argsort(sizes, kind="stable") if k >= 2 and sizes[k] >= 4]
-    boxes = {k: _box(_without_strays(cloud[labels == k], voxel, options)) for k in parts}
+    boxes = {k: _box(cloud[labels == k]) for k in parts}
     out_of_place = {k: body.contains(cloud[labels == k], tol=options.enclosed_margin_voxels
                                      * voxel).mean() < options.enclosed_inside for k in parts}
     margin = options.nested_margin_voxels * voxel
@@ -1067,17 +1061,6 @@ def merge_nested(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                               "merged_into": int(into)})
                 break
     return numbered_by_size(out), moved
-
-
-def _without_strays(points: np.ndarray, voxel: float,
-                    options: CompartmentOptions = CompartmentOptions()) -> np.ndarray:
-    """A part's points without its stray pieces: linked (within ``panel_link_voxels``
-    spacings) into pieces, those holding less than ``stray_share`` of them left out."""
-    from .segment.pieces import linked_components
-
-    piece = linked_components(points, options.panel_link_voxels * voxel)
-    keep = np.bincount(piece)[piece] >= options.stray_share * len(points)
-    return points[keep] if np.count_nonzero(keep) >= 4 else points
 
 
 def _front_owner(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray,

@@ -832,32 +832,6 @@ def test_a_drawer_cut_into_its_front_and_its_side_is_one_part_again():
     assert merge_nested(shut, labels, 0.02)[1] == []
 
 
-def test_a_doors_stray_piece_on_its_neighbour_does_not_swallow_the_neighbour():
-    """Two doors swung out square from a carcass, each in a label of its own, the wider
-    door's label also holding a small patch of the other door (the masks' spill, 16 points
-    74 cm from its own panel): its box stretched over the other door, which would lie
-    nested in it. The patch, linked to none of the label's panel, is a stray: the other
-    door keeps its label. The patch spilling on a drawer's side cut from its front (one
-    piece with it) still merges the side."""
-    from pipeline.compartments import merge_nested
-
-    x, z = (1, 0, 0), (0, 0, 1)
-    carcass = _open_box()
-    wide = np.concatenate([_grid(0.4, 0.7, (0.32, w, -0.35), x, z) for w in (-0.38, -0.36)])
-    narrow = np.concatenate([_grid(0.3, 0.7, (0.32, w, -0.35), x, z) for w in (0.38, 0.36)])
-    patch = ((narrow[:, 1] > 0.37) & (narrow[:, 0] >= 0.49) & (narrow[:, 0] <= 0.57)
-             & (narrow[:, 2] >= 0.0) & (narrow[:, 2] <= 0.08))
-    cloud = np.concatenate([carcass, wide, narrow])
-    n = np.cumsum([0, len(carcass), len(wide), len(narrow)])
-    labels = np.ones(len(cloud), int)
-    labels[n[1]:n[2]], labels[n[2]:n[3]] = 2, 3
-    labels[n[2]:n[3]][patch] = 2
-    assert patch.sum() == 16 and np.count_nonzero(labels == 2) > np.count_nonzero(labels == 3)
-    out, moved = merge_nested(cloud, labels, 0.02)
-    assert moved == [] and len(np.unique(out)) == 3
-    assert (out[n[2]:n[3]][~patch] == out[n[2]]).all() and out[n[2]] != out[n[1]]
-
-
 def test_a_mixed_label_is_parted_by_its_fronts_not_merged_whole():
     """One label holds a door swung square (full height, left) and a drawer pulled out
     (top right); the drawer below that one lies in the label's box, its front cut in two
