@@ -206,3 +206,19 @@ def test_an_idle_server_stops_by_itself(tmp_path):
     assert done.returncode == 0
     assert "idle for 0.01 min: stopping" in done.stderr
     assert not any(tmp_path.rglob("*.sock"))
+
+
+def test_the_servers_commands_are_parsed_by_the_parser_built_once(monkeypatch, capsys):
+    """The runner a server is given parses with the parser that parsed ``server run`` (built
+    once in the server), not a new one per command."""
+    from real2code_export import cli
+
+    args = cli.build_parser().parse_args(["server", "run"])
+
+    def built_again():
+        raise AssertionError("a served command built the parser again")
+
+    monkeypatch.setattr(cli, "build_parser", built_again)
+    with pytest.raises(SystemExit) as said:
+        args.runner(["--version"])
+    assert said.value.code == 0 and "real2code" in capsys.readouterr().out
