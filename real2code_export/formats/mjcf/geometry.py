@@ -67,10 +67,11 @@ def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
                 continue
         if len(mesh.vertices) < 4:  # MuJoCo counts the file's unused vertices too
             continue  # (meshfiles.obj_bytes pads a one-triangle mesh so): left to it
-        # (as lists: MuJoCo's binding converts them element by element, from Python's own
-        # numbers a third quicker than from an array's)
-        spec_mesh.uservert = mesh.vertices.reshape(-1).tolist()
-        spec_mesh.userface = mesh.faces.reshape(-1).tolist()
+        # (MuJoCo's binding converts them element by element from any sequence: from a
+        # memoryview of the float32 and int32 it keeps, in half the time of a list of
+        # Python's numbers and a third of an array's; the same float32 either way)
+        spec_mesh.uservert = memoryview(mesh.vertices.astype(np.float32).reshape(-1))
+        spec_mesh.userface = memoryview(mesh.faces.astype(np.int32).reshape(-1))
         spec_mesh.file = ""
         given.append((spec_mesh, mesh, said))
     return given
