@@ -321,27 +321,33 @@ MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off")
 
 
 def read_mesh(path: str | Path, *, source: str | Path | None = None, element: str | None = None,
-              line: int | None = None, scale=None) -> Mesh:
+              line: int | None = None, scale=None, key: tuple | None = None) -> Mesh:
     """Load a mesh file (any format trimesh reads) as one :class:`Mesh`, all pieces merged.
 
-    ``source``/``element``/``line`` name the referencing file for the error message.
+    ``source``/``element``/``line`` name the referencing file for the error message;
+    ``key``: as :func:`read_mesh_file`'s.
     """
-    return read_mesh_file(path, source=source, element=element, line=line, scale=scale).mesh
+    return read_mesh_file(path, source=source, element=element, line=line, scale=scale,
+                          key=key).mesh
 
 
 def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
                    element: str | None = None, line: int | None = None,
-                   scale=None) -> MeshFile:
+                   scale=None, key: tuple | None = None) -> MeshFile:
     """:func:`read_mesh` and the file's own colour: for an OBJ the area-weighted diffuse
     colour (``Kd``) of its MTL materials, None when it names none (or other formats), and its
     texture (``map_Kd``) where its faces have texture coordinates. A file read before with
-    the same bytes is not parsed again (:class:`_ReadMeshes`); its warnings are said again."""
+    the same bytes is not parsed again (:class:`_ReadMeshes`); its warnings are said again.
+    ``key``: the file's key from its bytes as the caller has just read them
+    (:func:`read_ahead`'s), so that a file read there is not read and hashed again here."""
     path = Path(path)
-    if not path.is_file():
-        raise FormatError(source or path, element, f"mesh file not found: {path}", line)
-    data = path.read_bytes()  # once: hashed for the key, then parsed
-    key = _READ.key(path, data)
-    read = _READ.get(key)
+    read = _READ.get(key) if key is not None else None
+    if read is None:
+        if not path.is_file():
+            raise FormatError(source or path, element, f"mesh file not found: {path}", line)
+        data = path.read_bytes()  # once: hashed for the key, then parsed
+        key = _READ.key(path, data)
+        read = _READ.get(key)
     if read is None:
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
@@ -414,24 +420,26 @@ _MTLLIB = re.compile(rb"\nmtllib[ \t]+([^\r\n]+)")
 _MAP_LINE = re.compile(rb"\n[ \t]*map_\w+[ \t]+(?:-\S+[ \t]+\S+[ \t]+)*([^\r\n]+)")
 
 
-def read_ahead(paths) -> None:
+def read_ahead(paths) -> dict[Path, tuple]:
     """Parse the STL files among ``paths`` not read yet on two threads, into the meshes read
-    lately (:class:`_ReadMeshes`), where :func:`read_mesh_file` then finds them: welding an
+    lately (:class:`_ReadMeshes`), where :func:`read_mesh_file` then finds them (by their
+    keys, returned by path: each file read and hashed once): welding an
     STL's corners (sorting them) is most of reading one, numpy sorts without holding the GIL,
     and a robot's STL files are read at once on two cores where there are two
     (docs/benchmarks.md, session 28). STL reading says nothing but its errors (no warning,
     whose capture is not thread-safe); a file that fails is left to :func:`read_mesh_file`,
     which says why and where. OBJ and Collada parsers hold the GIL: read in turn, as before."""
     todo: dict[tuple, tuple[Path, bytes]] = {}
+    keys: dict[Path, tuple] = {}
     for path in dict.fromkeys(map(Path, paths)):  # (a visual's file is often its collision's)
         if path.suffix.lower() != ".stl" or not path.is_file():
             continue
         data = path.read_bytes()
-        key = _READ.key(path, data)
+        key = keys[path] = _READ.key(path, data)
         if key not in todo and _READ.get(key) is None:
             todo[key] = (path, data)
     if len(todo) < 2:
-        return
+        return keys  # (one file: read where it is asked for, by its key's miss)
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(2, thread_name_prefix="read-stl") as pool:  # (ended on return)
@@ -440,6 +448,7 @@ def read_ahead(paths) -> None:
     for key, future in futures.items():
         if future.exception() is None:
             _READ.put(key, MeshFile(future.result()), [])
+    return keys
 
 
 def _read_unscaled(path: Path, data: bytes, source, element, line) -> MeshFile:

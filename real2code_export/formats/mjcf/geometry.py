@@ -57,12 +57,12 @@ def give_meshes(spec, files: dict) -> list[tuple[object, Mesh, list]]:
     readable = {spec_mesh: path for spec_mesh, path in files.items()
                 if path.suffix.lower() in _GIVEN_FORMATS and path.is_file()
                 and (path.suffix.lower() != ".stl" or _mujoco_reads_stl(path))}
-    read_ahead(readable.values())  # (its STL files, two at a time)
+    keys = read_ahead(readable.values())  # (its STL files, two at a time)
     for spec_mesh, path in readable.items():
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
             try:
-                mesh = read_mesh(path)
+                mesh = read_mesh(path, key=keys.get(path))
             except Real2CodeError:
                 continue
         if len(mesh.vertices) < 4:  # MuJoCo counts the file's unused vertices too
