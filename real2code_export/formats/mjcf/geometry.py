@@ -31,6 +31,8 @@ from ...primitives import Primitive, ShapeKind
 # it was read twice (docs/benchmarks.md, session 19). Only an STL MuJoCo reads itself is
 # given (:func:`_mujoco_reads_stl`): a file it refuses stays refused, with its message.
 _GIVEN_FORMATS = (".obj", ".stl")
+_EYE4 = np.eye(4)
+_EYE4.flags.writeable = False
 _MUJOCO_STL_FACES = 200_000  # MuJoCo's STL decoder refuses more faces (and ASCII files)
 
 
@@ -107,7 +109,7 @@ def geom_mesh(model, g: int, source: Path, element: str,
         transform = placed @ mesh_frame
         # (each geom says which asset it places: a writer that can place one mesh several
         # times writes the asset once, Mesh.placements)
-        if np.allclose(transform, np.eye(4), rtol=0.0, atol=1e-12):
+        if tf.allclose_to_finite(transform, _EYE4, rtol=0.0, atol=1e-12):
             return Mesh.placed(mesh)  # the usual case (our own files): the numbers exactly
         return Mesh.placed(mesh, transform)
     shape = geom_primitive(kind, size, placed)
