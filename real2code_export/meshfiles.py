@@ -336,27 +336,33 @@ MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off")
 
 
 def read_mesh(path: str | Path, *, source: str | Path | None = None, element: str | None = None,
-              line: int | None = None, scale=None) -> Mesh:
+              line: int | None = None, scale=None, key: tuple | None = None) -> Mesh:
     """Load a mesh file (any format trimesh reads) as one :class:`Mesh`, all pieces merged.
 
-    ``source``/``element``/``line`` name the referencing file for the error message.
+    ``source``/``element``/``line`` name the referencing file for the error message;
+    ``key``: as :func:`read_mesh_file`'s.
     """
-    return read_mesh_file(path, source=source, element=element, line=line, scale=scale).mesh
+    return read_mesh_file(path, source=source, element=element, line=line, scale=scale,
+                          key=key).mesh
 
 
 def read_mesh_file(path: str | Path, *, source: str | Path | None = None,
                    element: str | None = None, line: int | None = None,
-                   scale=None) -> MeshFile:
+                   scale=None, key: tuple | None = None) -> MeshFile:
     """:func:`read_mesh` and the file's own colour: for an OBJ the area-weighted diffuse
     colour (``Kd``) of its MTL materials, None when it names none (or other formats), and its
     texture (``map_Kd``) where its faces have texture coordinates. A file read before with
-    the same bytes is not parsed again (:class:`_ReadMeshes`); its warnings are said again."""
+    the same bytes is not parsed again (:class:`_ReadMeshes`); its warnings are said again.
+    ``key``: the file's key from its bytes as the caller has just read them
+    (:func:`read_ahead`'s), so that a file read there is not read and hashed again here."""
     path = Path(path)
-    if not path.is_file():
-        raise FormatError(source or path, element, f"mesh file not found: {path}", line)
-    data = path.read_bytes()  # once: hashed for the key, then parsed
-    key = _READ.key(path, data)
-    read = _READ.get(key)
+    read = _READ.get(key) if key is not None else None
+    if read is None:
+        if not path.is_file():
+            raise FormatError(source or path, element, f"mesh file not found: {path}", line)
+        data = path.read_bytes()  # once: hashed for the key, then parsed
+        key = _READ.key(path, data)
+        read = _READ.get(key)
     if read is None:
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
@@ -439,24 +445,26 @@ _INIT_FROM = re.compile(rb"<init_from>([^<]+)</init_from>")
 _MAP_LINE = re.compile(rb"\n[ \t]*map_\w+[ \t]+(?:-\S+[ \t]+\S+[ \t]+)*([^\r\n]+)")
 
 
-def read_ahead(paths) -> None:
+def read_ahead(paths) -> dict[Path, tuple]:
     """Parse the STL files among ``paths`` not read yet on two threads, into the meshes read
-    lately (:class:`_ReadMeshes`), where :func:`read_mesh_file` then finds them: welding an
+    lately (:class:`_ReadMeshes`), where :func:`read_mesh_file` then finds them (by their
+    keys, returned by path: each file read and hashed once): welding an
     STL's corners (sorting them) is most of reading one, numpy sorts without holding the GIL,
     and a robot's STL files are read at once on two cores where there are two
     (docs/benchmarks.md, session 28). STL reading says nothing but its errors (no warning,
     whose capture is not thread-safe); a file that fails is left to :func:`read_mesh_file`,
     which says why and where. OBJ and Collada parsers hold the GIL: read in turn, as before."""
     todo: dict[tuple, tuple[Path, bytes]] = {}
+    keys: dict[Path, tuple] = {}
     for path in dict.fromkeys(map(Path, paths)):  # (a visual's file is often its collision's)
         if path.suffix.lower() != ".stl" or not path.is_file():
             continue
         data = path.read_bytes()
-        key = _READ.key(path, data)
+        key = keys[path] = _READ.key(path, data)
         if key not in todo and _READ.get(key) is None:
             todo[key] = (path, data)
     if len(todo) < 2:
-        return
+        return keys  # (one file: read where it is asked for, by its key's miss)
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(2, thread_name_prefix="read-stl") as pool:  # (ended on return)
@@ -465,6 +473,7 @@ def read_ahead(paths) -> None:
     for key, future in futures.items():
         if future.exception() is None:
             _READ.put(key, MeshFile(future.result()), [])
+    return keys
 
 
 def _read_unscaled(path: Path, data: bytes, source, element, line) -> MeshFile:
@@ -758,25 +767,66 @@ def _read_stl(path: Path, data: bytes, source, element, line) -> Mesh:
     if len(corners) == 0 or len(corners) % 3:
         raise NoTrianglesError(source or path, element, f"mesh {path} has no triangles",
                                line)
-    return _welded(corners.astype(np.float64))
+    return _welded(corners)  # (a binary STL's float32 as they are: widened once welded)
 
 
 def _welded(corners: np.ndarray) -> Mesh:
-    """Triangles given corner by corner as a mesh whose equal corners are one vertex, in the
-    order first met: MuJoCo's reading of an STL. An STL holds every vertex once per triangle
-    that uses it (about 6 times); kept so, every file written from it (OBJ, USD, glTF) held
-    them all and every tool that reads those read them all (MuJoCo compiling such an export
-    took twice as long; docs/benchmarks.md)."""
-    order = np.lexsort(_sort_keys(corners))  # stable: a run of equal corners in file order
-    ordered = corners[order]
-    starts = np.ones(len(order), dtype=bool)
-    starts[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    """Triangles given corner by corner (float32 or float64) as a mesh whose equal corners
+    are one vertex (float64), in the order first met: MuJoCo's reading of an STL. An STL
+    holds every vertex once per triangle that uses it (about 6 times); kept so, every file
+    written from it (OBJ, USD, glTF) held them all and every tool that reads those read them
+    all (MuJoCo compiling such an export took twice as long; docs/benchmarks.md). Equal
+    corners are found by one sort: of a 64-bit key per corner where every coordinate is a
+    float32 (:func:`_float32_runs`), else of the coordinates' bits (:func:`_sort_keys`);
+    a corner's vertex is the first corner of its run of equals either way."""
+    runs = _float32_runs(corners)
+    if runs is None:
+        corners = corners.astype(np.float64, copy=False)
+        order = np.lexsort(_sort_keys(corners))  # stable: a run of equal corners in file order
+        ordered = corners[order]
+        starts = np.ones(len(order), dtype=bool)
+        starts[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+        first = order[starts]  # where each run is first met
+    else:
+        order, starts = runs
+        first = np.minimum.reduceat(order, np.flatnonzero(starts))  # (its runs unordered)
     run = np.empty(len(order), dtype=np.int64)
     run[order] = np.cumsum(starts) - 1  # each corner's run of equals
-    first = order[starts]  # where each run is first met
+    by_first = np.argsort(first)  # (no ties: any sort gives this order)
     number = np.empty(len(first), dtype=np.int64)
-    number[np.argsort(first, kind="stable")] = np.arange(len(first))  # (no ties: quicker)
-    return Mesh(corners[np.sort(first)], number[run].reshape(-1, 3))
+    number[by_first] = np.arange(len(first))
+    return Mesh(corners[first[by_first]].astype(np.float64, copy=False),
+                number[run].reshape(-1, 3))
+
+
+_KEY_MIX = np.uint64(0x9E3779B97F4A7C15)  # odd: z's bits spread over the key's 64
+
+
+def _float32_runs(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where every coordinate is a float32 and none is NaN (a binary STL's, as a rule): the
+    corners' order under one 64-bit key each, and where each run of equal corners starts
+    in that order; else None. The key is x's and y's bits side by side, z's bits mixed in
+    (-0.0 folded into 0.0, the two that compare equal): equal corners share it, and one
+    sort of it is a third of the time :func:`_sort_keys`' two keys take (each run's first
+    corner is then its least index, not its place). Two unequal corners sharing a key, which
+    differ in z then, are found, and answered None (the caller sorts by the bits)."""
+    single = (corners + 0.0).astype(np.float32)
+    if corners.dtype != np.float32 and not np.array_equal(single, corners):
+        return None
+    if np.isnan(single).any():  # (unequal to themselves: each NaN corner a vertex)
+        return None
+    bits = single.view(np.uint32)
+    x, y, z = (bits[:, k].astype(np.uint64) for k in range(3))
+    key = ((x << np.uint64(32)) | y) ^ (z * _KEY_MIX)
+    order = np.argsort(key)
+    ordered = key[order]
+    starts = np.empty(len(order), dtype=bool)
+    starts[:1] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=starts[1:])
+    z_ordered = bits[:, 2][order]
+    if np.any(z_ordered[1:][~starts[1:]] != z_ordered[:-1][~starts[1:]]):
+        return None
+    return order, starts
 
 
 def _sort_keys(corners: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -125,6 +125,33 @@ def test_stl_files_read_ahead_on_threads_are_read_once_and_the_same(tmp_path, mo
     assert parsed == [paths[3]]
 
 
+def test_stl_files_read_ahead_are_read_from_disk_once(tmp_path, monkeypatch):
+    """The keys ``read_ahead`` returns find its meshes without the files being read and
+    hashed again; a key whose mesh is gone (or a file read ahead alone) is read as before."""
+    import pathlib
+
+    import trimesh
+
+    from real2code_export import meshfiles
+
+    for k, extents in enumerate([(1, 2, 3), (0.2, 0.1, 0.4)]):
+        trimesh.creation.box(extents=extents).export(tmp_path / f"box{k}.stl")
+    paths = [tmp_path / f"box{k}.stl" for k in range(2)]
+    meshfiles._READ.entries.clear()
+    meshfiles._READ.used = 0
+    keys = meshfiles.read_ahead(paths)
+    assert set(keys) == set(paths)
+    reads = []
+    read_bytes = pathlib.Path.read_bytes
+    monkeypatch.setattr(pathlib.Path, "read_bytes", lambda p: reads.append(p) or read_bytes(p))
+    got = [read_mesh(p, key=keys[p]) for p in paths]
+    assert reads == [] and [len(m.faces) for m in got] == [12, 12]
+    meshfiles._READ.entries.clear()
+    meshfiles._READ.used = 0
+    assert np.array_equal(read_mesh(paths[0], key=keys[paths[0]]).faces, got[0].faces)
+    assert reads == [paths[0]]
+
+
 def test_cache_returns_the_stored_result_and_keeps_warnings(tmp_path, monkeypatch):
     monkeypatch.setenv("REAL2CODE_CACHE", str(tmp_path / "cache"))
     mesh = Mesh(np.eye(3), [[0, 1, 2]])

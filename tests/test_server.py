@@ -206,3 +206,53 @@ def test_an_idle_server_stops_by_itself(tmp_path):
     assert done.returncode == 0
     assert "idle for 0.01 min: stopping" in done.stderr
     assert not any(tmp_path.rglob("*.sock"))
+
+
+def test_the_servers_commands_are_parsed_by_the_parser_built_once(monkeypatch, capsys):
+    """The runner a server is given parses with the parser that parsed ``server run`` (built
+    once in the server), not a new one per command."""
+    from real2code_export import cli
+
+    args = cli.build_parser().parse_args(["server", "run"])
+
+    def built_again():
+        raise AssertionError("a served command built the parser again")
+
+    monkeypatch.setattr(cli, "build_parser", built_again)
+    with pytest.raises(SystemExit) as said:
+        args.runner(["--version"])
+    assert said.value.code == 0 and "real2code" in capsys.readouterr().out
+
+
+def test_the_forks_allocator_keeps_what_a_command_frees():
+    """In the server (and so its forks) glibc maps no memory of its own for a large block:
+    it comes from the heap, and what is freed stays there for the command's next arrays."""
+    code = """
+import ctypes, sys
+from real2code_export.cli import server_loop
+libc = ctypes.CDLL(None)
+if not hasattr(libc, "mallinfo2"):
+    sys.exit(77)
+class Info(ctypes.Structure):
+    _fields_ = [(n, ctypes.c_size_t) for n in ("arena", "ordblks", "smblks", "hblks", "hblkhd",
+                                                "usmblks", "fsmblks", "uordblks", "fordblks",
+                                                "keepcost")]
+libc.mallinfo2.restype = Info
+libc.malloc.restype = ctypes.c_void_p
+libc.free.argtypes = [ctypes.c_void_p]
+def mapped_for(size):
+    block = libc.malloc(size)
+    mapped = libc.mallinfo2().hblkhd
+    libc.free(block)
+    return mapped
+before = mapped_for(64 << 20)
+server_loop._allocator_for_commands()
+print(before, mapped_for(64 << 20))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=60)
+    if done.returncode == 77:
+        pytest.skip("not glibc (no mallinfo2)")
+    assert done.returncode == 0, done.stderr
+    before, after = map(int, done.stdout.split())
+    assert before >= 64 << 20 and after < 64 << 20

@@ -500,6 +500,36 @@ def test_stl_corners_equal_in_value_are_one_vertex(tmp_path, kind):
     np.testing.assert_array_equal(got.faces, [[0, 1, 2], [1, 3, 2]])
 
 
+def test_stl_welding_by_one_key_is_welding_by_value(monkeypatch):
+    """A binary STL's float32 corners are welded through one 64-bit key each: the same
+    vertices and faces as sorting by the coordinates' bits, NaN corners each a vertex of its
+    own (unequal to themselves), and corners sharing a key without being equal (forced here:
+    z left out of the key) told apart."""
+    from real2code_export import meshfiles
+
+    rng = np.random.default_rng(7)
+    corners = (rng.integers(-2, 3, size=(3000, 3)) * 0.25).astype(np.float32)
+    corners[::7, 1] = -0.0
+    corners[5] = corners[6] = np.nan
+
+    def same(a, b):
+        return a.vertices.tobytes() == b.vertices.tobytes() and np.array_equal(a.faces, b.faces)
+
+    plain = corners[9:]  # (no NaN; whole triangles)
+    assert meshfiles._float32_runs(plain) is not None
+    welded = meshfiles._welded(plain)
+    assert len(welded.vertices) == len(np.unique(plain + 0.0, axis=0)) < len(plain)
+    monkeypatch.setattr(meshfiles, "_float32_runs", lambda c: None)
+    reference = meshfiles._welded(plain)
+    monkeypatch.undo()
+    assert same(welded, reference)
+    with_nan = meshfiles._welded(corners[:2997])
+    assert np.isnan(with_nan.vertices).any(axis=1).sum() == 2
+    monkeypatch.setattr(meshfiles, "_KEY_MIX", np.uint64(0))
+    assert meshfiles._float32_runs(plain) is None
+    assert same(meshfiles._welded(plain), reference)
+
+
 def test_obj_vertices_are_the_numbers_written(tmp_path):
     """An OBJ's vertices are the nearest float64 to each number in its ``v`` lines (the file's
     first line a ``v`` line, tabs, a w component, many digits), whatever tinyobjloader's own

@@ -1814,6 +1814,27 @@ def test_snapped_quat_iterates_in_floats_as_on_arrays():
         assert c._renormalised(snapped).tobytes() == snapped.tobytes()
 
 
+def test_creased_normals_row_norms_and_crease_test_are_numpys():
+    """normals.row_norms is np.linalg.norm(axis=1) bit for bit (float64 and float32), and
+    the crease test by the dot alone away from the crease's cosine answers as arccos does,
+    at the band's edges, inside it, and for NaN and infinities (the normals, and so every
+    exported file, stay the same)."""
+    from real2code_export import normals
+
+    rng = np.random.default_rng(12)
+    rows = rng.normal(size=(200_000, 3)) * 10.0 ** rng.integers(-18, 18, (200_000, 1))
+    rows[:3] = [[0.0, 0.0, 0.0], [-0.0, 3.0, -4.0], [1e-160, 1e-160, 0.0]]
+    for dtype in (np.float64, np.float32):
+        a = rows.astype(dtype)
+        assert normals.row_norms(a).tobytes() == np.linalg.norm(a, axis=1).tobytes()
+    c, band = normals._CREASE_COS, normals._CREASE_BAND
+    dots = np.concatenate([np.linspace(-1.5, 1.5, 200_001), c + np.arange(-500, 501) * 1e-17,
+                           c + band * np.array([-1.0, 1.0, -1.0000001, 1.0000001, 2, -2]),
+                           [np.nan, np.inf, -np.inf, 1.0, -1.0]])
+    want = np.abs(np.arccos(np.clip(dots, -1.0, 1.0))) < normals.CREASE_ANGLE
+    assert np.array_equal(normals._under_crease_angle(dots), want)
+
+
 def test_creased_normals_face_cross_products_are_numpys():
     """meshtopology.face_cross_products: each face's (b - a) x (c - a) bit for bit as
     np.cross gives it (the creased normals, and so every exported file, stay the same)."""

@@ -581,7 +581,7 @@ class _Reader:
         m = self.model
         rgba = tuple(float(c) for c in m.geom_rgba[g])
         mat = int(m.geom_matid[g])
-        if mat >= 0 and np.allclose(rgba, _DEFAULT_GEOM_RGBA):
+        if mat >= 0 and tf.allclose_to_finite(rgba, _DEFAULT_GEOM_RGBA):
             rgba = tuple(float(c) for c in m.mat_rgba[mat])
         return tuple(min(max(c, 0.0), 1.0) for c in rgba)
 

@@ -88,10 +88,11 @@ def axis_in_body1(rot1, token: str) -> np.ndarray:
     return a / np.linalg.norm(a)
 
 
-def as_written(joint: Joint) -> Joint:
+def as_written(joint: Joint, frames: JointFrames | None = None) -> Joint:
     """The joint as the file states it (float32 frames): bodies are placed with these, so the
-    file is self-consistent and an imported file re-exports to the same bytes."""
-    f = joint_frames(joint)
+    file is self-consistent and an imported file re-exports to the same bytes. ``frames``:
+    the joint's :func:`joint_frames`, where the caller has them."""
+    f = frames or joint_frames(joint)
     return dataclasses.replace(
         joint, origin=rest_origin(f.pos0, f.rot0, f.rot1),
         axis=axis_in_body1(f.rot1, f.token) if joint.type.movable else joint.axis)
@@ -103,7 +104,9 @@ _JOINT_TYPES = {JointType.FIXED: "PhysicsFixedJoint", JointType.BALL: "PhysicsSp
                 JointType.PRISMATIC: "PhysicsPrismaticJoint"}  # else PhysicsRevoluteJoint
 
 
-def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
+def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str,
+                frames: JointFrames | None = None):
+    """The joint's prim (``frames``: its :func:`joint_frames`, where the caller has them)."""
     from pxr import Gf
 
     kind = joint.type
@@ -115,7 +118,7 @@ def write_joint(layer, path: str, joint: Joint, body0: str | None, body1: str):
     if body0 is not None:
         relationship(prim, "physics:body0", body0)
     relationship(prim, "physics:body1", body1)
-    f = joint_frames(joint)
+    f = frames or joint_frames(joint)
     attribute(prim, "physics:localPos0", "Point3f", Gf.Vec3f(*f.pos0.tolist()))
     attribute(prim, "physics:localRot0", "Quatf", Gf.Quatf(*f.rot0.tolist()))
     attribute(prim, "physics:localPos1", "Point3f", Gf.Vec3f(0.0, 0.0, 0.0))

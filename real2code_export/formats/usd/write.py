@@ -42,7 +42,7 @@ from .conventions import (
 )
 from .drive import write_drives
 from .geometry import LateNormals, MeshAssets, move_mesh_arrays, write_part_geometry
-from .joint import as_written, write_free_dynamics, write_joint, write_mimic
+from .joint import as_written, joint_frames, write_free_dynamics, write_joint, write_mimic
 from .layer import apply, attribute, new_layer
 from .loop import write_loops
 
@@ -66,7 +66,10 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
     attribute(root, METADATA, "String", metadata_json(obj, sort_keys=True), custom=True)
 
     base = f"/{obj.name}"
-    written = ArticulatedObject(obj.name, obj.parts, [as_written(j) for j in obj.joints])
+    # each joint's frames once: the bodies are placed with them and the joints written
+    frames_of = {j.name: joint_frames(j) for j in obj.joints}
+    written = ArticulatedObject(obj.name, obj.parts,
+                                [as_written(j, frames_of[j.name]) for j in obj.joints])
     world = forward_kinematics(written, obj.observed_configuration())
     # chains the reader made of a generic joint (D6): written back as one, no bodies between
     generic = d6.chains(obj)
@@ -128,7 +131,8 @@ def _author(obj: ArticulatedObject, normals: LateNormals):
             attribute(joint, PARENT_PART, "String", j.parent, custom=True)
         else:
             joint = write_joint(layer, f"{base}/{PHYSICS}/{j.name}", j,
-                                f"{base}/{GEOMETRY}/{j.parent}", f"{base}/{GEOMETRY}/{j.child}")
+                                f"{base}/{GEOMETRY}/{j.parent}", f"{base}/{GEOMETRY}/{j.child}",
+                                frames_of[j.name])
         if j.mimic is not None:
             write_mimic(joint, j.mimic, f"{base}/{PHYSICS}/{j.mimic.joint}", j.type.angular)
     taken = {j.name for j in obj.joints} | {world_joint}
