@@ -44,7 +44,8 @@ def _cube(tmp_path, mtl: str | None = "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0
 
 
 def test_obj_geometry_and_mtl_colour_in_one_read(tmp_path):
-    mesh, color, texture, runs = read_mesh_file(_cube(tmp_path))
+    read = read_mesh_file(_cube(tmp_path))
+    mesh, color, texture, runs = read.mesh, read.color, read.texture, read.runs
     assert texture is None  # its MTL names no image
     assert mesh.vertices.shape == (8, 3)  # the unused vertex 9 is dropped, as trimesh does
     assert mesh.faces.shape == (12, 3)  # quads fanned into triangles
