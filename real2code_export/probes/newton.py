@@ -1,0 +1,367 @@
+"""A USD source as Newton reads it (``check --reference``, ``export --check``): Newton 1.8's
+own USD importer (``ModelBuilder.add_usd``) builds the model, its forward kinematics
+(``newton.eval_fk``) poses every body, in the engines venv (``dynamics.venv``: Newton pins
+usd-core < 26.9), one process per check: the probe starts it when it opens the file, sends it
+every configuration at once and reads the poses back (JSON lines on stdin and stdout).
+
+What of Newton's model becomes the probe's parts and joints (docs/formats.md, "check
+--reference"):
+
+- a body is the part named as our USD reader names its prim (``conventions.source_name``:
+  the prim's name, or its ``displayName`` for usd-exchange's ``tn__`` encoding); its pose
+  is its frame moved to its parent joint's anchor on its side (the translation of Newton's
+  ``joint_X_c``), the model's "part frame = joint frame";
+- a revolute or prismatic joint is the joint named as its prim; a D6 joint (a USD
+  ``PhysicsJoint``, or joints stacked between the same two bodies, which Newton merges)
+  gives a joint per degree of freedom, named ``<joint>_<axis>`` (``hip_rotX``) as our reader
+  splits it, or the prim's name when it has one; a merged stack names each degree by the
+  prim it came from. Free, ball and fixed joints have no joint value: held where Newton
+  starts them (a free body where the stage puts it, a ball at its frames' rest);
+- Newton keeps the stage's units (metersPerUnit is "not supported": warned, not applied),
+  so positions and prismatic values are scaled to metres here.
+
+Newton's kinematics run in float32 (warp's transforms): the poses carry its rounding, ~1e-7
+relative to the distances in the chain (measured in docs/corpora.md)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import CheckError
+from . import JointInfo
+
+LABEL = "Newton (USD)"
+# what the server prints on its first line: the parts, the joints and how to set them
+_UNLIMITED = 1e9  # Newton's "no limit" is +-1e10 (its JOINT_LIMIT_UNLIMITED)
+
+
+class NewtonProbe:
+    label = LABEL
+
+    def __init__(self, path: Path):
+        from ..dynamics import EngineUnavailable
+        from ..dynamics.venv import ENGINES_VENV, REPO
+
+        self.path = path
+        python = ENGINES_VENV.python()
+        if python is None:
+            raise EngineUnavailable(
+                f"{path}: Newton, the USD source's own tool, is not installed: there is no "
+                f"venv at {ENGINES_VENV.default_python.parents[1]} (run {ENGINES_VENV.setup}, "
+                f"or name its Python in {ENGINES_VENV.override})")
+        env = {**os.environ, "PYTHONPATH": str(REPO)}
+        self._process = subprocess.Popen(
+            [str(python), "-m", __name__], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True, env=env)
+        head = self._ask({"path": str(path)})
+        self.parts: list[str] = head["parts"]
+        self.joints = [JointInfo(j["name"], j["kind"], j["lower"], j["upper"])
+                       for j in head["joints"]]
+        self.masses: dict[str, float] = head["masses"]  # part -> kg (Newton's reading)
+        self.warnings: list[str] = head["warnings"]
+
+    def _ask(self, request: dict) -> dict:
+        assert self._process.stdin is not None and self._process.stdout is not None
+        try:
+            self._process.stdin.write(json.dumps(request) + "\n")
+            self._process.stdin.flush()
+        except BrokenPipeError:
+            pass
+        line = self._process.stdout.readline()
+        if not line:
+            self._process.wait()
+            raise CheckError(f"{self.path}: Newton could not load it: {_last_line(self._process)}")
+        answer = json.loads(line)
+        if "error" in answer:
+            self.close()
+            raise CheckError(f"{self.path}: Newton refuses it: {answer['error']}")
+        return answer
+
+    def close(self) -> None:
+        if self._process.poll() is None:
+            self._process.stdin.close()
+            self._process.wait()
+
+    def __del__(self):
+        process = getattr(self, "_process", None)
+        if process is not None and process.poll() is None:
+            process.kill()
+            process.wait()
+
+    def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
+        values = [float(q.get(j.name, 0.0)) for j in self.joints]
+        return dict(zip(self.parts, self.pose_array([values])[0], strict=True))
+
+    def pose_array(self, values) -> np.ndarray:
+        """(N, len(joints)) joint values -> (N, len(parts), 4, 4), in one request."""
+        values = np.atleast_2d(np.asarray(values, dtype=float))
+        answer = self._ask({"values": values.tolist()})
+        return np.asarray(answer["poses"], dtype=float).reshape(len(values), len(self.parts),
+                                                                4, 4)
+
+
+def _last_line(process) -> str:
+    text = process.stderr.read() if process.stderr is not None else ""
+    lines = [line for line in text.strip().splitlines() if line.strip()]
+    return lines[-1] if lines else f"exit status {process.returncode}"
+
+
+def open_probes(path: str | Path) -> list[NewtonProbe]:
+    return [NewtonProbe(Path(path))]
+
+
+# -- the server side, in the engines venv --------------------------------------------------------
+def _build(path: str):
+    """Newton's model of ``path`` and what the probe is told of it."""
+    import warnings
+
+    import newton
+    import warp as wp
+    from pxr import Usd
+
+    from ..dynamics.newton import _unshift_limits
+    from ..formats.usd.conventions import source_name
+
+    wp.config.quiet = True
+    builder = newton.ModelBuilder(up_axis=newton.Axis.Z)
+    # MuJoCo's attributes registered: the importer then records each degree of freedom's
+    # prim (``mujoco:joint_dof_label``) and shifts limits by ``mjc:ref`` (undone)
+    newton.solvers.SolverMuJoCo.register_custom_attributes(builder)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        result = builder.add_usd(path, collapse_fixed_joints=False, load_visual_shapes=False,
+                                 skip_mesh_approximation=True)
+    _unshift_limits(builder)
+    # a stage without an articulation root: Newton keeps its joints for its maximal-
+    # coordinate solvers, outside any articulation (finalize's joint validation refuses them;
+    # eval_fk poses none of them: _JointLaw does)
+    model = builder.finalize(device="cpu", skip_validation_joints=True)
+    mpu = float(result.get("linear_unit") or 1.0)
+    stage = Usd.Stage.Open(path)
+    _refuse_locked_axes(stage)
+
+    def name_of(prim_path: str) -> str:
+        prim = stage.GetPrimAtPath(prim_path)
+        return source_name(prim) if prim else prim_path.rsplit("/", 1)[-1]
+
+    jtype = newton.JointType
+    types = model.joint_type.numpy()
+    child = model.joint_child.numpy()
+    q_start = model.joint_q_start.numpy()
+    qd_start = model.joint_qd_start.numpy()
+    dof_dim = model.joint_dof_dim.numpy()
+    lower = model.joint_limit_lower.numpy().astype(float)
+    upper = model.joint_limit_upper.numpy().astype(float)
+    x_c = model.joint_X_c.numpy().astype(float)
+    # each degree of freedom's prim, as Newton records it for MuJoCo's actuators: a joint's
+    # own path; a D6 prim's "<path>:rotX"; each prim of a merged stack its own path
+    dof_label = builder.custom_attributes["mujoco:joint_dof_label"].values
+    parts = [name_of(label) for label in model.body_label]
+    if len(set(parts)) != len(parts):
+        raise ValueError(f"rigid body names are not unique: {sorted(parts)}")
+    offset = np.zeros((len(parts), 3))  # body frame -> its part frame (stage units)
+    setters = []  # (joint name, kind, lower, upper, index into joint_q, scale to Newton's)
+    for j, label in enumerate(model.joint_label):
+        offset[child[j]] = x_c[j][:3]
+        kind = int(types[j])
+        if kind not in (jtype.REVOLUTE, jtype.PRISMATIC, jtype.D6):
+            continue  # free, ball, fixed, distance: held where Newton starts them
+        n_lin, n_ang = (int(n) for n in dof_dim[j])
+        labels = [str(dof_label.get(int(qd_start[j]) + k, label)) for k in range(n_lin + n_ang)]
+        for k, dof_path in enumerate(labels):
+            dof = int(qd_start[j]) + k
+            prim_path, _, axis = dof_path.partition(":")
+            name = name_of(prim_path)
+            if axis and len(labels) > 1:  # a D6 prim's axis, split as our reader splits it
+                name = f"{name}_{axis}"
+            angular = kind == jtype.REVOLUTE or (kind == jtype.D6 and k >= n_lin)
+            lo, hi = lower[dof], upper[dof]
+            limited = abs(lo) < _UNLIMITED and abs(hi) < _UNLIMITED
+            scale = 1.0 if angular else mpu
+            dof_kind = ("revolute" if limited else "continuous") if angular else "prismatic"
+            setters.append((name, dof_kind, lo * scale if limited else None,
+                            hi * scale if limited else None, int(q_start[j]) + k, scale))
+    masses = dict(zip(parts, model.body_mass.numpy().astype(float).tolist(), strict=True))
+    head = {"parts": parts,
+            "joints": [{"name": n, "kind": k, "lower": lo, "upper": hi}
+                       for n, k, lo, hi, _, _ in setters],
+            "masses": masses, "warnings": [str(w.message) for w in said]}
+    return newton, model, setters, offset, mpu, head
+
+
+def _refuse_locked_axes(stage) -> None:
+    """A generic joint (D6) leaves an axis without a PhysicsLimitAPI free (the schema);
+    Newton 1.8's importer makes a degree of freedom of the limited axes only, the others
+    locked: its model is then not the file's, and no reference for it."""
+    from pxr import Usd
+
+    for prim in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()):
+        if prim.GetTypeName() != "PhysicsJoint":
+            continue
+        applied = set(prim.GetAppliedSchemas())
+        locked = [axis for axis in ("transX", "transY", "transZ", "rotX", "rotY", "rotZ")
+                  if f"PhysicsLimitAPI:{axis}" not in applied]
+        if locked:
+            raise ValueError(f"generic joint <{prim.GetPath()}> leaves {', '.join(locked)} "
+                             "free (no PhysicsLimitAPI), which Newton's importer locks")
+
+
+def _poses(newton, model, setters, offset, mpu, values) -> list:
+    """Every configuration's part poses (4x4, metres): Newton's joint law (``eval_fk``'s,
+    ``articulation.eval_joint_motion``) on Newton's reading of the file (its joints' frames,
+    axes, types, tree and rest coordinates) in float64; Newton's own ``eval_fk``, in float32,
+    must give the same poses to its precision, or the probe refuses to answer."""
+    import warp as wp
+
+    rest = model.joint_q.numpy().astype(float)
+    index = np.array([s[4] for s in setters], dtype=int)
+    scale = np.array([s[5] for s in setters], dtype=float)
+    law = _JointLaw(newton, model)
+    state = model.state()
+    out = []
+    for row in values:
+        q = rest.copy()
+        if len(index):
+            q[index] = np.asarray(row, dtype=float) / scale
+        poses = law.body_poses(q)
+        newton.eval_fk(model, wp.array(q, dtype=wp.float32, device="cpu"), model.joint_qd,
+                       state)
+        fk = np.array([_transform(x) for x in state.body_q.numpy().astype(float)])
+        mine, theirs = poses[law.by_eval_fk], fk[law.by_eval_fk]
+        reach = 1.0 + np.abs(mine[:, :3, 3]).max(initial=0.0)
+        worst = max(np.abs(theirs[:, :3, 3] - mine[:, :3, 3]).max(initial=0.0) / reach,
+                    np.abs(theirs[:, :3, :3] - mine[:, :3, :3]).max(initial=0.0))
+        if worst > _FLOAT32_AGREEMENT:
+            raise RuntimeError(f"Newton's eval_fk and its joint law read here differ by "
+                               f"{worst:.1e} at q = {row}")
+        poses[:, :3, 3] += np.einsum("bij,bj->bi", poses[:, :3, :3], offset)
+        poses[:, :3, 3] *= mpu
+        out.append(poses.tolist())
+    return out
+
+
+# float32 kinematics against float64 over a chain of a few dozen joints: a few 1e-6 relative
+_FLOAT32_AGREEMENT = 1e-4
+
+
+class _JointLaw:
+    """Newton's forward kinematics in float64: X_wc = X_wp X_pj X_j(q) X_cj^-1 over the
+    joints of its articulations in Newton's order (a joint outside them, closing a loop, is
+    not posed: its child stands as the articulation puts it, as in ``eval_fk``)."""
+
+    def __init__(self, newton, model):
+        jt = newton.JointType
+        self.kinds = {"prismatic": int(jt.PRISMATIC), "revolute": int(jt.REVOLUTE),
+                      "ball": int(jt.BALL), "d6": int(jt.D6),
+                      "free": {int(jt.FREE), int(jt.DISTANCE)}}
+        self.type = model.joint_type.numpy()
+        self.parent = model.joint_parent.numpy()
+        self.child = model.joint_child.numpy()
+        self.articulation = model.joint_articulation.numpy()
+        self.q_start = model.joint_q_start.numpy()
+        self.qd_start = model.joint_qd_start.numpy()
+        self.dof_dim = model.joint_dof_dim.numpy()
+        self.axis = model.joint_axis.numpy().astype(float)
+        self.x_p = [_transform(x) for x in model.joint_X_p.numpy().astype(float)]
+        self.x_c_inv = [np.linalg.inv(_transform(x)) for x in model.joint_X_c.numpy()
+                        .astype(float)]
+        self.rest = np.array([_transform(x) for x in model.body_q.numpy().astype(float)])
+        # Newton orders each articulation's joints from its root; the joints of no
+        # articulation follow, walked from what is posed
+        self.order = [j for j in range(len(self.type)) if self.articulation[j] >= 0]
+        self.by_eval_fk = np.ones(len(self.rest), dtype=bool)  # the bodies eval_fk poses
+        posed = {-1, *(int(b) for b in self.child[self.order])}
+        posed |= set(range(len(self.rest))) - {int(b) for b in self.child}
+        left = [j for j in range(len(self.type)) if self.articulation[j] < 0]
+        while True:
+            ready = [j for j in left if self.parent[j] in posed and self.child[j] not in posed]
+            if not ready:
+                break
+            j = ready[0]
+            self.order.append(j)
+            self.by_eval_fk[self.child[j]] = False
+            posed.add(int(self.child[j]))
+            left.remove(j)
+
+    def body_poses(self, q: np.ndarray) -> np.ndarray:
+        world = self.rest.copy()
+        for j in self.order:
+            parent = world[self.parent[j]] if self.parent[j] >= 0 else np.eye(4)
+            world[self.child[j]] = parent @ self.x_p[j] @ self._motion(j, q) @ self.x_c_inv[j]
+        return world
+
+    def _motion(self, j: int, q: np.ndarray) -> np.ndarray:
+        kind, qs, ds = int(self.type[j]), int(self.q_start[j]), int(self.qd_start[j])
+        m = np.eye(4)
+        if kind == self.kinds["prismatic"]:
+            m[:3, 3] = self.axis[ds] * q[qs]
+        elif kind == self.kinds["revolute"]:
+            m[:3, :3] = _rotation(self.axis[ds], q[qs])
+        elif kind == self.kinds["ball"]:
+            m[:3, :3] = _transform([0, 0, 0, *q[qs:qs + 4]])[:3, :3]
+        elif kind in self.kinds["free"]:
+            m = _transform(q[qs:qs + 7])
+        elif kind == self.kinds["d6"]:
+            n_lin, n_ang = (int(n) for n in self.dof_dim[j])
+            for k in range(n_lin):
+                m[:3, 3] += self.axis[ds + k] * q[qs + k]
+            for k in range(n_lin, n_lin + n_ang):  # each about its axis as the ones before
+                m[:3, :3] = m[:3, :3] @ _rotation(self.axis[ds + k], q[qs + k])  # turned it
+        return m
+
+
+def _transform(x) -> np.ndarray:
+    """Warp's transform (x, y, z, qx, qy, qz, qw) as a 4x4 matrix."""
+    px, py, pz, qx, qy, qz, qw = (float(v) for v in x)
+    m = np.eye(4)
+    m[:3, :3] = _quat_matrix(qw, qx, qy, qz)
+    m[:3, 3] = (px, py, pz)
+    return m
+
+
+def _quat_matrix(w, x, y, z) -> np.ndarray:
+    """(normalised: warp stores its quaternions in float32)"""
+    s = 2.0 / (w * w + x * x + y * y + z * z)
+    return np.array([
+        [1 - s * (y * y + z * z), s * (x * y - z * w), s * (x * z + y * w)],
+        [s * (x * y + z * w), 1 - s * (x * x + z * z), s * (y * z - x * w)],
+        [s * (x * z - y * w), s * (y * z + x * w), 1 - s * (x * x + y * y)]])
+
+
+def _rotation(axis, angle: float) -> np.ndarray:
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    x, y, z = axis
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
+
+
+def serve() -> None:
+    """Read the file's request, answer what Newton makes of it; then each request of joint
+    values, answer the poses; until stdin closes."""
+    # the answers on a descriptor of their own: what warp and USD print goes to stderr
+    answers = os.fdopen(os.dup(1), "w")
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    built = None
+    for line in sys.stdin:
+        request = json.loads(line)
+        try:
+            if "path" in request:
+                built = _build(request["path"])
+                answer = built[-1]
+            else:
+                answer = {"poses": _poses(*built[:-1], request["values"])}
+        except (KeyError, ValueError, RuntimeError) as e:
+            answer = {"error": f"{type(e).__name__}: {e}"}
+        answers.write(json.dumps(answer) + "\n")
+        answers.flush()
+
+
+if __name__ == "__main__":
+    serve()
