@@ -25,6 +25,7 @@ relative to the distances in the chain (measured in docs/corpora.md)."""
 
 from __future__ import annotations
 
+import collections
 import json
 import os
 import subprocess
@@ -146,8 +147,13 @@ def _build(path: str):
     stage = Usd.Stage.Open(path)
     _refuse_locked_axes(stage)
 
+    def prim_of(label: str):
+        """The prim Newton's label names; None for what Newton added (a free joint)."""
+        prim = stage.GetPrimAtPath(label) if label.startswith("/") else None
+        return prim if prim else None
+
     def name_of(prim_path: str) -> str:
-        prim = stage.GetPrimAtPath(prim_path)
+        prim = prim_of(prim_path)
         return source_name(prim) if prim else prim_path.rsplit("/", 1)[-1]
 
     jtype = newton.JointType
@@ -158,19 +164,23 @@ def _build(path: str):
     dof_dim = model.joint_dof_dim.numpy()
     lower = model.joint_limit_lower.numpy().astype(float)
     upper = model.joint_limit_upper.numpy().astype(float)
-    x_c = model.joint_X_c.numpy().astype(float)
     # each degree of freedom's prim, as Newton records it for MuJoCo's actuators: a joint's
     # own path; a D6 prim's "<path>:rotX"; each prim of a merged stack its own path
     dof_label = builder.custom_attributes["mujoco:joint_dof_label"].values
+    _refuse_reordered_stacks(stage, [
+        [str(dof_label.get(int(qd_start[j]) + k, label)).partition(":")[0]
+         for k in range(int(dof_dim[j].sum()))] for j, label in enumerate(model.joint_label)])
+    law = _JointLaw(newton, model, {
+        j for j, label in enumerate(model.joint_label)
+        if (prim := prim_of(label)) is not None
+        and (attr := prim.GetAttribute("physics:excludeFromArticulation")) and attr.Get()})
     parts = [name_of(label) for label in model.body_label]
     if len(set(parts)) != len(parts):
         raise ValueError(f"rigid body names are not unique: {sorted(parts)}")
-    offset = np.zeros((len(parts), 3))  # body frame -> its part frame (stage units)
     setters = []  # (joint name, kind, lower, upper, index into joint_q, scale to Newton's)
     for j, label in enumerate(model.joint_label):
-        offset[child[j]] = x_c[j][:3]
         kind = int(types[j])
-        if kind not in (jtype.REVOLUTE, jtype.PRISMATIC, jtype.D6):
+        if kind not in (jtype.REVOLUTE, jtype.PRISMATIC, jtype.D6) or j not in law.posed_joints:
             continue  # free, ball, fixed, distance: held where Newton starts them
         n_lin, n_ang = (int(n) for n in dof_dim[j])
         labels = [str(dof_label.get(int(qd_start[j]) + k, label)) for k in range(n_lin + n_ang)]
@@ -192,7 +202,14 @@ def _build(path: str):
             "joints": [{"name": n, "kind": k, "lower": lo, "upper": hi}
                        for n, k, lo, hi, _, _ in setters],
             "masses": masses, "warnings": [str(w.message) for w in said]}
-    return newton, model, setters, offset, mpu, head
+    # The file's one joint to the world, fixed: its body is the model's root part, whose
+    # frame is the world's (our readers' convention: the MJCF writer makes it the world
+    # body), where Newton's body stands at the joint's frame
+    to_world = [j for j, label in enumerate(model.joint_label)
+                if model.joint_parent.numpy()[j] < 0 and prim_of(label) is not None]
+    law.at_world = [int(child[j]) for j in to_world
+                    if len(to_world) == 1 and int(types[j]) == jtype.FIXED]
+    return newton, model, law, setters, mpu, head
 
 
 def _refuse_locked_axes(stage) -> None:
@@ -212,7 +229,29 @@ def _refuse_locked_axes(stage) -> None:
                              "free (no PhysicsLimitAPI), which Newton's importer locks")
 
 
-def _poses(newton, model, setters, offset, mpu, values) -> list:
+def _refuse_reordered_stacks(stage, dof_prims: list[list[str]]) -> None:
+    """Joints stacked between the same two bodies (mujoco-usd-converter's MJCF body of
+    several joints) turn one after the other in the stage's order, as MuJoCo applies a
+    body's joints and our reader chains them; Newton 1.8 merges them into one D6 in
+    UsdPhysics' parse order, its linear axes first (``dof_prims``: per Newton joint, each
+    degree of freedom's prim). Where the orders differ, its model turns the body otherwise
+    than the file does, and is no reference for it."""
+    from pxr import Usd
+
+    order = {str(p.GetPath()): k for k, p in enumerate(
+        Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()))}
+    for prims in dof_prims:
+        stack = list(dict.fromkeys(prims))
+        if len(stack) > 1 and all(p in order for p in stack):
+            in_stage = sorted(stack, key=order.__getitem__)
+            if stack != in_stage:
+                raise ValueError(
+                    f"joints {', '.join(f'<{p}>' for p in in_stage)}, stacked between the same "
+                    f"two bodies, turn in that order in the stage; Newton merges them as "
+                    f"{', '.join(p.rsplit('/', 1)[-1] for p in stack)}")
+
+
+def _poses(newton, model, law, setters, mpu, values) -> list:
     """Every configuration's part poses (4x4, metres): Newton's joint law (``eval_fk``'s,
     ``articulation.eval_joint_motion``) on Newton's reading of the file (its joints' frames,
     axes, types, tree and rest coordinates) in float64; Newton's own ``eval_fk``, in float32,
@@ -222,7 +261,6 @@ def _poses(newton, model, setters, offset, mpu, values) -> list:
     rest = model.joint_q.numpy().astype(float)
     index = np.array([s[4] for s in setters], dtype=int)
     scale = np.array([s[5] for s in setters], dtype=float)
-    law = _JointLaw(newton, model)
     state = model.state()
     out = []
     for row in values:
@@ -240,8 +278,9 @@ def _poses(newton, model, setters, offset, mpu, values) -> list:
         if worst > _FLOAT32_AGREEMENT:
             raise RuntimeError(f"Newton's eval_fk and its joint law read here differ by "
                                f"{worst:.1e} at q = {row}")
-        poses[:, :3, 3] += np.einsum("bij,bj->bi", poses[:, :3, :3], offset)
+        poses[:, :3, 3] += np.einsum("bij,bj->bi", poses[:, :3, :3], law.offset)
         poses[:, :3, 3] *= mpu
+        poses[law.at_world] = np.eye(4)
         out.append(poses.tolist())
     return out
 
@@ -255,7 +294,7 @@ class _JointLaw:
     joints of its articulations in Newton's order (a joint outside them, closing a loop, is
     not posed: its child stands as the articulation puts it, as in ``eval_fk``)."""
 
-    def __init__(self, newton, model):
+    def __init__(self, newton, model, excluded: set[int]):
         jt = newton.JointType
         self.kinds = {"prismatic": int(jt.PRISMATIC), "revolute": int(jt.REVOLUTE),
                       "ball": int(jt.BALL), "d6": int(jt.D6),
@@ -276,24 +315,62 @@ class _JointLaw:
         # articulation follow, walked from what is posed
         self.order = [j for j in range(len(self.type)) if self.articulation[j] >= 0]
         self.by_eval_fk = np.ones(len(self.rest), dtype=bool)  # the bodies eval_fk poses
-        posed = {-1, *(int(b) for b in self.child[self.order])}
-        posed |= set(range(len(self.rest))) - {int(b) for b in self.child}
-        left = [j for j in range(len(self.type)) if self.articulation[j] < 0]
+        # breadth first from the world and what is posed, each body's joints in Newton's
+        # order (the stage's), either way (a joint walked from its body1 runs backwards), as
+        # our USD reader walks them: a joint reaching a body posed already closes a loop and
+        # is not posed (nor a joint of the probe); one the file excludes from the
+        # articulation (physics:excludeFromArticulation) walked last; a body no walk
+        # reaches (the first in Newton's order) stands where the file puts it, a root
+        self.forward = {j: True for j in self.order}
+        posed = [-1, *(int(b) for b in self.child[self.order])]
+        posed += [b for b in range(len(self.rest)) if b not in set(self.child)]
+        reached = set(posed)
         while True:
-            ready = [j for j in left if self.parent[j] in posed and self.child[j] not in posed]
-            if not ready:
+            for walked_too in (set(), excluded):
+                frontier = collections.deque(posed)
+                while frontier:
+                    body = frontier.popleft()
+                    for j in range(len(self.type)):
+                        if j in self.forward or self.articulation[j] >= 0 \
+                                or (j in excluded and j not in walked_too):
+                            continue
+                        if self.parent[j] == body and self.child[j] not in reached:
+                            self.forward[j], new = True, int(self.child[j])
+                        elif self.child[j] == body and self.parent[j] >= 0 \
+                                and self.parent[j] not in reached:
+                            self.forward[j], new = False, int(self.parent[j])
+                        else:
+                            continue
+                        self.order.append(j)
+                        self.by_eval_fk[new] = False
+                        reached.add(new)
+                        posed.append(new)
+                        frontier.append(new)
+            root = next((b for b in range(len(self.rest)) if b not in reached), None)
+            if root is None:
                 break
-            j = ready[0]
-            self.order.append(j)
-            self.by_eval_fk[self.child[j]] = False
-            posed.add(int(self.child[j]))
-            left.remove(j)
+            reached.add(root)
+            posed.append(root)
+        # each body's frame -> its part frame: to its joint's anchor on its side
+        self.offset = np.zeros((len(self.rest), 3))
+        for j in self.order:
+            if self.forward[j]:
+                self.offset[self.child[j]] = np.linalg.inv(self.x_c_inv[j])[:3, 3]
+            else:
+                self.offset[self.parent[j]] = self.x_p[j][:3, 3]
+        self.posed_joints = set(self.order)
+        self.at_world: list[int] = []  # bodies whose part frame is the world's (_build)
 
     def body_poses(self, q: np.ndarray) -> np.ndarray:
         world = self.rest.copy()
         for j in self.order:
-            parent = world[self.parent[j]] if self.parent[j] >= 0 else np.eye(4)
-            world[self.child[j]] = parent @ self.x_p[j] @ self._motion(j, q) @ self.x_c_inv[j]
+            if self.forward[j]:
+                parent = world[self.parent[j]] if self.parent[j] >= 0 else np.eye(4)
+                world[self.child[j]] = parent @ self.x_p[j] @ self._motion(j, q) \
+                    @ self.x_c_inv[j]
+            else:
+                world[self.parent[j]] = world[self.child[j]] @ np.linalg.inv(
+                    self.x_p[j] @ self._motion(j, q) @ self.x_c_inv[j])
         return world
 
     def _motion(self, j: int, q: np.ndarray) -> np.ndarray:
