@@ -154,11 +154,12 @@ def test_newton_is_no_reference_for_stacked_joints_it_reorders(tmp_path):
     reader's); Newton merges them in its parser's order: where that differs, refused."""
     from pxr import Usd, UsdPhysics
 
-    from real2code_export.probes.newton import _refuse_reordered_stacks
+    from real2code_export.probes.newton import _refuse_reordered_stacks, stage_order
 
     stage = Usd.Stage.CreateInMemory()
     for name in ("hip_x", "hip_z", "hip_y"):
         UsdPhysics.RevoluteJoint.Define(stage, f"/body/{name}")
-    _refuse_reordered_stacks(stage, [["/body/hip_x", "/body/hip_z", "/body/hip_y"]])
+    order = stage_order(stage)
+    _refuse_reordered_stacks(order, [["/body/hip_x", "/body/hip_z", "/body/hip_y"]])
     with pytest.raises(ValueError, match="Newton merges them as hip_x, hip_y, hip_z"):
-        _refuse_reordered_stacks(stage, [["/body/hip_x", "/body/hip_y", "/body/hip_z"]])
+        _refuse_reordered_stacks(order, [["/body/hip_x", "/body/hip_y", "/body/hip_z"]])

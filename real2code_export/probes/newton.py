@@ -152,6 +152,8 @@ def _build(path: str):
         prim = stage.GetPrimAtPath(label) if label.startswith("/") else None
         return prim if prim else None
 
+    places = stage_order(stage)
+
     def name_of(prim_path: str) -> str:
         prim = prim_of(prim_path)
         return source_name(prim) if prim else prim_path.rsplit("/", 1)[-1]
@@ -167,17 +169,17 @@ def _build(path: str):
     # each degree of freedom's prim, as Newton records it for MuJoCo's actuators: a joint's
     # own path; a D6 prim's "<path>:rotX"; each prim of a merged stack its own path
     dof_label = builder.custom_attributes["mujoco:joint_dof_label"].values
-    _refuse_reordered_stacks(stage, [
+    _refuse_reordered_stacks(places, [
         [str(dof_label.get(int(qd_start[j]) + k, label)).partition(":")[0]
          for k in range(int(dof_dim[j].sum()))] for j, label in enumerate(model.joint_label)])
     law = _JointLaw(newton, model, {
         j for j, label in enumerate(model.joint_label)
         if (prim := prim_of(label)) is not None
         and (attr := prim.GetAttribute("physics:excludeFromArticulation")) and attr.Get()})
-    parts = [name_of(label) for label in model.body_label]
-    if len(set(parts)) != len(parts):
-        raise ValueError(f"rigid body names are not unique: {sorted(parts)}")
+    parts = _unique([name_of(label) for label in model.body_label],
+                    [places.get(label, -1) for label in model.body_label])
     setters = []  # (joint name, kind, lower, upper, index into joint_q, scale to Newton's)
+    setter_order = []  # each one's prim's place in the stage
     for j, label in enumerate(model.joint_label):
         kind = int(types[j])
         if kind not in (jtype.REVOLUTE, jtype.PRISMATIC, jtype.D6) or j not in law.posed_joints:
@@ -197,6 +199,9 @@ def _build(path: str):
             dof_kind = ("revolute" if limited else "continuous") if angular else "prismatic"
             setters.append((name, dof_kind, lo * scale if limited else None,
                             hi * scale if limited else None, int(q_start[j]) + k, scale))
+            setter_order.append(places.get(prim_path, -1))
+    for k, name in enumerate(_unique([x[0] for x in setters], setter_order)):
+        setters[k] = (name, *setters[k][1:])
     masses = dict(zip(parts, model.body_mass.numpy().astype(float).tolist(), strict=True))
     head = {"parts": parts,
             "joints": [{"name": n, "kind": k, "lower": lo, "upper": hi}
@@ -210,6 +215,18 @@ def _build(path: str):
     law.at_world = [int(child[j]) for j in to_world
                     if len(to_world) == 1 and int(types[j]) == jtype.FIXED]
     return newton, model, law, setters, mpu, head
+
+
+def _unique(names: list[str], places: list[int]) -> list[str]:
+    """``names`` made identifiers and unique as our reader makes them: in the stage's order
+    (``places``: each one's prim's place in it), a repeated name suffixed ``_1``, ``_2``."""
+    from ..model import sanitize_name
+
+    taken: set[str] = set()
+    unique = [""] * len(names)
+    for k in sorted(range(len(names)), key=lambda k: places[k]):  # (stable: a D6's axes)
+        unique[k] = sanitize_name(names[k], taken)
+    return unique
 
 
 def _refuse_locked_axes(stage) -> None:
@@ -229,17 +246,21 @@ def _refuse_locked_axes(stage) -> None:
                              "free (no PhysicsLimitAPI), which Newton's importer locks")
 
 
-def _refuse_reordered_stacks(stage, dof_prims: list[list[str]]) -> None:
+def stage_order(stage) -> dict[str, int]:
+    """Each prim path's place in the stage's traversal (instance proxies too)."""
+    from pxr import Usd
+
+    return {str(p.GetPath()): k for k, p in enumerate(
+        Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()))}
+
+
+def _refuse_reordered_stacks(order: dict[str, int], dof_prims: list[list[str]]) -> None:
     """Joints stacked between the same two bodies (mujoco-usd-converter's MJCF body of
     several joints) turn one after the other in the stage's order, as MuJoCo applies a
     body's joints and our reader chains them; Newton 1.8 merges them into one D6 in
     UsdPhysics' parse order, its linear axes first (``dof_prims``: per Newton joint, each
     degree of freedom's prim). Where the orders differ, its model turns the body otherwise
-    than the file does, and is no reference for it."""
-    from pxr import Usd
-
-    order = {str(p.GetPath()): k for k, p in enumerate(
-        Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()))}
+    than the file does, and is no reference for it (``order``: :func:`stage_order`)."""
     for prims in dof_prims:
         stack = list(dict.fromkeys(prims))
         if len(stack) > 1 and all(p in order for p in stack):
