@@ -30,6 +30,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,6 @@ from ..errors import CheckError
 from . import JointInfo
 
 LABEL = "Newton (USD)"
-# what the server prints on its first line: the parts, the joints and how to set them
 _UNLIMITED = 1e9  # Newton's "no limit" is +-1e10 (its JOINT_LIMIT_UNLIMITED)
 
 
@@ -57,15 +57,15 @@ class NewtonProbe:
                 f"venv at {ENGINES_VENV.default_python.parents[1]} (run {ENGINES_VENV.setup}, "
                 f"or name its Python in {ENGINES_VENV.override})")
         env = {**os.environ, "PYTHONPATH": str(REPO)}
+        # (what warp and USD print, to a file: a pipe nobody reads would fill and stall it)
+        self._stderr = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 - closed with the probe
         self._process = subprocess.Popen(
             [str(python), "-m", __name__], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, env=env)
+            stderr=self._stderr, text=True, env=env)
         head = self._ask({"path": str(path)})
         self.parts: list[str] = head["parts"]
         self.joints = [JointInfo(j["name"], j["kind"], j["lower"], j["upper"])
                        for j in head["joints"]]
-        self.masses: dict[str, float] = head["masses"]  # part -> kg (Newton's reading)
-        self.warnings: list[str] = head["warnings"]
 
     def _ask(self, request: dict) -> dict:
         assert self._process.stdin is not None and self._process.stdout is not None
@@ -77,23 +77,31 @@ class NewtonProbe:
         line = self._process.stdout.readline()
         if not line:
             self._process.wait()
-            raise CheckError(f"{self.path}: Newton could not load it: {_last_line(self._process)}")
+            raise CheckError(f"{self.path}: Newton could not load it: {self._last_line()}")
         answer = json.loads(line)
         if "error" in answer:
             self.close()
             raise CheckError(f"{self.path}: Newton refuses it: {answer['error']}")
         return answer
 
+    def _last_line(self) -> str:
+        self._stderr.seek(0)
+        lines = [line for line in self._stderr.read().splitlines() if line.strip()]
+        return lines[-1] if lines else f"exit status {self._process.returncode}"
+
     def close(self) -> None:
         if self._process.poll() is None:
             self._process.stdin.close()
             self._process.wait()
+        self._stderr.close()
 
-    def __del__(self):
+    def __del__(self):  # (the process ends with the probe)
         process = getattr(self, "_process", None)
         if process is not None and process.poll() is None:
             process.kill()
             process.wait()
+        if hasattr(self, "_stderr"):
+            self._stderr.close()
 
     def poses(self, q: dict[str, float]) -> dict[str, np.ndarray]:
         values = [float(q.get(j.name, 0.0)) for j in self.joints]
@@ -105,12 +113,6 @@ class NewtonProbe:
         answer = self._ask({"values": values.tolist()})
         return np.asarray(answer["poses"], dtype=float).reshape(len(values), len(self.parts),
                                                                 4, 4)
-
-
-def _last_line(process) -> str:
-    text = process.stderr.read() if process.stderr is not None else ""
-    lines = [line for line in text.strip().splitlines() if line.strip()]
-    return lines[-1] if lines else f"exit status {process.returncode}"
 
 
 def open_probes(path: str | Path) -> list[NewtonProbe]:
@@ -134,8 +136,8 @@ def _build(path: str):
     # MuJoCo's attributes registered: the importer then records each degree of freedom's
     # prim (``mujoco:joint_dof_label``) and shifts limits by ``mjc:ref`` (undone)
     newton.solvers.SolverMuJoCo.register_custom_attributes(builder)
-    with warnings.catch_warnings(record=True) as said:
-        warnings.simplefilter("always")
+    with warnings.catch_warnings():  # (its notes on what it does not import: ours say them)
+        warnings.simplefilter("ignore")
         result = builder.add_usd(path, collapse_fixed_joints=False, load_visual_shapes=False,
                                  skip_mesh_approximation=True)
     _unshift_limits(builder)
@@ -202,11 +204,10 @@ def _build(path: str):
             setter_order.append(places.get(prim_path, -1))
     for k, name in enumerate(_unique([x[0] for x in setters], setter_order)):
         setters[k] = (name, *setters[k][1:])
-    masses = dict(zip(parts, model.body_mass.numpy().astype(float).tolist(), strict=True))
     head = {"parts": parts,
             "joints": [{"name": n, "kind": k, "lower": lo, "upper": hi}
                        for n, k, lo, hi, _, _ in setters],
-            "masses": masses, "warnings": [str(w.message) for w in said]}
+            }
     # The file's one joint to the world, fixed: its body is the model's root part, whose
     # frame is the world's (our readers' convention: the MJCF writer makes it the world
     # body), where Newton's body stands at the joint's frame
