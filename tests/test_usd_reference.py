@@ -7,6 +7,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from real2code_export.check import check_files
@@ -163,3 +164,21 @@ def test_newton_is_no_reference_for_stacked_joints_it_reorders(tmp_path):
     _refuse_reordered_stacks(order, [["/body/hip_x", "/body/hip_z", "/body/hip_y"]])
     with pytest.raises(ValueError, match="Newton merges them as hip_x, hip_y, hip_z"):
         _refuse_reordered_stacks(order, [["/body/hip_x", "/body/hip_y", "/body/hip_z"]])
+
+
+def test_newton_is_no_reference_for_two_rotations_at_a_skew(tmp_path):
+    """Two hinges of one body about axes not at 90 degrees (the softfoot's, through
+    mujoco-usd-converter): Newton's D6 law orthonormalises them, so refused."""
+    from types import SimpleNamespace
+
+    from real2code_export.probes.newton import _refuse_skew_axes
+
+    def model(axis_1):
+        arrays = {"joint_type": [6], "joint_dof_dim": [[0, 2]], "joint_qd_start": [0],
+                  "joint_axis": [[1.0, 0.0, 0.0], axis_1]}
+        return SimpleNamespace(**{k: SimpleNamespace(numpy=lambda v=v: np.array(v))
+                                  for k, v in arrays.items()})
+
+    _refuse_skew_axes(model([0.0, 1.0, 0.0]), 6, ["knee"])
+    with pytest.raises(ValueError, match="joint 'knee': two rotations about axes 45 degrees"):
+        _refuse_skew_axes(model([0.7071068, 0.7071068, 0.0]), 6, ["knee"])

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import collections
 import json
+import math
 import os
 import subprocess
 import sys
@@ -136,10 +137,15 @@ def _build(path: str):
     # MuJoCo's attributes registered: the importer then records each degree of freedom's
     # prim (``mujoco:joint_dof_label``) and shifts limits by ``mjc:ref`` (undone)
     newton.solvers.SolverMuJoCo.register_custom_attributes(builder)
-    with warnings.catch_warnings():  # (its notes on what it does not import: ours say them)
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings(record=True) as said:  # (its notes on what it does not
+        warnings.simplefilter("always")  # import, ours say; one of them is a refusal here)
         result = builder.add_usd(path, collapse_fixed_joints=False, load_visual_shapes=False,
                                  skip_mesh_approximation=True)
+    # joints stacked between two bodies at different anchors: Newton merges them into one D6
+    # at the first one's anchor, so it turns the body otherwise than the file
+    moved = [str(w.message) for w in said if "different anchor positions" in str(w.message)]
+    if moved:
+        raise ValueError(moved[0])
     _unshift_limits(builder)
     # a stage without an articulation root: Newton keeps its joints for its maximal-
     # coordinate solvers, outside any articulation (finalize's joint validation refuses them;
@@ -174,6 +180,7 @@ def _build(path: str):
     _refuse_reordered_stacks(places, [
         [str(dof_label.get(int(qd_start[j]) + k, label)).partition(":")[0]
          for k in range(int(dof_dim[j].sum()))] for j, label in enumerate(model.joint_label)])
+    _refuse_skew_axes(model, jtype.D6, [name_of(label) for label in model.joint_label])
     law = _JointLaw(newton, model, {
         j for j, label in enumerate(model.joint_label)
         if (prim := prim_of(label)) is not None
@@ -206,8 +213,7 @@ def _build(path: str):
         setters[k] = (name, *setters[k][1:])
     head = {"parts": parts,
             "joints": [{"name": n, "kind": k, "lower": lo, "upper": hi}
-                       for n, k, lo, hi, _, _ in setters],
-            }
+                       for n, k, lo, hi, _, _ in setters]}
     # The file's one joint to the world, fixed: its body is the model's root part, whose
     # frame is the world's (our readers' convention: the MJCF writer makes it the world
     # body), where Newton's body stands at the joint's frame
@@ -215,6 +221,12 @@ def _build(path: str):
                 if model.joint_parent.numpy()[j] < 0 and prim_of(label) is not None]
     law.at_world = [int(child[j]) for j in to_world
                     if len(to_world) == 1 and int(types[j]) == jtype.FIXED]
+    # Newton's eval_fk and the law read here agree, or the file is refused when it opens
+    # (not midway through a check): a few configurations within the ranges
+    low = [lo if lo is not None else -1.0 for _, _, lo, _, _, _ in setters]
+    high = [hi if hi is not None else 1.0 for _, _, _, hi, _, _ in setters]
+    _poses(newton, model, law, setters, mpu, np.random.default_rng(0).uniform(
+        low, high, size=(_SELF_CHECKS, len(setters))))
     return newton, model, law, setters, mpu, head
 
 
@@ -245,6 +257,25 @@ def _refuse_locked_axes(stage) -> None:
         if locked:
             raise ValueError(f"generic joint <{prim.GetPath()}> leaves {', '.join(locked)} "
                              "free (no PhysicsLimitAPI), which Newton's importer locks")
+
+
+def _refuse_skew_axes(model, d6: int, names: list[str]) -> None:
+    """Newton's law for a D6 of two rotations orthonormalises its axes (``articulation.
+    transform_2d_rotational_axes``: a frame from the axes' matrix), of three takes them as
+    given: two hinges of one MJCF body at an angle other than 90 degrees, which MuJoCo turns
+    about the axes as they are, turn otherwise in Newton, whose model is then not the file's."""
+    types, dims = model.joint_type.numpy(), model.joint_dof_dim.numpy()
+    starts, axes = model.joint_qd_start.numpy(), model.joint_axis.numpy().astype(float)
+    for j, name in enumerate(names):
+        n_lin, n_ang = (int(n) for n in dims[j])
+        if int(types[j]) != d6 or n_ang != 2:
+            continue
+        a0, a1 = axes[int(starts[j]) + n_lin], axes[int(starts[j]) + n_lin + 1]
+        cosine = float(a0 @ a1 / (np.linalg.norm(a0) * np.linalg.norm(a1)))
+        if abs(cosine) > 1e-6:
+            raise ValueError(
+                f"joint {name!r}: two rotations about axes {math.degrees(math.acos(cosine)):.4g} "
+                "degrees apart, which Newton's D6 joint law makes orthogonal")
 
 
 def stage_order(stage) -> dict[str, int]:
@@ -307,6 +338,7 @@ def _poses(newton, model, law, setters, mpu, values) -> list:
     return out
 
 
+_SELF_CHECKS = 4  # configurations posed both ways when the file opens
 # float32 kinematics against float64 over a chain of a few dozen joints: a few 1e-6 relative
 _FLOAT32_AGREEMENT = 1e-4
 
