@@ -4,6 +4,7 @@ joint is caught against the source, not only against our own reading of it."""
 
 from __future__ import annotations
 
+import math
 import warnings
 from pathlib import Path
 
@@ -24,7 +25,7 @@ def _needs_newton() -> None:
 
 def _robot(path: Path, hinge_height: float = 10.0, free_axis: bool = False) -> Path:
     """A stage in centimetres: a base welded to the world, an arm on a limited hinge about
-    Z, a slide along X and a wrist on a generic joint (D6) of two limited rotations, the
+    Z, a slide along X and a wrist on a generic joint (D6) of two rotations, one limited, the
     other axes locked (``free_axis``: rotZ left without a limit, free as the schema says)."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
@@ -70,7 +71,8 @@ def _robot(path: Path, hinge_height: float = 10.0, free_axis: bool = False) -> P
     slide.CreateLowerLimitAttr(0.0)
     slide.CreateUpperLimitAttr(15.0)
     wrist = joint(UsdPhysics.Joint, "wrist_joint", "slider", "wrist", (0, 0, -5)).GetPrim()
-    ranges = {"rotX": (-30.0, 30.0), "rotY": (-45.0, 45.0), "transX": (1.0, -1.0),
+    # (rotY: a limit of +-inf, unlimited, which Newton keeps as +-1e10 degrees)
+    ranges = {"rotX": (-30.0, 30.0), "rotY": (-math.inf, math.inf), "transX": (1.0, -1.0),
               "transY": (1.0, -1.0), "transZ": (1.0, -1.0), "rotZ": (1.0, -1.0)}
     if free_axis:
         del ranges["rotZ"]

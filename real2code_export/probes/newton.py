@@ -40,7 +40,9 @@ from ..errors import CheckError
 from . import JointInfo
 
 LABEL = "Newton (USD)"
-_UNLIMITED = 1e9  # Newton's "no limit" is +-1e10 (its JOINT_LIMIT_UNLIMITED)
+# Newton's "no limit": +-1e10 (JOINT_LIMIT_UNLIMITED), or the USD importer's +-inf degrees
+# clamped to +-1e10 degrees and turned to radians (1.7e8)
+_UNLIMITED = 1e7
 
 
 class NewtonProbe:
