@@ -1,27 +1,30 @@
 """A USD source as Newton reads it (``check --reference``, ``export --check``): Newton 1.8's
-own USD importer (``ModelBuilder.add_usd``) builds the model, its forward kinematics
-(``newton.eval_fk``) poses every body, in the engines venv (``dynamics.venv``: Newton pins
-usd-core < 26.9), one process per check: the probe starts it when it opens the file, sends it
-every configuration at once and reads the poses back (JSON lines on stdin and stdout).
+own USD importer (``ModelBuilder.add_usd``) builds its model, whose joints' frames, axes,
+types, tree, limits and rest coordinates pose every body by Newton's joint law (``eval_fk``'s)
+in float64; Newton's ``eval_fk`` itself (float32: ~1e-6 m off over a humanoid's chain) must
+agree to 1e-4, else the file is refused. It runs in the engines venv (``dynamics.venv``:
+Newton pins usd-core < 26.9), one process per check: the probe starts it when it opens the
+file, sends it every configuration at once and reads the poses back (JSON lines on stdin
+and stdout).
 
 What of Newton's model becomes the probe's parts and joints (docs/formats.md, "check
 --reference"):
 
-- a body is the part named as our USD reader names its prim (``conventions.source_name``:
-  the prim's name, or its ``displayName`` for usd-exchange's ``tn__`` encoding); its pose
-  is its frame moved to its parent joint's anchor on its side (the translation of Newton's
-  ``joint_X_c``), the model's "part frame = joint frame";
-- a revolute or prismatic joint is the joint named as its prim; a D6 joint (a USD
-  ``PhysicsJoint``, or joints stacked between the same two bodies, which Newton merges)
-  gives a joint per degree of freedom, named ``<joint>_<axis>`` (``hip_rotX``) as our reader
-  splits it, or the prim's name when it has one; a merged stack names each degree by the
-  prim it came from. Free, ball and fixed joints have no joint value: held where Newton
-  starts them (a free body where the stage puts it, a ball at its frames' rest);
-- Newton keeps the stage's units (metersPerUnit is "not supported": warned, not applied),
-  so positions and prismatic values are scaled to metres here.
+- a body is the part named as our USD reader names its prim (``conventions.source_name``,
+  made unique in the stage's order); its pose is its frame moved to its parent joint's
+  anchor on its side, the model's "part frame = joint frame"; a body the file welds to the
+  world with its only joint to the world is the root part, at the world's frame;
+- a revolute or prismatic joint is the joint named as its prim; a D6 of several degrees of
+  freedom gives ``<joint>_<axis>`` (``hip_rotX``) as our reader splits it; joints stacked
+  between two bodies, which Newton merges into one D6, each their prim's name. Free, ball
+  and fixed joints have no joint value: held where Newton starts them;
+- joints of no articulation (a stage without an articulation root), which ``eval_fk`` does
+  not pose, are walked from the world as our reader walks them;
+- Newton keeps the stage's units (metersPerUnit is "not supported": warned, not applied):
+  positions and prismatic values are scaled to metres here.
 
-Newton's kinematics run in float32 (warp's transforms): the poses carry its rounding, ~1e-7
-relative to the distances in the chain (measured in docs/corpora.md)."""
+Where Newton's model is not the file's (an axis it locks, a stack it reorders or merges at
+one anchor, two rotations at a skew) the file is refused with the reason."""
 
 from __future__ import annotations
 
