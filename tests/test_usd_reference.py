@@ -36,7 +36,8 @@ def _robot(path: Path, hinge_height: float = 10.0, free_axis: bool = False) -> P
     stage.SetDefaultPrim(root)
     UsdPhysics.ArticulationRootAPI.Apply(root)
     places = {"base": (0, 0, 0), "arm": (0, 0, hinge_height), "slider": (20, 0, hinge_height),
-              "wrist": (20, 0, hinge_height - 5)}
+              "wrist": (20, 0, hinge_height - 5), "finger": (25, 0, hinge_height - 5),
+              "thumb": (20, 5, hinge_height - 5)}
     for name, place in places.items():
         body = UsdGeom.Xform.Define(stage, f"/robot/{name}")
         body.AddTranslateOp().Set(Gf.Vec3d(*place))
@@ -70,6 +71,14 @@ def _robot(path: Path, hinge_height: float = 10.0, free_axis: bool = False) -> P
     slide.CreateAxisAttr("X")
     slide.CreateLowerLimitAttr(0.0)
     slide.CreateUpperLimitAttr(15.0)
+    # urdf-usd-converter's forms: a hinge whose limits are both 0 (held there: a fixed
+    # joint), one at URDF's "no limit" (+-1e16 rad, in degrees), which Newton clamps
+    for name, at, bound in (("finger", (5, 0, 0), (0.0, 0.0)), ("thumb", (0, 5, 0), (-5.729578e17,
+                                                                                     5.729578e17))):
+        held = joint(UsdPhysics.RevoluteJoint, f"{name}_joint", "wrist", name, at)
+        held.CreateAxisAttr("Y")
+        held.CreateLowerLimitAttr(bound[0])
+        held.CreateUpperLimitAttr(bound[1])
     wrist = joint(UsdPhysics.Joint, "wrist_joint", "slider", "wrist", (0, 0, -5)).GetPrim()
     # (rotY: a limit of +-inf, unlimited, which Newton keeps as +-1e10 degrees)
     ranges = {"rotX": (-30.0, 30.0), "rotY": (-math.inf, math.inf), "transX": (1.0, -1.0),

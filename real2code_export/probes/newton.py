@@ -194,6 +194,7 @@ def _build(path: str):
                     [places.get(label, -1) for label in model.body_label])
     setters = []  # (joint name, kind, lower, upper, index into joint_q, scale to Newton's)
     setter_order = []  # each one's prim's place in the stage
+    held = []  # (index into joint_q, value): a degree of freedom whose limits are equal
     for j, label in enumerate(model.joint_label):
         kind = int(types[j])
         if kind not in (jtype.REVOLUTE, jtype.PRISMATIC, jtype.D6) or j not in law.posed_joints:
@@ -207,9 +208,14 @@ def _build(path: str):
             if axis and len(labels) > 1:  # a D6 prim's axis, split as our reader splits it
                 name = f"{name}_{axis}"
             angular = kind == jtype.REVOLUTE or (kind == jtype.D6 and k >= n_lin)
-            lo, hi = lower[dof], upper[dof]
-            limited = abs(lo) < _UNLIMITED and abs(hi) < _UNLIMITED
+            lo, hi = (_authored_limit(prim_of(prim_path), axis, side, angular)
+                      if abs(value) >= _UNLIMITED else value
+                      for side, value in (("low", lower[dof]), ("high", upper[dof])))
+            limited = lo is not None and hi is not None
             scale = 1.0 if angular else mpu
+            if limited and lo == hi:  # held there (PhysX and Newton): no joint, as our
+                held.append((int(q_start[j]) + k, lo))  # reader reads it (a fixed joint)
+                continue
             dof_kind = ("revolute" if limited else "continuous") if angular else "prismatic"
             setters.append((name, dof_kind, lo * scale if limited else None,
                             hi * scale if limited else None, int(q_start[j]) + k, scale))
@@ -226,13 +232,32 @@ def _build(path: str):
                 if model.joint_parent.numpy()[j] < 0 and prim_of(label) is not None]
     law.at_world = [int(child[j]) for j in to_world
                     if len(to_world) == 1 and int(types[j]) == jtype.FIXED]
+    rest = model.joint_q.numpy()
+    for index, value in held:
+        rest[index] = value
+    model.joint_q.assign(rest)
     # Newton's eval_fk and the law read here agree, or the file is refused when it opens
-    # (not midway through a check): a few configurations within the ranges
-    low = [lo if lo is not None else -1.0 for _, _, lo, _, _, _ in setters]
-    high = [hi if hi is not None else 1.0 for _, _, _, hi, _, _ in setters]
+    # (not midway through a check): a few configurations within the ranges (and within a
+    # turn or a metre, as the check samples an unbounded joint)
+    low = [max(lo, -math.pi) if lo is not None else -1.0 for _, _, lo, _, _, _ in setters]
+    high = [min(hi, math.pi) if hi is not None else 1.0 for _, _, _, hi, _, _ in setters]
     _poses(newton, model, law, setters, mpu, np.random.default_rng(0).uniform(
         low, high, size=(_SELF_CHECKS, len(setters))))
     return newton, model, law, setters, mpu, head
+
+
+def _authored_limit(prim, axis: str, side: str, angular: bool) -> float | None:
+    """A limit Newton clamps to +-1e10 (degrees for a rotation) as the file authors it, in
+    Newton's units (radians, stage units): +-inf, or none, is no limit; a finite one (the
+    +-1e16 rad of URDF's "no limit", in degrees, as urdf-usd-converter writes it) is kept,
+    as our reader keeps it."""
+    name = f"limit:{axis}:physics:{side}" if axis else \
+        f"physics:{'lowerLimit' if side == 'low' else 'upperLimit'}"
+    attr = prim.GetAttribute(name) if prim is not None else None
+    value = attr.Get() if attr else None
+    if value is None or not math.isfinite(value):
+        return None
+    return math.radians(value) if angular else float(value)
 
 
 def _unique(names: list[str], places: list[int]) -> list[str]:
