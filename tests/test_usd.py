@@ -1849,3 +1849,46 @@ def test_creased_normals_face_cross_products_are_numpys():
     want = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     assert np.array_equal(_cross(vertices, faces), want)
     assert _cross(vertices, faces[:0]).shape == (0, 3)
+
+
+def test_joints_stacked_from_the_world_are_one_bodys_joints(tmp_path):
+    """An MJCF body of several joints in the worldbody (the Menagerie's umi_gripper), as
+    mujoco-usd-converter writes it: a slide and a hinge from the world (body0 unset) to the
+    same body, in MuJoCo's order. Read as a chain, as between two bodies; they were one
+    joint and a loop closer (a degree of freedom lost, the MJCF export an equality
+    ``connect``): the body stands where MuJoCo puts it at every configuration."""
+    import mujoco
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "gripper.usda"))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/gripper").GetPrim())
+    body = UsdGeom.Xform.Define(stage, "/gripper/body")
+    body.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 0.1))
+    UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+    mass = UsdPhysics.MassAPI.Apply(body.GetPrim())
+    mass.CreateMassAttr(1.0)
+    mass.CreateDiagonalInertiaAttr(Gf.Vec3f(0.01, 0.01, 0.01))
+    for name, schema, axis in (("slide_x", UsdPhysics.PrismaticJoint, "X"),
+                               ("turn_z", UsdPhysics.RevoluteJoint, "Z")):
+        joint = schema.Define(stage, f"/gripper/body/{name}")
+        joint.CreateBody1Rel().SetTargets(["/gripper/body"])
+        joint.CreateAxisAttr(axis)
+        joint.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 0.1))
+        joint.CreateLocalPos1Attr(Gf.Vec3f(0.0))
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        obj = usd.load(tmp_path / "gripper.usda")
+    assert not [w for w in caught if "kinematic loop" in str(w.message)]
+    assert [j.name for j in obj.movable_joints] == ["slide_x", "turn_z"]
+    m = mujoco.MjModel.from_xml_string("""<mujoco><worldbody><body name="body" pos="0 0 0.1">
+      <joint name="slide_x" type="slide" axis="1 0 0"/><joint name="turn_z" axis="0 0 1"/>
+      <inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/></body></worldbody>
+      </mujoco>""")
+    d = mujoco.MjData(m)
+    d.qpos[:] = [0.3, 0.7]
+    mujoco.mj_kinematics(m, d)
+    pose = forward_kinematics(obj, {"slide_x": 0.3, "turn_z": 0.7})["body"]
+    np.testing.assert_allclose(pose[:3, 3], d.xpos[1], atol=1e-7)
+    np.testing.assert_allclose(pose[:3, :3], d.xmat[1].reshape(3, 3), atol=1e-7)

@@ -105,15 +105,16 @@ def cmd_export(args) -> int:
     if not args.check:
         return EXIT_OK
     # --check: every export against the input file, loaded in its own tools when it has them
-    # (a URDF or MJCF source; other inputs are compared through the exports alone).
+    # (a URDF or MJCF source; a USD source in Newton where the engines venv is installed and
+    # Newton loads it, else warned; other inputs are compared through the exports alone).
     from ..check import check_files, format_table
 
     try:
         kind = format_for_path(args.input).name
     except Real2CodeError:  # a folder holding object.json
         kind = None
-    source = Path(args.input) if kind in ("urdf", "mjcf") else None
-    report = check_files(list(written.values()), source=source,
+    source = Path(args.input) if kind in ("urdf", "mjcf", "usd") else None
+    report = check_files(list(written.values()), source=source, source_required=kind != "usd",
                          n_configurations=args.configurations,
                          warned=[str(w.message) for w in said])
     print(format_table(report))

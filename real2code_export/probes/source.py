@@ -1,5 +1,5 @@
 """The user's own input file as the reference of ``check --reference``: loaded in its own
-tools (MuJoCo; Pinocchio too for a URDF), its names made the identifiers our importers make."""
+tools (MuJoCo; Pinocchio too for a URDF; Newton for USD), its names made the identifiers our importers make."""
 
 from __future__ import annotations
 
@@ -60,7 +60,8 @@ def _as_imported(joint: JointInfo) -> JointInfo:
 
 def open_source_probes(path: str | Path) -> list[Probe]:
     """Probes of a user's input file as the reference: MJCF in MuJoCo; URDF in MuJoCo (its
-    kinematics: MuJoCo reads neither ``package://`` nor Collada) and in Pinocchio."""
+    kinematics: MuJoCo reads neither ``package://`` nor Collada) and in Pinocchio; USD in
+    Newton (``probes.newton``: its importer and its joint law)."""
     path = Path(path)
     if not path.exists():
         raise CheckError(f"{path}: no such file")
@@ -70,9 +71,17 @@ def open_source_probes(path: str | Path) -> list[Probe]:
         kind = format_for_path(path).name
     except Real2CodeError:
         kind = None
-    if kind not in ("urdf", "mjcf"):
-        raise CheckError(f"{path}: a reference must be a URDF or MJCF file, "
+    if kind not in ("urdf", "mjcf", "usd"):
+        raise CheckError(f"{path}: a reference must be a URDF, MJCF or USD file, "
                          f"not {path.suffix.lower()!r}")
+    if kind == "usd":  # in Newton's own importer, in the engines venv (probes/newton.py)
+        from ..dynamics import EngineUnavailable
+        from . import newton as newton_probe
+
+        try:
+            return [SourceProbe(p) for p in newton_probe.open_probes(path)]
+        except EngineUnavailable as e:
+            raise CheckError(str(e)) from e
     from . import mujoco as mujoco_probe
 
     if kind == "mjcf":

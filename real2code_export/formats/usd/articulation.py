@@ -145,12 +145,13 @@ def _stacked(path, edges: list[Edge]) -> list[Edge]:
     bodies (body0 the same, body1 the same) gathered on the first (:attr:`Edge.stack`):
     mujoco-usd-converter writes an MJCF body's joints so, each about its own anchor, and
     MuJoCo applies them in order (Newton's importer merges them into one joint as well).
-    They were read as one joint and loop closers (degrees of freedom lost)."""
+    They were read as one joint and loop closers (degrees of freedom lost); so were those
+    from the world to a body (an MJCF body of several joints in the worldbody: the Menagerie's
+    umi_gripper) until session 32."""
     movable = (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
     groups: dict[tuple[str, str], list[Edge]] = {}
     for e in edges:
-        if e.dofs is None and e.kind in movable and WORLD not in (e.body0, e.body1) \
-                and not e.desc.excludeFromArticulation:
+        if e.dofs is None and e.kind in movable and not e.desc.excludeFromArticulation:
             groups.setdefault((e.body0, e.body1), []).append(e)
     out = []
     for e in edges:
