@@ -83,6 +83,7 @@ def pack(pieces: list[AtlasPiece]) -> Atlas:
     notes: list[str] = []
     tiles: dict[tuple, int] = {}  # (image, tint) or colour -> its index in ``images``
     images, uvs, tile_of = [], [], []
+    drawn: dict[tuple, object] = {}  # (image digest, tint) -> the image as drawn
     for piece in pieces:
         if piece.texture is None:
             key = ("colour", piece.color)
@@ -97,8 +98,10 @@ def pack(pieces: list[AtlasPiece]) -> Atlas:
         if piece.mesh.uv is None:
             raise ValueError(f"image {piece.texture.name!r} on faces without texture "
                              "coordinates")
-        image = _tinted(_decoded(piece.texture), piece.color)
-        image, uv = _unrolled(image, piece.mesh.uv, piece.texture.name, notes)
+        look = (piece.texture.digest, piece.color)  # (an image several pieces show: once)
+        if look not in drawn:
+            drawn[look] = _tinted(_decoded(piece.texture), piece.color)
+        image, uv = _unrolled(drawn[look], piece.mesh.uv, piece.texture.name, notes)
         key = ("image", image.size, image.tobytes())
         if key not in tiles:
             tiles[key] = len(images)
@@ -190,16 +193,14 @@ def _decoded(texture: Texture):
 
 def _tinted(image, color: RGBA):
     """The image as the tint draws it: each texel decoded, multiplied, encoded again (a white
-    tint leaves the pixels as they are)."""
-    from PIL import Image
-
+    tint leaves the pixels as they are), through one table of the 256 values per channel."""
     if all(c == 1.0 for c in color):
         return image
-    pixels = np.asarray(image, dtype=np.float64) / 255
-    rgb = linear_to_srgb(srgb_to_linear(pixels[..., :3]) * np.asarray(color[:3]))
-    alpha = pixels[..., 3:] * color[3]
-    return Image.fromarray(np.round(np.concatenate([rgb, alpha], axis=-1) * 255)
-                           .astype(np.uint8), "RGBA")
+    levels = np.arange(256) / 255
+    tables = [linear_to_srgb(srgb_to_linear(levels) * c) for c in color[:3]]
+    tables.append(levels * color[3])  # (alpha is linear)
+    lut = np.round(np.concatenate(tables) * 255).astype(np.uint8)
+    return image.point(lut.tolist())
 
 
 def _unrolled(image, uv: np.ndarray, name: str, notes: list[str]):
