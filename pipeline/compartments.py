@@ -1193,6 +1193,8 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 and turned_panel(cloud[labels == k], body, voxel, options,
                                  None if normals is None else normals[labels == k]) is None]
     grow = options.nested_margin_voxels * voxel
+    square = None if normals is None else \
+        np.abs(normals @ body.R) >= np.cos(np.radians(options.panel_min_angle))
     for k in parts:
         points = local[labels == k]
         for front in (f for f in standing if inside[f] < inside[k]):
@@ -1212,7 +1214,69 @@ def merge_behind(cloud: np.ndarray, labels: np.ndarray, voxel: float,
                 out[labels == k] = front
                 moved.append({"part": k, "points": len(points), "behind": front})
                 break
+        else:
+            shares = _behind_fronts(local, square, labels, k, [f for f in standing
+                                                               if inside[f] < inside[k]],
+                                    body.extent, voxel, options)
+            if shares:
+                index = np.nonzero(labels == k)[0]
+                for front, held in shares.items():
+                    out[index[held]] = front
+                moved.append({"part": k, "points": len(points),
+                              "behind": {f: int(h.sum()) for f, h in shares.items()}})
     return numbered_by_size(out), moved
+
+
+def _behind_fronts(local: np.ndarray, square: np.ndarray | None, labels: np.ndarray, k: int,
+                   fronts: list[int], extent: np.ndarray, voxel: float,
+                   options: CompartmentOptions) -> dict[int, np.ndarray]:
+    """The part ``k`` as the bodies of two or more parts standing out past one face side by
+    side (:func:`merge_behind`, one front's outline holding too little of it): two drawers
+    stacked and pulled out, the masks giving each its front and one label to the inside of
+    both (the lower's sides and floor, the upper's underside; on a clean ring a
+    5-drawer cabinet's such label held 898 points of one drawer and 345 of the next, with
+    no face of its own facing out). ``nested_share`` of its points within
+    ``nested_margin_voxels`` spacings of their points seen across the face, each front
+    holding at least ``1 - nested_share`` of them, its own front (the points but the ``1 -
+    enclosed_inside`` foremost) no more than ``behind_voxels`` spacings behind the face,
+    and no front of its own (:func:`_fronts`) apart on the face from every one of theirs (a
+    drawer of its own between two others has one). Returns, per front, which of ``k``'s
+    points lie nearest its outline, or {} (``square`` None: no normals, nothing told)."""
+    from scipy.spatial import cKDTree
+
+    if square is None or len(fronts) < 2:
+        return {}
+    index = np.nonzero(labels == k)[0]
+    margin = options.enclosed_margin_voxels * voxel
+    grow = options.nested_margin_voxels * voxel
+    for face in open_faces(local, labels, extent, margin, fronts):
+        on = [f for f in fronts if open_faces(local, labels, extent, margin, [f]) == [face]]
+        if len(on) < 2:
+            continue
+        a, sign = face
+        across = [b for b in range(3) if b != a]
+        depth = float(np.quantile(extent[a] - sign * local[index, a],
+                                  1.0 - options.enclosed_inside))
+        if depth > options.behind_voxels * voxel:
+            continue
+        gaps = np.stack([cKDTree(local[labels == f][:, across]).query(local[index][:, across])[0]
+                         for f in on])
+        nearest = np.argmin(gaps, axis=0)
+        within = gaps.min(axis=0) <= grow
+        held = {f: within & (nearest == i) for i, f in enumerate(on)}
+        if (within.mean() < options.nested_share
+                or sum(h.mean() >= 1.0 - options.nested_share for h in held.values()) < 2):
+            continue
+        theirs = [g for f in on for g in _fronts(local, square, np.nonzero(labels == f)[0],
+                                                 face, extent, voxel, options)]
+        own = _fronts(local, square, index, face, extent, voxel, options)
+        apart = options.nested_margin_voxels * voxel
+        if any(all(_apart(local[g][:, across], local[h][:, across], apart, options)
+                   for h in theirs) for g in own):
+            continue
+        near = np.argmin(gaps, axis=0)  # every point, within or not, to the nearest outline
+        return {f: near == i for i, f in enumerate(on) if np.any(near == i)}
+    return {}
 
 
 def _box(points: np.ndarray):

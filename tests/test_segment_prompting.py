@@ -1044,6 +1044,42 @@ def test_a_drawer_pulled_out_past_half_its_depth_is_one_part_again():
     assert (out[n[1]:] == out[n[1]]).all() and (out[:n[1]] == 1).all()
     assert moved == [{"part": 2, "points": len(body), "behind": 3}]
 
+def test_one_label_inside_two_stacked_drawers_goes_to_both():
+    """Two drawers stacked, both pulled 20 cm out of a carcass, each front (with its body's
+    foremost 15 cm) in a label of its own and the rest of both bodies (the lower one's floor
+    and sides, the upper one's) in one label, no face of its own facing out: no one front's
+    outline holds it, the two together do, so each of its points goes to the drawer whose
+    outline it lies in. Each body in its own label: nothing merges."""
+    from pipeline.compartments import merge_behind
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+
+    def drawer(bottom, top, lo, hi):  # floor and two sides between depths lo and hi
+        return [(_grid(hi - lo, 0.6, (lo, -0.3, bottom), x, y), z),
+                (_grid(hi - lo, top - bottom, (lo, -0.3, bottom), x, z), y),
+                (_grid(hi - lo, top - bottom, (lo, 0.3, bottom), x, z), y)]
+
+    shell, shell_n = _facing((_open_box(), x))
+    fronts = [_facing((_grid(0.6, 0.28, (0.5, -0.3, b), y, z), x), *drawer(b, b + 0.28, 0.36, 0.48))
+              for b in (-0.38, -0.06)]
+    inner = _facing(*drawer(-0.38, -0.1, 0.0, 0.34), *drawer(-0.06, 0.22, 0.0, 0.34))
+    pieces = [(shell, shell_n), *fronts, inner]
+    cloud = np.concatenate([p for p, _ in pieces])
+    normals = np.concatenate([n for _, n in pieces])
+    n = np.cumsum([0, *(len(p) for p, _ in pieces)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]], labels[n[3]:] = 2, 3, 4
+    out, moved = merge_behind(cloud, labels, 0.02, normals=normals)
+    lower = cloud[:, 2] <= -0.08
+    assert len(np.unique(out)) == 3 and (out[:n[1]] == 1).all()
+    assert (out[n[1]:][lower[n[1]:]] == out[n[1]]).all()
+    assert (out[n[1]:][~lower[n[1]:]] == out[n[2]]).all() and out[n[1]] != out[n[2]]
+    assert moved[0]["part"] == 4 and sorted(moved[0]["behind"]) == [2, 3]
+    # each body in its own front's label: nothing to merge
+    labels[n[3]:][cloud[n[3]:, 2] <= -0.09], labels[n[3]:][cloud[n[3]:, 2] > -0.09] = 2, 3
+    assert merge_behind(cloud, labels, 0.02, normals=normals)[1] == []
+
+
 def _facing(*pieces):
     """Points and their normals: (points, normal) pieces concatenated."""
     return (np.concatenate([p for p, _ in pieces]),
