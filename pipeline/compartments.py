@@ -250,6 +250,8 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     moved += shell
     labels, seams = return_seam_strips(seg.points, labels, seg.spacing, options)
     moved += seams
+    labels, pieces = return_frontless_pieces(seg.points, labels, seg.spacing, options, normals)
+    moved += pieces
     labels, settled = settle(seg.points, labels, seg.spacing, options)
     moved += settled
     if not moved:  # the labels stand (already numbered by size): no views to redo
@@ -1795,6 +1797,68 @@ def return_seam_strips(cloud: np.ndarray, labels: np.ndarray, voxel: float,
             continue
         out[index] = out[others[nearest]]
         moved.append({"part": k, "points": len(index), "seam_strip": True})
+    return numbered_by_size(out), moved
+
+
+def return_frontless_pieces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
+                            options: CompartmentOptions = CompartmentOptions(),
+                            normals: np.ndarray | None = None) -> tuple[np.ndarray, list[dict]]:
+    """A label standing out of the carcass's box with no front of its own on the face it
+    stands out past (:func:`_fronts`) and no swung panel (:func:`turned_panel`), lying in
+    the outlines of parts with fronts on that face or in the carcass's box, is pieces of
+    them, given back point by point, each point to the nearest point of those parts or the
+    carcass: a moving part shows a front or a panel. The pieces the masks cut from pulled-out
+    drawers that no earlier rule joined (on the phone-LiDAR ring a table's 74-point label,
+    46 points of a drawer's side and 27 of a divider behind it, 0.81 in the drawer's
+    outline; on its clean ring a 51-point patch of a drawer's floor, what was left of a
+    label once the carcass's points in it went back) each kept a slide. Within an outline:
+    within ``nested_margin_voxels`` spacings of the part's points seen across the face, a
+    part counted where it holds at least ``1 - nested_share`` of the label; in all
+    ``nested_share`` of the label in the outlines or the box (grown by
+    ``enclosed_margin_voxels`` spacings). A door swung square lies beside the opening, out
+    of the other parts' outlines. Needs the measured ``normals``. Returns the labels,
+    renumbered by size, and what moved."""
+    from scipy.spatial import cKDTree
+
+    out = labels.copy()
+    moved: list[dict] = []
+    frame = _carcass_frame(cloud, labels, voxel, options, normals)
+    if frame is None:
+        return out, moved
+    body, local, square = frame
+    margin = options.enclosed_margin_voxels * voxel
+    grow = options.nested_margin_voxels * voxel
+    parts = [k for k in range(2, int(labels.max()) + 1) if np.count_nonzero(labels == k) >= 4]
+    inside = {k: float(body.contains(cloud[labels == k], tol=margin).mean()) for k in parts}
+    standing = [k for k in parts if inside[k] < options.enclosed_inside
+                and turned_panel(cloud[labels == k], body, voxel, options,
+                                 normals[labels == k]) is None]
+    faces = {k: open_faces(local, labels, body.extent, margin, [k]) for k in standing}
+    fronted = {k: bool(faces[k]) and bool(_fronts(local, square, np.nonzero(labels == k)[0],
+                                                  faces[k][0], body.extent, voxel, options))
+               for k in standing}
+    for k in standing:
+        if fronted[k] or not faces[k]:
+            continue
+        a = faces[k][0][0]
+        across = [b for b in range(3) if b != a]
+        index = np.nonzero(labels == k)[0]
+        held, within = [], np.zeros(len(index), bool)
+        for f in standing:
+            if f == k or not fronted[f] or faces[f] != faces[k]:
+                continue
+            near = np.isfinite(cKDTree(local[labels == f][:, across]).query(
+                local[index][:, across], distance_upper_bound=grow)[0])
+            if near.mean() >= 1.0 - options.nested_share:
+                held.append(f)
+                within |= near
+        in_box = body.contains(cloud[index], tol=margin)
+        if not held or np.mean(within | in_box) < options.nested_share:
+            continue
+        owners = np.nonzero(np.isin(labels, [1, *held]))[0]
+        nearest = cKDTree(cloud[owners]).query(cloud[index])[1]
+        out[index] = labels[owners[nearest]]
+        moved.append({"part": k, "points": len(index), "frontless_piece_of": held})
     return numbered_by_size(out), moved
 
 

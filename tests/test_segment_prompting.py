@@ -1080,6 +1080,37 @@ def test_one_label_inside_two_stacked_drawers_goes_to_both():
     assert merge_behind(cloud, labels, 0.02, normals=normals)[1] == []
 
 
+def test_a_frontless_piece_in_a_drawers_outline_goes_back():
+    """A drawer pulled 20 cm out (front and body in one label) and a label of a piece of its
+    side past the carcass's face with a piece of a divider inside the box behind it, no
+    front of its own: the side's points go to the drawer, the divider's to the carcass. A
+    door swung square beside the opening has no front on that face either, but lies out of
+    the drawer's outline: it stays; so does everything without measured normals."""
+    from pipeline.compartments import return_frontless_pieces
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    shell = _facing((_open_box(), x), (_grid(0.4, 0.8, (-0.3, 0.3, -0.4), x, z), y))
+    drawer = _facing((_grid(0.3, 0.2, (0.5, -0.1, -0.3), y, z), x),
+                     (_grid(0.5, 0.3, (0.0, -0.1, -0.3), x, y), z),
+                     (_grid(0.5, 0.2, (0.0, -0.1, -0.3), x, z), y),
+                     (_grid(0.28, 0.2, (0.0, 0.2, -0.3), x, z), y))
+    side = _facing((_grid(0.12, 0.1, (0.32, 0.2, -0.3), x, z), y))
+    divider = _facing((_grid(0.08, 0.1, (0.12, 0.3, -0.3), x, z), y))
+    door = _facing((_grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z), y))
+    pieces = [shell, drawer, side, divider, door]
+    cloud = np.concatenate([p for p, _ in pieces])
+    normals = np.concatenate([n for _, n in pieces])
+    n = np.cumsum([0, *(len(p) for p, _ in pieces)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[4]], labels[n[4]:] = 2, 4, 3
+    out, moved = return_frontless_pieces(cloud, labels, 0.02, normals=normals)
+    assert (out[n[1]:n[3]] == out[n[1]]).all() and out[n[1]] != 1
+    assert (out[n[3]:n[4]] == 1).all() and (out[:n[1]] == 1).all()
+    assert (out[n[4]:] != out[n[1]]).all() and len(np.unique(out)) == 3
+    assert moved == [{"part": 4, "points": n[4] - n[2], "frontless_piece_of": [2]}]
+    assert return_frontless_pieces(cloud, labels, 0.02)[1] == []
+
+
 def _facing(*pieces):
     """Points and their normals: (points, normal) pieces concatenated."""
     return (np.concatenate([p for p, _ in pieces]),
