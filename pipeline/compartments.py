@@ -5,8 +5,9 @@ drawer's body cut from its pulled-out front joins it again, a door's outer face 
 in two labels are one part, the compartment past a door swung square goes back, a drawer
 left in the carcass's label is found beside one pulled out as far, a label holding two
 drawers pulled out by different lengths is split, so is one holding two panels swung
-apart, so is one holding a drawer and a door swung square beside it, and a body cut
-across its length is one again: repairs of a part segmentation by what a carcass is, their
+apart, so is one holding a drawer and a door swung square beside it, a body cut
+across its length is one again, a label inside two stacked drawers goes to both and a
+piece with no front of its own in a drawer's outline goes back: repairs of a part segmentation by what a carcass is, their
 own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
