@@ -1236,7 +1236,7 @@ def _behind_fronts(local: np.ndarray, square: np.ndarray | None, labels: np.ndar
     """The part ``k`` as the bodies of two or more parts standing out past one face side by
     side (:func:`merge_behind`, one front's outline holding too little of it): two drawers
     stacked and pulled out, the masks giving each its front and one label to the inside of
-    both (the lower's sides and floor, the upper's underside; on a clean ring a
+    both (the lower's sides and floor, a piece of the upper; on a clean ring a
     5-drawer cabinet's such label held 898 points of one drawer and 345 of the next, with
     no face of its own facing out). ``nested_share`` of its points within
     ``nested_margin_voxels`` spacings of their points seen across the face, each front
