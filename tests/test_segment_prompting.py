@@ -1044,6 +1044,73 @@ def test_a_drawer_pulled_out_past_half_its_depth_is_one_part_again():
     assert (out[n[1]:] == out[n[1]]).all() and (out[:n[1]] == 1).all()
     assert moved == [{"part": 2, "points": len(body), "behind": 3}]
 
+def test_one_label_inside_two_stacked_drawers_goes_to_both():
+    """Two drawers stacked, both pulled 20 cm out of a carcass, each front (with its body's
+    foremost 15 cm) in a label of its own and the rest of both bodies (the lower one's floor
+    and sides, the upper one's) in one label, no face of its own facing out: no one front's
+    outline holds it, the two together do, so each of its points goes to the drawer whose
+    outline it lies in. Each body in its own label: nothing merges."""
+    from pipeline.compartments import merge_behind
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+
+    def drawer(bottom, top, lo, hi):  # floor and two sides between depths lo and hi
+        return [(_grid(hi - lo, 0.6, (lo, -0.3, bottom), x, y), z),
+                (_grid(hi - lo, top - bottom, (lo, -0.3, bottom), x, z), y),
+                (_grid(hi - lo, top - bottom, (lo, 0.3, bottom), x, z), y)]
+
+    shell, shell_n = _facing((_open_box(), x))
+    fronts = [_facing((_grid(0.6, 0.28, (0.5, -0.3, b), y, z), x), *drawer(b, b + 0.28, 0.36, 0.48))
+              for b in (-0.38, -0.06)]
+    inner = _facing(*drawer(-0.38, -0.1, 0.0, 0.34), *drawer(-0.06, 0.22, 0.0, 0.34))
+    pieces = [(shell, shell_n), *fronts, inner]
+    cloud = np.concatenate([p for p, _ in pieces])
+    normals = np.concatenate([n for _, n in pieces])
+    n = np.cumsum([0, *(len(p) for p, _ in pieces)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[3]], labels[n[3]:] = 2, 3, 4
+    out, moved = merge_behind(cloud, labels, 0.02, normals=normals)
+    lower = cloud[:, 2] <= -0.08
+    assert len(np.unique(out)) == 3 and (out[:n[1]] == 1).all()
+    assert (out[n[1]:][lower[n[1]:]] == out[n[1]]).all()
+    assert (out[n[1]:][~lower[n[1]:]] == out[n[2]]).all() and out[n[1]] != out[n[2]]
+    assert moved[0]["part"] == 4 and sorted(moved[0]["behind"]) == [2, 3]
+    # each body in its own front's label: nothing to merge
+    labels[n[3]:][cloud[n[3]:, 2] <= -0.09], labels[n[3]:][cloud[n[3]:, 2] > -0.09] = 2, 3
+    assert merge_behind(cloud, labels, 0.02, normals=normals)[1] == []
+
+
+def test_a_frontless_piece_in_a_drawers_outline_goes_back():
+    """A drawer pulled 20 cm out (front and body in one label) and a label of a piece of its
+    side past the carcass's face with a piece of a divider inside the box behind it, no
+    front of its own: the side's points go to the drawer, the divider's to the carcass. A
+    door swung square beside the opening has no front on that face either, but lies out of
+    the drawer's outline: it stays; so does everything without measured normals."""
+    from pipeline.compartments import return_frontless_pieces
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    shell = _facing((_open_box(), x), (_grid(0.4, 0.8, (-0.3, 0.3, -0.4), x, z), y))
+    drawer = _facing((_grid(0.3, 0.2, (0.5, -0.1, -0.3), y, z), x),
+                     (_grid(0.5, 0.3, (0.0, -0.1, -0.3), x, y), z),
+                     (_grid(0.5, 0.2, (0.0, -0.1, -0.3), x, z), y),
+                     (_grid(0.28, 0.2, (0.0, 0.2, -0.3), x, z), y))
+    side = _facing((_grid(0.12, 0.1, (0.32, 0.2, -0.3), x, z), y))
+    divider = _facing((_grid(0.08, 0.1, (0.12, 0.3, -0.3), x, z), y))
+    door = _facing((_grid(0.4, 0.7, (0.32, -0.42, -0.35), x, z), y))
+    pieces = [shell, drawer, side, divider, door]
+    cloud = np.concatenate([p for p, _ in pieces])
+    normals = np.concatenate([n for _, n in pieces])
+    n = np.cumsum([0, *(len(p) for p, _ in pieces)])
+    labels = np.ones(len(cloud), int)
+    labels[n[1]:n[2]], labels[n[2]:n[4]], labels[n[4]:] = 2, 4, 3
+    out, moved = return_frontless_pieces(cloud, labels, 0.02, normals=normals)
+    assert (out[n[1]:n[3]] == out[n[1]]).all() and out[n[1]] != 1
+    assert (out[n[3]:n[4]] == 1).all() and (out[:n[1]] == 1).all()
+    assert (out[n[4]:] != out[n[1]]).all() and len(np.unique(out)) == 3
+    assert moved == [{"part": 4, "points": n[4] - n[2], "frontless_piece_of": [2]}]
+    assert return_frontless_pieces(cloud, labels, 0.02)[1] == []
+
+
 def _facing(*pieces):
     """Points and their normals: (points, normal) pieces concatenated."""
     return (np.concatenate([p for p, _ in pieces]),
