@@ -1818,8 +1818,8 @@ def return_frontless_pieces(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     ``nested_share`` of the label in the outlines or the box (grown by
     ``enclosed_margin_voxels`` spacings); and at most ``1 - nested_share`` of the points of
     the parts it lies in (a drawer whose front a hand-held path's few views missed is a
-    part of its own, not a scrap: on 45261 a 761-point label beside a 2,400-point drawer
-    was given back, its slide lost). A door swung square lies beside the opening, out
+    part of its own, not a scrap: a 761-point drawer lying in its neighbour's outline was
+    given back, its slide lost). A door swung square lies beside the opening, out
     of the other parts' outlines. Needs the measured ``normals``. Returns the labels,
     renumbered by size, and what moved."""
     from scipy.spatial import cKDTree
