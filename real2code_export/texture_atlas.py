@@ -4,7 +4,8 @@ A part holds one colour image over one mesh's texture coordinates (:class:`model
 one glTF material, one USD preview surface or one MuJoCo material does. Real files give a part
 more: a link whose visuals each bring their own image (PartNet-Mobility's OBJs, ANYbotics'
 Collada meshes), a Collada mesh of a textured primitive beside coloured ones, an OBJ whose MTL
-names several ``map_Kd``. Here those pieces become one mesh with one image: each image (its
+names several ``map_Kd``, a USD body's meshes or a glTF mesh's primitives each with their
+own material. Here those pieces become one mesh with one image: each image (its
 tint multiplied in) and each flat colour (a tile of one pixel) laid out side by side on shelves,
 the texture coordinates moved into their tile. An image that repeats
 over its triangles (coordinates past [0, 1], as tiling wood grain is mapped) is unrolled first,
@@ -12,8 +13,8 @@ as many copies as its coordinates span, since a tile in an atlas cannot repeat.
 
 Colours follow glTF 2.0: a factor is linear, an image's texels sRGB-encoded, so a tint
 multiplies the decoded texel and a flat colour is encoded into its tile; glTF and USD viewers
-decode the image and draw the same colours as before packing. (MuJoCo's renderer does not
-decode sRGB: a flat colour drawn from the atlas there is lighter than its factor was.)
+decode the image and draw the same colours as before packing (the MJCF writer declares the
+image sRGB to MuJoCo, its colour space).
 """
 
 from __future__ import annotations
