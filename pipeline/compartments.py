@@ -1777,8 +1777,8 @@ def return_seam_strips(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     point within 2 spacings of another label) and, on a hand-held clean path, a cabinet's
     186-point strip along the seam of its carcass and a swung door (124 points the
     carcass's, 62 the door's) each kept a joint. A part seen as a surface has points
-    farther inside it than that: on PartNet-Mobility dev's 48 saved segmentations (the
-    phone ring, the clean room, hand-held paths clean and phone LiDAR) no label holding
+    farther inside it than that: on the 48 saved segmentations of the evaluation's dev
+    objects (the phone ring, the clean room, hand-held paths clean and phone LiDAR) no label holding
     most of a part has 90 % of its points within 3 spacings of other labels (the table's
     smallest drawer front, 218 points: 6). Limit: a front narrower than about four
     spacings (9 cm on phone LiDAR at 2.2 cm) flush among other parts would be one.

@@ -101,7 +101,7 @@ def _positions_only(root, keep_texcoords: bool = False) -> None:
     """Empty every mesh's sources that only shading reads (normals, texture coordinates
     unless ``keep_texcoords``, colours, tangents) before pycollada parses them: this reader
     takes positions and their indices only, and parsing those sources' text was a fifth of a
-    robot's whole export (example-robot-data, sampled). Their inputs stay, under a semantic
+    robot's whole export (sampled over a robot corpus; docs/benchmarks.md). Their inputs stay, under a semantic
     pycollada keeps unread, as each input's offset sets the stride of the primitive's index
     list."""
     for mesh in root.iter("{*}mesh"):

@@ -531,7 +531,7 @@ def _read_obj(path: Path, data: bytes, source, element, line) -> MeshFile:
             and any((path.parent / m.diffuse_texname.replace("\\", "/")).is_file()
                     for m in materials if m.diffuse_texname):
         # faces of an image with coordinates beside faces of a colour without (the
-        # PartNet-Mobility layout): the bare corners get a coordinate nothing reads (the
+        # layout of scanned-object datasets): the bare corners get a coordinate nothing reads (the
         # image's faces are then packed with the colours' as tiles: _needs_obj_atlas).
         # Only where an image is there: without one the mesh is read as before, unsplit.
         uv_faces = np.where(uv_faces < 0, len(texcoords), uv_faces)

@@ -2,7 +2,7 @@
 
 A part holds one colour image over one mesh's texture coordinates (:class:`model.Part`), as
 one glTF material, one USD preview surface or one MuJoCo material does. Real files give a part
-more: a link whose visuals each bring their own image (PartNet-Mobility's OBJs, ANYbotics'
+more: a link whose visuals each bring their own image (a scanned object's OBJs, a robot's
 Collada meshes), a Collada mesh of a textured primitive beside coloured ones, an OBJ whose MTL
 names several ``map_Kd``, a USD body's meshes or a glTF mesh's primitives each with their
 own material. Here those pieces become one mesh with one image: each image (its
@@ -128,7 +128,7 @@ def _packed(images: list, notes: list[str]):
     neighbour's. Returns the image and each tile's (x, y, width, height) in pixels from the
     bottom-left corner. (trimesh's ``material.pack`` pads with nothing, maps coordinates by
     ``(size - 1)``, half a texel off glTF's and OpenGL's sampling, and importing trimesh and
-    scipy for it was two seconds of a command: so the layout is done here.)"""
+    scipy for it cost a command up to two seconds: so the layout is done here.)"""
     from PIL import Image
 
     scale = 1.0

@@ -291,7 +291,7 @@ def _allocator_for_commands() -> None:
     command frees is kept for its later allocations, not given back to the system (no
     trimming of the heap, no mapping of its own for each large array), and its threads (the
     STL reads, the creased normals, MuJoCo's compile) share one arena. A fork faults in every
-    page it touches first; so set, the Menagerie's exports to USD touched a fifth fewer
+    page it touches first; so set, a robot corpus's exports to USD touched a fifth fewer
     (docs/benchmarks.md, session 32). Nothing where the C library has no mallopt."""
     import ctypes
 

@@ -146,8 +146,8 @@ def _stacked(path, edges: list[Edge]) -> list[Edge]:
     mujoco-usd-converter writes an MJCF body's joints so, each about its own anchor, and
     MuJoCo applies them in order (Newton's importer merges them into one joint as well).
     They were read as one joint and loop closers (degrees of freedom lost); so were those
-    from the world to a body (an MJCF body of several joints in the worldbody: the Menagerie's
-    umi_gripper) until session 32."""
+    from the world to a body (an MJCF body of several joints in the worldbody, through the
+    converter) until session 32."""
     movable = (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
     groups: dict[tuple[str, str], list[Edge]] = {}
     for e in edges:
