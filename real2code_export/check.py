@@ -514,9 +514,9 @@ def _implicit_world(ref_poses, ref_index, probe_poses, index) -> str | None:
 
 def _intermediate(name: str, parts, joints: set[str]) -> bool:
     """Whether part ``name`` is a massless intermediate part ``<part>_<joint>`` of a body
-    with several joints (the MJCF reader's, a USD generic joint's) that the reference holds
-    as one body with those joints (an MJCF export merges them back): its joints and the
-    body's pose are compared, the frame between them has no body there."""
+    with several joints (the MJCF reader's, a USD generic joint's or stacked joints') that
+    the other side holds as one body with those joints (an MJCF export merges them back):
+    its joints and the body's pose are compared, the frame between them has no body there."""
     return any(name.startswith(f"{part}_") and name[len(part) + 1:] in joints
                for part in parts)
 
@@ -536,8 +536,10 @@ def _compare_poses(probes, poses, names, ref, results, tol_position, tol_rotatio
         # world, the intermediate parts of a body with several joints): every part of the
         # source must be where the source puts it.
         extra_allowed = probes[ref].label.startswith(SOURCE_LABEL)
+        joints = {j.name for j in probe.joints}
         for name in ref_index:
-            if name not in index and name != implicit:
+            if name not in index and name != implicit \
+                    and not _intermediate(name, index, joints):
                 part_results[name].missing_in.append(names[i])
                 mismatches.append(Mismatch("missing_part", names[i], name,
                                            f"part {name!r} is missing (found in {names[ref]})"))

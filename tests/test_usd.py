@@ -1164,9 +1164,9 @@ def _scene_stage(path, anchored: bool):
 def test_a_scene_of_free_bodies_in_every_format(tmp_path, anchored):
     """A scene of free bodies (rigid bodies no joint holds), beside a body the world holds
     or alone. Alone, none is more fixed than another: each floats from a massless part
-    'world' (warned). Beside one, they float from it, the root; the URDF export then hangs
-    them from an added link ``world``, the only parent MuJoCo's URDF import allows a free
-    joint. Every export reads back equal and agrees with the others in its own tools."""
+    'world' (warned). Beside one held off the world's origin, that body keeps its own frame,
+    held by its fixed joint to the part 'world', from which the others float too. Every
+    export reads back equal and agrees with the others in its own tools."""
     import mujoco
 
     from real2code_export.check import check_files
@@ -1176,11 +1176,16 @@ def test_a_scene_of_free_bodies_in_every_format(tmp_path, anchored):
         warnings.simplefilter("always")
         obj = usd.load(path)
     said = [str(w.message) for w in caught]
-    root = "anchor" if anchored else "world"
-    assert obj.root.name == root
+    assert obj.root.name == "world"
     free = [j for j in obj.joints if j.type.value == "floating"]
     assert sorted(j.child for j in free) == ["crate_0", "crate_1", "crate_2"] and all(
-        j.parent == root for j in free)
+        j.parent == "world" for j in free)
+    if anchored:  # at the joint's frame: 1 m up, turned 30 degrees about Z
+        held = obj.joint("anchor_joint")
+        assert (held.type.value, held.parent, held.child) == ("fixed", "world", "anchor")
+        np.testing.assert_allclose(forward_kinematics(obj)["anchor"], tf.make(
+            tf.axis_angle_matrix([0.0, 0.0, 1.0], math.radians(30.0)), [0.0, 0.0, 1.0]),
+            atol=1e-6)
     assert any("form 3 groups no joint connects: each is free" in m for m in said) \
         != anchored, said
     np.testing.assert_allclose(forward_kinematics(obj)["crate_2"][:3, 3], [0.0, -1.0, 0.6],
@@ -1342,7 +1347,11 @@ def test_usd_from_mujocos_converter_reads_as_the_mjcf_it_came_from(tmp_path):
         obj = usd.load(tmp_path / "arm.usda")
     said = " ".join(str(w.message) for w in caught)
     assert "join the same two bodies: read as one body's joints" in said
-    assert [p.name for p in obj.parts] == ["base", "upper_arm", "upper_arm_shoulder_x", "tip"]
+    # the base held 0.5 m up by its joint to the world keeps its frame there, as in the MJCF
+    assert [p.name for p in obj.parts] == ["world", "base", "upper_arm",
+                                           "upper_arm_shoulder_x", "tip"]
+    np.testing.assert_allclose(forward_kinematics(obj)["base"][:3, 3], [0.0, 0.0, 0.5],
+                               atol=1e-9)
     assert [j.name for j in obj.movable_joints] == ["shoulder_x", "shoulder_z"]
     m = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(m)
@@ -1614,7 +1623,7 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     with pytest.warns(Real2CodeWarning, match=r"joint prim </fourbar/B> \(continuous\) closes "
                                               "a kinematic loop"):
         obj = usd.load(path)
-    assert sorted(j.name for j in obj.joints) == ["A", "C", "D"]
+    assert sorted(j.name for j in obj.joints) == ["A", "C", "D", "ground"]
     (loop,) = obj.metadata["loop_joints"]
     assert (loop["name"], loop["body0"], loop["body1"]) == ("B", "crank", "coupler")
     generic_b = closing == "generic"
@@ -1892,3 +1901,89 @@ def test_joints_stacked_from_the_world_are_one_bodys_joints(tmp_path):
     pose = forward_kinematics(obj, {"slide_x": 0.3, "turn_z": 0.7})["body"]
     np.testing.assert_allclose(pose[:3, 3], d.xpos[1], atol=1e-7)
     np.testing.assert_allclose(pose[:3, :3], d.xmat[1].reshape(3, 3), atol=1e-7)
+
+
+def test_usdphysics_probe_poses_stacked_joints_as_mujoco(tmp_path):
+    """The UsdPhysics probe reads hinges stacked between two bodies (mujoco-usd-converter's
+    form of an MJCF body of two joints) as MuJoCo applies them, in stage order, each about
+    its own anchor: the body where MuJoCo puts it (the probe refused such a file as a
+    kinematic loop); names as the source had them (usd-exchange's ``tn__`` decoded), so
+    `check` of the file beside its exports compares them by name."""
+    import mujoco
+
+    from real2code_export.check import check_files
+    from real2code_export.probes.usd import UsdProbe
+
+    xml = _mujoco_stage(tmp_path / "arm.usda")
+    probe = UsdProbe(tmp_path / "arm.usda")
+    assert [j.name for j in probe.joints] == ["shoulder_x", "shoulder_z"]
+    assert {"base", "upper_arm", "upper_arm_shoulder_x", "tip"} <= set(probe.parts)
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    anchor = tf.make(translation=[0.02, 0.0, 0.0])  # the part frame: the last joint's anchor
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        q = rng.uniform(-1.5, 1.0, 2)
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        body = m.body("upper_arm").id
+        expected = tf.make(d.xmat[body].reshape(3, 3), d.xpos[body]) @ anchor
+        pose = probe.poses({"shoulder_x": q[0], "shoulder_z": q[1]})["upper_arm"]
+        np.testing.assert_allclose(pose, expected, atol=1e-9)
+    # beside its MJCF export (one body of two joints again, MuJoCo's actuators compiled
+    # from the file's MjcActuator prims, which UsdPhysics does not read as drives): agrees
+    written = export(usd.load(tmp_path / "arm.usda"), tmp_path / "out", formats=["mjcf"])
+    report = check_files([tmp_path / "arm.usda", written["mjcf"]], n_configurations=5,
+                         validate=False)
+    assert report.ok, report.mismatches
+
+
+def test_usdphysics_probe_holds_equal_limits_and_names_repeated_frames_apart(tmp_path):
+    """Two links on hinges, each with an empty Xform (a frame) named ``tool``: the probe
+    names the second ``tool_1`` in stage order, as the reader does (both were ``tool``, the
+    second compared as the first); a hinge whose limits are equal (30 and 30 degrees:
+    PhysX and Newton hold it there) is no joint of the probe, held at 30 degrees, as the
+    reader reads it (a fixed joint): the file and its MJCF export agree."""
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.check import check_files
+    from real2code_export.probes.usd import UsdProbe
+
+    path = tmp_path / "arm.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/arm").GetPrim())
+    for name in ("base", "link_a", "link_b"):
+        body = UsdGeom.Xform.Define(stage, f"/arm/{name}")
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+        cube = UsdGeom.Cube.Define(stage, f"/arm/{name}/box")
+        cube.CreateSizeAttr(0.05)
+        if name != "base":
+            UsdGeom.Xform.Define(stage, f"/arm/{name}/tool").AddTranslateOp().Set(
+                Gf.Vec3d(0.0, 0.0, 0.1))
+    UsdPhysics.FixedJoint.Define(stage, "/arm/to_world").CreateBody1Rel().SetTargets(
+        ["/arm/base"])
+    for name, body0, body1, limits in (("hinge_a", "base", "link_a", (-45.0, 45.0)),
+                                       ("held", "link_a", "link_b", (30.0, 30.0))):
+        hinge = UsdPhysics.RevoluteJoint.Define(stage, f"/arm/{name}")
+        hinge.CreateBody0Rel().SetTargets([f"/arm/{body0}"])
+        hinge.CreateBody1Rel().SetTargets([f"/arm/{body1}"])
+        hinge.CreateAxisAttr("Y")
+        hinge.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 0.2))
+        hinge.CreateLowerLimitAttr(limits[0])
+        hinge.CreateUpperLimitAttr(limits[1])
+    stage.GetRootLayer().Save()
+    probe = UsdProbe(path)
+    assert [j.name for j in probe.joints] == ["hinge_a"]
+    assert [p for p in probe.parts if p.startswith("tool")] == ["tool", "tool_1"]
+    tool = probe.poses({"hinge_a": 0.0})["tool_1"]  # link_b turned 30 degrees about Y
+    np.testing.assert_allclose(tool[:3, 3], [0.1 * math.sin(math.radians(30.0)), 0.0,
+                                             0.4 + 0.1 * math.cos(math.radians(30.0))],
+                               atol=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        written = export(usd.load(path), tmp_path / "out", formats=["mjcf"])
+    report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
+    assert report.ok, report.mismatches

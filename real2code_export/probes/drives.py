@@ -2,7 +2,8 @@
 MuJoCo compiled them (the probe's model), a USD file's PhysicsDriveAPI drives as UsdPhysics
 states them (the probe's stage), each mapped by its format's own function to the model's
 :class:`~real2code_export.model.Drive` (``formats.mjcf.actuator``, ``formats.usd.drive``).
-URDF, glTF and object.json hold drives for our reader only (no tool reads them): None."""
+URDF, glTF and object.json hold drives for our reader only (no tool reads them): None; so
+does a USD file of MuJoCo's actuators (``MjcActuator``), which UsdPhysics does not read."""
 
 from __future__ import annotations
 
@@ -42,6 +43,7 @@ def usd_drives(stage, parsed, meters_per_unit: float) -> dict[str, Drive]:
     axis drive (``rotX``) the joint ``<prim>_<axis>`` (our reader's names)."""
     from pxr import UsdPhysics
 
+    from ..formats.usd.conventions import source_name
     from ..formats.usd.drive import drive_from_usd, read_drives, read_ours
 
     kpu = float(UsdPhysics.GetStageKilogramsPerUnit(stage))
@@ -57,7 +59,8 @@ def usd_drives(stage, parsed, meters_per_unit: float) -> dict[str, Drive]:
                 instance = schema.split(":", 1)[1]
                 own = instance in ("angular", "linear")
                 angular = instance == "angular" or instance.startswith("rot")
-                name = prim.GetName() if own else f"{prim.GetName()}_{instance}"
+                joint = sanitize_name(source_name(prim))  # (as the probe names it)
+                name = joint if own else f"{joint}_{instance}"
                 entries, _ = read_drives(prim, {instance: (name, "angular" if angular
                                                            else "linear")},
                                          meters_per_unit, kpu)
@@ -78,5 +81,19 @@ def file_drives(path: Path, compiled: dict[Path, object], opened: dict) -> \
         return mjcf_drives(compiled[Path(path)])
     probe = opened.get(Path(path))
     if probe is not None and hasattr(probe, "stage"):
+        if _has_mjc_actuators(probe.stage):
+            return None  # MuJoCo's actuators, which UsdPhysics does not read as drives
         return usd_drives(probe.stage, probe.parsed, probe.meters_per_unit)
     return None
+
+
+def _has_mjc_actuators(stage) -> bool:
+    """Whether ``stage`` holds MuJoCo's actuator prims (mujoco-usd-converter's MjcActuator):
+    its joints are driven by them, as MuJoCo compiles them, not by PhysicsDriveAPI, so its
+    UsdPhysics drives are not all it has to compare."""
+    from pxr import Usd
+
+    from ..formats.usd.mjc_actuator import TYPE_NAME
+
+    return any(p.GetTypeName() == TYPE_NAME
+               for p in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))

@@ -10,13 +10,18 @@ A body's reported pose is its frame moved to its parent joint's frame origin (lo
 the body's side; zero in files we write), the model's "part frame = joint frame". An Xform in
 a body with nothing to draw below it is a frame, reported by its prim name; so is one naming
 its fixed joint (``real2code:fixedJoint``), where our writer puts a massless part's geometry
-in its parent's body.
+in its parent's body. Bodies, joints and frames are named as their prims, decoded as the
+source named them where usd-exchange encoded the name (``conventions.source_name``) and made
+identifiers, as every reader names them. Hinges and slides stacked between the same two
+bodies are one MJCF body's joints, applied in stage order (:func:`_stacks`). A hinge or
+slide whose limits are equal is held there, as PhysX and Newton hold it: no joint.
 """
 
 from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +30,8 @@ import numpy as np
 
 from .. import transforms as tf
 from ..errors import CheckError
-from ..formats.usd.conventions import FRAME_JOINT, load_physics
+from ..formats.usd.conventions import FRAME_JOINT, load_physics, source_name
+from ..model import sanitize_name
 from . import JointInfo, joint_motions
 
 WORLD = ""
@@ -89,14 +95,17 @@ class UsdProbe:
                     joints.append((str(p), kind.name, d))
         if not bodies:
             raise CheckError(f"{path}: UsdPhysics finds no rigid bodies")
-        order = {str(p.GetPath()): i for i, p in enumerate(stage.Traverse())}
-        bodies.sort(key=order.__getitem__)
-        self.parts = [stage.GetPrimAtPath(b).GetName() for b in bodies]
+        stage_order = {str(p.GetPath()): i for i, p in enumerate(stage.Traverse())}
+        bodies.sort(key=stage_order.__getitem__)
+        self.parts = [_name(stage.GetPrimAtPath(b)) for b in bodies]
         if len(set(self.parts)) != len(self.parts):
             raise CheckError(f"{path}: rigid body names are not unique: {sorted(self.parts)}")
         self._names = dict(zip(bodies, self.parts, strict=True))
         # frames: Xforms with nothing to draw below them, in a body, moving with it
-        self._frames = [(name, body, local) for body in bodies
+        # (names that repeat, a foot frame in each leg, made unique in stage order, as our
+        # reader makes them)
+        taken = set(self.parts)
+        self._frames = [(sanitize_name(name, taken), body, local) for body in bodies
                         for name, local in _frames(stage.GetPrimAtPath(body), mpu)
                         if name not in self._names.values()]
         self.parts += [name for name, _, _ in self._frames]
@@ -113,6 +122,8 @@ class UsdProbe:
         # a joint excluded from the articulation (physics:excludeFromArticulation) is walked
         # after every other; one closing a loop is a constraint beside the tree, not posed
         excluded = {k for k, (_, _, d) in enumerate(joints) if d.excludeFromArticulation}
+        stacks = _stacks(joints, excluded, stage_order)
+        stacked = {k for rest in stacks.values() for k in rest}
 
         def walk(frontier: collections.deque, excluded_too: bool) -> None:
             while frontier:
@@ -124,8 +135,16 @@ class UsdProbe:
                     ends = {str(joints[k][2].body0), str(joints[k][2].body1)}
                     if k in excluded and ends <= reached:
                         continue  # closes a loop
-                    links = self._d6_links(joints[k], body, mpu, path) \
-                        if joints[k][1] == "D6Joint" else [self._link(joints[k], body, mpu)]
+                    if k in stacked:
+                        continue  # posed with the first joint of its stack
+                    if joints[k][1] == "D6Joint":
+                        links = self._d6_links(joints[k], body, mpu, path)
+                    elif k in stacks and str(joints[k][2].body0) == body:
+                        links = self._stacked_links([joints[i] for i in (k, *stacks[k])],
+                                                    body, mpu)
+                    else:  # (a stack walked from body1: the rest close loops, as the
+                        # reader reads them)
+                        links = [self._link(joints[k], body, mpu)]
                     child = links[-1].child
                     if child in reached:
                         raise CheckError(f"{path}: joint <{joints[k][0]}> closes a kinematic "
@@ -175,9 +194,38 @@ class UsdProbe:
                 kind = "prismatic"
                 lower, upper = (lim.lower * mpu, lim.upper * mpu) if limited else (None, None)
         axis = AXES[str(d.axis)] if kind not in ("fixed", "ball") else AXES["X"]
-        return _Link(prim_path.rsplit("/", 1)[-1], kind, parent, child, to_joint,
-                     tf.inverse(child_frame), axis if forward else -axis,
-                     tf.make(translation=child_frame[:3, 3]), lower, upper)
+        axis = axis if forward else -axis
+        if lower is not None and lower == upper:  # held there, as PhysX and Newton hold it
+            to_joint = to_joint @ joint_motions(kind, axis, np.array([lower]))[0]
+            kind, lower, upper = "fixed", None, None
+        return _Link(_name(self.stage.GetPrimAtPath(prim_path)), kind, parent, child, to_joint,
+                     tf.inverse(child_frame), axis, tf.make(translation=child_frame[:3, 3]),
+                     lower, upper)
+
+    def _stacked_links(self, items, parent: str, mpu: float) -> list[_Link]:
+        """Hinges and slides stacked between the same two bodies, in stage order, as MuJoCo
+        applies one body's joints (how mujoco-usd-converter writes such a body): the first
+        as any joint, each next one about its own frame in the child body, as the ones before
+        moved it. The frames between are reported as the parts ``<child>_<joint>``: the
+        child's axes at that joint's anchor, as the model's intermediate parts stand."""
+        first = self._link(items[0], parent, mpu)
+        child, links, above = first.child, [], parent
+        for k, item in enumerate(items):
+            link = first if k == 0 else self._link(item, parent, mpu)
+            last = k == len(items) - 1
+            below = child if last else f"{child}#{link.name}"
+            if not last:
+                self._names[below] = f"{self._names[child]}_{link.name}"
+                self.parts.append(self._names[below])
+            _, _, d = item
+            in_child = _frame(d.localPose1Position, d.localPose1Orientation, mpu)
+            links.append(dataclasses.replace(
+                link, parent=above, child=below,
+                to_joint=link.to_joint if k == 0 else in_child,
+                from_joint=tf.inverse(in_child),
+                child_offset=tf.make(translation=in_child[:3, 3])))
+            above = below
+        return links
 
     def _d6_links(self, item, parent: str, mpu: float, path) -> list[_Link]:
         """A generic joint (D6) as the links of its free axes (formats.usd.d6: translations,
@@ -189,7 +237,7 @@ class UsdProbe:
         from ..formats.usd import d6
 
         prim_path, _, d = item
-        name = prim_path.rsplit("/", 1)[-1]
+        name = _name(self.stage.GetPrimAtPath(prim_path))
         dofs = d6.free_dofs(d, path, f"joint prim <{prim_path}>")
         t0 = _frame(d.localPose0Position, d.localPose0Orientation, mpu)
         t1 = _frame(d.localPose1Position, d.localPose1Orientation, mpu)
@@ -253,6 +301,29 @@ class UsdProbe:
         return world
 
 
+def _name(prim) -> str:
+    """A prim's name as our USD reader names its part or joint (its source's name where
+    usd-exchange encoded it, made an identifier), so that files agree by name."""
+    return sanitize_name(source_name(prim))
+
+
+def _stacks(joints, excluded: set[int], order: dict[str, int]) -> dict[int, list[int]]:
+    """The hinges and slides that join the same two bodies (body0 the same, body1 the same),
+    by their first in stage order -> the others in stage order: one MJCF body's joints
+    (formats.usd.articulation reads them so; UsdPhysics itself says nothing of their
+    order, so they were loop closers here)."""
+    groups: dict[tuple[str, str], list[int]] = {}
+    for k, (_, kind, d) in enumerate(joints):
+        if kind in ("RevoluteJoint", "PrismaticJoint") and k not in excluded:
+            groups.setdefault((str(d.body0), str(d.body1)), []).append(k)
+    stacks = {}
+    for members in groups.values():
+        if len(members) > 1:
+            members.sort(key=lambda k: order[joints[k][0]])
+            stacks[members[0]] = members[1:]
+    return stacks
+
+
 def _frames(body, mpu: float):
     """(name, pose in the body in metres) of the empty Xforms in a body prim and those naming
     their fixed joint, not entering nested rigid bodies."""
@@ -273,7 +344,7 @@ def _frames(body, mpu: float):
         local = np.array(cache.ComputeRelativeTransform(p, body)[0], dtype=float).T
         if tf.is_rotation(local[:3, :3], tol=1e-5):
             local[:3, 3] *= mpu
-            yield p.GetName(), local
+            yield _name(p), local
 
 
 def open_probes(path: str | Path) -> list[UsdProbe]:
