@@ -13,7 +13,8 @@ What of Newton's model becomes the probe's parts and joints (docs/formats.md, "c
 - a body is the part named as our USD reader names its prim (``conventions.source_name``,
   made unique in the stage's order); its pose is its frame moved to its parent joint's
   anchor on its side, the model's "part frame = joint frame"; a body the file welds to the
-  world with its only joint to the world is the root part, at the world's frame;
+  world at the world's frame with its only joint to the world is the root part, at the
+  world's frame;
 - a revolute or prismatic joint is the joint named as its prim; a D6 of several degrees of
   freedom gives ``<joint>_<axis>`` (``hip_rotX``) as our reader splits it; joints stacked
   between two bodies, which Newton merges into one D6, each their prim's name. Free, ball
@@ -225,13 +226,17 @@ def _build(path: str):
     head = {"parts": parts,
             "joints": [{"name": n, "kind": k, "lower": lo, "upper": hi}
                        for n, k, lo, hi, _, _ in setters]}
-    # The file's one joint to the world, fixed: its body is the model's root part, whose
-    # frame is the world's (our readers' convention: the MJCF writer makes it the world
-    # body), where Newton's body stands at the joint's frame
+    # The file's one joint to the world, fixed, holding its body at the world's frame: the
+    # body is the model's root part, whose frame is the world's (our USD reader's; the MJCF
+    # writer makes it the world body), where Newton's part frame would be the joint's. (Held
+    # elsewhere, the body keeps its frame, from a part 'world', and is posed as any body.)
     to_world = [j for j, label in enumerate(model.joint_label)
                 if model.joint_parent.numpy()[j] < 0 and prim_of(label) is not None]
+    x_p, x_c = model.joint_X_p.numpy().astype(float), model.joint_X_c.numpy().astype(float)
     law.at_world = [int(child[j]) for j in to_world
-                    if len(to_world) == 1 and int(types[j]) == jtype.FIXED]
+                    if len(to_world) == 1 and int(types[j]) == jtype.FIXED
+                    and np.allclose(_transform(x_p[j]) @ np.linalg.inv(_transform(x_c[j])),
+                                    np.eye(4), rtol=0.0, atol=1e-6)]
     rest = model.joint_q.numpy()
     for index, value in held:
         rest[index] = value

@@ -3,7 +3,10 @@ non-deprecated name of LoadUsdPhysicsFromRange in usd-core 26.11) lists the rigi
 joints and collision shapes; this module checks them and orients the joints into a tree
 from the part fixed to the world. No prim names or paths are assumed.
 
-The world: one fixed joint to the world -> its body is the root, placed by that joint; no
+The world: one fixed joint to the world -> its body is the root when the joint holds it at
+the world's frame; held elsewhere (an MJCF root body's pos and quat, as mujoco-usd-converter
+writes them), the body keeps its own frame, held by that joint to a massless part "world",
+the root, as the MJCF reader reads such a body (its frame was moved to the world's); no
 joint to the world -> the bodies are free, as PhysX and Newton simulate them: a massless
 part "world" is the root and the first body floats from it (a floating base: an ant), or
 each group the joints connect does (a scene of free bodies: a palletizer's crates), warned;
@@ -252,13 +255,21 @@ def _tree(path, bodies: list[str], edges: list[Edge], mpu: float,
     world_edges = [e for e in edges if WORLD in (e.body0, e.body1)]
     root_placement = None
     floats = None  # the first body that floats from the world part, where one is chosen
+    placed = None  # the one joint to the world, fixed: where it holds its body
     if len(world_edges) == 1 and world_edges[0].kind is JointType.FIXED:
         e = world_edges[0]
+        world_side, body_side = (0, 1) if e.body1 else (1, 0)
+        placed = joint_frame(e, world_side, mpu) @ tf.inverse(joint_frame(e, body_side, mpu))
+    if placed is not None and np.allclose(placed, np.eye(4), rtol=0.0, atol=1e-9):
+        # at the world's frame: the body is the root part, whose frame is the world's
         edges = [x for x in edges if x is not e]
         root = e.body1 or e.body0
-        world_side, body_side = (0, 1) if e.body1 else (1, 0)
-        root_placement = joint_frame(e, world_side, mpu) @ tf.inverse(
-            joint_frame(e, body_side, mpu))
+        root_placement = placed
+    elif placed is not None:
+        # elsewhere (an MJCF root body's pos and quat, as mujoco-usd-converter writes them):
+        # the body keeps its own frame, held by that joint to a massless part 'world', as
+        # the MJCF reader reads such a body
+        root = WORLD
     elif world_edges:
         warn(f"{path}: {len(world_edges)} joint(s) to the world "
              f"({', '.join(e.path for e in world_edges)}): a massless part 'world' is the root")
