@@ -1987,3 +1987,47 @@ def test_usdphysics_probe_holds_equal_limits_and_names_repeated_frames_apart(tmp
         written = export(usd.load(path), tmp_path / "out", formats=["mjcf"])
     report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
     assert report.ok, report.mismatches
+
+
+def test_usdphysics_probe_leaves_a_loop_closing_joint_beside_the_tree(tmp_path):
+    """A four-bar whose file marks no joint out of the articulation: the probe closes the
+    loop with the joint the reader keeps aside (the last met in stage order from the
+    world) and poses the tree (it refused the file), so the file and its MJCF agree."""
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.check import check_files
+
+    path = tmp_path / "fourbar.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/fourbar").GetPrim())
+    for name, at in (("base", (0.5, 0.0, 0.0)), ("crank", (0.0, 0.0, 0.5)),
+                     ("coupler", (0.5, 0.0, 1.0)), ("rocker", (1.0, 0.0, 0.5))):
+        body = UsdGeom.Xform.Define(stage, f"/fourbar/{name}")
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    UsdPhysics.FixedJoint.Define(stage, "/fourbar/ground").CreateBody1Rel().SetTargets(
+        ["/fourbar/base"])
+    stage.GetPrimAtPath("/fourbar/ground").CreateAttribute(
+        "physics:localPos0", Sdf.ValueTypeNames.Point3f).Set(Gf.Vec3f(0.5, 0.0, 0.0))
+    for name, body0, body1, pos0, pos1 in (
+            ("A", "base", "crank", (-0.5, 0, 0), (0, 0, -0.5)),
+            ("B", "crank", "coupler", (0, 0, 0.5), (-0.5, 0, 0)),
+            ("C", "base", "rocker", (0.5, 0, 0), (0, 0, -0.5)),
+            ("D", "rocker", "coupler", (0, 0, 0.5), (0.5, 0, 0))):
+        hinge = UsdPhysics.RevoluteJoint.Define(stage, f"/fourbar/{name}")
+        hinge.CreateBody0Rel().SetTargets([f"/fourbar/{body0}"])
+        hinge.CreateBody1Rel().SetTargets([f"/fourbar/{body1}"])
+        hinge.CreateAxisAttr("Y")
+        hinge.CreateLocalPos0Attr(Gf.Vec3f(*pos0))
+        hinge.CreateLocalPos1Attr(Gf.Vec3f(*pos1))
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = usd.load(path)
+        written = export(obj, tmp_path / "out", formats=["mjcf"])
+    assert sorted(j.name for j in obj.movable_joints) == ["A", "B", "C"]  # D closes it
+    report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
+    assert report.ok, report.mismatches

@@ -95,8 +95,13 @@ class UsdProbe:
                     joints.append((str(p), kind.name, d))
         if not bodies:
             raise CheckError(f"{path}: UsdPhysics finds no rigid bodies")
-        stage_order = {str(p.GetPath()): i for i, p in enumerate(stage.Traverse())}
+        # stage order (instance proxies too, as UsdPhysics parses them), bodies and joints:
+        # the walk below meets the joints in the reader's order, so a loop is closed by the
+        # same joint
+        stage_order = {str(p.GetPath()): i for i, p in enumerate(
+            Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))}
         bodies.sort(key=stage_order.__getitem__)
+        joints.sort(key=lambda j: stage_order[j[0]])
         self.parts = [_name(stage.GetPrimAtPath(b)) for b in bodies]
         if len(set(self.parts)) != len(self.parts):
             raise CheckError(f"{path}: rigid body names are not unique: {sorted(self.parts)}")
@@ -121,6 +126,7 @@ class UsdProbe:
         walked, reached, order = set(), {WORLD}, [WORLD]
         # a joint excluded from the articulation (physics:excludeFromArticulation) is walked
         # after every other; one closing a loop is a constraint beside the tree, not posed
+        # (the reader warns of it)
         excluded = {k for k, (_, _, d) in enumerate(joints) if d.excludeFromArticulation}
         stacks = _stacks(joints, excluded, stage_order)
         stacked = {k for rest in stacks.values() for k in rest}
@@ -132,11 +138,11 @@ class UsdProbe:
                     if k in walked or (k in excluded and not excluded_too):
                         continue
                     walked.add(k)
-                    ends = {str(joints[k][2].body0), str(joints[k][2].body1)}
-                    if k in excluded and ends <= reached:
-                        continue  # closes a loop
                     if k in stacked:
                         continue  # posed with the first joint of its stack
+                    d = joints[k][2]
+                    if (str(d.body1) if str(d.body0) == body else str(d.body0)) in reached:
+                        continue  # closes a loop: beside the tree, as the reader keeps it
                     if joints[k][1] == "D6Joint":
                         links = self._d6_links(joints[k], body, mpu, path)
                     elif k in stacks and str(joints[k][2].body0) == body:
@@ -146,9 +152,6 @@ class UsdProbe:
                         # reader reads them)
                         links = [self._link(joints[k], body, mpu)]
                     child = links[-1].child
-                    if child in reached:
-                        raise CheckError(f"{path}: joint <{joints[k][0]}> closes a kinematic "
-                                         "loop")
                     reached.add(child)
                     order.append(child)
                     frontier.append(child)
