@@ -93,8 +93,17 @@ def test_a_projected_texture_reads_and_writes_as_mujoco_draws_it(tmp_path, repea
         obj = load(source)
     part = obj.part("base")
     assert part.texture is not None and part.visual.uv is not None
-    written = export(obj, tmp_path / "out", ["mjcf", "gltf"])
+    written = export(obj, tmp_path / "out", ["mjcf", "gltf", "usd"])
     drawn, again = render_from_above(source), render_from_above(written["mjcf"])
+    # past one copy, USD is told to repeat the image as MuJoCo and glTF do (its default,
+    # for an image without the metadata, is black there)
+    from pxr import Usd, UsdShade
+
+    stage = Usd.Stage.Open(str(written["usd"]))
+    wraps = {UsdShade.Shader(p).GetInput("wrapS").Get() for p in stage.Traverse()
+             if UsdShade.Shader(p) and UsdShade.Shader(p).GetIdAttr().Get() == "UsdUVTexture"}
+    past = part.visual.uv.min() < 0.0 or part.visual.uv.max() > 1.0
+    assert wraps == ({"repeat"} if past else {None}), (wraps, repeat)
     # the image's colours where MuJoCo drew them: a flipped or shifted projection moves
     # whole quadrants (differences of ~150 on a channel), texel filtering a few levels
     assert np.abs(drawn - again).mean() < 3.0, np.abs(drawn - again).mean()

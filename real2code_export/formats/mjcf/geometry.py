@@ -125,7 +125,8 @@ def projected_uv(model, g: int, vertices: np.ndarray) -> np.ndarray | None:
     without its own (``vertices``: in the compiled mesh frame); None where its material has
     no 2D colour image. MuJoCo's renderer (``settexture`` in render_gl3.c) generates them
     from each vertex's position, OpenGL's object-linear mapping: the image projected along
-    the mesh frame's z, ``s = x r_x / (2 size_x) - 1/2`` and ``t = -y r_y / (2 size_y) - 1/2``
+    the z of the compiled mesh frame (centred at the mesh's centre of mass, on its principal
+    axes), ``s = x r_x / (2 size_x) - 1/2`` and ``t = -y r_y / (2 size_y) - 1/2``
     with the material's ``texrepeat`` r and the geom's size (the largest |x|, |y| of the
     mesh; with ``texuniform``, 1: r copies per metre), the image repeated, t down the image.
     Returned as the model's (v up the image), moved by whole copies (which change nothing a
