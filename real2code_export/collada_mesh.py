@@ -194,6 +194,14 @@ def _triangles(primitive, image: Path | None
     if texcoords is not None and len(texcoords):
         uv_index = np.asarray(primitive.texcoord_indexset[0], dtype=np.int64).reshape(-1, 3)
         texcoords = np.asarray(texcoords, dtype=np.float64).reshape(len(texcoords), -1)[:, :2]
+        # Exporters index a coordinate per corner, the same values again and again: equal
+        # values are one coordinate, so a vertex is split only where its coordinates differ
+        # (else every triangle stands alone: five times the vertices, and no shared edge to
+        # smooth the normals over)
+        # ((u, v) as one complex number: a sort of one column, a tenth of np.unique's by rows)
+        pairs_uv = np.ascontiguousarray(texcoords).view(np.complex128).ravel()
+        values, same = np.unique(pairs_uv, return_inverse=True)
+        texcoords, uv_index = np.column_stack([values.real, values.imag]), same[uv_index]
         # (position, coordinate) pairs as one integer each, as the OBJ reader pairs them
         n_uv = np.int64(len(texcoords))
         pairs, faces = unique_inverse(index * n_uv + uv_index)

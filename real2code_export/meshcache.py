@@ -1,4 +1,5 @@
-"""A disk cache of what is derived from meshes: convex collision pieces, mass properties.
+"""A disk cache of what is derived from meshes and images: convex collision pieces, mass
+properties, the PNG copy MuJoCo reads of a JPEG.
 
 Exporting the same object again (a user iterating on options, a batch rerun, ``check`` after
 ``export``) would otherwise recompute qhull hulls and mesh integrals, and import trimesh and
@@ -93,3 +94,24 @@ def decode_meshes(arrays: Arrays) -> list[Mesh]:
     if any(len(m.faces) and m.faces.max() >= len(m.vertices) for m in meshes):
         raise ValueError("inconsistent cached mesh")
     return meshes
+
+
+def cached_bytes(kind: str, digest: str, params: dict, compute: Callable[[], bytes], *,
+                 sources: Sequence[str] = ()) -> bytes:
+    """``compute()``, a file's bytes derived from the content whose hash is ``digest`` (an
+    image's PNG copy), or its stored result for the same digest, parameters and ``sources``."""
+    root = cache_root()
+    if root is None:
+        return compute()
+    h = hashlib.sha256(json.dumps({"kind": kind, "version": CACHE_VERSION, "digest": digest,
+                                   **params}, sort_keys=True).encode())
+    for source in sources:
+        h.update(Path(source).read_bytes())
+    path = root / kind / h.hexdigest()
+    if path.is_file():
+        with contextlib.suppress(OSError):
+            return path.read_bytes()
+    result = compute()
+    with contextlib.suppress(OSError):  # a cache that cannot be written is a lost speed-up
+        write_bytes(path, result)
+    return result

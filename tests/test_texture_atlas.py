@@ -189,6 +189,26 @@ def test_a_collada_mesh_drawn_from_one_image_keeps_it_as_it_is(tmp_path):
     assert np.allclose(read.mesh.uv[corner], uv[3])
 
 
+def test_a_collada_corner_indexed_coordinate_of_equal_values_is_one_vertex(tmp_path):
+    """Exporters give each corner a coordinate index of its own, the values repeated: equal
+    values are one vertex (else every triangle stands alone), different values split it."""
+    from real2code_export.meshfiles import read_mesh_file
+
+    uv = texel_centres(8, 8, 4, 1)
+    path, _, _ = collada_file(tmp_path, uv, red=False)
+    per_corner = uv[[0, 1, 2, 1, 3, 2]]  # six corners, six indices, four values
+    text = path.read_text().replace('count="8">', 'count="12">').replace(
+        " ".join(f"{x:.6f}" for x in uv.ravel()),
+        " ".join(f"{x:.6f}" for x in per_corner.ravel())).replace(
+        'source="#ta" count="4"', 'source="#ta" count="6"').replace(
+        "<p>0 0 1 1 2 2 1 1 3 3 2 2</p>", "<p>0 0 1 1 2 2 1 3 3 4 2 5</p>")
+    path.write_text(text)
+    read = read_mesh_file(path)
+    assert len(read.mesh.vertices) == 4 and len(read.mesh.faces) == 2
+    corner = np.flatnonzero(np.all(np.isclose(read.mesh.vertices, [1, 1, 0]), axis=1))[0]
+    assert np.allclose(read.mesh.uv[corner], uv[3])
+
+
 def one_link(tmp_path, mesh_file: str, material: str = ""):
     """The part of a URDF of one link whose one visual is ``mesh_file``."""
     from real2code_export.formats import load

@@ -380,3 +380,51 @@ def test_a_usd_material_s_interface_inputs_give_its_image_and_colour(tmp_path):
         obj = load(tmp_path / "m.usda")
     assert obj.part("textured").texture.image == (tmp_path / "wood.png").read_bytes()
     assert obj.part("plain").color == pytest.approx((0.25, 0.5, 0.75, 1.0))
+
+
+def jpeg_cabinet() -> ArticulatedObject:
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.open(io.BytesIO(png())).convert("RGB").save(buffer, format="JPEG")
+    obj = textured_cabinet()
+    obj.part("door").texture = Texture(buffer.getvalue(), "image/jpeg", "wood")
+    return obj
+
+
+def test_mujoco_s_png_copy_of_a_jpeg_is_encoded_once(tmp_path, monkeypatch):
+    """Exporting the same JPEG again takes its PNG copy from the disk cache: nothing encoded."""
+    from PIL import Image
+
+    monkeypatch.setenv("REAL2CODE_CACHE", str(tmp_path / "cache"))
+    first = export(jpeg_cabinet(), tmp_path / "first", ["mjcf"])["mjcf"]
+    png_copy = next((tmp_path / "first" / "meshes").glob("wood_*.png")).read_bytes()
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("an image was encoded")
+
+    obj = jpeg_cabinet()
+    monkeypatch.setattr(Image.Image, "save", refuse)
+    again = export(obj, tmp_path / "again", ["mjcf"])["mjcf"]
+    assert next((tmp_path / "again" / "meshes").glob("wood_*.png")).read_bytes() == png_copy
+    assert again.read_text() == first.read_text()
+
+
+def test_mujoco_writes_the_mjcf_without_decoding_its_images(tmp_path, monkeypatch):
+    """The compile before MuJoCo writes the XML is given placeholder images: the XML is the
+    same, and the export's PNG (read by MuJoCo when the file is loaded) is checked whole
+    instead, a broken one refused naming its part and image."""
+    import mujoco
+
+    from real2code_export.errors import ExportError
+
+    monkeypatch.setenv("REAL2CODE_CACHE", "off")
+    written = export(textured_cabinet(), tmp_path / "ok", ["mjcf"])["mjcf"]
+    model = mujoco.MjModel.from_xml_path(str(written))  # the real image, decoded
+    assert model.ntex == 1 and (model.tex_width[0], model.tex_height[0]) == (16, 8)
+    obj = textured_cabinet()
+    data = obj.part("door").texture.image
+    obj.part("door").texture = Texture(data[:-20] + bytes(8) + data[-12:], "image/png", "wood")
+    with pytest.raises(ExportError, match=r"part 'door': image 'wood' .*not a PNG MuJoCo"):
+        export(obj, tmp_path / "broken", ["mjcf"])
+    assert not (tmp_path / "broken").exists()

@@ -106,6 +106,10 @@ def geom_mesh(model, g: int, source: Path, element: str,
             mesh_cache[mesh_id] = _mesh_asset(model, mesh_id, source, element,
                                               (given or {}).get(mesh_id))
         mesh, mesh_frame = mesh_cache[mesh_id]
+        if mesh.uv is None:
+            uv = projected_uv(model, g, mesh.vertices @ mesh_frame[:3, :3].T + mesh_frame[:3, 3])
+            if uv is not None:
+                mesh = Mesh(mesh.vertices, mesh.faces, uv)
         transform = placed @ mesh_frame
         # (each geom says which asset it places: a writer that can place one mesh several
         # times writes the asset once, Mesh.placements)
@@ -114,6 +118,36 @@ def geom_mesh(model, g: int, source: Path, element: str,
         return Mesh.placed(mesh, transform)
     shape = geom_primitive(kind, size, placed)
     return None if shape is None else Mesh.of_primitive(shape)
+
+
+def projected_uv(model, g: int, vertices: np.ndarray) -> np.ndarray | None:
+    """The texture coordinates MuJoCo draws a 2D colour image with on mesh geom ``g``, a mesh
+    without its own (``vertices``: in the compiled mesh frame); None where its material has
+    no 2D colour image. MuJoCo's renderer (``settexture`` in render_gl3.c) generates them
+    from each vertex's position, OpenGL's object-linear mapping: the image projected along
+    the z of the compiled mesh frame (centred at the mesh's centre of mass, on its principal
+    axes), ``s = x r_x / (2 size_x) - 1/2`` and ``t = -y r_y / (2 size_y) - 1/2``
+    with the material's ``texrepeat`` r and the geom's size (the largest |x|, |y| of the
+    mesh; with ``texuniform``, 1: r copies per metre), the image repeated, t down the image.
+    Returned as the model's (v up the image), moved by whole copies (which change nothing a
+    repeating image draws) to start in the first."""
+    import mujoco
+
+    mat = int(model.geom_matid[g])
+    if mat < 0:
+        return None
+    tex = int(model.mat_texid[mat, mujoco.mjtTextureRole.mjTEXROLE_RGB])
+    if tex < 0 or int(model.tex_type[tex]) != mujoco.mjtTexture.mjTEXTURE_2D:
+        return None
+    repeat = np.asarray(model.mat_texrepeat[mat], dtype=np.float64)
+    size = np.asarray(model.geom_size[g][:2], dtype=np.float32).astype(np.float64)
+    scale = repeat.copy()
+    if not model.mat_texuniform[mat]:  # (texuniform multiplies the size back in)
+        scale = np.where(size > 0, repeat / np.maximum(size, mujoco.mjMINVAL), repeat)
+    s = 0.5 * scale[0] * vertices[:, 0] - 0.5
+    t = -0.5 * scale[1] * vertices[:, 1] - 0.5
+    uv = np.column_stack([s, 1.0 - t])
+    return uv - np.floor(uv.min(axis=0))
 
 
 def geom_primitive(kind: int, size: np.ndarray, placed: np.ndarray) -> Primitive | None:

@@ -562,7 +562,7 @@ class _Reader:
         if any(len(set(files)) > 1 or not files[0].is_file() for files in found.values()) \
                 or joined is None or joined.uv is None:
             self.note("textures not kept (a part holds one material, on one mesh with texture "
-                      "coordinates, from files)", name)
+                      "coordinates, from files)" + _unplaced_images(m, geoms), name)
             return {}
         return {ours: texture_from_file(files[0]) for ours, files in found.items()}
 
@@ -855,6 +855,28 @@ def _world_inertial(values) -> Inertial | None:
     mass, cx, cy, cz, ixx, iyy, izz, ixy, ixz, iyz = values
     inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     return Inertial(mass, np.array([cx, cy, cz]), inertia)
+
+
+def _unplaced_images(m, geoms: list[int]) -> str:
+    """Why MuJoCo's placing of the geoms' colour images has no texture coordinates here:
+    a 2D image on a mesh without its own is projected (:func:`.geometry.projected_uv`), but
+    a cube texture is drawn by direction from the geom's centre, and a primitive (box,
+    sphere, ...) has the renderer's own coordinates (a box: the whole image on each face)."""
+    import mujoco
+
+    reasons = set()
+    for g in geoms:
+        mat = int(m.geom_matid[g])
+        tex = int(m.mat_texid[mat, mujoco.mjtTextureRole.mjTEXROLE_RGB]) if mat >= 0 else -1
+        if tex < 0:
+            continue
+        if int(m.tex_type[tex]) != mujoco.mjtTexture.mjTEXTURE_2D:
+            reasons.add("a cube texture, which MuJoCo draws by direction from the geom's "
+                        "centre")
+        elif int(m.geom_type[g]) != mujoco.mjtGeom.mjGEOM_MESH:
+            reasons.add("an image on a primitive geom, which MuJoCo draws by the shape's own "
+                        "coordinates (a box: the whole image on each face)")
+    return f": {'; '.join(sorted(reasons))}" if reasons else ""
 
 
 def _part_images(images: dict) -> dict:

@@ -20,12 +20,13 @@ joint states again, for a reader that looks there) and in ``<custom>`` data name
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
 import numpy as np
 
-from ... import atomic
+from ... import atomic, meshcache
 from ... import transforms as tf
 from ...engine_settings import (
     FRICTION_SOLREF,
@@ -44,7 +45,15 @@ from ...meshfiles import (
     visual_element_name,
     write_object_meshes,
 )
-from ...model import ArticulatedObject, Joint, JointType, Part, metadata_json, validate
+from ...model import (
+    ArticulatedObject,
+    Joint,
+    JointType,
+    Part,
+    Texture,
+    metadata_json,
+    validate,
+)
 from .. import output_file
 from .conventions import (
     COLLISION_GROUP,
@@ -161,6 +170,7 @@ def _text_as_attribute(text: str) -> str:
 def _write_xml(obj: ArticulatedObject, out_dir: Path) -> Path:
     _write_png_copies(obj, out_dir)
     spec = _build(obj, meshdir=MESH_DIR, model_dir=out_dir)
+    _images_not_decoded(spec, obj)
     text = to_xml(spec, obj)
     sections = obj.metadata.get(ELEMENTS_KEY)
     sections = sections if isinstance(sections, dict) else {}
@@ -407,23 +417,74 @@ def _mujoco_images(part: Part) -> dict[str, str]:
 
 def _write_png_copies(obj: ArticulatedObject, out_dir: Path) -> None:
     """The PNG that MuJoCo reads for each JPEG image (pixels as Pillow decodes the JPEG, which
-    is what every reader of the shared file shows)."""
+    is what every reader of the shared file shows). Encoding is most of a textured export's
+    cost (a robot's 2048-pixel photos: 0.1 s each), so the copies are encoded side by side
+    (Pillow's encoder leaves the interpreter lock) and kept in the disk cache by the JPEG's
+    digest (:func:`meshcache.cached_bytes`): exporting the same file again encodes nothing."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    copies = {}  # PNG file -> its JPEG (an image several parts show: one copy)
+    for part in obj.parts:
+        textures = image_textures(part)
+        for rel, png in _mujoco_images(part).items():
+            if png != rel:
+                copies.setdefault(png, textures[rel])
+    if not copies:
+        return
+    with ThreadPoolExecutor(min(len(copies), os.cpu_count() or 1)) as pool:
+        encoded = list(pool.map(_png_copy, copies.values()))
+    for png, data in zip(copies, encoded, strict=True):
+        atomic.write_bytes(out_dir / png, data)
+
+
+def _png_copy(jpeg: Texture) -> bytes:
+    import PIL
+
+    def encode() -> bytes:
+        from io import BytesIO
+
+        from PIL import Image
+
+        buffer = BytesIO()
+        # (zlib's fastest level: a copy for MuJoCo only; 2x quicker than the default, a
+        # third larger)
+        Image.open(BytesIO(jpeg.image)).save(buffer, format="PNG", compress_level=1)
+        return buffer.getvalue()
+
+    return meshcache.cached_bytes("mujoco_png", jpeg.digest, {"pillow": PIL.__version__},
+                                  encode, sources=[__file__])
+
+
+# A 1-pixel PNG: what MuJoCo is given for each image while it compiles the spec to write it.
+_PLACEHOLDER_PNG = bytes.fromhex(
+    "89504e470d0a1a0a0000000d4948445200000001000000010802000000907753de0000000c4944415478"
+    "9c63f8ffff3f0005fe02fe0def46b80000000049454e44ae426082")
+
+
+def _images_not_decoded(spec, obj: ArticulatedObject) -> None:
+    """MuJoCo compiles a spec before it writes its XML, decoding every image a texture names,
+    though nothing it writes depends on their pixels (a file name is written as given): a
+    second of a textured robot's export. Each texture file is given to that compile as a
+    1-pixel PNG from memory (``MjSpec.assets``, which MuJoCo reads before any file). What
+    the compile proved of the images, that each is a PNG MuJoCo reads, is checked here
+    instead: every PNG MuJoCo will read from the export is whole (Pillow's ``verify``: its
+    chunks and their checksums; the copies of JPEGs are Pillow's own PNG)."""
+    if not spec.textures:
+        return
     from io import BytesIO
 
     from PIL import Image
 
-    written = set()  # (an image several parts show: one copy)
     for part in obj.parts:
-        textures = image_textures(part)
-        for rel, png in _mujoco_images(part).items():
-            if png != rel and png not in written:
-                written.add(png)
-                buffer = BytesIO()
-                # (zlib's fastest level: a copy for MuJoCo only; 2x quicker than the default,
-                # a third larger)
-                Image.open(BytesIO(textures[rel].image)).save(buffer, format="PNG",
-                                                              compress_level=1)
-                atomic.write_bytes(out_dir / png, buffer.getvalue())
+        for rel, texture in image_textures(part).items():
+            if texture.mime != "image/png":
+                continue
+            try:
+                Image.open(BytesIO(texture.image)).verify()
+            except Exception as e:  # Pillow raises many types for a broken image
+                raise ExportError(f"MJCF: part {part.name!r}: image {texture.name!r} "
+                                  f"({rel}): not a PNG MuJoCo can read: {e}") from e
+    spec.assets = {texture.file: _PLACEHOLDER_PNG for texture in spec.textures if texture.file}
 
 
 def _orm(part: Part) -> bool:

@@ -453,6 +453,10 @@ def _texture_network(layer, material, material_path: str, surface, part: Part) -
     connect(reader, "inputs:varname", "String", f"{material_path}.inputs:frame:stPrimvarName")
     images = {"texture": texture_relpath(part)} if part.texture is not None else {}
     images |= {role: map_relpath(part, role) for role in part.maps}
+    # Coordinates past [0, 1] repeat the image (glTF's sampler, MuJoCo's and OBJ viewers'
+    # default); UsdUVTexture's default (useMetadata, none in a PNG or JPEG) draws black there.
+    uv = part.visual.uv if part.visual is not None else None
+    repeats = uv is not None and len(uv) > 0 and (uv.min() < 0.0 or uv.max() > 1.0)
     for role, relpath in images.items():
         inputs, kind, colorspace, outputs = _MAP_INPUTS[role]
         image_path = f"{material_path}/{_SHADER_NAMES[role]}"
@@ -460,6 +464,9 @@ def _texture_network(layer, material, material_path: str, surface, part: Part) -
         attribute(image, "info:id", "Token", "UsdUVTexture", uniform=True)
         attribute(image, "inputs:file", "Asset", Sdf.AssetPath(f"./{relpath}"))
         attribute(image, "inputs:sourceColorSpace", "Token", colorspace)
+        if repeats:
+            attribute(image, "inputs:wrapS", "Token", "repeat")
+            attribute(image, "inputs:wrapT", "Token", "repeat")
         connect(image, "inputs:st", "Float2", f"{coordinates}.outputs:result")
         if role == "normal":  # stored 0..1, a normal is -1..1
             attribute(image, "inputs:scale", "Float4", Gf.Vec4f(2, 2, 2, 1))
