@@ -2031,3 +2031,42 @@ def test_usdphysics_probe_leaves_a_loop_closing_joint_beside_the_tree(tmp_path):
     assert sorted(j.name for j in obj.movable_joints) == ["A", "B", "C"]  # D closes it
     report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
     assert report.ok, report.mismatches
+
+
+def test_usdphysics_probe_names_two_robots_of_one_scene_apart(tmp_path):
+    """A scene of two copies of one robot (the same body and joint names under two
+    prims): the probe names the second copy's bodies and joints as the reader does
+    (``link_1``, ``hinge_1``: it refused the file, "rigid body names are not unique"), its
+    drives by the same names, so the file and its MJCF export agree."""
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.check import check_files
+
+    path = tmp_path / "scene.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/scene").GetPrim())
+    for k, robot in enumerate(("robot_a", "robot_b")):
+        for name in ("base", "link"):
+            body = UsdGeom.Xform.Define(stage, f"/scene/{robot}/{name}")
+            UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+            UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+        fixed = UsdPhysics.FixedJoint.Define(stage, f"/scene/{robot}/to_world")
+        fixed.CreateBody1Rel().SetTargets([f"/scene/{robot}/base"])
+        fixed.CreateLocalPos0Attr(Gf.Vec3f(float(k), 0.0, 0.0))
+        hinge = UsdPhysics.RevoluteJoint.Define(stage, f"/scene/{robot}/hinge")
+        hinge.CreateBody0Rel().SetTargets([f"/scene/{robot}/base"])
+        hinge.CreateBody1Rel().SetTargets([f"/scene/{robot}/link"])
+        hinge.CreateAxisAttr("Z")
+        hinge.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 0.1))
+        drive = UsdPhysics.DriveAPI.Apply(hinge.GetPrim(), "angular")
+        drive.CreateStiffnessAttr(10.0 * (k + 1))
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = usd.load(path)
+        written = export(obj, tmp_path / "out", formats=["mjcf"])
+    assert sorted(j.name for j in obj.movable_joints) == ["hinge", "hinge_1"]
+    report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
+    assert report.ok, report.mismatches

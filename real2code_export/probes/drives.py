@@ -37,10 +37,12 @@ def mjcf_drives(model) -> dict[str, Drive]:
     return out
 
 
-def usd_drives(stage, parsed, meters_per_unit: float) -> dict[str, Drive]:
+def usd_drives(stage, parsed, meters_per_unit: float,
+               names: dict[tuple[str, str], str] | None = None) -> dict[str, Drive]:
     """Joint name -> its drive, of a UsdPhysics parse (``parsed``) of ``stage``: a joint
     prim's ``angular`` or ``linear`` drive drives the joint of its name, a generic joint's
-    axis drive (``rotX``) the joint ``<prim>_<axis>`` (our reader's names)."""
+    axis drive (``rotX``) the joint ``<prim>_<axis>`` (our reader's names; ``names``: the
+    probe's, (prim path, that name) -> the name it gave, unique in the stage)."""
     from pxr import UsdPhysics
 
     from ..formats.usd.conventions import source_name
@@ -61,6 +63,7 @@ def usd_drives(stage, parsed, meters_per_unit: float) -> dict[str, Drive]:
                 angular = instance == "angular" or instance.startswith("rot")
                 joint = sanitize_name(source_name(prim))  # (as the probe names it)
                 name = joint if own else f"{joint}_{instance}"
+                name = (names or {}).get((str(path), name), name)
                 entries, _ = read_drives(prim, {instance: (name, "angular" if angular
                                                            else "linear")},
                                          meters_per_unit, kpu)
@@ -83,7 +86,8 @@ def file_drives(path: Path, compiled: dict[Path, object], opened: dict) -> \
     if probe is not None and hasattr(probe, "stage"):
         if _has_mjc_actuators(probe.stage):
             return None  # MuJoCo's actuators, which UsdPhysics does not read as drives
-        return usd_drives(probe.stage, probe.parsed, probe.meters_per_unit)
+        return usd_drives(probe.stage, probe.parsed, probe.meters_per_unit,
+                          getattr(probe, "joint_names", None))
     return None
 
 

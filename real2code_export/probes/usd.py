@@ -51,6 +51,7 @@ class _Link:
     child_offset: np.ndarray  # translation from the body frame to its part frame
     lower: float | None = None  # rad or m; None: unbounded
     upper: float | None = None
+    prim: str = ""  # the joint prim's path
 
 
 def _frame(position, orientation, mpu: float) -> np.ndarray:
@@ -102,14 +103,12 @@ class UsdProbe:
             Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()))}
         bodies.sort(key=stage_order.__getitem__)
         joints.sort(key=lambda j: stage_order[j[0]])
-        self.parts = [_name(stage.GetPrimAtPath(b)) for b in bodies]
-        if len(set(self.parts)) != len(self.parts):
-            raise CheckError(f"{path}: rigid body names are not unique: {sorted(self.parts)}")
+        # (names that repeat, a foot in each of several robots of a scene, a frame in each
+        # leg, made unique in stage order, bodies first, as our reader makes them)
+        taken: set[str] = set()
+        self.parts = [sanitize_name(_name(stage.GetPrimAtPath(b)), taken) for b in bodies]
         self._names = dict(zip(bodies, self.parts, strict=True))
         # frames: Xforms with nothing to draw below them, in a body, moving with it
-        # (names that repeat, a foot frame in each leg, made unique in stage order, as our
-        # reader makes them)
-        taken = set(self.parts)
         self._frames = [(sanitize_name(name, taken), body, local) for body in bodies
                         for name, local in _frames(stage.GetPrimAtPath(body), mpu)
                         if name not in self._names.values()]
@@ -172,6 +171,14 @@ class UsdProbe:
             order.append(root)
             frontier.append(root)
 
+        # joint names that repeat (each robot of a scene its own "hip") made unique in the
+        # stage order of their prims, as our reader names them
+        taken: set[str] = set()
+        renamed = {id(k): sanitize_name(k.name, taken) for k in sorted(
+            self._links, key=lambda k: stage_order.get(k.prim, -1))}
+        # (joint prim, name before) -> name: what the drives of the file are named by
+        self.joint_names = {(k.prim, k.name): renamed[id(k)] for k in self._links}
+        self._links = [dataclasses.replace(k, name=renamed[id(k)]) for k in self._links]
         self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links
                        if k.kind not in ("fixed", "ball")]
         self._column = {j.name: k for k, j in enumerate(self.joints)}
@@ -203,7 +210,7 @@ class UsdProbe:
             kind, lower, upper = "fixed", None, None
         return _Link(_name(self.stage.GetPrimAtPath(prim_path)), kind, parent, child, to_joint,
                      tf.inverse(child_frame), axis, tf.make(translation=child_frame[:3, 3]),
-                     lower, upper)
+                     lower, upper, prim_path)
 
     def _stacked_links(self, items, parent: str, mpu: float) -> list[_Link]:
         """Hinges and slides stacked between the same two bodies, in stage order, as MuJoCo
@@ -250,7 +257,7 @@ class UsdProbe:
         offset = tf.make(translation=child_frame[:3, 3])
         if not dofs or d6.is_ball(dofs):
             return [_Link(name, "ball" if dofs else "fixed", parent, child, to_joint,
-                          tf.inverse(child_frame), AXES["X"], offset)]
+                          tf.inverse(child_frame), AXES["X"], offset, prim=prim_path)]
         steps = dofs if forward else dofs[::-1]
         sign = 1.0 if forward else -1.0
         turned_back = tf.make(child_frame[:3, :3].T)
@@ -269,7 +276,7 @@ class UsdProbe:
                                to_joint if k == 0 else np.eye(4),
                                tf.inverse(child_frame) if last else np.eye(4),
                                AXES[dof.token] * sign, offset if last else turned_back,
-                               *bounds))
+                               *bounds, prim=prim_path))
             above = below
         return links
 
