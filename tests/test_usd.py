@@ -2070,3 +2070,47 @@ def test_usdphysics_probe_names_two_robots_of_one_scene_apart(tmp_path):
     assert sorted(j.name for j in obj.movable_joints) == ["hinge", "hinge_1"]
     report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
     assert report.ok, report.mismatches
+
+
+def test_usdphysics_probe_drive_of_a_generic_joints_one_free_axis(tmp_path):
+    """A generic joint (D6) leaving one rotation free, driven on that axis
+    (``PhysicsDriveAPI:rotY``): the probe's joint is the prim's own name, and so is the
+    drive's (it was ``<joint>_rotY``, a drive of no joint), so the file agrees with its MJCF
+    export, whose actuator drives that joint."""
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.check import check_files
+
+    path = tmp_path / "flap.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/flap").GetPrim())
+    for name in ("base", "lid"):
+        body = UsdGeom.Xform.Define(stage, f"/flap/{name}")
+        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    UsdPhysics.FixedJoint.Define(stage, "/flap/to_world").CreateBody1Rel().SetTargets(
+        ["/flap/base"])
+    joint = UsdPhysics.Joint.Define(stage, "/flap/hinge")
+    joint.CreateBody0Rel().SetTargets(["/flap/base"])
+    joint.CreateBody1Rel().SetTargets(["/flap/lid"])
+    joint.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 0.2))
+    for axis in ("transX", "transY", "transZ", "rotX", "rotZ"):
+        limit = UsdPhysics.LimitAPI.Apply(joint.GetPrim(), axis)
+        limit.CreateLowAttr(1.0)
+        limit.CreateHighAttr(-1.0)
+    limit = UsdPhysics.LimitAPI.Apply(joint.GetPrim(), "rotY")
+    limit.CreateLowAttr(-30.0)
+    limit.CreateHighAttr(60.0)
+    drive = UsdPhysics.DriveAPI.Apply(joint.GetPrim(), "rotY")
+    drive.CreateStiffnessAttr(5.0)
+    drive.CreateDampingAttr(0.5)
+    stage.GetRootLayer().Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Real2CodeWarning)
+        obj = usd.load(path)
+        written = export(obj, tmp_path / "out", formats=["mjcf"])
+    assert obj.joint("hinge").drive is not None
+    report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
+    assert report.ok, report.mismatches

@@ -42,7 +42,8 @@ def usd_drives(stage, parsed, meters_per_unit: float,
     """Joint name -> its drive, of a UsdPhysics parse (``parsed``) of ``stage``: a joint
     prim's ``angular`` or ``linear`` drive drives the joint of its name, a generic joint's
     axis drive (``rotX``) the joint ``<prim>_<axis>`` (our reader's names; ``names``: the
-    probe's, (prim path, that name) -> the name it gave, unique in the stage)."""
+    probe's, (prim path, drive instance) -> the joint it gave that degree of freedom: one
+    free axis of a generic joint is the joint itself, names unique in the stage)."""
     from pxr import UsdPhysics
 
     from ..formats.usd.conventions import source_name
@@ -62,8 +63,8 @@ def usd_drives(stage, parsed, meters_per_unit: float,
                 own = instance in ("angular", "linear")
                 angular = instance == "angular" or instance.startswith("rot")
                 joint = sanitize_name(source_name(prim))  # (as the probe names it)
-                name = joint if own else f"{joint}_{instance}"
-                name = (names or {}).get((str(path), name), name)
+                name = (names or {}).get((str(path), instance),
+                                         joint if own else f"{joint}_{instance}")
                 entries, _ = read_drives(prim, {instance: (name, "angular" if angular
                                                            else "linear")},
                                          meters_per_unit, kpu)

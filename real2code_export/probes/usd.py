@@ -52,6 +52,7 @@ class _Link:
     lower: float | None = None  # rad or m; None: unbounded
     upper: float | None = None
     prim: str = ""  # the joint prim's path
+    instance: str = ""  # its drive's instance: angular, linear, or a generic joint's rotX
 
 
 def _frame(position, orientation, mpu: float) -> np.ndarray:
@@ -166,6 +167,7 @@ class UsdProbe:
                 break
             m = np.array(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(root))).T
             m[:3, 3] *= mpu
+            m[:3, :3] = tf.orthonormalize(m[:3, :3])  # (its frame: a scale, its shapes')
             self._roots[root] = self._world @ m
             reached.add(root)
             order.append(root)
@@ -176,8 +178,8 @@ class UsdProbe:
         taken: set[str] = set()
         renamed = {id(k): sanitize_name(k.name, taken) for k in sorted(
             self._links, key=lambda k: stage_order.get(k.prim, -1))}
-        # (joint prim, name before) -> name: what the drives of the file are named by
-        self.joint_names = {(k.prim, k.name): renamed[id(k)] for k in self._links}
+        # (joint prim, drive instance) -> joint name: what the file's drives drive
+        self.joint_names = {(k.prim, k.instance): renamed[id(k)] for k in self._links}
         self._links = [dataclasses.replace(k, name=renamed[id(k)]) for k in self._links]
         self.joints = [JointInfo(k.name, k.kind, k.lower, k.upper) for k in self._links
                        if k.kind not in ("fixed", "ball")]
@@ -210,7 +212,8 @@ class UsdProbe:
             kind, lower, upper = "fixed", None, None
         return _Link(_name(self.stage.GetPrimAtPath(prim_path)), kind, parent, child, to_joint,
                      tf.inverse(child_frame), axis, tf.make(translation=child_frame[:3, 3]),
-                     lower, upper, prim_path)
+                     lower, upper, prim_path,
+                     "linear" if kind_name == "PrismaticJoint" else "angular")
 
     def _stacked_links(self, items, parent: str, mpu: float) -> list[_Link]:
         """Hinges and slides stacked between the same two bodies, in stage order, as MuJoCo
@@ -276,7 +279,7 @@ class UsdProbe:
                                to_joint if k == 0 else np.eye(4),
                                tf.inverse(child_frame) if last else np.eye(4),
                                AXES[dof.token] * sign, offset if last else turned_back,
-                               *bounds, prim=prim_path))
+                               *bounds, prim=prim_path, instance=dof.name))
             above = below
         return links
 
