@@ -2114,3 +2114,26 @@ def test_usdphysics_probe_drive_of_a_generic_joints_one_free_axis(tmp_path):
     assert obj.joint("hinge").drive is not None
     report = check_files([path, written["mjcf"]], n_configurations=5, validate=False)
     assert report.ok, report.mismatches
+
+
+def test_usdphysics_probe_free_body_stands_at_its_frame_without_its_scale(tmp_path):
+    """A lone rigid body scaled by its prim (0.2) and turned 30 degrees: the probe poses it
+    at the prim's frame as a rotation (it held the scale, 1.02 rad off its MJCF export)."""
+    from pxr import Gf, UsdGeom
+
+    from real2code_export.probes.usd import UsdProbe
+
+    path = tmp_path / "cube.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    body = UsdGeom.Xform.Define(stage, "/cube")
+    stage.SetDefaultPrim(body.GetPrim())
+    body.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 1.0))
+    body.AddRotateZOp().Set(30.0)
+    body.AddScaleOp().Set(Gf.Vec3d(0.2, 0.2, 0.2))
+    UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+    stage.GetRootLayer().Save()
+    pose = UsdProbe(path).poses({})["cube"]
+    np.testing.assert_allclose(pose, tf.make(tf.axis_angle_matrix(
+        [0.0, 0.0, 1.0], math.radians(30.0)), [0.0, 0.0, 1.0]), atol=1e-9)
