@@ -315,3 +315,49 @@ def _range(where: str, bounds: tuple[float, float] | None) -> list[tuple[str, st
         bounds = None
     out: list[tuple[str, str, object]] = [(f"limited ({where})", "limited", bounds is not None)]
     return out + ([(f"range ({where})", "range", bounds)] if bounds is not None else [])
+
+
+# -- Newton's model of a USD source ----------------------------------------------------------
+def newton_dynamics(path: str, answer: dict) -> SchemaDynamics:
+    """A USD source's dynamics as Newton's model holds them (``probes.newton``'s answer,
+    SI, in the probe's frames at its configuration 0)."""
+    out = SchemaDynamics(str(path))
+    for name, body in answer["bodies"].items():
+        out.bodies[name] = (float(body["mass"]), np.asarray(body["inertia"], float),
+                            np.asarray(body["com"], float))
+    out.group = dict(answer["group"])
+    for name in answer.get("unit_bound", ()):
+        out.unstated[name] = ("Newton computes its mass from its colliders at its default "
+                              "density per cubic stage unit (it applies no metersPerUnit)")
+    for name, joint in answer["joints"].items():
+        items: list[tuple[str, str, object]] = [
+            (f"{q} (Newton)", q, float(joint[q])) for q in ("damping", "frictionloss",
+                                                            "armature")]
+        bounds = tuple(joint["range"]) if joint["limited"] else None
+        out.joints[name] = items + _range("Newton", bounds)
+    return out
+
+
+def mujoco_dynamics(path: str, m, d, welds: dict[int, list[int]]) -> SchemaDynamics:
+    """An MJCF file, or a URDF in MuJoCo's import, as MuJoCo compiles it (``m``, ``d`` at
+    rest; ``welds``: ``probes.dynamics._welds``): per body its mass, inertia and centre of
+    mass in the world, its group (named by its moving body), per named joint (a free joint
+    none) damping, frictionloss, armature, stiffness, limited and range."""
+    import mujoco
+
+    from .dynamics import _body_name, _joint_quantities
+
+    out = SchemaDynamics(str(path))
+    for weld, bodies in welds.items():
+        for b in bodies:
+            turn = d.ximat[b].reshape(3, 3)
+            out.bodies[_body_name(m, b)] = (float(m.body_mass[b]),
+                                            turn @ np.diag(m.body_inertia[b]) @ turn.T,
+                                            np.array(d.xipos[b], float))
+            out.group[_body_name(m, b)] = _body_name(m, weld) if weld else WORLD
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    for j in range(m.njnt):
+        if m.joint(j).name and int(m.jnt_type[j]) != free:
+            out.joints[m.joint(j).name] = [(q, q, v) for q, v in _joint_quantities(m, j).items()
+                                           if q != "ref"]
+    return out
