@@ -618,9 +618,11 @@ def against_newton(source: Path, newton: dict, exports: list[str | Path], tol: f
         if kind == "mjcf":
             m, d = _mjcf(export, compiled)
             view = schema_dynamics.mujoco_dynamics(str(export), m, d, _welds(m))
-        elif kind == "urdf":
+        elif kind == "urdf":  # (what a URDF holds of a joint: URDF_HOLDS)
             m, d = _compiled(_urdf_spec(export))
             view = schema_dynamics.mujoco_dynamics(str(export), m, d, _welds(m))
+            view.joints = {name: [i for i in items if i[1] in URDF_HOLDS]
+                           for name, items in view.joints.items()}
         elif kind in SCHEMA_TOOLS:
             view = _schema_view(kind, export, opened)
             if view is None:

@@ -258,12 +258,15 @@ def _build(path: str):
 
 
 def _mass_authored(prim) -> bool:
-    """Whether a body prim states its mass (PhysicsMassAPI's mass > 0), which Newton reads
-    as authored rather than computing it from the colliders."""
+    """Whether a body prim states its mass or its density (PhysicsMassAPI's, > 0), both in
+    stage units, which Newton reads as they are, rather than weighing its colliders at its
+    default density."""
     from pxr import UsdPhysics
 
-    return prim is not None and prim.HasAPI(UsdPhysics.MassAPI) and \
-        float(UsdPhysics.MassAPI(prim).GetMassAttr().Get() or 0.0) > 0.0
+    if prim is None or not prim.HasAPI(UsdPhysics.MassAPI):
+        return False
+    api = UsdPhysics.MassAPI(prim)
+    return any(float(a.Get() or 0.0) > 0.0 for a in (api.GetMassAttr(), api.GetDensityAttr()))
 
 
 def _stage_kilograms_per_unit(stage) -> float:
@@ -328,8 +331,9 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, welded, m
                         "armature": armature[dof] * scale[2],
                         "limited": lo is not None,
                         **({"range": [lo, hi]} if lo is not None else {})}
-    # Newton applies no metersPerUnit: where the file states no mass it weighs the colliders
-    # at its default density per cubic stage unit (1000), not per cubic metre
+    # Newton applies no metersPerUnit: where the file states neither mass nor density it
+    # weighs the colliders at its default density per cubic stage unit (1000), not per
+    # cubic metre (a stated density is per cubic stage unit: right as it is)
     computed = [name for name, label in zip(parts, model.body_label, strict=True)
                 if not _mass_authored(label)] if not math.isclose(mpu, 1.0) else []
     return {"bodies": bodies,

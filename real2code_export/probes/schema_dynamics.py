@@ -144,6 +144,15 @@ def usd_dynamics(probe) -> SchemaDynamics:
             if dofs and d6.is_ball(dofs):
                 out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(
                     stage.GetPrimAtPath(path), "D6Joint", d, mpu, d6.is_held_ball(dofs))
+            else:  # each free axis a joint (``<joint>_<axis>`` of several), as our reader
+                for dof in dofs:  # splits it; the prim's law shared by its axes
+                    name = path.rsplit("/", 1)[-1]
+                    name = f"{name}_{dof.name}" if len(dofs) > 1 else name
+                    to_model = math.radians if dof.angular else (lambda v: v * mpu)
+                    bounds = None if dof.lower is None else (to_model(dof.lower),
+                                                             to_model(dof.upper))
+                    out.joints[name] = _joint_law(stage.GetPrimAtPath(path), dof.angular) + \
+                        _range(f"limit:{dof.name}:physics:low, high", bounds)
         elif kind in ("RevoluteJoint", "PrismaticJoint", "SphericalJoint"):
             out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(stage.GetPrimAtPath(path), kind,
                                                              d, mpu)
@@ -177,15 +186,22 @@ def _usd_mass(prim, kpu: float, mpu: float
             np.zeros(3) if com is None else com), missing
 
 
+def _joint_law(prim, angular: bool) -> list[tuple[str, str, object]]:
+    """A joint prim's MjcJointAPI and NewtonJointAPI values (NewtonJointAPI's damping per
+    degree of a rotation made per radian)."""
+    items: list[tuple[str, str, object]] = [(f"{q} ({a})", q, _authored(prim, a))
+                                            for a, q in MJC]
+    per_degree = math.pi / 180.0 if angular else 1.0
+    return items + [(f"{q} ({a})", q, _authored(prim, a) / (per_degree if q == "damping"
+                                                             else 1.0))
+                    for a, q in NEWTON]
+
+
 def _usd_joint(prim, kind: str, desc, mpu: float,
                held: bool = False) -> list[tuple[str, str, object]]:
     """What a joint prim states (``held``: a generic joint that is a ball held at rest)."""
     angular = kind != "PrismaticJoint"
-    items: list[tuple[str, str, object]] = [(f"{q} ({a})", q, _authored(prim, a))
-                                            for a, q in MJC]
-    per_degree = math.pi / 180.0 if angular else 1.0
-    items += [(f"{q} ({a})", q, _authored(prim, a) / (per_degree if q == "damping" else 1.0))
-              for a, q in NEWTON]
+    items = _joint_law(prim, angular)
     if kind == "D6Joint":  # a ball: its rotations limited to [0, 0] hold it, else free
         return items + _range("limit:rot*:physics:low, high", (0.0, 0.0) if held else None)
     if kind == "SphericalJoint":  # its cone: the smaller cone angle, as the reader keeps it

@@ -1,0 +1,130 @@
+"""A USD source's dynamics in its own tool: ``check --reference FILE.usda`` and ``export
+--check`` compare the exports' masses, inertias, centres of mass and joint damping, friction,
+armature and ranges with Newton's model of the source (``probes.newton``'s answer,
+``probes.dynamics.against_newton``), as they compare an MJCF or URDF source's in MuJoCo and
+Pinocchio."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from real2code_export.check import check_files
+from real2code_export.cli import EXIT_OK, run
+from real2code_export.dynamics.venv import ENGINES_VENV
+
+# a rotation of 45 degrees about Z as a float32 matrix holds it (Newton's ant writes its
+# leg capsules so): its columns' norms are 1 +- 1e-8
+TURNED = ((0.7071067450934194, 0.7071068030891894, 0, 0),
+          (-0.7071068030891894, 0.7071067450934194, 0, 0), (0, 0, 1, 0), (0.1, 0.1, 0, 1))
+
+
+def _arm(path: Path) -> Path:
+    """A stage in centimetres, kilograms per unit 2: a base welded to the world (mass
+    stated), an arm on a hinge with NewtonJointAPI's damping (per degree), friction and
+    armature, whose mass the file leaves to its capsule collider, turned by ``TURNED``, at
+    an authored density."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    UsdPhysics.SetStageKilogramsPerUnit(stage, 2.0)
+    root = UsdGeom.Xform.Define(stage, "/arm").GetPrim()
+    stage.SetDefaultPrim(root)
+    UsdPhysics.ArticulationRootAPI.Apply(root)
+    base = UsdGeom.Xform.Define(stage, "/arm/base").GetPrim()
+    UsdPhysics.RigidBodyAPI.Apply(base)
+    mass = UsdPhysics.MassAPI.Apply(base)
+    mass.CreateMassAttr(1.5)
+    mass.CreateDiagonalInertiaAttr(Gf.Vec3f(20.0, 30.0, 40.0))
+    mass.CreateCenterOfMassAttr(Gf.Vec3f(1.0, 0.0, 2.0))
+    cube = UsdGeom.Cube.Define(stage, "/arm/base/box")
+    cube.CreateSizeAttr(4.0)
+    UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+    leg = UsdGeom.Xform.Define(stage, "/arm/leg")
+    leg.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 10.0))
+    UsdPhysics.RigidBodyAPI.Apply(leg.GetPrim())
+    mass = UsdPhysics.MassAPI.Apply(leg.GetPrim())
+    mass.CreateDensityAttr(2e-3)  # (kilograms per unit, per cubic centimetre)
+    capsule = UsdGeom.Capsule.Define(stage, "/arm/leg/capsule")
+    capsule.CreateAxisAttr("X")
+    capsule.CreateRadiusAttr(2.0)
+    capsule.CreateHeightAttr(8.0)
+    capsule.AddTransformOp().Set(Gf.Matrix4d(TURNED))
+    UsdPhysics.CollisionAPI.Apply(capsule.GetPrim())
+    weld = UsdPhysics.FixedJoint.Define(stage, "/arm/weld")
+    weld.CreateBody1Rel().SetTargets([Sdf.Path("/arm/base")])
+    hinge = UsdPhysics.RevoluteJoint.Define(stage, "/arm/hinge")
+    hinge.CreateBody0Rel().SetTargets([Sdf.Path("/arm/base")])
+    hinge.CreateBody1Rel().SetTargets([Sdf.Path("/arm/leg")])
+    hinge.CreateLocalPos0Attr(Gf.Vec3f(0.0, 0.0, 10.0))
+    hinge.CreateLocalPos1Attr(Gf.Vec3f(0.0))
+    hinge.CreateAxisAttr("Y")
+    hinge.CreateLowerLimitAttr(-45.0)
+    hinge.CreateUpperLimitAttr(60.0)
+    prim = hinge.GetPrim()
+    prim.AddAppliedSchema("NewtonJointAPI")
+    for name, value in (("damping", 0.2), ("friction", 0.3), ("armature", 0.05)):
+        prim.CreateAttribute(f"newton:{name}", Sdf.ValueTypeNames.Float).Set(value)
+    stage.Save()
+    return path
+
+
+def test_a_capsule_turned_by_a_float32_rotation_is_still_a_capsule():
+    """A rotation authored in float32 scales by 1 +- 1e-7: the capsule is kept (its exact
+    solid weighs it, as Newton and PhysX weigh it), not read as its bare tessellation, 2.6 %
+    light."""
+    from pxr import Usd, UsdGeom
+
+    from real2code_export.formats.usd.geometry import shape_mesh
+    from real2code_export.primitives import ShapeKind
+
+    stage = Usd.Stage.CreateInMemory()
+    capsule = UsdGeom.Capsule.Define(stage, "/capsule")
+    capsule.CreateAxisAttr("X")
+    capsule = capsule.GetPrim()
+    turned = np.array(TURNED, float).T
+    # (its x and y columns 1e-8 shorter than its z: a capsule along X, squashed by 1e-8)
+    assert abs(np.linalg.norm(turned[:3, 0]) - np.linalg.norm(turned[:3, 2])) > 1e-9
+    mesh = shape_mesh(capsule, turned)
+    assert mesh.primitive is not None and mesh.primitive.kind is ShapeKind.CAPSULE
+
+
+def test_usd_source_dynamics_are_compared_with_newtons_model(tmp_path, capsys):
+    """Every export of a USD source (centimetres, kilogramsPerUnit 2, a mass computed from a
+    capsule collider at an authored density, a hinge's damping per degree) weighs and damps
+    its bodies and joints as Newton's model of the source does; an export whose mass or
+    damping differs is caught against the source, named."""
+    if ENGINES_VENV.python() is None:
+        pytest.skip(f"no engines venv at {ENGINES_VENV.default_python.parents[1]} "
+                    f"(run {ENGINES_VENV.setup}): Newton cannot read the source")
+    source = _arm(tmp_path / "arm.usda")
+    out = tmp_path / "out"
+    assert run(["export", str(source), "--to", "mjcf,urdf,usd,gltf", "--check", "--out",
+                str(out)]) == EXIT_OK
+    table = capsys.readouterr().out
+    for tool in ("Newton / MuJoCo ", "Newton / MuJoCo (URDF import)", "Newton / UsdPhysics",
+                 "Newton / KHR_physics_rigid_bodies"):
+        assert any(tool in line and line.rstrip().endswith("equal")
+                   for line in table.splitlines()), (tool, table)
+    # the export's leg 1 % heavier, its hinge damped 10 % more: caught, named
+    from pxr import Usd, UsdPhysics
+
+    export = out / "arm.usda"
+    stage = Usd.Stage.Open(str(export))
+    prims = {p.GetName(): p for p in stage.Traverse()
+             if p.HasAPI(UsdPhysics.MassAPI) or p.IsA(UsdPhysics.Joint)}
+    mass = UsdPhysics.MassAPI(prims["leg"]).GetMassAttr()
+    mass.Set(mass.Get() * 1.01)
+    for name in ("newton:damping", "mjc:damping"):
+        damping = prims["hinge"].GetAttribute(name)
+        damping.Set(damping.Get() * 1.1)
+    stage.Save()
+    report = check_files([export], source=source, n_configurations=3, validate=False)
+    found = {(m.name, m.message.split(": ")[2].split(" ")[0]) for m in report.mismatches
+             if m.kind == "dynamics"}
+    assert {("leg", "mass"), ("hinge", "damping")} <= found <= {
+        ("leg", "mass"), ("leg", "principal"), ("hinge", "damping")}, found
