@@ -6,6 +6,7 @@ Pinocchio."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -91,6 +92,23 @@ def test_a_capsule_turned_by_a_float32_rotation_is_still_a_capsule():
     assert abs(np.linalg.norm(turned[:3, 0]) - np.linalg.norm(turned[:3, 2])) > 1e-9
     mesh = shape_mesh(capsule, turned)
     assert mesh.primitive is not None and mesh.primitive.kind is ShapeKind.CAPSULE
+
+
+def test_a_shape_and_its_bare_tessellation_are_not_one_cache_entry(tmp_path, monkeypatch):
+    """The mass cache keys a mesh by the shapes it keeps too: a capsule weighs its exact
+    solid even where its bare tessellation (the same triangles, 2.6 % lighter) was weighed
+    first (Newton's ant_multi, read after a capsule was taken for a squash)."""
+    from real2code_export.inertia import inertial_from_meshes
+    from real2code_export.model import Mesh
+    from real2code_export.primitives import Primitive, ShapeKind
+
+    monkeypatch.setenv("REAL2CODE_CACHE", str(tmp_path / "cache"))
+    capsule = Primitive(ShapeKind.CAPSULE, [0.08, 0.28])
+    bare = inertial_from_meshes([Mesh(*capsule.tessellation())], 1.0)
+    exact = inertial_from_meshes([Mesh.of_primitive(capsule)], 1.0)
+    solid = math.pi * 0.08 ** 2 * 0.28 + 4.0 / 3.0 * math.pi * 0.08 ** 3
+    assert exact.mass == pytest.approx(solid, rel=1e-12)
+    assert bare.mass < 0.99 * solid
 
 
 def test_usd_source_dynamics_are_compared_with_newtons_model(tmp_path, capsys):
