@@ -146,3 +146,57 @@ def test_usd_source_dynamics_are_compared_with_newtons_model(tmp_path, capsys):
              if m.kind == "dynamics"}
     assert {("leg", "mass"), ("hinge", "damping")} <= found <= {
         ("leg", "mass"), ("leg", "principal"), ("hinge", "damping")}, found
+
+
+def test_a_colliders_physics_material_density_weighs_it(tmp_path):
+    """A body that states no mass weighs its colliders each at its physics material's
+    density (PhysicsMaterialAPI bound for "physics"), as UsdPhysics and Newton weigh it, not
+    at the default 1000 kg/m^3 (Newton's cube_cylinder: 1.2 kg, read as 1.5)."""
+    from pxr import Usd, UsdGeom, UsdPhysics, UsdShade
+
+    from real2code_export.formats import load
+
+    path = tmp_path / "bottle.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    body = UsdGeom.Xform.Define(stage, "/bottle").GetPrim()
+    stage.SetDefaultPrim(body)
+    UsdPhysics.RigidBodyAPI.Apply(body)
+    material = UsdShade.Material.Define(stage, "/bottle/plastic")
+    UsdPhysics.MaterialAPI.Apply(material.GetPrim()).CreateDensityAttr(800.0)
+    cube = UsdGeom.Cube.Define(stage, "/bottle/box")
+    cube.CreateSizeAttr(0.1)
+    UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+    UsdShade.MaterialBindingAPI.Apply(cube.GetPrim()).Bind(
+        material, UsdShade.Tokens.weakerThanDescendants, "physics")
+    stage.Save()
+    with pytest.warns(Warning, match="physics material"):
+        obj = load(path, hull_collision=False)
+    (part,) = [p for p in obj.parts if p.inertial is not None and p.inertial.mass > 0]
+    assert part.inertial.mass == pytest.approx(800.0 * 0.1 ** 3, rel=1e-9)
+
+
+def test_what_newton_does_not_read_is_left_out_and_said():
+    """A joint's damping stated in MjcJointAPI only (MuJoCo's USD, cartpole_mjc) is read by
+    our reader and not by Newton's default importer: not compared, said; one stated in
+    NewtonJointAPI is compared."""
+    from pxr import Sdf, Usd
+
+    from real2code_export.probes.newton import _unread
+    from real2code_export.probes.schema_dynamics import newton_dynamics
+
+    stage = Usd.Stage.CreateInMemory()
+    hinge = stage.DefinePrim("/hinge", "PhysicsRevoluteJoint")
+    hinge.CreateAttribute("mjc:damping", Sdf.ValueTypeNames.Float).Set(0.05)
+    hinge.CreateAttribute("mjc:armature", Sdf.ValueTypeNames.Float).Set(0.1)
+    hinge.CreateAttribute("newton:armature", Sdf.ValueTypeNames.Float).Set(0.1)
+    unread = _unread(hinge)
+    assert unread == ["damping (mjc:damping)"]
+    view = newton_dynamics("cartpole.usda", {
+        "bodies": {}, "group": {}, "joints": {"hinge": {
+            "damping": 0.0, "frictionloss": 0.0, "armature": 0.1, "limited": False,
+            "unread": unread}}})
+    assert [q for _, q, _ in view.joints["hinge"]] == ["frictionloss", "armature", "limited"]
+    assert view.left_out == ["joint 'hinge': its damping (mjc:damping), which Newton's "
+                             "default importer does not read"]
+

@@ -361,6 +361,7 @@ def view_differences(src, exp, tol: float,
     otherwise than the file states (``src.unstated``) is not compared: said in
     ``left_out``."""
     left_out = [] if left_out is None else left_out
+    left_out += src.left_out
     from .schema_dynamics import WORLD
 
     members: dict[str, list[str]] = {}
@@ -635,6 +636,6 @@ def against_newton(source: Path, newton: dict, exports: list[str | Path], tol: f
         out.append(Comparison(export, NEWTON_TOOLS[kind],
                               view_differences(src, view, tol, left_out)))
     if left_out:
-        warnings.warn(f"{source}: masses not compared with Newton's: {'; '.join(left_out)}",
+        warnings.warn(f"{source}: not compared with Newton's model: {'; '.join(left_out)}",
                       Real2CodeWarning, stacklevel=2)
     return out

@@ -197,6 +197,7 @@ def _build(path: str):
     setters = []  # (joint name, kind, lower, upper, index into joint_q, scale to Newton's)
     setter_order = []  # each one's prim's place in the stage
     setter_dofs = []  # each one's degree of freedom (index into the joint_dof arrays)
+    setter_unread = []  # each one's quantities the file states where Newton does not read
     held = []  # (index into joint_q, value): a degree of freedom whose limits are equal
     held_dofs: dict[int, int] = {}  # joint -> how many of its degrees of freedom are held
     for j, label in enumerate(model.joint_label):
@@ -226,6 +227,7 @@ def _build(path: str):
                             hi * scale if limited else None, int(q_start[j]) + k, scale))
             setter_order.append(places.get(prim_path, -1))
             setter_dofs.append(dof)
+            setter_unread.append(_unread(prim_of(prim_path)))
     for k, name in enumerate(_unique([x[0] for x in setters], setter_order)):
         setters[k] = (name, *setters[k][1:])
     head = {"parts": parts,
@@ -252,9 +254,29 @@ def _build(path: str):
     welded = [j for j in range(len(types)) if int(types[j]) == jtype.FIXED
               or held_dofs.get(j, -1) == int(dof_dim[j].sum())]  # (all its degrees held)
     head["dynamics"] = _dynamics(model, law, parts, lambda label: _mass_authored(prim_of(label)),
-                                 setters, setter_dofs, welded,
+                                 setters, setter_dofs, setter_unread, welded,
                                  mpu, _stage_kilograms_per_unit(stage))
     return newton, model, law, setters, mpu, head
+
+
+# Newton's default importer (its SchemaResolverNewton alone) reads a joint's damping,
+# friction and armature from NewtonJointAPI; MjcJointAPI's (SchemaResolverMjc) and
+# PhysxJointAPI's armature (SchemaResolverPhysx) only when asked. Our reader reads
+# NewtonJointAPI's and MjcJointAPI's (formats/usd/joint.read_dynamics).
+NEWTON_READS = {"damping": ("newton:damping", "mjc:damping"),
+                "frictionloss": ("newton:friction", "mjc:frictionloss"),
+                "armature": ("newton:armature", "mjc:armature")}
+
+
+def _unread(prim) -> list[str]:
+    """The quantities a joint prim states in MjcJointAPI only, which Newton's default
+    importer does not read and our reader does (each ``"<quantity> (<attribute>)"``)."""
+    def authored(name: str) -> bool:
+        attr = prim.GetAttribute(name) if prim is not None else None
+        return bool(attr and attr.HasAuthoredValue())
+
+    return [f"{q} ({mjc})" for q, (newton, mjc) in NEWTON_READS.items()
+            if authored(mjc) and not authored(newton)]
 
 
 def _mass_authored(prim) -> bool:
@@ -278,8 +300,8 @@ def _stage_kilograms_per_unit(stage) -> float:
         if UsdPhysics.StageHasAuthoredKilogramsPerUnit(stage) else 1.0
 
 
-def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, welded, mpu: float,
-              kpu: float) -> dict:
+def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_unread,
+              welded, mpu: float, kpu: float) -> dict:
     """Newton's model's dynamics, in SI (Newton keeps the stage's units; the mass and the
     lengths scaled here by kilogramsPerUnit and metersPerUnit): per part its mass, its
     inertia about its centre of mass in world axes and its centre of mass in the world, at
@@ -321,7 +343,8 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, welded, m
     damping, friction, armature = (getattr(model, f"joint_{q}").numpy().astype(float)
                                    for q in ("damping", "friction", "armature"))
     joints = {}
-    for (name, kind, lo, hi, _, _), dof in zip(setters, setter_dofs, strict=True):
+    for (name, kind, lo, hi, _, _), dof, unread in zip(setters, setter_dofs, setter_unread,
+                                                       strict=True):
         angular = kind != "prismatic"
         # stage units -> SI (as our reader converts them): kg m^2/s, kg m^2/s^2, kg m^2 for
         # a rotation; kg/s, kg m/s^2, kg for a slide
@@ -329,7 +352,7 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, welded, m
         joints[name] = {"damping": damping[dof] * scale[0],
                         "frictionloss": friction[dof] * scale[1],
                         "armature": armature[dof] * scale[2],
-                        "limited": lo is not None,
+                        "limited": lo is not None, "unread": unread,
                         **({"range": [lo, hi]} if lo is not None else {})}
     # Newton applies no metersPerUnit: where the file states neither mass nor density it
     # weighs the colliders at its default density per cubic stage unit (1000), not per

@@ -43,6 +43,8 @@ class SchemaDynamics:
     # joint name -> (what, quantity, value): quantity is damping, frictionloss, armature,
     # stiffness, limited, range or ref, as MuJoCo names them; what says where it was read
     joints: dict[str, list[tuple[str, str, object]]] = field(default_factory=dict)
+    # what the source's tool reads otherwise than the file states, not compared (said)
+    left_out: list[str] = field(default_factory=list)
 
     def group_inertias(self) -> dict[str, tuple[float, np.ndarray, np.ndarray] | str]:
         """Group key -> (mass, principal moments, centre of mass) of the bodies of the group,
@@ -346,9 +348,12 @@ def newton_dynamics(path: str, answer: dict) -> SchemaDynamics:
         out.unstated[name] = ("Newton computes its mass from its colliders at its default "
                               "density per cubic stage unit (it applies no metersPerUnit)")
     for name, joint in answer["joints"].items():
+        unread = {u.split(" ")[0]: u for u in joint.get("unread", ())}
         items: list[tuple[str, str, object]] = [
             (f"{q} (Newton)", q, float(joint[q])) for q in ("damping", "frictionloss",
-                                                            "armature")]
+                                                            "armature") if q not in unread]
+        out.left_out += [f"joint {name!r}: its {u}, which Newton's default importer does not "
+                         "read" for u in unread.values()]
         bounds = tuple(joint["range"]) if joint["limited"] else None
         out.joints[name] = items + _range("Newton", bounds)
     return out

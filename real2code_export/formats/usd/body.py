@@ -246,15 +246,24 @@ def principal_axes(api) -> np.ndarray:
 
 
 def collider_mass(shape, mpu: float, kpu: float) -> tuple[float, float]:
-    """A collider prim's own PhysicsMassAPI mass (kg) and density (kg/m^3), 0 where not
-    authored (:func:`read_inertial`)."""
-    from pxr import UsdPhysics
+    """A collider prim's own PhysicsMassAPI mass (kg) and density (kg/m^3), else the density
+    of the physics material bound to it (PhysicsMaterialAPI, UsdShade's "physics" purpose),
+    as UsdPhysics' mass computation (and Newton's) takes it; 0 where not authored
+    (:func:`read_inertial`)."""
+    from pxr import UsdPhysics, UsdShade
 
-    if not shape.HasAPI(UsdPhysics.MassAPI):
-        return 0.0, 0.0
-    api = UsdPhysics.MassAPI(shape)
-    return (max(float(api.GetMassAttr().Get() or 0.0), 0.0) * kpu,
-            max(float(api.GetDensityAttr().Get() or 0.0), 0.0) * kpu / mpu**3)
+    mass = density = 0.0
+    if shape.HasAPI(UsdPhysics.MassAPI):
+        api = UsdPhysics.MassAPI(shape)
+        mass = max(float(api.GetMassAttr().Get() or 0.0), 0.0)
+        density = max(float(api.GetDensityAttr().Get() or 0.0), 0.0)
+    if mass <= 0.0 and density <= 0.0:
+        material, _ = UsdShade.MaterialBindingAPI(shape).ComputeBoundMaterial(
+            "physics")  # (the purpose UsdPhysics binds its materials for)
+        if material and material.GetPrim().HasAPI(UsdPhysics.MaterialAPI):
+            density = max(float(UsdPhysics.MaterialAPI(material.GetPrim()).GetDensityAttr()
+                                .Get() or 0.0), 0.0)
+    return mass * kpu, density * kpu / mpu**3
 
 
 def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float, where: str,
@@ -276,7 +285,8 @@ def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float, where: 
     own = own or [(0.0, 0.0)] * len(colliders)
     weighed = sum(1 for mass, dens in own if mass > 0.0 or dens > 0.0)
     warn(f"{where}: mass not authored: computed from its {len(colliders)} collider(s)"
-         + (f", {weighed} at their own mass or density (PhysicsMassAPI) and the rest"
+         + (f", {weighed} at their own mass or density (PhysicsMassAPI, or their physics "
+            "material's) and the rest"
             if weighed else "")
          + f" at {density:g} kg/m^3 ({'authored' if authored > 0.0 else 'the simulators default'}"
          "), as PhysX and Newton compute it")
