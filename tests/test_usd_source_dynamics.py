@@ -193,7 +193,7 @@ def test_what_newton_does_not_read_is_left_out_and_said():
     unread = _unread(hinge)
     assert unread == ["damping (mjc:damping)"]
     view = newton_dynamics("cartpole.usda", {
-        "bodies": {}, "group": {}, "joints": {"hinge": {
+        "bodies": {}, "group": {}, "group_as_urdf": {}, "joints": {"hinge": {
             "damping": 0.0, "frictionloss": 0.0, "armature": 0.1, "limited": False,
             "unread": unread}}})
     assert [q for _, q, _ in view.joints["hinge"]] == ["frictionloss", "armature", "limited"]

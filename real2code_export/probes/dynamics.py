@@ -612,7 +612,6 @@ def against_newton(source: Path, newton: dict, exports: list[str | Path], tol: f
     from ..formats import format_for_path
     from . import schema_dynamics
 
-    src = schema_dynamics.newton_dynamics(str(source), newton)
     out, left_out = [], []
     for export in map(Path, exports):
         kind = format_for_path(export).name
@@ -633,6 +632,7 @@ def against_newton(source: Path, newton: dict, exports: list[str | Path], tol: f
         else:
             continue
         left_out.clear()
+        src = schema_dynamics.newton_dynamics(str(source), newton, as_urdf=kind == "urdf")
         out.append(Comparison(export, NEWTON_TOOLS[kind],
                               view_differences(src, view, tol, left_out)))
     if left_out:

@@ -325,21 +325,27 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
             "inertia": (turn @ inertia[b] @ turn.T * kpu * mpu * mpu).tolist(),
             "com": (at + turn @ (com[b] - law.offset[b]) * mpu).tolist()}
     parent, child = model.joint_parent.numpy(), model.joint_child.numpy()
-    group = {b: b for b in range(-1, len(parts))}  # -1: the world
-
-    def root(b):
-        while group[b] != b:
-            b = group[b]
-        return b
-
     # a kinematic body (physics:kinematicEnabled) is moved by the user, not by its mass:
     # the world's, as our reader fixes it
     kinematic = int(newton.BodyFlags.KINEMATIC)
     held = [(-1, b) for b, flags in enumerate(model.body_flags.numpy()) if int(flags) & kinematic]
-    for a, c in [(int(parent[j]), int(child[j])) for j in welded] + held:
-        a, c = root(a), root(c)
-        if a != c:
-            group[max(a, c)] = min(a, c)  # (the world, -1, stays a root)
+    balls = [j for j, t in enumerate(model.joint_type.numpy()) if int(t) == newton.JointType.BALL]
+
+    def groups(joints: list[int]) -> dict[str, str]:
+        """Each part's group: its bodies joined by ``joints`` (and the kinematic ones to the
+        world), named by the first in Newton's order ("": the world's)."""
+        group = {b: b for b in range(-1, len(parts))}  # -1: the world
+
+        def root(b):
+            while group[b] != b:
+                b = group[b]
+            return b
+
+        for a, c in [(int(parent[j]), int(child[j])) for j in joints] + held:
+            a, c = root(a), root(c)
+            if a != c:
+                group[max(a, c)] = min(a, c)  # (the world, -1, stays a root)
+        return {name: (parts[root(b)] if root(b) >= 0 else "") for b, name in enumerate(parts)}
     damping, friction, armature = (getattr(model, f"joint_{q}").numpy().astype(float)
                                    for q in ("damping", "friction", "armature"))
     joints = {}
@@ -361,8 +367,9 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
                 if not _mass_authored(label)] if not math.isclose(mpu, 1.0) else []
     return {"bodies": bodies,
             "unit_bound": computed,
-            "group": {name: (parts[root(b)] if root(b) >= 0 else "") for b, name
-                      in enumerate(parts)},
+            "group": groups(welded),
+            # as a URDF holds them: a ball joint fixed at its rest (no URDF joint is one)
+            "group_as_urdf": groups(welded + balls),
             "joints": joints}
 
 

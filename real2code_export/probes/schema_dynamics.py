@@ -336,14 +336,15 @@ def _range(where: str, bounds: tuple[float, float] | None) -> list[tuple[str, st
 
 
 # -- Newton's model of a USD source ----------------------------------------------------------
-def newton_dynamics(path: str, answer: dict) -> SchemaDynamics:
+def newton_dynamics(path: str, answer: dict, as_urdf: bool = False) -> SchemaDynamics:
     """A USD source's dynamics as Newton's model holds them (``probes.newton``'s answer,
-    SI, in the probe's frames at its configuration 0)."""
+    SI, in the probe's frames at its configuration 0); ``as_urdf``: its bodies grouped as a
+    URDF holds them (a ball joint fixed at its rest)."""
     out = SchemaDynamics(str(path))
     for name, body in answer["bodies"].items():
         out.bodies[name] = (float(body["mass"]), np.asarray(body["inertia"], float),
                             np.asarray(body["com"], float))
-    out.group = dict(answer["group"])
+    out.group = dict(answer["group_as_urdf" if as_urdf else "group"])
     for name in answer.get("unit_bound", ()):
         out.unstated[name] = ("Newton computes its mass from its colliders at its default "
                               "density per cubic stage unit (it applies no metersPerUnit)")
