@@ -24,7 +24,11 @@ What of Newton's model becomes the probe's parts and joints (docs/formats.md, "c
   positions and prismatic values are scaled to metres here.
 
 Where Newton's model is not the file's (an axis it locks, a stack it reorders or merges at
-one anchor, two rotations at a skew) the file is refused with the reason."""
+one anchor, two rotations at a skew) the file is refused with the reason.
+
+The first answer carries Newton's model's dynamics too (:func:`_dynamics`: masses, inertias,
+centres of mass, groups of welded bodies, joint damping, friction, armature, ranges, in SI),
+which ``probes.dynamics.against_newton`` compares with the exports'."""
 
 from __future__ import annotations
 
@@ -309,7 +313,10 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
     the probe's frames (a root part at the world's); the parts' groups (welded by Newton's
     fixed joints, and by a degree of freedom held at equal limits, as our reader reads it);
     per joint of the probe its damping, friction and armature (Newton's ``joint_damping``,
-    ``joint_friction``, ``joint_armature``: per radian for a rotation) and its range."""
+    ``joint_friction``, ``joint_armature``: per radian for a rotation), its range, and what
+    the file states of them where Newton's importer does not read (:func:`_unread`); the
+    parts Newton weighs at its default density on a stage not in metres
+    (``unit_bound``)."""
     zero = np.zeros((1, len(setters)))
     import newton
 
