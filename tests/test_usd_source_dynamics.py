@@ -200,3 +200,27 @@ def test_what_newton_does_not_read_is_left_out_and_said():
     assert view.left_out == ["joint 'hinge': its damping (mjc:damping), which Newton's "
                              "default importer does not read"]
 
+
+
+def test_newtons_stand_in_inertia_is_not_compared_its_mass_is():
+    """Where Newton's mass computation leaves a body with mass and no tensor it makes one up
+    (a sphere of its mass at its default density: urdf-usd-converter's a1, whose cylinder
+    OpenUSD's own ComputeMassProperties weighs as our reader does): the group's moments are
+    left out, said; its mass and centre of mass are compared."""
+    from real2code_export.probes.dynamics import view_differences
+    from real2code_export.probes.schema_dynamics import SchemaDynamics, newton_dynamics
+
+    body = {"mass": 0.169, "inertia": (7.951e-5 * np.eye(3)).tolist(), "com": [0.0, 0.0, 0.0]}
+    source = newton_dynamics("a1.usda", {
+        "bodies": {"shoulder": body}, "group": {"shoulder": "shoulder"},
+        "group_as_urdf": {"shoulder": "shoulder"}, "joints": {},
+        "default_inertia": ["shoulder"]})
+    export = SchemaDynamics("a1.xml", bodies={"shoulder": (
+        0.169, np.diag([8.544e-5, 1.4204e-4, 8.544e-5]), np.zeros(3))},
+        group={"shoulder": "shoulder"})
+    left_out: list[str] = []
+    assert view_differences(source, export, 1e-6, left_out) == []
+    assert "principal moments" in left_out[0] and "'shoulder'" in left_out[0]
+    export.bodies["shoulder"] = (0.17, *export.bodies["shoulder"][1:])
+    assert [d.message.split(": ")[1].split(" ")[0]
+            for d in view_differences(source, export, 1e-6)] == ["mass"]

@@ -367,6 +367,19 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
                         "armature": armature[dof] * scale[2],
                         "limited": lo is not None, "unread": unread,
                         **({"range": [lo, hi]} if lo is not None else {})}
+    # Newton's stand-in where its mass computation leaves a body with mass and no inertia
+    # (import_usd: "assume a uniform density sphere with the given mass", at its default
+    # density, about the body's origin): not the colliders' tensor, which OpenUSD's own
+    # ComputeMassProperties gives (and our reader)
+    default_density = float(newton.ModelBuilder.ShapeConfig().density)
+    sphered = []
+    for b, name in enumerate(parts):
+        if mass[b] <= 0.0:
+            continue
+        radius = (3.0 * mass[b] / default_density / (4.0 * math.pi)) ** (1.0 / 3.0)
+        stand_in = (0.4 * mass[b] * radius ** 2 + mass[b] * float(com[b] @ com[b])) * np.eye(3)
+        if np.allclose(inertia[b], stand_in, rtol=1e-5, atol=0.0):
+            sphered.append(name)
     # Newton applies no metersPerUnit: where the file states neither mass nor density it
     # weighs the colliders at its default density per cubic stage unit (1000), not per
     # cubic metre (a stated density is per cubic stage unit: right as it is)
@@ -374,6 +387,7 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
                 if not _mass_authored(label)] if not math.isclose(mpu, 1.0) else []
     return {"bodies": bodies,
             "unit_bound": computed,
+            "default_inertia": sphered,
             "group": groups(welded),
             # as a URDF holds them: a ball joint fixed at its rest (no URDF joint is one)
             "group_as_urdf": groups(welded + balls),

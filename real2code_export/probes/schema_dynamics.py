@@ -45,6 +45,8 @@ class SchemaDynamics:
     joints: dict[str, list[tuple[str, str, object]]] = field(default_factory=dict)
     # what the source's tool reads otherwise than the file states, not compared (said)
     left_out: list[str] = field(default_factory=list)
+    # bodies whose inertia the source's tool makes up (a stand-in), not compared (said)
+    stand_in_inertia: list[str] = field(default_factory=list)
 
     def group_inertias(self) -> dict[str, tuple[float, np.ndarray, np.ndarray] | str]:
         """Group key -> (mass, principal moments, centre of mass) of the bodies of the group,
@@ -345,6 +347,7 @@ def newton_dynamics(path: str, answer: dict, as_urdf: bool = False) -> SchemaDyn
         out.bodies[name] = (float(body["mass"]), np.asarray(body["inertia"], float),
                             np.asarray(body["com"], float))
     out.group = dict(answer["group_as_urdf" if as_urdf else "group"])
+    out.stand_in_inertia = list(answer.get("default_inertia", ()))
     for name in answer.get("unit_bound", ()):
         out.unstated[name] = ("Newton computes its mass from its colliders at its default "
                               "density per cubic stage unit (it applies no metersPerUnit)")
