@@ -224,3 +224,24 @@ def test_newtons_stand_in_inertia_is_not_compared_its_mass_is():
     export.bodies["shoulder"] = (0.17, *export.bodies["shoulder"][1:])
     assert [d.message.split(": ")[1].split(" ")[0]
             for d in view_differences(source, export, 1e-6)] == ["mass"]
+
+
+def test_a_usd_readers_repair_explains_a_difference_with_newton():
+    """Our USD reader names what it repairs by its prim's path (a tensor off the triangle
+    inequality, which Newton keeps as written: the Allegro hand through urdf-usd-converter):
+    the difference with Newton's model names the prims of its group too, so the warning
+    explains it; a warning about another prim does not."""
+    from real2code_export.probes.dynamics import explaining, view_differences
+    from real2code_export.probes.schema_dynamics import SchemaDynamics, newton_dynamics
+
+    body = {"mass": 0.1, "inertia": np.diag([1e-5, 2e-5, 4e-5]).tolist(), "com": [0, 0, 0]}
+    source = newton_dynamics("hand.usda", {
+        "bodies": {"link_3": body}, "group": {"link_3": "link_3"},
+        "group_as_urdf": {"link_3": "link_3"}, "joints": {},
+        "paths": {"link_3": "/hand/palm/tn__link_3_XB"}})
+    export = SchemaDynamics("hand.xml", bodies={"link_3": (
+        0.1, np.diag([1.5e-5, 2e-5, 4e-5]), np.zeros(3))}, group={"link_3": "link_3"})
+    (difference,) = view_differences(source, export, 1e-6)
+    said = "hand.usda: prim </hand/palm/tn__link_3_XB>: inertia tensor violates the triangle"
+    assert explaining(difference, [said + " inequality; balanced"]) != []
+    assert explaining(difference, [said.replace("link_3", "link_4") + " inequality"]) == []

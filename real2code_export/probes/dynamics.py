@@ -72,7 +72,8 @@ def explaining(difference: Difference, warned: list[str]) -> list[str]:
     changed (``'NAME'``, as the source spells it or as our importers name it: a link
     ``fl.hip`` is part ``fl_hip``) and says what of it changed, the quantity that differs
     (its mass, its tensor; its damping, its limit: :attr:`Difference.words`), not another."""
-    names = {f"'{m}'" for n in difference.names for m in (n, sanitize_name(n))}
+    names = {f"'{m}'" for n in difference.names for m in (n, sanitize_name(n))} | {
+        f"<{n}>" for n in difference.names if n.startswith("/")}  # (a USD prim's path)
     return [w for w in warned if any(n in w for n in names) and _says(w, difference)]
 
 
@@ -385,8 +386,10 @@ def view_differences(src, exp, tol: float,
             out.append(Difference(tuple(names), f"body {key!r}: {group}", ("mass", "inertia"),
                                   prose=True))
             continue
-        found_differences = _mass_differences(f"body {key!r} and the bodies fixed to it",
-                                              tuple(names), ours[key], group, tol)
+        # (named by the source's prims' paths too: what our USD reader's warnings name)
+        found_differences = _mass_differences(
+            f"body {key!r} and the bodies fixed to it",
+            (*names, *(src.paths[n] for n in names if n in src.paths)), ours[key], group, tol)
         stand_in = [n for n in names if n in src.stand_in_inertia]
         if stand_in:  # (its mass and centre of mass compared, not its moments)
             found_differences = [d for d in found_differences

@@ -386,6 +386,8 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
     computed = [name for name, label in zip(parts, model.body_label, strict=True)
                 if not _mass_authored(label)] if not math.isclose(mpu, 1.0) else []
     return {"bodies": bodies,
+            "paths": {name: str(label) for name, label in zip(parts, model.body_label,
+                                                                strict=True)},
             "unit_bound": computed,
             "default_inertia": sphered,
             "group": groups(welded),

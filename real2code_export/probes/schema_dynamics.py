@@ -47,6 +47,8 @@ class SchemaDynamics:
     left_out: list[str] = field(default_factory=list)
     # bodies whose inertia the source's tool makes up (a stand-in), not compared (said)
     stand_in_inertia: list[str] = field(default_factory=list)
+    # body name -> its prim's path (a USD source's: what our reader's warnings name)
+    paths: dict[str, str] = field(default_factory=dict)
 
     def group_inertias(self) -> dict[str, tuple[float, np.ndarray, np.ndarray] | str]:
         """Group key -> (mass, principal moments, centre of mass) of the bodies of the group,
@@ -348,6 +350,7 @@ def newton_dynamics(path: str, answer: dict, as_urdf: bool = False) -> SchemaDyn
                             np.asarray(body["com"], float))
     out.group = dict(answer["group_as_urdf" if as_urdf else "group"])
     out.stand_in_inertia = list(answer.get("default_inertia", ()))
+    out.paths = dict(answer.get("paths", {}))
     for name in answer.get("unit_bound", ()):
         out.unstated[name] = ("Newton computes its mass from its colliders at its default "
                               "density per cubic stage unit (it applies no metersPerUnit)")
