@@ -336,7 +336,9 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
     # the world's, as our reader fixes it
     kinematic = int(newton.BodyFlags.KINEMATIC)
     held = [(-1, b) for b, flags in enumerate(model.body_flags.numpy()) if int(flags) & kinematic]
-    balls = [j for j, t in enumerate(model.joint_type.numpy()) if int(t) == newton.JointType.BALL]
+    # (a ball of the tree: one closing a loop, which no URDF holds either, joins nothing)
+    balls = [j for j, t in enumerate(model.joint_type.numpy())
+             if int(t) == newton.JointType.BALL and j in law.posed_joints]
 
     def groups(joints: list[int]) -> dict[str, str]:
         """Each part's group: its bodies joined by ``joints`` (and the kinematic ones to the

@@ -173,6 +173,9 @@ def write_frame(layer, path: str, joint):
 # kg/m^3: what a UsdPhysics simulator gives a collider whose density nothing authors (PhysX's
 # default, Newton's ShapeConfig.density)
 SIMULATOR_DENSITY = 1000.0
+# what the warning of a mass computed as the simulators compute it says (no repair: it
+# explains no difference with Newton's model, ``probes.dynamics.NEWTON_RULES``)
+SIMULATORS_RULE = "as PhysX and Newton compute it"
 
 
 def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu: float,
@@ -289,7 +292,7 @@ def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float, where: 
             "material's) and the rest"
             if weighed else "")
          + f" at {density:g} kg/m^3 ({'authored' if authored > 0.0 else 'the simulators default'}"
-         "), as PhysX and Newton compute it")
+         f"), {SIMULATORS_RULE}")
     if not weighed:
         return inertial_from_meshes(colliders, density)
     pieces = []
