@@ -263,3 +263,37 @@ def test_a_usd_readers_repair_explains_a_difference_with_newton():
     said = "hand.usda: prim </hand/palm/tn__link_3_XB>: inertia tensor violates the triangle"
     assert explaining(difference, [said + " inequality; balanced"]) != []
     assert explaining(difference, [said.replace("link_3", "link_4") + " inequality"]) == []
+
+
+def test_an_authored_centre_of_mass_stands_beside_a_computed_mass(tmp_path):
+    """A body stating mass 0 (computed) and a centre of mass (urdf-usd-converter's ur10
+    ``ee_link``: (0, 0, 0), its box collider 1 cm off): the centre stands as authored, the
+    colliders' inertia taken about it, as OpenUSD's ComputeMassProperties and Newton read
+    it (it was the colliders' centre, 1 cm off)."""
+    from pxr import Gf, Usd, UsdGeom, UsdPhysics
+
+    from real2code_export.formats import load
+
+    path = tmp_path / "tool.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    body = UsdGeom.Xform.Define(stage, "/tool").GetPrim()
+    stage.SetDefaultPrim(body)
+    UsdPhysics.RigidBodyAPI.Apply(body)
+    mass = UsdPhysics.MassAPI.Apply(body)
+    mass.CreateMassAttr(0.0)
+    mass.CreateCenterOfMassAttr(Gf.Vec3f(0.0))
+    cube = UsdGeom.Cube.Define(stage, "/tool/box")
+    cube.CreateSizeAttr(0.1)
+    cube.AddTranslateOp().Set(Gf.Vec3d(-0.1, 0.0, 0.0))
+    UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+    stage.Save()
+    with pytest.warns(Warning, match="mass not authored"):
+        obj = load(path, hull_collision=False)
+    (part,) = [p for p in obj.parts if p.inertial is not None and p.inertial.mass > 0]
+    m = 1000.0 * 0.1 ** 3
+    assert part.inertial.mass == pytest.approx(m, rel=1e-9)
+    np.testing.assert_allclose(part.inertial.com, [0.0, 0.0, 0.0], atol=1e-12)
+    own = m * 0.1 ** 2 / 6
+    np.testing.assert_allclose(np.diag(part.inertial.inertia),
+                               [own, own + m * 0.01, own + m * 0.01], rtol=1e-9)

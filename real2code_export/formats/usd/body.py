@@ -201,7 +201,9 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
     mass = float(api.GetMassAttr().Get() or 0.0) * kpu
     if mass <= 0.0:
         if colliders:
-            return _from_colliders(prim, colliders, mpu, kpu, where, collider_mass)
+            return _at_authored_com(
+                _from_colliders(prim, colliders, mpu, kpu, where, collider_mass), api,
+                to_part, mpu, scale)
         warn(f"{where}: mass not authored (the simulator would compute it from density); "
              "the part gets no inertial")
         return None
@@ -235,6 +237,23 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
         com = hull_com if com is None else com
         inertia = hull_inertia if inertia is None else inertia
     return Inertial(mass, com, inertia)
+
+
+def _at_authored_com(inertial: Inertial | None, api, to_part: np.ndarray, mpu: float,
+                     scale: np.ndarray | None) -> Inertial | None:
+    """A mass computed from the colliders with the body's authored centre of mass kept, as
+    OpenUSD's ``ComputeMassProperties`` keeps it (each of mass, centre of mass and inertia
+    stands as authored, the rest computed; the inertia then about that centre, by the
+    parallel axis theorem), and Newton's importer: urdf-usd-converter states mass 0 and
+    centre (0, 0, 0) for a link whose mass it leaves to the simulator."""
+    com = api.GetCenterOfMassAttr().Get()
+    if inertial is None or com is None or not np.all(np.isfinite(com)):
+        return inertial
+    com = np.asarray(com, float) * mpu * (scale if scale is not None else 1.0)
+    com = to_part[:3, :3] @ com + to_part[:3, 3]
+    d = inertial.com - com  # (the mass's warning says it is computed; nothing repaired)
+    return Inertial(inertial.mass, com, inertial.inertia + inertial.mass * (
+        float(d @ d) * np.eye(3) - np.outer(d, d)))
 
 
 def principal_axes(api) -> np.ndarray:
