@@ -374,9 +374,12 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
     # density, about the body's origin): not the colliders' tensor, which OpenUSD's own
     # ComputeMassProperties gives (and our reader)
     default_density = float(newton.ModelBuilder.ShapeConfig().density)
+    # (a body weighed from a sphere at that density has that very tensor: not a stand-in)
+    round_ = {int(b) for b, kind in zip(model.shape_body.numpy(), model.shape_type.numpy(),
+                                       strict=True) if int(kind) == int(newton.GeoType.SPHERE)}
     sphered = []
     for b, name in enumerate(parts):
-        if mass[b] <= 0.0:
+        if mass[b] <= 0.0 or b in round_:
             continue
         radius = (3.0 * mass[b] / default_density / (4.0 * math.pi)) ** (1.0 / 3.0)
         stand_in = (0.4 * mass[b] * radius ** 2 + mass[b] * float(com[b] @ com[b])) * np.eye(3)
