@@ -193,7 +193,8 @@ def check_files(
     and the exports' dynamics are compared with its (``tol_dynamics``, absolute and
     relative, the model's tolerance). ``warned``: our reader's warnings on the source (its
     repairs); None reads the source again to learn them when some dynamics differ.
-    A USD source is loaded in Newton (``probes.newton``), its kinematics only. Without
+    A USD source is loaded in Newton (``probes.newton``): the exports' dynamics are compared
+    with Newton's model's (``probes.dynamics.against_newton``). Without
     ``source_required`` a source its tool cannot load (Newton absent, or refusing the file)
     is left out with a warning, the files compared with each other (``export --check``).
     """
@@ -219,9 +220,11 @@ def check_files(
     opened = _opened(probes, paths)
     _compare_drives(report, probes, [*([source] if source is not None else []), *paths],
                     tol_dynamics, compiled, opened)
-    if source is not None and format_for_path(source).name != "usd":
-        # (a USD source's dynamics in Newton are not compared: docs/formats.md)
-        _compare_dynamics(report, source, tol_dynamics, warned, compiled, opened)
+    # (a USD source's dynamics: Newton's model's, ``probes.newton``)
+    newton = next((p.dynamics for p in source_probes
+                   if getattr(p, "dynamics", None) is not None), None)
+    if source is not None and (newton is not None or format_for_path(source).name != "usd"):
+        _compare_dynamics(report, source, tol_dynamics, warned, compiled, opened, newton)
     validations = finish()  # the probes still open: USD's validator reuses their parsed layers
     del probes
     for v in validations:
@@ -274,14 +277,15 @@ def _compare(paths, n_configurations, seed, tol_position, tol_rotation, referenc
 
 def _compare_dynamics(report: CheckReport, source: str | Path, tol: float,
                       warned: Sequence[str] | None, compiled: dict[Path, object],
-                      opened: dict[Path, Probe]) -> None:
+                      opened: dict[Path, Probe], newton: dict | None = None) -> None:
     """The exports' dynamics against the source's (module docstring), into ``report``;
     ``compiled``: the MJCF models the probes compiled (:func:`_compiled_mjcf`); ``opened``:
-    the USD and glTF probes (:func:`_opened`)."""
+    the USD and glTF probes (:func:`_opened`); ``newton``: a USD source's dynamics in
+    Newton's model (``probes.newton``)."""
     from .probes import dynamics
 
     report.tol_dynamics = tol
-    comparisons = dynamics.against_source(source, report.files, tol, compiled, opened)
+    comparisons = dynamics.against_source(source, report.files, tol, compiled, opened, newton)
     if warned is None and any(c.differences for c in comparisons):
         warned = _repair_warnings(source)
     for c in comparisons:

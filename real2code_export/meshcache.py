@@ -53,6 +53,12 @@ def key(kind: str, meshes: Sequence[Mesh], params: dict, sources: Sequence[str] 
         h.update(Path(source).read_bytes())
     for mesh in meshes:
         h.update(mesh.digest().encode())
+        # the shapes it keeps too: a round shape weighs its exact solid, its bare
+        # tessellation (the same triangles) 2 to 3 % less
+        for shape in mesh.primitives:
+            h.update(shape.kind.value.encode())
+            h.update(shape.size.tobytes())
+            h.update(shape.pose.tobytes())
     return h.hexdigest()
 
 

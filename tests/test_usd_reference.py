@@ -154,11 +154,15 @@ def _installed_asset(relative: str) -> Path:
 
 def test_newton_example_of_generic_joints_agrees_with_its_source(tmp_path, capsys):
     """Newton's own ``humanoid.usda`` (bodies on generic joints of several limited
-    rotations): every export agrees with Newton's reading, joint for joint."""
+    rotations, masses from capsule colliders): every export agrees with Newton's reading,
+    joint for joint, and weighs and damps as Newton's model does."""
     asset = _installed_asset("examples/assets/humanoid.usda")
     assert run(["export", str(asset), "--to", "mjcf,urdf,usd,gltf", "--check",
                 "--out", str(tmp_path / "out")]) == EXIT_OK
-    assert "reference: source Newton (USD) humanoid.usda" in capsys.readouterr().out
+    table = capsys.readouterr().out
+    assert "reference: source Newton (USD) humanoid.usda" in table
+    compared = [line.split()[-1] for line in table.splitlines() if " Newton / " in line]
+    assert compared == ["equal"] * 4, table
 
 
 def test_newton_is_no_reference_for_stacked_joints_it_reorders(tmp_path):

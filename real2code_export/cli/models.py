@@ -33,8 +33,9 @@ def add_parsers(sub) -> None:
     s.add_argument("--tol-position", type=float, default=1e-6, help="metres (default 1e-6)")
     s.add_argument("--tol-rotation", type=float, default=1e-6, help="radians (default 1e-6)")
     s.add_argument("--reference", metavar="FILE",
-                   help="the URDF or MJCF the files were made from, loaded in its own tools "
-                        "(MuJoCo; and Pinocchio for URDF) as the reference; the exports' "
+                   help="the URDF, MJCF or USD file the files were made from, loaded in "
+                        "its own tools (MuJoCo; and Pinocchio for URDF; Newton for USD) as "
+                        "the reference; the exports' "
                         "masses, inertias and joint dynamics and limits are compared with it "
                         "too")
     s.add_argument("--tol-dynamics", type=float, default=1e-6,

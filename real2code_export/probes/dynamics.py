@@ -27,7 +27,9 @@ list means equal.
 
 from __future__ import annotations
 
+import dataclasses
 import re
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import transforms as tf
+from ..errors import Real2CodeWarning
+from ..formats.usd.body import SIMULATORS_RULE
 from ..inertia import combine_inertials
 from ..model import UNBOUNDED_LIMIT, Inertial, sanitize_name
 from ..mujoco_files import spec_from_file
@@ -57,6 +61,9 @@ class Difference:
     # the words count only as whole words of the warning's own prose, not inside the file's
     # elements it quotes: "<mass value='0'>: treated as massless" changed no mass
     prose: bool = False
+    # what a warning says that makes it no explanation of this difference: the reader
+    # following the very rule the source's tool follows changed nothing against it
+    not_by: tuple[str, ...] = ()
 
     def __str__(self) -> str:
         return self.message
@@ -70,8 +77,10 @@ def explaining(difference: Difference, warned: list[str]) -> list[str]:
     changed (``'NAME'``, as the source spells it or as our importers name it: a link
     ``fl.hip`` is part ``fl_hip``) and says what of it changed, the quantity that differs
     (its mass, its tensor; its damping, its limit: :attr:`Difference.words`), not another."""
-    names = {f"'{m}'" for n in difference.names for m in (n, sanitize_name(n))}
-    return [w for w in warned if any(n in w for n in names) and _says(w, difference)]
+    names = {f"'{m}'" for n in difference.names for m in (n, sanitize_name(n))} | {
+        f"<{n}>" for n in difference.names if n.startswith("/")}  # (a USD prim's path)
+    return [w for w in warned if any(n in w for n in names) and _says(w, difference)
+            and not any(phrase in w for phrase in difference.not_by)]
 
 
 def _says(warning: str, difference: Difference) -> bool:
@@ -350,6 +359,64 @@ def schema_differences(src, ds, view, tol: float) -> list[Difference]:
     return out
 
 
+def view_differences(src, exp, tol: float,
+                     left_out: list[str] | None = None) -> list[Difference]:
+    """A source's dynamics as its tool holds them against an export's, both as
+    ``schema_dynamics.SchemaDynamics`` (a USD source in Newton: ``newton_dynamics``), per
+    group of welded bodies of the source that moves, looked up in the export by a body of
+    it, and per joint each value the export holds. A group the source's tool weighs
+    otherwise than the file states (``src.unstated``) is not compared: said in
+    ``left_out``."""
+    left_out = [] if left_out is None else left_out
+    left_out += src.left_out
+    from .schema_dynamics import WORLD
+
+    members: dict[str, list[str]] = {}
+    for body, key in src.group.items():
+        members.setdefault(key, []).append(body)
+    ours, theirs = src.group_inertias(), exp.group_inertias()
+    out = []
+    for key, names in members.items():
+        if key == WORLD:
+            continue  # the world's own share
+        found = next((exp.group[n] for n in names if n in exp.group), None)
+        if found is None or found == WORLD:
+            out.append(Difference(tuple(names), f"body {key!r}: no moving body of that name "
+                                                "in the export"))
+            continue
+        if isinstance(ours[key], str):  # (the source's tool reads it otherwise: left out)
+            left_out.append(ours[key])
+            continue
+        group = theirs[found]
+        if isinstance(group, str):
+            out.append(Difference(tuple(names), f"body {key!r}: {group}", ("mass", "inertia"),
+                                  prose=True))
+            continue
+        # (named by the source's prims' paths too: what our USD reader's warnings name)
+        found_differences = _mass_differences(
+            f"body {key!r} and the bodies fixed to it",
+            (*names, *(src.paths[n] for n in names if n in src.paths)), ours[key], group, tol)
+        stand_in = [n for n in names if n in src.stand_in_inertia]
+        if stand_in:  # (its mass and centre of mass compared, not its moments)
+            found_differences = [d for d in found_differences
+                                 if "principal moments" not in d.message]
+            left_out.append(f"body {key!r}: the principal moments, for Newton's stand-in "
+                            f"inertia of {', '.join(repr(n) for n in stand_in)} (a sphere of "
+                            "its mass at its default density, where its mass computation "
+                            "gives no tensor)")
+        out += found_differences
+    for name, items in src.joints.items():
+        stated = exp.joints.get(name)
+        if stated is None:
+            out.append(Difference((name,), f"joint {name!r}: not in the export"))
+            continue
+        held = {q: v for _, q, v in items}
+        out += [Difference((name,), f"joint {name!r}: {what} {held[q]} != {value}",
+                           QUANTITY_WORDS[q])
+                for what, q, value in stated if q in held and not _close(held[q], value, tol)]
+    return out
+
+
 # What a warning explaining a difference in one quantity of a joint says of it (a warning
 # about the joint's mass or its type explains no change of its damping or range).
 QUANTITY_WORDS = {"damping": ("damping",), "frictionloss": ("friction",),
@@ -459,7 +526,8 @@ class Comparison:
 
 def against_source(source: str | Path, exports: list[str | Path], tol: float = 1e-6,
                    compiled: Mapping[Path, object] | None = None,
-                   opened: Mapping[Path, object] | None = None) -> list[Comparison]:
+                   opened: Mapping[Path, object] | None = None,
+                   newton: dict | None = None) -> list[Comparison]:
     """The dynamics of each export that a tool of the source builds, against the source in
     that tool: an MJCF source's MJCF exports in MuJoCo (:func:`mjcf_differences`); a URDF
     source's URDF exports in Pinocchio (:func:`urdf_differences`) and MJCF exports in MuJoCo
@@ -468,11 +536,15 @@ def against_source(source: str | Path, exports: list[str | Path], tol: float = 1
     against the source in MuJoCo (:func:`schema_differences`). ``compiled``: MJCF files'
     models that the kinematic probes compiled already (path -> MjModel), used instead of
     compiling the files again; ``opened``: USD and glTF files' probes opened already (path
-    -> probe), whose stage and document are read instead of opening the files again."""
+    -> probe), whose stage and document are read instead of opening the files again.
+    A USD source: ``newton``, Newton's model's dynamics (``probes.newton``'s answer), against
+    every export as its tool or schema holds them (:func:`against_newton`)."""
     from ..errors import CheckError
     from ..formats import format_for_path
 
     source = Path(source)
+    if newton is not None:
+        return against_newton(source, newton, exports, tol, compiled, opened)
     is_urdf = format_for_path(source).name == "urdf"
     in_mujoco: list = []  # the source compiled by MuJoCo, once: [(model, data) or None]
     out = []
@@ -541,3 +613,52 @@ def _schema_view(kind: str, export: Path, opened: Mapping[Path, object] | None):
     if not hasattr(probe, "node_poses"):  # (``probes.gltf.ImportedGltfProbe``)
         return None
     return schema_dynamics.gltf_dynamics(probe)
+
+
+# What our USD reader says where it weighs a body as Newton does (colliders at their
+# densities): no repair, so no explanation of a difference with Newton's model
+NEWTON_RULES = (SIMULATORS_RULE,)
+
+# the tool named for an export's comparison with a USD source's model in Newton
+NEWTON_TOOLS = {"mjcf": "Newton / MuJoCo", "urdf": "Newton / MuJoCo (URDF import)",
+                "usd": "Newton / UsdPhysics", "gltf": "Newton / KHR_physics_rigid_bodies"}
+
+
+def against_newton(source: Path, newton: dict, exports: list[str | Path], tol: float,
+                   compiled: Mapping[Path, object] | None,
+                   opened: Mapping[Path, object] | None) -> list[Comparison]:
+    """A USD source's dynamics as Newton's model holds them (``newton``: the probe's
+    answer) against each export's: an MJCF export compiled by MuJoCo, a URDF export as
+    MuJoCo imports it (per welded group, per joint: :func:`view_differences`), a USD or
+    glTF export as its schema states it (``probes.schema_dynamics``)."""
+    from ..formats import format_for_path
+    from . import schema_dynamics
+
+    out, left_out = [], []
+    for export in map(Path, exports):
+        kind = format_for_path(export).name
+        if kind == "mjcf":
+            m, d = _mjcf(export, compiled)
+            view = schema_dynamics.mujoco_dynamics(str(export), m, d, _welds(m))
+        elif kind == "urdf":  # (what a URDF holds of a joint: URDF_HOLDS)
+            m, d = _compiled(_urdf_spec(export))
+            view = schema_dynamics.mujoco_dynamics(str(export), m, d, _welds(m))
+            view.joints = {name: [i for i in items if i[1] in URDF_HOLDS]
+                           for name, items in view.joints.items()}
+        elif kind in SCHEMA_TOOLS:
+            view = _schema_view(kind, export, opened)
+            if view is None:
+                out.append(Comparison(export, NEWTON_TOOLS[kind], None, "a glTF without our "
+                                      "node extras: its bodies are not posed here"))
+                continue
+        else:
+            continue
+        left_out.clear()
+        src = schema_dynamics.newton_dynamics(str(source), newton, as_urdf=kind == "urdf")
+        out.append(Comparison(export, NEWTON_TOOLS[kind], [
+            dataclasses.replace(d, not_by=NEWTON_RULES)
+            for d in view_differences(src, view, tol, left_out)]))
+    if left_out:
+        warnings.warn(f"{source}: not compared with Newton's model: {'; '.join(left_out)}",
+                      Real2CodeWarning, stacklevel=2)
+    return out

@@ -25,7 +25,11 @@ What of Newton's model becomes the probe's parts and joints (docs/formats.md, "c
   positions and prismatic values are scaled to metres here.
 
 Where Newton's model is not the file's (an axis it locks, a stack it reorders or merges at
-one anchor, two rotations at a skew) the file is refused with the reason."""
+one anchor, two rotations at a skew) the file is refused with the reason.
+
+The first answer carries Newton's model's dynamics too (:func:`_dynamics`: masses, inertias,
+centres of mass, groups of welded bodies, joint damping, friction, armature, ranges, in SI),
+which ``probes.dynamics.against_newton`` compares with the exports'."""
 
 from __future__ import annotations
 
@@ -73,6 +77,8 @@ class NewtonProbe:
         self.parts: list[str] = head["parts"]
         self.joints = [JointInfo(j["name"], j["kind"], j["lower"], j["upper"])
                        for j in head["joints"]]
+        # Newton's model's masses, inertias and joint dynamics (:func:`_dynamics`)
+        self.dynamics: dict = head["dynamics"]
 
     def _ask(self, request: dict) -> dict:
         assert self._process.stdin is not None and self._process.stdout is not None
@@ -195,7 +201,10 @@ def _build(path: str):
                     [places.get(label, -1) for label in model.body_label])
     setters = []  # (joint name, kind, lower, upper, index into joint_q, scale to Newton's)
     setter_order = []  # each one's prim's place in the stage
+    setter_dofs = []  # each one's degree of freedom (index into the joint_dof arrays)
+    setter_unread = []  # each one's quantities the file states where Newton does not read
     held = []  # (index into joint_q, value): a degree of freedom whose limits are equal
+    held_dofs: dict[int, int] = {}  # joint -> how many of its degrees of freedom are held
     for j, label in enumerate(model.joint_label):
         kind = int(types[j])
         if kind not in (jtype.REVOLUTE, jtype.PRISMATIC, jtype.D6) or j not in law.posed_joints:
@@ -216,11 +225,14 @@ def _build(path: str):
             scale = 1.0 if angular else mpu
             if limited and lo == hi:  # held there (PhysX and Newton): no joint, as our
                 held.append((int(q_start[j]) + k, lo))  # reader reads it (a fixed joint)
+                held_dofs[j] = held_dofs.get(j, 0) + 1
                 continue
             dof_kind = ("revolute" if limited else "continuous") if angular else "prismatic"
             setters.append((name, dof_kind, lo * scale if limited else None,
                             hi * scale if limited else None, int(q_start[j]) + k, scale))
             setter_order.append(places.get(prim_path, -1))
+            setter_dofs.append(dof)
+            setter_unread.append(_unread(prim_of(prim_path)))
     for k, name in enumerate(_unique([x[0] for x in setters], setter_order)):
         setters[k] = (name, *setters[k][1:])
     head = {"parts": parts,
@@ -248,7 +260,150 @@ def _build(path: str):
     high = [min(hi, math.pi) if hi is not None else 1.0 for _, _, _, hi, _, _ in setters]
     _poses(newton, model, law, setters, mpu, np.random.default_rng(0).uniform(
         low, high, size=(_SELF_CHECKS, len(setters))))
+    welded = [j for j in range(len(types)) if int(types[j]) == jtype.FIXED
+              or held_dofs.get(j, -1) == int(dof_dim[j].sum())]  # (all its degrees held)
+    head["dynamics"] = _dynamics(model, law, parts, lambda label: _mass_authored(prim_of(label)),
+                                 setters, setter_dofs, setter_unread, welded,
+                                 mpu, _stage_kilograms_per_unit(stage))
     return newton, model, law, setters, mpu, head
+
+
+# Newton's default importer (its SchemaResolverNewton alone) reads a joint's damping,
+# friction and armature from NewtonJointAPI; MjcJointAPI's (SchemaResolverMjc) and
+# PhysxJointAPI's armature (SchemaResolverPhysx) only when asked. Our reader reads
+# NewtonJointAPI's and MjcJointAPI's (formats/usd/joint.read_dynamics).
+NEWTON_READS = {"damping": ("newton:damping", "mjc:damping"),
+                "frictionloss": ("newton:friction", "mjc:frictionloss"),
+                "armature": ("newton:armature", "mjc:armature")}
+
+
+def _unread(prim) -> list[str]:
+    """The quantities a joint prim states in MjcJointAPI only, which Newton's default
+    importer does not read and our reader does (each ``"<quantity> (<attribute>)"``)."""
+    def authored(name: str) -> bool:
+        attr = prim.GetAttribute(name) if prim is not None else None
+        return bool(attr and attr.HasAuthoredValue())
+
+    return [f"{q} ({mjc})" for q, (newton, mjc) in NEWTON_READS.items()
+            if authored(mjc) and not authored(newton)]
+
+
+def _mass_authored(prim) -> bool:
+    """Whether a body prim states its mass or its density (PhysicsMassAPI's, > 0), both in
+    stage units, which Newton reads as they are, rather than weighing its colliders at its
+    default density."""
+    from pxr import UsdPhysics
+
+    if prim is None or not prim.HasAPI(UsdPhysics.MassAPI):
+        return False
+    api = UsdPhysics.MassAPI(prim)
+    return any(float(a.Get() or 0.0) > 0.0 for a in (api.GetMassAttr(), api.GetDensityAttr()))
+
+
+def _stage_kilograms_per_unit(stage) -> float:
+    """The stage's kilogramsPerUnit where authored, else 1: what Newton's importer reads
+    (and warns it does not apply)."""
+    from pxr import UsdPhysics
+
+    return float(UsdPhysics.GetStageKilogramsPerUnit(stage)) \
+        if UsdPhysics.StageHasAuthoredKilogramsPerUnit(stage) else 1.0
+
+
+def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_unread,
+              welded, mpu: float, kpu: float) -> dict:
+    """Newton's model's dynamics, in SI (Newton keeps the stage's units; the mass and the
+    lengths scaled here by kilogramsPerUnit and metersPerUnit): per part its mass, its
+    inertia about its centre of mass in world axes and its centre of mass in the world, at
+    the probe's configuration 0 (its joints at 0, the others where Newton starts them) and in
+    the probe's frames (a root part at the world's); the parts' groups (welded by Newton's
+    fixed joints, and by a degree of freedom held at equal limits, as our reader reads it);
+    per joint of the probe its damping, friction and armature (Newton's ``joint_damping``,
+    ``joint_friction``, ``joint_armature``: per radian for a rotation), its range, and what
+    the file states of them where Newton's importer does not read (:func:`_unread`); the
+    parts Newton weighs at its default density on a stage not in metres
+    (``unit_bound``)."""
+    zero = np.zeros((1, len(setters)))
+    import newton
+
+    reported = np.asarray(_poses(newton, model, law, setters, mpu, zero)[0], dtype=float)
+    mass = model.body_mass.numpy().astype(float)
+    com = model.body_com.numpy().astype(float)
+    inertia = model.body_inertia.numpy().astype(float)
+    bodies = {}
+    for b, name in enumerate(parts):
+        turn, at = reported[b][:3, :3], reported[b][:3, 3]
+        bodies[name] = {
+            "mass": mass[b] * kpu,
+            "inertia": (turn @ inertia[b] @ turn.T * kpu * mpu * mpu).tolist(),
+            "com": (at + turn @ (com[b] - law.offset[b]) * mpu).tolist()}
+    parent, child = model.joint_parent.numpy(), model.joint_child.numpy()
+    # a kinematic body (physics:kinematicEnabled) is moved by the user, not by its mass:
+    # the world's, as our reader fixes it
+    kinematic = int(newton.BodyFlags.KINEMATIC)
+    held = [(-1, b) for b, flags in enumerate(model.body_flags.numpy()) if int(flags) & kinematic]
+    # (a ball of the tree: one closing a loop, which no URDF holds either, joins nothing)
+    balls = [j for j, t in enumerate(model.joint_type.numpy())
+             if int(t) == newton.JointType.BALL and j in law.posed_joints]
+
+    def groups(joints: list[int]) -> dict[str, str]:
+        """Each part's group: its bodies joined by ``joints`` (and the kinematic ones to the
+        world), named by the first in Newton's order ("": the world's)."""
+        group = {b: b for b in range(-1, len(parts))}  # -1: the world
+
+        def root(b):
+            while group[b] != b:
+                b = group[b]
+            return b
+
+        for a, c in [(int(parent[j]), int(child[j])) for j in joints] + held:
+            a, c = root(a), root(c)
+            if a != c:
+                group[max(a, c)] = min(a, c)  # (the world, -1, stays a root)
+        return {name: (parts[root(b)] if root(b) >= 0 else "") for b, name in enumerate(parts)}
+    damping, friction, armature = (getattr(model, f"joint_{q}").numpy().astype(float)
+                                   for q in ("damping", "friction", "armature"))
+    joints = {}
+    for (name, kind, lo, hi, _, _), dof, unread in zip(setters, setter_dofs, setter_unread,
+                                                       strict=True):
+        angular = kind != "prismatic"
+        # stage units -> SI (as our reader converts them): kg m^2/s, kg m^2/s^2, kg m^2 for
+        # a rotation; kg/s, kg m/s^2, kg for a slide
+        scale = (kpu * mpu * mpu,) * 3 if angular else (kpu, kpu * mpu, kpu)
+        joints[name] = {"damping": damping[dof] * scale[0],
+                        "frictionloss": friction[dof] * scale[1],
+                        "armature": armature[dof] * scale[2],
+                        "limited": lo is not None, "unread": unread,
+                        **({"range": [lo, hi]} if lo is not None else {})}
+    # Newton's stand-in where its mass computation leaves a body with mass and no inertia
+    # (import_usd: "assume a uniform density sphere with the given mass", at its default
+    # density, about the body's origin): not the colliders' tensor, which OpenUSD's own
+    # ComputeMassProperties gives (and our reader)
+    default_density = float(newton.ModelBuilder.ShapeConfig().density)
+    # (a body weighed from a sphere at that density has that very tensor: not a stand-in)
+    round_ = {int(b) for b, kind in zip(model.shape_body.numpy(), model.shape_type.numpy(),
+                                       strict=True) if int(kind) == int(newton.GeoType.SPHERE)}
+    sphered = []
+    for b, name in enumerate(parts):
+        if mass[b] <= 0.0 or b in round_:
+            continue
+        radius = (3.0 * mass[b] / default_density / (4.0 * math.pi)) ** (1.0 / 3.0)
+        stand_in = (0.4 * mass[b] * radius ** 2 + mass[b] * float(com[b] @ com[b])) * np.eye(3)
+        if np.allclose(inertia[b], stand_in, rtol=1e-5, atol=0.0):
+            sphered.append(name)
+    # Newton applies no metersPerUnit: where the file states neither mass nor density it
+    # weighs the colliders at its default density per cubic stage unit (1000), not per
+    # cubic metre (a stated density is per cubic stage unit: right as it is)
+    computed = [name for name, label in zip(parts, model.body_label, strict=True)
+                if not _mass_authored(label)] if not math.isclose(mpu, 1.0) else []
+    return {"bodies": bodies,
+            "paths": {name: str(label) for name, label in zip(parts, model.body_label,
+                                                                strict=True)},
+            "unit_bound": computed,
+            "default_inertia": sphered,
+            "group": groups(welded),
+            # as a URDF holds them: a ball joint fixed at its rest (no URDF joint is one)
+            "group_as_urdf": groups(welded + balls),
+            "joints": joints}
 
 
 def _authored_limit(prim, axis: str, side: str, angular: bool) -> float | None:

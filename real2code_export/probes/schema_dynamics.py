@@ -43,6 +43,12 @@ class SchemaDynamics:
     # joint name -> (what, quantity, value): quantity is damping, frictionloss, armature,
     # stiffness, limited, range or ref, as MuJoCo names them; what says where it was read
     joints: dict[str, list[tuple[str, str, object]]] = field(default_factory=dict)
+    # what the source's tool reads otherwise than the file states, not compared (said)
+    left_out: list[str] = field(default_factory=list)
+    # bodies whose inertia the source's tool makes up (a stand-in), not compared (said)
+    stand_in_inertia: list[str] = field(default_factory=list)
+    # body name -> its prim's path (a USD source's: what our reader's warnings name)
+    paths: dict[str, str] = field(default_factory=dict)
 
     def group_inertias(self) -> dict[str, tuple[float, np.ndarray, np.ndarray] | str]:
         """Group key -> (mass, principal moments, centre of mass) of the bodies of the group,
@@ -144,6 +150,15 @@ def usd_dynamics(probe) -> SchemaDynamics:
             if dofs and d6.is_ball(dofs):
                 out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(
                     stage.GetPrimAtPath(path), "D6Joint", d, mpu, d6.is_held_ball(dofs))
+            else:  # each free axis a joint (``<joint>_<axis>`` of several), as our reader
+                for dof in dofs:  # splits it; the prim's law shared by its axes
+                    name = path.rsplit("/", 1)[-1]
+                    name = f"{name}_{dof.name}" if len(dofs) > 1 else name
+                    to_model = math.radians if dof.angular else (lambda v: v * mpu)
+                    bounds = None if dof.lower is None else (to_model(dof.lower),
+                                                             to_model(dof.upper))
+                    out.joints[name] = _joint_law(stage.GetPrimAtPath(path), dof.angular) + \
+                        _range(f"limit:{dof.name}:physics:low, high", bounds)
         elif kind in ("RevoluteJoint", "PrismaticJoint", "SphericalJoint"):
             out.joints[path.rsplit("/", 1)[-1]] = _usd_joint(stage.GetPrimAtPath(path), kind,
                                                              d, mpu)
@@ -177,15 +192,22 @@ def _usd_mass(prim, kpu: float, mpu: float
             np.zeros(3) if com is None else com), missing
 
 
+def _joint_law(prim, angular: bool) -> list[tuple[str, str, object]]:
+    """A joint prim's MjcJointAPI and NewtonJointAPI values (NewtonJointAPI's damping per
+    degree of a rotation made per radian)."""
+    items: list[tuple[str, str, object]] = [(f"{q} ({a})", q, _authored(prim, a))
+                                            for a, q in MJC]
+    per_degree = math.pi / 180.0 if angular else 1.0
+    return items + [(f"{q} ({a})", q, _authored(prim, a) / (per_degree if q == "damping"
+                                                             else 1.0))
+                    for a, q in NEWTON]
+
+
 def _usd_joint(prim, kind: str, desc, mpu: float,
                held: bool = False) -> list[tuple[str, str, object]]:
     """What a joint prim states (``held``: a generic joint that is a ball held at rest)."""
     angular = kind != "PrismaticJoint"
-    items: list[tuple[str, str, object]] = [(f"{q} ({a})", q, _authored(prim, a))
-                                            for a, q in MJC]
-    per_degree = math.pi / 180.0 if angular else 1.0
-    items += [(f"{q} ({a})", q, _authored(prim, a) / (per_degree if q == "damping" else 1.0))
-              for a, q in NEWTON]
+    items = _joint_law(prim, angular)
     if kind == "D6Joint":  # a ball: its rotations limited to [0, 0] hold it, else free
         return items + _range("limit:rot*:physics:low, high", (0.0, 0.0) if held else None)
     if kind == "SphericalJoint":  # its cone: the smaller cone angle, as the reader keeps it
@@ -315,3 +337,55 @@ def _range(where: str, bounds: tuple[float, float] | None) -> list[tuple[str, st
         bounds = None
     out: list[tuple[str, str, object]] = [(f"limited ({where})", "limited", bounds is not None)]
     return out + ([(f"range ({where})", "range", bounds)] if bounds is not None else [])
+
+
+# -- Newton's model of a USD source ----------------------------------------------------------
+def newton_dynamics(path: str, answer: dict, as_urdf: bool = False) -> SchemaDynamics:
+    """A USD source's dynamics as Newton's model holds them (``probes.newton``'s answer,
+    SI, in the probe's frames at its configuration 0); ``as_urdf``: its bodies grouped as a
+    URDF holds them (a ball joint fixed at its rest)."""
+    out = SchemaDynamics(str(path))
+    for name, body in answer["bodies"].items():
+        out.bodies[name] = (float(body["mass"]), np.asarray(body["inertia"], float),
+                            np.asarray(body["com"], float))
+    out.group = dict(answer["group_as_urdf" if as_urdf else "group"])
+    out.stand_in_inertia = list(answer.get("default_inertia", ()))
+    out.paths = dict(answer.get("paths", {}))
+    for name in answer.get("unit_bound", ()):
+        out.unstated[name] = ("Newton computes its mass from its colliders at its default "
+                              "density per cubic stage unit (it applies no metersPerUnit)")
+    for name, joint in answer["joints"].items():
+        unread = {u.split(" ")[0]: u for u in joint.get("unread", ())}
+        items: list[tuple[str, str, object]] = [
+            (f"{q} (Newton)", q, float(joint[q])) for q in ("damping", "frictionloss",
+                                                            "armature") if q not in unread]
+        out.left_out += [f"joint {name!r}: its {u}, which Newton's default importer does not "
+                         "read" for u in unread.values()]
+        bounds = tuple(joint["range"]) if joint["limited"] else None
+        out.joints[name] = items + _range("Newton", bounds)
+    return out
+
+
+def mujoco_dynamics(path: str, m, d, welds: dict[int, list[int]]) -> SchemaDynamics:
+    """An MJCF file, or a URDF in MuJoCo's import, as MuJoCo compiles it (``m``, ``d`` at
+    rest; ``welds``: ``probes.dynamics._welds``): per body its mass, inertia and centre of
+    mass in the world, its group (named by its moving body), per named joint (a free joint
+    none) damping, frictionloss, armature, stiffness, limited and range."""
+    import mujoco
+
+    from .dynamics import _body_name, _joint_quantities
+
+    out = SchemaDynamics(str(path))
+    for weld, bodies in welds.items():
+        for b in bodies:
+            turn = d.ximat[b].reshape(3, 3)
+            out.bodies[_body_name(m, b)] = (float(m.body_mass[b]),
+                                            turn @ np.diag(m.body_inertia[b]) @ turn.T,
+                                            np.array(d.xipos[b], float))
+            out.group[_body_name(m, b)] = _body_name(m, weld) if weld else WORLD
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    for j in range(m.njnt):
+        if m.joint(j).name and int(m.jnt_type[j]) != free:
+            out.joints[m.joint(j).name] = [(q, q, v) for q, v in _joint_quantities(m, j).items()
+                                           if q != "ref"]
+    return out

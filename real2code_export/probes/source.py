@@ -26,6 +26,7 @@ class SourceProbe:
         self.label = f"{SOURCE_LABEL} {probe.label}"
         self.path = probe.path
         self.model = getattr(probe, "model", None)  # (MuJoCo's, which the dynamics reuse)
+        self.dynamics = getattr(probe, "dynamics", None)  # (Newton's of a USD source)
         self.parts = [sanitize_name(n) for n in probe.parts]
         self.joints = [_as_imported(JointInfo(sanitize_name(j.name), j.kind, j.lower, j.upper))
                        for j in probe.joints]

@@ -173,6 +173,9 @@ def write_frame(layer, path: str, joint):
 # kg/m^3: what a UsdPhysics simulator gives a collider whose density nothing authors (PhysX's
 # default, Newton's ShapeConfig.density)
 SIMULATOR_DENSITY = 1000.0
+# what the warning of a mass computed as the simulators compute it says (no repair: it
+# explains no difference with Newton's model, ``probes.dynamics.NEWTON_RULES``)
+SIMULATORS_RULE = "as PhysX and Newton compute it"
 
 
 def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu: float,
@@ -198,7 +201,9 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
     mass = float(api.GetMassAttr().Get() or 0.0) * kpu
     if mass <= 0.0:
         if colliders:
-            return _from_colliders(prim, colliders, mpu, kpu, where, collider_mass)
+            return _at_authored_com(
+                _from_colliders(prim, colliders, mpu, kpu, where, collider_mass), api,
+                to_part, mpu, scale)
         warn(f"{where}: mass not authored (the simulator would compute it from density); "
              "the part gets no inertial")
         return None
@@ -234,6 +239,23 @@ def read_inertial(prim, to_part: np.ndarray, meshes: list[Mesh], mpu: float, kpu
     return Inertial(mass, com, inertia)
 
 
+def _at_authored_com(inertial: Inertial | None, api, to_part: np.ndarray, mpu: float,
+                     scale: np.ndarray | None) -> Inertial | None:
+    """A mass computed from the colliders with the body's authored centre of mass kept, as
+    OpenUSD's ``ComputeMassProperties`` keeps it (each of mass, centre of mass and inertia
+    stands as authored, the rest computed; the inertia then about that centre, by the
+    parallel axis theorem), and Newton's importer: urdf-usd-converter states mass 0 and
+    centre (0, 0, 0) for a link whose mass it leaves to the simulator."""
+    com = api.GetCenterOfMassAttr().Get()
+    if inertial is None or com is None or not np.all(np.isfinite(com)):
+        return inertial
+    com = np.asarray(com, float) * mpu * (scale if scale is not None else 1.0)
+    com = to_part[:3, :3] @ com + to_part[:3, 3]
+    d = inertial.com - com  # (the mass's warning says it is computed; nothing repaired)
+    return Inertial(inertial.mass, com, inertial.inertia + inertial.mass * (
+        float(d @ d) * np.eye(3) - np.outer(d, d)))
+
+
 def principal_axes(api) -> np.ndarray:
     """The rotation a PhysicsMassAPI's ``principalAxes`` states: the identity where it is
     left at its fallback, the zero quaternion (only the diagonal authored), or is no
@@ -246,15 +268,24 @@ def principal_axes(api) -> np.ndarray:
 
 
 def collider_mass(shape, mpu: float, kpu: float) -> tuple[float, float]:
-    """A collider prim's own PhysicsMassAPI mass (kg) and density (kg/m^3), 0 where not
-    authored (:func:`read_inertial`)."""
-    from pxr import UsdPhysics
+    """A collider prim's own PhysicsMassAPI mass (kg) and density (kg/m^3), else the density
+    of the physics material bound to it (PhysicsMaterialAPI, UsdShade's "physics" purpose),
+    as UsdPhysics' mass computation (and Newton's) takes it; 0 where not authored
+    (:func:`read_inertial`)."""
+    from pxr import UsdPhysics, UsdShade
 
-    if not shape.HasAPI(UsdPhysics.MassAPI):
-        return 0.0, 0.0
-    api = UsdPhysics.MassAPI(shape)
-    return (max(float(api.GetMassAttr().Get() or 0.0), 0.0) * kpu,
-            max(float(api.GetDensityAttr().Get() or 0.0), 0.0) * kpu / mpu**3)
+    mass = density = 0.0
+    if shape.HasAPI(UsdPhysics.MassAPI):
+        api = UsdPhysics.MassAPI(shape)
+        mass = max(float(api.GetMassAttr().Get() or 0.0), 0.0)
+        density = max(float(api.GetDensityAttr().Get() or 0.0), 0.0)
+    if mass <= 0.0 and density <= 0.0:
+        material, _ = UsdShade.MaterialBindingAPI(shape).ComputeBoundMaterial(
+            "physics")  # (the purpose UsdPhysics binds its materials for)
+        if material and material.GetPrim().HasAPI(UsdPhysics.MaterialAPI):
+            density = max(float(UsdPhysics.MaterialAPI(material.GetPrim()).GetDensityAttr()
+                                .Get() or 0.0), 0.0)
+    return mass * kpu, density * kpu / mpu**3
 
 
 def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float, where: str,
@@ -276,10 +307,11 @@ def _from_colliders(prim, colliders: list[Mesh], mpu: float, kpu: float, where: 
     own = own or [(0.0, 0.0)] * len(colliders)
     weighed = sum(1 for mass, dens in own if mass > 0.0 or dens > 0.0)
     warn(f"{where}: mass not authored: computed from its {len(colliders)} collider(s)"
-         + (f", {weighed} at their own mass or density (PhysicsMassAPI) and the rest"
+         + (f", {weighed} at their own mass or density (PhysicsMassAPI, or their physics "
+            "material's) and the rest"
             if weighed else "")
          + f" at {density:g} kg/m^3 ({'authored' if authored > 0.0 else 'the simulators default'}"
-         "), as PhysX and Newton compute it")
+         f"), {SIMULATORS_RULE}")
     if not weighed:
         return inertial_from_meshes(colliders, density)
     pieces = []

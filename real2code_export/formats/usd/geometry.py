@@ -664,6 +664,13 @@ def _axis_rotation(axis: str) -> np.ndarray:
     return np.eye(4)
 
 
+# How far apart a shape's scales across its axes may be and still be one scale: a rotation
+# authored in float32 (Newton's ant: a leg capsule turned 45 degrees) has columns of norm
+# 1 +- 1e-7, which a tighter test took for a squash, the capsule read as its bare
+# tessellation (2.6 % light beside Newton's exact solid).
+EVEN_SCALE = 1e-6
+
+
 def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:
     """A UsdGeom Cube, Sphere, Cylinder or Capsule as the model's shape in the part frame
     (``to_part``: the prim's own frame -> part, its scale included: a scaled cube is a box, a
@@ -680,7 +687,7 @@ def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:
                           rigid)
     elif prim.IsA(UsdGeom.Sphere):
         radii = float(UsdGeom.Sphere(prim).GetRadiusAttr().Get()) * scale
-        even = np.allclose(radii, radii[0], rtol=1e-9, atol=0.0)
+        even = np.allclose(radii, radii[0], rtol=EVEN_SCALE, atol=0.0)
         shape = Primitive(ShapeKind.SPHERE if even else ShapeKind.ELLIPSOID,
                           radii[:1] if even else radii, rigid)
     elif prim.IsA(UsdGeom.Capsule) or prim.IsA(UsdGeom.Cylinder):
@@ -691,7 +698,7 @@ def shape_mesh(prim, to_part: np.ndarray) -> Mesh | None:
         size = [float(g.GetRadiusAttr().Get()) * along[0],
                 float(g.GetHeightAttr().Get()) * along[2]]
         shape = Primitive(kind, size, rigid @ to_axis)
-        if not np.isclose(along[0], along[1], rtol=1e-9, atol=0.0):
+        if not np.isclose(along[0], along[1], rtol=EVEN_SCALE, atol=0.0):
             unscaled = Primitive(kind, [float(g.GetRadiusAttr().Get()),
                                         float(g.GetHeightAttr().Get())], to_axis)
             return Mesh(*unscaled.tessellation()).transformed(matrix)
