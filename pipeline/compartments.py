@@ -7,7 +7,8 @@ left in the carcass's label is found beside one pulled out as far, a label holdi
 drawers pulled out by different lengths is split, so is one holding two panels swung
 apart, so is one holding a drawer and a door swung square beside it, a body cut
 across its length is one again, a label inside two stacked drawers goes to both and a
-piece with no front of its own in a drawer's outline goes back: repairs of a part segmentation by what a carcass is, their
+piece with no front of its own in a drawer's outline goes back, and a body in pieces under a
+lid that is the largest label is one again: repairs of a part segmentation by what a carcass is, their
 own stage between segmentation and fusion.
 
 The mask network's commonest error: prompted on an open door it also takes the inside of the
@@ -211,8 +212,9 @@ def return_to_carcass(capture: Capture, seg: Segmentation,
     front merged into it, a door's two faces merged, the compartment past a door swung
     square given back, parts in the box with no front on the opening and a standing
     label's front level with the face given back, a label with two drawers' fronts split,
-    and pieces of the
-    carcass's shell standing past its box merged into it (its cloud's labels and every
+    pieces of the
+    carcass's shell standing past its box merged into it, and a body in pieces under a lid
+    that is the largest label joined (its cloud's labels and every
     view's label image); what moved is in ``details["returned_to_carcass"]``.
     A segmentation without a fused cloud spacing (the capture's own masks) is returned as is."""
     if seg.spacing is None:
