@@ -1120,6 +1120,47 @@ def test_a_frontless_piece_in_a_drawers_outline_goes_back():
                                    normals=sparse_normals)[1] == []
 
 
+def test_a_body_in_two_labels_under_a_lid_is_one_part():
+    """A box's lid swung open past upright (hinged at the back of the top, 29 cm wide),
+    the largest label and one panel, its lowest point at the box's top; the body in two
+    labels, each of walls and half the floor, both standing on the foot: they join, the
+    lid stays. A drawer's label lower down off the foot stays a part; nothing joins where
+    the views give no up; and where the panel stands on the foot (a door swung open) no
+    body lies under a lid: nothing joins."""
+    from pipeline.compartments import join_body_under_lid
+
+    x, y, z = np.eye(3)
+    lean = np.radians(20)
+    back, out = np.array((-np.sin(lean), 0, np.cos(lean))), np.array((np.cos(lean), 0, np.sin(lean)))
+    lid = (_grid(0.6, 0.8, (-0.3, -0.4, 0.0), back, y, step=0.01), out)
+    half = [(_grid(0.8, 0.4, (-0.3, -0.4, -0.4), y, z), x),  # back wall
+            (_grid(0.6, 0.4, (-0.3, -0.4, -0.4), x, z), y),  # left side
+            (_grid(0.6, 0.4, (-0.3, -0.4, -0.4), x, y), z)]  # floor, y <= 0
+    other = [(_grid(0.8, 0.4, (0.3, -0.4, -0.4), y, z), x),  # front wall
+             (_grid(0.6, 0.4, (-0.3, 0.4, -0.4), x, z), y),  # right side
+             (_grid(0.6, 0.36, (-0.3, 0.04, -0.4), x, y), z)]  # floor, y > 0
+    drawer = [(_grid(0.3, 0.1, (0.45, -0.15, -0.3), y, z), x),
+              (_grid(0.4, 0.3, (0.05, -0.15, -0.3), x, y), z)]
+    cloud, normals = _facing(lid, *half, *other, *drawer)
+    n = np.cumsum([0, len(lid[0]), sum(len(p) for p, _ in half),
+                   sum(len(p) for p, _ in other), sum(len(p) for p, _ in drawer)])
+    labels = np.repeat([1, 2, 3, 4], np.diff(n))
+    assert n[1] > n[2] - n[1] > n[3] - n[2] > n[4] - n[3]  # numbered by size
+    joined, moved = join_body_under_lid(cloud, labels, 0.02, normals=normals, up=z)
+    assert moved == [{"part": 3, "points": int(n[3] - n[2]), "body_under_lid": 2}]
+    assert (joined[:n[1]] == 1).all() and (joined[n[1]:n[3]] == 2).all()
+    assert (joined[n[3]:] == 3).all()  # the drawer, off the foot
+    assert join_body_under_lid(cloud, labels, 0.02, normals=normals)[1] == []  # no up
+    assert join_body_under_lid(cloud, labels, 0.02, up=z)[1] == []  # no normals
+    # the panel reaching the foot: a door swung open beside the body, no lid
+    door = (_grid(0.6, 0.4, (0.3, 0.4, -0.4), np.array((np.cos(lean), np.sin(lean), 0)), z,
+                  step=0.005), np.array((-np.sin(lean), np.cos(lean), 0)))
+    cloud, normals = _facing(door, *half, *other)
+    labels = np.repeat([1, 2, 3], [len(door[0]), n[2] - n[1], n[3] - n[2]])
+    assert len(door[0]) > n[2] - n[1]
+    assert join_body_under_lid(cloud, labels, 0.02, normals=normals, up=z)[1] == []
+
+
 def _facing(*pieces):
     """Points and their normals: (points, normal) pieces concatenated."""
     return (np.concatenate([p for p, _ in pieces]),
