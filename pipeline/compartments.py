@@ -1885,9 +1885,9 @@ def join_body_under_lid(cloud: np.ndarray, labels: np.ndarray, voxel: float,
     object's foot, the labels that stand on the foot, none of them one panel, are the body
     cut in pieces: they join the largest of them. Every rule before this one measures
     against the largest label as the carcass; a lid gives no walls to measure by, and a
-    body in two labels is a part with a slide. On PartNet-Mobility dev's phone-LiDAR ring a
-    box's lid was 9,808 points, its body 8,067 and 3,349 (the body's front wall and a side
-    in the second), both reaching its foot, the lid 29 cm above it; the second kept a
+    body in two labels is a part with a slide. On a phone-LiDAR ring around a real lidded
+    box the lid was 9,808 points, its body 8,067 and 3,349 (the body's front wall and a
+    side in the second), both reaching its foot, the lid 29 cm above it; the second kept a
     slide. A part moving on a carcass stands on it, not on the floor beside it: a drawer's
     bottom lies above the carcass's, a door swung open is one panel (and stands on the
     foot: nothing joins under it). The foot: the lowest of the cloud's points along ``up``
