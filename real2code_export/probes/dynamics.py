@@ -33,6 +33,7 @@ import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,6 +44,9 @@ from ..inertia import combine_inertials
 from ..model import UNBOUNDED_LIMIT, Inertial, sanitize_name
 from ..mujoco_files import spec_from_file
 from ._stdio import captured_c_output
+
+if TYPE_CHECKING:
+    from .schema_dynamics import SchemaDynamics
 
 # What a warning that explains a joint missing from the export says: any change of the joint.
 JOINT_WORDS = ("limit", "range", "joint", "damping", "friction", "armature")
@@ -639,10 +643,10 @@ def against_newton(source: Path, newton: dict, exports: list[str | Path], tol: f
         kind = format_for_path(export).name
         if kind == "mjcf":
             m, d = _mjcf(export, compiled)
-            view = schema_dynamics.mujoco_dynamics(str(export), m, d, _welds(m))
+            view = mujoco_dynamics(str(export), m, d, _welds(m))
         elif kind == "urdf":  # (what a URDF holds of a joint: URDF_HOLDS)
             m, d = _compiled(_urdf_spec(export))
-            view = schema_dynamics.mujoco_dynamics(str(export), m, d, _welds(m))
+            view = mujoco_dynamics(str(export), m, d, _welds(m))
             view.joints = {name: [i for i in items if i[1] in URDF_HOLDS]
                            for name, items in view.joints.items()}
         elif kind in SCHEMA_TOOLS:
@@ -661,4 +665,29 @@ def against_newton(source: Path, newton: dict, exports: list[str | Path], tol: f
     if left_out:
         warnings.warn(f"{source}: not compared with Newton's model: {'; '.join(left_out)}",
                       Real2CodeWarning, stacklevel=2)
+    return out
+
+
+def mujoco_dynamics(path: str, m, d, welds: dict[int, list[int]]) -> SchemaDynamics:
+    """An MJCF file, or a URDF in MuJoCo's import, as MuJoCo compiles it (``m``, ``d`` at
+    rest; ``welds``: ``probes.dynamics._welds``): per body its mass, inertia and centre of
+    mass in the world, its group (named by its moving body), per named joint (a free joint
+    none) damping, frictionloss, armature, stiffness, limited and range."""
+    import mujoco
+
+    from .schema_dynamics import WORLD, SchemaDynamics
+
+    out = SchemaDynamics(str(path))
+    for weld, bodies in welds.items():
+        for b in bodies:
+            turn = d.ximat[b].reshape(3, 3)
+            out.bodies[_body_name(m, b)] = (float(m.body_mass[b]),
+                                            turn @ np.diag(m.body_inertia[b]) @ turn.T,
+                                            np.array(d.xipos[b], float))
+            out.group[_body_name(m, b)] = _body_name(m, weld) if weld else WORLD
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    for j in range(m.njnt):
+        if m.joint(j).name and int(m.jnt_type[j]) != free:
+            out.joints[m.joint(j).name] = [(q, q, v) for q, v in _joint_quantities(m, j).items()
+                                           if q != "ref"]
     return out

@@ -364,28 +364,3 @@ def newton_dynamics(path: str, answer: dict, as_urdf: bool = False) -> SchemaDyn
         bounds = tuple(joint["range"]) if joint["limited"] else None
         out.joints[name] = items + _range("Newton", bounds)
     return out
-
-
-def mujoco_dynamics(path: str, m, d, welds: dict[int, list[int]]) -> SchemaDynamics:
-    """An MJCF file, or a URDF in MuJoCo's import, as MuJoCo compiles it (``m``, ``d`` at
-    rest; ``welds``: ``probes.dynamics._welds``): per body its mass, inertia and centre of
-    mass in the world, its group (named by its moving body), per named joint (a free joint
-    none) damping, frictionloss, armature, stiffness, limited and range."""
-    import mujoco
-
-    from .dynamics import _body_name, _joint_quantities
-
-    out = SchemaDynamics(str(path))
-    for weld, bodies in welds.items():
-        for b in bodies:
-            turn = d.ximat[b].reshape(3, 3)
-            out.bodies[_body_name(m, b)] = (float(m.body_mass[b]),
-                                            turn @ np.diag(m.body_inertia[b]) @ turn.T,
-                                            np.array(d.xipos[b], float))
-            out.group[_body_name(m, b)] = _body_name(m, weld) if weld else WORLD
-    free = int(mujoco.mjtJoint.mjJNT_FREE)
-    for j in range(m.njnt):
-        if m.joint(j).name and int(m.jnt_type[j]) != free:
-            out.joints[m.joint(j).name] = [(q, q, v) for q, v in _joint_quantities(m, j).items()
-                                           if q != "ref"]
-    return out
