@@ -2137,3 +2137,28 @@ def test_usdphysics_probe_free_body_stands_at_its_frame_without_its_scale(tmp_pa
     pose = UsdProbe(path).poses({})["cube"]
     np.testing.assert_allclose(pose, tf.make(tf.axis_angle_matrix(
         [0.0, 0.0, 1.0], math.radians(30.0)), [0.0, 0.0, 1.0]), atol=1e-9)
+
+
+def test_a_mimic_reads_back_where_newtons_schema_registers_late(tmp_path):
+    """NewtonMimicAPI read from the composed list of applied schemas, not UsdPrim's
+    GetAppliedSchemas(), which leaves out a schema registered after the process's first
+    stage (newton-usd-schemas imported late: a mimic was lost in the USD export's read back,
+    in a process that had opened a stage before, as the test suite's order showed). Run in a
+    process of its own, which opens a stage before anything imports the schema."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = f"""
+from pxr import Usd
+Usd.Stage.CreateInMemory().DefinePrim("/first", "Xform")  # the schema registry is built
+from real2code_export.formats import export, urdf, usd
+obj = urdf.load({str(Path(__file__).parent / "fixtures" / "urdf" / "mimic_gripper.urdf")!r})
+path = export(obj, {str(tmp_path)!r}, formats=["usd"])["usd"]
+mimic = usd.load(path).joint("right_finger").mimic
+print(None if mimic is None else (mimic.joint, mimic.multiplier))
+"""
+    done = subprocess.run([sys.executable, "-W", "ignore", "-c", script], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "('left_finger', -1.0)", done.stdout

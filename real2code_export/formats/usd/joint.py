@@ -230,7 +230,9 @@ def write_mimic(prim, mimic: Mimic, leader_path: str, angular: bool) -> None:
 def read_mimic(prim, angular: bool, mpu: float) -> Mimic | None:
     """The mimic of an enabled NewtonMimicAPI, naming the leader by its prim path (the
     reader renames it to the leader's joint)."""
-    if "NewtonMimicAPI" not in prim.GetAppliedSchemas():
+    # (the composed list as authored: GetAppliedSchemas() leaves out a schema registered
+    # after the process's first stage, as newton-usd-schemas is when imported late)
+    if "NewtonMimicAPI" not in prim.GetPrimTypeInfo().GetAppliedAPISchemas():
         return None
     enabled = prim.GetAttribute("newton:mimicEnabled")
     targets = prim.GetRelationship("newton:mimicJoint").GetTargets()
