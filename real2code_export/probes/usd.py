@@ -148,8 +148,8 @@ class UsdProbe:
                     elif k in stacks and str(joints[k][2].body0) == body:
                         links = self._stacked_links([joints[i] for i in (k, *stacks[k])],
                                                     body, mpu)
-                    else:  # (a stack walked from body1: the rest close loops, as the
-                        # reader reads them)
+                    else:  # one joint (a stack's first walked from its body1 too: the
+                        # others then close loops, as the reader reads them)
                         links = [self._link(joints[k], body, mpu)]
                     child = links[-1].child
                     reached.add(child)
