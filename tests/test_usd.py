@@ -1568,6 +1568,51 @@ def test_a_generic_joint_is_the_joint_its_free_axes_make(tmp_path):
         usd.load(_d6_stage(tmp_path / "rope.usda", joints[:1], distance=True))
 
 
+def _z_up_stage(path, root: str):
+    """A new stage in metres, Z up, ``/<root>`` its default prim."""
+    from pxr import UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, f"/{root}").GetPrim())
+    return stage
+
+
+def _rigid_body(stage, path: str, at=None):
+    """An Xform at ``path`` (moved to ``at``) that is a rigid body of 1 kg."""
+    from pxr import Gf, UsdGeom
+
+    body = UsdGeom.Xform.Define(stage, path)
+    if at is not None:
+        body.AddTranslateOp().Set(Gf.Vec3d(*at))
+    UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
+    UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+    return body
+
+
+# a four-bar's hinges: (name, body0, body1, localPos0, localPos1)
+FOURBAR_HINGES = (("A", "base", "crank", (-0.5, 0, 0), (0, 0, -0.5)),
+                  ("B", "crank", "coupler", (0, 0, 0.5), (-0.5, 0, 0)),
+                  ("C", "base", "rocker", (0.5, 0, 0), (0, 0, -0.5)),
+                  ("D", "rocker", "coupler", (0, 0, 0.5), (0.5, 0, 0)))
+
+
+def _fourbar_bodies(path):
+    """A stage of a four-bar's four bodies, its base held 0.5 m along X by the fixed joint
+    ``ground``; its hinges (:data:`FOURBAR_HINGES`) are the caller's."""
+    from pxr import Gf
+
+    stage = _z_up_stage(path, "fourbar")
+    for name, at in (("base", (0.5, 0.0, 0.0)), ("crank", (0.0, 0.0, 0.5)),
+                     ("coupler", (0.5, 0.0, 1.0)), ("rocker", (1.0, 0.0, 0.5))):
+        _rigid_body(stage, f"/fourbar/{name}", at)
+    fixed = UsdPhysics.FixedJoint.Define(stage, "/fourbar/ground")
+    fixed.CreateBody1Rel().SetTargets(["/fourbar/base"])
+    fixed.CreateLocalPos0Attr(Gf.Vec3f(0.5, 0.0, 0.0))
+    return stage
+
+
 @pytest.mark.parametrize("closing", ["revolute", "generic"])
 def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path, closing):
     """A four-bar: four bodies, four hinges, one too many for a tree. The joint the file
@@ -1578,29 +1623,13 @@ def test_a_joint_closing_a_kinematic_loop_is_kept_and_carried_to_mujoco(tmp_path
     export reads back equal and agrees with the others. The closing joint a hinge, or a
     generic joint (D6) whose one free axis is the hinge's."""
     import mujoco
-    from pxr import Gf, UsdGeom
+    from pxr import Gf
 
     from real2code_export.check import check_files
 
     path = tmp_path / "fourbar.usda"
-    stage = Usd.Stage.CreateNew(str(path))
-    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
-    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/fourbar").GetPrim())
-    for name, at in (("base", (0.5, 0.0, 0.0)), ("crank", (0.0, 0.0, 0.5)),
-                     ("coupler", (0.5, 0.0, 1.0)), ("rocker", (1.0, 0.0, 0.5))):
-        body = UsdGeom.Xform.Define(stage, f"/fourbar/{name}")
-        body.AddTranslateOp().Set(Gf.Vec3d(*at))
-        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
-        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
-    fixed = UsdPhysics.FixedJoint.Define(stage, "/fourbar/ground")
-    fixed.CreateBody1Rel().SetTargets(["/fourbar/base"])
-    fixed.CreateLocalPos0Attr(Gf.Vec3f(0.5, 0.0, 0.0))
-    for name, body0, body1, pos0, pos1 in (
-            ("A", "base", "crank", (-0.5, 0, 0), (0, 0, -0.5)),
-            ("B", "crank", "coupler", (0, 0, 0.5), (-0.5, 0, 0)),
-            ("C", "base", "rocker", (0.5, 0, 0), (0, 0, -0.5)),
-            ("D", "rocker", "coupler", (0, 0, 0.5), (0.5, 0, 0))):
+    stage = _fourbar_bodies(path)
+    for name, body0, body1, pos0, pos1 in FOURBAR_HINGES:
         generic = name == "B" and closing == "generic"
         hinge = (UsdPhysics.Joint if generic else UsdPhysics.RevoluteJoint).Define(
             stage, f"/fourbar/{name}")
@@ -1950,14 +1979,9 @@ def test_usdphysics_probe_holds_equal_limits_and_names_repeated_frames_apart(tmp
     from real2code_export.probes.usd import UsdProbe
 
     path = tmp_path / "arm.usda"
-    stage = Usd.Stage.CreateNew(str(path))
-    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
-    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/arm").GetPrim())
+    stage = _z_up_stage(path, "arm")
     for name in ("base", "link_a", "link_b"):
-        body = UsdGeom.Xform.Define(stage, f"/arm/{name}")
-        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
-        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+        _rigid_body(stage, f"/arm/{name}")
         cube = UsdGeom.Cube.Define(stage, f"/arm/{name}/box")
         cube.CreateSizeAttr(0.05)
         if name != "base":
@@ -1993,30 +2017,13 @@ def test_usdphysics_probe_leaves_a_loop_closing_joint_beside_the_tree(tmp_path):
     """A four-bar whose file marks no joint out of the articulation: the probe closes the
     loop with the joint the reader keeps aside (the last met in stage order from the
     world) and poses the tree (it refused the file), so the file and its MJCF agree."""
-    from pxr import Gf, UsdGeom
+    from pxr import Gf
 
     from real2code_export.check import check_files
 
     path = tmp_path / "fourbar.usda"
-    stage = Usd.Stage.CreateNew(str(path))
-    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
-    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/fourbar").GetPrim())
-    for name, at in (("base", (0.5, 0.0, 0.0)), ("crank", (0.0, 0.0, 0.5)),
-                     ("coupler", (0.5, 0.0, 1.0)), ("rocker", (1.0, 0.0, 0.5))):
-        body = UsdGeom.Xform.Define(stage, f"/fourbar/{name}")
-        body.AddTranslateOp().Set(Gf.Vec3d(*at))
-        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
-        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
-    UsdPhysics.FixedJoint.Define(stage, "/fourbar/ground").CreateBody1Rel().SetTargets(
-        ["/fourbar/base"])
-    stage.GetPrimAtPath("/fourbar/ground").CreateAttribute(
-        "physics:localPos0", Sdf.ValueTypeNames.Point3f).Set(Gf.Vec3f(0.5, 0.0, 0.0))
-    for name, body0, body1, pos0, pos1 in (
-            ("A", "base", "crank", (-0.5, 0, 0), (0, 0, -0.5)),
-            ("B", "crank", "coupler", (0, 0, 0.5), (-0.5, 0, 0)),
-            ("C", "base", "rocker", (0.5, 0, 0), (0, 0, -0.5)),
-            ("D", "rocker", "coupler", (0, 0, 0.5), (0.5, 0, 0))):
+    stage = _fourbar_bodies(path)
+    for name, body0, body1, pos0, pos1 in FOURBAR_HINGES:
         hinge = UsdPhysics.RevoluteJoint.Define(stage, f"/fourbar/{name}")
         hinge.CreateBody0Rel().SetTargets([f"/fourbar/{body0}"])
         hinge.CreateBody1Rel().SetTargets([f"/fourbar/{body1}"])
@@ -2038,20 +2045,15 @@ def test_usdphysics_probe_names_two_robots_of_one_scene_apart(tmp_path):
     prims): the probe names the second copy's bodies and joints as the reader does
     (``link_1``, ``hinge_1``: it refused the file, "rigid body names are not unique"), its
     drives by the same names, so the file and its MJCF export agree."""
-    from pxr import Gf, UsdGeom
+    from pxr import Gf
 
     from real2code_export.check import check_files
 
     path = tmp_path / "scene.usda"
-    stage = Usd.Stage.CreateNew(str(path))
-    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
-    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/scene").GetPrim())
+    stage = _z_up_stage(path, "scene")
     for k, robot in enumerate(("robot_a", "robot_b")):
         for name in ("base", "link"):
-            body = UsdGeom.Xform.Define(stage, f"/scene/{robot}/{name}")
-            UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
-            UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+            _rigid_body(stage, f"/scene/{robot}/{name}")
         fixed = UsdPhysics.FixedJoint.Define(stage, f"/scene/{robot}/to_world")
         fixed.CreateBody1Rel().SetTargets([f"/scene/{robot}/base"])
         fixed.CreateLocalPos0Attr(Gf.Vec3f(float(k), 0.0, 0.0))
@@ -2077,19 +2079,14 @@ def test_usdphysics_probe_drive_of_a_generic_joints_one_free_axis(tmp_path):
     (``PhysicsDriveAPI:rotY``): the probe's joint is the prim's own name, and so is the
     drive's (it was ``<joint>_rotY``, a drive of no joint), so the file agrees with its MJCF
     export, whose actuator drives that joint."""
-    from pxr import Gf, UsdGeom
+    from pxr import Gf
 
     from real2code_export.check import check_files
 
     path = tmp_path / "flap.usda"
-    stage = Usd.Stage.CreateNew(str(path))
-    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
-    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, "/flap").GetPrim())
+    stage = _z_up_stage(path, "flap")
     for name in ("base", "lid"):
-        body = UsdGeom.Xform.Define(stage, f"/flap/{name}")
-        UsdPhysics.RigidBodyAPI.Apply(body.GetPrim())
-        UsdPhysics.MassAPI.Apply(body.GetPrim()).CreateMassAttr(1.0)
+        _rigid_body(stage, f"/flap/{name}")
     UsdPhysics.FixedJoint.Define(stage, "/flap/to_world").CreateBody1Rel().SetTargets(
         ["/flap/base"])
     joint = UsdPhysics.Joint.Define(stage, "/flap/hinge")
