@@ -309,7 +309,7 @@ def _stage_kilograms_per_unit(stage) -> float:
         if UsdPhysics.StageHasAuthoredKilogramsPerUnit(stage) else 1.0
 
 
-def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_unread,
+def _dynamics(model, law, parts, mass_authored, setters, setter_dofs, setter_unread,
               welded, mpu: float, kpu: float) -> dict:
     """Newton's model's dynamics, in SI (Newton keeps the stage's units; the mass and the
     lengths scaled here by kilogramsPerUnit and metersPerUnit): per part its mass, its
@@ -321,7 +321,7 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
     ``joint_friction``, ``joint_armature``: per radian for a rotation), its range, and what
     the file states of them where Newton's importer does not read (:func:`_unread`); the
     parts Newton weighs at its default density on a stage not in metres
-    (``unit_bound``)."""
+    (``unit_bound``: those whose label ``mass_authored`` says states no mass nor density)."""
     zero = np.zeros((1, len(setters)))
     import newton
 
@@ -394,7 +394,7 @@ def _dynamics(model, law, parts, _mass_authored, setters, setter_dofs, setter_un
     # weighs the colliders at its default density per cubic stage unit (1000), not per
     # cubic metre (a stated density is per cubic stage unit: right as it is)
     computed = [name for name, label in zip(parts, model.body_label, strict=True)
-                if not _mass_authored(label)] if not math.isclose(mpu, 1.0) else []
+                if not mass_authored(label)] if not math.isclose(mpu, 1.0) else []
     return {"bodies": bodies,
             "paths": {name: str(label) for name, label in zip(parts, model.body_label,
                                                                 strict=True)},
